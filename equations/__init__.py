@@ -1,0 +1,27 @@
+"""Hand-derived equations of motion, one module per system, numpy only (no engine imports).
+
+A system is `models/<name>.xml` + `equations/<name>.py`; the harness pairs them by file stem.
+Every module provides (shapes: `q`, `v`, `tau` are `(..., n)`; functions broadcast over leading axes):
+
+    DESCRIPTION: str                   one paragraph: the system and where it is in the notes
+    COORDINATES: tuple[str, ...]       the notes' generalized coordinates, in order
+    JOINTS: tuple[str, ...]            the MJCF joint that measures each coordinate (same sign, same zero)
+    BODIES: tuple[str, ...]            MJCF bodies whose positions and orientations are compared
+    USES: frozenset[str]               physics the scene needs: "gravity", "damping", "actuation"
+    Params                             frozen dataclass of the parameters the derivation uses
+    parameters(model) -> Params        read them from the compiled MJCF (a Mapping, see validate/modelview.py)
+    assumptions(p) -> dict             what the derivation assumes of the compiled model, key -> value
+                                       (NaN entries: a component the derivation does not depend on)
+    mass_matrix(p, q) -> (..., n, n)
+    bias(p, q, v) -> (..., n)          C(q, v) v + G(q): Coriolis, centrifugal and gravity forces
+    passive(p, q, v) -> (..., n)       generalized joint friction forces (viscous damping), zero if none
+    kinetic_energy(p, q, v) -> (...)
+    potential_energy(p, q) -> (...)    zero at the joint anchors' height, as MuJoCo and Pinocchio count it
+    body_positions(p, q) -> {body: (..., 3)}   centres of mass in the world frame
+    body_rotations(p, q) -> {body: (..., 3, 3)} body frames in the world frame
+    VARIANTS: tuple[variant, ...]      every printed form of the notes (see _forms.py)
+    INITIAL_STATE: (q0, v0)            optional: the notes' simulation experiment for this system
+
+The equations of motion are M(q) a + bias(q, v) = tau + passive(q, v), with tau the generalized
+force of the inputs (motors where the MJCF has actuators, otherwise an applied joint torque).
+"""

@@ -1,0 +1,148 @@
+"""Pointwise comparison of the three sources at seeded random states.
+
+Results are long-format rows: one per (quantity, pair of sources), sorted, with the worst state.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .errors import HarnessError
+from .tolerances import QUANTITY_TIER, SCALE_ALSO_BY, TOLERANCES, Tolerances
+
+Q_RANGE = np.pi  # rad: q uniform in [-pi, pi]
+V_RANGE = 10.0  # rad/s: v uniform in [-10, 10]
+TAU_RANGE = 1.0  # N m: tau uniform in [-1, 1] where the system is actuated
+
+
+@dataclass(frozen=True)
+class States:
+    q: np.ndarray  # (N, n) rad
+    v: np.ndarray  # (N, n) rad/s
+    tau: np.ndarray  # (N, n) N m
+
+    def __len__(self) -> int:
+        return len(self.q)
+
+    def state(self, i: int) -> dict[str, list[float]]:
+        return {"q": self.q[i].tolist(), "v": self.v[i].tolist(), "tau": self.tau[i].tolist()}
+
+
+def random_states(system: Any, *, n: int, seed: int) -> States:
+    """N seeded states; tau is random only where the scene is actuated."""
+    rng = np.random.default_rng(seed)
+    nv = system.nv
+    q = rng.uniform(-Q_RANGE, Q_RANGE, (n, nv))
+    v = rng.uniform(-V_RANGE, V_RANGE, (n, nv))
+    tau = rng.uniform(-TAU_RANGE, TAU_RANGE, (n, nv)) if "actuation" in system.uses else np.zeros((n, nv))
+    return States(q, v, tau)
+
+
+def validate_states(system: Any, q: Any, v: Any, tau: Any | None = None) -> States:
+    """Checks user-given states: shapes (N, n) and finite values; errors name the problem."""
+    n = system.nv
+    arrays = {}
+    for name, x in (("q", q), ("v", v), ("tau", tau)):
+        if x is None:
+            x = np.zeros_like(arrays["q"])
+        try:
+            arr = np.asarray(x, dtype=float)
+        except (TypeError, ValueError):
+            raise HarnessError(f"{name} must be numbers; got {x!r}.") from None
+        if arr.ndim == 1:
+            arr = arr[None]
+        if arr.ndim != 2 or arr.shape[1] != n:
+            raise HarnessError(
+                f"{name} must have {n} values per state ({', '.join(system.coordinates)}) for {system.name}; got shape {arr.shape[1:] if arr.ndim == 2 else arr.shape}."
+            )
+        if not np.all(np.isfinite(arr)):
+            bad = int(np.argwhere(~np.isfinite(arr))[0][0])
+            raise HarnessError(f"{name} of state {bad} is not finite ({arr[bad].tolist()}); give finite numbers.")
+        arrays[name] = arr
+    if not (len(arrays["q"]) == len(arrays["v"]) == len(arrays["tau"])):
+        raise HarnessError("q, v and tau must describe the same number of states.")
+    return States(arrays["q"], arrays["v"], arrays["tau"])
+
+
+def evaluate(sources: dict[str, Any], states: States) -> dict[str, dict[str, np.ndarray]]:
+    """Every quantity from every source: {source: {quantity: (N, ...) array}}.
+
+    `qacc` is the forward dynamics at the given tau; `tau_inverse` is each source's inverse
+    dynamics at the hand source's accelerations (so it should give back tau).
+    """
+    q, v, tau = states.q, states.v, states.tau
+    a_hand = sources["hand"].forward(q, v, tau)
+    out: dict[str, dict[str, np.ndarray]] = {}
+    for name, src in sources.items():
+        kin, pot = src.energies(q, v)
+        out[name] = {
+            "M": src.mass_matrix(q),
+            "bias": src.bias(q, v),
+            "passive": src.passive(q, v),
+            "qacc": a_hand if name == "hand" else src.forward(q, v, tau),
+            "tau_inverse": src.inverse(q, v, a_hand),
+            "T": kin,
+            "V": pot,
+            "body_positions": src.body_positions(q),
+            "body_rotations": src.body_rotations(q),
+        }
+    return out
+
+
+def error_row(quantity: str, pair: str, a: np.ndarray, b: np.ndarray, states: States, *, tier: str,
+              tolerances: Tolerances = TOLERANCES, min_scale: float = 0.0) -> dict[str, Any]:
+    """One row: the max absolute error, the max error relative to each state's magnitude, the error
+    scaled by the quantity's range over the sample (what the tier judges), and the worst state."""
+    n = len(states)
+    diff = np.abs(a - b).reshape(n, -1)
+    mag = np.maximum(np.abs(a), np.abs(b)).reshape(n, -1)
+    per_state = diff.max(axis=1)
+    scale = max(float(mag.max()) if mag.size else 0.0, min_scale)
+    scale = scale if scale > 0 else 1.0
+    rel = per_state / np.maximum(mag.max(axis=1), np.finfo(float).tiny)
+    worst = int(np.argmax(per_state))
+    rtol = getattr(tolerances, tier).rtol
+    scaled = float(per_state.max() / scale)
+    finite = bool(np.all(np.isfinite(diff)))
+    return {
+        "quantity": quantity,
+        "pair": pair,
+        "max_abs": float(per_state.max()),
+        "max_rel": float(rel.max()),
+        "scale": scale,
+        "scaled": scaled if finite else float("inf"),
+        "tier": tier,
+        "tolerance": rtol,
+        "passed": bool(finite and scaled <= rtol),
+        "worst_state": states.state(worst),
+    }
+
+
+def compare(values: dict[str, dict[str, np.ndarray]], states: States, *,
+            tolerances: Tolerances = TOLERANCES, reference: str = "mujoco") -> list[dict[str, Any]]:
+    """Rows for every quantity and every pair of sources, sorted by quantity then pair."""
+    rows = []
+    names = sorted(values)
+    for quantity, tier in QUANTITY_TIER.items():
+        for a, b in itertools.combinations(names, 2):
+            also = [values[s][k] for k in SCALE_ALSO_BY.get(quantity, ()) for s in (a, b)]
+            min_scale = max((float(np.abs(x).max()) for x in also), default=0.0)
+            rows.append(error_row(quantity, f"{a}~{b}", values[a][quantity], values[b][quantity], states,
+                                  tier=tier, tolerances=tolerances, min_scale=min_scale))
+    return sorted(rows, key=lambda r: (r["quantity"], r["pair"]))
+
+
+def pointwise(system: Any, *, n: int, seed: int, sources: dict[str, Any] | None = None,
+              tolerances: Tolerances = TOLERANCES) -> dict[str, Any]:
+    """The pointwise check of one system at `n` seeded states."""
+    from .sources import make_sources
+
+    sources = sources or make_sources(system)
+    states = random_states(system, n=n, seed=seed)
+    values = evaluate(sources, states)
+    rows = compare(values, states, tolerances=tolerances)
+    return {"n_states": n, "seed": seed, "rows": rows, "passed": all(r["passed"] for r in rows)}

@@ -1,0 +1,135 @@
+"""Trajectories of each source on a common time grid.
+
+scipy integrates the hand equations and Pinocchio's ABA; MuJoCo steps its own integrator. Loops
+are driven by step counts, never by accumulated time, so every sample falls on the grid exactly.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .errors import HarnessError
+
+DEFAULT_T_END = 10.0  # s
+DEFAULT_DT_OUT = 0.01  # s
+SCIPY_DEFAULT = {"method": "DOP853", "rtol": 1e-12, "atol": 1e-12}
+
+
+@dataclass
+class Trajectory:
+    source: str  # "hand", "mujoco" or "pinocchio"
+    method: str  # how it was integrated, for the report
+    t: np.ndarray  # (K,) s
+    q: np.ndarray  # (K, n) rad
+    v: np.ndarray  # (K, n) rad/s
+    stats: dict[str, Any] = field(default_factory=dict)  # e.g. right-hand-side evaluations
+
+    @property
+    def label(self) -> str:
+        return f"{self.source} ({self.method})"
+
+
+def initial_state(system: Any) -> tuple[np.ndarray, np.ndarray]:
+    """The module's INITIAL_STATE (the notes' experiment) or a generic 0.5 rad, at rest."""
+    q0, v0 = getattr(system.equations, "INITIAL_STATE", (np.full(system.nv, 0.5), np.zeros(system.nv)))
+    return np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)
+
+
+def time_grid(t_end: float, dt_out: float) -> np.ndarray:
+    samples = round(t_end / dt_out)
+    if samples < 1 or not np.isclose(samples * dt_out, t_end, rtol=1e-12, atol=0.0):
+        raise HarnessError(f"--t-end ({t_end}) must be a positive whole multiple of --dt-out ({dt_out}).")
+    return np.arange(samples + 1) * dt_out
+
+
+def _rhs(source: Any, tau: np.ndarray):
+    n = len(tau)
+    counter = {"nfev": 0}
+
+    def f(t: float, y: np.ndarray) -> np.ndarray:
+        counter["nfev"] += 1
+        a = source.forward(y[None, :n], y[None, n:], tau[None])[0]
+        return np.concatenate([y[n:], a])
+
+    return f, counter
+
+
+def scipy_trajectory(system: Any, source: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t: np.ndarray,
+                     *, method: str = "DOP853", rtol: float = 1e-12, atol: float = 1e-12) -> Trajectory:
+    """`solve_ivp` on a source's forward dynamics (the hand equations or Pinocchio's ABA)."""
+    from scipy.integrate import solve_ivp
+
+    f, counter = _rhs(source, tau)
+    n = system.nv
+    sol = solve_ivp(f, (t[0], t[-1]), np.concatenate([q0, v0]), method=method, t_eval=t, rtol=rtol, atol=atol)
+    if not sol.success:
+        raise HarnessError(f"{system.name}: scipy {method} failed on the {source.name} equations: {sol.message}")
+    return Trajectory(source.name, f"scipy {method} rtol {rtol:g}", sol.t, sol.y[:n].T.copy(), sol.y[n:].T.copy(),
+                      {"nfev": counter["nfev"]})
+
+
+def mujoco_trajectory(system: Any, source: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t: np.ndarray,
+                      *, integrator: str = "RK4", timestep: float | None = None) -> Trajectory:
+    """MuJoCo stepping its own integrator; samples every round(dt_out / timestep) steps."""
+    import mujoco
+
+    m, d = source.m, source.d
+    names = {"Euler": mujoco.mjtIntegrator.mjINT_EULER, "RK4": mujoco.mjtIntegrator.mjINT_RK4,
+             "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT, "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST}
+    if integrator not in names:
+        from .errors import unknown_name
+
+        raise unknown_name("MuJoCo integrator", integrator, names)
+    saved = (m.opt.integrator, m.opt.timestep)
+    m.opt.integrator = names[integrator]
+    dt = float(timestep or m.opt.timestep)
+    m.opt.timestep = dt
+    dt_out = t[1] - t[0] if len(t) > 1 else dt
+    steps = round(dt_out / dt)
+    if steps < 1 or not np.isclose(steps * dt, dt_out, rtol=1e-9, atol=0.0):
+        raise HarnessError(f"MuJoCo timestep {dt} must divide the output step {dt_out}.")
+    try:
+        mujoco.mj_resetData(m, d)
+        source.set_state(q0, v0, tau)
+        q, v = np.empty((len(t), system.nv)), np.empty((len(t), system.nv))
+        q[0], v[0] = q0, v0
+        for k in range(1, len(t)):
+            mujoco.mj_step(m, d, nstep=steps)
+            q[k], v[k] = source.get_state()
+    finally:
+        m.opt.integrator, m.opt.timestep = saved
+    return Trajectory("mujoco", f"MuJoCo {integrator} dt {dt:g}", t.copy(), q, v, {"steps": steps * (len(t) - 1)})
+
+
+def energy(system: Any, hand: Any, traj: Trajectory) -> np.ndarray:
+    """Total energy T + V along a trajectory, by the hand equations (J)."""
+    kin, pot = hand.energies(traj.q, traj.v)
+    return kin + pot
+
+
+def error_against(traj: Trajectory, ref: Trajectory) -> np.ndarray:
+    """max over coordinates of |q - q_ref| at each sample, rad."""
+    return np.abs(traj.q - ref.q).max(axis=1)
+
+
+def first_exceeding(t: np.ndarray, err: np.ndarray, threshold: float) -> float | None:
+    """The first sample time where err > threshold, or None if it never does."""
+    above = np.nonzero(err > threshold)[0]
+    return float(t[above[0]]) if len(above) else None
+
+
+def run_trajectories(system: Any, sources: dict[str, Any], *, t_end: float = DEFAULT_T_END,
+                     dt_out: float = DEFAULT_DT_OUT) -> list[Trajectory]:
+    """The three sources from the system's initial state: scipy on the hand equations and on
+    Pinocchio's ABA (same method and tolerances), MuJoCo RK4 at the MJCF's timestep."""
+    q0, v0 = initial_state(system)
+    tau = np.zeros(system.nv)
+    t = time_grid(t_end, dt_out)
+    return [
+        scipy_trajectory(system, sources["hand"], q0, v0, tau, t, **SCIPY_DEFAULT),
+        mujoco_trajectory(system, sources["mujoco"], q0, v0, tau, t, integrator="RK4"),
+        scipy_trajectory(system, sources["pinocchio"], q0, v0, tau, t, **SCIPY_DEFAULT),
+    ]

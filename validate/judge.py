@@ -1,0 +1,271 @@
+"""Judges every printed form of the notes against MuJoCo and Pinocchio, term by term.
+
+Nothing here knows which forms are right: a verdict comes from the comparison alone. A printed
+form is split into terms by evaluating it where the other terms vanish (v = 0, tau = 0, zero
+joint friction), so a disagreeing form is reported with the first term that disagrees:
+
+    implicit  r(q, v, a, tau) = s * (M a + bias - passive - tau)     (s: the printed row scale)
+        mass matrix    r(q, 0, e_j, 0) - r(q, 0, 0, 0)   vs  s M e_j
+        gravity        r(q, 0, 0, 0)                      vs  s G
+        velocity       r(q, v, 0, 0) - r(q, 0, 0, 0)      vs  s C v        (friction set to zero)
+        friction       r(q, v, 0, 0) - r_0(q, v, 0, 0)    vs  -s passive
+        actuation      r(q, 0, 0, tau) - r(q, 0, 0, 0)    vs  -s tau
+        residual       r(q, v, a_engine, tau)             vs  0
+    explicit  f(q, v, tau) = M^-1 (tau + passive - bias)
+        gravity, velocity, friction, actuation likewise on accelerations; acceleration overall.
+    derivation step: the printed expression vs the engines' kinematics or energies.
+
+Every form is judged twice: with the MJCF's parameters (the notes' values) and with a probe set
+(masses, lengths and gravity rescaled), because a slip such as a missing factor l cannot show
+where l = 1.
+"""
+
+from __future__ import annotations
+
+
+from typing import Any
+
+import numpy as np
+
+from .compare import States, error_row
+from .modelview import ModelView
+from .tolerances import TOLERANCES, Tolerances
+
+ENGINES = ("mujoco", "pinocchio")
+PROBE = (("scale/mass", 1.7), ("scale/length", 1.3), ("scale/gravity", 0.8))
+PROBE_LABEL = "probe: masses x1.7, lengths x1.3, gravity x0.8"
+TERM_ORDER = ("printed parameters", "mass matrix", "gravity", "velocity", "friction", "actuation",
+              "residual", "acceleration", "value")
+
+
+def frictionless_params(system: Any) -> Any:
+    """The equations' parameters read from the same model with every joint's damping set to zero."""
+    values = {k: (0.0 if k.endswith("/damping") else system.view[k]) for k in system.view}
+    return system.equations.parameters(ModelView(values, system.view.source + " (no friction)"))
+
+
+class EngineTerms:
+    """The engines' primitives at the sample states, computed once per system."""
+
+    def __init__(self, system: Any, sources: dict[str, Any], states: States) -> None:
+        q, v, tau = states.q, states.v, states.tau
+        zero = np.zeros_like(q)
+        self.by_engine: dict[str, dict[str, np.ndarray]] = {}
+        for name in ENGINES:
+            src = sources[name]
+            M = src.mass_matrix(q)
+            G = src.bias(q, zero)
+            bias = src.bias(q, v)
+            passive = src.passive(q, v)
+            solve = lambda x: np.linalg.solve(M, x[..., None])[..., 0]  # noqa: E731
+            self.by_engine[name] = {
+                "M": M, "G": G, "Cv": bias - G, "passive": passive, "tau": tau,
+                "a": src.forward(q, v, tau),
+                "a_gravity": solve(-G), "a_velocity": solve(-(bias - G)), "a_friction": solve(passive),
+                "a_actuation": solve(tau),
+            }
+        self.kinematics = {name: sources[name].kinematics(q, v) for name in ENGINES}
+        self.energies = {name: sources[name].energies(q, v) for name in ENGINES}
+
+
+def _rows(term: str, printed: np.ndarray, engines: dict[str, np.ndarray], states: States, *, tier: str,
+          tolerances: Tolerances, min_scale: dict[str, float] | None = None) -> list[dict[str, Any]]:
+    rows = []
+    for name, ref in engines.items():
+        row = error_row(term, f"printed~{name}", printed, ref, states, tier=tier, tolerances=tolerances,
+                        min_scale=(min_scale or {}).get(name, 0.0))
+        row["term"] = row.pop("quantity")
+        row["engine"] = name
+        rows.append(row)
+    return rows
+
+
+def _axis_rotation(axis: np.ndarray, angle: np.ndarray, engine: str) -> np.ndarray:
+    """The engine's own rotation by `angle` about the unit `axis`, (N, 3, 3)."""
+    axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    out = np.empty((len(angle), 3, 3))
+    if engine == "mujoco":
+        import mujoco
+
+        quat, mat = np.zeros(4), np.zeros(9)
+        for i, ang in enumerate(angle):
+            mujoco.mju_axisAngle2Quat(quat, axis, float(ang))
+            mujoco.mju_quat2Mat(mat, quat)
+            out[i] = mat.reshape(3, 3)
+    else:
+        import pinocchio as pin
+
+        for i, ang in enumerate(angle):
+            out[i] = pin.exp3(axis * float(ang))
+    return out
+
+
+def engine_quantity(system: Any, terms: EngineTerms, quantity: tuple[Any, ...], engine: str, states: States,
+                    angle_index: int) -> np.ndarray:
+    """What `engine` computes for a derivation step's quantity."""
+    kind, which = quantity[0], quantity[1] if len(quantity) > 1 else None
+    if kind == "axis_rotation":
+        return _axis_rotation(np.asarray(which), states.q[:, angle_index], engine)
+    kin = terms.kinematics[engine]
+    if which is None:
+        if kind == "kinetic_energy":
+            return terms.energies[engine][0]
+        if kind == "potential_energy":
+            return terms.energies[engine][1]
+        if kind == "lagrangian":
+            return terms.energies[engine][0] - terms.energies[engine][1]
+        raise ValueError(f"quantity {quantity} needs a body")
+    k = system.bodies.index(which)
+    simple = {
+        "com_position": kin.com_position, "com_velocity": kin.com_velocity,
+        "origin_position": kin.origin_position, "origin_velocity": kin.origin_velocity,
+        "rotation": kin.rotation, "angular_velocity": kin.angular_velocity,
+        "kinetic_energy": kin.kinetic_energy, "potential_energy": kin.potential_energy,
+    }
+    if kind in simple:
+        return simple[kind][:, k]
+    if kind == "com_speed_squared":
+        return np.einsum("ni,ni->n", kin.com_velocity[:, k], kin.com_velocity[:, k])
+    if kind == "angular_velocity_body":
+        return np.einsum("nji,nj->ni", kin.rotation[:, k], kin.angular_velocity[:, k])
+    raise ValueError(f"unknown derivation-step quantity {quantity}")
+
+
+def _printed_parameter_rows(system: Any, variant: Any) -> list[dict[str, Any]]:
+    rows = []
+    for field, printed in sorted(getattr(variant, "printed_parameters", {}).items()):
+        compiled = float(getattr(system.params, field))
+        err = abs(printed - compiled)
+        scale = max(abs(compiled), abs(printed), np.finfo(float).tiny)
+        rows.append({"term": "printed parameters", "engine": "mjcf", "pair": f"printed~mjcf:{field}",
+                     "max_abs": err, "max_rel": err / scale, "scale": scale, "scaled": err / scale,
+                     "tier": "algebraic", "tolerance": TOLERANCES.algebraic.rtol,
+                     "passed": bool(err / scale <= TOLERANCES.algebraic.rtol),
+                     "worst_state": {"printed": printed, "compiled": compiled}})
+    return rows
+
+
+def judge_variant(system: Any, variant: Any, terms: EngineTerms, states: States, *,
+                  tolerances: Tolerances = TOLERANCES, printed_parameters: bool = True) -> dict[str, Any]:
+    """One printed form's verdict, with every separated term against both engines."""
+    p = system.params
+    q, v, tau = states.q, states.v, states.tau
+    zero = np.zeros_like(q)
+    uses = system.uses
+    e = terms.by_engine
+    result: dict[str, Any] = {
+        "name": variant.name, "kind": variant.kind, "notes_equations": list(variant.notes_equations),
+        "note": variant.note,
+    }
+    try:
+        p0 = frictionless_params(system)
+        rows = _printed_parameter_rows(system, variant) if printed_parameters else []
+        if variant.kind == "derivation step":
+            printed = np.asarray(variant.evaluate(p, q, v), dtype=float)
+            refs = {n: engine_quantity(system, terms, variant.quantity, n, states, variant.angle_index) for n in ENGINES}
+            printed = np.broadcast_to(printed, refs["mujoco"].shape)
+            rows += _rows("value", printed, refs, states, tier="algebraic", tolerances=tolerances)
+        elif variant.kind == "implicit":
+            r = lambda pp, qq, vv, aa, tt: np.asarray(variant.residual(pp, qq, vv, aa, tt), dtype=float)  # noqa: E731
+            s = np.asarray(variant.row_scale(p), dtype=float)
+            r00 = r(p, q, zero, zero, zero)
+            n = system.nv
+            cols = [r(p, q, zero, np.broadcast_to(np.eye(n)[j], q.shape), zero) - r00 for j in range(n)]
+            mass = np.stack(cols, axis=-1)
+            rows += _rows("mass matrix", mass, {k: s[:, None] * e[k]["M"] for k in ENGINES}, states,
+                          tier="algebraic", tolerances=tolerances)
+            if "gravity" in uses:
+                rows += _rows("gravity", r00, {k: s * e[k]["G"] for k in ENGINES}, states, tier="algebraic",
+                              tolerances=tolerances)
+            vel = r(p0, q, v, zero, zero) - r(p0, q, zero, zero, zero)
+            rows += _rows("velocity", vel, {k: s * e[k]["Cv"] for k in ENGINES}, states, tier="algebraic",
+                          tolerances=tolerances)
+            if "damping" in uses:
+                fr = r(p, q, v, zero, zero) - r(p0, q, v, zero, zero)
+                rows += _rows("friction", fr, {k: -s * e[k]["passive"] for k in ENGINES}, states,
+                              tier="algebraic", tolerances=tolerances)
+            if "actuation" in uses:
+                act = r(p, q, zero, zero, tau) - r00
+                rows += _rows("actuation", act, {k: -s * tau for k in ENGINES}, states, tier="algebraic",
+                              tolerances=tolerances)
+            residual = {k: r(p, q, v, e[k]["a"], tau) for k in ENGINES}
+            for k in ENGINES:  # the residual at the engine's own accelerations should vanish
+                scale = float(np.abs(s * (e[k]["Cv"] + e[k]["G"])).max())
+                rows += _rows("residual", residual[k], {k: np.zeros_like(residual[k])}, states, tier="solve",
+                              tolerances=tolerances, min_scale={k: scale})
+        else:  # explicit and Matlab state-space forms
+            f = lambda pp, qq, vv, tt: np.asarray(variant.acceleration(pp, qq, vv, tt), dtype=float)  # noqa: E731
+            f00 = f(p, q, zero, zero)
+            if "gravity" in uses:
+                rows += _rows("gravity", f00, {k: e[k]["a_gravity"] for k in ENGINES}, states, tier="solve",
+                              tolerances=tolerances)
+            vel = f(p0, q, v, zero) - f(p0, q, zero, zero)
+            rows += _rows("velocity", vel, {k: e[k]["a_velocity"] for k in ENGINES}, states, tier="solve",
+                          tolerances=tolerances)
+            if "damping" in uses:
+                fr = f(p, q, v, zero) - f(p0, q, v, zero)
+                rows += _rows("friction", fr, {k: e[k]["a_friction"] for k in ENGINES}, states, tier="solve",
+                              tolerances=tolerances)
+            if "actuation" in uses:
+                act = f(p, q, zero, tau) - f00
+                rows += _rows("actuation", act, {k: e[k]["a_actuation"] for k in ENGINES}, states, tier="solve",
+                              tolerances=tolerances)
+            rows += _rows("acceleration", f(p, q, v, tau), {k: e[k]["a"] for k in ENGINES}, states, tier="solve",
+                          tolerances=tolerances)
+    except ValueError as exc:  # a printed form that does not apply to these parameters
+        result.update(verdict="not applicable", reason=str(exc), terms=[])
+        return result
+    rows.sort(key=lambda r: (TERM_ORDER.index(r["term"]), r["engine"]))
+    failing = [r for r in rows if not r["passed"]]
+    result["terms"] = rows
+    result["verdict"] = "agrees" if not failing else "disagrees"
+    if failing:
+        worst = max(failing, key=lambda r: r["scaled"])
+        result["first_disagreeing_term"] = failing[0]["term"]
+        result["worst_term"] = {k: worst[k] for k in ("term", "engine", "max_abs", "max_rel", "scaled", "worst_state")}
+    return result
+
+
+def _combine(nominal: dict[str, Any], probe: dict[str, Any]) -> dict[str, Any]:
+    """One verdict from the two parameter sets; the first disagreement is the nominal one if any."""
+    out = dict(nominal)
+    for r in nominal.get("terms", []):
+        r["parameters"] = "notes"
+    for r in probe.get("terms", []):
+        r["parameters"] = PROBE_LABEL
+    out["terms"] = nominal.get("terms", []) + probe.get("terms", [])
+    verdicts = {nominal["verdict"], probe["verdict"]}
+    if "disagrees" in verdicts:
+        out["verdict"] = "disagrees"
+        first = nominal if nominal["verdict"] == "disagrees" else probe
+        out["first_disagreeing_term"] = first["first_disagreeing_term"]
+        out["disagrees_at"] = "notes" if first is nominal else PROBE_LABEL
+        failing = [r for r in out["terms"] if not r["passed"]]
+        worst = max(failing, key=lambda r: r["scaled"])
+        out["worst_term"] = {k: worst[k] for k in ("term", "engine", "parameters", "max_abs", "max_rel", "scaled",
+                                                   "worst_state")}
+    elif verdicts == {"agrees"}:
+        out["verdict"] = "agrees"
+    else:
+        out["verdict"] = "not applicable"
+        out["reason"] = nominal.get("reason") or probe.get("reason")
+    return out
+
+
+def judge_system(system: Any, states: States, sources: dict[str, Any], *,
+                 tolerances: Tolerances = TOLERANCES) -> list[dict[str, Any]]:
+    """Verdicts for every printed form of one system, at the notes' and at the probe parameters."""
+    if not system.variants:
+        return []
+    from .sources import make_sources
+    from .systems import load
+
+    terms = EngineTerms(system, sources, states)
+    probe_system = load(system.name, overrides=system.overrides + PROBE)
+    probe_terms = EngineTerms(probe_system, make_sources(probe_system), states)
+    return [
+        _combine(judge_variant(system, var, terms, states, tolerances=tolerances),
+                 judge_variant(probe_system, var, probe_terms, states, tolerances=tolerances,
+                               printed_parameters=False))
+        for var in system.variants
+    ]

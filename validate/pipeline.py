@@ -1,0 +1,80 @@
+"""The main job, system by system: model checks -> pointwise -> printed forms -> trajectories.
+
+Each step returns plain data; `run` assembles `results.json` and the reports render from it.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from . import compare, integrate, judge, modelsync
+from .sources import make_sources
+from .tolerances import TOLERANCES
+
+TRAJECTORY_THRESHOLD = TOLERANCES.trajectory.rtol  # rad
+
+
+def trajectory_results(system: Any, sources: dict[str, Any], *, t_end: float, dt_out: float) -> dict[str, Any]:
+    trajs = integrate.run_trajectories(system, sources, t_end=t_end, dt_out=dt_out)
+    ref = trajs[0]
+    q0, v0 = integrate.initial_state(system)
+    runs = []
+    for tr in trajs:
+        err = integrate.error_against(tr, ref)
+        e = integrate.energy(system, sources["hand"], tr)
+        runs.append({
+            "source": tr.source, "method": tr.method, "stats": tr.stats,
+            "q": tr.q, "v": tr.v, "energy": e, "error_vs_hand": err,
+            "max_error_vs_hand": float(err.max()),
+            "first_exceeds_threshold": integrate.first_exceeding(tr.t, err, TRAJECTORY_THRESHOLD),
+            "energy_drift": float(np.abs(e - e[0]).max()),
+        })
+    return {"q0": q0, "v0": v0, "tau": np.zeros(system.nv), "t_end": t_end, "dt_out": dt_out, "t": ref.t,
+            "reference": ref.label, "threshold": TRAJECTORY_THRESHOLD, "runs": runs}
+
+
+def run_system(system: Any, *, n_states: int, seed: int, t_end: float = integrate.DEFAULT_T_END,
+               dt_out: float = integrate.DEFAULT_DT_OUT) -> dict[str, Any]:
+    """Everything the harness knows about one system, as plain data."""
+    sources = make_sources(system)
+    model = modelsync.check(system, sources["pinocchio"])
+    point = compare.pointwise(system, n=n_states, seed=seed, sources=sources)
+    states = compare.random_states(system, n=n_states, seed=seed)
+    variants = judge.judge_system(system, states, sources)
+    traj = trajectory_results(system, sources, t_end=t_end, dt_out=dt_out)
+    passed = model["passed"] and point["passed"]
+    return {
+        "name": system.name,
+        "description": system.description,
+        "mjcf": f"models/{system.mjcf.name}",
+        "equations": f"equations/{system.name}.py",
+        "coordinates": list(system.coordinates),
+        "joints": list(system.joints),
+        "bodies": list(system.bodies),
+        "uses": sorted(system.uses),
+        "parameters": {k: float(v) for k, v in vars(system.params).items()},
+        "timestep": float(sources["mujoco"].m.opt.timestep),
+        "model_checks": model,
+        "pointwise": point,
+        "variants": variants,
+        "trajectories": traj,
+        "passed": passed,
+    }
+
+
+def run(names: list[str] | None, *, n_states: int, seed: int, progress: Any = None) -> dict[str, Any]:
+    from .results import provenance
+    from .systems import load_all
+
+    systems = load_all(names)
+    out: dict[str, Any] = {"meta": provenance(seed), "tolerances": TOLERANCES.as_dict(), "systems": {}}
+    for s in systems:
+        if progress:
+            progress(s.name, "start")
+        out["systems"][s.name] = run_system(s, n_states=n_states, seed=seed)
+        if progress:
+            progress(s.name, "done", out["systems"][s.name])
+    out["passed"] = all(s["passed"] for s in out["systems"].values())
+    return out

@@ -1,0 +1,43 @@
+"""Progress while `run` works: a live bar in a terminal, one plain line per system elsewhere (CI)."""
+
+from __future__ import annotations
+
+import contextlib
+import sys
+import time
+from collections.abc import Iterator
+from typing import Any
+
+
+@contextlib.contextmanager
+def reporter() -> Iterator[Any]:
+    start = time.perf_counter()
+    if sys.stderr.isatty():
+        from rich.console import Console
+        from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+        with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
+                      console=Console(stderr=True), transient=True) as bar:
+            task = bar.add_task("validating", total=None)
+
+            def live(name: str, stage: str, result: Any = None) -> None:
+                if stage == "start":
+                    bar.update(task, description=f"validating {name}")
+                else:
+                    bar.console.print(_line(name, result, time.perf_counter() - start))
+
+            yield live
+    else:
+
+        def plain(name: str, stage: str, result: Any = None) -> None:
+            if stage == "done":
+                print(_line(name, result, time.perf_counter() - start), file=sys.stderr, flush=True)
+
+        yield plain
+
+
+def _line(name: str, result: dict[str, Any], elapsed: float) -> str:
+    variants = result.get("variants", [])
+    wrong = sum(v["verdict"] == "disagrees" for v in variants)
+    mark = "pass" if result["passed"] else "FAIL"
+    return (f"[{elapsed:6.1f} s] {name}: {mark}; {len(variants)} printed forms, {wrong} disagree with the engines")

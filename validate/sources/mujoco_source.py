@@ -1,0 +1,160 @@
+"""MuJoCo as a source. Owns MuJoCo's quirks: qpos/qvel addresses by joint name, the dense mass
+matrix from `mj_fullM`, inputs as actuator controls (or `qfrc_applied` where no actuator drives a
+coordinate), `d.energy` only with the energy flag, and `qfrc_inverse` already net of passive forces.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from ..errors import HarnessError
+from . import Kinematics
+
+
+class MujocoSource:
+    name = "mujoco"
+
+    def __init__(self, system: Any) -> None:
+        self.system = system
+        self.m = system.mujoco_model()
+        self.m.opt.enableflags |= int(mujoco.mjtEnableBit.mjENBL_ENERGY)
+        self.d = mujoco.MjData(self.m)
+        n = system.nv
+        if self.m.nv != n:
+            raise HarnessError(
+                f"{system.mjcf.name} has {self.m.nv} degrees of freedom; equations/{system.name}.py has {n} "
+                f"({', '.join(system.coordinates)})."
+            )
+        ids = []
+        for j in system.joints:
+            jid = mujoco.mj_name2id(self.m, mujoco.mjtObj.mjOBJ_JOINT, j)
+            if jid < 0:
+                raise HarnessError(f"{system.mjcf.name} has no joint '{j}' (equations/{system.name}.py JOINTS).")
+            ids.append(jid)
+        self.qadr = np.array([self.m.jnt_qposadr[j] for j in ids])
+        self.dadr = np.array([self.m.jnt_dofadr[j] for j in ids])
+        self.body_ids = []
+        for b in system.bodies:
+            bid = mujoco.mj_name2id(self.m, mujoco.mjtObj.mjOBJ_BODY, b)
+            if bid < 0:
+                raise HarnessError(f"{system.mjcf.name} has no body '{b}' (equations/{system.name}.py BODIES).")
+            self.body_ids.append(bid)
+        self.body_ids = np.array(self.body_ids)
+        # Inputs: a coordinate driven by a joint actuator takes tau through ctrl = tau / gear.
+        self.ctrl_of_coord = np.full(n, -1)
+        self.gear = np.ones(n)
+        actuation_on = not (self.m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_ACTUATION))
+        for a in range(self.m.nu if actuation_on else 0):
+            dof = self.m.jnt_dofadr[self.m.actuator_trnid[a, 0]]
+            (k,) = np.nonzero(self.dadr == dof)[0][:1] if np.any(self.dadr == dof) else (None,)
+            if k is not None:
+                self.ctrl_of_coord[k] = a
+                self.gear[k] = self.m.actuator_gear[a, 0]
+        self.gravity = np.array(system.view["gravity"])
+
+    # -- state setting ------------------------------------------------------------------------
+    def _set(self, q: np.ndarray, v: np.ndarray | None = None, tau: np.ndarray | None = None) -> None:
+        d = self.d
+        d.qpos[self.qadr] = q
+        d.qvel[self.dadr] = 0.0 if v is None else v
+        d.ctrl[:] = 0.0
+        d.qfrc_applied[:] = 0.0
+        if tau is not None:
+            driven = self.ctrl_of_coord >= 0
+            d.ctrl[self.ctrl_of_coord[driven]] = tau[driven] / self.gear[driven]
+            d.qfrc_applied[self.dadr[~driven]] = tau[~driven]
+
+    def set_state(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray | None = None) -> None:
+        """Puts one state (and input) into `self.d` in the notes' coordinates."""
+        self._set(q, v, tau)
+
+    def get_state(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.d.qpos[self.qadr].copy(), self.d.qvel[self.dadr].copy()
+
+    # -- dynamics -----------------------------------------------------------------------------
+    def _full_m(self) -> np.ndarray:
+        full = np.zeros((self.m.nv, self.m.nv))
+        mujoco.mj_fullM(self.m, self.d, full)
+        return full[np.ix_(self.dadr, self.dadr)]
+
+    def mass_matrix(self, q: np.ndarray) -> np.ndarray:
+        out = np.empty(q.shape + (q.shape[-1],))
+        for i in range(len(q)):
+            self._set(q[i])
+            mujoco.mj_forward(self.m, self.d)
+            out[i] = self._full_m()
+        return out
+
+    def bias(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        out = np.empty_like(q)
+        for i in range(len(q)):
+            self._set(q[i], v[i])
+            mujoco.mj_forward(self.m, self.d)
+            out[i] = self.d.qfrc_bias[self.dadr]
+        return out
+
+    def passive(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        out = np.empty_like(q)
+        for i in range(len(q)):
+            self._set(q[i], v[i])
+            mujoco.mj_forward(self.m, self.d)
+            out[i] = self.d.qfrc_passive[self.dadr]
+        return out
+
+    def forward(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        out = np.empty_like(q)
+        for i in range(len(q)):
+            self._set(q[i], v[i], tau[i])
+            mujoco.mj_forward(self.m, self.d)
+            out[i] = self.d.qacc[self.dadr]
+        return out
+
+    def inverse(self, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
+        out = np.empty_like(q)
+        for i in range(len(q)):
+            self._set(q[i], v[i])
+            self.d.qacc[self.dadr] = a[i]
+            mujoco.mj_inverse(self.m, self.d)
+            out[i] = self.d.qfrc_inverse[self.dadr]
+        return out
+
+    def energies(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        kin, pot = np.empty(len(q)), np.empty(len(q))
+        for i in range(len(q)):
+            self._set(q[i], v[i])
+            mujoco.mj_forward(self.m, self.d)
+            pot[i], kin[i] = self.d.energy
+        return kin, pot
+
+    def body_positions(self, q: np.ndarray) -> np.ndarray:
+        return self.kinematics(q, np.zeros_like(q)).com_position
+
+    def body_rotations(self, q: np.ndarray) -> np.ndarray:
+        return self.kinematics(q, np.zeros_like(q)).rotation
+
+    def kinematics(self, q: np.ndarray, v: np.ndarray) -> Kinematics:
+        n, nb = len(q), len(self.body_ids)
+        out = {k: np.empty((n, nb, 3)) for k in ("cp", "cv", "op", "ov", "w")}
+        rot, ke, pe = np.empty((n, nb, 3, 3)), np.empty((n, nb)), np.empty((n, nb))
+        res = np.zeros(6)
+        m, d = self.m, self.d
+        for i in range(n):
+            self._set(q[i], v[i])
+            mujoco.mj_forward(m, d)
+            for k, b in enumerate(self.body_ids):
+                out["cp"][i, k] = d.xipos[b]
+                out["op"][i, k] = d.xpos[b]
+                rot[i, k] = d.xmat[b].reshape(3, 3)
+                mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, b, res, 0)
+                out["w"][i, k], out["cv"][i, k] = res[:3], res[3:]
+                mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_XBODY, b, res, 0)
+                out["ov"][i, k] = res[3:]
+                ri = d.ximat[b].reshape(3, 3)
+                inertia_world = ri @ np.diag(m.body_inertia[b]) @ ri.T
+                w = out["w"][i, k]
+                ke[i, k] = 0.5 * m.body_mass[b] * out["cv"][i, k] @ out["cv"][i, k] + 0.5 * w @ inertia_world @ w
+                pe[i, k] = -m.body_mass[b] * self.gravity @ d.xipos[b]
+        return Kinematics(out["cp"], out["cv"], out["op"], out["ov"], rot, out["w"], ke, pe)

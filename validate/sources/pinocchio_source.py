@@ -1,0 +1,141 @@
+"""Pinocchio as a source: CRBA, RNEA (non-linear effects), ABA on the chain built from the same MJCF.
+
+Owns Pinocchio's quirks: `buildModelFromMJCF` ignores `<option gravity>` (the MuJoCo-compiled
+gravity is copied in) and joint damping (applied here as a generalized force), and its
+configuration vector is indexed by Pinocchio's joint order, mapped here by MJCF joint names.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import HarnessError
+from . import Kinematics
+
+
+def build_model(system: Any) -> Any:
+    """Pinocchio's model of the system's MJCF (with any overrides), gravity copied from MuJoCo."""
+    xml = system.mjcf_xml()
+    fd, path = tempfile.mkstemp(suffix=".xml", prefix=f"{system.name}_")
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(xml)
+        model = pin.buildModelFromMJCF(path)
+    except Exception as exc:
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise HarnessError(f"{system.mjcf.name}: Pinocchio cannot build the model: {first}") from None
+    finally:
+        os.unlink(path)
+    model.gravity.linear = np.array(system.view["gravity"], dtype=float)
+    return model
+
+
+class PinocchioSource:
+    name = "pinocchio"
+
+    def __init__(self, system: Any) -> None:
+        self.system = system
+        self.model = build_model(system)
+        self.data = self.model.createData()
+        n = system.nv
+        if self.model.nv != n:
+            raise HarnessError(f"Pinocchio sees {self.model.nv} degrees of freedom in {system.mjcf.name}; the equations have {n}.")
+        self.qidx, self.vidx = [], []
+        for j in system.joints:
+            if not self.model.existJointName(j):
+                raise HarnessError(f"Pinocchio's model of {system.mjcf.name} has no joint '{j}'.")
+            joint = self.model.joints[self.model.getJointId(j)]
+            if joint.nq != 1 or joint.nv != 1:
+                raise HarnessError(f"joint '{j}': only one-degree-of-freedom joints are supported.")
+            self.qidx.append(joint.idx_q)
+            self.vidx.append(joint.idx_v)
+        self.qidx, self.vidx = np.array(self.qidx), np.array(self.vidx)
+        self.damping = np.array([system.view[f"joint/{j}/damping"] for j in system.joints])
+        self.frames, self.joint_of_body = [], []
+        for b in system.bodies:
+            if not self.model.existBodyName(b):
+                raise HarnessError(f"Pinocchio's model of {system.mjcf.name} has no body '{b}' (named bodies are required).")
+            fid = self.model.getBodyId(b)
+            self.frames.append(fid)
+            self.joint_of_body.append(self.model.frames[fid].parentJoint)
+        self.gravity = np.array(system.view["gravity"], dtype=float)
+
+    def _q(self, q: np.ndarray) -> np.ndarray:
+        full = pin.neutral(self.model)
+        full[self.qidx] = q
+        return full
+
+    def _v(self, v: np.ndarray) -> np.ndarray:
+        full = np.zeros(self.model.nv)
+        full[self.vidx] = v
+        return full
+
+    def passive(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Joint damping, which Pinocchio's algorithms ignore, as a generalized force."""
+        return -self.damping * v
+
+    def mass_matrix(self, q: np.ndarray) -> np.ndarray:
+        out = np.empty(q.shape + (q.shape[-1],))
+        for i in range(len(q)):
+            full = pin.crba(self.model, self.data, self._q(q[i]))
+            full = np.triu(full) + np.triu(full, 1).T  # CRBA fills the upper triangle
+            out[i] = full[np.ix_(self.vidx, self.vidx)]
+        return out
+
+    def bias(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        out = np.empty_like(q)
+        for i in range(len(q)):
+            out[i] = pin.nonLinearEffects(self.model, self.data, self._q(q[i]), self._v(v[i]))[self.vidx]
+        return out
+
+    def forward(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        out = np.empty_like(q)
+        total = tau + self.passive(q, v)
+        for i in range(len(q)):
+            out[i] = pin.aba(self.model, self.data, self._q(q[i]), self._v(v[i]), self._v(total[i]))[self.vidx]
+        return out
+
+    def inverse(self, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
+        out = np.empty_like(q)
+        for i in range(len(q)):
+            out[i] = pin.rnea(self.model, self.data, self._q(q[i]), self._v(v[i]), self._v(a[i]))[self.vidx]
+        return out - self.passive(q, v)
+
+    def energies(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        kin, pot = np.empty(len(q)), np.empty(len(q))
+        for i in range(len(q)):
+            qi, vi = self._q(q[i]), self._v(v[i])
+            kin[i] = pin.computeKineticEnergy(self.model, self.data, qi, vi)
+            pot[i] = pin.computePotentialEnergy(self.model, self.data, qi)
+        return kin, pot
+
+    def body_positions(self, q: np.ndarray) -> np.ndarray:
+        return self.kinematics(q, np.zeros_like(q)).com_position
+
+    def body_rotations(self, q: np.ndarray) -> np.ndarray:
+        return self.kinematics(q, np.zeros_like(q)).rotation
+
+    def kinematics(self, q: np.ndarray, v: np.ndarray) -> Kinematics:
+        n, nb = len(q), len(self.frames)
+        cp, cv, op, ov, w = (np.empty((n, nb, 3)) for _ in range(5))
+        rot, ke, pe = np.empty((n, nb, 3, 3)), np.empty((n, nb)), np.empty((n, nb))
+        model, data = self.model, self.data
+        for i in range(n):
+            pin.forwardKinematics(model, data, self._q(q[i]), self._v(v[i]))
+            pin.updateFramePlacements(model, data)
+            for k, (fid, jid) in enumerate(zip(self.frames, self.joint_of_body)):
+                inertia, oMi, vj = model.inertias[jid], data.oMi[jid], data.v[jid]
+                frame = data.oMf[fid]
+                fv = pin.getFrameVelocity(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
+                op[i, k], rot[i, k], ov[i, k] = frame.translation, frame.rotation, fv.linear
+                cp[i, k] = oMi.act(inertia.lever)
+                w[i, k] = oMi.rotation @ vj.angular
+                cv[i, k] = oMi.rotation @ (vj.linear + np.cross(vj.angular, inertia.lever))
+                ke[i, k] = 0.5 * inertia.vtiv(vj)
+                pe[i, k] = -inertia.mass * self.gravity @ cp[i, k]
+        return Kinematics(cp, cv, op, ov, rot, w, ke, pe)

@@ -1,0 +1,156 @@
+"""The systems registry: `models/<name>.xml` paired with `equations/<name>.py` by file stem.
+
+Nothing lists systems by hand: they are discovered. The compiled MJCF is the only source of
+numbers; `System.params` is what the equations module reads from it.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib
+import pkgutil
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+from .errors import HarnessError, unknown_name
+from .modelview import ModelView
+
+PACKAGE_ROOT = Path(__file__).resolve().parent.parent
+MODELS_DIR = PACKAGE_ROOT / "models"
+EQUATIONS_PACKAGE = "lagrange_xval.equations"
+
+REQUIRED_ATTRIBUTES = (
+    "DESCRIPTION", "COORDINATES", "JOINTS", "BODIES", "USES", "Params", "parameters", "assumptions",
+    "mass_matrix", "bias", "passive", "kinetic_energy", "potential_energy", "body_positions",
+    "body_rotations", "VARIANTS",
+)
+
+
+def model_stems() -> set[str]:
+    return {p.stem for p in MODELS_DIR.glob("*.xml")}
+
+
+def equation_stems() -> set[str]:
+    package = importlib.import_module(EQUATIONS_PACKAGE)
+    return {m.name for m in pkgutil.iter_modules(package.__path__) if not m.name.startswith("_")}
+
+
+def system_names() -> list[str]:
+    """Names of the complete systems (an MJCF and an equations module with the same stem)."""
+    return sorted(model_stems() & equation_stems())
+
+
+def unpaired() -> dict[str, list[str]]:
+    """Files without their partner: {"models without equations": [...], "equations without model": [...]}."""
+    models, eqs = model_stems(), equation_stems()
+    return {"models without equations": sorted(models - eqs), "equations without model": sorted(eqs - models)}
+
+
+def compile_mjcf(path: Path, overrides: tuple[tuple[str, float], ...] = ()) -> Any:
+    """Compiles an MJCF file with MuJoCo; a bad file becomes a one-line HarnessError."""
+    import mujoco
+
+    if not path.is_file():
+        raise HarnessError(f"MJCF file not found: {path}.")
+    try:
+        spec = mujoco.MjSpec.from_file(str(path))
+        if overrides:
+            from .overrides import apply_overrides
+
+            apply_overrides(spec, overrides)
+        model = spec.compile()
+    except HarnessError:
+        raise
+    except Exception as exc:  # mujoco raises ValueError with a multi-line message
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise HarnessError(f"{path.name}: not a valid MJCF model: {first}") from None
+    return model, spec
+
+
+@dataclass(frozen=True)
+class System:
+    """One system: its MJCF, its equations module and the parameters read from the compiled model."""
+
+    name: str
+    mjcf: Path
+    equations: ModuleType
+    overrides: tuple[tuple[str, float], ...] = ()
+    _cache: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
+
+    @property
+    def coordinates(self) -> tuple[str, ...]:
+        return tuple(self.equations.COORDINATES)
+
+    @property
+    def joints(self) -> tuple[str, ...]:
+        return tuple(self.equations.JOINTS)
+
+    @property
+    def bodies(self) -> tuple[str, ...]:
+        return tuple(self.equations.BODIES)
+
+    @property
+    def uses(self) -> frozenset[str]:
+        return frozenset(self.equations.USES)
+
+    @property
+    def nv(self) -> int:
+        return len(self.coordinates)
+
+    @property
+    def description(self) -> str:
+        return str(self.equations.DESCRIPTION)
+
+    def mujoco_model(self) -> Any:
+        """The compiled MjModel (compiled once per System)."""
+        if "model" not in self._cache:
+            self._cache["model"], self._cache["spec"] = compile_mjcf(self.mjcf, self.overrides)
+        return self._cache["model"]
+
+    def mjcf_xml(self) -> str:
+        """The MJCF the engines compile, with overrides applied (Pinocchio reads this text)."""
+        if not self.overrides:
+            return self.mjcf.read_text()
+        self.mujoco_model()
+        return str(self._cache["spec"].to_xml())
+
+    @property
+    def view(self) -> ModelView:
+        if "view" not in self._cache:
+            from .modelview import from_mujoco
+
+            self._cache["view"] = from_mujoco(self.mujoco_model(), self.mjcf.name)
+        return self._cache["view"]
+
+    @property
+    def params(self) -> Any:
+        if "params" not in self._cache:
+            self._cache["params"] = self.equations.parameters(self.view)
+        return self._cache["params"]
+
+    @property
+    def variants(self) -> tuple[Any, ...]:
+        return tuple(self.equations.VARIANTS)
+
+
+@functools.cache
+def _equations_module(name: str) -> ModuleType:
+    module = importlib.import_module(f"{EQUATIONS_PACKAGE}.{name}")
+    missing = [a for a in REQUIRED_ATTRIBUTES if not hasattr(module, a)]
+    if missing:
+        raise HarnessError(f"equations/{name}.py lacks {', '.join(missing)} (see equations/__init__.py).")
+    return module
+
+
+def load(name: str, overrides: tuple[tuple[str, float], ...] = ()) -> System:
+    """The system called `name`; an unknown name lists the valid ones and the closest."""
+    names = system_names()
+    if name not in names:
+        raise unknown_name("system", name, names)
+    return System(name=name, mjcf=MODELS_DIR / f"{name}.xml", equations=_equations_module(name), overrides=overrides)
+
+
+def load_all(names: list[str] | None = None) -> list[System]:
+    return [load(n) for n in (names or system_names())]
