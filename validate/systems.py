@@ -54,6 +54,15 @@ def compile_mjcf(path: Path, overrides: tuple[tuple[str, float], ...] = ()) -> A
 
     if not path.is_file():
         raise HarnessError(f"MJCF file not found: {path}.")
+    import xml.etree.ElementTree as ET
+
+    try:
+        root = ET.parse(path).getroot().tag
+    except (ET.ParseError, UnicodeDecodeError) as exc:
+        raise HarnessError(f"{path.name}: not well-formed XML ({exc}).") from None
+    if root != "mujoco":
+        # MuJoCo would also compile URDF; the harness reads MJCF only.
+        raise HarnessError(f"{path.name}: not an MJCF file (root element <{root}>, expected <mujoco>).")
     try:
         spec = mujoco.MjSpec.from_file(str(path))
         if overrides:

@@ -1,0 +1,21 @@
+"""The README's two commands: CI runs the test command verbatim."""
+
+from __future__ import annotations
+
+from lagrange_xval.validate.systems import PACKAGE_ROOT
+
+
+def _commands():
+    return [line.strip() for line in (PACKAGE_ROOT / "README.md").read_text().splitlines()
+            if line.startswith("    python3 -m venv")]
+
+
+def test_readme_has_exactly_two_setup_commands():
+    cmds = _commands()
+    assert len(cmds) == 2
+    assert cmds[0].endswith("lagrange-xval run") and "pytest" in cmds[1]
+
+
+def test_ci_runs_the_readme_test_command():
+    ci = (PACKAGE_ROOT / ".ci" / "run").read_text()
+    assert _commands()[1] in ci
