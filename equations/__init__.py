@@ -6,6 +6,8 @@ Every module provides (shapes: `q`, `v`, `tau` are `(..., n)`; functions broadca
     DESCRIPTION: str                   one paragraph: the system and where it is in the notes
     COORDINATES: tuple[str, ...]       the notes' generalized coordinates, in order
     JOINTS: tuple[str, ...]            the MJCF joint that measures each coordinate (same sign, same zero)
+    JOINT_MAP: (n, n) matrix           optional: q = JOINT_MAP @ (joint angles) where a coordinate is not
+                                       one joint's angle (absolute angles of a chain of relative hinges)
     BODIES: tuple[str, ...]            MJCF bodies whose positions and orientations are compared
     USES: frozenset[str]               physics the scene needs: "gravity", "damping", "actuation"
     Params                             frozen dataclass of the parameters the derivation uses

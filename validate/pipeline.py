@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from . import compare, integrate, judge, modelsync
+from . import compare, experiments, integrate, judge, modelsync
 from .sources import make_sources
 from .tolerances import TOLERANCES
 
@@ -44,6 +44,7 @@ def run_system(system: Any, *, n_states: int, seed: int, t_end: float = integrat
     states = compare.random_states(system, n=n_states, seed=seed)
     variants = judge.judge_system(system, states, sources)
     traj = trajectory_results(system, sources, t_end=t_end, dt_out=dt_out)
+    notes_experiments = experiments.run_experiments(system)
     passed = model["passed"] and point["passed"]
     return {
         "name": system.name,
@@ -60,6 +61,7 @@ def run_system(system: Any, *, n_states: int, seed: int, t_end: float = integrat
         "pointwise": point,
         "variants": variants,
         "trajectories": traj,
+        "experiments": notes_experiments,
         "passed": passed,
     }
 

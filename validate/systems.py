@@ -97,6 +97,19 @@ class System:
         return tuple(self.equations.JOINTS)
 
     @property
+    def joint_map(self) -> Any:
+        """A with q_notes = A q_joints, or None where each coordinate is its joint's own angle."""
+        A = getattr(self.equations, "JOINT_MAP", None)
+        if A is None:
+            return None
+        import numpy as np
+
+        A = np.asarray(A, dtype=float)
+        if A.shape != (self.nv, self.nv) or abs(np.linalg.det(A)) < 1e-12:
+            raise HarnessError(f"equations/{self.name}.py: JOINT_MAP must be an invertible {self.nv}x{self.nv} matrix.")
+        return A
+
+    @property
     def bodies(self) -> tuple[str, ...]:
         return tuple(self.equations.BODIES)
 

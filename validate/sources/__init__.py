@@ -39,8 +39,68 @@ class Source(Protocol):
     def body_positions(self, q: np.ndarray) -> np.ndarray: ...
 
 
+class MappedSource:
+    """An engine source seen through a linear coordinate map q_notes = A q_joints.
+
+    Velocities and accelerations map like q; generalized forces map covariantly (the power
+    tau_notes . v_notes = tau_joints . v_joints), so tau_joints = A^T tau_notes and
+    M_notes = A^-T M_joints A^-1. Energies and body kinematics do not depend on coordinates.
+    """
+
+    def __init__(self, inner: Any, A: np.ndarray) -> None:
+        self.inner, self.A, self.Ainv = inner, A, np.linalg.inv(A)
+        self.name = inner.name
+
+    def __getattr__(self, attr: str) -> Any:  # .m, .d, .model, ...
+        return getattr(self.inner, attr)
+
+    def _j(self, x: np.ndarray) -> np.ndarray:  # notes -> joints, for q, v, a
+        return x @ self.Ainv.T
+
+    def _force(self, f: np.ndarray) -> np.ndarray:  # joint forces -> notes forces
+        return f @ self.Ainv
+
+    def mass_matrix(self, q: np.ndarray) -> np.ndarray:
+        return self.Ainv.T @ self.inner.mass_matrix(self._j(q)) @ self.Ainv
+
+    def bias(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return self._force(self.inner.bias(self._j(q), self._j(v)))
+
+    def passive(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return self._force(self.inner.passive(self._j(q), self._j(v)))
+
+    def forward(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        return self.inner.forward(self._j(q), self._j(v), tau @ self.A) @ self.A.T
+
+    def inverse(self, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
+        return self._force(self.inner.inverse(self._j(q), self._j(v), self._j(a)))
+
+    def energies(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return self.inner.energies(self._j(q), self._j(v))
+
+    def body_positions(self, q: np.ndarray) -> np.ndarray:
+        return self.inner.body_positions(self._j(q))
+
+    def body_rotations(self, q: np.ndarray) -> np.ndarray:
+        return self.inner.body_rotations(self._j(q))
+
+    def kinematics(self, q: np.ndarray, v: np.ndarray) -> Kinematics:
+        return self.inner.kinematics(self._j(q), self._j(v))
+
+    def set_state(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray | None = None) -> None:
+        self.inner.set_state(self.Ainv @ q, self.Ainv @ v, None if tau is None else self.A.T @ tau)
+
+    def get_state(self) -> tuple[np.ndarray, np.ndarray]:
+        q, v = self.inner.get_state()
+        return self.A @ q, self.A @ v
+
+
 def make_source(system: Any, name: str) -> Any:
-    """The source called `name` for `system` ("hand", "mujoco" or "pinocchio")."""
+    """The source called `name` for `system` ("hand", "mujoco" or "pinocchio").
+
+    Engines read joint coordinates; where the notes' coordinates are a linear map of them
+    (`JOINT_MAP` in the equations module), the engine sources are wrapped in that map.
+    """
     from ..errors import unknown_name
 
     if name == "hand":
@@ -50,12 +110,15 @@ def make_source(system: Any, name: str) -> Any:
     if name == "mujoco":
         from .mujoco_source import MujocoSource
 
-        return MujocoSource(system)
-    if name == "pinocchio":
+        engine: Any = MujocoSource(system)
+    elif name == "pinocchio":
         from .pinocchio_source import PinocchioSource
 
-        return PinocchioSource(system)
-    raise unknown_name("source", name, SOURCE_NAMES)
+        engine = PinocchioSource(system)
+    else:
+        raise unknown_name("source", name, SOURCE_NAMES)
+    A = system.joint_map
+    return engine if A is None else MappedSource(engine, A)
 
 
 def make_sources(system: Any) -> dict[str, Any]:
