@@ -23,6 +23,8 @@ Every module provides (shapes: `q`, `v`, `tau` are `(..., n)`; functions broadca
     body_rotations(p, q) -> {body: (..., 3, 3)} body frames in the world frame
     VARIANTS: tuple[variant, ...]      every printed form of the notes (see _forms.py)
     INITIAL_STATE: (q0, v0)            optional: the notes' simulation experiment for this system
+    SAME_SYSTEM_AS: str                optional: another system that is the same physical chain in other
+                                       coordinates (the harness checks that the two map onto each other)
 
 The equations of motion are M(q) a + bias(q, v) = tau + passive(q, v), with tau the generalized
 force of the inputs (motors where the MJCF has actuators, otherwise an applied joint torque).

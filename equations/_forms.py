@@ -57,7 +57,9 @@ class DerivationStep:
     `quantity` names what the engines compute, one of:
       ("com_position", body), ("com_velocity", body), ("origin_position", body),
       ("origin_velocity", body), ("rotation", body), ("angular_velocity", body),
-      ("kinetic_energy", body or None), ("potential_energy", body or None),
+      ("kinetic_energy", body or None), ("potential_energy", body or None), ("lagrangian", None),
+      ("translational_kinetic_energy", body), ("rotational_kinetic_energy", body),
+      ("com_speed_squared", body), ("angular_velocity_body", body): angular velocity in the body's frame,
       ("axis_rotation", (x, y, z)): the rotation by q[angle_index] about a fixed axis.
     `evaluate(p, q, v)` returns the printed expression with the same shape.
     """

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from ..equations._forms import Explicit, Implicit
 from .integrate import first_exceeding, initial_state, time_grid
 
 PERTURBATION = 0.01  # rad, added to the last coordinate, as the notes perturb phi
@@ -34,9 +35,9 @@ def dynamic_forms(system: Any) -> list[tuple[str, Any]]:
     p = system.params
     forms: list[tuple[str, Any]] = [("hand derivation", lambda q, v, tau: hand.forward(q, v, tau))]
     for var in system.variants:
-        if var.kind in ("explicit", "matlab"):
+        if isinstance(var, Explicit):
             forms.append((var.name, lambda q, v, tau, var=var: np.asarray(var.acceleration(p, q, v, tau), float)))
-        elif var.kind == "implicit":
+        elif isinstance(var, Implicit):
             def implicit(q, v, tau, var=var):
                 # The printed residual is linear in a: r(a) = A a + r(0); solve A a = -r(0).
                 n = q.shape[-1]

@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from ..equations._forms import DerivationStep, Implicit
 from .compare import States, error_row
 from .modelview import ModelView
 from .tolerances import TOLERANCES, Tolerances
@@ -124,6 +125,10 @@ def engine_quantity(system: Any, terms: EngineTerms, quantity: tuple[Any, ...], 
     }
     if kind in simple:
         return simple[kind][:, k]
+    if kind in ("translational_kinetic_energy", "rotational_kinetic_energy"):
+        trans = 0.5 * system.view[f"body/{which}/mass"] * np.einsum("ni,ni->n", kin.com_velocity[:, k],
+                                                                    kin.com_velocity[:, k])
+        return trans if kind.startswith("translational") else kin.kinetic_energy[:, k] - trans
     if kind == "com_speed_squared":
         return np.einsum("ni,ni->n", kin.com_velocity[:, k], kin.com_velocity[:, k])
     if kind == "angular_velocity_body":
@@ -160,12 +165,12 @@ def judge_variant(system: Any, variant: Any, terms: EngineTerms, states: States,
     try:
         p0 = frictionless_params(system)
         rows = _printed_parameter_rows(system, variant) if printed_parameters else []
-        if variant.kind == "derivation step":
+        if isinstance(variant, DerivationStep):
             printed = np.asarray(variant.evaluate(p, q, v), dtype=float)
             refs = {n: engine_quantity(system, terms, variant.quantity, n, states, variant.angle_index) for n in ENGINES}
             printed = np.broadcast_to(printed, refs["mujoco"].shape)
             rows += _rows("value", printed, refs, states, tier="algebraic", tolerances=tolerances)
-        elif variant.kind == "implicit":
+        elif isinstance(variant, Implicit):
             r = lambda pp, qq, vv, aa, tt: np.asarray(variant.residual(pp, qq, vv, aa, tt), dtype=float)  # noqa: E731
             s = np.asarray(variant.row_scale(p), dtype=float)
             r00 = r(p, q, zero, zero, zero)
@@ -261,8 +266,16 @@ def judge_system(system: Any, states: States, sources: dict[str, Any], *,
     from .systems import load
 
     terms = EngineTerms(system, sources, states)
+    from . import modelsync
+    from .errors import HarnessError
+
     probe_system = load(system.name, overrides=system.overrides + PROBE)
-    probe_terms = EngineTerms(probe_system, make_sources(probe_system), states)
+    probe_sources = make_sources(probe_system)
+    sync = modelsync.check(probe_system, probe_sources["pinocchio"])
+    if not sync["passed"]:
+        bad = sync["mismatches"][0]
+        raise HarnessError(f"{system.name} at the probe parameters: {bad['key']} differs ({bad['why']}).")
+    probe_terms = EngineTerms(probe_system, probe_sources, states)
     return [
         _combine(judge_variant(system, var, terms, states, tolerances=tolerances),
                  judge_variant(probe_system, var, probe_terms, states, tolerances=tolerances,

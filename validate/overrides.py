@@ -1,6 +1,6 @@
-"""Parameter overrides applied to the MJCF through MuJoCo's model-editing API (MjSpec), so that
-MuJoCo, Pinocchio (which reads the edited MJCF) and the equations (which read the compiled
-model) all see the same numbers.
+"""Parameter overrides, applied to the MJCF text at full precision, so that MuJoCo, Pinocchio (both
+parse the edited text) and the equations (which read the compiled model) see the same numbers.
+(MuJoCo's MjSpec.to_xml writes 6 significant digits, which is why the text is edited instead.)
 
 Keys (`--set KEY=VALUE`):
     scale/mass=k            every body's mass and inertia times k
@@ -14,7 +14,7 @@ Keys (`--set KEY=VALUE`):
 
 from __future__ import annotations
 
-from typing import Any
+import xml.etree.ElementTree as ET
 
 import numpy as np
 
@@ -23,6 +23,7 @@ from .errors import HarnessError, unknown_name
 PATTERNS = ("scale/mass", "scale/length", "scale/gravity", "body/<name>/mass", "body/<name>/inertia",
             "joint/<name>/damping", "joint/<name>/armature", "joint/<name>/frictionloss",
             "joint/<name>/stiffness", "actuator/<name>/gear")
+MUJOCO_DEFAULT_GRAVITY = "0 0 -9.81"
 
 
 def parse(items: list[str] | None) -> tuple[tuple[str, float], ...]:
@@ -42,70 +43,78 @@ def parse(items: list[str] | None) -> tuple[tuple[str, float], ...]:
     return tuple(out)
 
 
-def _scale_lengths(spec: Any, k: float) -> None:
-    for b in spec.bodies[1:]:
-        b.pos = np.asarray(b.pos) * k
-        b.ipos = np.asarray(b.ipos) * k
-        b.inertia = np.asarray(b.inertia) * k * k
-        b.fullinertia = np.asarray(b.fullinertia) * k * k
-    for j in spec.joints:
-        j.pos = np.asarray(j.pos) * k
-    for g in spec.geoms:
-        g.pos = np.asarray(g.pos) * k
-        g.size = np.asarray(g.size) * k
-        g.fromto = np.asarray(g.fromto) * k
-    for s in spec.sites:
-        s.pos = np.asarray(s.pos) * k
+def _scale_attr(el: ET.Element, attr: str, k: float) -> None:
+    if attr in el.attrib:
+        el.set(attr, " ".join(repr(float(x) * k) for x in el.get(attr, "").split()))
 
 
-def _named(items: Any, kind: str, name: str) -> Any:
-    for x in items:
-        if x.name == name:
-            return x
-    raise unknown_name(kind, name, [x.name for x in items if x.name])
+def _named(root: ET.Element, tag: str, kind: str, name: str) -> ET.Element:
+    found = [e for e in root.iter(tag) if e.get("name") == name] if tag else \
+        [e for e in root.iter() if e.get("name") == name]
+    if not found:
+        names = [e.get("name", "") for e in (root.iter(tag) if tag else root.iter()) if e.get("name")]
+        raise unknown_name(kind, name, names)
+    return found[0]
 
 
-def apply_overrides(spec: Any, overrides: tuple[tuple[str, float], ...]) -> None:
-    """Edits `spec` in place; an unknown key or name is a one-line error naming the valid ones."""
+def _inertial(body: ET.Element, name: str) -> ET.Element:
+    inertial = body.find("inertial")
+    if inertial is None:
+        raise HarnessError(f"body '{name}' has no explicit <inertial> to override.")
+    return inertial
+
+
+def _positive(key: str, value: float) -> None:
+    if value <= 0:
+        raise HarnessError(f"--set {key} must be positive; got {value}.")
+
+
+def apply_overrides(text: str, overrides: tuple[tuple[str, float], ...]) -> str:
+    """The MJCF `text` with the overrides applied; an unknown key or name is a one-line error."""
+    root = ET.fromstring(text)
     for key, value in overrides:
         parts = key.split("/")
         if key == "scale/mass":
-            if value <= 0:
-                raise HarnessError(f"--set scale/mass must be positive; got {value}.")
-            for b in spec.bodies[1:]:
-                b.mass *= value
-                b.inertia = np.asarray(b.inertia) * value
-                b.fullinertia = np.asarray(b.fullinertia) * value
+            _positive(key, value)
+            for el in root.iter("inertial"):
+                for attr in ("mass", "diaginertia", "fullinertia"):
+                    _scale_attr(el, attr, value)
         elif key == "scale/length":
-            if value <= 0:
-                raise HarnessError(f"--set scale/length must be positive; got {value}.")
-            _scale_lengths(spec, value)
+            _positive(key, value)
+            for el in root.iter():
+                if el.tag in ("body", "inertial", "joint", "geom", "site", "camera", "light"):
+                    for attr in ("pos", "fromto", "size"):
+                        _scale_attr(el, attr, value)
+                if el.tag == "inertial":
+                    for attr in ("diaginertia", "fullinertia"):
+                        _scale_attr(el, attr, value * value)
         elif key == "scale/gravity":
-            spec.option.gravity = np.asarray(spec.option.gravity) * value
+            option = root.find("option")
+            if option is None:
+                option = ET.SubElement(root, "option")
+            option.set("gravity", option.get("gravity", MUJOCO_DEFAULT_GRAVITY))
+            _scale_attr(option, "gravity", value)
         elif len(parts) == 3 and parts[0] == "body" and parts[2] in ("mass", "inertia"):
-            b = _named(spec.bodies[1:], "body", parts[1])
-            if value <= 0:
-                raise HarnessError(f"--set {key} must be positive; got {value}.")
-            ratio = value / b.mass if parts[2] == "mass" else value
+            _positive(key, value)
+            inertial = _inertial(_named(root, "body", "body", parts[1]), parts[1])
+            ratio = value / float(inertial.get("mass", "0") or 1.0) if parts[2] == "mass" else value
             if parts[2] == "mass":
-                b.mass = value
-            b.inertia = np.asarray(b.inertia) * ratio
-            b.fullinertia = np.asarray(b.fullinertia) * ratio
-        elif len(parts) == 3 and parts[0] == "joint" and parts[2] in ("damping", "armature", "frictionloss", "stiffness"):
+                inertial.set("mass", repr(value))
+            for attr in ("diaginertia", "fullinertia"):
+                _scale_attr(inertial, attr, ratio)
+        elif len(parts) == 3 and parts[0] == "joint" and parts[2] in ("damping", "armature", "frictionloss",
+                                                                       "stiffness"):
             if value < 0:
                 raise HarnessError(f"--set {key} must be non-negative; got {value}.")
-            j = _named(spec.joints, "joint", parts[1])
-            current = getattr(j, parts[2])
-            if np.ndim(current):
-                current = np.array(current, dtype=float)
-                current[0] = value
-                setattr(j, parts[2], current)
-            else:
-                setattr(j, parts[2], value)
+            _named(root, "joint", "joint", parts[1]).set(parts[2], repr(value))
         elif len(parts) == 3 and parts[0] == "actuator" and parts[2] == "gear":
-            a = _named(spec.actuators, "actuator", parts[1])
-            gear = np.array(a.gear, dtype=float)
-            gear[0] = value
-            a.gear = gear
+            section = root.find("actuator")
+            if section is None:
+                raise unknown_name("actuator", parts[1], [])
+            actuator = _named(section, "", "actuator", parts[1])
+            gear = (actuator.get("gear") or "1").split()
+            gear[0] = repr(value)
+            actuator.set("gear", " ".join(gear))
         else:
             raise HarnessError(f"Unknown parameter '{key}'. Valid keys: {', '.join(PATTERNS)}.")
+    return ET.tostring(root, encoding="unicode")

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from . import compare, experiments, integrate, judge, modelsync
+from . import compare, equivalence, experiments, integrate, judge, modelsync
 from .sources import make_sources
 from .tolerances import TOLERANCES
 
@@ -45,7 +45,8 @@ def run_system(system: Any, *, n_states: int, seed: int, t_end: float = integrat
     variants = judge.judge_system(system, states, sources)
     traj = trajectory_results(system, sources, t_end=t_end, dt_out=dt_out)
     notes_experiments = experiments.run_experiments(system)
-    passed = model["passed"] and point["passed"]
+    same = equivalence.check_equivalence(system)
+    passed = model["passed"] and point["passed"] and (same is None or same["passed"])
     return {
         "name": system.name,
         "description": system.description,
@@ -62,6 +63,7 @@ def run_system(system: Any, *, n_states: int, seed: int, t_end: float = integrat
         "variants": variants,
         "trajectories": traj,
         "experiments": notes_experiments,
+        "equivalence": same,
         "passed": passed,
     }
 

@@ -48,34 +48,37 @@ def unpaired() -> dict[str, list[str]]:
     return {"models without equations": sorted(models - eqs), "equations without model": sorted(eqs - models)}
 
 
-def compile_mjcf(path: Path, overrides: tuple[tuple[str, float], ...] = ()) -> Any:
-    """Compiles an MJCF file with MuJoCo; a bad file becomes a one-line HarnessError."""
-    import mujoco
+def mjcf_text(path: Path, overrides: tuple[tuple[str, float], ...] = ()) -> str:
+    """The MJCF text the engines parse: the file, with any overrides applied at full precision."""
+    import xml.etree.ElementTree as ET
 
     if not path.is_file():
         raise HarnessError(f"MJCF file not found: {path}.")
-    import xml.etree.ElementTree as ET
-
     try:
-        root = ET.parse(path).getroot().tag
+        text = path.read_text()
+        root = ET.fromstring(text).tag
     except (ET.ParseError, UnicodeDecodeError) as exc:
         raise HarnessError(f"{path.name}: not well-formed XML ({exc}).") from None
     if root != "mujoco":
         # MuJoCo would also compile URDF; the harness reads MJCF only.
         raise HarnessError(f"{path.name}: not an MJCF file (root element <{root}>, expected <mujoco>).")
-    try:
-        spec = mujoco.MjSpec.from_file(str(path))
-        if overrides:
-            from .overrides import apply_overrides
+    if overrides:
+        from .overrides import apply_overrides
 
-            apply_overrides(spec, overrides)
-        model = spec.compile()
-    except HarnessError:
-        raise
+        text = apply_overrides(text, overrides)
+    return text
+
+
+def compile_mjcf(path: Path, overrides: tuple[tuple[str, float], ...] = ()) -> Any:
+    """Compiles an MJCF file with MuJoCo; a bad file becomes a one-line HarnessError."""
+    import mujoco
+
+    text = mjcf_text(path, overrides)
+    try:
+        return mujoco.MjModel.from_xml_string(text)
     except Exception as exc:  # mujoco raises ValueError with a multi-line message
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise HarnessError(f"{path.name}: not a valid MJCF model: {first}") from None
-    return model, spec
 
 
 @dataclass(frozen=True)
@@ -128,15 +131,12 @@ class System:
     def mujoco_model(self) -> Any:
         """The compiled MjModel (compiled once per System)."""
         if "model" not in self._cache:
-            self._cache["model"], self._cache["spec"] = compile_mjcf(self.mjcf, self.overrides)
+            self._cache["model"] = compile_mjcf(self.mjcf, self.overrides)
         return self._cache["model"]
 
     def mjcf_xml(self) -> str:
-        """The MJCF the engines compile, with overrides applied (Pinocchio reads this text)."""
-        if not self.overrides:
-            return self.mjcf.read_text()
-        self.mujoco_model()
-        return str(self._cache["spec"].to_xml())
+        """The MJCF text both engines parse, with overrides applied."""
+        return mjcf_text(self.mjcf, self.overrides)
 
     @property
     def view(self) -> ModelView:
