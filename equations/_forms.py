@@ -76,16 +76,22 @@ class DerivationStep:
 Variant = Implicit | Explicit | DerivationStep
 
 
+def _array(x: Any) -> np.ndarray:
+    # Floats stay floats; symbolic entries (object arrays, for code generation) stay objects.
+    arr = np.asarray(x)
+    return arr if arr.dtype == object else arr.astype(float)
+
+
 def stack_matrix(rows: list[list[Any]]) -> np.ndarray:
     """Stacks broadcastable scalars or arrays into an array of shape (..., len(rows), len(rows[0]))."""
-    b = np.broadcast_arrays(*[np.asarray(x, dtype=float) for row in rows for x in row])
+    b = np.broadcast_arrays(*[_array(x) for row in rows for x in row])
     flat = np.stack(b, axis=-1)
     return flat.reshape(flat.shape[:-1] + (len(rows), len(rows[0])))
 
 
 def stack_vector(items: list[Any]) -> np.ndarray:
     """Stacks broadcastable scalars or arrays into an array of shape (..., len(items))."""
-    return np.stack(np.broadcast_arrays(*[np.asarray(x, dtype=float) for x in items]), axis=-1)
+    return np.stack(np.broadcast_arrays(*[_array(x) for x in items]), axis=-1)
 
 
 def rot_z(angle: Any) -> np.ndarray:

@@ -28,39 +28,21 @@ DT_OUT = 0.02  # s
 
 
 def dynamic_forms(system: Any) -> list[tuple[str, Any]]:
-    """(name, f(q, v, tau) -> a) for the hand derivation and every printed form with dynamics."""
-    from .sources.hand import HandSource
-
-    hand = HandSource(system)
-    p = system.params
-    forms: list[tuple[str, Any]] = [("hand derivation", lambda q, v, tau: hand.forward(q, v, tau))]
-    for var in system.variants:
-        if isinstance(var, Explicit):
-            forms.append((var.name, lambda q, v, tau, var=var: np.asarray(var.acceleration(p, q, v, tau), float)))
-        elif isinstance(var, Implicit):
-            def implicit(q, v, tau, var=var):
-                # The printed residual is linear in a: r(a) = A a + r(0); solve A a = -r(0).
-                n = q.shape[-1]
-                zero = np.zeros_like(q)
-                r0 = np.asarray(var.residual(p, q, v, zero, tau), float)
-                cols = [np.asarray(var.residual(p, q, v, np.broadcast_to(np.eye(n)[j], q.shape), tau), float) - r0
-                        for j in range(n)]
-                return np.linalg.solve(np.stack(cols, axis=-1), -r0[..., None])[..., 0]
-
-            forms.append((var.name, implicit))
-    return forms
+    """(name, variant) for the hand derivation (variant None) and every printed form with dynamics."""
+    return [("hand derivation", None)] + [(v.name, v) for v in system.variants if isinstance(v, (Explicit, Implicit))]
 
 
-def _integrate(f: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t: np.ndarray, *, method: str,
-               rtol: float, atol: float) -> tuple[np.ndarray, str]:
+def _integrate(system: Any, variant: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t: np.ndarray, *,
+               method: str, rtol: float, atol: float) -> tuple[np.ndarray, str]:
     from scipy.integrate import solve_ivp
 
+    from .fastpath import scalar_rhs
+
     n = len(q0)
-
-    def rhs(_t: float, y: np.ndarray) -> np.ndarray:
-        return np.concatenate([y[n:], f(y[None, :n], y[None, n:], tau[None])[0]])
-
-    sol = solve_ivp(rhs, (t[0], t[-1]), np.concatenate([q0, v0]), method=method, t_eval=t, rtol=rtol, atol=atol)
+    rhs = scalar_rhs(system, variant)
+    tau_list = [float(x) for x in tau]
+    sol = solve_ivp(lambda tt, y: rhs(tt, y, tau_list), (t[0], t[-1]), np.concatenate([q0, v0]), method=method,
+                    t_eval=t, rtol=rtol, atol=atol)
     q = np.full((len(t), n), np.nan)
     q[: sol.y.shape[1]] = sol.y[:n].T
     return q, "ok" if sol.success else sol.message
@@ -74,13 +56,13 @@ def run_experiments(system: Any) -> dict[str, Any]:
     q0b = q0.copy()
     q0b[-1] += PERTURBATION
     forms = dynamic_forms(system)
-    accurate, _ = _integrate(forms[0][1], q0, v0, tau, t, method="DOP853", rtol=1e-12, atol=1e-12)
+    accurate, _ = _integrate(system, None, q0, v0, tau, t, method="DOP853", rtol=1e-12, atol=1e-12)
     runs = []
-    for name, f in forms:
+    for name, variant in forms:
         for rtol in TOLERANCES:
             try:
-                qa, status_a = _integrate(f, q0, v0, tau, t, method="RK45", rtol=rtol, atol=1e-6)
-                qb, status_b = _integrate(f, q0b, v0, tau, t, method="RK45", rtol=rtol, atol=1e-6)
+                qa, status_a = _integrate(system, variant, q0, v0, tau, t, method="RK45", rtol=rtol, atol=1e-6)
+                qb, status_b = _integrate(system, variant, q0b, v0, tau, t, method="RK45", rtol=rtol, atol=1e-6)
             except ValueError as exc:  # a printed form that does not apply to these parameters
                 runs.append({"form": name, "rtol": rtol, "status": f"not applicable: {exc}"})
                 continue

@@ -87,6 +87,17 @@ class MappedSource:
     def kinematics(self, q: np.ndarray, v: np.ndarray) -> Kinematics:
         return self.inner.kinematics(self._j(q), self._j(v))
 
+    def rhs(self, tau: np.ndarray):
+        """The inner source's right-hand side, seen in the notes' coordinates."""
+        inner = self.inner.rhs(self.A.T @ tau)
+        n, A, Ainv = len(tau), self.A, self.Ainv
+
+        def f(t: float, y: np.ndarray) -> np.ndarray:
+            dy = inner(t, np.concatenate([Ainv @ y[:n], Ainv @ y[n:]]))
+            return np.concatenate([A @ dy[:n], A @ dy[n:]])
+
+        return f
+
     def set_state(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray | None = None) -> None:
         self.inner.set_state(self.Ainv @ q, self.Ainv @ v, None if tau is None else self.A.T @ tau)
 

@@ -79,6 +79,23 @@ class PinocchioSource:
         """Joint damping, which Pinocchio's algorithms ignore, as a generalized force."""
         return -self.damping * v
 
+    def rhs(self, tau: np.ndarray):
+        """scipy's right-hand side on ABA, with no per-call work beyond the call and the damping."""
+        n, model, data = len(tau), self.model, self.data
+        qfull, vfull, tfull = pin.neutral(model), np.zeros(model.nv), np.zeros(model.nv)
+        qidx, vidx, damping = self.qidx, self.vidx, self.damping
+
+        def f(t: float, y: np.ndarray) -> np.ndarray:
+            qfull[qidx] = y[:n]
+            vfull[vidx] = y[n:]
+            tfull[vidx] = tau - damping * y[n:]
+            out = np.empty(2 * n)
+            out[:n] = y[n:]
+            out[n:] = pin.aba(model, data, qfull, vfull, tfull)[vidx]
+            return out
+
+        return f
+
     def mass_matrix(self, q: np.ndarray) -> np.ndarray:
         out = np.empty(q.shape + (q.shape[-1],))
         for i in range(len(q)):
