@@ -40,7 +40,7 @@ def test_overrides_change_the_compiled_numbers_at_full_precision():
 
 
 @pytest.mark.parametrize("item, message", [
-    ("scale/mass=-1", "must be positive"), ("body/link9/mass=2", "Unknown body 'link9'"),
+    ("scale/mass=-1", "out of range"), ("body/link1/mass=-2", "must be positive"), ("body/link9/mass=2", "Unknown body 'link9'"),
     ("joint/theta/damping=nan", "must be finite"), ("foo=1", "Valid keys"), ("scale/mass", "KEY=VALUE"),
 ])
 def test_bad_overrides_are_one_line_errors(item, message):

@@ -123,6 +123,17 @@ def _states_from_file(system: Any, path: Path) -> Any:
     return validate_states(system, qs, vs, taus)
 
 
+def _require_same_model(system: Any, sources: dict[str, Any]) -> None:
+    """Dynamics are compared only between sources that describe the same model."""
+    from . import modelsync
+
+    bad = modelsync.check(system, sources["pinocchio"])["mismatches"]
+    if bad:
+        keys = ", ".join(r["key"] for r in bad[:4]) + (f" and {len(bad) - 4} more" if len(bad) > 4 else "")
+        raise HarnessError(f"{system.name}: the sources describe different models ({keys}): {bad[0]['why']}; "
+                           f"{bad[0]['key']} is {bad[0]['actual']}, expected {bad[0]['expected']}.")
+
+
 def cmd_check(args: argparse.Namespace) -> int:
     import numpy as np
 
@@ -133,6 +144,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     system = load(args.system)
     states = _states_from_file(system, args.states) if args.states else compare.random_states(system, n=args.n, seed=args.seed)
     sources = make_sources(system)
+    _require_same_model(system, sources)
     values = compare.evaluate(sources, states)
     rows = compare.compare(values, states)
     if args.json:

@@ -18,6 +18,10 @@ Q_RANGE = np.pi  # rad: q uniform in [-pi, pi]
 V_RANGE = 10.0  # rad/s: v uniform in [-10, 10]
 TAU_RANGE = 1.0  # N m: tau uniform in [-1, 1] where the system is actuated
 
+# The largest magnitudes a user state may have. Beyond them double precision has nothing left to
+# compare: v^2 terms pass 1e8 times the gravity terms and the tiers would judge rounding noise.
+LIMITS = {"q": (1e4, "rad"), "v": (1e4, "rad/s"), "tau": (1e6, "N m")}
+
 
 @dataclass(frozen=True)
 class States:
@@ -62,6 +66,10 @@ def validate_states(system: Any, q: Any, v: Any, tau: Any | None = None) -> Stat
         if not np.all(np.isfinite(arr)):
             bad = int(np.argwhere(~np.isfinite(arr))[0][0])
             raise HarnessError(f"{name} of state {bad} is not finite ({arr[bad].tolist()}); give finite numbers.")
+        limit, unit = LIMITS[name]
+        if np.abs(arr).max(initial=0.0) > limit:
+            bad = int(np.argwhere(np.abs(arr) > limit)[0][0])
+            raise HarnessError(f"{name} of state {bad} is {arr[bad].tolist()}; the harness accepts |{name}| <= {limit:g} {unit}.")
         arrays[name] = arr
     if not (len(arrays["q"]) == len(arrays["v"]) == len(arrays["tau"])):
         raise HarnessError("q, v and tau must describe the same number of states.")

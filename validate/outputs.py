@@ -6,15 +6,14 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from .results import atomic_write, dumps
+from .results import atomic_write_many, dumps
 
 
 def write_reports(results: dict[str, Any], out: Path) -> None:
     from .report import render
 
     files = render(results)  # may fail: nothing written yet
-    for name, data in files.items():
-        atomic_write(out / name, data)
+    atomic_write_many({out / name: data for name, data in files.items()})
 
 
 def write_all(results: dict[str, Any], out: Path, *, replay: bool = True) -> None:
@@ -25,5 +24,4 @@ def write_all(results: dict[str, Any], out: Path, *, replay: bool = True) -> Non
         from .replay import render_replays
 
         files.update(render_replays(results))
-    for name, data in files.items():
-        atomic_write(out / name, data)
+    atomic_write_many({out / name: data for name, data in files.items()})

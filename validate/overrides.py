@@ -24,6 +24,9 @@ PATTERNS = ("scale/mass", "scale/length", "scale/gravity", "body/<name>/mass", "
             "joint/<name>/damping", "joint/<name>/armature", "joint/<name>/frictionloss",
             "joint/<name>/stiffness", "actuator/<name>/gear")
 MUJOCO_DEFAULT_GRAVITY = "0 0 -9.81"
+# Beyond these, products such as m l^2 v^2 leave the range where double precision compares anything.
+SCALE_RANGE = (1e-6, 1e6)
+MAX_VALUE = 1e9
 
 
 def parse(items: list[str] | None) -> tuple[tuple[str, float], ...]:
@@ -39,6 +42,9 @@ def parse(items: list[str] | None) -> tuple[tuple[str, float], ...]:
             raise HarnessError(f"--set {key}: '{value}' is not a number.") from None
         if not np.isfinite(number):
             raise HarnessError(f"--set {key}: the value must be finite; got {value}.")
+        if abs(number) > MAX_VALUE or (key.startswith("scale/") and not SCALE_RANGE[0] <= number <= SCALE_RANGE[1]):
+            raise HarnessError(f"--set {key}={value} is out of range: scales lie in [{SCALE_RANGE[0]:g}, "
+                               f"{SCALE_RANGE[1]:g}], other values within +-{MAX_VALUE:g}.")
         out.append((key.strip(), number))
     return tuple(out)
 

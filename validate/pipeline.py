@@ -70,6 +70,13 @@ def run_system(system: Any, *, n_states: int, seed: int, t_end: float = integrat
     }
 
 
+def _ignore_sigint() -> None:
+    """Workers leave Ctrl-C to the parent, which stops them and reports one line."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _run_one(name: str, n_states: int, seed: int) -> dict[str, Any]:
     """One system, by name (picklable, for process pools)."""
     from .systems import load
@@ -89,7 +96,8 @@ def run(names: list[str] | None, *, n_states: int, seed: int, progress: Any = No
     own = executor is None
     if own:
         workers = min(len(systems), os.cpu_count() or 1)
-        executor = ProcessPoolExecutor(max_workers=workers) if workers > 1 else ThreadPoolExecutor(max_workers=1)
+        executor = (ProcessPoolExecutor(max_workers=workers, initializer=_ignore_sigint) if workers > 1
+                    else ThreadPoolExecutor(max_workers=1))
     try:
         futures = {executor.submit(_run_one, s.name, n_states, seed): s.name for s in systems}
         for name in futures.values():
@@ -101,6 +109,13 @@ def run(names: list[str] | None, *, n_states: int, seed: int, progress: Any = No
             done[name] = future.result()
             if progress:
                 progress(name, "done", done[name])
+    except KeyboardInterrupt:
+        if own:
+            import multiprocessing
+
+            for child in multiprocessing.active_children():
+                child.terminate()
+        raise
     finally:
         if own:
             executor.shutdown(wait=True, cancel_futures=True)

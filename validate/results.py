@@ -82,23 +82,31 @@ def to_jsonable(x: Any) -> Any:
 def atomic_write(path: Path, data: bytes | str) -> None:
     """Writes `path` through a temporary file in the same folder and a rename: a reader sees the
     old file or the new one, never half of one."""
-    path = Path(path)
+    atomic_write_many({Path(path): data})
+
+
+def atomic_write_many(files: dict[Path, bytes | str]) -> None:
+    """Writes several files so that either all are replaced or none: every file is staged as a
+    temporary file first (a full disk fails here, with nothing replaced), then each is renamed."""
+    staged: list[tuple[str, Path]] = []
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    except OSError as exc:
-        raise HarnessError(f"cannot write to {path.parent}: {exc.strerror or exc}.") from None
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data.encode() if isinstance(data, str) else data)
-        os.chmod(tmp, 0o644)  # mkstemp makes the file private; reports are for reading
-        os.replace(tmp, path)
-    except OSError as exc:
-        Path(tmp).unlink(missing_ok=True)
-        raise HarnessError(f"cannot write {path}: {exc.strerror or exc}.") from None
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        for path, data in files.items():
+            path = Path(path)
+            try:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+                staged.append((tmp, path))
+                with os.fdopen(fd, "wb") as f:
+                    f.write(data.encode() if isinstance(data, str) else data)
+                os.chmod(tmp, 0o644)
+            except OSError as exc:
+                raise HarnessError(f"cannot write {path}: {exc.strerror or exc}; previous files left as they were.") from None
+        for tmp, path in staged:
+            os.replace(tmp, path)
+        staged.clear()
+    finally:
+        for tmp, _ in staged:
+            Path(tmp).unlink(missing_ok=True)
 
 
 def dumps(results: dict[str, Any]) -> str:

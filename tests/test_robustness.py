@@ -1,0 +1,112 @@
+"""Bad input never breaks the harness: models the sources read differently, out-of-range values,
+unwritable or full report folders, Ctrl-C mid-run. Each: one line, non-zero exit, old reports intact."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from lagrange_xval.validate import modelsync, systems
+from lagrange_xval.validate.cli import main
+from lagrange_xval.validate.errors import HarnessError
+from lagrange_xval.validate.sources import make_source
+
+POINT = systems.load("double_pendulum_point")
+
+
+def _variant(tmp_path, old: str, new: str) -> systems.System:
+    text = POINT.mjcf.read_text()
+    assert old in text
+    path = tmp_path / "double_pendulum_point.xml"
+    path.write_text(text.replace(old, new, 1))
+    return systems.System(name=POINT.name, mjcf=path, equations=POINT.equations)
+
+
+def test_collision_free_geom_mass_that_pinocchio_drops_is_named(tmp_path):
+    """A body whose mass comes from a collision-free geom: MuJoCo counts it, Pinocchio drops it."""
+    s = _variant(tmp_path, '<inertial pos="0 -1 0" mass="1" diaginertia="1e-14 1e-14 1e-14"/>\n      <geom name="rod1"',
+                 '<geom name="bobmass" type="sphere" pos="0 -1 0" size="0.05" mass="1"/>\n      <geom name="rod1"')
+    bad = {r["key"] for r in modelsync.pinocchio_vs_mujoco(s, make_source(s, "pinocchio")) if not r["passed"]}
+    assert "body/link1/mass" in bad
+
+
+def test_a_joint_type_the_equations_do_not_cover_is_refused(tmp_path):
+    s = _variant(tmp_path, '<joint name="phi" type="hinge"', '<joint name="phi" type="ball"')
+    with pytest.raises(HarnessError) as err:
+        make_source(s, "mujoco")
+    assert "degrees of freedom" in str(err.value) and "\n" not in str(err.value)
+    assert "joint/phi/type" in {r["key"] for r in modelsync.equations_vs_model(s) if not r["passed"]}
+
+
+def test_check_refuses_models_that_differ_before_comparing_dynamics(tmp_path, monkeypatch, capsys):
+    s = _variant(tmp_path, 'pos="0 -1 0" mass="1"', 'pos="0.1 -1 0" mass="1"')  # bob off the rod
+    monkeypatch.setattr(systems, "load", lambda name, overrides=(): s)
+    assert main(["check", "double_pendulum_point", "--n", "5"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "body/link1/com" in err
+
+
+@pytest.mark.parametrize("state, message", [
+    ({"q": [0, 0], "v": [1e200, 0]}, "accepts |v| <= 10000"),
+    ({"q": [1e30, 0], "v": [0, 0]}, "accepts |q|"),
+    ({"q": [0, 0], "v": [0, 0], "tau": [1e12, 0]}, "accepts |tau|"),
+    ({"q": [0, "x"], "v": [0, 0]}, "must be numbers"),
+])
+def test_huge_or_non_numeric_states_are_refused(tmp_path, capsys, state, message):
+    path = tmp_path / "s.json"
+    path.write_text(json.dumps([state]))
+    assert main(["check", "double_pendulum_point", "--states", str(path)]) == 2
+    assert message in capsys.readouterr().err
+
+
+def _old_reports(out):
+    out.mkdir()
+    for name in ("results.json", "report.md", "report.html"):
+        (out / name).write_text("OLD")
+
+
+def test_a_full_disk_leaves_every_previous_report_intact(tmp_path, monkeypatch, capsys):
+    out = tmp_path / "reports"
+    _old_reports(out)
+    real_fdopen, calls = os.fdopen, {"n": 0}
+
+    def full_after_two(fd, *args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] > 2:
+            os.close(fd)
+            raise OSError(28, "No space left on device")
+        return real_fdopen(fd, *args, **kwargs)
+
+    monkeypatch.setattr(os, "fdopen", full_after_two)
+    assert main(["run", "simple_pendulum", "--states", "10", "--out", str(out), "--no-replay"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert "No space left on device" in err[-1] and err[-1].startswith("lagrange-xval: error:")
+    assert not any("Traceback" in line for line in err)
+    assert {p.name: p.read_text() for p in out.iterdir()} == {n: "OLD" for n in ("results.json", "report.md", "report.html")}
+
+
+def test_a_report_folder_that_cannot_be_created_is_one_line(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    assert main(["run", "simple_pendulum", "--states", "10", "--out", str(blocker / "reports"), "--no-replay"]) == 2
+    assert "cannot write" in capsys.readouterr().err
+
+
+def test_ctrl_c_mid_run_stops_cleanly(tmp_path):
+    out = tmp_path / "reports"
+    _old_reports(out)
+    proc = subprocess.Popen([sys.executable, "-m", "lagrange_xval.validate.cli", "run", "--out", str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    time.sleep(2.0)  # well inside the run: imports done, workers busy
+    os.killpg(proc.pid, signal.SIGINT)  # as a terminal's Ctrl-C reaches the whole process group
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert err.strip().splitlines() == ["lagrange-xval: interrupted; nothing half-written (previous reports are intact)."]
+    assert sorted(p.name for p in out.iterdir()) == ["report.html", "report.md", "results.json"]
+    assert all(p.read_text() == "OLD" for p in out.iterdir())
