@@ -83,21 +83,13 @@ def evaluate(sources: dict[str, Any], states: States) -> dict[str, dict[str, np.
     dynamics at the hand source's accelerations (so it should give back tau).
     """
     q, v, tau = states.q, states.v, states.tau
-    a_hand = sources["hand"].forward(q, v, tau)
-    out: dict[str, dict[str, np.ndarray]] = {}
+    hand = sources["hand"].evaluate(q, v, tau, np.zeros_like(q))
+    a_hand = hand["qacc"]
+    hand["tau_inverse"] = sources["hand"].inverse(q, v, a_hand)
+    out = {"hand": hand}
     for name, src in sources.items():
-        kin, pot = src.energies(q, v)
-        out[name] = {
-            "M": src.mass_matrix(q),
-            "bias": src.bias(q, v),
-            "passive": src.passive(q, v),
-            "qacc": a_hand if name == "hand" else src.forward(q, v, tau),
-            "tau_inverse": src.inverse(q, v, a_hand),
-            "T": kin,
-            "V": pot,
-            "body_positions": src.body_positions(q),
-            "body_rotations": src.body_rotations(q),
-        }
+        if name != "hand":
+            out[name] = src.evaluate(q, v, tau, a_hand)
     return out
 
 

@@ -98,6 +98,14 @@ class MappedSource:
 
         return f
 
+    def evaluate(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray) -> dict[str, np.ndarray]:
+        out = self.inner.evaluate(self._j(q), self._j(v), tau @ self.A, self._j(a_ref))
+        out["M"] = self.Ainv.T @ out["M"] @ self.Ainv
+        for k in ("bias", "passive", "tau_inverse"):
+            out[k] = self._force(out[k])
+        out["qacc"] = out["qacc"] @ self.A.T
+        return out
+
     def set_state(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray | None = None) -> None:
         self.inner.set_state(self.Ainv @ q, self.Ainv @ v, None if tau is None else self.A.T @ tau)
 

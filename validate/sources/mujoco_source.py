@@ -129,6 +129,33 @@ class MujocoSource:
             pot[i], kin[i] = self.d.energy
         return kin, pot
 
+    def evaluate(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray) -> dict[str, np.ndarray]:
+        """Every pointwise quantity in one pass: one mj_forward and one mj_inverse per state.
+
+        `qacc` is the forward dynamics at tau; `tau_inverse` the inverse dynamics at `a_ref`."""
+        m, d = self.m, self.d
+        n, nb = q.shape
+        M, bias, passive = np.empty((n, nb, nb)), np.empty((n, nb)), np.empty((n, nb))
+        qacc, tau_inv, kin, pot = np.empty((n, nb)), np.empty((n, nb)), np.empty(n), np.empty(n)
+        pos, rot = np.empty((n, len(self.body_ids), 3)), np.empty((n, len(self.body_ids), 3, 3))
+        full = np.zeros((m.nv, m.nv))
+        dadr, ix, bodies = self.dadr, np.ix_(self.dadr, self.dadr), self.body_ids
+        for i in range(n):
+            self._set(q[i], v[i], tau[i])
+            mujoco.mj_forward(m, d)
+            mujoco.mj_fullM(m, d, full)
+            M[i] = full[ix]
+            bias[i], passive[i], qacc[i] = d.qfrc_bias[dadr], d.qfrc_passive[dadr], d.qacc[dadr]
+            pot[i], kin[i] = d.energy
+            pos[i], rot[i] = d.xipos[bodies], d.xmat[bodies].reshape(-1, 3, 3)
+            d.qacc[dadr] = a_ref[i]
+            d.ctrl[:] = 0.0
+            d.qfrc_applied[:] = 0.0
+            mujoco.mj_inverse(m, d)
+            tau_inv[i] = d.qfrc_inverse[dadr]
+        return {"M": M, "bias": bias, "passive": passive, "qacc": qacc, "tau_inverse": tau_inv, "T": kin, "V": pot,
+                "body_positions": pos, "body_rotations": rot}
+
     def body_positions(self, q: np.ndarray) -> np.ndarray:
         return self.kinematics(q, np.zeros_like(q)).com_position
 

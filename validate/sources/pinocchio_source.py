@@ -131,6 +131,32 @@ class PinocchioSource:
             pot[i] = pin.computePotentialEnergy(self.model, self.data, qi)
         return kin, pot
 
+    def evaluate(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray) -> dict[str, np.ndarray]:
+        """Every pointwise quantity in one pass: CRBA, NLE, ABA, RNEA and the energies per state."""
+        model, data = self.model, self.data
+        n, nb = q.shape
+        M, bias, qacc, tau_inv = np.empty((n, nb, nb)), np.empty((n, nb)), np.empty((n, nb)), np.empty((n, nb))
+        kin, pot = np.empty(n), np.empty(n)
+        pos, rot = np.empty((n, len(self.frames), 3)), np.empty((n, len(self.frames), 3, 3))
+        passive = -self.damping * v
+        ix, vidx = np.ix_(self.vidx, self.vidx), self.vidx
+        levers = [model.inertias[j].lever for j in self.joint_of_body]
+        for i in range(n):
+            qi, vi = self._q(q[i]), self._v(v[i])
+            full = pin.crba(model, data, qi)
+            M[i] = (np.triu(full) + np.triu(full, 1).T)[ix]
+            bias[i] = pin.nonLinearEffects(model, data, qi, vi)[vidx]
+            qacc[i] = pin.aba(model, data, qi, vi, self._v(tau[i] + passive[i]))[vidx]
+            tau_inv[i] = pin.rnea(model, data, qi, vi, self._v(a_ref[i]))[vidx] - passive[i]
+            kin[i] = pin.computeKineticEnergy(model, data, qi, vi)
+            pot[i] = pin.computePotentialEnergy(model, data, qi)  # also places every joint (data.oMi)
+            for k, (jid, lever) in enumerate(zip(self.joint_of_body, levers)):
+                oMi = data.oMi[jid]
+                pos[i, k] = oMi.act(lever)
+                rot[i, k] = oMi.rotation @ model.frames[self.frames[k]].placement.rotation
+        return {"M": M, "bias": bias, "passive": passive, "qacc": qacc, "tau_inverse": tau_inv, "T": kin, "V": pot,
+                "body_positions": pos, "body_rotations": rot}
+
     def body_positions(self, q: np.ndarray) -> np.ndarray:
         return self.kinematics(q, np.zeros_like(q)).com_position
 
