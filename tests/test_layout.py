@@ -85,3 +85,16 @@ def test_a_changed_parameter_is_caught_by_the_sync_check(tmp_path):
     moved = systems.System(name=s.name, mjcf=path, equations=s.equations)
     bad = {r["key"] for r in modelsync.equations_vs_model(moved) if not r["passed"]}
     assert "body/link1/com" in bad
+
+
+def test_mujoco_computes_only_what_the_scene_uses(system):
+    """Disable flags match USES: nothing the scene does not need is computed."""
+    from lagrange_xval.validate.pipeline import NEVER_USED, OPTIONAL
+
+    m = system.mujoco_model()
+    bits = {name: getattr(mujoco.mjtDisableBit, name) for name in dir(mujoco.mjtDisableBit)
+            if name.startswith("mjDSBL_")}
+    off = {name.removeprefix("mjDSBL_").lower() for name, bit in bits.items() if m.opt.disableflags & int(bit)}
+    assert set(NEVER_USED) <= off, f"{system.name} computes {set(NEVER_USED) - off}"
+    for use, flag in OPTIONAL.items():
+        assert (flag in off) == (use not in system.uses), f"{system.name}: {flag} flag vs USES {sorted(system.uses)}"

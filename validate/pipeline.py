@@ -37,6 +37,23 @@ def trajectory_results(system: Any, sources: dict[str, Any], *, t_end: float, dt
             "reference": ref.label, "threshold": TRAJECTORY_THRESHOLD, "runs": runs}
 
 
+NEVER_USED = ("contact", "constraint", "limit", "frictionloss", "spring")  # no system of the notes has these
+OPTIONAL = {"gravity": "gravity", "damping": "damper", "actuation": "actuation"}  # USES name -> MuJoCo flag
+
+
+def skipped_work(system: Any) -> list[str]:
+    """What the scene does not need, and so neither MuJoCo nor the harness computes."""
+    uses = system.uses
+    out = [f"MuJoCo: {', '.join(NEVER_USED)} disabled (no contacts, limits, dry friction or springs in the notes)"]
+    for use, flag in OPTIONAL.items():
+        if use not in uses:
+            out.append(f"MuJoCo: {flag} disabled; printed forms' {'friction' if use == 'damping' else use} term not checked"
+                       " (the scene has none)")
+    if uses & {"damping", "actuation"}:
+        out.append("energy conservation not judged (friction or motors change the energy); energy balance is tested instead")
+    return out
+
+
 def run_system(system: Any, *, n_states: int, seed: int, t_end: float = integrate.DEFAULT_T_END,
                dt_out: float = integrate.DEFAULT_DT_OUT) -> dict[str, Any]:
     """Everything the harness knows about one system, as plain data."""
@@ -66,6 +83,7 @@ def run_system(system: Any, *, n_states: int, seed: int, t_end: float = integrat
         "trajectories": traj,
         "experiments": notes_experiments,
         "equivalence": same,
+        "skipped": skipped_work(system),
         "passed": passed,
     }
 
