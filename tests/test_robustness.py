@@ -107,6 +107,8 @@ def test_ctrl_c_mid_run_stops_cleanly(tmp_path):
     os.killpg(proc.pid, signal.SIGINT)  # as a terminal's Ctrl-C reaches the whole process group
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
-    assert err.strip().splitlines() == ["lagrange-xval: interrupted; nothing half-written (previous reports are intact)."]
+    lines = err.strip().splitlines()  # progress lines of systems that finished may come first
+    assert lines[-1] == "lagrange-xval: interrupted; nothing half-written (previous reports are intact)."
+    assert not any("Traceback" in line or "KeyboardInterrupt" in line for line in lines), err
     assert sorted(p.name for p in out.iterdir()) == ["report.html", "report.md", "results.json"]
     assert all(p.read_text() == "OLD" for p in out.iterdir())

@@ -1,0 +1,302 @@
+"""Mirror integrators: MuJoCo's own time-stepping schemes applied to any source's dynamics.
+
+A MuJoCo trajectory stepped with `mj_step` and a trajectory of the hand equations integrated by
+scipy differ by two things at once: the equations and the integrator. A mirror removes the second:
+it applies MuJoCo's scheme, operation for operation, to the hand equations (or Pinocchio's ABA),
+so a stepped MuJoCo trajectory and its mirror differ only by the rounding of the forward dynamics
+(~1e-16 relative per evaluation). Restarted from a shared state (`lockstep`), they agree to the
+last bits whatever the chaos; free-running, that rounding is amplified like any other error.
+
+The schemes, as in MuJoCo's src/engine/engine_forward.c (hinge joints: `mj_integratePos` is
+`qpos += h * qvel`):
+
+  RK4        `mj_RungeKutta(m, d, 4)`: tableau A = [[.5], [0, .5], [0, 0, 1]], B = [1/6, 1/3, 1/3, 1/6];
+             stage i: dX = sum_j A_ij (v_j, a_j) accumulated from 0; q_i = q + h dXq, v_i = v + dXv h;
+             final: dX = sum_j B_j (v_j, a_j); v' = v + dXv h, q' = q + h dXq (`mj_advance` with qvel = dXq).
+  Euler      `mj_EulerSkip`: semi-implicit, v' = v + a h, q' = q + h v'. With joint damping D > 0 (and
+             neither the eulerdamp nor the damper flag disabled) a = (M + h D)^-1 f, f = tau + passive - bias
+             at (q, v): the damping is implicit in v'.
+  implicit   `mj_implicitSkip`: a = (M - h dF/dv)^-1 f with dF/dv = d(passive - bias)/dv (`mjd_smooth_vel`
+             with the RNE derivative; motor actuators have no velocity derivative), then as Euler.
+  implicitfast  the same without the bias derivative (dF/dv = d passive / dv, lower triangle mirrored).
+
+The derivative dF/dv is taken by central differences with a step of 1 rad/s: F is a polynomial of
+degree at most 2 in v for any Lagrangian system with viscous friction (bias = C(q, v) v + G(q) is
+quadratic, passive linear), for which the central difference is exact; only rounding remains
+(~1e-15 relative), so the implicit mirrors agree with MuJoCo's analytic derivative to round-off too.
+
+Loops are driven by step counts. All functions work on batches: q, v, tau are (N, n).
+"""
+
+from __future__ import annotations
+
+import itertools
+from typing import Any
+
+import numpy as np
+
+from .errors import HarnessError, unknown_name
+from .integrate import Trajectory
+
+INTEGRATORS = ("RK4", "Euler", "implicit", "implicitfast")
+RK4_A = ((0.5,), (0.0, 0.5), (0.0, 0.0, 1.0))
+RK4_B = (1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0)
+DERIVATIVE_STEP = 1.0  # rad/s: central differences are exact for F quadratic in v, so a large step only cuts rounding
+
+
+def _check_integrator(integrator: str) -> None:
+    if integrator not in INTEGRATORS:
+        raise unknown_name("MuJoCo integrator", integrator, INTEGRATORS)
+
+
+def _force(source: Any, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
+    """f = tau + passive - bias, (N, n)."""
+    return tau + source.passive(q, v) - source.bias(q, v)
+
+
+def force_velocity_jacobian(
+    source: Any, q: np.ndarray, v: np.ndarray, *, bias: bool = True, step: float = DERIVATIVE_STEP
+) -> np.ndarray:
+    """d(passive - bias)/dv (bias=True) or d passive/dv (bias=False), (N, n, n), by central differences.
+
+    Exact up to rounding for F of degree <= 2 in v (see the module docstring).
+    """
+    n = q.shape[-1]
+    cols = []
+    for j in range(n):
+        e = np.zeros(n)
+        e[j] = step
+        plus, minus = source.passive(q, v + e), source.passive(q, v - e)
+        if bias:
+            plus = plus - source.bias(q, v + e)
+            minus = minus - source.bias(q, v - e)
+        cols.append((plus - minus) / (2 * step))
+    return np.stack(cols, axis=-1)
+
+
+def eulerdamp_active(system: Any) -> bool:
+    """Whether MuJoCo's Euler treats joint damping implicitly for this model (flags and damping)."""
+    import mujoco
+
+    m = system.mujoco_model()
+    off = int(mujoco.mjtDisableBit.mjDSBL_EULERDAMP) | int(mujoco.mjtDisableBit.mjDSBL_DAMPER)
+    return not (m.opt.disableflags & off) and bool(np.any(m.dof_damping > 0))
+
+
+class Stepper:
+    """One of MuJoCo's schemes on a source's dynamics, batched over N states."""
+
+    def __init__(self, system: Any, source: Any, *, integrator: str, timestep: float) -> None:
+        _check_integrator(integrator)
+        if not timestep > 0:
+            raise HarnessError(f"timestep must be positive; got {timestep}.")
+        self.system, self.source, self.integrator, self.h = system, source, integrator, float(timestep)
+        self.eulerdamp = integrator == "Euler" and eulerdamp_active(system)
+        self.evaluations = 0  # forward-dynamics evaluations (states), a cost guard for tests
+
+    def _accel(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        self.evaluations += len(q)
+        return self.source.forward(q, v, tau)
+
+    def step(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        h = self.h
+        if self.integrator == "RK4":
+            xs, fs = [v], [self._accel(q, v, tau)]
+            for row in RK4_A:
+                dq = np.zeros_like(q)
+                dv = np.zeros_like(v)
+                for a_ij, vj, fj in zip(row, xs, fs, strict=True):
+                    dq = dq + vj * a_ij  # mju_addToScl(dX, X[j]+nq, A, nv)
+                    dv = dv + fj * a_ij
+                qi = q + h * dq  # mj_integratePos(m, X[i], dX, h)
+                vi = v + dv * h  # mju_addToScl(X[i]+nq, dX+nv, h, nv)
+                xs.append(vi)
+                fs.append(self._accel(qi, vi, tau))
+            dq = np.zeros_like(q)
+            dv = np.zeros_like(v)
+            for b_j, vj, fj in zip(RK4_B, xs, fs, strict=True):
+                dq = dq + vj * b_j
+                dv = dv + fj * b_j
+            v_next = v + dv * h  # mj_advance: qvel += qacc h, then qpos += h dX (the B-weighted qvel)
+            return q + h * dq, v_next
+        if self.integrator == "Euler" and not self.eulerdamp:
+            a = self._accel(q, v, tau)
+        else:
+            self.evaluations += len(q)
+            m = self.source.mass_matrix(q)
+            f = _force(self.source, q, v, tau)
+            if self.integrator == "Euler":
+                d = -np.diagonal(force_velocity_jacobian(self.source, q, v, bias=False), axis1=-2, axis2=-1)
+                lhs = m + h * d[..., None] * np.eye(q.shape[-1])
+            else:
+                jac = force_velocity_jacobian(self.source, q, v, bias=self.integrator == "implicit")
+                if self.integrator == "implicitfast":
+                    low = np.tril(jac)
+                    jac = low + np.swapaxes(np.tril(jac, -1), -1, -2)
+                lhs = m - h * jac
+            a = np.linalg.solve(lhs, f[..., None])[..., 0]
+        v_next = v + a * h
+        return q + h * v_next, v_next
+
+
+def _steps_per_sample(t: np.ndarray, timestep: float) -> int:
+    dt_out = float(t[1] - t[0]) if len(t) > 1 else timestep
+    steps = round(dt_out / timestep)
+    if steps < 1 or not np.isclose(steps * timestep, dt_out, rtol=1e-9, atol=0.0):
+        raise HarnessError(f"timestep {timestep} must divide the output step {dt_out}.")
+    return steps
+
+
+def mirror_trajectory(
+    system: Any,
+    source: Any,
+    q0: Any,
+    v0: Any,
+    tau: Any,
+    t: np.ndarray,
+    *,
+    integrator: str,
+    timestep: float | None = None,
+) -> Trajectory:
+    """MuJoCo's `integrator` applied to `source` (hand, Pinocchio, or MuJoCo's own forward dynamics).
+
+    Args:
+        q0, v0, tau: (n,) initial state and constant input.
+        t: (K,) uniform output grid starting at 0; `timestep` (default: the MJCF's) must divide its step.
+    """
+    dt = float(timestep or system.mujoco_model().opt.timestep)
+    steps = _steps_per_sample(t, dt)
+    stepper = Stepper(system, source, integrator=integrator, timestep=dt)
+    q = np.asarray(q0, dtype=float)[None].copy()
+    v = np.asarray(v0, dtype=float)[None].copy()
+    tau_b = np.asarray(tau, dtype=float)[None]
+    qs, vs = np.empty((len(t), system.nv)), np.empty((len(t), system.nv))
+    qs[0], vs[0] = q[0], v[0]
+    for k in range(1, len(t)):
+        for _ in range(steps):
+            q, v = stepper.step(q, v, tau_b)
+        qs[k], vs[k] = q[0], v[0]
+    return Trajectory(
+        source.name,
+        f"mirror of MuJoCo {integrator} dt {dt:g}",
+        np.asarray(t, dtype=float).copy(),
+        qs,
+        vs,
+        {"steps": steps * (len(t) - 1), "evaluations": stepper.evaluations},
+    )
+
+
+def mirror_steps(
+    system: Any,
+    source: Any,
+    q: np.ndarray,
+    v: np.ndarray,
+    tau: np.ndarray,
+    *,
+    integrator: str,
+    timestep: float,
+    steps: int = 1,
+) -> tuple[np.ndarray, np.ndarray]:
+    """`steps` mirror steps from each of N states at once, (N, n) in and out."""
+    stepper = Stepper(system, source, integrator=integrator, timestep=timestep)
+    q, v = np.array(q, dtype=float), np.array(v, dtype=float)
+    tau = np.broadcast_to(np.asarray(tau, dtype=float), q.shape)
+    for _ in range(steps):
+        q, v = stepper.step(q, v, tau)
+    return q, v
+
+
+_MJ_INTEGRATOR = {
+    "Euler": "mjINT_EULER",
+    "RK4": "mjINT_RK4",
+    "implicit": "mjINT_IMPLICIT",
+    "implicitfast": "mjINT_IMPLICITFAST",
+}
+
+
+def mujoco_steps(
+    source: Any, q: np.ndarray, v: np.ndarray, tau: np.ndarray, *, integrator: str, timestep: float, steps: int = 1
+) -> tuple[np.ndarray, np.ndarray]:
+    """`steps` calls of `mj_step` from each of N states (the MuJoCo side of a lockstep), (N, n)."""
+    import mujoco
+
+    _check_integrator(integrator)
+    m, d = source.m, source.d
+    tau = np.broadcast_to(np.asarray(tau, dtype=float), np.shape(q))
+    saved = (m.opt.integrator, m.opt.timestep)
+    m.opt.integrator = getattr(mujoco.mjtIntegrator, _MJ_INTEGRATOR[integrator])
+    m.opt.timestep = timestep
+    q_out, v_out = np.empty(np.shape(q)), np.empty(np.shape(v))
+    try:
+        for i in range(len(q)):
+            mujoco.mj_resetData(m, d)
+            source.set_state(q[i], v[i], tau[i])
+            mujoco.mj_step(m, d, nstep=steps)
+            q_out[i], v_out[i] = source.get_state()
+    finally:
+        m.opt.integrator, m.opt.timestep = saved
+    return q_out, v_out
+
+
+def lockstep(
+    system: Any,
+    sources: dict[str, Any],
+    states: Any,
+    *,
+    integrator: str,
+    timestep: float | None = None,
+    window_steps: int = 1,
+    tau: Any = None,
+) -> dict[str, Any]:
+    """Every source advanced `window_steps` steps from the same states; the largest differences per pair.
+
+    The MuJoCo source (name "mujoco") steps with `mj_step`; every other source with its mirror.
+    Restarting from a shared state each window keeps chaos from amplifying the differences: what
+    remains is each window's own error (round-off, for a mirror of the same scheme).
+
+    Args:
+        sources: name -> source.
+        states: (N, 2n) array of (q, v) rows, or a pair (q, v) of (N, n) arrays.
+        tau: (n,) or (N, n) input; zero by default.
+
+    Returns:
+        {"integrator", "timestep", "window_steps", "n_states",
+         "pairs": {"a~b": {"q": max |dq| (rad), "v": max |dv| (rad/s),
+                           "q_ulps", "v_ulps": the same in units of spacing(max(|x|, 1))}}}
+    """
+    _check_integrator(integrator)
+    n = system.nv
+    if isinstance(states, tuple):
+        q, v = (np.atleast_2d(np.asarray(x, dtype=float)) for x in states)
+    else:
+        x = np.atleast_2d(np.asarray(states, dtype=float))
+        if x.shape[-1] != 2 * n:
+            raise HarnessError(f"states must have {2 * n} columns (q, v) for {system.name}; got {x.shape}.")
+        q, v = x[:, :n], x[:, n:]
+    if q.shape != v.shape or q.shape[-1] != n:
+        raise HarnessError(f"q and v must both be (N, {n}); got {q.shape} and {v.shape}.")
+    tau_b = np.broadcast_to(np.zeros(n) if tau is None else np.asarray(tau, dtype=float), q.shape)
+    dt = float(timestep or system.mujoco_model().opt.timestep)
+    ends = {}
+    for name, src in sources.items():
+        if name == "mujoco":
+            ends[name] = mujoco_steps(src, q, v, tau_b, integrator=integrator, timestep=dt, steps=window_steps)
+        else:
+            ends[name] = mirror_steps(system, src, q, v, tau_b, integrator=integrator, timestep=dt, steps=window_steps)
+    pairs = {}
+    for a, b in itertools.combinations(sorted(ends), 2):
+        entry = {}
+        for i, c in enumerate("qv"):
+            x, y = ends[a][i], ends[b][i]
+            d = np.abs(x - y)
+            # in units of the spacing of doubles at the value's magnitude, at least that of 1 (rad, rad/s)
+            ulp = np.spacing(np.maximum(np.maximum(np.abs(x), np.abs(y)), 1.0))
+            entry[c], entry[f"{c}_ulps"] = float(d.max()), float((d / ulp).max())
+        pairs[f"{a}~{b}"] = entry
+    return {
+        "integrator": integrator,
+        "timestep": dt,
+        "window_steps": int(window_steps),
+        "n_states": int(len(q)),
+        "pairs": pairs,
+    }

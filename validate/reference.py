@@ -1,0 +1,542 @@
+"""Reference solutions: heyoka's Taylor integrator on the hand equations, in extended precision.
+
+A trajectory judged over 10 s of a chaotic system needs a reference far more accurate than the
+errors judged: DOP853 at rtol 1e-13 is only good to ~5e-10 rad after 10 s on the double pendulum.
+Here the hand equations are integrated by a Taylor method in 80-bit long double at a tolerance of
+its machine epsilon (1.1e-19), and the result is checked against a second run in quadruple precision
+(real128, tol 1.9e-34, a different order and step sequence): their largest difference over the grid
+is reported as the reference's measured accuracy (`info["agreement_q"]`).
+
+The Taylor integrator needs the right-hand side as symbolic expressions. Nothing here is specific
+to a system: the equations module's own `mass_matrix`, `bias` and `passive` are called with arrays
+of heyoka variables (numpy object arrays; `np.sin` on them calls the element's `.sin()`), and
+a ← M⁻¹ (tau + passive − bias) is formed by a symbolic LDLᵀ elimination (M is symmetric positive
+definite, so no pivoting is needed). The module runs unmodified, in a private copy whose
+`_forms.stack_matrix` / `stack_vector` stack objects instead of casting to float. The trace is
+validated on every call against the numpy source (`info["rhs_check"]`: traced accelerations vs
+`HandSource.forward` at random states, relative to their range).
+
+Results are cached on disk (`.npz` named by a hash of everything that determines them: system,
+overrides, parameters, the equations module's and this file's source, initial state, input, time
+grid, heyoka version and precisions), so a second run only loads arrays.
+"""
+
+from __future__ import annotations
+
+import builtins
+import functools
+import hashlib
+import importlib
+import json
+import operator
+import os
+import tempfile
+import time
+import types
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import HarnessError
+from .integrate import Trajectory
+from .systems import PACKAGE_ROOT
+
+CACHE_VERSION = 1  # bump when the cached content changes meaning
+DEFAULT_CACHE_DIR = PACKAGE_ROOT / "reports" / ".cache" / "reference"
+PRIMARY = "long double"
+CHECK = "quad"
+RHS_CHECK_TOLERANCE = 1e-12  # relative; the trace reproduces the numpy equations to a few ulps (~1e-15)
+
+
+# ----------------------------------------------------------------------------------------------
+# Symbolic trace of an equations module
+
+
+class _Sym:
+    """A heyoka expression that numpy's object loops can use: arithmetic and `.sin()`-style methods.
+
+    numpy applies a ufunc to an object array by calling the element's method of the same name
+    (`np.sin` -> `x.sin()`), and binary operators element by element; arrays (not 0-d) are handed
+    back to numpy (`NotImplemented`) so that broadcasting stays numpy's.
+    """
+
+    __slots__ = ("ex",)
+
+    def __init__(self, ex: Any) -> None:
+        self.ex = ex
+
+    def _op(self, other: Any, op: Any, reflected: bool = False) -> Any:
+        if isinstance(other, np.ndarray) and other.shape != ():
+            return NotImplemented
+        a, b = (_ex(other), self.ex) if reflected else (self.ex, _ex(other))
+        return _Sym(op(a, b))
+
+    def __add__(self, o: Any) -> Any:
+        return self._op(o, operator.add)
+
+    def __radd__(self, o: Any) -> Any:
+        return self._op(o, operator.add, True)
+
+    def __sub__(self, o: Any) -> Any:
+        return self._op(o, operator.sub)
+
+    def __rsub__(self, o: Any) -> Any:
+        return self._op(o, operator.sub, True)
+
+    def __mul__(self, o: Any) -> Any:
+        return self._op(o, operator.mul)
+
+    def __rmul__(self, o: Any) -> Any:
+        return self._op(o, operator.mul, True)
+
+    def __truediv__(self, o: Any) -> Any:
+        return self._op(o, operator.truediv)
+
+    def __rtruediv__(self, o: Any) -> Any:
+        return self._op(o, operator.truediv, True)
+
+    def __pow__(self, o: Any) -> Any:
+        return self._op(o, operator.pow)
+
+    def __rpow__(self, o: Any) -> Any:
+        return self._op(o, operator.pow, True)
+
+    def __neg__(self) -> _Sym:
+        return _Sym(-self.ex)
+
+    def __pos__(self) -> _Sym:
+        return self
+
+    def _call(self, fname: str) -> _Sym:
+        import heyoka as hy
+
+        return _Sym(getattr(hy, fname)(self.ex))
+
+    # the methods numpy's object loops call, by ufunc name
+    def sin(self) -> _Sym:
+        return self._call("sin")
+
+    def cos(self) -> _Sym:
+        return self._call("cos")
+
+    def tan(self) -> _Sym:
+        return self._call("tan")
+
+    def arcsin(self) -> _Sym:
+        return self._call("asin")
+
+    def arccos(self) -> _Sym:
+        return self._call("acos")
+
+    def arctan(self) -> _Sym:
+        return self._call("atan")
+
+    def sinh(self) -> _Sym:
+        return self._call("sinh")
+
+    def cosh(self) -> _Sym:
+        return self._call("cosh")
+
+    def tanh(self) -> _Sym:
+        return self._call("tanh")
+
+    def exp(self) -> _Sym:
+        return self._call("exp")
+
+    def log(self) -> _Sym:
+        return self._call("log")
+
+    def sqrt(self) -> _Sym:
+        return self._call("sqrt")
+
+    def square(self) -> _Sym:
+        return _Sym(self.ex * self.ex)
+
+    def arctan2(self, other: Any) -> _Sym:
+        import heyoka as hy
+
+        return _Sym(hy.atan2(self.ex, _ex(other)))
+
+
+def _ex(x: Any) -> Any:
+    """The heyoka expression of a traced value or a number."""
+    import heyoka as hy
+
+    if isinstance(x, _Sym):
+        return x.ex
+    if isinstance(x, np.ndarray):
+        if x.shape != ():
+            raise TypeError(f"expected a scalar, got an array of shape {x.shape}")
+        return _ex(x[()])
+    if isinstance(x, hy.expression):
+        return x
+    return hy.expression(float(x))
+
+
+def _object_stack_matrix(rows: list[list[Any]]) -> np.ndarray:
+    b = np.broadcast_arrays(*[np.asarray(x, dtype=object) for row in rows for x in row])
+    flat = np.stack(b, axis=-1)
+    return flat.reshape(flat.shape[:-1] + (len(rows), len(rows[0])))
+
+
+def _object_stack_vector(items: list[Any]) -> np.ndarray:
+    return np.stack(np.broadcast_arrays(*[np.asarray(x, dtype=object) for x in items]), axis=-1)
+
+
+def _exec_copy(module: types.ModuleType, builtins_dict: dict[str, Any] | None = None) -> types.ModuleType:
+    # The copy keeps the module's name: dataclasses looks its classes' module up in sys.modules
+    # (where it finds the original, whose globals have the same names).
+    path = Path(module.__file__ or "")
+    copy = types.ModuleType(module.__name__)
+    copy.__dict__.update(__file__=str(path), __package__=module.__package__)
+    if builtins_dict is not None:
+        copy.__dict__["__builtins__"] = builtins_dict
+    exec(compile(path.read_text(), str(path), "exec"), copy.__dict__)  # noqa: S102 - our own package's source
+    return copy
+
+
+@functools.cache
+def _traceable(module: types.ModuleType) -> types.ModuleType:
+    """A private copy of an equations module whose `_forms` stacking helpers keep objects.
+
+    The module's source runs unmodified; only `from ._forms import ...` resolves to a copy of
+    `_forms` with object-preserving `stack_matrix` / `stack_vector` (the originals cast to float).
+    """
+    forms = importlib.import_module(f"{module.__package__}._forms")
+    forms_copy = _exec_copy(forms)
+    forms_copy.stack_matrix = _object_stack_matrix  # type: ignore[attr-defined]
+    forms_copy.stack_vector = _object_stack_vector  # type: ignore[attr-defined]
+    real_import = builtins.__import__
+
+    def _import(name: str, globals: Any = None, locals: Any = None, fromlist: Any = (), level: int = 0) -> Any:
+        if level == 1 and name == "_forms":
+            return forms_copy
+        return real_import(name, globals, locals, fromlist, level)
+
+    patched = dict(builtins.__dict__)
+    patched["__import__"] = _import
+    return _exec_copy(module, patched)
+
+
+@dataclass(frozen=True)
+class SymbolicDynamics:
+    """The hand equations as heyoka expressions: x' = rhs(x, tau), x = (q, v), tau = par[0:n]."""
+
+    n: int
+    state: tuple[Any, ...]  # (2n,) heyoka variables q0.., v0..
+    rhs: tuple[Any, ...]  # (2n,) expressions: v, then a = M^-1 (tau + passive - bias)
+
+    @property
+    def ode(self) -> list[tuple[Any, Any]]:
+        return list(zip(self.state, self.rhs, strict=True))
+
+
+def _solve_spd(matrix: list[list[Any]], b: list[Any]) -> list[Any]:
+    """x with matrix x = b by LDL^T elimination without pivoting (matrix symmetric positive definite)."""
+    n = len(b)
+    a = [row[:] for row in matrix]
+    b = b[:]
+    for k in range(n):
+        for i in range(k + 1, n):
+            ratio = a[i][k] / a[k][k]
+            for j in range(k + 1, n):
+                a[i][j] = a[i][j] - ratio * a[k][j]
+            b[i] = b[i] - ratio * b[k]
+    x: list[Any] = [None] * n
+    for i in reversed(range(n)):
+        acc = b[i]
+        for j in range(i + 1, n):
+            acc = acc - a[i][j] * x[j]
+        x[i] = acc / a[i][i]
+    return x
+
+
+def _param_key(system: Any) -> tuple[tuple[str, str], ...]:
+    return tuple((k, float(v).hex()) for k, v in sorted(vars(system.params).items()))
+
+
+@functools.cache
+def _symbolic(name: str, module: types.ModuleType, p: Any) -> SymbolicDynamics:
+    import heyoka as hy
+
+    traced = _traceable(module)
+    n = len(module.COORDINATES)
+    qs = [hy.expression(f"q{i}") for i in range(n)]
+    vs = [hy.expression(f"v{i}") for i in range(n)]
+    q = np.empty(n, dtype=object)
+    v = np.empty(n, dtype=object)
+    for i in range(n):
+        q[i], v[i] = _Sym(qs[i]), _Sym(vs[i])
+    try:
+        m = np.asarray(traced.mass_matrix(p, q), dtype=object)
+        bias = np.asarray(traced.bias(p, q, v), dtype=object)
+        passive = np.asarray(traced.passive(p, q, v), dtype=object)
+        if m.shape != (n, n) or bias.shape != (n,) or passive.shape != (n,):
+            raise TypeError(f"shapes M {m.shape}, bias {bias.shape}, passive {passive.shape}")
+        f = [hy.par[i] + _ex(passive[i]) - _ex(bias[i]) for i in range(n)]
+        a = _solve_spd([[_ex(m[i, j]) for j in range(n)] for i in range(n)], f)
+    except Exception as exc:
+        raise HarnessError(
+            f"equations/{name}.py: cannot trace mass_matrix/bias/passive symbolically for the Taylor "
+            f"reference ({type(exc).__name__}: {exc}); only numpy arithmetic and elementary functions "
+            f"are supported."
+        ) from None
+    return SymbolicDynamics(n=n, state=tuple(qs + vs), rhs=tuple(vs + a))
+
+
+def symbolic_dynamics(system: Any) -> SymbolicDynamics:
+    """The system's hand equations as heyoka expressions (traced once per parameter set)."""
+    return _symbolic(system.name, system.equations, system.params)
+
+
+def rhs_check(system: Any, *, n_states: int = 64, seed: int = 0) -> float:
+    """max |a_traced - a_numpy| / max |a_numpy| at random states: the trace reproduces the module."""
+    from .sources.hand import HandSource
+
+    dyn = symbolic_dynamics(system)
+    n = dyn.n
+    rng = np.random.default_rng(seed)
+    x = np.concatenate([rng.uniform(-np.pi, np.pi, (n_states, n)), rng.uniform(-5, 5, (n_states, n))], axis=1)
+    tau = rng.uniform(-1, 1, (n_states, n))
+    cf = _cfunc(dyn)
+    traced = np.asarray(cf(np.ascontiguousarray(x.T), pars=np.ascontiguousarray(tau.T))).T
+    numpy_a = HandSource(system).forward(x[:, :n], x[:, n:], tau)
+    scale = max(float(np.abs(numpy_a).max()), np.finfo(float).tiny)
+    return float(np.abs(traced - numpy_a).max() / scale)
+
+
+@functools.cache
+def _cfunc(dyn: SymbolicDynamics) -> Any:
+    import heyoka as hy
+
+    return hy.cfunc(list(dyn.rhs[dyn.n :]), list(dyn.state))
+
+
+# ----------------------------------------------------------------------------------------------
+# Taylor integration
+
+
+def _fp_types() -> dict[str, Any]:
+    import heyoka as hy
+
+    return {"double": float, "long double": np.longdouble, "quad": hy.real128}
+
+
+def _extended_available() -> bool:
+    return bool(np.finfo(np.longdouble).eps < 1e-18)  # 80-bit x87 (x86-64 Linux); double elsewhere
+
+
+_INTEGRATORS: dict[tuple[Any, ...], Any] = {}
+
+
+def _integrator(system: Any, precision: str, tol: float | None) -> Any:
+    """A compiled heyoka integrator for the system (kept for the process; state reset per use)."""
+    import heyoka as hy
+
+    fp = _fp_types()[precision]
+    key = (system.name, system.overrides, _param_key(system), id(system.equations), precision, tol)
+    if key not in _INTEGRATORS:
+        dyn = symbolic_dynamics(system)
+        state = np.zeros(2 * dyn.n, dtype=fp) if fp is not hy.real128 else np.array([hy.real128(0)] * 2 * dyn.n)
+        pars = np.zeros(dyn.n, dtype=fp) if fp is not hy.real128 else np.array([hy.real128(0)] * dyn.n)
+        kwargs: dict[str, Any] = {"fp_type": fp, "pars": pars}
+        if tol is not None:
+            kwargs["tol"] = tol
+        _INTEGRATORS[key] = hy.taylor_adaptive(dyn.ode, state, **kwargs)
+    return _INTEGRATORS[key]
+
+
+def _to_fp(x: np.ndarray, precision: str) -> np.ndarray:
+    import heyoka as hy
+
+    fp = _fp_types()[precision]
+    x = np.asarray(x, dtype=float)
+    return x.astype(hy.real128) if fp is hy.real128 else x.astype(fp)
+
+
+def taylor_solve(
+    system: Any,
+    q0: np.ndarray,
+    v0: np.ndarray,
+    tau: np.ndarray,
+    t: np.ndarray,
+    *,
+    precision: str = PRIMARY,
+    tol: float | None = None,
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """The state (K, 2n) on the grid `t` by heyoka's Taylor method, in the precision's own dtype.
+
+    `tol` defaults to heyoka's: the machine epsilon of the precision.
+    """
+    precisions = _fp_types()
+    if precision not in precisions:
+        from .errors import unknown_name
+
+        raise unknown_name("precision", precision, precisions)
+    t0 = time.perf_counter()
+    ta = _integrator(system, precision, tol)
+    t1 = time.perf_counter()
+    ta.time = _to_fp(np.array(t[0]), precision)[()]
+    ta.state[:] = _to_fp(np.concatenate([q0, v0]), precision)
+    ta.pars[:] = _to_fp(np.asarray(tau, dtype=float), precision)
+    outcome, _min_h, _max_h, steps, _cb, states = ta.propagate_grid(_to_fp(np.asarray(t, dtype=float), precision))
+    t2 = time.perf_counter()
+    if "time_limit" not in str(outcome):
+        raise HarnessError(f"{system.name}: heyoka {precision} integration stopped early ({outcome}).")
+    return states, {
+        "method": f"heyoka Taylor, {precision}, tol {float(ta.tol):.3g}, order {ta.order}",
+        "precision": precision,
+        "tolerance": float(ta.tol),
+        "order": int(ta.order),
+        "steps": int(steps),
+        "compile_s": t1 - t0,
+        "integrate_s": t2 - t1,
+    }
+
+
+def _difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """|a - b| in float for states of two precisions, without rounding either to double first."""
+    import heyoka as hy
+
+    def as_quad(x: np.ndarray) -> np.ndarray:
+        if x.dtype == np.dtype(hy.real128):
+            return x
+        hi = x.astype(float)
+        lo = (x - hi).astype(float)  # long double = hi + lo exactly
+        return hi.astype(hy.real128) + lo.astype(hy.real128)
+
+    if a.dtype == b.dtype and a.dtype != np.dtype(hy.real128):
+        return np.abs(a - b).astype(float)
+    return np.abs((as_quad(a) - as_quad(b)).astype(float))
+
+
+# ----------------------------------------------------------------------------------------------
+# Cached reference
+
+
+def _source_hash(path: str | None) -> str:
+    return hashlib.sha256(Path(path or "").read_bytes()).hexdigest() if path else ""
+
+
+def cache_key(system: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t: np.ndarray, *, check: str | None) -> str:
+    """Hash of everything the reference depends on."""
+    import heyoka as hy
+
+    forms = importlib.import_module(f"{system.equations.__package__}._forms")
+    blob = {
+        "version": CACHE_VERSION,
+        "system": system.name,
+        "overrides": [[k, float(v).hex()] for k, v in system.overrides],
+        "params": _param_key(system),
+        "equations": _source_hash(system.equations.__file__),
+        "forms": _source_hash(forms.__file__),
+        "reference": _source_hash(__file__),
+        "heyoka": hy.__version__,
+        "primary": PRIMARY if _extended_available() else CHECK,
+        "check": check,
+        "q0": [float(x).hex() for x in np.asarray(q0, dtype=float)],
+        "v0": [float(x).hex() for x in np.asarray(v0, dtype=float)],
+        "tau": [float(x).hex() for x in np.asarray(tau, dtype=float)],
+        "t": hashlib.sha256(np.ascontiguousarray(t, dtype=float).tobytes()).hexdigest(),
+    }
+    return hashlib.sha256(json.dumps(blob, sort_keys=True).encode()).hexdigest()[:24]
+
+
+def _check_inputs(system: Any, q0: Any, v0: Any, tau: Any, t: Any) -> tuple[np.ndarray, ...]:
+    n = system.nv
+    arrays = []
+    for name, x in (("q0", q0), ("v0", v0), ("tau", tau)):
+        x = np.asarray(x, dtype=float)
+        if x.shape != (n,):
+            raise HarnessError(f"{name} must have shape ({n},) for {system.name}; got {x.shape}.")
+        if not np.all(np.isfinite(x)):
+            raise HarnessError(f"{name} has a non-finite entry: {x.tolist()}.")
+        arrays.append(x)
+    t = np.asarray(t, dtype=float)
+    if t.ndim != 1 or len(t) < 2 or not np.all(np.diff(t) > 0):
+        raise HarnessError("t must be an increasing 1-D grid of at least two times.")
+    return (*arrays, t)
+
+
+def reference_trajectory(
+    system: Any,
+    q0: Any,
+    v0: Any,
+    tau: Any,
+    t: Any,
+    *,
+    cache_dir: str | os.PathLike[str] | None = DEFAULT_CACHE_DIR,
+    check: str | None = CHECK,
+) -> tuple[Trajectory, dict[str, Any]]:
+    """The hand equations' solution on the grid `t`, accurate far below any error judged.
+
+    Args:
+        system: a `System`.
+        q0, v0, tau: (n,) initial state and constant input.
+        t: (K,) increasing output times, s.
+        cache_dir: where results are cached (None: no cache).
+        check: precision of the second, independent run ("quad", "double", or None to skip).
+
+    Returns:
+        The trajectory (float64 arrays; `stats` holds the step count) and a JSON-able info dict:
+        method, tolerance, order, check_method, agreement_q / agreement_v (max |difference| between
+        the two runs over the grid, rad and rad/s), rhs_check, timing (s), cache ("hit"/"miss"/"off").
+    """
+    q0, v0, tau, t = _check_inputs(system, q0, v0, tau, t)
+    start = time.perf_counter()
+    n = system.nv
+    path = None
+    if cache_dir is not None:
+        path = Path(cache_dir) / f"{system.name}-{cache_key(system, q0, v0, tau, t, check=check)}.npz"
+        if path.is_file():
+            with np.load(path, allow_pickle=False) as z:
+                stored = json.loads(str(z["info"]))
+                traj = Trajectory(
+                    "hand", f"reference: {stored['method']}", z["t"], z["q"], z["v"], {"steps": stored["steps"]}
+                )
+            stored.update(cache="hit", cache_file=str(path))
+            stored["timing"]["load_s"] = time.perf_counter() - start
+            return traj, stored
+
+    primary = PRIMARY if _extended_available() else CHECK
+    states, meta = taylor_solve(system, q0, v0, tau, t, precision=primary)
+    info: dict[str, Any] = {
+        "method": meta["method"],
+        "precision": primary,
+        "tolerance": meta["tolerance"],
+        "order": meta["order"],
+        "steps": meta["steps"],
+        "timing": {"compile_s": meta["compile_s"], "integrate_s": meta["integrate_s"]},
+        "rhs_check": rhs_check(system),
+    }
+    if info["rhs_check"] > RHS_CHECK_TOLERANCE:
+        raise HarnessError(
+            f"{system.name}: the traced equations differ from equations/{system.name}.py by "
+            f"{info['rhs_check']:.2e} (relative); the symbolic trace is wrong."
+        )
+    if check is not None and check != primary:
+        other, cmeta = taylor_solve(system, q0, v0, tau, t, precision=check)
+        diff = _difference(states, other)
+        info.update(
+            check_method=cmeta["method"], agreement_q=float(diff[:, :n].max()), agreement_v=float(diff[:, n:].max())
+        )
+        info["timing"].update(check_compile_s=cmeta["compile_s"], check_integrate_s=cmeta["integrate_s"])
+    else:
+        info.update(check_method=None, agreement_q=None, agreement_v=None)
+    x = states.astype(float)
+    traj = Trajectory(
+        "hand", f"reference: {info['method']}", t.copy(), x[:, :n].copy(), x[:, n:].copy(), {"steps": info["steps"]}
+    )
+    info["timing"]["total_s"] = time.perf_counter() - start
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".npz")
+        os.close(fd)
+        np.savez(tmp, t=traj.t, q=traj.q, v=traj.v, info=np.array(json.dumps(info)))
+        os.replace(tmp, path)  # atomic: a concurrent reader sees the old file or the new one
+        info.update(cache="miss", cache_file=str(path))
+    else:
+        info.update(cache="off", cache_file=None)
+    return traj, info
