@@ -46,6 +46,8 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
+from pathlib import Path
+
 import numpy as np
 
 from .errors import HarnessError
@@ -615,11 +617,40 @@ def _lyapunov_cached(system: Any, x0: tuple[float, ...], tau: tuple[float, ...],
 
 
 def chaos_summary(
-    system: Any, q0: Any, v0: Any, tau: Any, *, t: np.ndarray | None = None, tolerance: float = DEFAULT_TOLERANCE
+    system: Any, q0: Any, v0: Any, tau: Any, *, t: np.ndarray | None = None, tolerance: float = DEFAULT_TOLERANCE,
+    cache_dir: Any = "default",
 ) -> dict[str, Any]:
-    """Lyapunov exponent (two methods), amplification at 2 s and 10 s, and horizons, for one start."""
+    """Lyapunov exponent (two methods), amplification at 2 s and 10 s, and horizons, for one start.
+
+    Cached as JSON beside the reference solutions, keyed by everything the numbers depend on
+    (system, parameters, equations source, this file's source, start, input, grid, tolerance)."""
+    import json
+
+    from .reference import DEFAULT_CACHE_DIR, _source_hash, cache_key
+    from .results import atomic_write, dumps
+
     q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
     t = time_grid(10.0, 0.01) if t is None else t
+    if cache_dir is None:  # no caching, as for the reference
+        return json.loads(dumps(_chaos_summary(system, q0, v0, tau, t=t, tolerance=tolerance)))
+    folder = Path(DEFAULT_CACHE_DIR if cache_dir == "default" else cache_dir).parent / "chaos"
+    key = cache_key(system, q0, v0, tau, t, check=f"chaos {tolerance!r} {_source_hash(__file__)}")
+    path = folder / f"{system.name}-{key}.json"
+    if path.is_file():
+        try:
+            return json.loads(path.read_text())
+        except (OSError, json.JSONDecodeError):
+            pass  # a damaged cache entry is recomputed
+    out = _chaos_summary(system, q0, v0, tau, t=t, tolerance=tolerance)
+    try:
+        atomic_write(path, dumps(out))
+    except Exception:  # noqa: BLE001 - a cache that cannot be written only costs time
+        pass
+    return json.loads(dumps(out))
+
+
+def _chaos_summary(system: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, *, t: np.ndarray,
+                   tolerance: float) -> dict[str, Any]:
     x0 = tuple(float(x) for x in np.concatenate([q0, v0]))
     lyap = _lyapunov_cached(system, x0, tuple(float(x) for x in tau), "variational")
     lyap2 = _lyapunov_cached(system, x0, tuple(float(x) for x in tau), "two trajectories")
@@ -688,7 +719,7 @@ def crossvalidate(
         "tolerance": tolerance,
         "safety": SAFETY,
         "reference": ref_info,
-        "chaos": chaos_summary(system, q0, v0, tau, t=t, tolerance=tolerance),
+        "chaos": chaos_summary(system, q0, v0, tau, t=t, tolerance=tolerance, cache_dir=cache_dir),
         "integrators": {},
     }
     lock_states = (ref.q[::lockstep_every], ref.v[::lockstep_every])

@@ -94,8 +94,27 @@ class Stepper:
         self.eulerdamp = integrator == "Euler" and eulerdamp_active(system)
         self.evaluations = 0  # forward-dynamics evaluations (states), a cost guard for tests
 
+    def _scalar(self, tau: np.ndarray) -> Any:
+        """A one-state right-hand side f(t, y) without batch overhead, or None for MuJoCo's own."""
+        key = tuple(float(x) for x in tau)
+        cache = self.__dict__.setdefault("_scalar_cache", {})
+        if key not in cache:
+            if self.source.name == "hand":
+                from .fastpath import scalar_rhs
+
+                fast, tau_list = scalar_rhs(self.system), list(key)
+                cache[key] = lambda t, y: fast(t, y, tau_list)
+            else:
+                cache[key] = self.source.rhs(np.array(key)) if hasattr(self.source, "rhs") else None
+        return cache[key]
+
     def _accel(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
         self.evaluations += len(q)
+        if len(q) == 1:  # free runs: the generated scalar path (hand) or the engine's per-call rhs
+            fast = self._scalar(tau[0])
+            if fast is not None:
+                n = q.shape[1]
+                return np.asarray(fast(0.0, np.concatenate([q[0], v[0]]))[n:], dtype=float)[None]
         return self.source.forward(q, v, tau)
 
     def step(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -139,6 +158,39 @@ class Stepper:
         return q + h * v_next, v_next
 
 
+def _scalar_run(f: Any, integrator: str, h: float, steps: int, qs: np.ndarray, vs: np.ndarray, stepper: Stepper) -> None:
+    """`Stepper.step` for one state, operation for operation, on Python floats; fills rows 1.. of qs, vs."""
+    n = qs.shape[1]
+    q, v = [float(x) for x in qs[0]], [float(x) for x in vs[0]]
+    rng = range(n)
+    for k in range(1, len(qs)):
+        for _ in range(steps):
+            if integrator == "RK4":
+                xs, fs = [v], [f(0.0, q + v)[n:]]
+                for row in RK4_A:
+                    dq, dv = [0.0] * n, [0.0] * n
+                    for a_ij, vj, fj in zip(row, xs, fs, strict=False):
+                        dq = [dq[i] + vj[i] * a_ij for i in rng]
+                        dv = [dv[i] + fj[i] * a_ij for i in rng]
+                    qi = [q[i] + h * dq[i] for i in rng]
+                    vi = [v[i] + dv[i] * h for i in rng]
+                    xs.append(vi)
+                    fs.append(f(0.0, qi + vi)[n:])
+                dq, dv = [0.0] * n, [0.0] * n
+                for b_j, vj, fj in zip(RK4_B, xs, fs, strict=True):
+                    dq = [dq[i] + vj[i] * b_j for i in rng]
+                    dv = [dv[i] + fj[i] * b_j for i in rng]
+                v = [v[i] + dv[i] * h for i in rng]
+                q = [q[i] + h * dq[i] for i in rng]
+                stepper.evaluations += 4
+            else:  # semi-implicit Euler
+                a = f(0.0, q + v)[n:]
+                v = [v[i] + a[i] * h for i in rng]
+                q = [q[i] + h * v[i] for i in rng]
+                stepper.evaluations += 1
+        qs[k], vs[k] = q, v
+
+
 def _steps_per_sample(t: np.ndarray, timestep: float) -> int:
     dt_out = float(t[1] - t[0]) if len(t) > 1 else timestep
     steps = round(dt_out / timestep)
@@ -172,10 +224,15 @@ def mirror_trajectory(
     tau_b = np.asarray(tau, dtype=float)[None]
     qs, vs = np.empty((len(t), system.nv)), np.empty((len(t), system.nv))
     qs[0], vs[0] = q[0], v[0]
-    for k in range(1, len(t)):
-        for _ in range(steps):
-            q, v = stepper.step(q, v, tau_b)
-        qs[k], vs[k] = q[0], v[0]
+    explicit = integrator == "RK4" or (integrator == "Euler" and not stepper.eulerdamp)
+    fast = stepper._scalar(tau_b[0]) if explicit else None
+    if fast is not None:  # one state: the same operations in Python floats (IEEE, so the same rounding)
+        _scalar_run(fast, integrator, dt, steps, qs, vs, stepper)
+    else:
+        for k in range(1, len(t)):
+            for _ in range(steps):
+                q, v = stepper.step(q, v, tau_b)
+            qs[k], vs[k] = q[0], v[0]
     return Trajectory(
         source.name,
         f"mirror of MuJoCo {integrator} dt {dt:g}",

@@ -11,30 +11,49 @@ from typing import Any
 
 import numpy as np
 
-from . import compare, equivalence, experiments, integrate, judge, modelsync
+from . import chaos, compare, equivalence, experiments, integrate, judge, modelsync
 from .sources import make_sources
 from .tolerances import TOLERANCES
 
 TRAJECTORY_THRESHOLD = TOLERANCES.trajectory.rtol  # rad
+# The integrators `run` cross-validates (mirrors, convergence order, energy, free runs judged inside
+# the predictability horizon); implicit and implicitfast are in `chaos.INTEGRATORS` for the benchmark.
+RUN_INTEGRATORS = ("RK4", "Euler")
 
 
 def trajectory_results(system: Any, sources: dict[str, Any], *, t_end: float, dt_out: float) -> dict[str, Any]:
-    trajs = integrate.run_trajectories(system, sources, t_end=t_end, dt_out=dt_out)
-    ref = trajs[0]
+    """The three sources' free runs against the reference solution of the hand equations (heyoka's
+    Taylor method in long double, cached), plus the notes' perturbed start for the divergence."""
+    from .reference import reference_trajectory
+
     q0, v0 = integrate.initial_state(system)
+    tau = np.zeros(system.nv)
+    t = integrate.time_grid(t_end, dt_out)
+    ref, ref_info = reference_trajectory(system, q0, v0, tau, t)
+    trajs = integrate.run_trajectories(system, sources, t_end=t_end, dt_out=dt_out)
+    q0b = q0.copy()
+    q0b[-1] += experiments.PERTURBATION
+    perturbed = integrate.scipy_trajectory(system, sources["hand"], q0b, v0, tau, t, **integrate.SCIPY_DEFAULT)
+    perturbed.stats["label"] = f"{system.coordinates[-1]}0 + {experiments.PERTURBATION:g}"
     runs = []
-    for tr in trajs:
+    for tr in [*trajs, perturbed]:
         err = integrate.error_against(tr, ref)
         e = integrate.energy(system, sources["hand"], tr)
-        runs.append({
+        run = {
             "source": tr.source, "method": tr.method, "stats": tr.stats,
             "q": tr.q, "v": tr.v, "energy": e, "error_vs_hand": err,
             "max_error_vs_hand": float(err.max()),
             "first_exceeds_threshold": integrate.first_exceeding(tr.t, err, TRAJECTORY_THRESHOLD),
             "energy_drift": float(np.abs(e - e[0]).max()),
-        })
-    return {"q0": q0, "v0": v0, "tau": np.zeros(system.nv), "t_end": t_end, "dt_out": dt_out, "t": ref.t,
-            "reference": ref.label, "threshold": TRAJECTORY_THRESHOLD, "runs": runs}
+        }
+        if "label" in tr.stats:
+            run["label"] = tr.stats["label"]
+        runs.append(run)
+    return {"q0": q0, "v0": v0, "tau": tau, "t_end": t_end, "dt_out": dt_out, "t": t,
+            "reference": f"hand equations, {ref_info.get('method', 'Taylor')} ({ref_info.get('precision', '')}); "
+                         f"agrees with a second method to {ref_info.get('agreement_q', float('nan')):.1e} rad",
+            "reference_info": {k: v for k, v in ref_info.items() if np.isscalar(v) or isinstance(v, str)},
+            "threshold": TRAJECTORY_THRESHOLD, "runs": runs}
 
 
 NEVER_USED = ("contact", "constraint", "limit", "frictionloss", "spring")  # no system of the notes has these
@@ -65,7 +84,9 @@ def run_system(system: Any, *, n_states: int, seed: int, t_end: float = integrat
     traj = trajectory_results(system, sources, t_end=t_end, dt_out=dt_out)
     notes_experiments = experiments.run_experiments(system)
     same = equivalence.check_equivalence(system)
-    passed = model["passed"] and point["passed"] and (same is None or same["passed"])
+    cross = chaos.crossvalidate(system, sources, t_end=t_end, dt_out=dt_out, integrators=RUN_INTEGRATORS,
+                                mirror_engines=("hand", "pinocchio"))
+    passed = model["passed"] and point["passed"] and (same is None or same["passed"]) and cross["passed"]
     return {
         "name": system.name,
         "description": system.description,
@@ -83,6 +104,7 @@ def run_system(system: Any, *, n_states: int, seed: int, t_end: float = integrat
         "trajectories": traj,
         "experiments": notes_experiments,
         "equivalence": same,
+        "chaos": cross,
         "skipped": skipped_work(system),
         "passed": passed,
     }
