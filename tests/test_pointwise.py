@@ -36,3 +36,19 @@ def test_mass_matrix_is_symmetric_positive_definite(system):
     M = values["hand"]["M"]
     assert np.abs(M - np.swapaxes(M, -1, -2)).max() == 0.0
     assert np.linalg.eigvalsh(M).min() > 0.0
+
+
+def test_solve_tier_grows_with_conditioning_but_not_below_its_floor():
+    """An ill-conditioned state gets cond(M)-scaled room; a well-conditioned one keeps the tier."""
+    import numpy as np
+
+    from lagrange_xval.validate.tolerances import TOLERANCES
+
+    solve = TOLERANCES.solve
+    assert solve.at(1.0) == solve.rtol
+    assert solve.at(1e12) == pytest.approx(1e3 * 1e12 * 2.220446049250313e-16)
+    states = compare.States(np.zeros((2, 2)), np.zeros((2, 2)), np.zeros((2, 2)))
+    a, b = np.array([[1.0, 0.0], [1.0, 0.0]]), np.array([[1.0, 0.0], [1.0 + 1e-6, 0.0]])
+    tight = compare.error_row("qacc", "x~y", a, b, states, tier="solve", cond=np.array([1.0, 10.0]))
+    loose = compare.error_row("qacc", "x~y", a, b, states, tier="solve", cond=np.array([1.0, 1e10]))
+    assert not tight["passed"] and loose["passed"]

@@ -94,7 +94,8 @@ def evaluate(sources: dict[str, Any], states: States) -> dict[str, dict[str, np.
 
 
 def error_row(quantity: str, pair: str, a: np.ndarray, b: np.ndarray, states: States, *, tier: str,
-              tolerances: Tolerances = TOLERANCES, min_scale: float = 0.0) -> dict[str, Any]:
+              tolerances: Tolerances = TOLERANCES, min_scale: float = 0.0,
+              cond: np.ndarray | None = None) -> dict[str, Any]:
     """One row: the max absolute error, the max error relative to each state's magnitude, the error
     scaled by the quantity's range over the sample (what the tier judges), and the worst state."""
     n = len(states)
@@ -105,9 +106,13 @@ def error_row(quantity: str, pair: str, a: np.ndarray, b: np.ndarray, states: St
     scale = scale if scale > 0 else 1.0
     rel = per_state / np.maximum(mag.max(axis=1), np.finfo(float).tiny)
     worst = int(np.argmax(per_state))
-    rtol = getattr(tolerances, tier).rtol
+    t = getattr(tolerances, tier)
+    # Per-state tolerances where the tier scales with the mass matrix's conditioning.
+    tol = np.full(n, t.rtol) if cond is None or t.cond_factor is None else np.array([t.at(c) for c in cond])
+    rtol = float(tol.max())
     scaled = float(per_state.max() / scale)
     finite = bool(np.all(np.isfinite(diff)))
+    passed = finite and bool(np.all(per_state / scale <= tol))
     return {
         "quantity": quantity,
         "pair": pair,
@@ -117,8 +122,9 @@ def error_row(quantity: str, pair: str, a: np.ndarray, b: np.ndarray, states: St
         "scaled": scaled if finite else float("inf"),
         "tier": tier,
         "tolerance": rtol,
-        "passed": bool(finite and scaled <= rtol),
+        "passed": passed,
         "worst_state": states.state(worst),
+        **({} if cond is None else {"cond_max": float(np.max(cond))}),
     }
 
 
@@ -127,12 +133,13 @@ def compare(values: dict[str, dict[str, np.ndarray]], states: States, *,
     """Rows for every quantity and every pair of sources, sorted by quantity then pair."""
     rows = []
     names = sorted(values)
+    cond = np.linalg.cond(values[reference]["M"]) if reference in values else None
     for quantity, tier in QUANTITY_TIER.items():
         for a, b in itertools.combinations(names, 2):
             also = [values[s][k] for k in SCALE_ALSO_BY.get(quantity, ()) for s in (a, b)]
             min_scale = max((float(np.abs(x).max()) for x in also), default=0.0)
             rows.append(error_row(quantity, f"{a}~{b}", values[a][quantity], values[b][quantity], states,
-                                  tier=tier, tolerances=tolerances, min_scale=min_scale))
+                                  tier=tier, tolerances=tolerances, min_scale=min_scale, cond=cond))
     return sorted(rows, key=lambda r: (r["quantity"], r["pair"]))
 
 
