@@ -1,8 +1,7 @@
 """A scalar fast path for the hand equations, generated from the equations module itself.
 
-The module's numpy functions are traced with symbolic inputs (numpy calls `sin`/`cos` methods on
-object arrays), giving M(q), bias(q, v) and passive(q, v) as sympy expressions with the compiled
-MJCF's parameters as numbers. The right-hand side a = M^-1 (tau + passive - bias) is then solved
+The module's numpy functions are traced with sympy symbols (validate/tracing.py), giving M(q),
+bias(q, v) and passive(q, v) as sympy expressions with the compiled MJCF's parameters as numbers. The right-hand side a = M^-1 (tau + passive - bias) is then solved
 symbolically (n <= 3), reduced by common-subexpression elimination and printed as plain Python
 with `math`: one call costs what a hand-written scalar `math` implementation costs. The numpy
 path (`HandSource.forward`) stays the reference; tests compare the two at random states.
@@ -12,84 +11,7 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
-
-
-class _Sym:
-    """A sympy expression that numpy's object-array ufuncs can call sin/cos/sqrt on."""
-
-    __slots__ = ("e",)
-
-    def __init__(self, e: Any) -> None:
-        import sympy as sp
-
-        self.e = sp.sympify(e)
-
-    @staticmethod
-    def _w(o: Any) -> Any:
-        if isinstance(o, np.ndarray) and o.ndim == 0:  # x[..., 0] of a 1-d array is a 0-d array
-            o = o.item()
-        if isinstance(o, np.ndarray):
-            return NotImplemented
-        return o.e if isinstance(o, _Sym) else o
-
-    def __add__(self, o: Any) -> _Sym:
-        return _Sym(self.e + _Sym._w(o))
-
-    __radd__ = __add__
-
-    def __sub__(self, o: Any) -> _Sym:
-        return _Sym(self.e - _Sym._w(o))
-
-    def __rsub__(self, o: Any) -> _Sym:
-        return _Sym(_Sym._w(o) - self.e)
-
-    def __mul__(self, o: Any) -> _Sym:
-        return _Sym(self.e * _Sym._w(o))
-
-    __rmul__ = __mul__
-
-    def __truediv__(self, o: Any) -> _Sym:
-        return _Sym(self.e / _Sym._w(o))
-
-    def __rtruediv__(self, o: Any) -> _Sym:
-        return _Sym(_Sym._w(o) / self.e)
-
-    def __pow__(self, o: Any) -> _Sym:
-        return _Sym(self.e ** _Sym._w(o))
-
-    def __neg__(self) -> _Sym:
-        return _Sym(-self.e)
-
-    def __pos__(self) -> _Sym:
-        return self
-
-    def _fn(self, name: str) -> _Sym:
-        import sympy as sp
-
-        return _Sym(getattr(sp, name)(self.e))
-
-    def sin(self) -> _Sym:
-        return self._fn("sin")
-
-    def cos(self) -> _Sym:
-        return self._fn("cos")
-
-    def tan(self) -> _Sym:
-        return self._fn("tan")
-
-    def sqrt(self) -> _Sym:
-        return self._fn("sqrt")
-
-
-def _expr(x: Any) -> Any:
-    import sympy as sp
-
-    if isinstance(x, np.ndarray):
-        x = x.item()
-    if isinstance(x, _Sym):
-        return x.e
-    return sp.Float(float(x), 17) if x != 0 else sp.Integer(0)
+from . import tracing
 
 
 def _symbols(n: int) -> tuple[list[Any], list[Any], list[Any], list[Any]]:
@@ -99,38 +21,22 @@ def _symbols(n: int) -> tuple[list[Any], list[Any], list[Any], list[Any]]:
             list(sp.symbols(f"tau0:{n}")))
 
 
-def _wrap(symbols: list[Any]) -> np.ndarray:
-    return np.array([_Sym(x) for x in symbols], dtype=object)
-
-
-def _vector(x: Any, n: int) -> Any:
-    import sympy as sp
-
-    return sp.Matrix([_expr(e) for e in np.broadcast_to(np.asarray(x, dtype=object), (n,))])
-
-
-def _solve(A: Any, b: Any) -> list[Any]:
-    """A^-1 b; Cramer's rule for n <= 2 (short, no pivoting needed for these SPD matrices)."""
-    n = A.shape[0]
+def _solve(A: Any, b: list[Any]) -> list[Any]:
+    """A^-1 b; Cramer's rule for n <= 2 (shortest expressions), elimination beyond."""
+    n = len(b)
     if n == 1:
-        return [b[0] / A[0, 0]]
+        return [b[0] / A[0][0]]
     if n == 2:
-        det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
-        return [(A[1, 1] * b[0] - A[0, 1] * b[1]) / det, (A[0, 0] * b[1] - A[1, 0] * b[0]) / det]
-    return list(A.LUsolve(b))
+        det = A[0][0] * A[1][1] - A[0][1] * A[1][0]
+        return [(A[1][1] * b[0] - A[0][1] * b[1]) / det, (A[0][0] * b[1] - A[1][0] * b[0]) / det]
+    return tracing.solve_spd(A, b)
 
 
 def hand_accelerations(system: Any) -> tuple[list[Any], list[Any], list[Any], list[Any]]:
     """a = M^-1 (tau + passive - bias) of the hand equations, symbolically."""
-    import sympy as sp
-
-    n = system.nv
-    qs, vs, _, taus = _symbols(n)
-    q, v = _wrap(qs), _wrap(vs)
-    eq, p = system.equations, system.params
-    M = sp.Matrix(n, n, [_expr(x) for x in np.asarray(eq.mass_matrix(p, q), dtype=object).ravel()])
-    rhs = sp.Matrix(taus) + _vector(eq.passive(p, q, v), n) - _vector(eq.bias(p, q, v), n)
-    return _solve(M, rhs), qs, vs, taus
+    qs, vs, _, taus = _symbols(system.nv)
+    M, bias, passive = tracing.dynamics(system, qs, vs, tracing.sympy_backend())
+    return _solve(M, [t + p - b for t, p, b in zip(taus, passive, bias, strict=True)]), qs, vs, taus
 
 
 def variant_accelerations(system: Any, variant: Any) -> tuple[list[Any], list[Any], list[Any], list[Any]]:
@@ -140,15 +46,16 @@ def variant_accelerations(system: Any, variant: Any) -> tuple[list[Any], list[An
     from ..equations._forms import Implicit
 
     n = system.nv
+    backend = tracing.sympy_backend()
     qs, vs, as_, taus = _symbols(n)
-    q, v, a, tau = _wrap(qs), _wrap(vs), _wrap(as_), _wrap(taus)
+    q, v, a, tau = (tracing.wrap(x, backend) for x in (qs, vs, as_, taus))
     p = system.params
     if isinstance(variant, Implicit):
-        r = _vector(variant.residual(p, q, v, a, tau), n)
+        r = sp.Matrix(tracing.vector(variant.residual(p, q, v, a, tau), n, backend))
         A = r.jacobian(sp.Matrix(as_))  # the printed residual is linear in a
         b = r.subs({x: 0 for x in as_})
-        return _solve(A, -b), qs, vs, taus
-    return list(_vector(variant.acceleration(p, q, v, tau), n)), qs, vs, taus
+        return _solve(A.tolist(), [-x for x in b]), qs, vs, taus
+    return tracing.vector(variant.acceleration(p, q, v, tau), n, backend), qs, vs, taus
 
 
 def rhs_source(acc: list[Any], qs: list[Any], vs: list[Any], taus: list[Any]) -> str:

@@ -9,10 +9,9 @@ is reported as the reference's measured accuracy (`info["agreement_q"]`).
 
 The Taylor integrator needs the right-hand side as symbolic expressions. Nothing here is specific
 to a system: the equations module's own `mass_matrix`, `bias` and `passive` are called with arrays
-of heyoka variables (numpy object arrays; `np.sin` on them calls the element's `.sin()`), and
-a ← M⁻¹ (tau + passive − bias) is formed by a symbolic LDLᵀ elimination (M is symmetric positive
-definite, so no pivoting is needed). The module runs unmodified, in a private copy whose
-`_forms.stack_matrix` / `stack_vector` stack objects instead of casting to float. The trace is
+of heyoka variables (validate/tracing.py: numpy object arrays, `np.sin` on them calls the element's
+`.sin()`), and a ← M⁻¹ (tau + passive − bias) is formed by symbolic elimination (M is symmetric
+positive definite, so no pivoting is needed). The module runs unmodified. The trace is
 validated on every call against the numpy source (`info["rhs_check"]`: traced accelerations vs
 `HandSource.forward` at random states, relative to their range).
 
@@ -23,12 +22,10 @@ grid, heyoka version and precisions), so a second run only loads arrays.
 
 from __future__ import annotations
 
-import builtins
 import functools
 import hashlib
 import importlib
 import json
-import operator
 import os
 import tempfile
 import time
@@ -39,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from . import tracing
 from .errors import HarnessError
 from .integrate import Trajectory
 from .systems import PACKAGE_ROOT
@@ -54,172 +52,6 @@ RHS_CHECK_TOLERANCE = 1e-12  # relative; the trace reproduces the numpy equation
 # Symbolic trace of an equations module
 
 
-class _Sym:
-    """A heyoka expression that numpy's object loops can use: arithmetic and `.sin()`-style methods.
-
-    numpy applies a ufunc to an object array by calling the element's method of the same name
-    (`np.sin` -> `x.sin()`), and binary operators element by element; arrays (not 0-d) are handed
-    back to numpy (`NotImplemented`) so that broadcasting stays numpy's.
-    """
-
-    __slots__ = ("ex",)
-
-    def __init__(self, ex: Any) -> None:
-        self.ex = ex
-
-    def _op(self, other: Any, op: Any, reflected: bool = False) -> Any:
-        if isinstance(other, np.ndarray) and other.shape != ():
-            return NotImplemented
-        a, b = (_ex(other), self.ex) if reflected else (self.ex, _ex(other))
-        return _Sym(op(a, b))
-
-    def __add__(self, o: Any) -> Any:
-        return self._op(o, operator.add)
-
-    def __radd__(self, o: Any) -> Any:
-        return self._op(o, operator.add, True)
-
-    def __sub__(self, o: Any) -> Any:
-        return self._op(o, operator.sub)
-
-    def __rsub__(self, o: Any) -> Any:
-        return self._op(o, operator.sub, True)
-
-    def __mul__(self, o: Any) -> Any:
-        return self._op(o, operator.mul)
-
-    def __rmul__(self, o: Any) -> Any:
-        return self._op(o, operator.mul, True)
-
-    def __truediv__(self, o: Any) -> Any:
-        return self._op(o, operator.truediv)
-
-    def __rtruediv__(self, o: Any) -> Any:
-        return self._op(o, operator.truediv, True)
-
-    def __pow__(self, o: Any) -> Any:
-        return self._op(o, operator.pow)
-
-    def __rpow__(self, o: Any) -> Any:
-        return self._op(o, operator.pow, True)
-
-    def __neg__(self) -> _Sym:
-        return _Sym(-self.ex)
-
-    def __pos__(self) -> _Sym:
-        return self
-
-    def _call(self, fname: str) -> _Sym:
-        import heyoka as hy
-
-        return _Sym(getattr(hy, fname)(self.ex))
-
-    # the methods numpy's object loops call, by ufunc name
-    def sin(self) -> _Sym:
-        return self._call("sin")
-
-    def cos(self) -> _Sym:
-        return self._call("cos")
-
-    def tan(self) -> _Sym:
-        return self._call("tan")
-
-    def arcsin(self) -> _Sym:
-        return self._call("asin")
-
-    def arccos(self) -> _Sym:
-        return self._call("acos")
-
-    def arctan(self) -> _Sym:
-        return self._call("atan")
-
-    def sinh(self) -> _Sym:
-        return self._call("sinh")
-
-    def cosh(self) -> _Sym:
-        return self._call("cosh")
-
-    def tanh(self) -> _Sym:
-        return self._call("tanh")
-
-    def exp(self) -> _Sym:
-        return self._call("exp")
-
-    def log(self) -> _Sym:
-        return self._call("log")
-
-    def sqrt(self) -> _Sym:
-        return self._call("sqrt")
-
-    def square(self) -> _Sym:
-        return _Sym(self.ex * self.ex)
-
-    def arctan2(self, other: Any) -> _Sym:
-        import heyoka as hy
-
-        return _Sym(hy.atan2(self.ex, _ex(other)))
-
-
-def _ex(x: Any) -> Any:
-    """The heyoka expression of a traced value or a number."""
-    import heyoka as hy
-
-    if isinstance(x, _Sym):
-        return x.ex
-    if isinstance(x, np.ndarray):
-        if x.shape != ():
-            raise TypeError(f"expected a scalar, got an array of shape {x.shape}")
-        return _ex(x[()])
-    if isinstance(x, hy.expression):
-        return x
-    return hy.expression(float(x))
-
-
-def _object_stack_matrix(rows: list[list[Any]]) -> np.ndarray:
-    b = np.broadcast_arrays(*[np.asarray(x, dtype=object) for row in rows for x in row])
-    flat = np.stack(b, axis=-1)
-    return flat.reshape(flat.shape[:-1] + (len(rows), len(rows[0])))
-
-
-def _object_stack_vector(items: list[Any]) -> np.ndarray:
-    return np.stack(np.broadcast_arrays(*[np.asarray(x, dtype=object) for x in items]), axis=-1)
-
-
-def _exec_copy(module: types.ModuleType, builtins_dict: dict[str, Any] | None = None) -> types.ModuleType:
-    # The copy keeps the module's name: dataclasses looks its classes' module up in sys.modules
-    # (where it finds the original, whose globals have the same names).
-    path = Path(module.__file__ or "")
-    copy = types.ModuleType(module.__name__)
-    copy.__dict__.update(__file__=str(path), __package__=module.__package__)
-    if builtins_dict is not None:
-        copy.__dict__["__builtins__"] = builtins_dict
-    exec(compile(path.read_text(), str(path), "exec"), copy.__dict__)  # noqa: S102 - our own package's source
-    return copy
-
-
-@functools.cache
-def _traceable(module: types.ModuleType) -> types.ModuleType:
-    """A private copy of an equations module whose `_forms` stacking helpers keep objects.
-
-    The module's source runs unmodified; only `from ._forms import ...` resolves to a copy of
-    `_forms` with object-preserving `stack_matrix` / `stack_vector` (the originals cast to float).
-    """
-    forms = importlib.import_module(f"{module.__package__}._forms")
-    forms_copy = _exec_copy(forms)
-    forms_copy.stack_matrix = _object_stack_matrix  # type: ignore[attr-defined]
-    forms_copy.stack_vector = _object_stack_vector  # type: ignore[attr-defined]
-    real_import = builtins.__import__
-
-    def _import(name: str, globals: Any = None, locals: Any = None, fromlist: Any = (), level: int = 0) -> Any:
-        if level == 1 and name == "_forms":
-            return forms_copy
-        return real_import(name, globals, locals, fromlist, level)
-
-    patched = dict(builtins.__dict__)
-    patched["__import__"] = _import
-    return _exec_copy(module, patched)
-
-
 @dataclass(frozen=True)
 class SymbolicDynamics:
     """The hand equations as heyoka expressions: x' = rhs(x, tau), x = (q, v), tau = par[0:n]."""
@@ -233,26 +65,6 @@ class SymbolicDynamics:
         return list(zip(self.state, self.rhs, strict=True))
 
 
-def _solve_spd(matrix: list[list[Any]], b: list[Any]) -> list[Any]:
-    """x with matrix x = b by LDL^T elimination without pivoting (matrix symmetric positive definite)."""
-    n = len(b)
-    a = [row[:] for row in matrix]
-    b = b[:]
-    for k in range(n):
-        for i in range(k + 1, n):
-            ratio = a[i][k] / a[k][k]
-            for j in range(k + 1, n):
-                a[i][j] = a[i][j] - ratio * a[k][j]
-            b[i] = b[i] - ratio * b[k]
-    x: list[Any] = [None] * n
-    for i in reversed(range(n)):
-        acc = b[i]
-        for j in range(i + 1, n):
-            acc = acc - a[i][j] * x[j]
-        x[i] = acc / a[i][i]
-    return x
-
-
 def _param_key(system: Any) -> tuple[tuple[str, str], ...]:
     return tuple((k, float(v).hex()) for k, v in sorted(vars(system.params).items()))
 
@@ -261,22 +73,14 @@ def _param_key(system: Any) -> tuple[tuple[str, str], ...]:
 def _symbolic(name: str, module: types.ModuleType, p: Any) -> SymbolicDynamics:
     import heyoka as hy
 
-    traced = _traceable(module)
     n = len(module.COORDINATES)
     qs = [hy.expression(f"q{i}") for i in range(n)]
     vs = [hy.expression(f"v{i}") for i in range(n)]
-    q = np.empty(n, dtype=object)
-    v = np.empty(n, dtype=object)
-    for i in range(n):
-        q[i], v[i] = _Sym(qs[i]), _Sym(vs[i])
     try:
-        m = np.asarray(traced.mass_matrix(p, q), dtype=object)
-        bias = np.asarray(traced.bias(p, q, v), dtype=object)
-        passive = np.asarray(traced.passive(p, q, v), dtype=object)
-        if m.shape != (n, n) or bias.shape != (n,) or passive.shape != (n,):
-            raise TypeError(f"shapes M {m.shape}, bias {bias.shape}, passive {passive.shape}")
-        f = [hy.par[i] + _ex(passive[i]) - _ex(bias[i]) for i in range(n)]
-        a = _solve_spd([[_ex(m[i, j]) for j in range(n)] for i in range(n)], f)
+        system = types.SimpleNamespace(nv=n, equations=module, params=p)
+        m, bias, passive = tracing.dynamics(system, qs, vs, tracing.heyoka_backend())
+        f = [hy.par[i] + passive[i] - bias[i] for i in range(n)]
+        a = tracing.solve_spd(m, f)
     except Exception as exc:
         raise HarnessError(
             f"equations/{name}.py: cannot trace mass_matrix/bias/passive symbolically for the Taylor "
