@@ -136,7 +136,8 @@ def _weisstein(p: Params, q: np.ndarray, v: np.ndarray, a: np.ndarray, tau: np.n
     m1, m2, l1, l2, g = p.m1, p.m2, p.l1, p.l2, p.g
     r1 = ((m1 + m2) * l1 * ddth1 + m2 * l2 * ddth2 * np.cos(th1 - th2) + m2 * l2 * dth2**2 * np.sin(th1 - th2)
           + (m1 + m2) * g * np.sin(th1))
-    r2 = m2 * l2 * ddth2 + m2 * l1 * ddth1 * np.cos(th1 - th2) - m2 * l1 * dth1**2 * np.sin(th1 - th2) + m2 * g * np.sin(th2)
+    r2 = (m2 * l2 * ddth2 + m2 * l1 * ddth1 * np.cos(th1 - th2) - m2 * l1 * dth1**2 * np.sin(th1 - th2)
+          + m2 * g * np.sin(th2))
     return stack_vector([r1, r2])
 
 

@@ -258,6 +258,7 @@ VARIANTS = (
     ),
     DerivationStep(
         name="potential energy (22)", notes_equations=("22",), quantity=("potential_energy", None),
-        evaluate=lambda p, q, v: -2 * p.m * p.g * p.l * np.cos(q[..., 0]) - p.m * p.g * p.l * np.cos(q[..., 0] + q[..., 1]),
+        evaluate=lambda p, q, v: (-2 * p.m * p.g * p.l * np.cos(q[..., 0])
+                                  - p.m * p.g * p.l * np.cos(q[..., 0] + q[..., 1])),
     ),
 )

@@ -34,7 +34,19 @@ from typing import Any
 
 import numpy as np
 
-from ._forms import NAN, DerivationStep, Explicit, Implicit, body, hinge, planar_inertia, rot_y, rot_z, stack_matrix, stack_vector
+from ._forms import (
+    NAN,
+    DerivationStep,
+    Explicit,
+    Implicit,
+    body,
+    hinge,
+    planar_inertia,
+    rot_y,
+    rot_z,
+    stack_matrix,
+    stack_vector,
+)
 
 DESCRIPTION = (
     "Mass-balanced double-gimbal camera platform: azimuth psi about the base z axis, elevation "
@@ -218,7 +230,8 @@ def _w82(p: Params, q: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 def _w84(p: Params, q: np.ndarray, v: np.ndarray) -> np.ndarray:
     R21 = _r79(p, q, v)
-    return np.einsum("...ji,...j->...i", R21, _w82(p, q, v)) + stack_vector([0.0 * v[..., 1], v[..., 1], 0.0 * v[..., 1]])
+    theta_dot = stack_vector([0.0 * v[..., 1], v[..., 1], 0.0 * v[..., 1]])
+    return np.einsum("...ji,...j->...i", R21, _w82(p, q, v)) + theta_dot
 
 
 def _t81(p: Params, q: np.ndarray, v: np.ndarray) -> np.ndarray:

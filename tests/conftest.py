@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import pytest
-
 from lagrange_xval.validate import compare, systems
 from lagrange_xval.validate.sources import make_sources
 

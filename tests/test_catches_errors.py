@@ -5,10 +5,9 @@ from __future__ import annotations
 import types
 
 import numpy as np
-
+from lagrange_xval.equations._forms import Implicit, stack_vector
 from lagrange_xval.validate import compare, judge, systems
 from lagrange_xval.validate.sources import make_sources
-from lagrange_xval.equations._forms import Implicit, stack_vector
 
 
 def _with(system, **replaced):
@@ -59,8 +58,12 @@ def test_the_judge_finds_a_wrong_printed_form_and_its_term():
         g = p.g / p.l * np.sin(q[..., 0] + q[..., 1])
         return good - stack_vector([0 * g, 2 * g])
 
-    bad = Implicit(name="deliberately wrong", notes_equations=("test",), residual=residual,
-                   row_scale=s.equations.VARIANTS[0].row_scale)
+    bad = Implicit(
+        name="deliberately wrong",
+        notes_equations=("test",),
+        residual=residual,
+        row_scale=s.equations.VARIANTS[0].row_scale,
+    )
     states = compare.random_states(s, n=100, seed=2)
     terms = judge.EngineTerms(s, make_sources(s), states)
     verdict = judge.judge_variant(s, bad, terms, states)

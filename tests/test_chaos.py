@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from lagrange_xval.validate import systems
 from lagrange_xval.validate import chaos, systems
 from lagrange_xval.validate.integrate import initial_state, mujoco_trajectory, time_grid
 from lagrange_xval.validate.reference import reference_trajectory

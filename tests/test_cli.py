@@ -8,7 +8,6 @@ import sys
 
 import numpy as np
 import pytest
-
 from lagrange_xval.validate import systems
 from lagrange_xval.validate.cli import main
 
@@ -52,13 +51,51 @@ def test_list_names_every_system(capsys):
 
 def test_simulate_writes_csv_and_json(tmp_path):
     csv = tmp_path / "t.csv"
-    assert main(["simulate", "double_pendulum_point", "--source", "mujoco", "--q0", "0,3", "--v0", "0,0",
-                 "--t-end", "0.5", "--dt-out", "0.01", "--out", str(csv)]) == 0
+    assert (
+        main(
+            [
+                "simulate",
+                "double_pendulum_point",
+                "--source",
+                "mujoco",
+                "--q0",
+                "0,3",
+                "--v0",
+                "0,0",
+                "--t-end",
+                "0.5",
+                "--dt-out",
+                "0.01",
+                "--out",
+                str(csv),
+            ]
+        )
+        == 0
+    )
     lines = csv.read_text().splitlines()
     assert lines[0] == "t,theta,phi,dtheta,dphi" and len(lines) == 52
     js = tmp_path / "t.json"
-    assert main(["simulate", "double_pendulum_point", "--source", "hand", "--q0", "0,3", "--v0", "0,0",
-                 "--t-end", "0.5", "--dt-out", "0.01", "--out", str(js)]) == 0
+    assert (
+        main(
+            [
+                "simulate",
+                "double_pendulum_point",
+                "--source",
+                "hand",
+                "--q0",
+                "0,3",
+                "--v0",
+                "0,0",
+                "--t-end",
+                "0.5",
+                "--dt-out",
+                "0.01",
+                "--out",
+                str(js),
+            ]
+        )
+        == 0
+    )
     rows = np.array(json.loads(js.read_text())["rows"])
     mj = np.loadtxt(csv, delimiter=",", skiprows=1)
     assert rows.shape == mj.shape == (51, 5)
@@ -67,16 +104,101 @@ def test_simulate_writes_csv_and_json(tmp_path):
 
 BAD_INPUT = {
     "unknown system": (["check", "dbl_pendulum"], "Did you mean"),
-    "unknown source": (["simulate", "double_pendulum_point", "--source", "bullet", "--q0", "0,0", "--v0", "0,0",
-                        "--t-end", "1", "--dt-out", "0.1", "--out", "{tmp}/x.csv"], "invalid choice"),
-    "wrong length": (["simulate", "double_pendulum_point", "--source", "hand", "--q0", "0,0,0", "--v0", "0,0",
-                      "--t-end", "1", "--dt-out", "0.1", "--out", "{tmp}/x.csv"], "2 values per state"),
-    "NaN state": (["simulate", "double_pendulum_point", "--source", "hand", "--q0", "nan,0", "--v0", "0,0",
-                   "--t-end", "1", "--dt-out", "0.1", "--out", "{tmp}/x.csv"], "not finite"),
-    "infinite state": (["simulate", "double_pendulum_point", "--source", "hand", "--q0", "0,0", "--v0", "inf,0",
-                        "--t-end", "1", "--dt-out", "0.1", "--out", "{tmp}/x.csv"], "not finite"),
-    "bad output suffix": (["simulate", "double_pendulum_point", "--source", "hand", "--q0", "0,0", "--v0", "0,0",
-                           "--t-end", "1", "--dt-out", "0.1", "--out", "{tmp}/x.txt"], ".csv or .json"),
+    "unknown source": (
+        [
+            "simulate",
+            "double_pendulum_point",
+            "--source",
+            "bullet",
+            "--q0",
+            "0,0",
+            "--v0",
+            "0,0",
+            "--t-end",
+            "1",
+            "--dt-out",
+            "0.1",
+            "--out",
+            "{tmp}/x.csv",
+        ],
+        "invalid choice",
+    ),
+    "wrong length": (
+        [
+            "simulate",
+            "double_pendulum_point",
+            "--source",
+            "hand",
+            "--q0",
+            "0,0,0",
+            "--v0",
+            "0,0",
+            "--t-end",
+            "1",
+            "--dt-out",
+            "0.1",
+            "--out",
+            "{tmp}/x.csv",
+        ],
+        "2 values per state",
+    ),
+    "NaN state": (
+        [
+            "simulate",
+            "double_pendulum_point",
+            "--source",
+            "hand",
+            "--q0",
+            "nan,0",
+            "--v0",
+            "0,0",
+            "--t-end",
+            "1",
+            "--dt-out",
+            "0.1",
+            "--out",
+            "{tmp}/x.csv",
+        ],
+        "not finite",
+    ),
+    "infinite state": (
+        [
+            "simulate",
+            "double_pendulum_point",
+            "--source",
+            "hand",
+            "--q0",
+            "0,0",
+            "--v0",
+            "inf,0",
+            "--t-end",
+            "1",
+            "--dt-out",
+            "0.1",
+            "--out",
+            "{tmp}/x.csv",
+        ],
+        "not finite",
+    ),
+    "bad output suffix": (
+        [
+            "simulate",
+            "double_pendulum_point",
+            "--source",
+            "hand",
+            "--q0",
+            "0,0",
+            "--v0",
+            "0,0",
+            "--t-end",
+            "1",
+            "--dt-out",
+            "0.1",
+            "--out",
+            "{tmp}/x.txt",
+        ],
+        ".csv or .json",
+    ),
     "missing states file": (["check", "double_pendulum_point", "--states", "{tmp}/none.json"], "not found"),
     "states not JSON": (["check", "double_pendulum_point", "--states", "{tmp}/garbage.json"], "not valid JSON"),
     "states NaN": (["check", "double_pendulum_point", "--states", "{tmp}/nan.json"], "not finite"),

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-
 from lagrange_xval.equations._forms import Explicit, Implicit
 from lagrange_xval.validate import fastpath
 from lagrange_xval.validate.sources.hand import HandSource

@@ -5,7 +5,6 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
-
 from lagrange_xval.validate import modelsync, systems
 from lagrange_xval.validate.sources import make_source
 
@@ -22,8 +21,11 @@ def test_at_least_the_notes_first_system_is_discovered():
 def test_every_mjcf_element_that_matters_is_named(system):
     """Engines are mapped by MJCF names, never by index."""
     m = system.mujoco_model()
-    for obj, count in ((mujoco.mjtObj.mjOBJ_BODY, m.nbody), (mujoco.mjtObj.mjOBJ_JOINT, m.njnt),
-                       (mujoco.mjtObj.mjOBJ_ACTUATOR, m.nu)):
+    for obj, count in (
+        (mujoco.mjtObj.mjOBJ_BODY, m.nbody),
+        (mujoco.mjtObj.mjOBJ_JOINT, m.njnt),
+        (mujoco.mjtObj.mjOBJ_ACTUATOR, m.nu),
+    ):
         for i in range(1 if obj == mujoco.mjtObj.mjOBJ_BODY else 0, count):
             assert mujoco.mj_id2name(m, obj, i), f"{system.mjcf.name}: unnamed {obj.name} {i}"
 
@@ -50,8 +52,9 @@ def test_steps_one_second_without_mujoco_warnings(system):
 def test_equations_state_every_parameter_of_the_compiled_model(system):
     """The MJCF is the one source of numbers: what the equations assume must be what MuJoCo compiled."""
     bad = [r for r in modelsync.equations_vs_model(system) if not r["passed"]]
-    assert not bad, "\n".join(f"{r['key']}: equations assume {r['expected']}, MJCF has {r['actual']} ({r['why']})"
-                              for r in bad)
+    assert not bad, "\n".join(
+        f"{r['key']}: equations assume {r['expected']}, MJCF has {r['actual']} ({r['why']})" for r in bad
+    )
 
 
 def test_pinocchio_compiles_the_same_bodies_as_mujoco(system):
@@ -65,7 +68,8 @@ def test_printed_literals_match_the_compiled_model(system):
         for field, printed in getattr(variant, "printed_parameters", {}).items():
             compiled = getattr(system.params, field)
             assert printed == pytest.approx(compiled, rel=1e-12, abs=0.0), (
-                f"{variant.name} hard-codes {field} = {printed}; the MJCF compiles {compiled}")
+                f"{variant.name} hard-codes {field} = {printed}; the MJCF compiles {compiled}"
+            )
 
 
 def test_equations_modules_import_no_engine():
@@ -92,8 +96,9 @@ def test_mujoco_computes_only_what_the_scene_uses(system):
     from lagrange_xval.validate.pipeline import NEVER_USED, OPTIONAL
 
     m = system.mujoco_model()
-    bits = {name: getattr(mujoco.mjtDisableBit, name) for name in dir(mujoco.mjtDisableBit)
-            if name.startswith("mjDSBL_")}
+    bits = {
+        name: getattr(mujoco.mjtDisableBit, name) for name in dir(mujoco.mjtDisableBit) if name.startswith("mjDSBL_")
+    }
     off = {name.removeprefix("mjDSBL_").lower() for name, bit in bits.items() if m.opt.disableflags & int(bit)}
     assert set(NEVER_USED) <= off, f"{system.name} computes {set(NEVER_USED) - off}"
     for use, flag in OPTIONAL.items():

@@ -7,7 +7,6 @@ change in the judge, the engines or a transcription that flips one is noticed.
 from __future__ import annotations
 
 import pytest
-
 from lagrange_xval.validate import compare, judge, systems
 from lagrange_xval.validate.sources import make_sources
 
@@ -36,12 +35,15 @@ def verdicts():
 
 def test_every_printed_form_has_a_verdict(verdicts):
     assert verdicts, "no printed forms found"
-    assert all(v["verdict"] in ("agrees", "disagrees") for v in verdicts.values()), \
-        {k: v.get("reason") for k, v in verdicts.items() if v["verdict"] not in ("agrees", "disagrees")}
+    assert all(v["verdict"] in ("agrees", "disagrees") for v in verdicts.values()), {
+        k: v.get("reason") for k, v in verdicts.items() if v["verdict"] not in ("agrees", "disagrees")
+    }
 
 
 def test_verdicts_are_the_ones_found(verdicts):
-    found = {k: (v["verdict"], v.get("first_disagreeing_term")) for k, v in verdicts.items() if v["verdict"] != "agrees"}
+    found = {
+        k: (v["verdict"], v.get("first_disagreeing_term")) for k, v in verdicts.items() if v["verdict"] != "agrees"
+    }
     assert found == DISAGREE
 
 

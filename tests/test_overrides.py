@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import pytest
-
 from lagrange_xval.validate import compare, modelsync, overrides, systems
 from lagrange_xval.validate.errors import HarnessError
 from lagrange_xval.validate.sources import make_sources
@@ -39,10 +38,17 @@ def test_overrides_change_the_compiled_numbers_at_full_precision():
     assert "1e-14" not in s.mjcf_xml()  # the bar's tiny axial inertia was scaled, not rounded away
 
 
-@pytest.mark.parametrize("item, message", [
-    ("scale/mass=-1", "out of range"), ("body/link1/mass=-2", "must be positive"), ("body/link9/mass=2", "Unknown body 'link9'"),
-    ("joint/theta/damping=nan", "must be finite"), ("foo=1", "Valid keys"), ("scale/mass", "KEY=VALUE"),
-])
+@pytest.mark.parametrize(
+    "item, message",
+    [
+        ("scale/mass=-1", "out of range"),
+        ("body/link1/mass=-2", "must be positive"),
+        ("body/link9/mass=2", "Unknown body 'link9'"),
+        ("joint/theta/damping=nan", "must be finite"),
+        ("foo=1", "Valid keys"),
+        ("scale/mass", "KEY=VALUE"),
+    ],
+)
 def test_bad_overrides_are_one_line_errors(item, message):
     with pytest.raises(HarnessError, match=message):
         systems.load("double_pendulum_point", overrides=overrides.parse([item])).mujoco_model()

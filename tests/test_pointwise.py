@@ -7,7 +7,6 @@ error and the worst state.
 from __future__ import annotations
 
 import pytest
-
 from lagrange_xval.validate import compare
 from lagrange_xval.validate.tolerances import QUANTITY_TIER
 
@@ -26,7 +25,9 @@ def test_sources_agree(system, quantity):
     bad = _failures(system, quantity)
     assert not bad, "; ".join(
         f"{system.name} {quantity} {r['pair']}: scaled error {r['scaled']:.2e} > {r['tolerance']:.0e} "
-        f"(max abs {r['max_abs']:.2e}) at {r['worst_state']}" for r in bad)
+        f"(max abs {r['max_abs']:.2e}) at {r['worst_state']}"
+        for r in bad
+    )
 
 
 def test_mass_matrix_is_symmetric_positive_definite(system):
@@ -41,7 +42,6 @@ def test_mass_matrix_is_symmetric_positive_definite(system):
 def test_solve_tier_grows_with_conditioning_but_not_below_its_floor():
     """An ill-conditioned state gets cond(M)-scaled room; a well-conditioned one keeps the tier."""
     import numpy as np
-
     from lagrange_xval.validate.tolerances import TOLERANCES
 
     solve = TOLERANCES.solve

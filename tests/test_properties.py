@@ -11,12 +11,12 @@ import functools
 import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-
 from lagrange_xval.validate import compare, systems
 from lagrange_xval.validate.sources import make_sources
 
-PROPERTY_SETTINGS = settings(max_examples=12, deadline=None, derandomize=True,
-                             suppress_health_check=[HealthCheck.function_scoped_fixture])
+PROPERTY_SETTINGS = settings(
+    max_examples=12, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 # Rescalings that keep the bobs' 1e-14 kg m^2 inertia above MuJoCo's mjMINVAL (1e-15): mass x length^2 >= 0.125.
 scales = st.sampled_from([0.5, 0.8, 1.0, 2.0, 4.0])
 
@@ -73,7 +73,7 @@ def test_energy_balance(system, seed, mass, length):
         e_minus = sum(src.energies(q - h * v, v - h * a))
         dedt = (e_plus - e_minus) / (2 * h)
         power = np.einsum("ni,ni->n", v, tau + src.passive(q, v))
-        scale = (np.abs(np.einsum("ni,ni->n", v, src.bias(q, v))).max() + np.abs(power).max())
+        scale = np.abs(np.einsum("ni,ni->n", v, src.bias(q, v))).max() + np.abs(power).max()
         assert np.abs(dedt - power).max() <= 1e-6 * scale, f"{name}: {np.abs(dedt - power).max():.2e}"
 
 

@@ -6,8 +6,11 @@ from lagrange_xval.validate.systems import PACKAGE_ROOT
 
 
 def _commands():
-    return [line.strip() for line in (PACKAGE_ROOT / "README.md").read_text().splitlines()
-            if line.startswith("    python3 -m venv")]
+    return [
+        line.strip()
+        for line in (PACKAGE_ROOT / "README.md").read_text().splitlines()
+        if line.startswith("    python3 -m venv")
+    ]
 
 
 def test_readme_has_exactly_two_setup_commands():

@@ -100,8 +100,9 @@ def test_bodies_of_every_run_follow_the_equations_kinematics(results, rrd):
             positions = np.array([row[0] for row in column(chunk, "Points3D:positions")])
             assert positions.shape == (len(traj["t"]), 3)
             # rerun stores positions as float32
-            np.testing.assert_allclose(positions, expected[body], rtol=0.0, atol=1e-6,
-                                       err_msg=f"{run_['source']}/{body}")
+            np.testing.assert_allclose(
+                positions, expected[body], rtol=0.0, atol=1e-6, err_msg=f"{run_['source']}/{body}"
+            )
             assert static(chunks, f"/{SYSTEM}/{run_['source']}/bodies/{body}").num_rows == 1  # colour, radius
             temporal(chunks, f"/{SYSTEM}/{run_['source']}/links/{body}")
         trail = temporal(chunks, f"/{SYSTEM}/{run_['source']}/trail/{s.bodies[-1]}")
@@ -151,8 +152,14 @@ def test_text_document_describes_system_and_runs(results, rrd):
     text = batch.column(batch.schema.get_field_index("TextDocument:text")).to_pylist()[0][0]
     media = batch.column(batch.schema.get_field_index("TextDocument:media_type")).to_pylist()[0][0]
     assert media == "text/markdown"
-    for needle in [s["description"], *s["coordinates"], *s["parameters"], f"{replay.ERROR_FLOOR:g}",
-                   f"{s['trajectories']['threshold']:g}", *(r["method"] for r in s["trajectories"]["runs"])]:
+    for needle in [
+        s["description"],
+        *s["coordinates"],
+        *s["parameters"],
+        f"{replay.ERROR_FLOOR:g}",
+        f"{s['trajectories']['threshold']:g}",
+        *(r["method"] for r in s["trajectories"]["runs"]),
+    ]:
         assert needle in text, f"the description lacks {needle!r}"
 
 
@@ -215,8 +222,9 @@ def test_extra_runs_get_their_own_paths_and_colours(results, tmp_path):
 def test_bodies_turning_in_place_show_their_axes(results, tmp_path, monkeypatch):
     """A body whose centre of mass never moves (a gimbal) is drawn by its three axes, turning with it."""
     s = systems.load(SYSTEM)
-    monkeypatch.setattr(s.equations, "body_positions",
-                        lambda p, q: {b: np.zeros((*np.shape(q)[:-1], 3)) for b in s.bodies})
+    monkeypatch.setattr(
+        s.equations, "body_positions", lambda p, q: {b: np.zeros((*np.shape(q)[:-1], 3)) for b in s.bodies}
+    )
     path = tmp_path / "x.rrd"
     path.write_bytes(replay.render_system(SYSTEM, results["systems"][SYSTEM]))
     chunks = read(path)

@@ -11,7 +11,6 @@ import sys
 import time
 
 import pytest
-
 from lagrange_xval.validate import modelsync, systems
 from lagrange_xval.validate.cli import main
 from lagrange_xval.validate.errors import HarnessError
@@ -30,8 +29,11 @@ def _variant(tmp_path, old: str, new: str) -> systems.System:
 
 def test_collision_free_geom_mass_that_pinocchio_drops_is_named(tmp_path):
     """A body whose mass comes from a collision-free geom: MuJoCo counts it, Pinocchio drops it."""
-    s = _variant(tmp_path, '<inertial pos="0 -1 0" mass="1" diaginertia="1e-14 1e-14 1e-14"/>\n      <geom name="rod1"',
-                 '<geom name="bobmass" type="sphere" pos="0 -1 0" size="0.05" mass="1"/>\n      <geom name="rod1"')
+    s = _variant(
+        tmp_path,
+        '<inertial pos="0 -1 0" mass="1" diaginertia="1e-14 1e-14 1e-14"/>\n      <geom name="rod1"',
+        '<geom name="bobmass" type="sphere" pos="0 -1 0" size="0.05" mass="1"/>\n      <geom name="rod1"',
+    )
     bad = {r["key"] for r in modelsync.pinocchio_vs_mujoco(s, make_source(s, "pinocchio")) if not r["passed"]}
     assert "body/link1/mass" in bad
 
@@ -52,12 +54,15 @@ def test_check_refuses_models_that_differ_before_comparing_dynamics(tmp_path, mo
     assert len(err.splitlines()) == 1 and "body/link1/com" in err
 
 
-@pytest.mark.parametrize("state, message", [
-    ({"q": [0, 0], "v": [1e200, 0]}, "accepts |v| <= 10000"),
-    ({"q": [1e30, 0], "v": [0, 0]}, "accepts |q|"),
-    ({"q": [0, 0], "v": [0, 0], "tau": [1e12, 0]}, "accepts |tau|"),
-    ({"q": [0, "x"], "v": [0, 0]}, "must be numbers"),
-])
+@pytest.mark.parametrize(
+    "state, message",
+    [
+        ({"q": [0, 0], "v": [1e200, 0]}, "accepts |v| <= 10000"),
+        ({"q": [1e30, 0], "v": [0, 0]}, "accepts |q|"),
+        ({"q": [0, 0], "v": [0, 0], "tau": [1e12, 0]}, "accepts |tau|"),
+        ({"q": [0, "x"], "v": [0, 0]}, "must be numbers"),
+    ],
+)
 def test_huge_or_non_numeric_states_are_refused(tmp_path, capsys, state, message):
     path = tmp_path / "s.json"
     path.write_text(json.dumps([state]))
@@ -88,7 +93,9 @@ def test_a_full_disk_leaves_every_previous_report_intact(tmp_path, monkeypatch, 
     err = capsys.readouterr().err.strip().splitlines()
     assert "No space left on device" in err[-1] and err[-1].startswith("lagrange-xval: error:")
     assert not any("Traceback" in line for line in err)
-    assert {p.name: p.read_text() for p in out.iterdir()} == {n: "OLD" for n in ("results.json", "report.md", "report.html")}
+    assert {p.name: p.read_text() for p in out.iterdir()} == {
+        n: "OLD" for n in ("results.json", "report.md", "report.html")
+    }
 
 
 def test_a_report_folder_that_cannot_be_created_is_one_line(tmp_path, capsys):
@@ -101,8 +108,13 @@ def test_a_report_folder_that_cannot_be_created_is_one_line(tmp_path, capsys):
 def test_ctrl_c_mid_run_stops_cleanly(tmp_path):
     out = tmp_path / "reports"
     _old_reports(out)
-    proc = subprocess.Popen([sys.executable, "-m", "lagrange_xval.validate.cli", "run", "--out", str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "lagrange_xval.validate.cli", "run", "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
     time.sleep(2.0)  # well inside the run: imports done, workers busy
     os.killpg(proc.pid, signal.SIGINT)  # as a terminal's Ctrl-C reaches the whole process group
     _, err = proc.communicate(timeout=60)

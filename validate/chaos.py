@@ -44,9 +44,8 @@ from __future__ import annotations
 import functools
 import time
 from dataclasses import dataclass
-from typing import Any
-
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -617,7 +616,13 @@ def _lyapunov_cached(system: Any, x0: tuple[float, ...], tau: tuple[float, ...],
 
 
 def chaos_summary(
-    system: Any, q0: Any, v0: Any, tau: Any, *, t: np.ndarray | None = None, tolerance: float = DEFAULT_TOLERANCE,
+    system: Any,
+    q0: Any,
+    v0: Any,
+    tau: Any,
+    *,
+    t: np.ndarray | None = None,
+    tolerance: float = DEFAULT_TOLERANCE,
     cache_dir: Any = "default",
 ) -> dict[str, Any]:
     """Lyapunov exponent (two methods), amplification at 2 s and 10 s, and horizons, for one start.
@@ -649,8 +654,9 @@ def chaos_summary(
     return json.loads(dumps(out))
 
 
-def _chaos_summary(system: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, *, t: np.ndarray,
-                   tolerance: float) -> dict[str, Any]:
+def _chaos_summary(
+    system: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, *, t: np.ndarray, tolerance: float
+) -> dict[str, Any]:
     x0 = tuple(float(x) for x in np.concatenate([q0, v0]))
     lyap = _lyapunov_cached(system, x0, tuple(float(x) for x in tau), "variational")
     lyap2 = _lyapunov_cached(system, x0, tuple(float(x) for x in tau), "two trajectories")

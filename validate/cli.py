@@ -56,8 +56,12 @@ def _parser() -> argparse.ArgumentParser:
 
     check = sub.add_parser("check", help="pointwise comparison of the three sources")
     check.add_argument("system")
-    check.add_argument("--states", type=Path, metavar="FILE",
-                       help='JSON list of {"q": [...], "v": [...], "tau": [...]} in the notes\' coordinates')
+    check.add_argument(
+        "--states",
+        type=Path,
+        metavar="FILE",
+        help='JSON list of {"q": [...], "v": [...], "tau": [...]} in the notes\' coordinates',
+    )
     check.add_argument("--n", type=_positive_int, default=DEFAULT_STATES, help="random states when no FILE")
     check.add_argument("--seed", type=int, default=DEFAULT_SEED)
     check.add_argument("--json", action="store_true", help="print one JSON object")
@@ -117,7 +121,8 @@ def _states_from_file(system: Any, path: Path) -> Any:
             if not isinstance(x, list) or len(x) != system.nv:
                 raise HarnessError(
                     f"{path}: state {i}: {name} must be a list of {system.nv} numbers "
-                    f"({', '.join(system.coordinates)}); got {x!r}.")
+                    f"({', '.join(system.coordinates)}); got {x!r}."
+                )
     if "actuation" not in system.uses and any(any(t) for t in taus):
         pass  # unactuated systems take tau as an applied joint torque
     return validate_states(system, qs, vs, taus)
@@ -130,8 +135,10 @@ def _require_same_model(system: Any, sources: dict[str, Any]) -> None:
     bad = modelsync.check(system, sources["pinocchio"])["mismatches"]
     if bad:
         keys = ", ".join(r["key"] for r in bad[:4]) + (f" and {len(bad) - 4} more" if len(bad) > 4 else "")
-        raise HarnessError(f"{system.name}: the sources describe different models ({keys}): {bad[0]['why']}; "
-                           f"{bad[0]['key']} is {bad[0]['actual']}, expected {bad[0]['expected']}.")
+        raise HarnessError(
+            f"{system.name}: the sources describe different models ({keys}): {bad[0]['why']}; "
+            f"{bad[0]['key']} is {bad[0]['actual']}, expected {bad[0]['expected']}."
+        )
 
 
 def cmd_check(args: argparse.Namespace) -> int:
@@ -142,7 +149,11 @@ def cmd_check(args: argparse.Namespace) -> int:
     from .systems import load
 
     system = load(args.system)
-    states = _states_from_file(system, args.states) if args.states else compare.random_states(system, n=args.n, seed=args.seed)
+    states = (
+        _states_from_file(system, args.states)
+        if args.states
+        else compare.random_states(system, n=args.n, seed=args.seed)
+    )
     sources = make_sources(system)
     _require_same_model(system, sources)
     values = compare.evaluate(sources, states)
@@ -153,16 +164,24 @@ def cmd_check(args: argparse.Namespace) -> int:
             "system": system.name,
             "coordinates": list(system.coordinates),
             "states": [
-                {"q": states.q[i], "v": states.v[i], "tau": states.tau[i],
-                 "sources": {s: {k: values[s][k][i] for k in keys} for s in values}}
+                {
+                    "q": states.q[i],
+                    "v": states.v[i],
+                    "tau": states.tau[i],
+                    "sources": {s: {k: values[s][k][i] for k in keys} for s in values},
+                }
                 for i in range(len(states))
             ],
             "max_disagreement": {r["quantity"]: {} for r in rows},
             "passed": all(r["passed"] for r in rows),
         }
         for r in rows:
-            out["max_disagreement"][r["quantity"]][r["pair"]] = {"max_abs": r["max_abs"], "scaled": r["scaled"],
-                                                                 "tolerance": r["tolerance"], "passed": r["passed"]}
+            out["max_disagreement"][r["quantity"]][r["pair"]] = {
+                "max_abs": r["max_abs"],
+                "scaled": r["scaled"],
+                "tolerance": r["tolerance"],
+                "passed": r["passed"],
+            }
         from .results import to_jsonable
 
         print(json.dumps(to_jsonable(out), allow_nan=False))
@@ -170,8 +189,10 @@ def cmd_check(args: argparse.Namespace) -> int:
         print(f"{system.name}: {len(states)} states, coordinates ({', '.join(system.coordinates)})")
         print(f"{'quantity':15s} {'pair':20s} {'max abs':>10s} {'scaled':>10s} {'tolerance':>10s}  verdict")
         for r in rows:
-            print(f"{r['quantity']:15s} {r['pair']:20s} {r['max_abs']:10.2e} {r['scaled']:10.2e} "
-                  f"{r['tolerance']:10.0e}  {'pass' if r['passed'] else 'FAIL'}")
+            print(
+                f"{r['quantity']:15s} {r['pair']:20s} {r['max_abs']:10.2e} {r['scaled']:10.2e} "
+                f"{r['tolerance']:10.0e}  {'pass' if r['passed'] else 'FAIL'}"
+            )
     return 0 if all(r["passed"] for r in rows) and np.isfinite([r["max_abs"] for r in rows]).all() else 1
 
 
@@ -193,8 +214,18 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     source = make_source(system, args.source)
     if args.source == "mujoco":
         dt = source.m.opt.timestep
-        traj = integrate.mujoco_trajectory(system, source, st.q[0], st.v[0], st.tau[0], t, integrator="RK4",
-                                           timestep=dt if round(args.dt_out / dt) * dt == args.dt_out else args.dt_out / max(1, round(args.dt_out / dt)))
+        traj = integrate.mujoco_trajectory(
+            system,
+            source,
+            st.q[0],
+            st.v[0],
+            st.tau[0],
+            t,
+            integrator="RK4",
+            timestep=dt
+            if round(args.dt_out / dt) * dt == args.dt_out
+            else args.dt_out / max(1, round(args.dt_out / dt)),
+        )
     else:
         traj = integrate.scipy_trajectory(system, source, st.q[0], st.v[0], st.tau[0], t, **integrate.SCIPY_DEFAULT)
     cols = ["t", *system.coordinates, *[f"d{c}" for c in system.coordinates]]
@@ -205,8 +236,12 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     else:
         from .results import dumps
 
-        atomic_write(args.out, dumps({"system": system.name, "source": args.source, "method": traj.method,
-                                      "columns": cols, "rows": table}))
+        atomic_write(
+            args.out,
+            dumps(
+                {"system": system.name, "source": args.source, "method": traj.method, "columns": cols, "rows": table}
+            ),
+        )
     print(f"wrote {args.out} ({len(table)} samples, {traj.method})")
     return 0
 
@@ -240,8 +275,14 @@ def cmd_replay(args: argparse.Namespace) -> int:
     return replay_command(args.system, args.save)
 
 
-COMMANDS = {"list": cmd_list, "run": cmd_run, "check": cmd_check, "simulate": cmd_simulate,
-            "report": cmd_report, "replay": cmd_replay}
+COMMANDS = {
+    "list": cmd_list,
+    "run": cmd_run,
+    "check": cmd_check,
+    "simulate": cmd_simulate,
+    "report": cmd_report,
+    "replay": cmd_replay,
+}
 
 
 def main(argv: list[str] | None = None) -> int:

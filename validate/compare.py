@@ -61,7 +61,8 @@ def validate_states(system: Any, q: Any, v: Any, tau: Any | None = None) -> Stat
             arr = arr[None]
         if arr.ndim != 2 or arr.shape[1] != n:
             raise HarnessError(
-                f"{name} must have {n} values per state ({', '.join(system.coordinates)}) for {system.name}; got shape {arr.shape[1:] if arr.ndim == 2 else arr.shape}."
+                f"{name} must have {n} values per state ({', '.join(system.coordinates)}) for {system.name}; "
+                f"got shape {arr.shape[1:] if arr.ndim == 2 else arr.shape}."
             )
         if not np.all(np.isfinite(arr)):
             bad = int(np.argwhere(~np.isfinite(arr))[0][0])
@@ -69,7 +70,9 @@ def validate_states(system: Any, q: Any, v: Any, tau: Any | None = None) -> Stat
         limit, unit = LIMITS[name]
         if np.abs(arr).max(initial=0.0) > limit:
             bad = int(np.argwhere(np.abs(arr) > limit)[0][0])
-            raise HarnessError(f"{name} of state {bad} is {arr[bad].tolist()}; the harness accepts |{name}| <= {limit:g} {unit}.")
+            raise HarnessError(
+                f"{name} of state {bad} is {arr[bad].tolist()}; the harness accepts |{name}| <= {limit:g} {unit}."
+            )
         arrays[name] = arr
     if not (len(arrays["q"]) == len(arrays["v"]) == len(arrays["tau"])):
         raise HarnessError("q, v and tau must describe the same number of states.")
@@ -93,9 +96,18 @@ def evaluate(sources: dict[str, Any], states: States) -> dict[str, dict[str, np.
     return out
 
 
-def error_row(quantity: str, pair: str, a: np.ndarray, b: np.ndarray, states: States, *, tier: str,
-              tolerances: Tolerances = TOLERANCES, min_scale: float = 0.0,
-              cond: np.ndarray | None = None) -> dict[str, Any]:
+def error_row(
+    quantity: str,
+    pair: str,
+    a: np.ndarray,
+    b: np.ndarray,
+    states: States,
+    *,
+    tier: str,
+    tolerances: Tolerances = TOLERANCES,
+    min_scale: float = 0.0,
+    cond: np.ndarray | None = None,
+) -> dict[str, Any]:
     """One row: the max absolute error, the max error relative to each state's magnitude, the error
     scaled by the quantity's range over the sample (what the tier judges), and the worst state."""
     n = len(states)
@@ -128,8 +140,13 @@ def error_row(quantity: str, pair: str, a: np.ndarray, b: np.ndarray, states: St
     }
 
 
-def compare(values: dict[str, dict[str, np.ndarray]], states: States, *,
-            tolerances: Tolerances = TOLERANCES, reference: str = "mujoco") -> list[dict[str, Any]]:
+def compare(
+    values: dict[str, dict[str, np.ndarray]],
+    states: States,
+    *,
+    tolerances: Tolerances = TOLERANCES,
+    reference: str = "mujoco",
+) -> list[dict[str, Any]]:
     """Rows for every quantity and every pair of sources, sorted by quantity then pair."""
     rows = []
     names = sorted(values)
@@ -138,13 +155,25 @@ def compare(values: dict[str, dict[str, np.ndarray]], states: States, *,
         for a, b in itertools.combinations(names, 2):
             also = [values[s][k] for k in SCALE_ALSO_BY.get(quantity, ()) for s in (a, b)]
             min_scale = max((float(np.abs(x).max()) for x in also), default=0.0)
-            rows.append(error_row(quantity, f"{a}~{b}", values[a][quantity], values[b][quantity], states,
-                                  tier=tier, tolerances=tolerances, min_scale=min_scale, cond=cond))
+            rows.append(
+                error_row(
+                    quantity,
+                    f"{a}~{b}",
+                    values[a][quantity],
+                    values[b][quantity],
+                    states,
+                    tier=tier,
+                    tolerances=tolerances,
+                    min_scale=min_scale,
+                    cond=cond,
+                )
+            )
     return sorted(rows, key=lambda r: (r["quantity"], r["pair"]))
 
 
-def pointwise(system: Any, *, n: int, seed: int, sources: dict[str, Any] | None = None,
-              tolerances: Tolerances = TOLERANCES) -> dict[str, Any]:
+def pointwise(
+    system: Any, *, n: int, seed: int, sources: dict[str, Any] | None = None, tolerances: Tolerances = TOLERANCES
+) -> dict[str, Any]:
     """The pointwise check of one system at `n` seeded states."""
     from .sources import make_sources
 

@@ -50,8 +50,15 @@ def check_equivalence(system: Any, *, n: int = 200, seed: int = 0, t_end: float 
     for quantity, (a, b) in pairs.items():
         err = float(np.abs(a - b).max())
         scale = float(np.abs(b).max()) or 1.0
-        rows.append({"quantity": quantity, "max_abs": err, "scaled": err / scale,
-                     "tolerance": TOLERANCES.algebraic.rtol, "passed": err / scale <= TOLERANCES.algebraic.rtol})
+        rows.append(
+            {
+                "quantity": quantity,
+                "max_abs": err,
+                "scaled": err / scale,
+                "tolerance": TOLERANCES.algebraic.rtol,
+                "passed": err / scale <= TOLERANCES.algebraic.rtol,
+            }
+        )
     # Trajectories from the other system's initial state, mapped.
     from .integrate import initial_state
 
@@ -61,6 +68,13 @@ def check_equivalence(system: Any, *, n: int = 200, seed: int = 0, t_end: float 
     tr_o = scipy_trajectory(other, that, q0, v0, tau, t, **SCIPY_DEFAULT)
     tr_t = scipy_trajectory(system, this, B @ q0, B @ v0, tau, t, **SCIPY_DEFAULT)
     err = np.abs(tr_t.q - tr_o.q @ B.T).max(axis=1)
-    rows.append({"quantity": f"trajectory q over {t_end:g} s", "max_abs": float(err.max()), "scaled": float(err.max()),
-                 "tolerance": TOLERANCES.trajectory.rtol, "passed": float(err.max()) <= TOLERANCES.trajectory.rtol})
+    rows.append(
+        {
+            "quantity": f"trajectory q over {t_end:g} s",
+            "max_abs": float(err.max()),
+            "scaled": float(err.max()),
+            "tolerance": TOLERANCES.trajectory.rtol,
+            "passed": float(err.max()) <= TOLERANCES.trajectory.rtol,
+        }
+    )
     return {"other": other_name, "map": B, "n_states": n, "rows": rows, "passed": all(r["passed"] for r in rows)}

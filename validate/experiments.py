@@ -32,8 +32,18 @@ def dynamic_forms(system: Any) -> list[tuple[str, Any]]:
     return [("hand derivation", None)] + [(v.name, v) for v in system.variants if isinstance(v, (Explicit, Implicit))]
 
 
-def _integrate(system: Any, variant: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t: np.ndarray, *,
-               method: str, rtol: float, atol: float) -> tuple[np.ndarray, str]:
+def _integrate(
+    system: Any,
+    variant: Any,
+    q0: np.ndarray,
+    v0: np.ndarray,
+    tau: np.ndarray,
+    t: np.ndarray,
+    *,
+    method: str,
+    rtol: float,
+    atol: float,
+) -> tuple[np.ndarray, str]:
     from scipy.integrate import solve_ivp
 
     from .fastpath import scalar_rhs
@@ -41,8 +51,15 @@ def _integrate(system: Any, variant: Any, q0: np.ndarray, v0: np.ndarray, tau: n
     n = len(q0)
     rhs = scalar_rhs(system, variant)
     tau_list = [float(x) for x in tau]
-    sol = solve_ivp(lambda tt, y: rhs(tt, y, tau_list), (t[0], t[-1]), np.concatenate([q0, v0]), method=method,
-                    t_eval=t, rtol=rtol, atol=atol)
+    sol = solve_ivp(
+        lambda tt, y: rhs(tt, y, tau_list),
+        (t[0], t[-1]),
+        np.concatenate([q0, v0]),
+        method=method,
+        t_eval=t,
+        rtol=rtol,
+        atol=atol,
+    )
     q = np.full((len(t), n), np.nan)
     q[: sol.y.shape[1]] = sol.y[:n].T
     return q, "ok" if sol.success else sol.message
@@ -68,15 +85,26 @@ def run_experiments(system: Any) -> dict[str, Any]:
                 continue
             sep = np.abs(qa - qb).max(axis=1)
             dep = np.abs(qa - accurate).max(axis=1)
-            runs.append({
-                "form": name, "rtol": rtol, "status": status_a if status_a != "ok" else status_b,
-                "q": qa, "q_perturbed": qb,
-                "separation_time": first_exceeding(t, np.nan_to_num(sep, nan=np.inf), RESEMBLANCE),
-                "departure_time": first_exceeding(t, np.nan_to_num(dep, nan=np.inf), RESEMBLANCE),
-            })
+            runs.append(
+                {
+                    "form": name,
+                    "rtol": rtol,
+                    "status": status_a if status_a != "ok" else status_b,
+                    "q": qa,
+                    "q_perturbed": qb,
+                    "separation_time": first_exceeding(t, np.nan_to_num(sep, nan=np.inf), RESEMBLANCE),
+                    "departure_time": first_exceeding(t, np.nan_to_num(dep, nan=np.inf), RESEMBLANCE),
+                }
+            )
     return {
         "method": "scipy RK45 (Dormand-Prince 5(4), as Matlab's ode45), atol 1e-6",
         "accurate": "hand equations, scipy DOP853 rtol 1e-12",
-        "q0": q0, "v0": v0, "perturbed_coordinate": system.coordinates[-1], "perturbation": PERTURBATION,
-        "resemblance": RESEMBLANCE, "t": t, "q_accurate": accurate, "runs": runs,
+        "q0": q0,
+        "v0": v0,
+        "perturbed_coordinate": system.coordinates[-1],
+        "perturbation": PERTURBATION,
+        "resemblance": RESEMBLANCE,
+        "t": t,
+        "q_accurate": accurate,
+        "runs": runs,
     }

@@ -1,10 +1,11 @@
 """A scalar fast path for the hand equations, generated from the equations module itself.
 
 The module's numpy functions are traced with sympy symbols (validate/tracing.py), giving M(q),
-bias(q, v) and passive(q, v) as sympy expressions with the compiled MJCF's parameters as numbers. The right-hand side a = M^-1 (tau + passive - bias) is then solved
-symbolically (n <= 3), reduced by common-subexpression elimination and printed as plain Python
-with `math`: one call costs what a hand-written scalar `math` implementation costs. The numpy
-path (`HandSource.forward`) stays the reference; tests compare the two at random states.
+bias(q, v) and passive(q, v) as sympy expressions with the compiled MJCF's parameters as numbers.
+The right-hand side a = M^-1 (tau + passive - bias) is then solved symbolically (n <= 3), reduced
+by common-subexpression elimination and printed as plain Python with `math`: one call costs what a
+hand-written scalar `math` implementation costs. The numpy path (`HandSource.forward`) stays the
+reference; tests compare the two at random states.
 """
 
 from __future__ import annotations
@@ -17,8 +18,12 @@ from . import tracing
 def _symbols(n: int) -> tuple[list[Any], list[Any], list[Any], list[Any]]:
     import sympy as sp
 
-    return (list(sp.symbols(f"q0:{n}")), list(sp.symbols(f"v0:{n}")), list(sp.symbols(f"a0:{n}")),
-            list(sp.symbols(f"tau0:{n}")))
+    return (
+        list(sp.symbols(f"q0:{n}")),
+        list(sp.symbols(f"v0:{n}")),
+        list(sp.symbols(f"a0:{n}")),
+        list(sp.symbols(f"tau0:{n}")),
+    )
 
 
 def _solve(A: Any, b: list[Any]) -> list[Any]:
@@ -65,9 +70,11 @@ def rhs_source(acc: list[Any], qs: list[Any], vs: list[Any], taus: list[Any]) ->
 
     subs, (reduced,) = sp.cse([sp.Matrix(acc)], optimizations="basic")
     printer = PythonCodePrinter({"standard": "python3", "fully_qualified_modules": True})
-    lines = ["def rhs(t, y, tau):",
-             f"    {', '.join(map(str, qs + vs))}, = y",
-             f"    {', '.join(map(str, taus))}, = tau"]
+    lines = [
+        "def rhs(t, y, tau):",
+        f"    {', '.join(map(str, qs + vs))}, = y",
+        f"    {', '.join(map(str, taus))}, = tau",
+    ]
     lines += [f"    {sym} = {printer.doprint(e)}" for sym, e in subs]
     lines.append(f"    return [{', '.join(map(str, vs))}, {', '.join(printer.doprint(e) for e in reduced)}]")
     return "\n".join(lines) + "\n"

@@ -79,8 +79,18 @@ def _rhs(source: Any, tau: np.ndarray):
     return h, counter
 
 
-def scipy_trajectory(system: Any, source: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t: np.ndarray,
-                     *, method: str = "DOP853", rtol: float = 1e-12, atol: float = 1e-12) -> Trajectory:
+def scipy_trajectory(
+    system: Any,
+    source: Any,
+    q0: np.ndarray,
+    v0: np.ndarray,
+    tau: np.ndarray,
+    t: np.ndarray,
+    *,
+    method: str = "DOP853",
+    rtol: float = 1e-12,
+    atol: float = 1e-12,
+) -> Trajectory:
     """`solve_ivp` on a source's forward dynamics (the hand equations or Pinocchio's ABA)."""
     from scipy.integrate import solve_ivp
 
@@ -89,18 +99,37 @@ def scipy_trajectory(system: Any, source: Any, q0: np.ndarray, v0: np.ndarray, t
     sol = solve_ivp(f, (t[0], t[-1]), np.concatenate([q0, v0]), method=method, t_eval=t, rtol=rtol, atol=atol)
     if not sol.success:
         raise HarnessError(f"{system.name}: scipy {method} failed on the {source.name} equations: {sol.message}")
-    return Trajectory(source.name, f"scipy {method} rtol {rtol:g}", sol.t, sol.y[:n].T.copy(), sol.y[n:].T.copy(),
-                      {"nfev": counter["nfev"]})
+    return Trajectory(
+        source.name,
+        f"scipy {method} rtol {rtol:g}",
+        sol.t,
+        sol.y[:n].T.copy(),
+        sol.y[n:].T.copy(),
+        {"nfev": counter["nfev"]},
+    )
 
 
-def mujoco_trajectory(system: Any, source: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t: np.ndarray,
-                      *, integrator: str = "RK4", timestep: float | None = None) -> Trajectory:
+def mujoco_trajectory(
+    system: Any,
+    source: Any,
+    q0: np.ndarray,
+    v0: np.ndarray,
+    tau: np.ndarray,
+    t: np.ndarray,
+    *,
+    integrator: str = "RK4",
+    timestep: float | None = None,
+) -> Trajectory:
     """MuJoCo stepping its own integrator; samples every round(dt_out / timestep) steps."""
     import mujoco
 
     m, d = source.m, source.d
-    names = {"Euler": mujoco.mjtIntegrator.mjINT_EULER, "RK4": mujoco.mjtIntegrator.mjINT_RK4,
-             "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT, "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST}
+    names = {
+        "Euler": mujoco.mjtIntegrator.mjINT_EULER,
+        "RK4": mujoco.mjtIntegrator.mjINT_RK4,
+        "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
+        "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+    }
     if integrator not in names:
         from .errors import unknown_name
 
@@ -143,8 +172,9 @@ def first_exceeding(t: np.ndarray, err: np.ndarray, threshold: float) -> float |
     return float(t[above[0]]) if len(above) else None
 
 
-def run_trajectories(system: Any, sources: dict[str, Any], *, t_end: float = DEFAULT_T_END,
-                     dt_out: float = DEFAULT_DT_OUT) -> list[Trajectory]:
+def run_trajectories(
+    system: Any, sources: dict[str, Any], *, t_end: float = DEFAULT_T_END, dt_out: float = DEFAULT_DT_OUT
+) -> list[Trajectory]:
     """The three sources from the system's initial state: scipy on the hand equations and on
     Pinocchio's ABA (same method and tolerances), MuJoCo RK4 at the MJCF's timestep."""
     q0, v0 = initial_state(system)

@@ -22,7 +22,6 @@ where l = 1.
 
 from __future__ import annotations
 
-
 from typing import Any
 
 import numpy as np
@@ -35,8 +34,17 @@ from .tolerances import TOLERANCES, Tolerances
 ENGINES = ("mujoco", "pinocchio")
 PROBE = (("scale/mass", 1.7), ("scale/length", 1.3), ("scale/gravity", 0.8))
 PROBE_LABEL = "probe: masses x1.7, lengths x1.3, gravity x0.8"
-TERM_ORDER = ("printed parameters", "mass matrix", "gravity", "velocity", "friction", "actuation",
-              "residual", "acceleration", "value")
+TERM_ORDER = (
+    "printed parameters",
+    "mass matrix",
+    "gravity",
+    "velocity",
+    "friction",
+    "actuation",
+    "residual",
+    "acceleration",
+    "value",
+)
 
 
 def frictionless_params(system: Any) -> Any:
@@ -58,23 +66,45 @@ class EngineTerms:
             G = src.bias(q, zero)
             bias = src.bias(q, v)
             passive = src.passive(q, v)
-            solve = lambda x: np.linalg.solve(M, x[..., None])[..., 0]  # noqa: E731
+            solve = lambda x, M=M: np.linalg.solve(M, x[..., None])[..., 0]  # noqa: E731
             self.by_engine[name] = {
-                "M": M, "G": G, "Cv": bias - G, "passive": passive, "tau": tau,
+                "M": M,
+                "G": G,
+                "Cv": bias - G,
+                "passive": passive,
+                "tau": tau,
                 "a": src.forward(q, v, tau),
-                "a_gravity": solve(-G), "a_velocity": solve(-(bias - G)), "a_friction": solve(passive),
+                "a_gravity": solve(-G),
+                "a_velocity": solve(-(bias - G)),
+                "a_friction": solve(passive),
                 "a_actuation": solve(tau),
             }
         self.kinematics = {name: sources[name].kinematics(q, v) for name in ENGINES}
         self.energies = {name: sources[name].energies(q, v) for name in ENGINES}
 
 
-def _rows(term: str, printed: np.ndarray, engines: dict[str, np.ndarray], states: States, *, tier: str,
-          tolerances: Tolerances, min_scale: dict[str, float] | None = None) -> list[dict[str, Any]]:
+def _rows(
+    term: str,
+    printed: np.ndarray,
+    engines: dict[str, np.ndarray],
+    states: States,
+    *,
+    tier: str,
+    tolerances: Tolerances,
+    min_scale: dict[str, float] | None = None,
+) -> list[dict[str, Any]]:
     rows = []
     for name, ref in engines.items():
-        row = error_row(term, f"printed~{name}", printed, ref, states, tier=tier, tolerances=tolerances,
-                        min_scale=(min_scale or {}).get(name, 0.0))
+        row = error_row(
+            term,
+            f"printed~{name}",
+            printed,
+            ref,
+            states,
+            tier=tier,
+            tolerances=tolerances,
+            min_scale=(min_scale or {}).get(name, 0.0),
+        )
         row["term"] = row.pop("quantity")
         row["engine"] = name
         rows.append(row)
@@ -101,8 +131,9 @@ def _axis_rotation(axis: np.ndarray, angle: np.ndarray, engine: str) -> np.ndarr
     return out
 
 
-def engine_quantity(system: Any, terms: EngineTerms, quantity: tuple[Any, ...], engine: str, states: States,
-                    angle_index: int) -> np.ndarray:
+def engine_quantity(
+    system: Any, terms: EngineTerms, quantity: tuple[Any, ...], engine: str, states: States, angle_index: int
+) -> np.ndarray:
     """What `engine` computes for a derivation step's quantity."""
     kind, which = quantity[0], quantity[1] if len(quantity) > 1 else None
     if kind == "axis_rotation":
@@ -118,16 +149,23 @@ def engine_quantity(system: Any, terms: EngineTerms, quantity: tuple[Any, ...], 
         raise ValueError(f"quantity {quantity} needs a body")
     k = system.bodies.index(which)
     simple = {
-        "com_position": kin.com_position, "com_velocity": kin.com_velocity,
-        "origin_position": kin.origin_position, "origin_velocity": kin.origin_velocity,
-        "rotation": kin.rotation, "angular_velocity": kin.angular_velocity,
-        "kinetic_energy": kin.kinetic_energy, "potential_energy": kin.potential_energy,
+        "com_position": kin.com_position,
+        "com_velocity": kin.com_velocity,
+        "origin_position": kin.origin_position,
+        "origin_velocity": kin.origin_velocity,
+        "rotation": kin.rotation,
+        "angular_velocity": kin.angular_velocity,
+        "kinetic_energy": kin.kinetic_energy,
+        "potential_energy": kin.potential_energy,
     }
     if kind in simple:
         return simple[kind][:, k]
     if kind in ("translational_kinetic_energy", "rotational_kinetic_energy"):
-        trans = 0.5 * system.view[f"body/{which}/mass"] * np.einsum("ni,ni->n", kin.com_velocity[:, k],
-                                                                    kin.com_velocity[:, k])
+        trans = (
+            0.5
+            * system.view[f"body/{which}/mass"]
+            * np.einsum("ni,ni->n", kin.com_velocity[:, k], kin.com_velocity[:, k])
+        )
         return trans if kind.startswith("translational") else kin.kinetic_energy[:, k] - trans
     if kind == "com_speed_squared":
         return np.einsum("ni,ni->n", kin.com_velocity[:, k], kin.com_velocity[:, k])
@@ -142,16 +180,33 @@ def _printed_parameter_rows(system: Any, variant: Any) -> list[dict[str, Any]]:
         compiled = float(getattr(system.params, field))
         err = abs(printed - compiled)
         scale = max(abs(compiled), abs(printed), np.finfo(float).tiny)
-        rows.append({"term": "printed parameters", "engine": "mjcf", "pair": f"printed~mjcf:{field}",
-                     "max_abs": err, "max_rel": err / scale, "scale": scale, "scaled": err / scale,
-                     "tier": "algebraic", "tolerance": TOLERANCES.algebraic.rtol,
-                     "passed": bool(err / scale <= TOLERANCES.algebraic.rtol),
-                     "worst_state": {"printed": printed, "compiled": compiled}})
+        rows.append(
+            {
+                "term": "printed parameters",
+                "engine": "mjcf",
+                "pair": f"printed~mjcf:{field}",
+                "max_abs": err,
+                "max_rel": err / scale,
+                "scale": scale,
+                "scaled": err / scale,
+                "tier": "algebraic",
+                "tolerance": TOLERANCES.algebraic.rtol,
+                "passed": bool(err / scale <= TOLERANCES.algebraic.rtol),
+                "worst_state": {"printed": printed, "compiled": compiled},
+            }
+        )
     return rows
 
 
-def judge_variant(system: Any, variant: Any, terms: EngineTerms, states: States, *,
-                  tolerances: Tolerances = TOLERANCES, printed_parameters: bool = True) -> dict[str, Any]:
+def judge_variant(
+    system: Any,
+    variant: Any,
+    terms: EngineTerms,
+    states: States,
+    *,
+    tolerances: Tolerances = TOLERANCES,
+    printed_parameters: bool = True,
+) -> dict[str, Any]:
     """One printed form's verdict, with every separated term against both engines."""
     p = system.params
     q, v, tau = states.q, states.v, states.tau
@@ -159,7 +214,9 @@ def judge_variant(system: Any, variant: Any, terms: EngineTerms, states: States,
     uses = system.uses
     e = terms.by_engine
     result: dict[str, Any] = {
-        "name": variant.name, "kind": variant.kind, "notes_equations": list(variant.notes_equations),
+        "name": variant.name,
+        "kind": variant.kind,
+        "notes_equations": list(variant.notes_equations),
         "note": variant.note,
     }
     try:
@@ -167,7 +224,9 @@ def judge_variant(system: Any, variant: Any, terms: EngineTerms, states: States,
         rows = _printed_parameter_rows(system, variant) if printed_parameters else []
         if isinstance(variant, DerivationStep):
             printed = np.asarray(variant.evaluate(p, q, v), dtype=float)
-            refs = {n: engine_quantity(system, terms, variant.quantity, n, states, variant.angle_index) for n in ENGINES}
+            refs = {
+                n: engine_quantity(system, terms, variant.quantity, n, states, variant.angle_index) for n in ENGINES
+            }
             printed = np.broadcast_to(printed, refs["mujoco"].shape)
             rows += _rows("value", printed, refs, states, tier="algebraic", tolerances=tolerances)
         elif isinstance(variant, Implicit):
@@ -177,46 +236,88 @@ def judge_variant(system: Any, variant: Any, terms: EngineTerms, states: States,
             n = system.nv
             cols = [r(p, q, zero, np.broadcast_to(np.eye(n)[j], q.shape), zero) - r00 for j in range(n)]
             mass = np.stack(cols, axis=-1)
-            rows += _rows("mass matrix", mass, {k: s[:, None] * e[k]["M"] for k in ENGINES}, states,
-                          tier="algebraic", tolerances=tolerances)
+            rows += _rows(
+                "mass matrix",
+                mass,
+                {k: s[:, None] * e[k]["M"] for k in ENGINES},
+                states,
+                tier="algebraic",
+                tolerances=tolerances,
+            )
             if "gravity" in uses:
-                rows += _rows("gravity", r00, {k: s * e[k]["G"] for k in ENGINES}, states, tier="algebraic",
-                              tolerances=tolerances)
+                rows += _rows(
+                    "gravity", r00, {k: s * e[k]["G"] for k in ENGINES}, states, tier="algebraic", tolerances=tolerances
+                )
             vel = r(p0, q, v, zero, zero) - r(p0, q, zero, zero, zero)
-            rows += _rows("velocity", vel, {k: s * e[k]["Cv"] for k in ENGINES}, states, tier="algebraic",
-                          tolerances=tolerances)
+            rows += _rows(
+                "velocity", vel, {k: s * e[k]["Cv"] for k in ENGINES}, states, tier="algebraic", tolerances=tolerances
+            )
             if "damping" in uses:
                 fr = r(p, q, v, zero, zero) - r(p0, q, v, zero, zero)
-                rows += _rows("friction", fr, {k: -s * e[k]["passive"] for k in ENGINES}, states,
-                              tier="algebraic", tolerances=tolerances)
+                rows += _rows(
+                    "friction",
+                    fr,
+                    {k: -s * e[k]["passive"] for k in ENGINES},
+                    states,
+                    tier="algebraic",
+                    tolerances=tolerances,
+                )
             if "actuation" in uses:
                 act = r(p, q, zero, zero, tau) - r00
-                rows += _rows("actuation", act, {k: -s * tau for k in ENGINES}, states, tier="algebraic",
-                              tolerances=tolerances)
+                rows += _rows(
+                    "actuation", act, {k: -s * tau for k in ENGINES}, states, tier="algebraic", tolerances=tolerances
+                )
             residual = {k: r(p, q, v, e[k]["a"], tau) for k in ENGINES}
             for k in ENGINES:  # the residual at the engine's own accelerations should vanish
                 scale = float(np.abs(s * (e[k]["Cv"] + e[k]["G"])).max())
-                rows += _rows("residual", residual[k], {k: np.zeros_like(residual[k])}, states, tier="solve",
-                              tolerances=tolerances, min_scale={k: scale})
+                rows += _rows(
+                    "residual",
+                    residual[k],
+                    {k: np.zeros_like(residual[k])},
+                    states,
+                    tier="solve",
+                    tolerances=tolerances,
+                    min_scale={k: scale},
+                )
         else:  # explicit and Matlab state-space forms
             f = lambda pp, qq, vv, tt: np.asarray(variant.acceleration(pp, qq, vv, tt), dtype=float)  # noqa: E731
             f00 = f(p, q, zero, zero)
             if "gravity" in uses:
-                rows += _rows("gravity", f00, {k: e[k]["a_gravity"] for k in ENGINES}, states, tier="solve",
-                              tolerances=tolerances)
+                rows += _rows(
+                    "gravity", f00, {k: e[k]["a_gravity"] for k in ENGINES}, states, tier="solve", tolerances=tolerances
+                )
             vel = f(p0, q, v, zero) - f(p0, q, zero, zero)
-            rows += _rows("velocity", vel, {k: e[k]["a_velocity"] for k in ENGINES}, states, tier="solve",
-                          tolerances=tolerances)
+            rows += _rows(
+                "velocity", vel, {k: e[k]["a_velocity"] for k in ENGINES}, states, tier="solve", tolerances=tolerances
+            )
             if "damping" in uses:
                 fr = f(p, q, v, zero) - f(p0, q, v, zero)
-                rows += _rows("friction", fr, {k: e[k]["a_friction"] for k in ENGINES}, states, tier="solve",
-                              tolerances=tolerances)
+                rows += _rows(
+                    "friction",
+                    fr,
+                    {k: e[k]["a_friction"] for k in ENGINES},
+                    states,
+                    tier="solve",
+                    tolerances=tolerances,
+                )
             if "actuation" in uses:
                 act = f(p, q, zero, tau) - f00
-                rows += _rows("actuation", act, {k: e[k]["a_actuation"] for k in ENGINES}, states, tier="solve",
-                              tolerances=tolerances)
-            rows += _rows("acceleration", f(p, q, v, tau), {k: e[k]["a"] for k in ENGINES}, states, tier="solve",
-                          tolerances=tolerances)
+                rows += _rows(
+                    "actuation",
+                    act,
+                    {k: e[k]["a_actuation"] for k in ENGINES},
+                    states,
+                    tier="solve",
+                    tolerances=tolerances,
+                )
+            rows += _rows(
+                "acceleration",
+                f(p, q, v, tau),
+                {k: e[k]["a"] for k in ENGINES},
+                states,
+                tier="solve",
+                tolerances=tolerances,
+            )
     except ValueError as exc:  # a printed form that does not apply to these parameters
         result.update(verdict="not applicable", reason=str(exc), terms=[])
         return result
@@ -247,8 +348,9 @@ def _combine(nominal: dict[str, Any], probe: dict[str, Any]) -> dict[str, Any]:
         out["disagrees_at"] = "notes" if first is nominal else PROBE_LABEL
         failing = [r for r in out["terms"] if not r["passed"]]
         worst = max(failing, key=lambda r: r["scaled"])
-        out["worst_term"] = {k: worst[k] for k in ("term", "engine", "parameters", "max_abs", "max_rel", "scaled",
-                                                   "worst_state")}
+        out["worst_term"] = {
+            k: worst[k] for k in ("term", "engine", "parameters", "max_abs", "max_rel", "scaled", "worst_state")
+        }
     elif verdicts == {"agrees"}:
         out["verdict"] = "agrees"
     else:
@@ -257,8 +359,9 @@ def _combine(nominal: dict[str, Any], probe: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def judge_system(system: Any, states: States, sources: dict[str, Any], *,
-                 tolerances: Tolerances = TOLERANCES) -> list[dict[str, Any]]:
+def judge_system(
+    system: Any, states: States, sources: dict[str, Any], *, tolerances: Tolerances = TOLERANCES
+) -> list[dict[str, Any]]:
     """Verdicts for every printed form of one system, at the notes' and at the probe parameters."""
     if not system.variants:
         return []
@@ -277,8 +380,9 @@ def judge_system(system: Any, states: States, sources: dict[str, Any], *,
         raise HarnessError(f"{system.name} at the probe parameters: {bad['key']} differs ({bad['why']}).")
     probe_terms = EngineTerms(probe_system, probe_sources, states)
     return [
-        _combine(judge_variant(system, var, terms, states, tolerances=tolerances),
-                 judge_variant(probe_system, var, probe_terms, states, tolerances=tolerances,
-                               printed_parameters=False))
+        _combine(
+            judge_variant(system, var, terms, states, tolerances=tolerances),
+            judge_variant(probe_system, var, probe_terms, states, tolerances=tolerances, printed_parameters=False),
+        )
         for var in system.variants
     ]

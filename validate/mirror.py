@@ -158,7 +158,9 @@ class Stepper:
         return q + h * v_next, v_next
 
 
-def _scalar_run(f: Any, integrator: str, h: float, steps: int, qs: np.ndarray, vs: np.ndarray, stepper: Stepper) -> None:
+def _scalar_run(
+    f: Any, integrator: str, h: float, steps: int, qs: np.ndarray, vs: np.ndarray, stepper: Stepper
+) -> None:
     """`Stepper.step` for one state, operation for operation, on Python floats; fills rows 1.. of qs, vs."""
     n = qs.shape[1]
     q, v = [float(x) for x in qs[0]], [float(x) for x in vs[0]]

@@ -44,15 +44,39 @@ def equations_vs_model(system: Any) -> list[dict[str, Any]]:
     rows = []
     for key in sorted(set(view) | set(assumed)):
         if key not in assumed:
-            rows.append({"check": "equations~mjcf", "key": key, "expected": "(not stated)", "actual": _fmt(view[key]),
-                         "passed": False, "why": "the equations do not state what they assume of this parameter"})
+            rows.append(
+                {
+                    "check": "equations~mjcf",
+                    "key": key,
+                    "expected": "(not stated)",
+                    "actual": _fmt(view[key]),
+                    "passed": False,
+                    "why": "the equations do not state what they assume of this parameter",
+                }
+            )
         elif key not in view:
-            rows.append({"check": "equations~mjcf", "key": key, "expected": _fmt(assumed[key]), "actual": "(absent)",
-                         "passed": False, "why": "the equations assume something the model does not have"})
+            rows.append(
+                {
+                    "check": "equations~mjcf",
+                    "key": key,
+                    "expected": _fmt(assumed[key]),
+                    "actual": "(absent)",
+                    "passed": False,
+                    "why": "the equations assume something the model does not have",
+                }
+            )
         else:
             ok = _same(assumed[key], view[key])
-            rows.append({"check": "equations~mjcf", "key": key, "expected": _fmt(assumed[key]), "actual": _fmt(view[key]),
-                         "passed": ok, "why": "" if ok else "the compiled MJCF differs from what the equations assume"})
+            rows.append(
+                {
+                    "check": "equations~mjcf",
+                    "key": key,
+                    "expected": _fmt(assumed[key]),
+                    "actual": _fmt(view[key]),
+                    "passed": ok,
+                    "why": "" if ok else "the compiled MJCF differs from what the equations assume",
+                }
+            )
     return rows
 
 
@@ -60,16 +84,25 @@ def pinocchio_vs_mujoco(system: Any, pin_source: Any) -> list[dict[str, Any]]:
     """Mass, centre of mass and inertia of each compared body, as each engine compiled it."""
     model, view = pin_source.model, system.view
     rows = []
-    for body, jid in zip(system.bodies, pin_source.joint_of_body):
+    for body, jid in zip(system.bodies, pin_source.joint_of_body, strict=True):
         inertia = model.inertias[jid]
-        pairs = {"mass": (view[f"body/{body}/mass"], inertia.mass),
-                 "com": (view[f"body/{body}/com"], inertia.lever),
-                 "inertia": (view[f"body/{body}/inertia"], inertia.inertia)}
+        pairs = {
+            "mass": (view[f"body/{body}/mass"], inertia.mass),
+            "com": (view[f"body/{body}/com"], inertia.lever),
+            "inertia": (view[f"body/{body}/inertia"], inertia.inertia),
+        }
         for what, (mj, pn) in pairs.items():
             ok = _same(mj, pn)
-            rows.append({"check": "pinocchio~mujoco", "key": f"body/{body}/{what}", "expected": _fmt(mj),
-                         "actual": _fmt(pn), "passed": ok,
-                         "why": "" if ok else "Pinocchio compiled this body differently from MuJoCo"})
+            rows.append(
+                {
+                    "check": "pinocchio~mujoco",
+                    "key": f"body/{body}/{what}",
+                    "expected": _fmt(mj),
+                    "actual": _fmt(pn),
+                    "passed": ok,
+                    "why": "" if ok else "Pinocchio compiled this body differently from MuJoCo",
+                }
+            )
     return rows
 
 

@@ -104,7 +104,9 @@ def from_mujoco(model: Any, source: str) -> ModelView:
     for a in range(model.nu):
         n = name(mujoco.mjtObj.mjOBJ_ACTUATOR, a)
         if int(model.actuator_trntype[a]) != int(mujoco.mjtTrn.mjTRN_JOINT):
-            raise HarnessError(f"{source}: actuator '{n}' must drive a joint (trntype joint); got another transmission.")
+            raise HarnessError(
+                f"{source}: actuator '{n}' must drive a joint (trntype joint); got another transmission."
+            )
         values[f"actuator/{n}/joint"] = name(mujoco.mjtObj.mjOBJ_JOINT, int(model.actuator_trnid[a, 0]))
         values[f"actuator/{n}/gear"] = float(model.actuator_gear[a, 0])
     return ModelView(values, source)

@@ -20,9 +20,18 @@ import numpy as np
 
 from .errors import HarnessError, unknown_name
 
-PATTERNS = ("scale/mass", "scale/length", "scale/gravity", "body/<name>/mass", "body/<name>/inertia",
-            "joint/<name>/damping", "joint/<name>/armature", "joint/<name>/frictionloss",
-            "joint/<name>/stiffness", "actuator/<name>/gear")
+PATTERNS = (
+    "scale/mass",
+    "scale/length",
+    "scale/gravity",
+    "body/<name>/mass",
+    "body/<name>/inertia",
+    "joint/<name>/damping",
+    "joint/<name>/armature",
+    "joint/<name>/frictionloss",
+    "joint/<name>/stiffness",
+    "actuator/<name>/gear",
+)
 MUJOCO_DEFAULT_GRAVITY = "0 0 -9.81"
 # Beyond these, products such as m l^2 v^2 leave the range where double precision compares anything.
 SCALE_RANGE = (1e-6, 1e6)
@@ -43,8 +52,10 @@ def parse(items: list[str] | None) -> tuple[tuple[str, float], ...]:
         if not np.isfinite(number):
             raise HarnessError(f"--set {key}: the value must be finite; got {value}.")
         if abs(number) > MAX_VALUE or (key.startswith("scale/") and not SCALE_RANGE[0] <= number <= SCALE_RANGE[1]):
-            raise HarnessError(f"--set {key}={value} is out of range: scales lie in [{SCALE_RANGE[0]:g}, "
-                               f"{SCALE_RANGE[1]:g}], other values within +-{MAX_VALUE:g}.")
+            raise HarnessError(
+                f"--set {key}={value} is out of range: scales lie in [{SCALE_RANGE[0]:g}, "
+                f"{SCALE_RANGE[1]:g}], other values within +-{MAX_VALUE:g}."
+            )
         out.append((key.strip(), number))
     return tuple(out)
 
@@ -55,8 +66,11 @@ def _scale_attr(el: ET.Element, attr: str, k: float) -> None:
 
 
 def _named(root: ET.Element, tag: str, kind: str, name: str) -> ET.Element:
-    found = [e for e in root.iter(tag) if e.get("name") == name] if tag else \
-        [e for e in root.iter() if e.get("name") == name]
+    found = (
+        [e for e in root.iter(tag) if e.get("name") == name]
+        if tag
+        else [e for e in root.iter() if e.get("name") == name]
+    )
     if not found:
         names = [e.get("name", "") for e in (root.iter(tag) if tag else root.iter()) if e.get("name")]
         raise unknown_name(kind, name, names)
@@ -108,8 +122,9 @@ def apply_overrides(text: str, overrides: tuple[tuple[str, float], ...]) -> str:
                 inertial.set("mass", repr(value))
             for attr in ("diaginertia", "fullinertia"):
                 _scale_attr(inertial, attr, ratio)
-        elif len(parts) == 3 and parts[0] == "joint" and parts[2] in ("damping", "armature", "frictionloss",
-                                                                       "stiffness"):
+        elif (
+            len(parts) == 3 and parts[0] == "joint" and parts[2] in ("damping", "armature", "frictionloss", "stiffness")
+        ):
             if value < 0:
                 raise HarnessError(f"--set {key} must be non-negative; got {value}.")
             _named(root, "joint", "joint", parts[1]).set(parts[2], repr(value))

@@ -40,8 +40,13 @@ def trajectory_results(system: Any, sources: dict[str, Any], *, t_end: float, dt
         err = integrate.error_against(tr, ref)
         e = integrate.energy(system, sources["hand"], tr)
         run = {
-            "source": tr.source, "method": tr.method, "stats": tr.stats,
-            "q": tr.q, "v": tr.v, "energy": e, "error_vs_hand": err,
+            "source": tr.source,
+            "method": tr.method,
+            "stats": tr.stats,
+            "q": tr.q,
+            "v": tr.v,
+            "energy": e,
+            "error_vs_hand": err,
             "max_error_vs_hand": float(err.max()),
             "first_exceeds_threshold": integrate.first_exceeding(tr.t, err, TRAJECTORY_THRESHOLD),
             "energy_drift": float(np.abs(e - e[0]).max()),
@@ -49,11 +54,19 @@ def trajectory_results(system: Any, sources: dict[str, Any], *, t_end: float, dt
         if "label" in tr.stats:
             run["label"] = tr.stats["label"]
         runs.append(run)
-    return {"q0": q0, "v0": v0, "tau": tau, "t_end": t_end, "dt_out": dt_out, "t": t,
-            "reference": f"hand equations, {ref_info.get('method', 'Taylor')} ({ref_info.get('precision', '')}); "
-                         f"agrees with a second method to {ref_info.get('agreement_q', float('nan')):.1e} rad",
-            "reference_info": {k: v for k, v in ref_info.items() if np.isscalar(v) or isinstance(v, str)},
-            "threshold": TRAJECTORY_THRESHOLD, "runs": runs}
+    return {
+        "q0": q0,
+        "v0": v0,
+        "tau": tau,
+        "t_end": t_end,
+        "dt_out": dt_out,
+        "t": t,
+        "reference": f"hand equations, {ref_info.get('method', 'Taylor')} ({ref_info.get('precision', '')}); "
+        f"agrees with a second method to {ref_info.get('agreement_q', float('nan')):.1e} rad",
+        "reference_info": {k: v for k, v in ref_info.items() if np.isscalar(v) or isinstance(v, str)},
+        "threshold": TRAJECTORY_THRESHOLD,
+        "runs": runs,
+    }
 
 
 NEVER_USED = ("contact", "constraint", "limit", "frictionloss", "spring")  # no system of the notes has these
@@ -66,15 +79,25 @@ def skipped_work(system: Any) -> list[str]:
     out = [f"MuJoCo: {', '.join(NEVER_USED)} disabled (no contacts, limits, dry friction or springs in the notes)"]
     for use, flag in OPTIONAL.items():
         if use not in uses:
-            out.append(f"MuJoCo: {flag} disabled; printed forms' {'friction' if use == 'damping' else use} term not checked"
-                       " (the scene has none)")
+            out.append(
+                f"MuJoCo: {flag} disabled; printed forms' {'friction' if use == 'damping' else use} term not checked"
+                " (the scene has none)"
+            )
     if uses & {"damping", "actuation"}:
-        out.append("energy conservation not judged (friction or motors change the energy); energy balance is tested instead")
+        out.append(
+            "energy conservation not judged (friction or motors change the energy); energy balance is tested instead"
+        )
     return out
 
 
-def run_system(system: Any, *, n_states: int, seed: int, t_end: float = integrate.DEFAULT_T_END,
-               dt_out: float = integrate.DEFAULT_DT_OUT) -> dict[str, Any]:
+def run_system(
+    system: Any,
+    *,
+    n_states: int,
+    seed: int,
+    t_end: float = integrate.DEFAULT_T_END,
+    dt_out: float = integrate.DEFAULT_DT_OUT,
+) -> dict[str, Any]:
     """Everything the harness knows about one system, as plain data."""
     sources = make_sources(system)
     model = modelsync.check(system, sources["pinocchio"])
@@ -84,8 +107,9 @@ def run_system(system: Any, *, n_states: int, seed: int, t_end: float = integrat
     traj = trajectory_results(system, sources, t_end=t_end, dt_out=dt_out)
     notes_experiments = experiments.run_experiments(system)
     same = equivalence.check_equivalence(system)
-    cross = chaos.crossvalidate(system, sources, t_end=t_end, dt_out=dt_out, integrators=RUN_INTEGRATORS,
-                                mirror_engines=("hand", "pinocchio"))
+    cross = chaos.crossvalidate(
+        system, sources, t_end=t_end, dt_out=dt_out, integrators=RUN_INTEGRATORS, mirror_engines=("hand", "pinocchio")
+    )
     passed = model["passed"] and point["passed"] and (same is None or same["passed"]) and cross["passed"]
     return {
         "name": system.name,
@@ -124,8 +148,9 @@ def _run_one(name: str, n_states: int, seed: int) -> dict[str, Any]:
     return run_system(load(name), n_states=n_states, seed=seed)
 
 
-def run(names: list[str] | None, *, n_states: int, seed: int, progress: Any = None,
-        executor: Executor | None = None) -> dict[str, Any]:
+def run(
+    names: list[str] | None, *, n_states: int, seed: int, progress: Any = None, executor: Executor | None = None
+) -> dict[str, Any]:
     """Every system (or those named), each in a worker of `executor` (default: a process pool on
     every core; any `concurrent.futures.Executor` will do, a distributed one included)."""
     from .results import provenance
@@ -136,8 +161,11 @@ def run(names: list[str] | None, *, n_states: int, seed: int, progress: Any = No
     own = executor is None
     if own:
         workers = min(len(systems), os.cpu_count() or 1)
-        executor = (ProcessPoolExecutor(max_workers=workers, initializer=_ignore_sigint) if workers > 1
-                    else ThreadPoolExecutor(max_workers=1))
+        executor = (
+            ProcessPoolExecutor(max_workers=workers, initializer=_ignore_sigint)
+            if workers > 1
+            else ThreadPoolExecutor(max_workers=1)
+        )
     try:
         futures = {executor.submit(_run_one, s.name, n_states, seed): s.name for s in systems}
         for name in futures.values():

@@ -16,8 +16,13 @@ def reporter() -> Iterator[Any]:
         from rich.console import Console
         from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
-        with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
-                      console=Console(stderr=True), transient=True) as bar:
+        with Progress(
+            SpinnerColumn(),
+            TextColumn("{task.description}"),
+            TimeElapsedColumn(),
+            console=Console(stderr=True),
+            transient=True,
+        ) as bar:
             task = bar.add_task("validating", total=None)
 
             def live(name: str, stage: str, result: Any = None) -> None:
@@ -40,4 +45,4 @@ def _line(name: str, result: dict[str, Any], elapsed: float) -> str:
     variants = result.get("variants", [])
     wrong = sum(v["verdict"] == "disagrees" for v in variants)
     mark = "pass" if result["passed"] else "FAIL"
-    return (f"[{elapsed:6.1f} s] {name}: {mark}; {len(variants)} printed forms, {wrong} disagree with the engines")
+    return f"[{elapsed:6.1f} s] {name}: {mark}; {len(variants)} printed forms, {wrong} disagree with the engines"

@@ -79,8 +79,11 @@ def render_replays(results: dict[str, Any]) -> dict[str, bytes]:
         {"<system>.rrd": rrd bytes}, one entry per system that has trajectories, in the results' order.
     """
     meta = results.get("meta")
-    return {f"{name}.rrd": render_system(name, sys_results, meta=meta)
-            for name, sys_results in results["systems"].items() if sys_results.get("trajectories")}
+    return {
+        f"{name}.rrd": render_system(name, sys_results, meta=meta)
+        for name, sys_results in results["systems"].items()
+        if sys_results.get("trajectories")
+    }
 
 
 def render_system(name: str, sys_results: dict[str, Any], *, meta: dict[str, Any] | None = None) -> bytes:
@@ -246,19 +249,33 @@ def build_scene(name: str, sys_results: dict[str, Any], *, meta: dict[str, Any] 
             origin = com[b] - rot[b] @ view[f"body/{b}/com"]
             joint = body_joint.get(b)
             anchor[b] = origin + rot[b] @ view[f"joint/{joint}/pos"] if joint else origin
-        links = {b: np.stack([com[parent[b]] if parent[b] in com else anchor[b], anchor[b], com[b]], axis=1)
-                 for b in bodies}
+        links = {
+            b: np.stack([com[parent[b]] if parent[b] in com else anchor[b], anchor[b], com[b]], axis=1) for b in bodies
+        }
         energy = _floats(run["energy"]) if "energy" in run else None
         error = _floats(run["error_vs_hand"]) if "error_vs_hand" in run else None
         envelope = _floats(run["envelope"]) if "envelope" in run else None
-        runs.append({"key": key, "colour": colour, "run": run, "q": q, "com": com, "rot": rot, "anchor": anchor,
-                     "links": links, "energy": energy, "error": error,
-                     "envelope": envelope if envelope is not None and envelope.shape == (K,) else None})
+        runs.append(
+            {
+                "key": key,
+                "colour": colour,
+                "run": run,
+                "q": q,
+                "com": com,
+                "rot": rot,
+                "anchor": anchor,
+                "links": links,
+                "energy": energy,
+                "error": error,
+                "envelope": envelope if envelope is not None and envelope.shape == (K,) else None,
+            }
+        )
 
     # Scene size: how far anything drawn reaches from the origin (1 m when everything sits there);
     # samples of a diverged run (non-finite q) do not count.
-    norms = np.concatenate([np.linalg.norm(r[kind][b], axis=-1) for r in runs for kind in ("com", "anchor")
-                            for b in bodies])
+    norms = np.concatenate(
+        [np.linalg.norm(r[kind][b], axis=-1) for r in runs for kind in ("com", "anchor") for b in bodies]
+    )
     reach = float(norms[np.isfinite(norms)].max(initial=0.0))
     scale = reach if reach > 1e-9 else 1.0
     # Bodies whose centre of mass never moves show their motion by their axes only.
@@ -286,8 +303,17 @@ def build_scene(name: str, sys_results: dict[str, Any], *, meta: dict[str, Any] 
         gravity = np.asarray(system.mujoco_model().opt.gravity, dtype=float)
     up = _up_axis(gravity)
     return {
-        "name": name, "sys": sys_results, "t": t, "runs": runs, "bodies": bodies, "tips": tips, "still": still,
-        "parent": parent, "scale": scale, "window": window, "up": up,
+        "name": name,
+        "sys": sys_results,
+        "t": t,
+        "runs": runs,
+        "bodies": bodies,
+        "tips": tips,
+        "still": still,
+        "parent": parent,
+        "scale": scale,
+        "window": window,
+        "up": up,
         "coordinates": list(sys_results.get("coordinates") or system.coordinates),
         "units": [_unit(view, j) for j in system.joints],
         "roots": [b for b in bodies if parent[b] not in parent],
@@ -301,8 +327,10 @@ def _provenance(meta: dict[str, Any] | None) -> str:
     if not meta:
         return ""
     command = meta.get("command", "lagrange-xval run")
-    return (f"Results of `{command}` (lagrange-xval {meta.get('harness_version', '?')}, "
-            f"commit {meta.get('git_commit', '?')}, {meta.get('date', '?')}, seed {meta.get('seed')}).")
+    return (
+        f"Results of `{command}` (lagrange-xval {meta.get('harness_version', '?')}, "
+        f"commit {meta.get('git_commit', '?')}, {meta.get('date', '?')}, seed {meta.get('seed')})."
+    )
 
 
 def _up_axis(gravity: np.ndarray) -> tuple[int, int]:
@@ -365,12 +393,17 @@ def log_scene(rec: Any, scene: dict[str, Any]) -> None:
     static(root, getattr(rr.ViewCoordinates, f"RIGHT_HAND_{'XYZ'[axis]}_{'UP' if sign > 0 else 'DOWN'}"))
     static(f"{root}/description", rr.TextDocument(describe(scene), media_type=rr.MediaType.MARKDOWN))
     first = scene["runs"][0]
-    static(f"{root}/anchors", rr.Points3D([first["anchor"][b][0] for b in scene["roots"]], radii=0.6 * radius,
-                                          colors=_ANCHOR_COLOUR))
+    static(
+        f"{root}/anchors",
+        rr.Points3D([first["anchor"][b][0] for b in scene["roots"]], radii=0.6 * radius, colors=_ANCHOR_COLOUR),
+    )
     if scene["threshold"] is not None and len(t):
         static(f"{root}/threshold", rr.SeriesLines(colors=_THRESHOLD_COLOUR, names="threshold", widths=1.0))
-        send(f"{root}/threshold", rr.Scalars.columns(scalars=np.full(2, np.log10(scene["threshold"]))),
-             [_time_column(np.array([t[0], t[-1]]))])
+        send(
+            f"{root}/threshold",
+            rr.Scalars.columns(scalars=np.full(2, np.log10(scene["threshold"]))),
+            [_time_column(np.array([t[0], t[-1]]))],
+        )
 
     events = []
     for r in scene["runs"]:
@@ -387,8 +420,10 @@ def log_scene(rec: Any, scene: dict[str, Any]) -> None:
         for b, segments in r["axes"].items():
             shades = [colour, _shade(colour, 255, 0.55), _shade(colour, 0, 0.45)]  # x, y, z
             static(f"{base}/axes/{b}", rr.LineStrips3D.from_fields(colors=shades, radii=0.3 * radius))
-            send(f"{base}/axes/{b}", rr.LineStrips3D.columns(strips=segments.reshape(-1, 2, 3)).partition(
-                np.full(len(t), 3)))
+            send(
+                f"{base}/axes/{b}",
+                rr.LineStrips3D.columns(strips=segments.reshape(-1, 2, 3)).partition(np.full(len(t), 3)),
+            )
         for i, c in enumerate(scene["coordinates"]):
             static(f"{base}/q/{c}", rr.SeriesLines(colors=colour, names=f"{r['key']}: {c}"))
             send(f"{base}/q/{c}", rr.Scalars.columns(scalars=_plottable(r["q"][:, i])))
@@ -396,8 +431,10 @@ def log_scene(rec: Any, scene: dict[str, Any]) -> None:
             static(f"{base}/log10_error", rr.SeriesLines(colors=colour, names=r["key"]))
             send(f"{base}/log10_error", rr.Scalars.columns(scalars=_log10_error(r["error"])))
         if r["envelope"] is not None:
-            static(f"{base}/log10_envelope", rr.SeriesLines(colors=_shade(colour, 255, 0.5), widths=1.0,
-                                                            names=f"{r['key']} envelope"))
+            static(
+                f"{base}/log10_envelope",
+                rr.SeriesLines(colors=_shade(colour, 255, 0.5), widths=1.0, names=f"{r['key']} envelope"),
+            )
             send(f"{base}/log10_envelope", rr.Scalars.columns(scalars=_log10_error(r["envelope"])))
         if r["energy"] is not None:
             static(f"{base}/energy_change", rr.SeriesLines(colors=colour, names=r["key"]))
@@ -405,17 +442,32 @@ def log_scene(rec: Any, scene: dict[str, Any]) -> None:
         first_time = run.get("first_exceeds_threshold")
         if first_time is not None and r["error"] is not None and np.isfinite(float(first_time)):
             k = int(np.argmin(np.abs(t - float(first_time))))
-            static(f"{base}/exceeds_threshold", rr.SeriesPoints(colors=colour, markers="cross", marker_sizes=8.0,
-                                                                 names=f"{r['key']} exceeds threshold"))
-            send(f"{base}/exceeds_threshold", rr.Scalars.columns(scalars=_log10_error(r["error"][k:k + 1])),
-                 [_time_column(t[k:k + 1])])
-            events.append((float(t[k]), f"{r['key']}: error vs hand first exceeds {scene['threshold']:g} "
-                                        f"at t = {t[k]:g} s ({r['error'][k]:.3g})", colour))
+            static(
+                f"{base}/exceeds_threshold",
+                rr.SeriesPoints(
+                    colors=colour, markers="cross", marker_sizes=8.0, names=f"{r['key']} exceeds threshold"
+                ),
+            )
+            send(
+                f"{base}/exceeds_threshold",
+                rr.Scalars.columns(scalars=_log10_error(r["error"][k : k + 1])),
+                [_time_column(t[k : k + 1])],
+            )
+            events.append(
+                (
+                    float(t[k]),
+                    f"{r['key']}: error vs hand first exceeds {scene['threshold']:g} "
+                    f"at t = {t[k]:g} s ({r['error'][k]:.3g})",
+                    colour,
+                )
+            )
     if events:
         events.sort(key=lambda e: e[0])
-        send(f"{root}/events", rr.TextLog.columns(text=[e[1] for e in events], level=["WARN"] * len(events),
-                                                  color=[e[2] for e in events]),
-             [_time_column(np.array([e[0] for e in events]))])
+        send(
+            f"{root}/events",
+            rr.TextLog.columns(text=[e[1] for e in events], level=["WARN"] * len(events), color=[e[2] for e in events]),
+            [_time_column(np.array([e[0] for e in events]))],
+        )
 
 
 def blueprint(scene: dict[str, Any]) -> Any:
@@ -425,8 +477,9 @@ def blueprint(scene: dict[str, Any]) -> Any:
     name = scene["name"]
     root = f"/{name}"
     keys = [r["key"] for r in scene["runs"]]
-    spatial = [f"+ {root}/anchors"] + [f"+ {root}/{k}/{part}/**" for k in keys
-                                       for part in ("bodies", "links", "axes", "trail")]
+    spatial = [f"+ {root}/anchors"] + [
+        f"+ {root}/{k}/{part}/**" for k in keys for part in ("bodies", "links", "axes", "trail")
+    ]
     scale, (up, sign) = scene["scale"], scene["up"]
     position = np.full(3, 2.0 * scale)  # oblique, from above
     position[up] = 1.5 * scale * sign
@@ -436,20 +489,30 @@ def blueprint(scene: dict[str, Any]) -> Any:
     eye_up = np.zeros(3)
     eye_up[up] = sign
     view3d = rrb.Spatial3DView(
-        name=f"{name}: bodies and {TRAIL_SECONDS:g} s trails", origin=root, contents=spatial,
-        eye_controls=rrb.EyeControls3D(position=position, look_target=np.zeros(3), eye_up=eye_up))
+        name=f"{name}: bodies and {TRAIL_SECONDS:g} s trails",
+        origin=root,
+        contents=spatial,
+        eye_controls=rrb.EyeControls3D(position=position, look_target=np.zeros(3), eye_up=eye_up),
+    )
 
-    q_views = [rrb.TimeSeriesView(name=f"q: {c} ({u})", origin=root, contents=[f"+ {root}/{k}/q/{c}" for k in keys])
-               for c, u in zip(scene["coordinates"], scene["units"], strict=True)]
+    q_views = [
+        rrb.TimeSeriesView(name=f"q: {c} ({u})", origin=root, contents=[f"+ {root}/{k}/q/{c}" for k in keys])
+        for c, u in zip(scene["coordinates"], scene["units"], strict=True)
+    ]
     error_view = rrb.TimeSeriesView(
-        name=f"log10 error vs hand (zeros at {np.log10(ERROR_FLOOR):g})", origin=root,
-        contents=[f"+ {root}/threshold"] + [f"+ {root}/{k}/{part}" for k in keys
-                                            for part in ("log10_error", "log10_envelope", "exceeds_threshold")])
-    energy_view = rrb.TimeSeriesView(name="energy E(t) - E(0) (J)", origin=root,
-                                     contents=[f"+ {root}/{k}/energy_change" for k in keys])
+        name=f"log10 error vs hand (zeros at {np.log10(ERROR_FLOOR):g})",
+        origin=root,
+        contents=[f"+ {root}/threshold"]
+        + [f"+ {root}/{k}/{part}" for k in keys for part in ("log10_error", "log10_envelope", "exceeds_threshold")],
+    )
+    energy_view = rrb.TimeSeriesView(
+        name="energy E(t) - E(0) (J)", origin=root, contents=[f"+ {root}/{k}/energy_change" for k in keys]
+    )
     plots = rrb.Vertical(*q_views, error_view, energy_view)
-    text = rrb.Tabs(rrb.TextDocumentView(name="description", origin=f"{root}/description"),
-                    rrb.TextLogView(name="events", origin=f"{root}/events"))
+    text = rrb.Tabs(
+        rrb.TextDocumentView(name="description", origin=f"{root}/description"),
+        rrb.TextLogView(name="events", origin=f"{root}/events"),
+    )
     return rrb.Blueprint(
         rrb.Vertical(rrb.Horizontal(view3d, plots, column_shares=[1, 1]), text, row_shares=[3, 1]),
         rrb.TimePanel(state="collapsed", timeline=TIMELINE, play_state="playing", loop_mode="all"),
@@ -472,14 +535,20 @@ def describe(scene: dict[str, Any]) -> str:
     if params:
         lines += ["| parameter | value |", "|---|---|"]
         lines += [f"| {k} | {float(v):.6g} |" for k, v in sorted(params.items())] + [""]
-    lines += [f"Initial state: q0 = {vec(traj['q0'])}, v0 = {vec(traj['v0'])}"
-              + (f", tau = {vec(traj['tau'])}" if "tau" in traj else "") + "; "
-              f"{len(t)} samples from {t[0]:g} to {t[-1]:g} s.", ""]
+    lines += [
+        f"Initial state: q0 = {vec(traj['q0'])}, v0 = {vec(traj['v0'])}"
+        + (f", tau = {vec(traj['tau'])}" if "tau" in traj else "")
+        + "; "
+        f"{len(t)} samples from {t[0]:g} to {t[-1]:g} s.",
+        "",
+    ]
     unit = " or ".join(sorted(set(scene["units"])))
     threshold = "none" if scene["threshold"] is None else f"{scene['threshold']:g} {unit}"
     lines += [f"Reference: {traj.get('reference', 'hand')}. Threshold on the error: {threshold}.", ""]
-    lines += ["| run | colour | source | method | q(0) | v(0) | max error | first above threshold "
-              "| max abs(E - E(0)) (J) |", "|---|---|---|---|---|---|---|---|---|"]
+    lines += [
+        "| run | colour | source | method | q(0) | v(0) | max error | first above threshold | max abs(E - E(0)) (J) |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for r in scene["runs"]:
         run = r["run"]
         colour = "#{:02x}{:02x}{:02x}".format(*r["colour"])
@@ -487,9 +556,11 @@ def describe(scene: dict[str, Any]) -> str:
         first_time = run.get("first_exceeds_threshold")
         max_error = f"{float(np.max(r['error'])):.3g}" if r["error"] is not None else "-"
         drift = f"{float(np.max(np.abs(r['energy'] - r['energy'][0]))):.3g}" if r["energy"] is not None else "-"
-        lines.append(f"| {r['key']} | {colour} | {run.get('source', '?')} | {run.get('method', '?')} | "
-                     f"{vec(r['q'][0])} | {vec(v[0]) if v is not None else '-'} | {max_error} | "
-                     f"{'never' if first_time is None else f'{float(first_time):g} s'} | {drift} |")
+        lines.append(
+            f"| {r['key']} | {colour} | {run.get('source', '?')} | {run.get('method', '?')} | "
+            f"{vec(r['q'][0])} | {vec(v[0]) if v is not None else '-'} | {max_error} | "
+            f"{'never' if first_time is None else f'{float(first_time):g} s'} | {drift} |"
+        )
     zeros = {r["key"]: int(np.sum(r["error"] == 0)) for r in scene["runs"] if r["error"] is not None}
     lines += [
         "",
@@ -498,14 +569,18 @@ def describe(scene: dict[str, Any]) -> str:
         "- **3D**: each run's bodies at their centres of mass (equations module's `body_positions` at the run's q),"
         " links drawn parent centre of mass -> joint anchor -> centre of mass, and the last "
         f"{TRAIL_SECONDS:g} s of each tip body's path ({scene['window']} samples)."
-        + (f" Bodies {', '.join(scene['still'])} keep their centre of mass still, so their axes are drawn"
-           " (x in the run's colour, y lighter, z darker) and a still tip's trail follows the end of its x axis."
-           if scene["still"] else ""),
+        + (
+            f" Bodies {', '.join(scene['still'])} keep their centre of mass still, so their axes are drawn"
+            " (x in the run's colour, y lighter, z darker) and a still tip's trail follows the end of its x axis."
+            if scene["still"]
+            else ""
+        ),
         "- **q**: one plot per coordinate, one line per run.",
         "- **log10 error**: log10 of the run's error against the reference (max over coordinates of"
         f" |q - q_ref| per sample). Errors of exactly 0 are clipped to {ERROR_FLOOR:g}, drawn at"
         f" {np.log10(ERROR_FLOOR):g}; samples clipped: "
-        + ", ".join(f"{k} {n}/{len(t)}" for k, n in zeros.items()) + "."
+        + ", ".join(f"{k} {n}/{len(t)}" for k, n in zeros.items())
+        + "."
         + " The grey line is the threshold; a cross marks the first sample above it.",
         "- **energy**: E(t) - E(0) per run, E = T + V by the hand equations (J).",
     ]
@@ -526,8 +601,9 @@ def _save_hint(name: str) -> str:
 def _check_display(name: str) -> None:
     """A viewer window needs a display; on Linux without one, say so before running anything."""
     if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
-        raise HarnessError(f"cannot spawn a rerun viewer: no display (DISPLAY and WAYLAND_DISPLAY unset); "
-                           f"{_save_hint(name)}")
+        raise HarnessError(
+            f"cannot spawn a rerun viewer: no display (DISPLAY and WAYLAND_DISPLAY unset); {_save_hint(name)}"
+        )
 
 
 def _viewer_listening(port: int) -> bool:
@@ -547,8 +623,9 @@ def _show(name: str, sys_results: dict[str, Any], *, meta: dict[str, Any] | None
     rec = rr.RecordingStream(APPLICATION_ID, recording_id=recording_id(name, meta))
     beside = Path(sys.executable).with_name("rerun")  # the viewer the rerun-sdk wheel installs in the venv
     try:  # connect only once a viewer listens, so a failed start leaves no sink retrying
-        rr.spawn(port=VIEWER_PORT, connect=False, recording=rec,
-                 executable_path=str(beside) if beside.is_file() else None)
+        rr.spawn(
+            port=VIEWER_PORT, connect=False, recording=rec, executable_path=str(beside) if beside.is_file() else None
+        )
     except Exception as exc:  # rerun raises RuntimeError when it finds no viewer executable
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise HarnessError(f"cannot spawn a rerun viewer ({first}); {hint}") from None

@@ -33,10 +33,16 @@ def _cpu() -> str:
 
 def _git_commit() -> str:
     try:
-        out = subprocess.run(["git", "rev-parse", "--short=12", "HEAD"], cwd=PACKAGE_ROOT, capture_output=True,
-                             text=True, timeout=5)
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=PACKAGE_ROOT,
-                               capture_output=True, text=True, timeout=5)
+        out = subprocess.run(
+            ["git", "rev-parse", "--short=12", "HEAD"], cwd=PACKAGE_ROOT, capture_output=True, text=True, timeout=5
+        )
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"],
+            cwd=PACKAGE_ROOT,
+            capture_output=True,
+            text=True,
+            timeout=5,
+        )
         return out.stdout.strip() + ("+dirty" if dirty.stdout.strip() else "") if out.returncode == 0 else "unknown"
     except (OSError, subprocess.SubprocessError):
         return "unknown"
@@ -52,7 +58,7 @@ def provenance(seed: int | None = None) -> dict[str, Any]:
     return {
         "harness_version": versions["lagrange-xval"],
         "git_commit": _git_commit(),
-        "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "date": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         "command": " ".join(["lagrange-xval", *sys.argv[1:]]),
         "cpu": _cpu(),
         "python": platform.python_version(),
@@ -100,7 +106,9 @@ def atomic_write_many(files: dict[Path, bytes | str]) -> None:
                     f.write(data.encode() if isinstance(data, str) else data)
                 os.chmod(tmp, 0o644)
             except OSError as exc:
-                raise HarnessError(f"cannot write {path}: {exc.strerror or exc}; previous files left as they were.") from None
+                raise HarnessError(
+                    f"cannot write {path}: {exc.strerror or exc}; previous files left as they were."
+                ) from None
         for tmp, path in staged:
             os.replace(tmp, path)
         staged.clear()

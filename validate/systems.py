@@ -22,9 +22,22 @@ MODELS_DIR = PACKAGE_ROOT / "models"
 EQUATIONS_PACKAGE = "lagrange_xval.equations"
 
 REQUIRED_ATTRIBUTES = (
-    "DESCRIPTION", "COORDINATES", "JOINTS", "BODIES", "USES", "Params", "parameters", "assumptions",
-    "mass_matrix", "bias", "passive", "kinetic_energy", "potential_energy", "body_positions",
-    "body_rotations", "VARIANTS",
+    "DESCRIPTION",
+    "COORDINATES",
+    "JOINTS",
+    "BODIES",
+    "USES",
+    "Params",
+    "parameters",
+    "assumptions",
+    "mass_matrix",
+    "bias",
+    "passive",
+    "kinetic_energy",
+    "potential_energy",
+    "body_positions",
+    "body_rotations",
+    "VARIANTS",
 )
 
 

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields
 
-
 EPS = 2.220446049250313e-16  # double precision unit roundoff (x2)
 
 

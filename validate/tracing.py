@@ -115,8 +115,9 @@ def vector(x: Any, n: int, backend: Backend) -> list[Any]:
     return [unwrap(e, backend) for e in np.broadcast_to(np.asarray(x, dtype=object), (n,))]
 
 
-def dynamics(system: Any, qs: list[Any], vs: list[Any],
-             backend: Backend) -> tuple[list[list[Any]], list[Any], list[Any]]:
+def dynamics(
+    system: Any, qs: list[Any], vs: list[Any], backend: Backend
+) -> tuple[list[list[Any]], list[Any], list[Any]]:
     """The hand equations' M, bias and passive as backend expressions in the symbols qs, vs."""
     n = system.nv
     q, v = wrap(qs, backend), wrap(vs, backend)
@@ -124,8 +125,11 @@ def dynamics(system: Any, qs: list[Any], vs: list[Any],
     m = np.asarray(eq.mass_matrix(p, q), dtype=object)
     if m.shape != (n, n):
         raise TypeError(f"mass_matrix traced to shape {m.shape}, expected {(n, n)}")
-    return ([[unwrap(m[i, j], backend) for j in range(n)] for i in range(n)],
-            vector(eq.bias(p, q, v), n, backend), vector(eq.passive(p, q, v), n, backend))
+    return (
+        [[unwrap(m[i, j], backend) for j in range(n)] for i in range(n)],
+        vector(eq.bias(p, q, v), n, backend),
+        vector(eq.passive(p, q, v), n, backend),
+    )
 
 
 def solve_spd(matrix: list[list[Any]], b: list[Any]) -> list[Any]:
@@ -152,13 +156,21 @@ def sympy_backend() -> Backend:
     import sympy as sp
 
     names = {"arcsin": "asin", "arccos": "acos", "arctan": "atan", "arctan2": "atan2"}
-    return Backend("sympy", lambda x: sp.Float(x, 17) if x != 0 else sp.Integer(0),
-                   lambda name: getattr(sp, names.get(name, name)), lambda x: isinstance(x, sp.Basic))
+    return Backend(
+        "sympy",
+        lambda x: sp.Float(x, 17) if x != 0 else sp.Integer(0),
+        lambda name: getattr(sp, names.get(name, name)),
+        lambda x: isinstance(x, sp.Basic),
+    )
 
 
 def heyoka_backend() -> Backend:
     import heyoka as hy
 
     names = {"arcsin": "asin", "arccos": "acos", "arctan": "atan", "arctan2": "atan2"}
-    return Backend("heyoka", lambda x: hy.expression(x), lambda name: getattr(hy, names.get(name, name)),
-                   lambda x: isinstance(x, hy.expression))
+    return Backend(
+        "heyoka",
+        lambda x: hy.expression(x),
+        lambda name: getattr(hy, names.get(name, name)),
+        lambda x: isinstance(x, hy.expression),
+    )

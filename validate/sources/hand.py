@@ -34,17 +34,26 @@ class HandSource:
         return np.einsum("...ij,...j->...i", self.mass_matrix(q), a) + self.bias(q, v) - self.passive(q, v)
 
     def energies(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return (np.asarray(self.eq.kinetic_energy(self.p, q, v), dtype=float),
-                np.asarray(self.eq.potential_energy(self.p, q), dtype=float))
+        return (
+            np.asarray(self.eq.kinetic_energy(self.p, q, v), dtype=float),
+            np.asarray(self.eq.potential_energy(self.p, q), dtype=float),
+        )
 
     def evaluate(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray) -> dict[str, np.ndarray]:
         """Every pointwise quantity, vectorised over the states (M computed once)."""
         M, bias, passive = self.mass_matrix(q), self.bias(q, v), self.passive(q, v)
         kin, pot = self.energies(q, v)
-        return {"M": M, "bias": bias, "passive": passive,
-                "qacc": np.linalg.solve(M, (tau + passive - bias)[..., None])[..., 0],
-                "tau_inverse": np.einsum("...ij,...j->...i", M, a_ref) + bias - passive,
-                "T": kin, "V": pot, "body_positions": self.body_positions(q), "body_rotations": self.body_rotations(q)}
+        return {
+            "M": M,
+            "bias": bias,
+            "passive": passive,
+            "qacc": np.linalg.solve(M, (tau + passive - bias)[..., None])[..., 0],
+            "tau_inverse": np.einsum("...ij,...j->...i", M, a_ref) + bias - passive,
+            "T": kin,
+            "V": pot,
+            "body_positions": self.body_positions(q),
+            "body_rotations": self.body_rotations(q),
+        }
 
     def body_positions(self, q: np.ndarray) -> np.ndarray:
         pos = self.eq.body_positions(self.p, q)

@@ -153,8 +153,17 @@ class MujocoSource:
             d.qfrc_applied[:] = 0.0
             mujoco.mj_inverse(m, d)
             tau_inv[i] = d.qfrc_inverse[dadr]
-        return {"M": M, "bias": bias, "passive": passive, "qacc": qacc, "tau_inverse": tau_inv, "T": kin, "V": pot,
-                "body_positions": pos, "body_rotations": rot}
+        return {
+            "M": M,
+            "bias": bias,
+            "passive": passive,
+            "qacc": qacc,
+            "tau_inverse": tau_inv,
+            "T": kin,
+            "V": pot,
+            "body_positions": pos,
+            "body_rotations": rot,
+        }
 
     def body_positions(self, q: np.ndarray) -> np.ndarray:
         return self.kinematics(q, np.zeros_like(q)).com_position

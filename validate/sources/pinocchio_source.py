@@ -44,7 +44,9 @@ class PinocchioSource:
         self.data = self.model.createData()
         n = system.nv
         if self.model.nv != n:
-            raise HarnessError(f"Pinocchio sees {self.model.nv} degrees of freedom in {system.mjcf.name}; the equations have {n}.")
+            raise HarnessError(
+                f"Pinocchio sees {self.model.nv} degrees of freedom in {system.mjcf.name}; the equations have {n}."
+            )
         self.qidx, self.vidx = [], []
         for j in system.joints:
             if not self.model.existJointName(j):
@@ -59,7 +61,9 @@ class PinocchioSource:
         self.frames, self.joint_of_body = [], []
         for b in system.bodies:
             if not self.model.existBodyName(b):
-                raise HarnessError(f"Pinocchio's model of {system.mjcf.name} has no body '{b}' (named bodies are required).")
+                raise HarnessError(
+                    f"Pinocchio's model of {system.mjcf.name} has no body '{b}' (named bodies are required)."
+                )
             fid = self.model.getBodyId(b)
             self.frames.append(fid)
             self.joint_of_body.append(self.model.frames[fid].parentJoint)
@@ -150,12 +154,21 @@ class PinocchioSource:
             tau_inv[i] = pin.rnea(model, data, qi, vi, self._v(a_ref[i]))[vidx] - passive[i]
             kin[i] = pin.computeKineticEnergy(model, data, qi, vi)
             pot[i] = pin.computePotentialEnergy(model, data, qi)  # also places every joint (data.oMi)
-            for k, (jid, lever) in enumerate(zip(self.joint_of_body, levers)):
+            for k, (jid, lever) in enumerate(zip(self.joint_of_body, levers, strict=True)):
                 oMi = data.oMi[jid]
                 pos[i, k] = oMi.act(lever)
                 rot[i, k] = oMi.rotation @ model.frames[self.frames[k]].placement.rotation
-        return {"M": M, "bias": bias, "passive": passive, "qacc": qacc, "tau_inverse": tau_inv, "T": kin, "V": pot,
-                "body_positions": pos, "body_rotations": rot}
+        return {
+            "M": M,
+            "bias": bias,
+            "passive": passive,
+            "qacc": qacc,
+            "tau_inverse": tau_inv,
+            "T": kin,
+            "V": pot,
+            "body_positions": pos,
+            "body_rotations": rot,
+        }
 
     def body_positions(self, q: np.ndarray) -> np.ndarray:
         return self.kinematics(q, np.zeros_like(q)).com_position
@@ -171,7 +184,7 @@ class PinocchioSource:
         for i in range(n):
             pin.forwardKinematics(model, data, self._q(q[i]), self._v(v[i]))
             pin.updateFramePlacements(model, data)
-            for k, (fid, jid) in enumerate(zip(self.frames, self.joint_of_body)):
+            for k, (fid, jid) in enumerate(zip(self.frames, self.joint_of_body, strict=True)):
                 inertia, oMi, vj = model.inertias[jid], data.oMi[jid], data.v[jid]
                 frame = data.oMf[fid]
                 fv = pin.getFrameVelocity(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
