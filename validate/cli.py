@@ -79,6 +79,13 @@ def _parser() -> argparse.ArgumentParser:
     rep = sub.add_parser("report", help="re-render the reports from an existing results.json")
     rep.add_argument("--out", type=Path, default=Path("reports"))
 
+    stress = sub.add_parser("stress", help="numerical stability: long horizons, stable timesteps, conditioning")
+    stress.add_argument("systems", nargs="*", metavar="SYSTEM")
+    stress.add_argument("--set", action="append", metavar="KEY=VALUE",
+                        help="parameter override applied to every system (e.g. scale/mass=2, joint/psi/damping=1)")
+    stress.add_argument("--quick", action="store_true", help="100 s horizons and fewer sweep points (~30 s)")
+    stress.add_argument("--out", type=Path, default=Path("reports"), help="folder for stress.json")
+
     replay = sub.add_parser("replay", help="a rerun recording of a system's trajectories")
     replay.add_argument("system")
     replay.add_argument("--save", type=Path, metavar="FILE", help="write an .rrd file instead of spawning a viewer")
@@ -275,6 +282,12 @@ def cmd_replay(args: argparse.Namespace) -> int:
     return replay_command(args.system, args.save)
 
 
+def cmd_stress(args: argparse.Namespace) -> int:
+    from .stress import stress_command
+
+    return stress_command(args)
+
+
 COMMANDS = {
     "list": cmd_list,
     "run": cmd_run,
@@ -282,6 +295,7 @@ COMMANDS = {
     "simulate": cmd_simulate,
     "report": cmd_report,
     "replay": cmd_replay,
+    "stress": cmd_stress,
 }
 
 
