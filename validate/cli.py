@@ -79,6 +79,12 @@ def _parser() -> argparse.ArgumentParser:
     rep = sub.add_parser("report", help="re-render the reports from an existing results.json")
     rep.add_argument("--out", type=Path, default=Path("reports"))
 
+    bench = sub.add_parser("bench", help="run time against error: work-precision sweep and the fast-harness ratios")
+    bench.add_argument("systems", nargs="*", metavar="SYSTEM")
+    bench.add_argument("--quick", action="store_true", help="2 systems, small plan, 1 repeat (about 10 s)")
+    bench.add_argument("--out", type=Path, default=Path("reports"), help="folder for bench.json (default: reports)")
+    bench.add_argument("--repeats", type=_positive_int, default=None, help="timing repeats (default 3; --quick 1)")
+
     stress = sub.add_parser("stress", help="numerical stability: long horizons, stable timesteps, conditioning")
     stress.add_argument("systems", nargs="*", metavar="SYSTEM")
     stress.add_argument("--set", action="append", metavar="KEY=VALUE",
@@ -282,6 +288,12 @@ def cmd_replay(args: argparse.Namespace) -> int:
     return replay_command(args.system, args.save)
 
 
+def cmd_bench(args: argparse.Namespace) -> int:
+    from .bench import bench_command
+
+    return bench_command(args)
+
+
 def cmd_stress(args: argparse.Namespace) -> int:
     from .stress import stress_command
 
@@ -296,6 +308,7 @@ COMMANDS = {
     "report": cmd_report,
     "replay": cmd_replay,
     "stress": cmd_stress,
+    "bench": cmd_bench,
 }
 
 

@@ -86,9 +86,8 @@ def evaluate(sources: dict[str, Any], states: States) -> dict[str, dict[str, np.
     dynamics at the hand source's accelerations (so it should give back tau).
     """
     q, v, tau = states.q, states.v, states.tau
-    hand = sources["hand"].evaluate(q, v, tau, np.zeros_like(q))
+    hand = sources["hand"].evaluate(q, v, tau)  # its inverse dynamics at its own accelerations
     a_hand = hand["qacc"]
-    hand["tau_inverse"] = sources["hand"].inverse(q, v, a_hand)
     out = {"hand": hand}
     for name, src in sources.items():
         if name != "hand":

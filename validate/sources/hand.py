@@ -39,16 +39,20 @@ class HandSource:
             np.asarray(self.eq.potential_energy(self.p, q), dtype=float),
         )
 
-    def evaluate(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray) -> dict[str, np.ndarray]:
-        """Every pointwise quantity, vectorised over the states (M computed once)."""
+    def evaluate(
+        self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray | None = None
+    ) -> dict[str, np.ndarray]:
+        """Every pointwise quantity, vectorised over the states (M computed once). Without `a_ref`
+        the inverse dynamics is taken at the source's own accelerations."""
         M, bias, passive = self.mass_matrix(q), self.bias(q, v), self.passive(q, v)
         kin, pot = self.energies(q, v)
+        qacc = np.linalg.solve(M, (tau + passive - bias)[..., None])[..., 0]
         return {
             "M": M,
             "bias": bias,
             "passive": passive,
-            "qacc": np.linalg.solve(M, (tau + passive - bias)[..., None])[..., 0],
-            "tau_inverse": np.einsum("...ij,...j->...i", M, a_ref) + bias - passive,
+            "qacc": qacc,
+            "tau_inverse": np.einsum("...ij,...j->...i", M, qacc if a_ref is None else a_ref) + bias - passive,
             "T": kin,
             "V": pot,
             "body_positions": self.body_positions(q),

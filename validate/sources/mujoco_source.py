@@ -54,6 +54,16 @@ class MujocoSource:
                 self.ctrl_of_coord[k] = a
                 self.gear[k] = self.m.actuator_gear[a, 0]
         self.gravity = np.array(system.view["gravity"])
+        # The common case: the coordinates are the model's only joints, in order.
+        self.identity = (
+            self.m.nq == n
+            and self.m.nv == n
+            and np.array_equal(self.qadr, np.arange(n))
+            and np.array_equal(self.dadr, np.arange(n))
+        )
+        ids = self.body_ids
+        consecutive = len(ids) > 0 and np.array_equal(ids, np.arange(ids[0], ids[0] + len(ids)))
+        self.body_slice = slice(int(ids[0]), int(ids[0]) + len(ids)) if consecutive else ids
 
     # -- state setting ------------------------------------------------------------------------
     def _set(self, q: np.ndarray, v: np.ndarray | None = None, tau: np.ndarray | None = None) -> None:
@@ -132,27 +142,36 @@ class MujocoSource:
     def evaluate(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray) -> dict[str, np.ndarray]:
         """Every pointwise quantity in one pass: one mj_forward and one mj_inverse per state.
 
-        `qacc` is the forward dynamics at tau; `tau_inverse` the inverse dynamics at `a_ref`."""
+        `qacc` is the forward dynamics at tau; `tau_inverse` the inverse dynamics at `a_ref`.
+        The loop holds only the engine calls and copies: inputs are mapped for all states first,
+        and where the coordinates are the model's joints in order, whole arrays are copied."""
         m, d = self.m, self.d
         n, nb = q.shape
         M, bias, passive = np.empty((n, nb, nb)), np.empty((n, nb)), np.empty((n, nb))
         qacc, tau_inv, kin, pot = np.empty((n, nb)), np.empty((n, nb)), np.empty(n), np.empty(n)
         pos, rot = np.empty((n, len(self.body_ids), 3)), np.empty((n, len(self.body_ids), 3, 3))
-        full = np.zeros((m.nv, m.nv))
-        dadr, ix, bodies = self.dadr, np.ix_(self.dadr, self.dadr), self.body_ids
+        ctrl, applied = self._inputs(tau)
+        qsel, dsel = (slice(None), slice(None)) if self.identity else (self.qadr, self.dadr)
+        full = None if self.identity else np.zeros((m.nv, m.nv))
+        ix = np.ix_(self.dadr, self.dadr)
+        bodies, xipos, xmat = self.body_slice, d.xipos, d.xmat
         for i in range(n):
-            self._set(q[i], v[i], tau[i])
+            d.qpos[qsel] = q[i]
+            d.qvel[dsel] = v[i]
+            d.ctrl[:] = ctrl[i]
+            d.qfrc_applied[:] = applied[i]
             mujoco.mj_forward(m, d)
-            mujoco.mj_fullM(m, d, full)
-            M[i] = full[ix]
-            bias[i], passive[i], qacc[i] = d.qfrc_bias[dadr], d.qfrc_passive[dadr], d.qacc[dadr]
+            if full is None:
+                mujoco.mj_fullM(m, d, M[i])
+            else:
+                mujoco.mj_fullM(m, d, full)
+                M[i] = full[ix]
+            bias[i], passive[i], qacc[i] = d.qfrc_bias[dsel], d.qfrc_passive[dsel], d.qacc[dsel]
             pot[i], kin[i] = d.energy
-            pos[i], rot[i] = d.xipos[bodies], d.xmat[bodies].reshape(-1, 3, 3)
-            d.qacc[dadr] = a_ref[i]
-            d.ctrl[:] = 0.0
-            d.qfrc_applied[:] = 0.0
-            mujoco.mj_inverse(m, d)
-            tau_inv[i] = d.qfrc_inverse[dadr]
+            pos[i], rot[i] = xipos[bodies], xmat[bodies].reshape(-1, 3, 3)
+            d.qacc[dsel] = a_ref[i]
+            mujoco.mj_inverse(m, d)  # qfrc_inverse does not depend on ctrl or qfrc_applied
+            tau_inv[i] = d.qfrc_inverse[dsel]
         return {
             "M": M,
             "bias": bias,
@@ -164,6 +183,14 @@ class MujocoSource:
             "body_positions": pos,
             "body_rotations": rot,
         }
+
+    def _inputs(self, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(ctrl (N, nu), qfrc_applied (N, nv)) carrying tau: actuated coordinates through ctrl = tau / gear."""
+        ctrl, applied = np.zeros((len(tau), self.m.nu)), np.zeros((len(tau), self.m.nv))
+        driven = self.ctrl_of_coord >= 0
+        ctrl[:, self.ctrl_of_coord[driven]] = tau[:, driven] / self.gear[driven]
+        applied[:, self.dadr[~driven]] = tau[:, ~driven]
+        return ctrl, applied
 
     def body_positions(self, q: np.ndarray) -> np.ndarray:
         return self.kinematics(q, np.zeros_like(q)).com_position
