@@ -38,6 +38,21 @@ def test_collision_free_geom_mass_that_pinocchio_drops_is_named(tmp_path):
     assert "body/link1/mass" in bad
 
 
+def test_mesh_geom_that_pinocchio_reads_as_one_kilogram_is_named(tmp_path):
+    """A 2 kg mesh bob: MuJoCo integrates the mesh, Pinocchio gives a mesh geom 1 kg and unit inertia."""
+    s = _variant(
+        tmp_path,
+        '<inertial pos="0 -1 0" mass="1" diaginertia="1e-14 1e-14 1e-14"/>\n      <geom name="rod1"',
+        '<geom name="bobmesh" type="mesh" mesh="tetra" pos="0 -1 0" mass="2"/>\n      <geom name="rod1"',
+    )
+    text = s.mjcf.read_text().replace(
+        "<worldbody>", '<asset><mesh name="tetra" vertex="0 0 0  0.05 0 0  0 0.05 0  0 0 0.05"/></asset>\n<worldbody>', 1
+    )
+    s.mjcf.write_text(text)
+    bad = {r["key"] for r in modelsync.pinocchio_vs_mujoco(s, make_source(s, "pinocchio")) if not r["passed"]}
+    assert {"body/link1/mass", "body/link1/com", "body/link1/inertia"} <= bad
+
+
 def test_a_joint_type_the_equations_do_not_cover_is_refused(tmp_path):
     s = _variant(tmp_path, '<joint name="phi" type="hinge"', '<joint name="phi" type="ball"')
     with pytest.raises(HarnessError) as err:
