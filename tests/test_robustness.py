@@ -45,9 +45,8 @@ def test_mesh_geom_that_pinocchio_reads_as_one_kilogram_is_named(tmp_path):
         '<inertial pos="0 -1 0" mass="1" diaginertia="1e-14 1e-14 1e-14"/>\n      <geom name="rod1"',
         '<geom name="bobmesh" type="mesh" mesh="tetra" pos="0 -1 0" mass="2"/>\n      <geom name="rod1"',
     )
-    text = s.mjcf.read_text().replace(
-        "<worldbody>", '<asset><mesh name="tetra" vertex="0 0 0  0.05 0 0  0 0.05 0  0 0 0.05"/></asset>\n<worldbody>', 1
-    )
+    tetra = '<asset><mesh name="tetra" vertex="0 0 0  0.05 0 0  0 0.05 0  0 0 0.05"/></asset>'
+    text = s.mjcf.read_text().replace("<worldbody>", f"{tetra}\n<worldbody>", 1)
     s.mjcf.write_text(text)
     bad = {r["key"] for r in modelsync.pinocchio_vs_mujoco(s, make_source(s, "pinocchio")) if not r["passed"]}
     assert {"body/link1/mass", "body/link1/com", "body/link1/inertia"} <= bad
