@@ -373,11 +373,13 @@ class Chromium:
             raise RuntimeError(out["exceptionDetails"])
         return out["result"].get("value")
 
-    def screenshot(self, path: Path) -> None:
+    def screenshot(self, path: Path, *, y: float = 0) -> None:
+        """The viewport-sized area of the page starting `y` CSS pixels from its top."""
         data = self.call(
             "Page.captureScreenshot",
             format="png",
-            clip={"x": 0, "y": 0, "width": self.width, "height": self.height, "scale": 1},
+            captureBeyondViewport=True,
+            clip={"x": 0, "y": y, "width": self.width, "height": self.height, "scale": 1},
         )["data"]
         Path(path).write_bytes(base64.b64decode(data))
 

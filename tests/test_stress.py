@@ -42,10 +42,10 @@ def test_mirror_runs_in_chunks_equal_one_run(integrator):
     """A mirror run checked sample by sample is bit for bit the mirror run in one piece."""
     system, sources, _ = loaded("double_pendulum_point")
     q0, v0 = initial_state(system)
-    run = stress.simulate(system, sources, "mirror", integrator, q0, v0, np.zeros(2), timestep=1e-3, t_end=0.5,
-                          sample_steps=50)
-    whole = mirror_trajectory(system, sources["hand"], q0, v0, np.zeros(2), run.t, integrator=integrator,
-                              timestep=1e-3)
+    run = stress.simulate(
+        system, sources, "mirror", integrator, q0, v0, np.zeros(2), timestep=1e-3, t_end=0.5, sample_steps=50
+    )
+    whole = mirror_trajectory(system, sources["hand"], q0, v0, np.zeros(2), run.t, integrator=integrator, timestep=1e-3)
     assert run.failure is None
     assert np.array_equal(run.q, whole.q) and np.array_equal(run.v, whole.v)
 
@@ -55,10 +55,10 @@ def test_mujoco_runs_equal_mujoco_trajectory(integrator):
     """`simulate` steps MuJoCo exactly as integrate.mujoco_trajectory does (bitwise equal samples)."""
     system, sources, _ = loaded("double_pendulum_point")
     q0, v0 = initial_state(system)
-    run = stress.simulate(system, sources, "mujoco", integrator, q0, v0, np.zeros(2), timestep=1e-3, t_end=0.5,
-                          sample_steps=10)
-    ref = mujoco_trajectory(system, sources["mujoco"], q0, v0, np.zeros(2), run.t, integrator=integrator,
-                            timestep=1e-3)
+    run = stress.simulate(
+        system, sources, "mujoco", integrator, q0, v0, np.zeros(2), timestep=1e-3, t_end=0.5, sample_steps=10
+    )
+    ref = mujoco_trajectory(system, sources["mujoco"], q0, v0, np.zeros(2), run.t, integrator=integrator, timestep=1e-3)
     assert np.array_equal(run.q, ref.q) and np.array_equal(run.v, ref.v)
 
 
@@ -66,8 +66,9 @@ def test_mujoco_warning_stops_a_run():
     """A blow-up is caught from MuJoCo's own warning, not from the state it resets to."""
     system, sources, _ = loaded("double_pendulum_point")
     q0, _ = initial_state(system)
-    run = stress.simulate(system, sources, "mujoco", "Euler", q0, np.full(2, 50.0), np.zeros(2), timestep=0.05,
-                          t_end=10.0, sample_steps=1)
+    run = stress.simulate(
+        system, sources, "mujoco", "Euler", q0, np.full(2, 50.0), np.zeros(2), timestep=0.05, t_end=10.0, sample_steps=1
+    )
     assert run.failure is not None and "mjWARN_BADQACC" in run.failure, run.failure
     assert run.t_fail is not None and run.t_fail < 10.0
     assert np.all(np.isfinite(run.q)) and run.t[-1] < run.t_fail
@@ -107,8 +108,9 @@ def test_bisection_finds_the_boundary_of_euler_on_the_fast_simple_pendulum():
     v0, tau = np.array([50.0]), np.zeros(1)
 
     def trial(dt):
-        return stress.stability_trial(system, sources, "mujoco", "Euler", q0, v0, tau, timestep=dt, t_end=100.0,
-                                      V_min=V_min)
+        return stress.stability_trial(
+            system, sources, "mujoco", "Euler", q0, v0, tau, timestep=dt, t_end=100.0, V_min=V_min
+        )
 
     found = stress.max_stable_timestep(trial, dt_range=(1e-2, 2.0))
     dt = found["max_stable"]
@@ -126,8 +128,18 @@ def test_bisection_finds_the_boundary_of_euler_on_the_fast_simple_pendulum():
 def _energy(integrator, dt, t_end=20.0):
     system, sources, V_min = loaded("simple_pendulum")
     q0, v0 = initial_state(system)
-    run = stress.simulate(system, sources, "mujoco", integrator, q0, v0, np.zeros(1), timestep=dt, t_end=t_end,
-                          sample_steps=max(1, round(0.1 / dt)))
+    run = stress.simulate(
+        system,
+        sources,
+        "mujoco",
+        integrator,
+        q0,
+        v0,
+        np.zeros(1),
+        timestep=dt,
+        t_end=t_end,
+        sample_steps=max(1, round(0.1 / dt)),
+    )
     return stress.classify_energy(run.t, stress.run_energy(sources["hand"], run), V_min=V_min)
 
 
@@ -188,7 +200,8 @@ def test_disagreement_grows_like_cond_times_eps():
     cond, err = [], []
     for ratio in (1e2, 1e4, 1e6, 1e8):
         point = stress.conditioning_point(
-            systems.load(system.name, overrides=stress.sweep_overrides(system, sweep, ratio)), n_states=100, seed=0)
+            systems.load(system.name, overrides=stress.sweep_overrides(system, sweep, ratio)), n_states=100, seed=0
+        )
         worst = max(r["scaled"] for r in point["rows"] if r["quantity"] == "qacc")
         cond.append(point["cond_max"])
         err.append(worst)
@@ -205,8 +218,9 @@ def test_diagonal_scaling_leaves_the_disagreement_at_round_off():
     system, sources, _ = loaded("gimbal")
     sweep = next(s for s in stress.conditioning_sweeps(system, sources["hand"]) if s.heavy == "outer")
     assert sweep.kind == "inertia"  # the gimbal's masses do not enter M
-    point = stress.conditioning_point(systems.load(system.name, overrides=stress.sweep_overrides(system, sweep, 1e8)),
-                                      n_states=100, seed=0)
+    point = stress.conditioning_point(
+        systems.load(system.name, overrides=stress.sweep_overrides(system, sweep, 1e8)), n_states=100, seed=0
+    )
     assert point["cond_max"] > 1e6 and point["cond_eq_max"] < 2.0, point
     assert max(r["scaled"] for r in point["rows"]) < 1e-14
 
@@ -223,8 +237,9 @@ def test_every_sweep_point_compiles():
 # ----------------------------------------------------------------------------------------------
 # stress.json and bad input
 
-TINY = replace(stress.QUICK, drift_horizons=(5.0,), speeds=(50.0,), stability_t_end=1.0,
-               sections=("drift", "stability"))
+TINY = replace(
+    stress.QUICK, drift_horizons=(5.0,), speeds=(50.0,), stability_t_end=1.0, sections=("drift", "stability")
+)
 
 
 def test_stress_json_is_written_atomically(tmp_path):
@@ -246,12 +261,15 @@ def test_stress_json_is_written_atomically(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["stress.json"]
 
 
-@pytest.mark.parametrize(("names", "overrides", "message"), [
-    (["dbl_pendulum"], (), "Unknown system"),
-    (["gimbal"], (("body/link2/mass", 2.0),), "Unknown body 'link2'"),
-    (["gimbal"], (("body/inner/size", 2.0),), "Valid keys"),
-    (["double_pendulum_point"], (("body/link2/mass", 0.01),), "mjMINVAL"),
-])
+@pytest.mark.parametrize(
+    ("names", "overrides", "message"),
+    [
+        (["dbl_pendulum"], (), "Unknown system"),
+        (["gimbal"], (("body/link2/mass", 2.0),), "Unknown body 'link2'"),
+        (["gimbal"], (("body/inner/size", 2.0),), "Valid keys"),
+        (["double_pendulum_point"], (("body/link2/mass", 0.01),), "mjMINVAL"),
+    ],
+)
 def test_bad_input_is_one_line(names, overrides, message):
     """Unknown systems, keys and bodies, and models MuJoCo refuses fail at once, on one line."""
     with pytest.raises(HarnessError) as exc:
@@ -275,8 +293,9 @@ def test_eulerdamp_keeps_stiff_friction_stable():
     (eulerdamp) and its mirror stay stable and agree, while Euler without it diverges: explicit damping
     is stable only below 2 M / D = 2 x 9e-3 / 10 = 1.8 ms on the elevation axis."""
     base = systems.load("gimbal")
-    damped = systems.load("gimbal", overrides=tuple((f"joint/{j}/damping", 1000 * base.view[f"joint/{j}/damping"])
-                                                   for j in base.joints))
+    damped = systems.load(
+        "gimbal", overrides=tuple((f"joint/{j}/damping", 1000 * base.view[f"joint/{j}/damping"]) for j in base.joints)
+    )
     sources = make_sources(damped)
     q0, v0 = initial_state(damped)
     kw = {"timestep": 5e-3, "t_end": 1.0, "sample_steps": 20}

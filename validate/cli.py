@@ -87,8 +87,12 @@ def _parser() -> argparse.ArgumentParser:
 
     stress = sub.add_parser("stress", help="numerical stability: long horizons, stable timesteps, conditioning")
     stress.add_argument("systems", nargs="*", metavar="SYSTEM")
-    stress.add_argument("--set", action="append", metavar="KEY=VALUE",
-                        help="parameter override applied to every system (e.g. scale/mass=2, joint/psi/damping=1)")
+    stress.add_argument(
+        "--set",
+        action="append",
+        metavar="KEY=VALUE",
+        help="parameter override applied to every system (e.g. scale/mass=2, joint/psi/damping=1)",
+    )
     stress.add_argument("--quick", action="store_true", help="100 s horizons and fewer sweep points (~30 s)")
     stress.add_argument("--out", type=Path, default=Path("reports"), help="folder for stress.json")
 
@@ -185,11 +189,12 @@ def cmd_check(args: argparse.Namespace) -> int:
                 }
                 for i in range(len(states))
             ],
-            "max_disagreement": {r["quantity"]: {} for r in rows},
+            "max_disagreement": {r["quantity"]: {} for r in rows},  # filled below
             "passed": all(r["passed"] for r in rows),
         }
+        disagreement: dict[str, dict[str, Any]] = out["max_disagreement"]  # type: ignore[assignment]
         for r in rows:
-            out["max_disagreement"][r["quantity"]][r["pair"]] = {
+            disagreement[r["quantity"]][r["pair"]] = {
                 "max_abs": r["max_abs"],
                 "scaled": r["scaled"],
                 "tolerance": r["tolerance"],

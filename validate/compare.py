@@ -49,7 +49,7 @@ def random_states(system: Any, *, n: int, seed: int) -> States:
 def validate_states(system: Any, q: Any, v: Any, tau: Any | None = None) -> States:
     """Checks user-given states: shapes (N, n) and finite values; errors name the problem."""
     n = system.nv
-    arrays = {}
+    arrays: dict[str, np.ndarray] = {}
     for name, x in (("q", q), ("v", v), ("tau", tau)):
         if x is None:
             x = np.zeros_like(arrays["q"])

@@ -17,7 +17,7 @@ DEFAULT_T_END = 10.0  # s
 DEFAULT_DT_OUT = 0.01  # s
 # The default scipy integration: the compiled LSODA driver (`odeint`), the fastest scipy driver to
 # 1e-9 rad at t = 2 s on the double pendulum (`lagrange-xval bench` measures it against the others).
-SCIPY_DEFAULT = {"method": "odeint", "rtol": 1e-11, "atol": 1e-14}
+SCIPY_DEFAULT: dict[str, Any] = {"method": "odeint", "rtol": 1e-11, "atol": 1e-14}
 
 
 @dataclass

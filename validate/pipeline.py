@@ -159,15 +159,18 @@ def run(
     systems = load_all(names)  # unknown names fail here, before any work starts
     out: dict[str, Any] = {"meta": provenance(seed), "tolerances": TOLERANCES.as_dict(), "systems": {}}
     own = executor is None
-    if own:
+    pool: Executor
+    if executor is None:
         workers = min(len(systems), os.cpu_count() or 1)
-        executor = (
+        pool = (
             ProcessPoolExecutor(max_workers=workers, initializer=_ignore_sigint)
             if workers > 1
             else ThreadPoolExecutor(max_workers=1)
         )
+    else:
+        pool = executor
     try:
-        futures = {executor.submit(_run_one, s.name, n_states, seed): s.name for s in systems}
+        futures = {pool.submit(_run_one, s.name, n_states, seed): s.name for s in systems}
         for name in futures.values():
             if progress:
                 progress(name, "start")
@@ -186,7 +189,7 @@ def run(
         raise
     finally:
         if own:
-            executor.shutdown(wait=True, cancel_futures=True)
+            pool.shutdown(wait=True, cancel_futures=True)
     out["systems"] = {name: done[name] for name in sorted(done)}
     out["passed"] = all(s["passed"] for s in out["systems"].values())
     return out

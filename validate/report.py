@@ -61,11 +61,14 @@ FIG_DPI = 110
 
 @dataclass(frozen=True)
 class Num:
-    """A number shown in scientific notation, right-aligned."""
+    """A number shown in scientific notation, right-aligned: `digits` after the point, or with
+    `short` an exact power of ten as 1e-12 and any other value with trailing zeros dropped
+    (9.81e+00, 8.33333e-02)."""
 
     value: Any
     digits: int = 2
     unit: str = ""
+    short: bool = False
 
 
 @dataclass(frozen=True)
@@ -95,6 +98,7 @@ class Table:
     columns: tuple[str, ...]
     rows: tuple[tuple[Any, ...], ...]
     numeric: tuple[bool, ...] = ()
+    group: bool = False  # HTML: the first column as a heading row each time it changes (markdown keeps it)
 
 
 @dataclass(frozen=True)
@@ -126,11 +130,16 @@ class Document:
         self.blocks.append(Para(text, kind))
 
     def table(
-        self, title: str, columns: tuple[str, ...] | list[str], rows: list[tuple[Any, ...]] | list[list[Any]]
+        self,
+        title: str,
+        columns: tuple[str, ...] | list[str],
+        rows: list[tuple[Any, ...]] | list[list[Any]],
+        *,
+        group: bool = False,
     ) -> None:
         rows_t = tuple(tuple(r) for r in rows)
         numeric = tuple(bool(rows_t) and all(isinstance(r[i], Num) for r in rows_t) for i in range(len(columns)))
-        self.blocks.append(Table(title, tuple(columns), rows_t, numeric))
+        self.blocks.append(Table(title, tuple(columns), rows_t, numeric, group))
 
     def figure(self, path: str, png: bytes, alt: str, caption: str) -> None:
         self.images[path] = png
@@ -173,15 +182,33 @@ def sci(x: Any, digits: int = 2) -> str:
     return f"{x:.{digits}e}"
 
 
+def _num_text(c: Num) -> str:
+    x = c.value
+    if isinstance(x, str):
+        try:
+            x = float(x)
+        except ValueError:
+            return x
+    if not _is_number(x) or not math.isfinite(x) or x == 0:
+        return sci(x, c.digits)
+    if not c.short:
+        return f"{float(x):.{c.digits}e}"
+    mantissa, exponent = f"{float(x):.{max(c.digits, 6)}e}".split("e")
+    mantissa = mantissa.rstrip("0").rstrip(".")
+    return f"{mantissa}e{exponent}"
+
+
 def _cell_text(c: Any) -> str:
     if isinstance(c, Num):
-        return sci(c.value, c.digits) + (f" {c.unit}" if c.unit and c.value is not None else "")
+        return _num_text(c) + (f" {c.unit}" if c.unit and c.value is not None else "")
     if isinstance(c, Mark):
         return f"{_MARK_SIGN[c.state]} {c.text}"
     if c is None:
         return "–"
     if isinstance(c, bool):
         return "yes" if c else "no"
+    if isinstance(c, int):
+        return str(c)  # a count
     if _is_number(c):
         return sci(c)
     return str(c)
@@ -192,16 +219,22 @@ _MARK_SIGN = {"ok": "✓", "bad": "✗", "na": "–"}
 
 def _plain(x: Any) -> Any:
     """Numpy arrays and scalars to Python lists and scalars (a render from `run`'s dict and one
-    from results.json are then the same: formatting treats "nan" and nan alike)."""
+    from results.json are then the same: formatting treats "nan" and nan alike). Plain lists are
+    returned as they are, checked without a call per element (time series are long)."""
     if isinstance(x, dict):
         return {str(k): _plain(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):
-        if all(type(y) in (float, int, str) or y is None for y in x):
+        if all(type(y) in _PLAIN_TYPES for y in x):
+            return list(x)
+        if all(type(y) is list and all(type(z) in _PLAIN_TYPES for z in y) for y in x):
             return list(x)
         return [_plain(y) for y in x]
     if hasattr(x, "tolist"):  # numpy arrays and scalars
         return x.tolist()
     return x
+
+
+_PLAIN_TYPES = (float, int, str, bool, type(None))
 
 
 def _float(x: Any) -> float:
@@ -242,22 +275,47 @@ def _vec(xs: Any) -> str:
 # Figures (matplotlib's object API on Agg: no pyplot state, nothing to close)
 
 
+def _plain_log_labels(fig: Any) -> None:
+    """Log-axis tick labels as plain text (1e-12) instead of mathtext (10^-12): the same reading,
+    and mathtext layout was half of the render time."""
+    from matplotlib.ticker import FuncFormatter, LogFormatterSciNotation, NullFormatter
+
+    def label(x: float, _pos: Any) -> str:
+        if x <= 0 or not math.isfinite(x):
+            return ""
+        e = math.log10(x)
+        if abs(e - round(e)) > 1e-9:
+            return ""
+        return "1" if round(e) == 0 else f"1e{round(e)}"
+
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            if axis.get_scale() == "log":
+                if isinstance(axis.get_major_formatter(), LogFormatterSciNotation):
+                    axis.set_major_formatter(FuncFormatter(label))
+                if isinstance(axis.get_minor_formatter(), LogFormatterSciNotation):
+                    axis.set_minor_formatter(NullFormatter())
+
+
 def _png(fig: Any) -> bytes:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     FigureCanvasAgg(fig)
+    _plain_log_labels(fig)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=FIG_DPI, metadata={"Software": None})
     return buf.getvalue()
 
 
-def _new_figure(w: float, h: float, nrows: int = 1, sharex: bool = False) -> tuple[Any, Any]:
+def _new_figure(
+    w: float, h: float, nrows: int = 1, sharex: bool = False, *, legend_right: float = 0.0
+) -> tuple[Any, Any]:
     """A figure with fixed margins (in inches, so every figure lines up; and no layout engine,
     which would draw each figure twice)."""
     from matplotlib.figure import Figure as MplFigure
 
     fig = MplFigure(figsize=(w, h))
-    left, right, top, bottom, gap = 0.85, 0.2, 0.38, 0.5, 0.12
+    left, right, top, bottom, gap = 0.85, 0.2 + legend_right, 0.38, 0.5, 0.12
     fig.subplots_adjust(
         left=left / w,
         right=1 - right / w,
@@ -272,6 +330,13 @@ def _new_figure(w: float, h: float, nrows: int = 1, sharex: bool = False) -> tup
         for side in ("top", "right"):
             ax.spines[side].set_visible(False)
     return fig, axes
+
+
+LEGEND_W = 1.45  # in: room on the right of a figure for its legend, clear of the curves
+
+
+def _legend_right(ax: Any) -> None:
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, handlelength=2.6)
 
 
 def _rc() -> Any:
@@ -300,12 +365,15 @@ def _stride(n: int) -> int:
 
 
 def _series(values: Any) -> Any:
+    """A float array from a list that may hold "nan"/"inf" strings (as results.json stores them)."""
     import numpy as np
 
-    out = []
-    for x in values:
-        out.append(_float(x) if not isinstance(x, list) else [_float(y) for y in x])
-    return np.asarray(out, dtype=float)
+    try:
+        return np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        return np.asarray(
+            [_float(x) if not isinstance(x, list) else [_float(y) for y in x] for x in values], dtype=float
+        )
 
 
 def pointwise_figure(name: str, rows: list[dict[str, Any]]) -> bytes:
@@ -340,17 +408,8 @@ def pointwise_figure(name: str, rows: list[dict[str, Any]]) -> bytes:
             for xi, yi in zip(xs, ys_arr, strict=True):
                 if yi == 0:
                     ax.text(xi, floor * 1.6, "0", ha="center", va="bottom", fontsize=7, color="#6b7280")
-        for i, q in enumerate(quantities):
-            tol = max(_float(r["tolerance"]) for r in rows if r["quantity"] == q)
-            ax.hlines(
-                tol,
-                x[i] - 0.45,
-                x[i] + 0.45,
-                colors="#dc2626",
-                linewidth=2,
-                zorder=3,
-                label="tolerance" if i == 0 else None,
-            )
+        tols = [max(_float(r["tolerance"]) for r in rows if r["quantity"] == q) for q in quantities]
+        ax.hlines(tols, x - 0.45, x + 0.45, colors="#dc2626", linewidth=2, zorder=3, label="tolerance")
         ax.set_yscale("log")
         from matplotlib.ticker import LogLocator, NullLocator
 
@@ -361,7 +420,7 @@ def pointwise_figure(name: str, rows: list[dict[str, Any]]) -> bytes:
             + [_float(r["scaled"]) for r in rows if np.isfinite(_float(r["scaled"]))]
         )
         ax.set_ylim(floor, max(1.0, top * 10))
-        ax.set_xticks(x, quantities, rotation=0)
+        ax.set_xticks(x, [q.replace("_", "\n") for q in quantities], rotation=0)
         ax.tick_params(axis="x", labelsize=8)
         ax.set_ylabel("max |a - b| / range (log)")
         ax.set_title(f"{name}: largest scaled error over the random states, per quantity and source pair")
@@ -386,7 +445,7 @@ def trajectory_figure(name: str, coords: list[str], t: Any, runs: list[dict[str,
     k = _stride(len(t))
     tt = t[::k]
     with _rc():
-        fig, axes = _new_figure(8.6, 0.6 + 1.55 * len(coords), nrows=len(coords), sharex=True)
+        fig, axes = _new_figure(8.6, 0.6 + 1.55 * len(coords), nrows=len(coords), sharex=True, legend_right=LEGEND_W)
         for i, (ax, c) in enumerate(zip(axes, coords, strict=True)):
             for run in runs:
                 q = _series(run["q"])
@@ -396,7 +455,7 @@ def trajectory_figure(name: str, coords: list[str], t: Any, runs: list[dict[str,
                 ax.plot(tt, q[::k, i], color=colour, linestyle=style, linewidth=lw, label=_run_label(run))
             ax.set_ylabel(f"{c} (rad)")
         axes[0].set_title(f"{name}: coordinates against time, every source overlaid")
-        axes[0].legend(ncols=len(runs), loc="upper right")
+        _legend_right(axes[0])
         axes[-1].set_xlabel("t (s)")
         return _png(fig)
 
@@ -408,7 +467,7 @@ def error_figure(name: str, t: Any, runs: list[dict[str, Any]], threshold: float
     k = _stride(len(t))
     tt = t[::k]
     with _rc():
-        fig, (ax,) = _new_figure(8.6, 2.9)
+        fig, (ax,) = _new_figure(8.6, 2.9, legend_right=LEGEND_W)
         lows = []
         for run in runs:
             e = _series(run["error_vs_hand"])[::k]
@@ -430,9 +489,12 @@ def error_figure(name: str, t: Any, runs: list[dict[str, Any]], threshold: float
             )
         ax.set_ylabel("log10 max |q - q_ref| (rad)")
         ax.set_xlabel("t (s)")
-        ax.set_title(f"{name}: distance to the reference ({reference})")
+        from matplotlib.ticker import MaxNLocator
+
+        ax.yaxis.set_major_locator(MaxNLocator(integer=True))
+        ax.set_title(f"{name}: distance to the reference solution")
         if ax.get_legend_handles_labels()[0]:
-            ax.legend(loc="lower right", ncols=3)
+            _legend_right(ax)
         return _png(fig)
 
 
@@ -441,7 +503,7 @@ def energy_figure(name: str, t: Any, runs: list[dict[str, Any]]) -> bytes:
     k = _stride(len(t))
     tt = t[::k]
     with _rc():
-        fig, (ax,) = _new_figure(8.6, 2.9)
+        fig, (ax,) = _new_figure(8.6, 2.9, legend_right=LEGEND_W)
         for run in runs:
             e = _series(run["energy"])
             colour, style, lw = _run_style(run)
@@ -450,7 +512,7 @@ def energy_figure(name: str, t: Any, runs: list[dict[str, Any]]) -> bytes:
         ax.set_ylabel("E(t) - E(0) (J)")
         ax.set_xlabel("t (s)")
         ax.set_title(f"{name}: energy against time")
-        ax.legend(loc="upper left", ncols=len(runs))
+        _legend_right(ax)
         return _png(fig)
 
 
@@ -511,6 +573,18 @@ def verdict_line(results: dict[str, Any]) -> tuple[bool, str, str]:
     return passed, head, detail + "."
 
 
+def system_statuses(results: dict[str, Any]) -> list[tuple[str, str, Mark, str]]:
+    """(name, anchor, verdict mark, one-line detail) of every system, for the top of the report."""
+    out = []
+    for name, s in sorted(results.get("systems", {}).items()):
+        variants = s.get("variants", [])
+        wrong = sum(1 for v in variants if v.get("verdict") == "disagrees")
+        forms = f"{len(variants)} printed form" + ("s" if len(variants) != 1 else "")
+        detail = f"{forms}, {wrong} disagree" if variants else "no printed form"
+        out.append((name, f"system-{_slug(name)}", _pass_mark(s.get("passed")), detail))
+    return out
+
+
 def section_provenance(doc: Document, results: dict[str, Any]) -> None:
     meta = results.get("meta", {})
     doc.h(2, PROVENANCE)
@@ -559,7 +633,7 @@ def section_summary(doc: Document, results: dict[str, Any]) -> None:
                     w.get("quantity"),
                     w.get("pair"),
                     Num(w.get("scaled")),
-                    Num(w.get("tolerance")),
+                    Num(w.get("tolerance"), short=True),
                 )
             )
         else:
@@ -568,6 +642,7 @@ def section_summary(doc: Document, results: dict[str, Any]) -> None:
             )
         for v in s.get("variants", []):
             w = _variant_worst(v)
+            engine = (w or {}).get("engine")
             rows.append(
                 (
                     name,
@@ -575,22 +650,24 @@ def section_summary(doc: Document, results: dict[str, Any]) -> None:
                     v.get("kind"),
                     _verdict_mark(v.get("verdict", "")),
                     (w or {}).get("term"),
-                    (w or {}).get("engine") and f"printed~{w['engine']}",
+                    f"printed~{engine}" if engine else None,
                     Num((w or {}).get("scaled")),
-                    Num(_variant_tolerance(v, w)),
+                    Num(_variant_tolerance(v, w), short=True),
                 )
             )
     doc.table(
         "Verdict of every system and printed form",
         ("system", "form", "kind", "verdict", "worst quantity", "pair", "scaled error", "tolerance"),
         rows,
+        group=True,
     )
 
 
 def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[str, Any]) -> None:
     doc.h(2, f"System {name}", f"system-{_slug(name)}")
     doc.p(s.get("description", ""))
-    doc.p(f"Verdict: {_cell_text(_pass_mark(s.get('passed')))}.")
+    mark = _pass_mark(s.get("passed"))
+    doc.p(f"Verdict: {_cell_text(mark)}.", {"ok": "pass", "bad": "fail"}.get(mark.state, ""))
 
     # Model
     doc.h(3, "Model", f"{_slug(name)}-model")
@@ -603,7 +680,7 @@ def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[st
     doc.table(
         f"Parameters of {name}, read from the compiled MJCF",
         ("parameter", "value"),
-        [(k, Num(v, 6)) for k, v in sorted(params.items(), key=lambda kv: (kv[0].lower(), kv[0]))],
+        [(k, Num(v, short=True)) for k, v in sorted(params.items(), key=lambda kv: (kv[0].lower(), kv[0]))],
     )
     coords, joints = s.get("coordinates", []), s.get("joints", [])
     bodies = s.get("bodies", [])
@@ -672,7 +749,7 @@ def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[st
                     Num(r.get("max_abs")),
                     Num(r.get("scale")),
                     Num(r.get("scaled")),
-                    Num(r.get("tolerance")),
+                    Num(r.get("tolerance"), short=True),
                     _pass_mark(r.get("passed")),
                 )
                 for r in rows
@@ -715,7 +792,7 @@ def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[st
         thr = _float(tr.get("threshold"))
         doc.p(
             f"Free motion from q0 = {_vec(tr.get('q0', []))} rad, v0 = {_vec(tr.get('v0', []))} rad/s, "
-            f"tau = {_vec(tr.get('tau', []))}, sampled every {sci(tr.get('dt_out'))} s up to {sci(tr.get('t_end'))} s. "
+            f"tau = {_vec(tr.get('tau', []))}, sampled every {_g(tr.get('dt_out'))} s up to {_g(tr.get('t_end'))} s. "
             f"The reference is {tr.get('reference')}; the error is the largest coordinate's distance to it, "
             f"judged against the trajectory threshold {sci(thr)} rad."
         )
@@ -724,7 +801,7 @@ def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[st
             ("source", "method", "cost", "max error vs reference", "first above threshold", "energy drift"),
             [
                 (
-                    r.get("source"),
+                    _run_label(r),
                     r.get("method"),
                     _stats(r.get("stats")),
                     Num(r.get("max_error_vs_hand"), unit="rad"),
@@ -771,7 +848,12 @@ def _stats(stats: Any) -> str:
     if not isinstance(stats, dict) or not stats:
         return "–"
     names = {"nfev": "evaluations", "steps": "steps"}
-    return ", ".join(f"{v} {names.get(k, k)}" for k, v in sorted(stats.items()))
+    return ", ".join(f"{v} {names.get(k, k)}" for k, v in sorted(stats.items()) if k != "label") or "–"
+
+
+def _g(x: Any) -> str:
+    """A setting (a time step, a duration) as written: 0.01, 10."""
+    return f"{x:g}" if _is_number(x) else sci(x)
 
 
 def _short(x: Any, n: int = 60) -> str:
@@ -803,7 +885,6 @@ def section_errata(doc: Document, results: dict[str, Any]) -> None:
                     (w or {}).get("term"),
                     (w or {}).get("engine"),
                     Num((w or {}).get("scaled")),
-                    Num((w or {}).get("max_abs")),
                     v.get("disagrees_at"),
                 )
             )
@@ -827,10 +908,10 @@ def section_errata(doc: Document, results: dict[str, Any]) -> None:
             "worst term",
             "engine",
             "scaled error",
-            "max abs",
             "disagrees at",
         ),
         rows,
+        group=True,
     )
     if notes:
         doc.p("Notes on the transcription:")
@@ -854,7 +935,7 @@ def section_tolerances(doc: Document, results: dict[str, Any]) -> None:
         "Tolerance tiers, what each judges and why",
         ("tier", "rtol", "judges", "reason"),
         [
-            (k, Num(t.get("rtol")), ", ".join(sorted(used.get(k, []))) or "–", t.get("reason", ""))
+            (k, Num(t.get("rtol"), short=True), ", ".join(sorted(used.get(k, []))) or "–", t.get("reason", ""))
             for k, t in sorted(tiers.items())
         ],
     )
@@ -882,6 +963,7 @@ def section_limitations(doc: Document, results: dict[str, Any]) -> None:
         "that file (see Provenance).",
     ]
     systems = results.get("systems", {})
+    skips: dict[str, list[str]] = {}
     for name, s in sorted(systems.items()):
         tiny = sorted(k for k, v in s.get("parameters", {}).items() if _is_number(v) and 0 < abs(v) <= 1e-12)
         if tiny:
@@ -899,8 +981,11 @@ def section_limitations(doc: Document, results: dict[str, Any]) -> None:
         for key in ("model_checks", "pointwise", "trajectories"):
             if not s.get(key):
                 items.append(f"{name}: {key.replace('_', ' ')} {NOT_RUN}.")
-        if s.get("skipped"):
-            items.append(f"{name}: skipped: {_short(s['skipped'], 200)}.")
+        skipped = s.get("skipped")
+        for what in skipped if isinstance(skipped, list) else [skipped] if skipped else []:
+            skips.setdefault(str(what).rstrip("."), []).append(name)
+    for what, names in sorted(skips.items()):
+        items.append(f"Skipped for {', '.join(names)}: {what}.")
     missing = [label for key, label in (("bench", "benchmark"), ("stress", "stress tests")) if not results.get(key)]
     missing += [
         f"{label} of {name}"
@@ -970,6 +1055,7 @@ def render_markdown(doc: Document, results: dict[str, Any]) -> str:
         f"**{'✓' if passed else '✗'} {head[0].upper() + head[1:]}.** {detail}",
         "",
     ]
+    out += [f"- {_cell_text(mark)} {name}: {text}" for name, _, mark, text in system_statuses(results)] + [""]
     for b in doc.blocks:
         if isinstance(b, Heading):
             out += ["#" * b.level + " " + b.text, ""]
@@ -1020,6 +1106,14 @@ def _env() -> Any:
             keep_trailing_newline=True,
         )
         _ENV.filters["inline"] = inline
+        _ENV.filters["wbr"] = lambda text: Markup("_<wbr>").join(escape(p) for p in str(text).split("_"))
+
+        def breakable(text: Any) -> Markup:
+            """A table cell: inline markup, and a break opportunity after ':' in long identifiers."""
+            out = inline(text)
+            return Markup(re.sub(r":(?=[A-Za-z_])", ":<wbr>", str(out))) if len(str(text)) > 24 else out
+
+        _ENV.filters["breakable"] = breakable
         _ENV.filters["cell"] = _cell_text
         _ENV.filters["b64"] = lambda data: base64.b64encode(data).decode("ascii")
         _ENV.globals["png_size"] = png_size
@@ -1046,6 +1140,7 @@ def render_html(doc: Document, results: dict[str, Any]) -> str:
             blocks=doc.blocks,
             images=doc.images,
             n_systems=len(systems),
+            statuses=system_statuses(results),
             mark_sign=_MARK_SIGN,
         )
     )

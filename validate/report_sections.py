@@ -76,7 +76,7 @@ def system_chaos(doc: Document, name: str, s: dict[str, Any]) -> None:
     lyap, lyap2 = ch.get("lyapunov", {}), ch.get("lyapunov_two_trajectories", {})
     amp = ch.get("amplification_at", {})
     hz = ch.get("horizon_from_rounding", {})
-    rows = [
+    rows: list[tuple[Any, ...]] = [
         ("largest Lyapunov exponent, variational equations (1/s)", Num(lyap.get("lambda"), 3)),
         ("largest Lyapunov exponent, two nearby trajectories (1/s)", Num(lyap2.get("lambda"), 3)),
     ]
@@ -171,8 +171,8 @@ def system_experiments(doc: Document, name: str, s: dict[str, Any]) -> None:
         ("form", "rtol", "separation", "departure", "status"),
         rows,
     )
-    hand = {r["rtol"]: r for r in ex.get("runs", []) if r["form"] == "hand derivation"}
-    loose, tight = hand.get(1e-3), hand.get(1e-6)
+    by_rtol = {r["rtol"]: r for r in ex.get("runs", []) if r["form"] == "hand derivation"}
+    loose, tight = by_rtol.get(1e-3), by_rtol.get(1e-6)
     if loose and tight:
         finding = (
             f"With the hand derivation at Matlab's default tolerance (rtol 1e-3) the two starts separate at "

@@ -112,8 +112,13 @@ class Settings:
 
 
 FULL = Settings()
-QUICK = Settings(drift_horizons=(100.0,), speeds=(50.0,), ratios=tuple(10.0**k for k in range(0, 13, 3)),
-                 cond_states=200, stiff_timesteps=(1e-3, 5e-3, 2e-2, 1e-1))
+QUICK = Settings(
+    drift_horizons=(100.0,),
+    speeds=(50.0,),
+    ratios=tuple(10.0**k for k in range(0, 13, 3)),
+    cond_states=200,
+    stiff_timesteps=(1e-3, 5e-3, 2e-2, 1e-1),
+)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -158,8 +163,20 @@ def _warning_names(d: Any) -> list[str]:
     return names
 
 
-def simulate(system: Any, sources: dict[str, Any], engine: str, integrator: str, q0: Any, v0: Any, tau: Any, *,
-             timestep: float, t_end: float, sample_steps: int, eulerdamp: bool = True) -> Run:
+def simulate(
+    system: Any,
+    sources: dict[str, Any],
+    engine: str,
+    integrator: str,
+    q0: Any,
+    v0: Any,
+    tau: Any,
+    *,
+    timestep: float,
+    t_end: float,
+    sample_steps: int,
+    eulerdamp: bool = True,
+) -> Run:
     """A free run sampled every `sample_steps` steps, stopped at the first sign of instability.
 
     Args:
@@ -171,8 +188,9 @@ def simulate(system: Any, sources: dict[str, Any], engine: str, integrator: str,
     from .errors import unknown_name
 
     if integrator not in MUJOCO_INTEGRATORS or (engine == "mirror" and integrator not in MIRROR_INTEGRATORS):
-        raise unknown_name(f"{engine} integrator", integrator,
-                           MUJOCO_INTEGRATORS if engine == "mujoco" else MIRROR_INTEGRATORS)
+        raise unknown_name(
+            f"{engine} integrator", integrator, MUJOCO_INTEGRATORS if engine == "mujoco" else MIRROR_INTEGRATORS
+        )
     n = system.nv
     q0, v0, tau = (np.asarray(x, dtype=float).copy() for x in (q0, v0, tau))
     steps = max(1, math.ceil(t_end / timestep - 1e-9))
@@ -185,8 +203,15 @@ def simulate(system: Any, sources: dict[str, Any], engine: str, integrator: str,
         src = sources["mujoco"]
         m, d = src.m, src.d
         saved = (m.opt.integrator, m.opt.timestep, m.opt.disableflags)
-        m.opt.integrator = getattr(mujoco.mjtIntegrator, {"Euler": "mjINT_EULER", "RK4": "mjINT_RK4", "implicit":
-                                   "mjINT_IMPLICIT", "implicitfast": "mjINT_IMPLICITFAST"}[integrator])
+        m.opt.integrator = getattr(
+            mujoco.mjtIntegrator,
+            {
+                "Euler": "mjINT_EULER",
+                "RK4": "mjINT_RK4",
+                "implicit": "mjINT_IMPLICIT",
+                "implicitfast": "mjINT_IMPLICITFAST",
+            }[integrator],
+        )
         m.opt.timestep = timestep
         if not eulerdamp:
             m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_EULERDAMP)
@@ -214,8 +239,9 @@ def simulate(system: Any, sources: dict[str, Any], engine: str, integrator: str,
         with np.errstate(all="ignore"):
             for k in range(1, chunks + 1):
                 try:
-                    tr = mirror_trajectory(system, sources["hand"], q, v, tau, grid, integrator=integrator,
-                                           timestep=timestep)
+                    tr = mirror_trajectory(
+                        system, sources["hand"], q, v, tau, grid, integrator=integrator, timestep=timestep
+                    )
                     q, v = tr.q[-1], tr.v[-1]
                 except (OverflowError, ValueError, ZeroDivisionError, FloatingPointError) as exc:
                     failure = f"overflow ({type(exc).__name__})"
@@ -268,8 +294,9 @@ def downsample(t: np.ndarray, y: np.ndarray, points: int = SERIES_POINTS) -> dic
     return {"t": t[idx].tolist(), "y": y[idx].tolist()}
 
 
-def classify_energy(t: Any, E: Any, *, V_min: float, failure: str | None = None, t_fail: float | None = None,
-                    growth: float = GROWTH) -> dict[str, Any]:
+def classify_energy(
+    t: Any, E: Any, *, V_min: float, failure: str | None = None, t_fail: float | None = None, growth: float = GROWTH
+) -> dict[str, Any]:
     """The energy behaviour of one run (see the module docstring for the classes).
 
     Args:
@@ -286,13 +313,24 @@ def classify_energy(t: Any, E: Any, *, V_min: float, failure: str | None = None,
     t, E = np.asarray(t, dtype=float), np.asarray(E, dtype=float)
     E0 = float(E[0])
     available = max(E0 - V_min, np.finfo(float).tiny)
-    out: dict[str, Any] = {"E0": E0, "V_min": float(V_min), "available": available, "direction": None,
-                           "t_fail": t_fail, "rate": None, "r2": None, "early_envelope": None, "late_envelope": None}
+    out: dict[str, Any] = {
+        "E0": E0,
+        "V_min": float(V_min),
+        "available": available,
+        "direction": None,
+        "t_fail": t_fail,
+        "rate": None,
+        "r2": None,
+        "early_envelope": None,
+        "late_envelope": None,
+    }
     finite = np.isfinite(E)
     dE = E - E0
     good = dE[finite]
-    out.update(max_abs=float(np.abs(good).max()) if good.size else float("inf"),
-               final=float(dE[-1]) if finite[-1] else float("nan"))
+    out.update(
+        max_abs=float(np.abs(good).max()) if good.size else float("inf"),
+        final=float(dE[-1]) if finite[-1] else float("nan"),
+    )
     out["relative_max"] = out["max_abs"] / available
     out["relative_final"] = out["final"] / available
     gain = float(good.max()) if good.size else float("inf")
@@ -300,8 +338,12 @@ def classify_energy(t: Any, E: Any, *, V_min: float, failure: str | None = None,
         return {**out, "class": "unstable", "reason": failure or "non-finite energy"}
     if gain > growth * available:
         t_grow = float(t[np.argmax(dE > growth * available)])
-        return {**out, "class": "unstable", "t_fail": t_grow,
-                "reason": f"energy gain {gain:.3g} J > {growth:g} x (E0 - V_min) = {growth * available:.3g} J"}
+        return {
+            **out,
+            "class": "unstable",
+            "t_fail": t_grow,
+            "reason": f"energy gain {gain:.3g} J > {growth:g} x (E0 - V_min) = {growth * available:.3g} J",
+        }
     h = t[-1] - t[0]
     a = np.abs(dE)
     early = a[(t > t[0]) & (t <= t[0] + 0.1 * h)]
@@ -316,19 +358,33 @@ def classify_energy(t: Any, E: Any, *, V_min: float, failure: str | None = None,
     direction = "loss" if late_mean < 0 else "gain"
     out.update(early_envelope=early_env, late_envelope=late_env, rate=float(slope), r2=r2, direction=direction)
     if out["relative_max"] <= ROUND_OFF:
-        return {**out, "class": "round-off", "direction": None,
-                "reason": f"max |dE| = {out['relative_max']:.2g} of E0 - V_min <= {ROUND_OFF:g}"}
+        return {
+            **out,
+            "class": "round-off",
+            "direction": None,
+            "reason": f"max |dE| = {out['relative_max']:.2g} of E0 - V_min <= {ROUND_OFF:g}",
+        }
     if late_env <= ENVELOPE_GROWTH * early_env:
-        return {**out, "class": "bounded oscillation", "direction": None,
-                "reason": f"late |dE| envelope {late_env:.2g} J <= {ENVELOPE_GROWTH:g} x early {early_env:.2g} J"}
+        return {
+            **out,
+            "class": "bounded oscillation",
+            "direction": None,
+            "reason": f"late |dE| envelope {late_env:.2g} J <= {ENVELOPE_GROWTH:g} x early {early_env:.2g} J",
+        }
     if r2 < STEADY_R2:
-        return {**out, "class": "irregular",
-                "reason": f"|dE| envelope grows ({early_env:.2g} -> {late_env:.2g} J) but no line fits (R^2 {r2:.2f})"}
+        return {
+            **out,
+            "class": "irregular",
+            "reason": f"|dE| envelope grows ({early_env:.2g} -> {late_env:.2g} J) but no line fits (R^2 {r2:.2f})",
+        }
     large = abs(late_mean) >= LARGE_CHANGE * available
     cls = ("numerical damping" if direction == "loss" else "energy injection") if large else "secular drift"
-    return {**out, "class": cls,
-            "reason": f"|dE| grows at {slope:.2g} J/s (R^2 {r2:.2f}); {direction} of {abs(late_mean) / available:.2g} "
-                      f"of E0 - V_min by the end"}
+    return {
+        **out,
+        "class": cls,
+        "reason": f"|dE| grows at {slope:.2g} J/s (R^2 {r2:.2f}); {direction} of {abs(late_mean) / available:.2g} "
+        f"of E0 - V_min by the end",
+    }
 
 
 # ----------------------------------------------------------------------------------------------
@@ -351,17 +407,34 @@ def drift_rows(system: Any, sources: dict[str, Any], settings: Settings, *, V_mi
     rows = []
     runs = [("mujoco", i) for i in MUJOCO_INTEGRATORS] + [("mirror", i) for i in MIRROR_INTEGRATORS]
     for engine, integrator in runs:
-        run = simulate(system, sources, engine, integrator, q0, v0, tau, timestep=dt, t_end=horizon,
-                       sample_steps=sample_steps)
+        run = simulate(
+            system, sources, engine, integrator, q0, v0, tau, timestep=dt, t_end=horizon, sample_steps=sample_steps
+        )
         E = run_energy(sources["hand"], run)
         for h in settings.drift_horizons:
             keep = run.t <= h + 1e-9
             failed_within = run.failure is not None and run.t_fail is not None and run.t_fail <= h + 1e-9
-            c = classify_energy(run.t[keep], E[keep], V_min=V_min, failure=run.failure if failed_within else None,
-                                t_fail=run.t_fail if failed_within else None)
+            c = classify_energy(
+                run.t[keep],
+                E[keep],
+                V_min=V_min,
+                failure=run.failure if failed_within else None,
+                t_fail=run.t_fail if failed_within else None,
+            )
             series = downsample(run.t[keep], E[keep] - E[0])
-            rows.append({"system": system.name, "engine": engine, "integrator": integrator, "timestep": dt,
-                         "horizon": h, "q0": q0, "v0": v0, **c, "series": {"t": series["t"], "dE": series["y"]}})
+            rows.append(
+                {
+                    "system": system.name,
+                    "engine": engine,
+                    "integrator": integrator,
+                    "timestep": dt,
+                    "horizon": h,
+                    "q0": q0,
+                    "v0": v0,
+                    **c,
+                    "series": {"t": series["t"], "dE": series["y"]},
+                }
+            )
     return rows
 
 
@@ -369,21 +442,54 @@ def drift_rows(system: Any, sources: dict[str, Any], settings: Settings, *, V_mi
 # High energy: the largest stable timestep
 
 
-def stability_trial(system: Any, sources: dict[str, Any], engine: str, integrator: str, q0: Any, v0: Any,
-                    tau: Any, *, timestep: float, t_end: float, V_min: float, eulerdamp: bool = True,
-                    growth: float = GROWTH) -> dict[str, Any]:
+def stability_trial(
+    system: Any,
+    sources: dict[str, Any],
+    engine: str,
+    integrator: str,
+    q0: Any,
+    v0: Any,
+    tau: Any,
+    *,
+    timestep: float,
+    t_end: float,
+    V_min: float,
+    eulerdamp: bool = True,
+    growth: float = GROWTH,
+) -> dict[str, Any]:
     """One run at one timestep: stable or not, and why."""
     steps = max(1, math.ceil(t_end / timestep - 1e-9))
-    run = simulate(system, sources, engine, integrator, q0, v0, tau, timestep=timestep, t_end=t_end,
-                   sample_steps=max(1, math.ceil(steps / SAMPLES_PER_RUN)), eulerdamp=eulerdamp)
-    c = classify_energy(run.t, run_energy(sources["hand"], run), V_min=V_min, failure=run.failure, t_fail=run.t_fail,
-                        growth=growth)
-    return {"timestep": timestep, "stable": c["class"] != "unstable", "reason": c["reason"] if c["class"] == "unstable"
-            else None, "t_fail": c["t_fail"], "relative_max": c["relative_max"]}
+    run = simulate(
+        system,
+        sources,
+        engine,
+        integrator,
+        q0,
+        v0,
+        tau,
+        timestep=timestep,
+        t_end=t_end,
+        sample_steps=max(1, math.ceil(steps / SAMPLES_PER_RUN)),
+        eulerdamp=eulerdamp,
+    )
+    c = classify_energy(
+        run.t, run_energy(sources["hand"], run), V_min=V_min, failure=run.failure, t_fail=run.t_fail, growth=growth
+    )
+    return {
+        "timestep": timestep,
+        "stable": c["class"] != "unstable",
+        "reason": c["reason"] if c["class"] == "unstable" else None,
+        "t_fail": c["t_fail"],
+        "relative_max": c["relative_max"],
+    }
 
 
-def max_stable_timestep(trial: Callable[[float], dict[str, Any]], *, dt_range: tuple[float, float] = DT_RANGE,
-                        ratio: float = BISECTION_RATIO) -> dict[str, Any]:
+def max_stable_timestep(
+    trial: Callable[[float], dict[str, Any]],
+    *,
+    dt_range: tuple[float, float] = DT_RANGE,
+    ratio: float = BISECTION_RATIO,
+) -> dict[str, Any]:
     """Bisection on log(dt): the largest stable timestep in `dt_range`, to within `ratio`.
 
     `trial(dt)` returns {"stable": bool, ...}. The top of the range is tried first (stable there: done);
@@ -430,17 +536,41 @@ def stability_rows(system: Any, sources: dict[str, Any], settings: Settings, *, 
         v0 = np.full(system.nv, float(speed))
         for engine, integrator in runs:
             for growth in settings.growth_factors:
-                def trial(dt: float, e: str = engine, i: str = integrator, v: np.ndarray = v0,
-                          g: float = growth) -> dict[str, Any]:
-                    return stability_trial(system, sources, e, i, q0, v, tau, timestep=dt,
-                                           t_end=settings.stability_t_end, V_min=V_min, growth=g)
+
+                def trial(
+                    dt: float, e: str = engine, i: str = integrator, v: np.ndarray = v0, g: float = growth
+                ) -> dict[str, Any]:
+                    return stability_trial(
+                        system,
+                        sources,
+                        e,
+                        i,
+                        q0,
+                        v,
+                        tau,
+                        timestep=dt,
+                        t_end=settings.stability_t_end,
+                        V_min=V_min,
+                        growth=g,
+                    )
 
                 found = max_stable_timestep(trial)
-                rows.append({"system": system.name, "engine": engine, "integrator": integrator,
-                             "speed": float(speed), "criterion": criterion_name(growth),
-                             "growth_factor": None if math.isinf(growth) else growth, "q0": q0, "v0": v0,
-                             "t_end": settings.stability_t_end, "range": list(DT_RANGE),
-                             "bisection_ratio": BISECTION_RATIO, **found})
+                rows.append(
+                    {
+                        "system": system.name,
+                        "engine": engine,
+                        "integrator": integrator,
+                        "speed": float(speed),
+                        "criterion": criterion_name(growth),
+                        "growth_factor": None if math.isinf(growth) else growth,
+                        "q0": q0,
+                        "v0": v0,
+                        "t_end": settings.stability_t_end,
+                        "range": list(DT_RANGE),
+                        "bisection_ratio": BISECTION_RATIO,
+                        **found,
+                    }
+                )
     return rows
 
 
@@ -486,8 +616,9 @@ def conditioning_states(system: Any, hand: Any, *, n: int, seed: int) -> tuple[A
     u /= np.linalg.norm(u, axis=1, keepdims=True)
     q = q_worst + dist[:, None] * u
     v = rng.uniform(-compare.V_RANGE, compare.V_RANGE, q.shape)
-    tau = (rng.uniform(-compare.TAU_RANGE, compare.TAU_RANGE, q.shape) if "actuation" in system.uses
-           else np.zeros_like(q))
+    tau = (
+        rng.uniform(-compare.TAU_RANGE, compare.TAU_RANGE, q.shape) if "actuation" in system.uses else np.zeros_like(q)
+    )
     return compare.States(np.vstack([states.q, q]), np.vstack([states.v, v]), np.vstack([states.tau, tau])), q_worst
 
 
@@ -530,8 +661,14 @@ def conditioning_sweeps(system: Any, hand: Any) -> list[Sweep]:
     first, last = system.bodies[0], system.bodies[-1]
     q = np.random.default_rng(0).uniform(-np.pi, np.pi, (8, system.nv))
     # twice the mass, the same inertia tensor (body/<b>/mass scales the inertia alike)
-    heavier = load(system.name, overrides=(*system.overrides, (f"body/{last}/inertia", 0.5),
-                                           (f"body/{last}/mass", 2.0 * float(system.view[f"body/{last}/mass"]))))
+    heavier = load(
+        system.name,
+        overrides=(
+            *system.overrides,
+            (f"body/{last}/inertia", 0.5),
+            (f"body/{last}/mass", 2.0 * float(system.view[f"body/{last}/mass"])),
+        ),
+    )
     same = np.allclose(HandSource(heavier).mass_matrix(q), hand.mass_matrix(q), rtol=1e-12, atol=0.0)
     kind = "inertia" if same else "mass"
     return [Sweep(f"{kind} {last}/{first}", kind, last, first), Sweep(f"{kind} {first}/{last}", kind, first, last)]
@@ -564,16 +701,29 @@ def conditioning_point(system: Any, *, n_states: int, seed: int) -> dict[str, An
         base = getattr(TOLERANCES, r["tier"]).rtol
         # only states beyond the base rtol constrain C: below it the tier passes whatever C is
         over = rel > base
-        rows.append({**r, "passed_base": bool(np.all(np.isfinite(rel)) and r["scaled"] <= base), "base_tolerance": base,
-                     "c_state": float(np.max(rel[over] / (cond[over] * EPS), initial=0.0)),
-                     "c_state_eq": float(np.max(rel[over] / (cond_eq[over] * EPS), initial=0.0)),
-                     "c_state_all": float(np.max(rel / (cond * EPS))),
-                     "c_state_eq_all": float(np.max(rel / (cond_eq * EPS))),
-                     "worst_state_cond": float(cond[int(np.argmax(per_state))])})
-    return {"cond_median": float(np.median(cond)), "cond_max": float(cond.max()),
-            "cond_random_max": float(cond[:n_states].max()), "cond_eq_median": float(np.median(cond_eq)),
-            "cond_eq_max": float(cond_eq.max()), "q_worst": q_worst, "n_states": n_states,
-            "n_targeted": TARGETED_STATES, "rows": rows}
+        rows.append(
+            {
+                **r,
+                "passed_base": bool(np.all(np.isfinite(rel)) and r["scaled"] <= base),
+                "base_tolerance": base,
+                "c_state": float(np.max(rel[over] / (cond[over] * EPS), initial=0.0)),
+                "c_state_eq": float(np.max(rel[over] / (cond_eq[over] * EPS), initial=0.0)),
+                "c_state_all": float(np.max(rel / (cond * EPS))),
+                "c_state_eq_all": float(np.max(rel / (cond_eq * EPS))),
+                "worst_state_cond": float(cond[int(np.argmax(per_state))]),
+            }
+        )
+    return {
+        "cond_median": float(np.median(cond)),
+        "cond_max": float(cond.max()),
+        "cond_random_max": float(cond[:n_states].max()),
+        "cond_eq_median": float(np.median(cond_eq)),
+        "cond_eq_max": float(cond_eq.max()),
+        "q_worst": q_worst,
+        "n_states": n_states,
+        "n_targeted": TARGETED_STATES,
+        "rows": rows,
+    }
 
 
 def conditioning_rows(system: Any, sources: dict[str, Any], settings: Settings) -> list[dict[str, Any]]:
@@ -583,20 +733,51 @@ def conditioning_rows(system: Any, sources: dict[str, Any], settings: Settings) 
     for sweep in conditioning_sweeps(system, sources["hand"]):
         for ratio in settings.ratios:
             extra = sweep_overrides(system, sweep, ratio)
-            base = {"system": system.name, "sweep": sweep.name, "kind": sweep.kind, "ratio": float(ratio),
-                    "overrides": [list(o) for o in extra]}
+            base = {
+                "system": system.name,
+                "sweep": sweep.name,
+                "kind": sweep.kind,
+                "ratio": float(ratio),
+                "overrides": [list(o) for o in extra],
+            }
             try:
-                point = conditioning_point(load(system.name, overrides=(*system.overrides, *extra)),
-                                           n_states=settings.cond_states, seed=settings.seed)
+                point = conditioning_point(
+                    load(system.name, overrides=(*system.overrides, *extra)),
+                    n_states=settings.cond_states,
+                    seed=settings.seed,
+                )
             except HarnessError as exc:
                 out.append({**base, "quantity": None, "pair": None, "refused": str(exc)})
                 continue
             info = {k: v for k, v in point.items() if k != "rows"}
             for r in point["rows"]:
-                out.append({**base, **info, **{k: r[k] for k in (
-                    "quantity", "pair", "scaled", "max_abs", "scale", "tier", "tolerance", "passed", "base_tolerance",
-                    "passed_base", "c_state", "c_state_eq", "c_state_all", "c_state_eq_all", "worst_state_cond")},
-                    "per_cond_eps": r["scaled"] / (info["cond_max"] * EPS)})
+                out.append(
+                    {
+                        **base,
+                        **info,
+                        **{
+                            k: r[k]
+                            for k in (
+                                "quantity",
+                                "pair",
+                                "scaled",
+                                "max_abs",
+                                "scale",
+                                "tier",
+                                "tolerance",
+                                "passed",
+                                "base_tolerance",
+                                "passed_base",
+                                "c_state",
+                                "c_state_eq",
+                                "c_state_all",
+                                "c_state_eq_all",
+                                "worst_state_cond",
+                            )
+                        },
+                        "per_cond_eps": r["scaled"] / (info["cond_max"] * EPS),
+                    }
+                )
     return out
 
 
@@ -608,10 +789,22 @@ def conditioning_summary(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     for r in rows:
         if r.get("quantity") is None:
             continue
-        p = groups.setdefault((r["system"], r["sweep"], r["quantity"]), {}).setdefault(r["ratio"], {
-            "cond_max": r["cond_max"], "cond_eq_max": r["cond_eq_max"], "scaled": 0.0, "tolerance": 0.0,
-            "passed": True, "passed_base": True, "c_state": 0.0, "c_state_eq": 0.0, "c_state_all": 0.0,
-            "c_state_eq_all": 0.0, "base": r["base_tolerance"]})
+        p = groups.setdefault((r["system"], r["sweep"], r["quantity"]), {}).setdefault(
+            r["ratio"],
+            {
+                "cond_max": r["cond_max"],
+                "cond_eq_max": r["cond_eq_max"],
+                "scaled": 0.0,
+                "tolerance": 0.0,
+                "passed": True,
+                "passed_base": True,
+                "c_state": 0.0,
+                "c_state_eq": 0.0,
+                "c_state_all": 0.0,
+                "c_state_eq_all": 0.0,
+                "base": r["base_tolerance"],
+            },
+        )
         p["scaled"] = max(p["scaled"], r["scaled"])
         p["tolerance"] = max(p["tolerance"], r["tolerance"])
         p["c_state"] = max(p["c_state"], r["c_state"])
@@ -629,18 +822,31 @@ def conditioning_summary(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
         slope = None
         if fit.sum() >= 2 and np.ptp(np.log10(cond[fit])) >= 1:
             slope = float(np.polyfit(np.log10(cond[fit]), np.log10(err[fit]), 1)[0])
-        out.append({
-            "system": system, "sweep": sweep, "quantity": quantity, "points": len(pts),
-            "cond_range": [float(cond.min()), float(cond.max())],
-            "disagreement_range": [float(err.min()), float(err.max())], "slope": slope,
-            "c_state": max(p["c_state"] for p in pts), "c_state_eq": max(p["c_state_eq"] for p in pts),
-            "c_state_all": max(p["c_state_all"] for p in pts), "c_state_eq_all": max(p["c_state_eq_all"] for p in pts),
-            "base_tolerance": pts[0]["base"],
-            "base_tier_fails_from_cond": min((p["cond_max"] for p in pts if not p["passed_base"]), default=None),
-            "tier_fails_from_cond": min((p["cond_max"] for p in pts if not p["passed"]), default=None),
-            "series": {"ratio": sorted(points), "cond_max": cond.tolist(),
-                       "cond_eq_max": [p["cond_eq_max"] for p in pts], "scaled": err.tolist(),
-                       "tolerance": [p["tolerance"] for p in pts]}})
+        out.append(
+            {
+                "system": system,
+                "sweep": sweep,
+                "quantity": quantity,
+                "points": len(pts),
+                "cond_range": [float(cond.min()), float(cond.max())],
+                "disagreement_range": [float(err.min()), float(err.max())],
+                "slope": slope,
+                "c_state": max(p["c_state"] for p in pts),
+                "c_state_eq": max(p["c_state_eq"] for p in pts),
+                "c_state_all": max(p["c_state_all"] for p in pts),
+                "c_state_eq_all": max(p["c_state_eq_all"] for p in pts),
+                "base_tolerance": pts[0]["base"],
+                "base_tier_fails_from_cond": min((p["cond_max"] for p in pts if not p["passed_base"]), default=None),
+                "tier_fails_from_cond": min((p["cond_max"] for p in pts if not p["passed"]), default=None),
+                "series": {
+                    "ratio": sorted(points),
+                    "cond_max": cond.tolist(),
+                    "cond_eq_max": [p["cond_eq_max"] for p in pts],
+                    "scaled": err.tolist(),
+                    "tolerance": [p["tolerance"] for p in pts],
+                },
+            }
+        )
     return out
 
 
@@ -665,12 +871,21 @@ def proposed_solve_tier(summary: list[dict[str, Any]]) -> dict[str, Any]:
     c_eq = max(s["c_state_eq"] for s in summary)
     C, C_eq = up(PROPOSAL_MARGIN * c), up(PROPOSAL_MARGIN * c_eq)
     rtol = TOLERANCES.solve.rtol
-    return {"formula": "per state: max(rtol, C eps kappa)", "rtol": rtol, "eps": EPS, "margin": PROPOSAL_MARGIN,
-            "current_cond_factor": getattr(TOLERANCES.solve, "cond_factor", None),
-            "measured_C_cond": c, "measured_C_cond_all_states": max(s["c_state_all"] for s in summary),
-            "C_cond": C, "kappa_from_cond": rtol / (C * EPS) if C else None,
-            "measured_C_cond_eq": c_eq, "measured_C_cond_eq_all_states": max(s["c_state_eq_all"] for s in summary),
-            "C_cond_eq": C_eq, "kappa_from_cond_eq": rtol / (C_eq * EPS) if C_eq else None}
+    return {
+        "formula": "per state: max(rtol, C eps kappa)",
+        "rtol": rtol,
+        "eps": EPS,
+        "margin": PROPOSAL_MARGIN,
+        "current_cond_factor": getattr(TOLERANCES.solve, "cond_factor", None),
+        "measured_C_cond": c,
+        "measured_C_cond_all_states": max(s["c_state_all"] for s in summary),
+        "C_cond": C,
+        "kappa_from_cond": rtol / (C * EPS) if C else None,
+        "measured_C_cond_eq": c_eq,
+        "measured_C_cond_eq_all_states": max(s["c_state_eq_all"] for s in summary),
+        "C_cond_eq": C_eq,
+        "kappa_from_cond_eq": rtol / (C_eq * EPS) if C_eq else None,
+    }
 
 
 # ----------------------------------------------------------------------------------------------
@@ -702,21 +917,44 @@ def stiff_rows(system: Any, settings: Settings) -> list[dict[str, Any]]:
                 steps = round(settings.stiff_sample / dt)
                 if steps < 1 or not math.isclose(steps * dt, settings.stiff_sample, rel_tol=1e-9):
                     raise HarnessError(f"stiff timestep {dt} must divide the sample step {settings.stiff_sample}.")
-                run = simulate(damped, sources, engine, "Euler" if integrator == NO_EULERDAMP else integrator, q0, v0,
-                               tau, timestep=dt, t_end=settings.stiff_t_end, sample_steps=steps, eulerdamp=eulerdamp)
-                c = classify_energy(run.t, run_energy(sources["hand"], run), V_min=V_min, failure=run.failure,
-                                    t_fail=run.t_fail)
+                run = simulate(
+                    damped,
+                    sources,
+                    engine,
+                    "Euler" if integrator == NO_EULERDAMP else integrator,
+                    q0,
+                    v0,
+                    tau,
+                    timestep=dt,
+                    t_end=settings.stiff_t_end,
+                    sample_steps=steps,
+                    eulerdamp=eulerdamp,
+                )
+                c = classify_energy(
+                    run.t, run_energy(sources["hand"], run), V_min=V_min, failure=run.failure, t_fail=run.t_fail
+                )
                 k = len(run.t)
                 err = np.abs(run.q - ref.q[:k]).max(axis=1) if k else np.array([np.inf])
                 stable = c["class"] != "unstable"
-                rows.append({"system": system.name, "damping_factor": float(factor),
-                             "damping": {j: float(damped.view[f"joint/{j}/damping"]) for j in system.joints},
-                             "engine": engine, "integrator": integrator, "eulerdamp": eulerdamp,
-                             "timestep": dt, "t_end": settings.stiff_t_end, "stable": stable,
-                             "reason": None if stable else c["reason"], "t_fail": c["t_fail"],
-                             "max_error": float(err.max()) if stable else None,
-                             "final_error": float(err[-1]) if stable else None,
-                             "reference": ref.method, "energy_relative_max": c["relative_max"]})
+                rows.append(
+                    {
+                        "system": system.name,
+                        "damping_factor": float(factor),
+                        "damping": {j: float(damped.view[f"joint/{j}/damping"]) for j in system.joints},
+                        "engine": engine,
+                        "integrator": integrator,
+                        "eulerdamp": eulerdamp,
+                        "timestep": dt,
+                        "t_end": settings.stiff_t_end,
+                        "stable": stable,
+                        "reason": None if stable else c["reason"],
+                        "t_fail": c["t_fail"],
+                        "max_error": float(err.max()) if stable else None,
+                        "final_error": float(err[-1]) if stable else None,
+                        "reference": ref.method,
+                        "energy_relative_max": c["relative_max"],
+                    }
+                )
     return rows
 
 
@@ -725,13 +963,31 @@ def stiff_rows(system: Any, settings: Settings) -> list[dict[str, Any]]:
 
 
 def _sort_key(row: dict[str, Any]) -> tuple[Any, ...]:
-    keys = ("system", "sweep", "engine", "integrator", "quantity", "pair", "horizon", "speed", "criterion",
-            "damping_factor", "ratio", "timestep")
+    keys = (
+        "system",
+        "sweep",
+        "engine",
+        "integrator",
+        "quantity",
+        "pair",
+        "horizon",
+        "speed",
+        "criterion",
+        "damping_factor",
+        "ratio",
+        "timestep",
+    )
     return tuple((0, "") if row.get(k) is None else (1, row[k]) for k in keys)
 
 
-def run_stress(names: list[str] | None, *, overrides: tuple[tuple[str, float], ...] = (), quick: bool = False,
-               settings: Settings | None = None, progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+def run_stress(
+    names: list[str] | None,
+    *,
+    overrides: tuple[tuple[str, float], ...] = (),
+    quick: bool = False,
+    settings: Settings | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> dict[str, Any]:
     """The four stress experiments on the systems named (all when none), with `overrides` on each.
 
     Every system is loaded and compiled with the overrides first, so an unknown system, an unknown key
@@ -750,14 +1006,26 @@ def run_stress(names: list[str] | None, *, overrides: tuple[tuple[str, float], .
         except HarnessError as exc:
             if "mjMINVAL" not in str(exc):
                 raise
-            raise HarnessError(f"{exc} ({s.name}: MuJoCo refuses masses and principal inertias below {MJ_MINVAL:g}; "
-                               f"the point bobs carry 1e-14 kg m^2, so scale body/<name>/inertia up with a smaller "
-                               f"mass).") from None
+            raise HarnessError(
+                f"{exc} ({s.name}: MuJoCo refuses masses and principal inertias below {MJ_MINVAL:g}; "
+                f"the point bobs carry 1e-14 kg m^2, so scale body/<name>/inertia up with a smaller "
+                f"mass)."
+            ) from None
         s.params  # noqa: B018 - the equations read the overridden model: a bad value fails here
-    results: dict[str, Any] = {"provenance": provenance(settings.seed), "quick": quick, "settings": asdict(settings),
-                               "overrides": [list(o) for o in overrides], "systems": [s.name for s in systems_],
-                               "criteria": _criteria(), "drift": [], "stability": [], "conditioning": [],
-                               "stiff_friction": [], "skipped": [], "timing": {}}
+    results: dict[str, Any] = {
+        "provenance": provenance(settings.seed),
+        "quick": quick,
+        "settings": asdict(settings),
+        "overrides": [list(o) for o in overrides],
+        "systems": [s.name for s in systems_],
+        "criteria": _criteria(),
+        "drift": [],
+        "stability": [],
+        "conditioning": [],
+        "stiff_friction": [],
+        "skipped": [],
+        "timing": {},
+    }
     start = time.perf_counter()
     with quiet_mujoco_warnings():
         for s in systems_:
@@ -769,15 +1037,21 @@ def run_stress(names: list[str] | None, *, overrides: tuple[tuple[str, float], .
                     if conservative(s):
                         results["drift"] += drift_rows(s, sources, settings, V_min=V_min)
                     else:
-                        results["skipped"].append({"system": s.name, "section": section,
-                                                   "why": f"not conservative (uses {', '.join(sorted(s.uses))})"})
+                        results["skipped"].append(
+                            {
+                                "system": s.name,
+                                "section": section,
+                                "why": f"not conservative (uses {', '.join(sorted(s.uses))})",
+                            }
+                        )
                 elif section == "stability":
                     results["stability"] += stability_rows(s, sources, settings, V_min=V_min)
                 elif section == "conditioning":
                     rows = conditioning_rows(s, sources, settings)
                     if not rows:
-                        results["skipped"].append({"system": s.name, "section": section,
-                                                   "why": "one coordinate: M is a scalar, cond(M) = 1"})
+                        results["skipped"].append(
+                            {"system": s.name, "section": section, "why": "one coordinate: M is a scalar, cond(M) = 1"}
+                        )
                     results["conditioning"] += rows
                 elif section == "stiff_friction":
                     if "damping" in s.uses:
@@ -800,18 +1074,26 @@ def run_stress(names: list[str] | None, *, overrides: tuple[tuple[str, float], .
 
 def _criteria() -> dict[str, str]:
     return {
-        "instability": (f"a non-finite state, any MuJoCo warning (d.warning[i].number > 0), an overflow in a mirror, "
-                        f"or (criterion 'energy x{1 + GROWTH:g}') max(E - E0) > {GROWTH:g} x (E0 - V_min); criterion "
-                        f"'divergence': the first three only"),
-        "classes": (f"round-off: max |dE| <= {ROUND_OFF:g} x (E0 - V_min); bounded oscillation: late |dE| envelope "
-                    f"<= {ENVELOPE_GROWTH:g} x early (last vs first tenth); "
-                    f"secular drift: grows, a line fits |dE| vs t (R^2 >= {STEADY_R2:g}), < {LARGE_CHANGE:.0%} of "
-                    f"E0 - V_min; numerical damping / energy injection: the same with a loss / gain >= "
-                    f"{LARGE_CHANGE:.0%}; irregular: grows, no line fits"),
-        "bisection": (f"log(dt) in [{DT_RANGE[0]:g}, {DT_RANGE[1]:g}] s until the bracket ratio <= "
-                      f"{BISECTION_RATIO:g}; the top is tried first, the bottom only if the bisection ends there"),
-        "conditioning": ("cond(M): 2-norm condition number of the hand M; disagreement: compare.compare's 'scaled' "
-                         "(max |a - b| / the quantity's range over the sample), tolerance and verdict from its rows"),
+        "instability": (
+            f"a non-finite state, any MuJoCo warning (d.warning[i].number > 0), an overflow in a mirror, "
+            f"or (criterion 'energy x{1 + GROWTH:g}') max(E - E0) > {GROWTH:g} x (E0 - V_min); criterion "
+            f"'divergence': the first three only"
+        ),
+        "classes": (
+            f"round-off: max |dE| <= {ROUND_OFF:g} x (E0 - V_min); bounded oscillation: late |dE| envelope "
+            f"<= {ENVELOPE_GROWTH:g} x early (last vs first tenth); "
+            f"secular drift: grows, a line fits |dE| vs t (R^2 >= {STEADY_R2:g}), < {LARGE_CHANGE:.0%} of "
+            f"E0 - V_min; numerical damping / energy injection: the same with a loss / gain >= "
+            f"{LARGE_CHANGE:.0%}; irregular: grows, no line fits"
+        ),
+        "bisection": (
+            f"log(dt) in [{DT_RANGE[0]:g}, {DT_RANGE[1]:g}] s until the bracket ratio <= "
+            f"{BISECTION_RATIO:g}; the top is tried first, the bottom only if the bisection ends there"
+        ),
+        "conditioning": (
+            "cond(M): 2-norm condition number of the hand M; disagreement: compare.compare's 'scaled' "
+            "(max |a - b| / the quantity's range over the sample), tolerance and verdict from its rows"
+        ),
         "series": f"downsampled to <= {SERIES_POINTS} points: in each bucket the sample of largest |y|",
     }
 
@@ -842,43 +1124,90 @@ def print_summary(results: dict[str, Any], console: Any = None) -> None:
     console = console or Console()
     if results["drift"]:
         table = Table(title="Energy over long horizons (MJCF timestep; dE = E - E0, E by the hand equations)")
-        for col in ("system", "engine", "integrator", "horizon s", "class", "direction", "max |dE| / (E0-Vmin)",
-                    "|dE| rate J/s"):
+        for col in (
+            "system",
+            "engine",
+            "integrator",
+            "horizon s",
+            "class",
+            "direction",
+            "max |dE| / (E0-Vmin)",
+            "|dE| rate J/s",
+        ):
             table.add_column(col)
         for r in results["drift"]:
-            table.add_row(r["system"], r["engine"], r["integrator"], f"{r['horizon']:g}", r["class"],
-                          r["direction"] or "-", _fmt(r["relative_max"], ".2e"), _fmt(r["rate"], ".1e"))
+            table.add_row(
+                r["system"],
+                r["engine"],
+                r["integrator"],
+                f"{r['horizon']:g}",
+                r["class"],
+                r["direction"] or "-",
+                _fmt(r["relative_max"], ".2e"),
+                _fmt(r["rate"], ".1e"),
+            )
         console.print(table)
     if results["stability"]:
         speeds = sorted({r["speed"] for r in results["stability"]})
         criteria = sorted({r["criterion"] for r in results["stability"]}, key=lambda c: c == "divergence")
-        table = Table(title=f"Largest stable timestep (s) over {results['stability'][0]['t_end']:g} s, bisection on "
-                            f"log dt in [{DT_RANGE[0]:g}, {DT_RANGE[1]:g}]; v0 = speed on every coordinate; "
-                            f"criteria: {' / '.join(criteria)}")
+        table = Table(
+            title=f"Largest stable timestep (s) over {results['stability'][0]['t_end']:g} s, bisection on "
+            f"log dt in [{DT_RANGE[0]:g}, {DT_RANGE[1]:g}]; v0 = speed on every coordinate; "
+            f"criteria: {' / '.join(criteria)}"
+        )
         for col in ("system", "engine", "integrator", *[f"{s:g} rad/s" for s in speeds]):
             table.add_column(col)
         cells: dict[tuple[str, str, str], dict[float, dict[str, str]]] = {}
         for r in results["stability"]:
-            text = (f">={r['max_stable']:.2g}" if r["min_unstable"] is None else
-                    f"<{r['min_unstable']:.2g}" if r["max_stable"] is None else f"{r['max_stable']:.3g}")
+            text = (
+                f">={r['max_stable']:.2g}"
+                if r["min_unstable"] is None
+                else f"<{r['min_unstable']:.2g}"
+                if r["max_stable"] is None
+                else f"{r['max_stable']:.3g}"
+            )
             cells.setdefault((r["system"], r["engine"], r["integrator"]), {}).setdefault(r["speed"], {})[
-                r["criterion"]] = text
+                r["criterion"]
+            ] = text
         for (system, engine, integrator), by_speed in cells.items():
-            table.add_row(system, engine, integrator,
-                          *[" / ".join(by_speed.get(s, {}).get(c, "-") for c in criteria) for s in speeds])
+            table.add_row(
+                system,
+                engine,
+                integrator,
+                *[" / ".join(by_speed.get(s, {}).get(c, "-") for c in criteria) for s in speeds],
+            )
         console.print(table)
     if results["conditioning_summary"]:
-        table = Table(title="Ill-conditioning: the worst pair's disagreement (compare's scaled error) vs cond(M) over "
-                            "the sample; C = max per-state error / (cond eps)")
-        for col in ("system", "sweep", "quantity", "cond(M) max", "disagreement", "slope", "C", "C (cond_eq)",
-                    "base tier fails from cond", "current tier fails from cond"):
+        table = Table(
+            title="Ill-conditioning: the worst pair's disagreement (compare's scaled error) vs cond(M) over "
+            "the sample; C = max per-state error / (cond eps)"
+        )
+        for col in (
+            "system",
+            "sweep",
+            "quantity",
+            "cond(M) max",
+            "disagreement",
+            "slope",
+            "C",
+            "C (cond_eq)",
+            "base tier fails from cond",
+            "current tier fails from cond",
+        ):
             table.add_column(col)
         for s in results["conditioning_summary"]:
-            table.add_row(s["system"], s["sweep"], s["quantity"],
-                          f"{s['cond_range'][0]:.1e} .. {s['cond_range'][1]:.1e}",
-                          f"{s['disagreement_range'][0]:.1e} .. {s['disagreement_range'][1]:.1e}",
-                          _fmt(s["slope"], ".2f"), f"{s['c_state']:.2g}", f"{s['c_state_eq']:.2g}",
-                          _fmt(s["base_tier_fails_from_cond"]), _fmt(s["tier_fails_from_cond"]))
+            table.add_row(
+                s["system"],
+                s["sweep"],
+                s["quantity"],
+                f"{s['cond_range'][0]:.1e} .. {s['cond_range'][1]:.1e}",
+                f"{s['disagreement_range'][0]:.1e} .. {s['disagreement_range'][1]:.1e}",
+                _fmt(s["slope"], ".2f"),
+                f"{s['c_state']:.2g}",
+                f"{s['c_state_eq']:.2g}",
+                _fmt(s["base_tier_fails_from_cond"]),
+                _fmt(s["tier_fails_from_cond"]),
+            )
         console.print(table)
         p = results.get("solve_tier_proposal") or {}
         if p:
@@ -888,17 +1217,22 @@ def print_summary(results: dict[str, Any], console: Any = None) -> None:
                 f"equilibrated cond, whose ratio reaches {p['measured_C_cond_eq_all_states']:.2g} at states below "
                 f"{p['rtol']:g}: it does not bound the error); {p['margin']:g}x margin gives C = "
                 f"{p['C_cond']:g} on cond(M), binding from cond {_fmt(p['kappa_from_cond'])}; "
-                f"current cond_factor: {p['current_cond_factor']}.", highlight=False)
+                f"current cond_factor: {p['current_cond_factor']}.",
+                highlight=False,
+            )
     if results["stiff_friction"]:
         dts = sorted({r["timestep"] for r in results["stiff_friction"]})
-        table = Table(title="Stiff friction: stable? and max |q - q_ref| (rad) vs DOP853 rtol 1e-12 on the hand "
-                            "equations, per timestep (s)")
+        table = Table(
+            title="Stiff friction: stable? and max |q - q_ref| (rad) vs DOP853 rtol 1e-12 on the hand "
+            "equations, per timestep (s)"
+        )
         for col in ("system", "damping x", "engine", "integrator", *[f"{d:g}" for d in dts]):
             table.add_column(col)
         cells2: dict[tuple[Any, ...], dict[float, str]] = {}
         for r in results["stiff_friction"]:
             cells2.setdefault((r["system"], f"{r['damping_factor']:g}", r["engine"], r["integrator"]), {})[
-                r["timestep"]] = f"{r['max_error']:.0e}" if r["stable"] else "UNSTABLE"
+                r["timestep"]
+            ] = f"{r['max_error']:.0e}" if r["stable"] else "UNSTABLE"
         for key, by_dt in cells2.items():
             table.add_row(*key, *[by_dt.get(d, "-") for d in dts])
         console.print(table)
@@ -916,14 +1250,30 @@ def stress_command(args: Any) -> int:
     overrides = parse(raw) if all(isinstance(x, str) for x in raw) else tuple((str(k), float(v)) for k, v in raw)
     err = Console(stderr=True)
     names = list(getattr(args, "systems", None) or []) or None
-    results = run_stress(names, overrides=overrides, quick=bool(getattr(args, "quick", False)),
-                         progress=lambda msg: err.print(msg, highlight=False))
+    results = run_stress(
+        names,
+        overrides=overrides,
+        quick=bool(getattr(args, "quick", False)),
+        progress=lambda msg: err.print(msg, highlight=False),
+    )
     path = write_stress(results, Path(getattr(args, "out", None) or "reports"))
     print_summary(results, Console(width=None if sys.stdout.isatty() else 160))
-    print(f"wrote {path} ({'quick' if results['quick'] else 'full'} stress, {results['timing']['total']:.0f} s)",
-          file=sys.stdout)
+    print(
+        f"wrote {path} ({'quick' if results['quick'] else 'full'} stress, {results['timing']['total']:.0f} s)",
+        file=sys.stdout,
+    )
     return 0
 
 
-__all__ = ["FULL", "QUICK", "Run", "Settings", "classify_energy", "max_stable_timestep", "run_stress", "simulate",
-           "stress_command", "write_stress"]
+__all__ = [
+    "FULL",
+    "QUICK",
+    "Run",
+    "Settings",
+    "classify_energy",
+    "max_stable_timestep",
+    "run_stress",
+    "simulate",
+    "stress_command",
+    "write_stress",
+]

@@ -36,13 +36,13 @@ class MujocoSource:
             ids.append(jid)
         self.qadr = np.array([self.m.jnt_qposadr[j] for j in ids])
         self.dadr = np.array([self.m.jnt_dofadr[j] for j in ids])
-        self.body_ids = []
+        body_ids: list[int] = []
         for b in system.bodies:
             bid = mujoco.mj_name2id(self.m, mujoco.mjtObj.mjOBJ_BODY, b)
             if bid < 0:
                 raise HarnessError(f"{system.mjcf.name} has no body '{b}' (equations/{system.name}.py BODIES).")
-            self.body_ids.append(bid)
-        self.body_ids = np.array(self.body_ids)
+            body_ids.append(bid)
+        self.body_ids = np.array(body_ids)
         # Inputs: a coordinate driven by a joint actuator takes tau through ctrl = tau / gear.
         self.ctrl_of_coord = np.full(n, -1)
         self.gear = np.ones(n)
@@ -61,9 +61,9 @@ class MujocoSource:
             and np.array_equal(self.qadr, np.arange(n))
             and np.array_equal(self.dadr, np.arange(n))
         )
-        ids = self.body_ids
-        consecutive = len(ids) > 0 and np.array_equal(ids, np.arange(ids[0], ids[0] + len(ids)))
-        self.body_slice = slice(int(ids[0]), int(ids[0]) + len(ids)) if consecutive else ids
+        bids = self.body_ids
+        consecutive = len(bids) > 0 and np.array_equal(bids, np.arange(bids[0], bids[0] + len(bids)))
+        self.body_slice: slice | np.ndarray = slice(int(bids[0]), int(bids[0]) + len(bids)) if consecutive else bids
 
     # -- state setting ------------------------------------------------------------------------
     def _set(self, q: np.ndarray, v: np.ndarray | None = None, tau: np.ndarray | None = None) -> None:

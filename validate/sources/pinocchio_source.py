@@ -47,16 +47,17 @@ class PinocchioSource:
             raise HarnessError(
                 f"Pinocchio sees {self.model.nv} degrees of freedom in {system.mjcf.name}; the equations have {n}."
             )
-        self.qidx, self.vidx = [], []
+        qidx: list[int] = []
+        vidx: list[int] = []
         for j in system.joints:
             if not self.model.existJointName(j):
                 raise HarnessError(f"Pinocchio's model of {system.mjcf.name} has no joint '{j}'.")
             joint = self.model.joints[self.model.getJointId(j)]
             if joint.nq != 1 or joint.nv != 1:
                 raise HarnessError(f"joint '{j}': only one-degree-of-freedom joints are supported.")
-            self.qidx.append(joint.idx_q)
-            self.vidx.append(joint.idx_v)
-        self.qidx, self.vidx = np.array(self.qidx), np.array(self.vidx)
+            qidx.append(joint.idx_q)
+            vidx.append(joint.idx_v)
+        self.qidx, self.vidx = np.array(qidx), np.array(vidx)
         self.damping = np.array([system.view[f"joint/{j}/damping"] for j in system.joints])
         self.frames, self.joint_of_body = [], []
         for b in system.bodies:
