@@ -76,6 +76,16 @@ class DerivationStep:
 Variant = Implicit | Explicit | DerivationStep
 
 
+def common(symbol: str, **values: float) -> float:
+    """The notes' single symbol for parameters their printed forms assume equal (m for m1 and m2);
+    a printed form evaluated where they differ does not apply, so this raises ValueError."""
+    first = next(iter(values.values()))
+    if any(v != first for v in values.values()):
+        given = ", ".join(f"{k} = {v}" for k, v in values.items())
+        raise ValueError(f"the notes' printed forms assume one {symbol} for {' and '.join(values)} (got {given})")
+    return first
+
+
 def _array(x: Any) -> np.ndarray:
     # Floats stay floats; symbolic entries (object arrays, for code generation) stay objects.
     arr = np.asarray(x)

@@ -49,7 +49,7 @@ from typing import Any
 
 import numpy as np
 
-from ._forms import DerivationStep, Implicit, body, hinge, planar_inertia, rot_z, stack_matrix, stack_vector
+from ._forms import DerivationStep, Implicit, body, common, hinge, planar_inertia, rot_z, stack_matrix, stack_vector
 
 DESCRIPTION = (
     "Two uniform rigid bars, the second angle measured relative to the first bar "
@@ -77,23 +77,17 @@ class Params:
     @property
     def m(self) -> float:
         """The notes' single mass m; their printed forms need m1 == m2."""
-        if self.m1 != self.m2:
-            raise ValueError(f"the notes' printed forms assume m1 == m2 (got {self.m1}, {self.m2})")
-        return self.m1
+        return common("m", m1=self.m1, m2=self.m2)
 
     @property
     def l(self) -> float:  # noqa: E743 - the notes' symbol
         """The notes' single length l; their printed forms need c1 == c2 == l1 / 2."""
-        if not (2 * self.c1 == 2 * self.c2 == self.l1):
-            raise ValueError(f"the notes' printed forms assume c1 == c2 == l1/2 (got {self.c1}, {self.c2}, {self.l1})")
-        return self.l1
+        return common("l", **{"l1": self.l1, "2 c1": 2 * self.c1, "2 c2": 2 * self.c2})
 
     @property
     def Izz(self) -> float:
         """The notes' single central inertia Izz = I_c; their printed forms need I1 == I2."""
-        if self.I1 != self.I2:
-            raise ValueError(f"the notes' printed forms assume I1 == I2 (got {self.I1}, {self.I2})")
-        return self.I1
+        return common("Izz", I1=self.I1, I2=self.I2)
 
 
 def parameters(model: Any) -> Params:

@@ -22,7 +22,18 @@ from typing import Any
 
 import numpy as np
 
-from ._forms import DerivationStep, Explicit, Implicit, body, hinge, planar_inertia, rot_z, stack_matrix, stack_vector
+from ._forms import (
+    DerivationStep,
+    Explicit,
+    Implicit,
+    body,
+    common,
+    hinge,
+    planar_inertia,
+    rot_z,
+    stack_matrix,
+    stack_vector,
+)
 
 DESCRIPTION = (
     "Two bobs on massless rods, the second angle measured relative to the first rod "
@@ -49,16 +60,12 @@ class Params:
     @property
     def m(self) -> float:
         """The notes' single mass m; their printed forms need m1 == m2."""
-        if self.m1 != self.m2:
-            raise ValueError(f"the notes' printed forms assume m1 == m2 (got {self.m1}, {self.m2})")
-        return self.m1
+        return common("m", m1=self.m1, m2=self.m2)
 
     @property
     def l(self) -> float:  # noqa: E743 - the notes' symbol
         """The notes' single length l; their printed forms need l1 == l2."""
-        if self.l1 != self.l2:
-            raise ValueError(f"the notes' printed forms assume l1 == l2 (got {self.l1}, {self.l2})")
-        return self.l1
+        return common("l", l1=self.l1, l2=self.l2)
 
 
 def parameters(model: Any) -> Params:

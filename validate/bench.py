@@ -52,14 +52,13 @@ from __future__ import annotations
 
 import hashlib
 import math
-import os
 import statistics
 import sys
 import threading
 import time
 import warnings
 from collections.abc import Callable, Iterable
-from concurrent.futures import Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor, as_completed
+from concurrent.futures import Executor, Future, as_completed
 from pathlib import Path
 from typing import Any
 
@@ -442,16 +441,9 @@ def run_mujoco(
     """
     import mujoco
 
-    names = {
-        "Euler": mujoco.mjtIntegrator.mjINT_EULER,
-        "RK4": mujoco.mjtIntegrator.mjINT_RK4,
-        "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
-        "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
-    }
-    if integrator not in names:
-        from .errors import unknown_name
+    from .integrate import mujoco_integrator
 
-        raise unknown_name("MuJoCo integrator", integrator, names)
+    enum = mujoco_integrator(integrator)
     inner = getattr(source, "inner", source)
     m, d = inner.m, inner.d
     dt_out = float(t[1] - t[0])
@@ -465,7 +457,7 @@ def run_mujoco(
     previous = mujoco.get_mju_user_warning()
     mujoco.set_mju_user_warning(lambda msg: printed.append(str(msg).strip()))
     try:
-        m.opt.integrator, m.opt.timestep = names[integrator], timestep
+        m.opt.integrator, m.opt.timestep = enum, timestep
         mujoco.mj_resetData(m, d)
         source.set_state(np.asarray(q0, dtype=float), np.asarray(v0, dtype=float), np.asarray(tau, dtype=float))
         qpos[0], qvel[0] = d.qpos, d.qvel
@@ -1400,12 +1392,6 @@ def run_wall_times(repeats: int = RUN_REPEATS, *, timeout: float = 900.0) -> dic
 # The whole bench
 
 
-def _ignore_sigint() -> None:
-    import signal
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
 def run_bench(
     names: list[str] | None,
     *,
@@ -1437,19 +1423,12 @@ def run_bench(
     budget = QUICK_BUDGET if quick else BUDGET
     specs = plan(quick=quick)
     reps_small = 3 if quick else 7
-    own = executor is None
-    if own:
-        workers = os.cpu_count() or 1
-        executor = (
-            ProcessPoolExecutor(max_workers=workers, initializer=_ignore_sigint)
-            if workers > 1
-            else ThreadPoolExecutor(max_workers=1)
-        )
-    assert executor is not None
-    try:
+    from .parallel import executor_for
+
+    with executor_for(executor) as pool:
         if progress:
             progress(f"preparing references for {', '.join(chosen)}")
-        prepared = dict(zip(chosen, executor.map(prepare, chosen), strict=True))
+        prepared = dict(zip(chosen, pool.map(prepare, chosen), strict=True))
         extra: dict[str, tuple[Callable[..., Any], tuple[Any, ...]]] = {}
         if RHS_SYSTEM in system_names():
             extra["rhs"] = (_rhs_task, (15 if not quick else 7,))
@@ -1457,18 +1436,9 @@ def run_bench(
             extra[f"pointwise {name}"] = (_pointwise_task, (name, 5 if not quick else 3))
             extra[f"flags {name}"] = (_flags_task, (name, 20_000 if not quick else 5_000, reps_small))
         rows, extras = sweep(
-            prepared, specs, repeats=repeats, executor=executor, budget=budget, progress=progress, extra=extra
+            prepared, specs, repeats=repeats, executor=pool, budget=budget, progress=progress, extra=extra
         )
-    except KeyboardInterrupt:
-        if own:
-            import multiprocessing
-
-            for child in multiprocessing.active_children():
-                child.terminate()
-        raise
-    finally:
-        if own:
-            executor.shutdown(wait=True, cancel_futures=True)
+        workers = getattr(pool, "_max_workers", None)
     sweep_s = time.perf_counter() - start
     ratios: dict[str, Any] = {}
     ratios["rhs_fast_path_vs_hand_math"] = extras.get(
@@ -1524,7 +1494,7 @@ def run_bench(
             "atol": f"rtol * {ATOL_FACTOR:g}",
             "horizon_tolerance": HORIZON_TOLERANCE,
             "epsilons": list(EPSILONS),
-            "workers": getattr(executor, "_max_workers", None),
+            "workers": workers,
             "cost": "cpu_s (time.process_time, median)",
         },
         "systems": {

@@ -20,6 +20,25 @@ DEFAULT_DT_OUT = 0.01  # s
 SCIPY_DEFAULT: dict[str, Any] = {"method": "odeint", "rtol": 1e-11, "atol": 1e-14}
 
 
+MUJOCO_INTEGRATORS = ("Euler", "RK4", "implicit", "implicitfast")
+
+
+def mujoco_integrator(name: str) -> Any:
+    """MuJoCo's enum value for an integrator name; an unknown name lists the valid ones."""
+    import mujoco
+
+    if name not in MUJOCO_INTEGRATORS:
+        from .errors import unknown_name
+
+        raise unknown_name("MuJoCo integrator", name, MUJOCO_INTEGRATORS)
+    return {
+        "Euler": mujoco.mjtIntegrator.mjINT_EULER,
+        "RK4": mujoco.mjtIntegrator.mjINT_RK4,
+        "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
+        "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+    }[name]
+
+
 @dataclass
 class Trajectory:
     source: str  # "hand", "mujoco" or "pinocchio"
@@ -135,18 +154,9 @@ def mujoco_trajectory(
     import mujoco
 
     m, d = source.m, source.d
-    names = {
-        "Euler": mujoco.mjtIntegrator.mjINT_EULER,
-        "RK4": mujoco.mjtIntegrator.mjINT_RK4,
-        "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
-        "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
-    }
-    if integrator not in names:
-        from .errors import unknown_name
-
-        raise unknown_name("MuJoCo integrator", integrator, names)
+    enum = mujoco_integrator(integrator)
     saved = (m.opt.integrator, m.opt.timestep)
-    m.opt.integrator = names[integrator]
+    m.opt.integrator = enum
     dt = float(timestep or m.opt.timestep)
     m.opt.timestep = dt
     dt_out = t[1] - t[0] if len(t) > 1 else dt

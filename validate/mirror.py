@@ -36,9 +36,9 @@ from typing import Any
 import numpy as np
 
 from .errors import HarnessError, unknown_name
-from .integrate import Trajectory
+from .integrate import MUJOCO_INTEGRATORS, Trajectory, mujoco_integrator
 
-INTEGRATORS = ("RK4", "Euler", "implicit", "implicitfast")
+INTEGRATORS = MUJOCO_INTEGRATORS
 RK4_A = ((0.5,), (0.0, 0.5), (0.0, 0.0, 1.0))
 RK4_B = (1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0)
 DERIVATIVE_STEP = 1.0  # rad/s: central differences are exact for F quadratic in v, so a large step only cuts rounding
@@ -265,14 +265,6 @@ def mirror_steps(
     return q, v
 
 
-_MJ_INTEGRATOR = {
-    "Euler": "mjINT_EULER",
-    "RK4": "mjINT_RK4",
-    "implicit": "mjINT_IMPLICIT",
-    "implicitfast": "mjINT_IMPLICITFAST",
-}
-
-
 def mujoco_steps(
     source: Any, q: np.ndarray, v: np.ndarray, tau: np.ndarray, *, integrator: str, timestep: float, steps: int = 1
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -283,7 +275,7 @@ def mujoco_steps(
     m, d = source.m, source.d
     tau = np.broadcast_to(np.asarray(tau, dtype=float), np.shape(q))
     saved = (m.opt.integrator, m.opt.timestep)
-    m.opt.integrator = getattr(mujoco.mjtIntegrator, _MJ_INTEGRATOR[integrator])
+    m.opt.integrator = mujoco_integrator(integrator)
     m.opt.timestep = timestep
     q_out, v_out = np.empty(np.shape(q)), np.empty(np.shape(v))
     try:

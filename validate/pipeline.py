@@ -5,8 +5,7 @@ Each step returns plain data; `run` assembles `results.json` and the reports ren
 
 from __future__ import annotations
 
-import os
-from concurrent.futures import Executor, ProcessPoolExecutor, ThreadPoolExecutor, as_completed
+from concurrent.futures import Executor, as_completed
 from typing import Any
 
 import numpy as np
@@ -134,13 +133,6 @@ def run_system(
     }
 
 
-def _ignore_sigint() -> None:
-    """Workers leave Ctrl-C to the parent, which stops them and reports one line."""
-    import signal
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
 def _run_one(name: str, n_states: int, seed: int) -> dict[str, Any]:
     """One system, by name (picklable, for process pools)."""
     from .systems import load
@@ -158,18 +150,9 @@ def run(
 
     systems = load_all(names)  # unknown names fail here, before any work starts
     out: dict[str, Any] = {"meta": provenance(seed), "tolerances": TOLERANCES.as_dict(), "systems": {}}
-    own = executor is None
-    pool: Executor
-    if executor is None:
-        workers = min(len(systems), os.cpu_count() or 1)
-        pool = (
-            ProcessPoolExecutor(max_workers=workers, initializer=_ignore_sigint)
-            if workers > 1
-            else ThreadPoolExecutor(max_workers=1)
-        )
-    else:
-        pool = executor
-    try:
+    from .parallel import executor_for
+
+    with executor_for(executor, tasks=len(systems)) as pool:
         futures = {pool.submit(_run_one, s.name, n_states, seed): s.name for s in systems}
         for name in futures.values():
             if progress:
@@ -180,16 +163,6 @@ def run(
             done[name] = future.result()
             if progress:
                 progress(name, "done", done[name])
-    except KeyboardInterrupt:
-        if own:
-            import multiprocessing
-
-            for child in multiprocessing.active_children():
-                child.terminate()
-        raise
-    finally:
-        if own:
-            pool.shutdown(wait=True, cancel_futures=True)
     out["systems"] = {name: done[name] for name in sorted(done)}
     out["passed"] = all(s["passed"] for s in out["systems"].values())
     return out

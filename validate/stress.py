@@ -70,6 +70,7 @@ from typing import Any
 import numpy as np
 
 from .errors import HarnessError
+from .integrate import mujoco_integrator
 
 EPS = float(np.finfo(float).eps)
 GROWTH = 1.0  # unstable when the energy gain exceeds GROWTH x (E0 - V_min); see the module docstring
@@ -203,15 +204,7 @@ def simulate(
         src = sources["mujoco"]
         m, d = src.m, src.d
         saved = (m.opt.integrator, m.opt.timestep, m.opt.disableflags)
-        m.opt.integrator = getattr(
-            mujoco.mjtIntegrator,
-            {
-                "Euler": "mjINT_EULER",
-                "RK4": "mjINT_RK4",
-                "implicit": "mjINT_IMPLICIT",
-                "implicitfast": "mjINT_IMPLICITFAST",
-            }[integrator],
-        )
+        m.opt.integrator = mujoco_integrator(integrator)
         m.opt.timestep = timestep
         if not eulerdamp:
             m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_EULERDAMP)
