@@ -56,16 +56,24 @@ def frictionless_params(system: Any) -> Any:
 class EngineTerms:
     """The engines' primitives at the sample states, computed once per system."""
 
-    def __init__(self, system: Any, sources: dict[str, Any], states: States) -> None:
+    def __init__(
+        self,
+        system: Any,
+        sources: dict[str, Any],
+        states: States,
+        values: dict[str, dict[str, np.ndarray]] | None = None,
+    ) -> None:
+        """`values`: what `compare.evaluate` already computed at these states, reused rather than recomputed."""
         q, v, tau = states.q, states.v, states.tau
         zero = np.zeros_like(q)
         self.by_engine: dict[str, dict[str, np.ndarray]] = {}
         for name in ENGINES:
             src = sources[name]
-            M = src.mass_matrix(q)
+            known = (values or {}).get(name)
+            M = known["M"] if known else src.mass_matrix(q)
             G = src.bias(q, zero)
-            bias = src.bias(q, v)
-            passive = src.passive(q, v)
+            bias = known["bias"] if known else src.bias(q, v)
+            passive = known["passive"] if known else src.passive(q, v)
             solve = lambda x, M=M: np.linalg.solve(M, x[..., None])[..., 0]  # noqa: E731
             self.by_engine[name] = {
                 "M": M,
@@ -73,14 +81,17 @@ class EngineTerms:
                 "Cv": bias - G,
                 "passive": passive,
                 "tau": tau,
-                "a": src.forward(q, v, tau),
+                "a": known["qacc"] if known else src.forward(q, v, tau),
                 "a_gravity": solve(-G),
                 "a_velocity": solve(-(bias - G)),
                 "a_friction": solve(passive),
                 "a_actuation": solve(tau),
             }
         self.kinematics = {name: sources[name].kinematics(q, v) for name in ENGINES}
-        self.energies = {name: sources[name].energies(q, v) for name in ENGINES}
+        self.energies = {
+            name: (values[name]["T"], values[name]["V"]) if values and name in values else sources[name].energies(q, v)
+            for name in ENGINES
+        }
 
 
 def _rows(
@@ -360,15 +371,22 @@ def _combine(nominal: dict[str, Any], probe: dict[str, Any]) -> dict[str, Any]:
 
 
 def judge_system(
-    system: Any, states: States, sources: dict[str, Any], *, tolerances: Tolerances = TOLERANCES
+    system: Any,
+    states: States,
+    sources: dict[str, Any],
+    *,
+    tolerances: Tolerances = TOLERANCES,
+    values: dict[str, dict[str, np.ndarray]] | None = None,
 ) -> list[dict[str, Any]]:
-    """Verdicts for every printed form of one system, at the notes' and at the probe parameters."""
+    """Verdicts for every printed form of one system, at the notes' and at the probe parameters.
+
+    `values`: the engines' quantities `compare.evaluate` already computed at `states`, if any."""
     if not system.variants:
         return []
     from .sources import make_sources
     from .systems import load
 
-    terms = EngineTerms(system, sources, states)
+    terms = EngineTerms(system, sources, states, values)
     from . import modelsync
     from .errors import HarnessError
 

@@ -100,9 +100,10 @@ def run_system(
     """Everything the harness knows about one system, as plain data."""
     sources = make_sources(system)
     model = modelsync.check(system, sources["pinocchio"])
-    point = compare.pointwise(system, n=n_states, seed=seed, sources=sources)
     states = compare.random_states(system, n=n_states, seed=seed)
-    variants = judge.judge_system(system, states, sources)
+    values = compare.evaluate(sources, states)  # evaluated once: the judge reuses the engines' values
+    point = compare.pointwise_result(values, states, seed=seed)
+    variants = judge.judge_system(system, states, sources, values=values)
     traj = trajectory_results(system, sources, t_end=t_end, dt_out=dt_out)
     notes_experiments = experiments.run_experiments(system)
     same = equivalence.check_equivalence(system)
