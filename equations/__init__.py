@@ -22,6 +22,9 @@ Every module provides (shapes: `q`, `v`, `tau` are `(..., n)`; functions broadca
     body_positions(p, q) -> {body: (..., 3)}   centres of mass in the world frame
     body_rotations(p, q) -> {body: (..., 3, 3)} body frames in the world frame
     VARIANTS: tuple[variant, ...]      every printed form of the notes (see _forms.py)
+    PRINTED_FORMS_ASSUME: (...)        optional: equalities the printed forms assume, each a mapping
+                                       {Params field: k} with k * field equal across it (one m for
+                                       m1 and m2: {"m1": 1, "m2": 1}); their probes keep them
     INITIAL_STATE: (q0, v0)            optional: the notes' simulation experiment for this system
     SAME_SYSTEM_AS: str                optional: another system that is the same physical chain in other
                                        coordinates (the harness checks that the two map onto each other)

@@ -62,6 +62,11 @@ USES = frozenset({"gravity"})
 # The notes' Modelica experiment: theta(start = 0), phi(start = 3), at rest, 10 s.
 INITIAL_STATE = ((0.0, 3.0), (0.0, 0.0))
 
+# The notes' printed forms assume one mass, one length with the centres of mass at mid-length and
+# one central inertia (m = m1 = m2, l = l1 = 2 c1 = 2 c2, Izz = I1 = I2): their probes keep these
+# equalities while every other parameter moves (validate/probes.py).
+PRINTED_FORMS_ASSUME = ({"m1": 1.0, "m2": 1.0}, {"l1": 1.0, "c1": 2.0, "c2": 2.0}, {"I1": 1.0, "I2": 1.0})
+
 
 @dataclass(frozen=True)
 class Params:

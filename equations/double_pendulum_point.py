@@ -46,6 +46,10 @@ USES = frozenset({"gravity"})
 # The notes' experiment: ode45 from theta = 0, phi = 3, at rest ([0, 3, 0, 0]).
 INITIAL_STATE = ((0.0, 3.0), (0.0, 0.0))
 
+# The notes' printed forms assume one mass and one length (m = m1 = m2, l = l1 = l2): their probes
+# keep these equalities while every other parameter moves (validate/probes.py).
+PRINTED_FORMS_ASSUME = ({"m1": 1.0, "m2": 1.0}, {"l1": 1.0, "l2": 1.0})
+
 
 @dataclass(frozen=True)
 class Params:

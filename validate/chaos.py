@@ -726,6 +726,7 @@ def crossvalidate(
         "safety": SAFETY,
         "reference": ref_info,
         "chaos": chaos_summary(system, q0, v0, tau, t=t, tolerance=tolerance, cache_dir=cache_dir),
+        "amplification": amplification(fl),  # (K,) on the grid t: how much the dynamics amplify an error
         "integrators": {},
     }
     lock_states = (ref.q[::lockstep_every], ref.v[::lockstep_every])

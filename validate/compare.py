@@ -86,12 +86,22 @@ def evaluate(sources: dict[str, Any], states: States) -> dict[str, dict[str, np.
     dynamics at the hand source's accelerations (so it should give back tau).
     """
     q, v, tau = states.q, states.v, states.tau
-    hand = sources["hand"].evaluate(q, v, tau)  # its inverse dynamics at its own accelerations
-    a_hand = hand["qacc"]
+    engines = {name: src for name, src in sources.items() if name != "hand"}
+    try:
+        with np.errstate(all="ignore"):
+            hand = sources["hand"].evaluate(q, v, tau)  # its inverse dynamics at its own accelerations
+    except Exception as exc:  # noqa: BLE001 - a derivation that raises is judged term by term (verdict.py)
+        hand = None
+        error = f"{type(exc).__name__}: {exc}"
+    if hand is None:
+        # Every quantity NaN, so each pointwise row fails; validate/verdict.py names the function.
+        shapes = {k: np.shape(x) for k, x in next(iter(engines.values())).evaluate(q, v, tau, q * 0).items()}
+        hand = {k: np.full(shape, np.nan) for k, shape in shapes.items()}
+        hand["error"] = error  # type: ignore[assignment]
+    a_hand = np.nan_to_num(hand["qacc"])
     out = {"hand": hand}
-    for name, src in sources.items():
-        if name != "hand":
-            out[name] = src.evaluate(q, v, tau, a_hand)
+    for name, src in engines.items():
+        out[name] = src.evaluate(q, v, tau, a_hand)
     return out
 
 

@@ -15,13 +15,15 @@ joint friction), so a disagreeing form is reported with the first term that disa
         gravity, velocity, friction, actuation likewise on accelerations; acceleration overall.
     derivation step: the printed expression vs the engines' kinematics or energies.
 
-Every form is judged twice: with the MJCF's parameters (the notes' values) and with a probe set
-(masses, lengths and gravity rescaled), because a slip such as a missing factor l cannot show
-where l = 1.
+Every form is judged with the MJCF's parameters (the notes' values) and at DEFAULT_PROBES probe
+parameter sets (validate/probes.py: every parameter moved by its own factor, keeping only the
+equalities the printed forms assume), because a slip such as a missing factor l cannot show where
+l = 1.
 """
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import numpy as np
@@ -32,8 +34,7 @@ from .modelview import ModelView
 from .tolerances import TOLERANCES, Tolerances
 
 ENGINES = ("mujoco", "pinocchio")
-PROBE = (("scale/mass", 1.7), ("scale/length", 1.3), ("scale/gravity", 0.8))
-PROBE_LABEL = "probe: masses x1.7, lengths x1.3, gravity x0.8"
+DEFAULT_PROBES = 4
 TERM_ORDER = (
     "printed parameters",
     "mass matrix",
@@ -87,14 +88,20 @@ class EngineTerms:
                 "a_friction": solve(passive),
                 "a_actuation": solve(tau),
             }
-        self.kinematics = {name: sources[name].kinematics(q, v) for name in ENGINES}
+        self._sources, self._states = sources, states
         self.energies = {
             name: (values[name]["T"], values[name]["V"]) if values and name in values else sources[name].energies(q, v)
             for name in ENGINES
         }
 
+    @functools.cached_property
+    def kinematics(self) -> dict[str, Any]:
+        """Per-body kinematics of each engine, computed on first use (derivation steps need them)."""
+        q, v = self._states.q, self._states.v
+        return {name: self._sources[name].kinematics(q, v) for name in ENGINES}
 
-def _rows(
+
+def term_rows(
     term: str,
     printed: np.ndarray,
     engines: dict[str, np.ndarray],
@@ -103,18 +110,21 @@ def _rows(
     tier: str,
     tolerances: Tolerances,
     min_scale: dict[str, float] | None = None,
+    who: str = "printed",
+    cond: np.ndarray | None = None,
 ) -> list[dict[str, Any]]:
     rows = []
     for name, ref in engines.items():
         row = error_row(
             term,
-            f"printed~{name}",
+            f"{who}~{name}",
             printed,
             ref,
             states,
             tier=tier,
             tolerances=tolerances,
             min_scale=(min_scale or {}).get(name, 0.0),
+            cond=cond,
         )
         row["term"] = row.pop("quantity")
         row["engine"] = name
@@ -239,7 +249,7 @@ def judge_variant(
                 n: engine_quantity(system, terms, variant.quantity, n, states, variant.angle_index) for n in ENGINES
             }
             printed = np.broadcast_to(printed, refs["mujoco"].shape)
-            rows += _rows("value", printed, refs, states, tier="algebraic", tolerances=tolerances)
+            rows += term_rows("value", printed, refs, states, tier="algebraic", tolerances=tolerances)
         elif isinstance(variant, Implicit):
             r = lambda pp, qq, vv, aa, tt: np.asarray(variant.residual(pp, qq, vv, aa, tt), dtype=float)  # noqa: E731
             s = np.asarray(variant.row_scale(p), dtype=float)
@@ -247,7 +257,7 @@ def judge_variant(
             n = system.nv
             cols = [r(p, q, zero, np.broadcast_to(np.eye(n)[j], q.shape), zero) - r00 for j in range(n)]
             mass = np.stack(cols, axis=-1)
-            rows += _rows(
+            rows += term_rows(
                 "mass matrix",
                 mass,
                 {k: s[:, None] * e[k]["M"] for k in ENGINES},
@@ -256,16 +266,16 @@ def judge_variant(
                 tolerances=tolerances,
             )
             if "gravity" in uses:
-                rows += _rows(
+                rows += term_rows(
                     "gravity", r00, {k: s * e[k]["G"] for k in ENGINES}, states, tier="algebraic", tolerances=tolerances
                 )
             vel = r(p0, q, v, zero, zero) - r(p0, q, zero, zero, zero)
-            rows += _rows(
+            rows += term_rows(
                 "velocity", vel, {k: s * e[k]["Cv"] for k in ENGINES}, states, tier="algebraic", tolerances=tolerances
             )
             if "damping" in uses:
                 fr = r(p, q, v, zero, zero) - r(p0, q, v, zero, zero)
-                rows += _rows(
+                rows += term_rows(
                     "friction",
                     fr,
                     {k: -s * e[k]["passive"] for k in ENGINES},
@@ -275,13 +285,13 @@ def judge_variant(
                 )
             if "actuation" in uses:
                 act = r(p, q, zero, zero, tau) - r00
-                rows += _rows(
+                rows += term_rows(
                     "actuation", act, {k: -s * tau for k in ENGINES}, states, tier="algebraic", tolerances=tolerances
                 )
             residual = {k: r(p, q, v, e[k]["a"], tau) for k in ENGINES}
             for k in ENGINES:  # the residual at the engine's own accelerations should vanish
                 scale = float(np.abs(s * (e[k]["Cv"] + e[k]["G"])).max())
-                rows += _rows(
+                rows += term_rows(
                     "residual",
                     residual[k],
                     {k: np.zeros_like(residual[k])},
@@ -294,16 +304,16 @@ def judge_variant(
             f = lambda pp, qq, vv, tt: np.asarray(variant.acceleration(pp, qq, vv, tt), dtype=float)  # noqa: E731
             f00 = f(p, q, zero, zero)
             if "gravity" in uses:
-                rows += _rows(
+                rows += term_rows(
                     "gravity", f00, {k: e[k]["a_gravity"] for k in ENGINES}, states, tier="solve", tolerances=tolerances
                 )
             vel = f(p0, q, v, zero) - f(p0, q, zero, zero)
-            rows += _rows(
+            rows += term_rows(
                 "velocity", vel, {k: e[k]["a_velocity"] for k in ENGINES}, states, tier="solve", tolerances=tolerances
             )
             if "damping" in uses:
                 fr = f(p, q, v, zero) - f(p0, q, v, zero)
-                rows += _rows(
+                rows += term_rows(
                     "friction",
                     fr,
                     {k: e[k]["a_friction"] for k in ENGINES},
@@ -313,7 +323,7 @@ def judge_variant(
                 )
             if "actuation" in uses:
                 act = f(p, q, zero, tau) - f00
-                rows += _rows(
+                rows += term_rows(
                     "actuation",
                     act,
                     {k: e[k]["a_actuation"] for k in ENGINES},
@@ -321,7 +331,7 @@ def judge_variant(
                     tier="solve",
                     tolerances=tolerances,
                 )
-            rows += _rows(
+            rows += term_rows(
                 "acceleration",
                 f(p, q, v, tau),
                 {k: e[k]["a"] for k in ENGINES},
@@ -343,31 +353,51 @@ def judge_variant(
     return result
 
 
-def _combine(nominal: dict[str, Any], probe: dict[str, Any]) -> dict[str, Any]:
-    """One verdict from the two parameter sets; the first disagreement is the nominal one if any."""
+def _combine(judged: list[tuple[Any, dict[str, Any]]]) -> dict[str, Any]:
+    """One verdict from every parameter set (the model's first, then the probes); the first
+    disagreement named is the one at the earliest parameter set that disagrees."""
+    nominal = judged[0][1]
     out = dict(nominal)
-    for r in nominal.get("terms", []):
-        r["parameters"] = "notes"
-    for r in probe.get("terms", []):
-        r["parameters"] = PROBE_LABEL
-    out["terms"] = nominal.get("terms", []) + probe.get("terms", [])
-    verdicts = {nominal["verdict"], probe["verdict"]}
+    out["terms"] = []
+    for probe, verdict in judged:
+        for r in verdict.get("terms", []):
+            r["parameters"] = probe.label
+            r["probe"] = probe.index
+        out["terms"] += verdict.get("terms", [])
+    out["probes"] = [probe.as_dict() for probe, _ in judged]
+    verdicts = [v["verdict"] for _, v in judged]
     if "disagrees" in verdicts:
+        probe, first = next((p, v) for p, v in judged if v["verdict"] == "disagrees")
         out["verdict"] = "disagrees"
-        first = nominal if nominal["verdict"] == "disagrees" else probe
         out["first_disagreeing_term"] = first["first_disagreeing_term"]
-        out["disagrees_at"] = "notes" if first is nominal else PROBE_LABEL
+        out["disagrees_at"] = probe.label
+        out["hidden_by_model_values"] = probe.index != 0
+        if probe.index != 0:
+            out["disagrees_where"] = probe.describe()
         failing = [r for r in out["terms"] if not r["passed"]]
         worst = max(failing, key=lambda r: r["scaled"])
         out["worst_term"] = {
             k: worst[k] for k in ("term", "engine", "parameters", "max_abs", "max_rel", "scaled", "worst_state")
         }
-    elif verdicts == {"agrees"}:
+    elif set(verdicts) == {"agrees"}:
         out["verdict"] = "agrees"
     else:
         out["verdict"] = "not applicable"
-        out["reason"] = nominal.get("reason") or probe.get("reason")
+        out["reason"] = next(v.get("reason") for _, v in judged if v["verdict"] == "not applicable")
     return out
+
+
+def printed_probes(system: Any, *, n_probes: int, seed: int) -> tuple[list[Any], list[str]]:
+    """The parameter sets the printed forms are judged at: the model's, and probes that keep the
+    equalities the notes' printed forms assume (`PRINTED_FORMS_ASSUME` of the module)."""
+    from . import probes as probing
+    from .errors import HarnessError
+
+    ties = tuple(getattr(system.equations, "PRINTED_FORMS_ASSUME", ()))
+    try:
+        return probing.probes(system, k=n_probes, seed=seed, ties=ties, family="printed")
+    except HarnessError as exc:  # the derivation's parameters() misreads: judged at the model's only
+        return [probing.Probe(0, "model", system, {})], [str(exc)]
 
 
 def judge_system(
@@ -377,30 +407,46 @@ def judge_system(
     *,
     tolerances: Tolerances = TOLERANCES,
     values: dict[str, dict[str, np.ndarray]] | None = None,
+    n_probes: int = DEFAULT_PROBES,
+    probe_states: int = 200,
+    seed: int = 0,
 ) -> list[dict[str, Any]]:
-    """Verdicts for every printed form of one system, at the notes' and at the probe parameters.
+    """Verdicts for every printed form of one system, at the model's parameters and at `n_probes`
+    probe parameter sets (validate/probes.py).
 
     `values`: the engines' quantities `compare.evaluate` already computed at `states`, if any."""
     if not system.variants:
         return []
+    from .compare import random_states
+    from .probes import describe_ties
     from .sources import make_sources
-    from .systems import load
 
-    terms = EngineTerms(system, sources, states, values)
-    from . import modelsync
-    from .errors import HarnessError
-
-    probe_system = load(system.name, overrides=system.overrides + PROBE)
-    probe_sources = make_sources(probe_system)
-    sync = modelsync.check(probe_system, probe_sources["pinocchio"])
-    if not sync["passed"]:
-        bad = sync["mismatches"][0]
-        raise HarnessError(f"{system.name} at the probe parameters: {bad['key']} differs ({bad['why']}).")
-    probe_terms = EngineTerms(probe_system, probe_sources, states)
-    return [
+    probe_list, problems = printed_probes(system, n_probes=n_probes, seed=seed)
+    ties = tuple(getattr(system.equations, "PRINTED_FORMS_ASSUME", ()))
+    per_probe = [(probe_list[0], states, EngineTerms(system, sources, states, values))]
+    for probe in probe_list[1:]:
+        ps = random_states(probe.system, n=probe_states, seed=seed + probe.index)
+        per_probe.append((probe, ps, EngineTerms(probe.system, make_sources(probe.system), ps)))
+    verdicts = [
         _combine(
-            judge_variant(system, var, terms, states, tolerances=tolerances),
-            judge_variant(probe_system, var, probe_terms, states, tolerances=tolerances, printed_parameters=False),
+            [
+                (
+                    probe,
+                    judge_variant(
+                        probe.system,
+                        var,
+                        terms,
+                        ps,
+                        tolerances=tolerances,
+                        printed_parameters=probe.index == 0,
+                    ),
+                )
+                for probe, ps, terms in per_probe
+            ]
         )
         for var in system.variants
     ]
+    for v in verdicts:
+        v["assumes"] = describe_ties(ties)
+        v["probe_problems"] = problems
+    return verdicts

@@ -10,7 +10,9 @@ from typing import Any
 
 import numpy as np
 
-from . import chaos, compare, equivalence, experiments, integrate, judge, modelsync
+from . import chaos, compare, equivalence, experiments, integrate, judge, modelsync, verdict
+from . import probes as probing
+from .probes import DEFAULT_PROBES
 from .sources import make_sources
 from .tolerances import TOLERANCES
 
@@ -18,6 +20,12 @@ TRAJECTORY_THRESHOLD = TOLERANCES.trajectory.rtol  # rad
 # The integrators `run` cross-validates (mirrors, convergence order, energy, free runs judged inside
 # the predictability horizon); implicit and implicitfast are in `chaos.INTEGRATORS` for the benchmark.
 RUN_INTEGRATORS = ("RK4", "Euler")
+
+
+# Runs are judged against the reference up to the time the chaos could lift the harness's own
+# integration error (about 1e-9 rad, scipy at rtol 1e-11 and MuJoCo RK4 at 1 ms, over the first
+# second) to the threshold: where the amplification ||dq(t)/dx(0)|| reaches JUDGE_AMPLIFICATION.
+JUDGE_AMPLIFICATION = 1e3
 
 
 def trajectory_results(system: Any, sources: dict[str, Any], *, t_end: float, dt_out: float) -> dict[str, Any]:
@@ -34,25 +42,12 @@ def trajectory_results(system: Any, sources: dict[str, Any], *, t_end: float, dt
     q0b[-1] += experiments.PERTURBATION
     perturbed = integrate.scipy_trajectory(system, sources["hand"], q0b, v0, tau, t, **integrate.SCIPY_DEFAULT)
     perturbed.stats["label"] = f"{system.coordinates[-1]}0 + {experiments.PERTURBATION:g}"
-    runs = []
-    for tr in [*trajs, perturbed]:
-        err = integrate.error_against(tr, ref)
-        e = integrate.energy(system, sources["hand"], tr)
-        run = {
-            "source": tr.source,
-            "method": tr.method,
-            "stats": tr.stats,
-            "q": tr.q,
-            "v": tr.v,
-            "energy": e,
-            "error_vs_hand": err,
-            "max_error_vs_hand": float(err.max()),
-            "first_exceeds_threshold": integrate.first_exceeding(tr.t, err, TRAJECTORY_THRESHOLD),
-            "energy_drift": float(np.abs(e - e[0]).max()),
-        }
-        if "label" in tr.stats:
-            run["label"] = tr.stats["label"]
-        runs.append(run)
+    runs = [_run_entry(system, sources, tr, ref) for tr in [*trajs, perturbed]]
+    runs[-1]["counts"] = False
+    runs[-1]["why_not_counted"] = (
+        f"information only: a different start ({runs[-1]['label']}), compared with the reference from the "
+        "unperturbed start to show how far the start alone moves the motion"
+    )
     return {
         "q0": q0,
         "v0": v0,
@@ -64,6 +59,80 @@ def trajectory_results(system: Any, sources: dict[str, Any], *, t_end: float, dt
         f"agrees with a second method to {ref_info.get('agreement_q', float('nan')):.1e} rad",
         "reference_info": {k: v for k, v in ref_info.items() if np.isscalar(v) or isinstance(v, str)},
         "threshold": TRAJECTORY_THRESHOLD,
+        "runs": runs,
+    }
+
+
+def _run_entry(system: Any, sources: dict[str, Any], tr: Any, ref: Any) -> dict[str, Any]:
+    err = integrate.error_against(tr, ref)
+    e = integrate.energy(system, sources["hand"], tr)
+    run = {
+        "source": tr.source,
+        "method": tr.method,
+        "stats": tr.stats,
+        "q": tr.q,
+        "v": tr.v,
+        "energy": e,
+        "error_vs_hand": err,
+        "max_error_vs_hand": float(np.nanmax(err)) if np.isfinite(err).any() else float("inf"),
+        "first_exceeds_threshold": integrate.first_exceeding(
+            tr.t, np.nan_to_num(err, nan=np.inf), TRAJECTORY_THRESHOLD
+        ),
+        "energy_drift": float(np.nanmax(np.abs(e - e[0]))) if np.isfinite(e).any() else float("inf"),
+        "counts": True,
+    }
+    if "label" in tr.stats:
+        run["label"] = tr.stats["label"]
+    return run
+
+
+def judge_trajectories(traj: dict[str, Any], amplification: Any) -> None:
+    """Marks each counted run passed or not: its error against the reference stays within the
+    threshold up to where the amplification reaches JUDGE_AMPLIFICATION (or the end)."""
+    t = np.asarray(traj["t"], dtype=float)
+    amp = np.asarray(amplification, dtype=float) if amplification is not None else np.ones_like(t)
+    beyond = np.nonzero(amp > JUDGE_AMPLIFICATION)[0]
+    until = float(t[beyond[0] - 1]) if len(beyond) and beyond[0] > 0 else float(t[-1])
+    traj["judged_until"] = until
+    traj["judged_because"] = (
+        f"the amplification of errors by the dynamics reaches {JUDGE_AMPLIFICATION:g} at {until:g} s: beyond it the "
+        "harness's own integration error alone could pass the threshold"
+        if len(beyond)
+        else f"the amplification of errors stays below {JUDGE_AMPLIFICATION:g} over the whole run"
+    )
+    for run in traj["runs"]:
+        if not run.get("counts", True):
+            continue
+        err = np.asarray(run["error_vs_hand"], dtype=float)[t <= until + 1e-12]
+        run["judged_until"] = until
+        run["passed"] = bool(np.all(np.isfinite(err)) and err.max(initial=0.0) <= traj["threshold"])
+
+
+def divergence_results(
+    system: Any, sources: dict[str, Any], *, t_end: float, dt_out: float, why: str
+) -> dict[str, Any]:
+    """For a derivation that already disagrees: the three sources' free runs, bounded, against
+    MuJoCo's, as information (where the wrong equations part from the engines), never a verdict."""
+    q0, v0 = integrate.initial_state(system)
+    tau = np.zeros(system.nv)
+    t = integrate.time_grid(t_end, dt_out)
+    trajs = integrate.run_trajectories(system, sources, t_end=t_end, dt_out=dt_out)
+    ref = next(tr for tr in trajs if tr.source == "mujoco")
+    runs = [_run_entry(system, sources, tr, ref) for tr in trajs]
+    for run in runs:
+        run["counts"] = False
+        run["why_not_counted"] = why
+    return {
+        "q0": q0,
+        "v0": v0,
+        "tau": tau,
+        "t_end": t_end,
+        "dt_out": dt_out,
+        "t": t,
+        "reference": f"{ref.label} (the hand derivation disagrees with the engines, so it is not the reference)",
+        "reference_info": {"method": ref.method},
+        "threshold": TRAJECTORY_THRESHOLD,
+        "information_only": why,
         "runs": runs,
     }
 
@@ -89,6 +158,18 @@ def skipped_work(system: Any) -> list[str]:
     return out
 
 
+def _stage(stages: dict[str, Any], name: str, fn: Any) -> Any:
+    """Runs one stage after the verdicts; a failure is recorded (and fails the system), never raised,
+    so the verdicts already computed are always written."""
+    try:
+        return fn()
+    except KeyboardInterrupt:
+        raise
+    except Exception as exc:  # noqa: BLE001 - recorded as the stage's outcome, reported as a failure
+        stages[name] = f"failed: {type(exc).__name__}: {exc}".strip()
+        return None
+
+
 def run_system(
     system: Any,
     *,
@@ -96,21 +177,81 @@ def run_system(
     seed: int,
     t_end: float = integrate.DEFAULT_T_END,
     dt_out: float = integrate.DEFAULT_DT_OUT,
+    n_probes: int = DEFAULT_PROBES,
 ) -> dict[str, Any]:
-    """Everything the harness knows about one system, as plain data."""
+    """Everything the harness knows about one system, as plain data. The verdicts on the derivation
+    (model checks, pointwise, every term at the model's parameters and at the probes) come first;
+    the trajectory stages run only for a derivation that agrees (else a bounded divergence run)."""
+    try:
+        system.params  # noqa: B018 - the user's parameters(), read before anything depends on it
+        system.equations.assumptions(system.params)
+    except Exception as exc:  # noqa: BLE001 - a derivation that cannot read its model is the finding
+        return _unreadable(system, exc)
     sources = make_sources(system)
     model = modelsync.check(system, sources["pinocchio"])
     states = compare.random_states(system, n=n_states, seed=seed)
-    values = compare.evaluate(sources, states)  # evaluated once: the judge reuses the engines' values
+    values = compare.evaluate(sources, states)  # evaluated once: the judges reuse the engines' values
     point = compare.pointwise_result(values, states, seed=seed)
-    variants = judge.judge_system(system, states, sources, values=values)
-    traj = trajectory_results(system, sources, t_end=t_end, dt_out=dt_out)
-    notes_experiments = experiments.run_experiments(system)
-    same = equivalence.check_equivalence(system)
-    cross = chaos.crossvalidate(
-        system, sources, t_end=t_end, dt_out=dt_out, integrators=RUN_INTEGRATORS, mirror_engines=("hand", "pinocchio")
+    probe_set = verdict.derivation_probes(system, n_probes=n_probes, seed=seed)
+    derivation = verdict.judge_derivation(system, states, sources, probe_set, values=values, seed=seed)
+    stages: dict[str, Any] = {}
+    variants = (
+        _stage(
+            stages,
+            "printed forms",
+            lambda: judge.judge_system(system, states, sources, values=values, n_probes=n_probes, seed=seed),
+        )
+        or []
     )
-    passed = model["passed"] and point["passed"] and (same is None or same["passed"]) and cross["passed"]
+    same = _stage(stages, "equivalence", lambda: equivalence.check_equivalence(system, probe_set.systems()))
+    agrees = model["passed"] and point["passed"] and derivation["verdict"] == "agrees"
+    traj = notes_experiments = cross = None
+    if agrees:
+        traj = _stage(stages, "trajectories", lambda: trajectory_results(system, sources, t_end=t_end, dt_out=dt_out))
+        notes_experiments = _stage(stages, "experiments", lambda: experiments.run_experiments(system))
+        cross = _stage(
+            stages,
+            "chaos",
+            lambda: chaos.crossvalidate(
+                system,
+                sources,
+                t_end=t_end,
+                dt_out=dt_out,
+                integrators=RUN_INTEGRATORS,
+                mirror_engines=("hand", "pinocchio"),
+            ),
+        )
+        if traj is not None:
+            judge_trajectories(traj, cross.get("amplification") if cross else None)
+    else:
+        why = (
+            "not run: the hand derivation already disagrees with the engines "
+            f"({derivation.get('first_disagreeing_term') or 'model checks or pointwise'}); the reference, chaos and "
+            "the notes' experiments are built on the hand equations, so they would only amplify the same mistake"
+        )
+        for name in ("reference trajectory", "chaos and mirrors", "the notes' experiments"):
+            stages[name] = why
+        traj = _stage(
+            stages,
+            "divergence run",
+            lambda: divergence_results(
+                system,
+                sources,
+                t_end=t_end,
+                dt_out=dt_out,
+                why="information only: the hand derivation disagrees pointwise, so this shows where its motion "
+                "parts from the engines'",
+            ),
+        )
+    failed_stages = [k for k, v in stages.items() if str(v).startswith("failed")]
+    traj_ok = traj is None or all(r.get("passed", True) for r in traj["runs"] if r.get("counts"))
+    passed = (
+        agrees
+        and (same is None or same["passed"])
+        and (cross is None or cross["passed"])
+        and traj_ok
+        and not failed_stages
+    )
     return {
         "name": system.name,
         "description": system.description,
@@ -120,29 +261,69 @@ def run_system(
         "joints": list(system.joints),
         "bodies": list(system.bodies),
         "uses": sorted(system.uses),
-        "parameters": {k: float(v) for k, v in vars(system.params).items()},
+        "parameters": {k: float(v) for k, v in probing.param_fields(system.params).items()},
         "timestep": float(sources["mujoco"].m.opt.timestep),
         "model_checks": model,
         "pointwise": point,
+        "derivation": derivation,
         "variants": variants,
         "trajectories": traj,
         "experiments": notes_experiments,
         "equivalence": same,
         "chaos": cross,
+        "stages": stages,
         "skipped": skipped_work(system),
         "passed": passed,
     }
 
 
-def _run_one(name: str, n_states: int, seed: int) -> dict[str, Any]:
+def _unreadable(system: Any, exc: Exception) -> dict[str, Any]:
+    """The result of a system whose parameters() or assumptions() raises: nothing else can be checked."""
+    where = "parameters()" if "params" not in system._cache else "assumptions()"
+    why = f"{where} raised {type(exc).__name__}: {exc}".strip()
+    return {
+        "name": system.name,
+        "description": system.description,
+        "mjcf": f"models/{system.mjcf.name}",
+        "equations": f"equations/{system.name}.py",
+        "coordinates": list(system.coordinates),
+        "joints": list(system.joints),
+        "bodies": list(system.bodies),
+        "uses": sorted(system.uses),
+        "parameters": {},
+        "derivation": {
+            "name": "hand derivation",
+            "kind": "hand",
+            "verdict": "disagrees",
+            "first_disagreeing_term": "parameters",
+            "failing_terms": ["parameters"],
+            "statement": f"parameters disagrees: {why}",
+            "hidden_by_model_values": False,
+            "terms": [],
+            "summary": [],
+        },
+        "variants": [],
+        "stages": {"everything after reading the parameters": f"not run: {why}"},
+        "skipped": [],
+        "passed": False,
+    }
+
+
+def _run_one(name: str, n_states: int, seed: int, n_probes: int = DEFAULT_PROBES) -> dict[str, Any]:
     """One system, by name (picklable, for process pools)."""
     from .systems import load
 
-    return run_system(load(name), n_states=n_states, seed=seed)
+    return run_system(load(name), n_states=n_states, seed=seed, n_probes=n_probes)
 
 
 def run(
-    names: list[str] | None, *, n_states: int, seed: int, progress: Any = None, executor: Executor | None = None
+    names: list[str] | None,
+    *,
+    n_states: int,
+    seed: int,
+    progress: Any = None,
+    executor: Executor | None = None,
+    n_probes: int = DEFAULT_PROBES,
 ) -> dict[str, Any]:
     """Every system (or those named), each in a worker of `executor` (default: a process pool on
     every core; any `concurrent.futures.Executor` will do, a distributed one included)."""
@@ -154,7 +335,7 @@ def run(
     from .parallel import executor_for
 
     with executor_for(executor, tasks=len(systems)) as pool:
-        futures = {pool.submit(_run_one, s.name, n_states, seed): s.name for s in systems}
+        futures = {pool.submit(_run_one, s.name, n_states, seed, n_probes): s.name for s in systems}
         for name in futures.values():
             if progress:
                 progress(name, "start")

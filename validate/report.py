@@ -581,6 +581,9 @@ def system_statuses(results: dict[str, Any]) -> list[tuple[str, str, Mark, str]]
         wrong = sum(1 for v in variants if v.get("verdict") == "disagrees")
         forms = f"{len(variants)} printed form" + ("s" if len(variants) != 1 else "")
         detail = f"{forms}, {wrong} disagree" if variants else "no printed form"
+        d = s.get("derivation") or {}
+        if d.get("verdict") == "disagrees":
+            detail = f"hand derivation: {d.get('statement')}; {detail}"
         out.append((name, f"system-{_slug(name)}", _pass_mark(s.get("passed")), detail))
     return out
 
@@ -619,10 +622,32 @@ def section_summary(doc: Document, results: dict[str, Any]) -> None:
         "The error is the largest `|a - b|` over the random states divided by the quantity's range; "
         "the worst row is the one closest to (or furthest past) its tolerance."
     )
-    rows = []
+    rows: list[tuple[Any, ...]] = []
     for name, s in sorted(results.get("systems", {}).items()):
         prow = s.get("pointwise", {}).get("rows", [])
-        if prow:
+        d = s.get("derivation") or {}
+        if d.get("summary"):
+            failing = [r for r in d["summary"] if not r.get("passed")]
+            w = (
+                failing[0]
+                if failing
+                else max(
+                    d["summary"], key=lambda r: _float(r.get("worst_scaled")) / max(_float(r.get("tolerance")), 1e-300)
+                )
+            )
+            rows.append(
+                (
+                    name,
+                    "hand derivation",
+                    "hand",
+                    _pass_mark(s.get("passed")),
+                    w.get("term"),
+                    f"hand~{w.get('engine')}",
+                    Num(w.get("worst_scaled")),
+                    Num(w.get("tolerance"), short=True),
+                )
+            )
+        elif prow:
             w = max(prow, key=_ratio)
             rows.append(
                 (
@@ -726,6 +751,11 @@ def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[st
                 ],
             )
 
+    from . import report_sections
+
+    doc.h(3, "Derivation verdict", f"{_slug(name)}-derivation")
+    report_sections.system_derivation(doc, name, s)
+
     # Pointwise
     pw = s.get("pointwise")
     doc.h(3, "Pointwise agreement", f"{_slug(name)}-pointwise")
@@ -798,7 +828,7 @@ def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[st
         )
         doc.table(
             f"Trajectory runs of {name}",
-            ("source", "method", "cost", "max error vs reference", "first above threshold", "energy drift"),
+            ("source", "method", "cost", "max error vs reference", "first above threshold", "energy drift", "verdict"),
             [
                 (
                     _run_label(r),
@@ -807,10 +837,15 @@ def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[st
                     Num(r.get("max_error_vs_hand"), unit="rad"),
                     _time(r.get("first_exceeds_threshold")),
                     Num(r.get("energy_drift"), unit="J"),
+                    _run_verdict(r),
                 )
                 for r in tr["runs"]
             ],
         )
+        if tr.get("judged_until") is not None:
+            doc.p(f"Runs are judged until {_g(tr['judged_until'])} s, not beyond: {tr.get('judged_because')}.")
+        for why in sorted({r["why_not_counted"] for r in tr["runs"] if r.get("why_not_counted")}):
+            doc.p(f"Not part of the verdict: {why}.", "note")
         runs = tr["runs"]
         doc.figure(
             f"img/{name}_trajectories.png",
@@ -834,14 +869,22 @@ def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[st
             f"E(0) = {sci(_series(runs[0]['energy'])[0], 6)} J; a conservative system should stay at 0.",
         )
 
-    from . import report_sections
-
     report_sections.system_equivalence(doc, name, s)
     doc.h(3, "Chaos", f"{_slug(name)}-chaos")
     report_sections.system_chaos(doc, name, s)
     doc.h(3, "Experiments", f"{_slug(name)}-experiments")
     report_sections.system_experiments(doc, name, s)
     report_sections.system_skipped(doc, name, s)
+
+
+def _run_verdict(run: dict[str, Any]) -> Any:
+    """A trajectory run's verdict as the table shows it: judged up to a time, or information only."""
+    if not run.get("counts", True):
+        return "information only"
+    if "passed" not in run:
+        return "–"
+    mark = _pass_mark(run["passed"])
+    return Mark(mark.state, f"{mark.text} (until {_g(run.get('judged_until'))} s)")
 
 
 def _stats(stats: Any) -> str:
@@ -865,11 +908,22 @@ def section_errata(doc: Document, results: dict[str, Any]) -> None:
     doc.h(2, ERRATA)
     doc.p(
         "Every form of the equations printed in the notes, transcribed as printed and judged term by term "
-        "against both engines, with the notes' parameters and with a probe set (masses, lengths and gravity "
-        "rescaled, so a slip such as a missing factor l shows even where l = 1). `first disagreeing term` is "
-        "the first term, in the order mass matrix, gravity, velocity, friction, actuation, that disagrees; "
-        "`worst term` is the largest error."
+        "against both engines, with the notes' parameters and at probe parameter sets in which every parameter "
+        "moves by its own factor, keeping only the equalities the printed forms assume (so a slip such as a "
+        "missing factor l shows even where l = 1). `first disagreeing term` is the first term, in the order mass "
+        "matrix, gravity, velocity, friction, actuation, that disagrees; `worst term` is the largest error; "
+        "`disagrees at` says whether the model's own parameters already show it or only a probe does."
     )
+    assumed = sorted(
+        {
+            (name, v["assumes"])
+            for name, s in results.get("systems", {}).items()
+            for v in s.get("variants", [])
+            if v.get("assumes")
+        }
+    )
+    for name, text in assumed:
+        doc.p(f"The printed forms of {name} assume {text}; their probes keep these equalities.", "note")
     rows, notes = [], []
     for name, s in sorted(results.get("systems", {}).items()):
         for v in s.get("variants", []):

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from .report import NOT_RUN, Document, Num, _new_figure, _pass_mark, _png, _rc, _series, _slug, sci
+from .report import NOT_RUN, Document, Mark, Num, _new_figure, _pass_mark, _png, _rc, _series, _slug, _vec, sci
 
 WORK_PRECISION_COLOURS = (
     "#1f2937",
@@ -38,9 +38,90 @@ def _f(x: Any) -> float:
 
 
 def system_skipped(doc: Document, name: str, s: dict[str, Any]) -> None:
+    stages = s.get("stages") or {}
+    if stages:
+        doc.table(
+            f"Stages of {name} not run or failed",
+            ("stage", "outcome"),
+            [(k, Mark("bad", v) if str(v).startswith("failed") else v) for k, v in sorted(stages.items())],
+        )
     skipped = s.get("skipped")
     if skipped:
         doc.table(f"Work {name} does not need, skipped", ("skipped",), [(x,) for x in skipped])
+
+
+def system_derivation(doc: Document, name: str, s: dict[str, Any]) -> None:
+    """The hand derivation's verdict: every term, at the model's parameters and at every probe."""
+    d = s.get("derivation")
+    if not d:
+        doc.p(f"Derivation verdict: {NOT_RUN}.", "missing")
+        return
+    ok = d.get("verdict") == "agrees"
+    doc.p(f"{'✓' if ok else '✗'} The hand derivation {d.get('statement', d.get('verdict'))}.", "pass" if ok else "fail")
+    checked = d.get("checked", {})
+    doc.p(
+        f"Each term of `{s.get('equations', '?')}` is compared with both engines at {checked.get('states_at_model')} "
+        f"random states with the model's own parameters and at {checked.get('states_per_probe')} states with each of "
+        f"{checked.get('probes')} probe parameter sets, in which every parameter of the derivation moves by its own "
+        "factor in [0.5, 0.8] or [1.25, 2], so that a mistake the model's values hide (l1 l2 for l2², m2 for m1, a "
+        "lost factor l) shows. `tolerance` is the smallest change of the term, relative to its largest value over "
+        "the states (`scale`), that the check could have seen."
+    )
+    doc.table(
+        f"Terms of {name}'s hand derivation against MuJoCo and Pinocchio, at the model's parameters and every probe",
+        ("term", "verdict", "worst scaled error", "engine", "at", "tolerance", "scale"),
+        [
+            (
+                r.get("term"),
+                _pass_mark(r.get("passed")),
+                Num(r.get("worst_scaled")),
+                r.get("engine"),
+                "model" if r.get("probe") == 0 else (f"probe {r.get('probe')}" if r.get("probe") else "–"),
+                Num(r.get("tolerance"), short=True),
+                Num(r.get("scale")),
+            )
+            for r in d.get("summary", [])
+        ],
+    )
+    failing = [r for r in d.get("terms", []) if not r.get("passed")]
+    if failing:
+        doc.table(
+            f"Where {name}'s failing terms are worst",
+            ("term", "pair", "at", "scaled error", "q", "v", "why"),
+            [
+                (
+                    r.get("term"),
+                    r.get("pair"),
+                    "model" if r.get("probe") == 0 else f"probe {r.get('probe')}",
+                    Num(r.get("scaled")),
+                    _vec((r.get("worst_state") or {}).get("q", [])),
+                    _vec((r.get("worst_state") or {}).get("v", [])),
+                    r.get("error", ""),
+                )
+                for r in failing[:12]
+            ],
+        )
+    probes = [p for p in d.get("probes", []) if p.get("index")]
+    if probes:
+        doc.table(
+            f"Probe parameter sets of {name}'s hand derivation",
+            ("probe", "parameters moved (model's value -> probe's)"),
+            [
+                (
+                    p.get("label"),
+                    ", ".join(f"{k} {a:.4g} -> {b:.4g}" for k, (a, b) in sorted(p.get("changed", {}).items())),
+                )
+                for p in probes
+            ],
+        )
+    if d.get("held_at_zero"):
+        doc.p(
+            f"Zero in the model and so at every probe (the terms they scale are not tested): "
+            f"{', '.join(d['held_at_zero'])}.",
+            "note",
+        )
+    for problem in d.get("probe_problems", []):
+        doc.p(f"Probe not built: {problem}", "missing")
 
 
 def system_equivalence(doc: Document, name: str, s: dict[str, Any]) -> None:

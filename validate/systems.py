@@ -6,6 +6,7 @@ numbers; `System.params` is what the equations module reads from it.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import importlib
 import pkgutil
@@ -61,14 +62,16 @@ def unpaired() -> dict[str, list[str]]:
     return {"models without equations": sorted(models - eqs), "equations without model": sorted(eqs - models)}
 
 
-def mjcf_text(path: Path, overrides: tuple[tuple[str, float], ...] = ()) -> str:
-    """The MJCF text the engines parse: the file, with any overrides applied at full precision."""
+def mjcf_text(path: Path, overrides: tuple[tuple[str, float], ...] = (), text: str | None = None) -> str:
+    """The MJCF text the engines parse: the file (or `text`, an edited copy of it), with any overrides
+    applied at full precision."""
     import xml.etree.ElementTree as ET
 
-    if not path.is_file():
-        raise HarnessError(f"MJCF file not found: {path}.")
     try:
-        text = path.read_text()
+        if text is None:
+            if not path.is_file():
+                raise HarnessError(f"MJCF file not found: {path}.")
+            text = path.read_text()
         root = ET.fromstring(text).tag
     except (ET.ParseError, UnicodeDecodeError) as exc:
         raise HarnessError(f"{path.name}: not well-formed XML ({exc}).") from None
@@ -82,11 +85,12 @@ def mjcf_text(path: Path, overrides: tuple[tuple[str, float], ...] = ()) -> str:
     return text
 
 
-def compile_mjcf(path: Path, overrides: tuple[tuple[str, float], ...] = ()) -> Any:
-    """Compiles an MJCF file with MuJoCo; a bad file becomes a one-line HarnessError."""
+def compile_mjcf(path: Path, overrides: tuple[tuple[str, float], ...] = (), text: str | None = None) -> Any:
+    """Compiles an MJCF file (or `text`, an edited copy of it) with MuJoCo; a bad file becomes a
+    one-line HarnessError."""
     import mujoco
 
-    text = mjcf_text(path, overrides)
+    text = mjcf_text(path, overrides, text)
     try:
         return mujoco.MjModel.from_xml_string(text)
     except Exception as exc:  # mujoco raises ValueError with a multi-line message
@@ -102,7 +106,13 @@ class System:
     mjcf: Path
     equations: ModuleType
     overrides: tuple[tuple[str, float], ...] = ()
+    # The MJCF text to use instead of the file's (a probe's edited copy); `mjcf` still names the file.
+    text: str | None = field(default=None, compare=False, repr=False)
     _cache: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
+
+    def derive(self, **changes: Any) -> System:
+        """A copy with `changes` (overrides, text, equations) and nothing compiled or read yet."""
+        return dataclasses.replace(self, **changes, _cache={})
 
     @property
     def coordinates(self) -> tuple[str, ...]:
@@ -144,12 +154,12 @@ class System:
     def mujoco_model(self) -> Any:
         """The compiled MjModel (compiled once per System)."""
         if "model" not in self._cache:
-            self._cache["model"] = compile_mjcf(self.mjcf, self.overrides)
+            self._cache["model"] = compile_mjcf(self.mjcf, self.overrides, self.text)
         return self._cache["model"]
 
     def mjcf_xml(self) -> str:
         """The MJCF text both engines parse, with overrides applied."""
-        return mjcf_text(self.mjcf, self.overrides)
+        return mjcf_text(self.mjcf, self.overrides, self.text)
 
     @property
     def view(self) -> ModelView:

@@ -1,0 +1,413 @@
+"""The verdict on a derivation: every term, against both engines, at the model's parameters and at
+every probe (validate/probes.py), with the term that holds a mistake named.
+
+The terms of a derivation in the form M(q) a + bias(q, v) = tau + passive(q, v):
+
+    mass matrix       M(q)                                      vs the engines' CRBA / mj_fullM
+    gravity           bias(q, 0)                                vs the engines' bias at v = 0
+    velocity          bias(q, v) - bias(q, 0)                   Coriolis and centrifugal forces
+    friction          passive(q, v)                             joint damping
+    kinetic energy    T(q, v);  potential energy  V(q)
+    body positions    centres of mass;  body rotations  body frames
+    acceleration      M^-1 (tau + passive - bias)               (the solve tier, per state cond(M))
+    parameters        what parameters() reads from a probe model built from the derivation's own
+                      assumptions (it must read back the values the probe was built with)
+
+A mistake changes the terms it is in; the acceleration changes with any dynamic term, so it is
+named only when no term before it disagrees. Nothing a derivation computes raises out of here:
+an exception, a wrong shape or a non-finite value is a failing row that says so, and a mass matrix
+that is not symmetric positive definite is reported with the state where it is not.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from . import probes as probing
+from .compare import States, random_states
+from .errors import HarnessError
+from .judge import ENGINES, EngineTerms, term_rows
+from .tolerances import TOLERANCES, Tolerances
+
+HAND_TERMS = (
+    "parameters",
+    "mass matrix",
+    "gravity",
+    "velocity",
+    "friction",
+    "kinetic energy",
+    "potential energy",
+    "body positions",
+    "body rotations",
+    "acceleration",
+)
+TERM_TIER = {t: "algebraic" for t in HAND_TERMS} | {"acceleration": "solve"}
+PROBE_STATES = 200  # states per probe (the model's own parameters use the pointwise sample)
+
+
+def _shaped(name: str, value: Any, shape: tuple[int, ...]) -> np.ndarray:
+    arr = np.asarray(value, dtype=float)
+    try:
+        return np.broadcast_to(arr, shape).copy()
+    except ValueError:
+        raise HarnessError(f"{name} returned shape {arr.shape}; expected {shape}") from None
+
+
+def hand_terms(system: Any, states: States) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+    """The derivation's terms at `states`, and for each term it could not give, why (one line)."""
+    eq, p = system.equations, system.params
+    q, v, tau = states.q, states.v, states.tau
+    N, n = q.shape
+    nb = len(system.bodies)
+    zero = np.zeros_like(q)
+    out: dict[str, np.ndarray] = {}
+    errors: dict[str, str] = {}
+
+    def call(term: str, fname: str, shape: tuple[int, ...], fn: Any) -> np.ndarray | None:
+        try:
+            with np.errstate(all="ignore"):
+                arr = _shaped(f"{fname}()", fn(), shape)
+        except Exception as exc:  # noqa: BLE001 - the user's code: its failure is the finding
+            errors[term] = f"{fname}() raised {type(exc).__name__}: {exc}".strip()
+            return None
+        if not np.all(np.isfinite(arr)):
+            bad = int(np.argwhere(~np.isfinite(arr.reshape(N, -1)))[0][0])
+            errors[term] = f"{fname}() is not finite at q = {np.round(q[bad], 6).tolist()}"
+        out[term] = arr
+        return arr
+
+    M = call("mass matrix", "mass_matrix", (N, n, n), lambda: eq.mass_matrix(p, q))
+    G = call("gravity", "bias", (N, n), lambda: eq.bias(p, q, zero))
+    B = call("velocity", "bias", (N, n), lambda: eq.bias(p, q, v))
+    if B is not None and G is not None:
+        out["velocity"] = B - G
+    call("friction", "passive", (N, n), lambda: eq.passive(p, q, v))
+    call("kinetic energy", "kinetic_energy", (N,), lambda: eq.kinetic_energy(p, q, v))
+    call("potential energy", "potential_energy", (N,), lambda: eq.potential_energy(p, q))
+    call(
+        "body positions",
+        "body_positions",
+        (N, nb, 3),
+        lambda: np.stack([np.asarray(eq.body_positions(p, q)[b], dtype=float) for b in system.bodies], axis=-2),
+    )
+    call(
+        "body rotations",
+        "body_rotations",
+        (N, nb, 3, 3),
+        lambda: np.stack([np.asarray(eq.body_rotations(p, q)[b], dtype=float) for b in system.bodies], axis=-3),
+    )
+    if M is not None and B is not None and "friction" in out:
+        rhs = tau + out["friction"] - B
+        a = np.full_like(q, np.nan)
+        ok = np.all(np.isfinite(M.reshape(N, -1)), axis=1) & np.all(np.isfinite(rhs), axis=1)
+        with np.errstate(all="ignore"):
+            for i in np.nonzero(ok)[0]:
+                try:
+                    a[i] = np.linalg.solve(M[i], rhs[i])
+                except np.linalg.LinAlgError:
+                    pass
+        out["acceleration"] = a
+    return out, errors
+
+
+def definiteness(M: np.ndarray, states: States) -> dict[str, Any] | None:
+    """Where a mass matrix is not symmetric positive definite: the worst state, or None."""
+    finite = np.all(np.isfinite(M.reshape(len(M), -1)), axis=1)
+    if not finite.any():
+        return None
+    Mf = M[finite]
+    asym = np.abs(Mf - np.swapaxes(Mf, -1, -2)).max(axis=(-1, -2)) / np.maximum(np.abs(Mf).max(axis=(-1, -2)), 1e-300)
+    low = np.linalg.eigvalsh(0.5 * (Mf + np.swapaxes(Mf, -1, -2)))[:, 0]
+    top = np.abs(Mf).max(axis=(-1, -2))
+    bad = (low <= 1e-12 * top) | (asym > 1e-12)
+    if not bad.any():
+        return None
+    idx = np.nonzero(finite)[0]
+    worst = int(idx[np.argmin(np.where(bad, low / np.maximum(top, 1e-300), np.inf))])
+    i = int(np.nonzero(idx == worst)[0][0])
+    what = "not symmetric" if asym[i] > 1e-12 else ("singular" if abs(low[i]) <= 1e-12 * top[i] else "indefinite")
+    return {
+        "what": what,
+        "states": int(bad.sum()),
+        "of": len(M),
+        "q": states.q[worst].tolist(),
+        "smallest_eigenvalue": float(low[i]),
+    }
+
+
+def engine_values(sources: dict[str, Any], states: States, values: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The engines' quantities at `states` (reusing what the pointwise check computed, if given)."""
+    if values is not None:
+        return {k: values[k] for k in ENGINES}
+    zero = np.zeros_like(states.q)
+    return {k: sources[k].evaluate(states.q, states.v, states.tau, zero) for k in ENGINES}
+
+
+def term_rows_at(
+    system: Any,
+    states: States,
+    sources: dict[str, Any],
+    *,
+    values: dict[str, Any] | None = None,
+    tolerances: Tolerances = TOLERANCES,
+) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    """Every term of the derivation against both engines at one parameter set; and notes (errors,
+    mass-matrix definiteness)."""
+    ev = engine_values(sources, states, values)
+    terms = EngineTerms(system, sources, states, ev)
+    e = terms.by_engine
+    mine, errors = hand_terms(system, states)
+    force = max(
+        float(np.abs(np.concatenate([e[k][x].ravel() for x in ("G", "Cv", "passive", "tau")])).max(initial=0.0))
+        for k in ENGINES
+    )
+    energy = max(float(np.abs(np.concatenate([ev[k]["T"], ev[k]["V"]])).max(initial=0.0)) for k in ENGINES)
+    length = max(float(np.abs(ev[k]["body_positions"]).max(initial=0.0)) for k in ENGINES)
+    theirs = {
+        "mass matrix": ({k: e[k]["M"] for k in ENGINES}, 0.0),
+        "gravity": ({k: e[k]["G"] for k in ENGINES}, force),
+        "velocity": ({k: e[k]["Cv"] for k in ENGINES}, force),
+        "friction": ({k: e[k]["passive"] for k in ENGINES}, force),
+        "kinetic energy": ({k: ev[k]["T"] for k in ENGINES}, energy),
+        "potential energy": ({k: ev[k]["V"] for k in ENGINES}, energy),
+        "body positions": ({k: ev[k]["body_positions"] for k in ENGINES}, length),
+        "body rotations": ({k: ev[k]["body_rotations"] for k in ENGINES}, 1.0),
+        "acceleration": ({k: e[k]["a"] for k in ENGINES}, 0.0),
+    }
+    cond = np.linalg.cond(e["mujoco"]["M"])
+    rows: list[dict[str, Any]] = []
+    for term, (refs, floor) in theirs.items():
+        if term not in mine:
+            for k in ENGINES:
+                rows.append(_error_row(term, k, errors.get(term, "not computed")))
+            continue
+        new = term_rows(
+            term,
+            mine[term],
+            refs,
+            states,
+            tier=TERM_TIER[term],
+            tolerances=tolerances,
+            min_scale={k: floor for k in ENGINES},
+            who="hand",
+            cond=cond if TERM_TIER[term] == "solve" else None,
+        )
+        for row in new:
+            if term in errors:
+                row["error"] = errors[term]
+        rows += new
+    notes: dict[str, Any] = {}
+    if errors:
+        notes["errors"] = errors
+    if "mass matrix" in mine:
+        spd = definiteness(mine["mass matrix"], states)
+        if spd:
+            notes["mass_matrix_not_spd"] = spd
+    return rows, notes
+
+
+def _error_row(term: str, engine: str, why: str) -> dict[str, Any]:
+    return {
+        "term": term,
+        "pair": f"hand~{engine}",
+        "engine": engine,
+        "max_abs": float("inf"),
+        "max_rel": float("inf"),
+        "scale": float("nan"),
+        "scaled": float("inf"),
+        "tier": TERM_TIER[term],
+        "tolerance": getattr(TOLERANCES, TERM_TIER[term]).rtol,
+        "passed": False,
+        "worst_state": None,
+        "error": why,
+    }
+
+
+def _model_rows(system: Any) -> list[dict[str, Any]]:
+    """A failing "parameters" row where the compiled model differs from what the derivation assumes
+    of it (its parameters() or assumptions() read or state the wrong element)."""
+    from .modelsync import equations_vs_model
+
+    try:
+        bad = [r for r in equations_vs_model(system) if not r["passed"]]
+    except Exception as exc:  # noqa: BLE001 - the user's parameters() or assumptions() raised
+        return [{**_error_row("parameters", "mjcf", f"{type(exc).__name__}: {exc}"), "probe": 0}]
+    if not bad:
+        return []
+    keys = "; ".join(f"{r['key']}: assumed {r['expected']}, model {r['actual']}" for r in bad[:3])
+    return [
+        {**_error_row("parameters", "mjcf", f"the model differs from what the derivation assumes ({keys})"), "probe": 0}
+    ]
+
+
+def _first_term(failing: list[dict[str, Any]]) -> str:
+    names = {r["term"] for r in failing}
+    return next(t for t in HAND_TERMS if t in names)
+
+
+@dataclass(frozen=True)
+class ProbeSet:
+    """The hand derivation's probe models (index 0, the model's own, excluded), why any could not
+    be built, and what parameters() misread if it did."""
+
+    probes: list[probing.Probe]
+    problems: list[str]
+    misread: dict[str, Any] | None = None
+
+    def systems(self) -> list[Any]:
+        return [p.system for p in self.probes]
+
+
+def derivation_probes(system: Any, *, n_probes: int = probing.DEFAULT_PROBES, seed: int = 0) -> ProbeSet:
+    """Probe models in which every parameter of the derivation moves independently."""
+    try:
+        found, problems = probing.probes(system, k=n_probes, seed=seed)
+    except probing.ParametersMisread as exc:
+        return ProbeSet([], [str(exc)], {"message": str(exc), "fields": {k: list(v) for k, v in exc.wrong.items()}})
+    except HarnessError as exc:
+        return ProbeSet([], [str(exc)])
+    return ProbeSet(found[1:], problems)
+
+
+def judge_derivation(
+    system: Any,
+    states: States,
+    sources: dict[str, Any],
+    probe_set: ProbeSet | None = None,
+    *,
+    values: dict[str, Any] | None = None,
+    n_probes: int = probing.DEFAULT_PROBES,
+    probe_states: int = PROBE_STATES,
+    seed: int = 0,
+    tolerances: Tolerances = TOLERANCES,
+) -> dict[str, Any]:
+    """The hand derivation's verdict: every term at the model's parameters (the pointwise states and
+    `values`) and at the probe parameter sets (`probe_set`, else `n_probes` drawn here), with the first
+    disagreeing term named, where it is worst, whether the model's own values hide it, and which
+    parameter alone exposes it."""
+    from .sources import make_sources
+
+    result: dict[str, Any] = {"name": "hand derivation", "kind": "hand", "equations": system.equations.__name__}
+    rows, notes = term_rows_at(system, states, sources, values=values, tolerances=tolerances)
+    for r in rows:
+        r["probe"] = 0
+    all_notes = {0: notes} if notes else {}
+    rows += _model_rows(system)
+    probe_set = probe_set or derivation_probes(system, n_probes=n_probes, seed=seed)
+    probe_list, problems, misread = probe_set.probes, probe_set.problems, probe_set.misread
+    if misread is not None:
+        rows.append(
+            {
+                **_error_row("parameters", "mjcf", misread["message"]),
+                "pair": "hand~mjcf",
+                "engine": "mjcf",
+                "probe": None,
+                "fields": misread["fields"],
+            }
+        )
+    for probe in probe_list:
+        ps = random_states(probe.system, n=probe_states, seed=seed + probe.index)
+        prow, pnotes = term_rows_at(probe.system, ps, make_sources(probe.system), tolerances=tolerances)
+        for r in prow:
+            r["probe"] = probe.index
+        rows += prow
+        if pnotes:
+            all_notes[probe.index] = pnotes
+    result["probes"] = [{"index": 0, "label": "model", "changed": {}}] + [p.as_dict() for p in probe_list]
+    result["probe_problems"] = problems
+    # A parameter that is zero in the model stays zero at every probe: the terms it scales are not tested.
+    result["held_at_zero"] = sorted(k for k, x in probing.param_fields(system.params).items() if x == 0.0)
+    result["checked"] = {
+        "states_at_model": len(states),
+        "states_per_probe": probe_states,
+        "probes": len(probe_list),
+        "evaluations": len(states) + probe_states * len(probe_list),
+    }
+    result["terms"] = rows
+    result["summary"] = summarise(rows)
+    if all_notes:
+        result["notes"] = {str(k): v for k, v in all_notes.items()}
+    failing = [r for r in rows if not r["passed"]]
+    if not failing:
+        result["verdict"] = "agrees"
+        result["statement"] = (
+            f"agrees with MuJoCo and Pinocchio in every term at the model's parameters and at "
+            f"{len(probe_list)} probe parameter sets ({result['checked']['evaluations']} states)"
+        )
+        if problems:
+            result["statement"] += f"; {len(problems)} probe(s) could not be built"
+        return result
+    result["verdict"] = "disagrees"
+    first = _first_term(failing)
+    worst = max((r for r in failing if r["term"] == first), key=lambda r: r["scaled"])
+    result["first_disagreeing_term"] = first
+    result["failing_terms"] = [t for t in HAND_TERMS if any(r["term"] == t for r in failing)]
+    result["worst_term"] = {
+        k: worst.get(k) for k in ("term", "engine", "probe", "max_abs", "scaled", "tolerance", "worst_state", "error")
+    }
+    at_model = any(not r["passed"] for r in rows if r.get("probe") == 0)
+    result["hidden_by_model_values"] = not at_model
+    if result["hidden_by_model_values"] and misread is None:
+        first_probe = min(r["probe"] for r in failing if r.get("probe"))
+        described = next(p for p in probe_list if p.index == first_probe).describe()
+        exposed = exposing_fields(system, first, tolerances=tolerances, seed=seed)
+        result["exposed_by"] = exposed
+        result["statement"] = (
+            f"{first} disagrees at probe {first_probe} but agrees at the model's own parameters: the mistake is "
+            f"hidden by the model's values ({described})"
+            + (f"; it shows when {' or '.join(exposed)} alone changes" if exposed else "")
+        )
+    elif misread is not None:
+        result["statement"] = misread["message"]
+    else:
+        result["statement"] = f"{first} disagrees at the model's parameters"
+        if "error" in worst:
+            result["statement"] += f": {worst['error']}"
+    spd = next((n["mass_matrix_not_spd"] for n in all_notes.values() if "mass_matrix_not_spd" in n), None)
+    if spd:
+        result["mass_matrix_not_spd"] = spd
+        result["statement"] += (
+            f"; your M(q) is {spd['what']} at q = {np.round(spd['q'], 4).tolist()} "
+            f"(smallest eigenvalue {spd['smallest_eigenvalue']:.3g}, {spd['states']} of {spd['of']} states)"
+        )
+    return result
+
+
+def exposing_fields(system: Any, term: str, *, tolerances: Tolerances = TOLERANCES, seed: int = 0) -> list[str]:
+    """The Params fields that, moved alone, make `term` disagree."""
+    from .sources import make_sources
+
+    out = []
+    for probe in probing.single_field_probes(system, seed=seed):
+        ps = random_states(probe.system, n=64, seed=seed + 1)
+        rows, _ = term_rows_at(probe.system, ps, make_sources(probe.system), tolerances=tolerances)
+        if any(not r["passed"] for r in rows if r["term"] == term):
+            out += list(probe.changed)
+    return out
+
+
+def summarise(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Per term: passed, the worst scaled error (engine and probe), the tolerance it was judged with
+    (the smallest relative change of the term the check could have seen) and the term's scale."""
+    out = []
+    for term in HAND_TERMS:
+        mine = [r for r in rows if r["term"] == term]
+        if not mine:
+            continue
+        worst = max(mine, key=lambda r: (not r["passed"], r["scaled"]))
+        out.append(
+            {
+                "term": term,
+                "passed": all(r["passed"] for r in mine),
+                "worst_scaled": worst["scaled"],
+                "engine": worst["engine"],
+                "probe": worst.get("probe"),
+                "tolerance": max(r["tolerance"] for r in mine),
+                "scale": worst["scale"],
+                "rows": len(mine),
+            }
+        )
+    return out
