@@ -253,14 +253,7 @@ def run_system(
         and not failed_stages
     )
     return {
-        "name": system.name,
-        "description": system.description,
-        "mjcf": f"models/{system.mjcf.name}",
-        "equations": f"equations/{system.name}.py",
-        "coordinates": list(system.coordinates),
-        "joints": list(system.joints),
-        "bodies": list(system.bodies),
-        "uses": sorted(system.uses),
+        **_identity(system),
         "parameters": {k: float(v) for k, v in probing.param_fields(system.params).items()},
         "timestep": float(sources["mujoco"].m.opt.timestep),
         "model_checks": model,
@@ -277,10 +270,8 @@ def run_system(
     }
 
 
-def _unreadable(system: Any, exc: Exception) -> dict[str, Any]:
-    """The result of a system whose parameters() or assumptions() raises: nothing else can be checked."""
-    where = "parameters()" if "params" not in system._cache else "assumptions()"
-    why = f"{where} raised {type(exc).__name__}: {exc}".strip()
+def _identity(system: Any) -> dict[str, Any]:
+    """What a system is: names, files, coordinates, joints, bodies and the physics it uses."""
     return {
         "name": system.name,
         "description": system.description,
@@ -290,6 +281,15 @@ def _unreadable(system: Any, exc: Exception) -> dict[str, Any]:
         "joints": list(system.joints),
         "bodies": list(system.bodies),
         "uses": sorted(system.uses),
+    }
+
+
+def _unreadable(system: Any, exc: Exception) -> dict[str, Any]:
+    """The result of a system whose parameters() or assumptions() raises: nothing else can be checked."""
+    where = "parameters()" if "params" not in system._cache else "assumptions()"
+    why = f"{where} raised {type(exc).__name__}: {exc}".strip()
+    return {
+        **_identity(system),
         "parameters": {},
         "derivation": {
             "name": "hand derivation",

@@ -114,6 +114,26 @@ class System:
         """A copy with `changes` (overrides, text, equations) and nothing compiled or read yet."""
         return dataclasses.replace(self, **changes, _cache={})
 
+    @classmethod
+    def from_files(cls, model: str | Path, equations: str | Path, *, name: str | None = None) -> System:
+        """A system from any MJCF file and any equations module file (named after the module's file
+        stem unless `name` is given); both are checked before anything is computed."""
+        model, equations = Path(model), Path(equations)
+        if not model.is_file():
+            raise HarnessError(f"model file not found: {model} (give an MJCF .xml file).")
+        module = load_module(equations)
+        system = cls(name=name or equations.stem, mjcf=model, equations=module)
+        system.mujoco_model()  # a model MuJoCo refuses fails here, in one line
+        return system
+
+    def with_overrides(self, **values: float) -> System:
+        """A copy with parameter overrides, by key (`"body/link1/mass"`) or as keyword arguments with
+        `__` for `/` (`body__link1__mass=1.5`); see validate/overrides.py for the keys."""
+        from .overrides import parse
+
+        items = [f"{k.replace('__', '/')}={v!r}" for k, v in values.items()]
+        return self.derive(overrides=self.overrides + parse(items))
+
     @property
     def coordinates(self) -> tuple[str, ...]:
         return tuple(self.equations.COORDINATES)
@@ -180,13 +200,46 @@ class System:
         return tuple(self.equations.VARIANTS)
 
 
+def _check_contract(module: ModuleType, where: str) -> ModuleType:
+    missing = [a for a in REQUIRED_ATTRIBUTES if not hasattr(module, a)]
+    if missing:
+        raise HarnessError(f"{where} lacks {', '.join(missing)} (see equations/__init__.py for the contract).")
+    return module
+
+
 @functools.cache
 def _equations_module(name: str) -> ModuleType:
     module = importlib.import_module(f"{EQUATIONS_PACKAGE}.{name}")
-    missing = [a for a in REQUIRED_ATTRIBUTES if not hasattr(module, a)]
-    if missing:
-        raise HarnessError(f"equations/{name}.py lacks {', '.join(missing)} (see equations/__init__.py).")
-    return module
+    return _check_contract(module, f"equations/{name}.py")
+
+
+def load_module(path: Path) -> ModuleType:
+    """An equations module from any file, executed under a name of its own (so two files with the
+    same stem never share a module); a missing file, a syntax error or an exception while importing
+    it, and a module that lacks part of the contract, are one-line HarnessErrors."""
+    import hashlib
+    import importlib.util
+    import sys
+
+    path = Path(path)
+    if not path.is_file():
+        raise HarnessError(f"equations file not found: {path} (give a Python module, .py).")
+    digest = hashlib.sha256(str(path.resolve()).encode()).hexdigest()[:12]
+    name = f"lagrange_xval_user_{path.stem}_{digest}"
+    spec = importlib.util.spec_from_file_location(name, path)
+    if spec is None or spec.loader is None:
+        raise HarnessError(f"{path}: not a Python module (give a .py file).")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    try:
+        spec.loader.exec_module(module)
+    except SyntaxError as exc:
+        sys.modules.pop(name, None)
+        raise HarnessError(f"{path}:{exc.lineno}: syntax error: {exc.msg}.") from None
+    except Exception as exc:  # noqa: BLE001 - the user's module failing on import is reported in one line
+        sys.modules.pop(name, None)
+        raise HarnessError(f"{path}: importing it raised {type(exc).__name__}: {exc}") from None
+    return _check_contract(module, str(path))
 
 
 def load(name: str, overrides: tuple[tuple[str, float], ...] = ()) -> System:

@@ -1,0 +1,164 @@
+"""The public API: check a derivation from Python, in your own test suite, and write nothing.
+
+    import lagrange_xval as lx
+
+    system = lx.System.from_files("my_pendulum.xml", "my_pendulum.py")
+    result = lx.check(system, n_states=500, seed=0, probes=4)
+    result.assert_ok()          # AssertionError naming the term, the pair, the worst state and probe
+
+`check` runs what `lagrange-xval run` decides a verdict with, short of trajectories: the model
+checks, every quantity of the three sources pointwise, and every term of the derivation at the
+model's parameters and at the probe parameter sets (validate/verdict.py).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .systems import System, load
+from .tolerances import TOLERANCES, Tolerances
+
+__all__ = ["Result", "Row", "System", "check", "load"]
+
+
+@dataclass(frozen=True)
+class Row:
+    """One comparison: a quantity (pointwise) or term (derivation) between two sources."""
+
+    check: str  # "model", "pointwise" or "derivation"
+    quantity: str  # the quantity or term: "M", "qacc", "mass matrix", "gravity", ...
+    pair: str  # "hand~mujoco", "mujoco~pinocchio", "hand~mjcf", ...
+    max_abs: float  # largest |a - b| over the states
+    scaled: float  # max_abs divided by the quantity's scale (its largest magnitude over the states)
+    tolerance: float  # the tier `scaled` is judged against
+    passed: bool
+    worst_state: dict[str, list[float]] | None = None  # q, v, tau where |a - b| is largest
+    probe: int | None = None  # 0: the model's own parameters; k: probe k (derivation rows)
+    detail: str = ""  # why, where a number cannot say it (a function that raised, a model mismatch)
+
+
+@dataclass(frozen=True)
+class Result:
+    """The verdict of `check`: typed rows, a one-line statement, and the raw data it came from."""
+
+    system: str
+    rows: tuple[Row, ...]
+    statement: str
+    data: dict[str, Any] = field(repr=False)
+
+    @property
+    def passed(self) -> bool:
+        return all(r.passed for r in self.rows)
+
+    @property
+    def failures(self) -> tuple[Row, ...]:
+        return tuple(r for r in self.rows if not r.passed)
+
+    def assert_ok(self) -> None:
+        """Raises AssertionError naming the failing term, pair, worst state and probe."""
+        if self.passed:
+            return
+        bad = self.failures
+        first = bad[0]
+        where = "" if first.worst_state is None else f" at q = {_round(first.worst_state.get('q'))}"
+        if first.worst_state and any(first.worst_state.get("v", [])):
+            where += f", v = {_round(first.worst_state.get('v'))}"
+        probe = (
+            "" if first.probe is None else (" (model's parameters)" if first.probe == 0 else f" (probe {first.probe})")
+        )
+        detail = f"; {first.detail}" if first.detail else ""
+        raise AssertionError(
+            f"{self.system}: {self.statement}. First failing: {first.check} {first.quantity} {first.pair}"
+            f"{probe}: scaled error {first.scaled:.3g} > tolerance {first.tolerance:.3g}{where}{detail}. "
+            f"{len(bad)} of {len(self.rows)} comparisons fail."
+        )
+
+
+def _round(x: Any) -> list[float]:
+    return [round(float(v), 6) for v in (x or [])]
+
+
+def _f(x: Any) -> float:
+    try:
+        return float(x)
+    except (TypeError, ValueError):
+        return float("nan")
+
+
+def check(
+    system: System | str,
+    *,
+    n_states: int = 1000,
+    seed: int = 0,
+    probes: int = 4,
+    tolerances: Tolerances = TOLERANCES,
+) -> Result:
+    """The verdict on `system`'s derivation (a System, or the name of a repository system): model
+    checks, pointwise agreement of the three sources at `n_states` seeded states, and every term of
+    the derivation at the model's parameters and at `probes` probe parameter sets. Writes nothing."""
+    from . import compare, modelsync, verdict
+    from .errors import HarnessError
+    from .sources import make_sources
+
+    if isinstance(system, str):
+        system = load(system)
+    if not isinstance(n_states, int) or n_states < 1:
+        raise HarnessError(f"n_states must be a positive integer; got {n_states!r}.")
+    if not isinstance(probes, int) or probes < 0:
+        raise HarnessError(f"probes must be a non-negative integer; got {probes!r}.")
+    rows: list[Row] = []
+    try:
+        system.params  # noqa: B018 - the user's parameters() may raise: that is the verdict
+    except Exception as exc:  # noqa: BLE001
+        why = f"parameters() raised {type(exc).__name__}: {exc}"
+        row = Row("derivation", "parameters", "hand~mjcf", np.inf, np.inf, 0.0, False, detail=why)
+        return Result(system.name, (row,), f"parameters disagrees: {why}", {})
+    sources = make_sources(system)
+    model = modelsync.check(system, sources["pinocchio"])
+    for m in model["mismatches"]:
+        rows.append(Row("model", m["key"], m["check"], np.inf, np.inf, 0.0, False, detail=m["why"]))
+    states = compare.random_states(system, n=n_states, seed=seed)
+    values = compare.evaluate(sources, states)
+    point = compare.pointwise_result(values, states, seed=seed, tolerances=tolerances)
+    for r in point["rows"]:
+        rows.append(
+            Row(
+                "pointwise",
+                r["quantity"],
+                r["pair"],
+                _f(r["max_abs"]),
+                _f(r["scaled"]),
+                _f(r["tolerance"]),
+                bool(r["passed"]),
+                r.get("worst_state"),
+            )
+        )
+    derivation = verdict.judge_derivation(
+        system, states, sources, values=values, n_probes=probes, seed=seed, tolerances=tolerances
+    )
+    for r in derivation["terms"]:
+        rows.append(
+            Row(
+                "derivation",
+                r["term"],
+                r["pair"],
+                _f(r["max_abs"]),
+                _f(r["scaled"]),
+                _f(r["tolerance"]),
+                bool(r["passed"]),
+                r.get("worst_state"),
+                r.get("probe"),
+                r.get("error", ""),
+            )
+        )
+    # Derivation rows first among the failures: they name the term, the pointwise rows the quantity.
+    order = {"model": 0, "derivation": 1, "pointwise": 2}
+    rows.sort(key=lambda r: (r.passed, order[r.check]))
+    statement = derivation["statement"]
+    if model["mismatches"]:
+        statement = f"the model differs from what the derivation assumes ({model['mismatches'][0]['key']}); {statement}"
+    data = {"model_checks": model, "pointwise": point, "derivation": derivation}
+    return Result(system.name, tuple(rows), statement, data)

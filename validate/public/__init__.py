@@ -1,0 +1,18 @@
+"""lagrange-xval: is your hand-derived Lagrangian right? Held against MuJoCo and Pinocchio.
+
+This folder installs as the top-level package `lagrange_xval` (see pyproject.toml); the harness
+itself is `lagrange_xval.validate`, the repository's systems `lagrange_xval.equations` and
+`lagrange_xval.models`.
+
+    import lagrange_xval as lx
+
+    result = lx.check(lx.System.from_files("my_pendulum.xml", "my_pendulum.py"))
+    result.assert_ok()
+
+`lagrange_xval.testing` has the helpers for a pytest suite of your own.
+"""
+
+from lagrange_xval.validate.api import Result, Row, System, check, load
+from lagrange_xval.validate.errors import HarnessError
+
+__all__ = ["HarnessError", "Result", "Row", "System", "check", "load"]
