@@ -31,9 +31,6 @@ REQUIRED_ATTRIBUTES = (
     "Params",
     "parameters",
     "assumptions",
-    "mass_matrix",
-    "bias",
-    "passive",
     "kinetic_energy",
     "potential_energy",
     "body_positions",
@@ -109,6 +106,11 @@ class System:
     # The MJCF text to use instead of the file's (a probe's edited copy); `mjcf` still names the file.
     text: str | None = field(default=None, compare=False, repr=False)
     _cache: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        from .forms import normalize
+
+        object.__setattr__(self, "equations", normalize(self.equations))
 
     def derive(self, **changes: Any) -> System:
         """A copy with `changes` (overrides, text, equations) and nothing compiled or read yet."""
@@ -201,10 +203,16 @@ class System:
 
 
 def _check_contract(module: ModuleType, where: str) -> ModuleType:
+    """The module, brought to form (a) (validate/forms.py) once it is known to meet the contract."""
+    from .forms import normalize
+
     missing = [a for a in REQUIRED_ATTRIBUTES if not hasattr(module, a)]
     if missing:
         raise HarnessError(f"{where} lacks {', '.join(missing)} (see equations/__init__.py for the contract).")
-    return module
+    try:
+        return normalize(module)
+    except HarnessError as exc:
+        raise HarnessError(f"{where}: {exc}") from None
 
 
 @functools.cache

@@ -1,0 +1,263 @@
+"""The forms a derivation can take, brought to one: M(q), bias(q, v) and passive(q, v).
+
+People write their equations of motion as the notes print them, in one of four forms. A module
+provides exactly one; the harness derives the others' functions from it, so that everything
+downstream (the pointwise check, the term verdict, the probes, the traced fast path and Taylor
+reference) reads one interface:
+
+    (a) mass_matrix(p, q), bias(p, q, v) [, passive(p, q, v)]      as written
+    (b) residual(p, q, v, a, tau) = M a + bias - passive - tau        implicit, like eqs (33)-(34)
+    (c) qacc(p, q, v, tau) = M^-1 (tau + passive - bias)              explicit, like eqs (35)-(36)
+    (d) kinetic_energy(p, q, v), potential_energy(p, q) [, passive]   energies only, like eqs (19), (22)
+
+(b) and (c) are linear in a and tau, so M comes from unit accelerations (inputs); at v = 0 what is
+left is gravity; the rest splits by parity in v: the Coriolis and centrifugal forces are even in v
+(quadratic), viscous friction odd (linear). (d) is differentiated symbolically: the module's own
+numpy code is traced with sympy symbols for the parameters, q and v (validate/tracing.py), and
+M = d2T/dv2, G = dV/dq, C v = (d/dq dT/dv) v - dT/dq are exact, then generated as numpy code.
+Every derived function uses only arithmetic on the module's outputs (or generated numpy code), so
+it can itself be traced for the fast path and the Taylor reference.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import types
+from typing import Any
+
+import numpy as np
+
+from .errors import HarnessError
+
+FORMS = {
+    "a": ("mass_matrix", "bias"),
+    "b": ("residual",),
+    "c": ("qacc",),
+    "d": ("kinetic_energy", "potential_energy"),
+}
+FORM_NAMES = {
+    "a": "mass matrix and bias forces",
+    "b": "implicit residual",
+    "c": "explicit accelerations",
+    "d": "kinetic and potential energy",
+}
+
+
+def form_of(module: Any) -> str:
+    """Which form a module is written in: the first of a, b, c, d whose functions it defines."""
+    for form, names in FORMS.items():
+        if all(callable(getattr(module, n, None)) for n in names):
+            return form
+    raise HarnessError(
+        f"{getattr(module, '__file__', module)}: no dynamics found; define one of: mass_matrix + bias (form a), "
+        "residual(p, q, v, a, tau) (b), qacc(p, q, v, tau) (c), or kinetic_energy + potential_energy (d)."
+    )
+
+
+def _n(module: Any) -> int:
+    return len(module.COORDINATES)
+
+
+def _unit(q: Any, j: int, n: int) -> np.ndarray:
+    """e_j broadcast to q's leading shape (floats; object entries stay objects where q is traced)."""
+    e = np.zeros(np.shape(q)[:-1] + (n,))
+    e[..., j] = 1.0
+    return e
+
+
+def _zeros(q: Any) -> np.ndarray:
+    return np.zeros(np.shape(q))
+
+
+def _stack_columns(cols: list[Any]) -> np.ndarray:
+    return np.stack([np.asarray(c) for c in np.broadcast_arrays(*[np.asarray(c) for c in cols])], axis=-1)
+
+
+def inverse(A: np.ndarray) -> np.ndarray:
+    """A^-1 for (..., n, n) arrays by Gauss-Jordan elimination without pivoting (A is a mass
+    matrix or its inverse: symmetric positive definite), with arithmetic only, so that it works
+    on float arrays and on traced object arrays alike."""
+    A = np.array(A, dtype=object if np.asarray(A).dtype == object else float)
+    n = A.shape[-1]
+    inv = np.zeros_like(A)
+    for i in range(n):
+        inv[..., i, i] = 1.0
+    a = A.copy()
+    for k in range(n):
+        pivot = a[..., k, k].copy()
+        for j in range(n):
+            a[..., k, j] = a[..., k, j] / pivot
+            inv[..., k, j] = inv[..., k, j] / pivot
+        for i in range(n):
+            if i == k:
+                continue
+            factor = a[..., i, k].copy()
+            for j in range(n):
+                a[..., i, j] = a[..., i, j] - factor * a[..., k, j]
+                inv[..., i, j] = inv[..., i, j] - factor * inv[..., k, j]
+    return inv
+
+
+def _matvec(M: np.ndarray, x: np.ndarray) -> np.ndarray:
+    n = M.shape[-1]
+    return _stack_columns([sum(M[..., i, j] * x[..., j] for j in range(n)) for i in range(n)])
+
+
+class _Facade(types.ModuleType):
+    """The module as form (a): its own attributes, plus mass_matrix, bias and passive derived from
+    its form. `FORM` says which form it was written in; `ORIGINAL` is the module itself."""
+
+
+def normalize(module: Any) -> Any:
+    """The module with mass_matrix, bias and passive (form a); a form-(a) module is returned as it is
+    (with a zero passive if it has none)."""
+    if isinstance(module, _Facade):
+        return module
+    form = form_of(module)
+    if form == "a" and callable(getattr(module, "passive", None)):
+        return module
+    facade = _Facade(getattr(module, "__name__", "equations"))
+    facade.__dict__.update({k: v for k, v in vars(module).items() if not k.startswith("__")})
+    facade.__file__ = getattr(module, "__file__", None)  # type: ignore[assignment]
+    facade.__doc__ = module.__doc__
+    facade.__package__ = getattr(module, "__package__", None)
+    facade.FORM = form  # type: ignore[attr-defined]
+    facade.ORIGINAL = module  # type: ignore[attr-defined]
+    n = _n(module)
+    if form == "a":
+        if not callable(getattr(module, "passive", None)):
+            facade.passive = lambda p, q, v: _zeros(np.broadcast_arrays(np.asarray(q), np.asarray(v))[0])  # type: ignore[attr-defined]
+        return facade
+    if form == "b":
+        r = module.residual
+
+        def mass_matrix_b(p: Any, q: Any) -> np.ndarray:
+            z = _zeros(q)
+            r0 = np.asarray(r(p, q, z, z, z))
+            return _stack_columns([np.asarray(r(p, q, z, _unit(q, j, n), z)) - r0 for j in range(n)])
+
+        def parts_b(p: Any, q: Any, v: Any) -> tuple[Any, Any, Any]:
+            z = _zeros(q)
+            g = np.asarray(r(p, q, z, z, z))
+            plus = np.asarray(r(p, q, v, z, z)) - g
+            minus = np.asarray(r(p, q, -np.asarray(v), z, z)) - g
+            return g, (plus + minus) / 2, -(plus - minus) / 2
+
+        facade.mass_matrix = mass_matrix_b  # type: ignore[attr-defined]
+        facade.bias = lambda p, q, v: (lambda g, c, _: g + c)(*parts_b(p, q, v))  # type: ignore[attr-defined]
+        if not callable(getattr(module, "passive", None)):
+            facade.passive = lambda p, q, v: parts_b(p, q, v)[2]  # type: ignore[attr-defined]
+        return facade
+    if form == "c":
+        f = module.qacc
+
+        def minv_c(p: Any, q: Any) -> np.ndarray:
+            z = _zeros(q)
+            a0 = np.asarray(f(p, q, z, z))
+            return _stack_columns([np.asarray(f(p, q, z, _unit(q, j, n))) - a0 for j in range(n)])
+
+        def mass_matrix_c(p: Any, q: Any) -> np.ndarray:
+            return inverse(minv_c(p, q))
+
+        def parts_c(p: Any, q: Any, v: Any) -> tuple[Any, Any, Any]:
+            z = _zeros(q)
+            M = mass_matrix_c(p, q)
+            a0 = np.asarray(f(p, q, z, z))
+            plus = np.asarray(f(p, q, v, z)) - a0
+            minus = np.asarray(f(p, q, -np.asarray(v), z)) - a0
+            return -_matvec(M, a0), -_matvec(M, (plus + minus) / 2), _matvec(M, (plus - minus) / 2)
+
+        facade.mass_matrix = mass_matrix_c  # type: ignore[attr-defined]
+        facade.bias = lambda p, q, v: (lambda g, c, _: g + c)(*parts_c(p, q, v))  # type: ignore[attr-defined]
+        if not callable(getattr(module, "passive", None)):
+            facade.passive = lambda p, q, v: parts_c(p, q, v)[2]  # type: ignore[attr-defined]
+        return facade
+    # form d: energies only
+    facade.mass_matrix = lambda p, q: _energy_terms(module, p, q, None)[0]  # type: ignore[attr-defined]
+    facade.bias = lambda p, q, v: (lambda _m, g, c: g + c)(*_energy_terms(module, p, q, v))  # type: ignore[attr-defined]
+    if not callable(getattr(module, "passive", None)):
+        facade.passive = lambda p, q, v: _zeros(np.broadcast_arrays(np.asarray(q), np.asarray(v))[0])  # type: ignore[attr-defined]
+    return facade
+
+
+@dataclasses.dataclass(frozen=True)
+class _Derived:
+    fields: tuple[str, ...]  # Params fields passed to `fn` (empty: parameters were numbers when traced)
+    fn: Any  # (*params, *q, *v) -> [M entries (n*n), G (n), C v (n)]
+    n: int
+
+
+@functools.cache
+def _derive(module: Any, numeric_params: tuple[tuple[str, float], ...] | None) -> _Derived:
+    """M, G and C v of an energies-only module, differentiated symbolically and generated as numpy
+    code. Parameters are symbols where the module's code allows it (one derivation for every probe),
+    else the numbers given."""
+    import sympy as sp
+
+    from . import tracing
+
+    backend = tracing.sympy_backend()
+    n = _n(module)
+    qs, vs = list(sp.symbols(f"q0:{n}")), list(sp.symbols(f"v0:{n}"))
+    q, v = tracing.wrap(qs, backend), tracing.wrap(vs, backend)
+    if numeric_params is None:
+        names = tuple(f.name for f in dataclasses.fields(module.Params))
+        psyms = [sp.Symbol(k) for k in names]
+        p = module.Params(**{k: tracing.Traced(s, backend) for k, s in zip(names, psyms, strict=True)})
+    else:
+        names, psyms = (), []
+        p = module.Params(**dict(numeric_params))
+    T = _integer_powers(tracing.unwrap(np.asarray(module.kinetic_energy(p, q, v), dtype=object), backend))
+    V = _integer_powers(tracing.unwrap(np.asarray(module.potential_energy(p, q), dtype=object), backend))
+    dT_dv = [sp.diff(T, x) for x in vs]
+    M = [[sp.diff(dT_dv[i], vs[j]) for j in range(n)] for i in range(n)]
+    G = [sp.diff(V, x) for x in qs]
+    Cv = [sum(sp.diff(dT_dv[i], qs[j]) * vs[j] for j in range(n)) - sp.diff(T, qs[i]) for i in range(n)]
+    flat = [M[i][j] for i in range(n) for j in range(n)] + G + Cv
+    fn = sp.lambdify([*psyms, *qs, *vs], flat, modules="numpy", cse=True)
+    return _Derived(tuple(names), fn, n)
+
+
+def _integer_powers(expr: Any) -> Any:
+    """x**2.0 as x**2: the tracer lifts every number to a Float, and d/dx x**2.0 = 2.0 x**2.0 / x is
+    0/0 at x = 0 where d/dx x**2 = 2 x is not."""
+    import sympy as sp
+
+    if not isinstance(expr, sp.Basic):
+        return expr
+    return expr.replace(
+        lambda e: e.is_Pow and e.exp.is_Float and float(e.exp).is_integer(),
+        lambda e: sp.Pow(e.base, int(e.exp)),
+    )
+
+
+def _energy_terms(module: Any, p: Any, q: Any, v: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(M, G, C v) of an energies-only module at (q, v) (v None: zero)."""
+    from ..equations._forms import stack_matrix, stack_vector
+
+    try:
+        derived = _derive(module, None)
+    except Exception:  # noqa: BLE001 - code that needs numbers for its parameters: derive per parameter set
+        values = tuple((f.name, float(getattr(p, f.name))) for f in dataclasses.fields(p))
+        try:
+            derived = _derive(module, values)
+        except Exception as exc:
+            raise HarnessError(
+                f"cannot differentiate kinetic_energy/potential_energy symbolically ({type(exc).__name__}: {exc}); "
+                "only numpy arithmetic and elementary functions are supported."
+            ) from None
+    n = derived.n
+    q = np.asarray(q)
+    v = _zeros(q) if v is None else np.asarray(v)
+    args = [getattr(p, k) for k in derived.fields] + [q[..., i] for i in range(n)] + [v[..., i] for i in range(n)]
+    out = derived.fn(*args)
+    M = stack_matrix([[out[i * n + j] for j in range(n)] for i in range(n)])
+    G = stack_vector(out[n * n : n * n + n])
+    Cv = stack_vector(out[n * n + n :])
+    shape = np.broadcast_shapes(np.shape(q), np.shape(v))
+    return (
+        np.broadcast_to(M, shape[:-1] + (n, n)),
+        np.broadcast_to(G, shape),
+        np.broadcast_to(Cv, shape),
+    )
