@@ -14,9 +14,14 @@ Every module provides (shapes: `q`, `v`, `tau` are `(..., n)`; functions broadca
     parameters(model) -> Params        read them from the compiled MJCF (a Mapping, see validate/modelview.py)
     assumptions(p) -> dict             what the derivation assumes of the compiled model, key -> value
                                        (NaN entries: a component the derivation does not depend on)
-    mass_matrix(p, q) -> (..., n, n)
-    bias(p, q, v) -> (..., n)          C(q, v) v + G(q): Coriolis, centrifugal and gravity forces
-    passive(p, q, v) -> (..., n)       generalized joint friction forces (viscous damping), zero if none
+    the dynamics, in ONE of four forms (validate/forms.py derives the rest from it):
+      (a) mass_matrix(p, q) -> (..., n, n) and bias(p, q, v) -> (..., n), C(q, v) v + G(q)
+      (b) residual(p, q, v, a, tau) -> (..., n)  M a + bias - passive - tau, the implicit equations
+      (c) qacc(p, q, v, tau) -> (..., n)          the explicit accelerations M^-1 (tau + passive - bias)
+      (d) kinetic_energy and potential_energy only (below): M, G and C v are differentiated from them
+    passive(p, q, v) -> (..., n)       generalized joint friction forces (viscous damping); optional in
+                                       forms (a) and (d) (zero if absent), found from (b) and (c) as the
+                                       part of the equations odd in v
     kinetic_energy(p, q, v) -> (...)
     potential_energy(p, q) -> (...)    zero at the joint anchors' height, as MuJoCo and Pinocchio count it
     body_positions(p, q) -> {body: (..., 3)}   centres of mass in the world frame
