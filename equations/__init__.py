@@ -23,7 +23,8 @@ Every module provides (shapes: `q`, `v`, `tau` are `(..., n)`; functions broadca
                                        forms (a) and (d) (zero if absent), found from (b) and (c) as the
                                        part of the equations odd in v
     kinetic_energy(p, q, v) -> (...)
-    potential_energy(p, q) -> (...)    zero at the joint anchors' height, as MuJoCo and Pinocchio count it
+    potential_energy(p, q) -> (...)    zero at the world origin's height: V = -sum m g . x_com, as MuJoCo
+                                       and Pinocchio count it
     body_positions(p, q) -> {body: (..., 3)}   centres of mass in the world frame
     body_rotations(p, q) -> {body: (..., 3, 3)} body frames in the world frame
     VARIANTS: tuple[variant, ...]      every printed form of the notes (see _forms.py)
@@ -35,5 +36,9 @@ Every module provides (shapes: `q`, `v`, `tau` are `(..., n)`; functions broadca
                                        coordinates (the harness checks that the two map onto each other)
 
 The equations of motion are M(q) a + bias(q, v) = tau + passive(q, v), with tau the generalized
-force of the inputs (motors where the MJCF has actuators, otherwise an applied joint torque).
+force of the inputs (motors where the MJCF has actuators, otherwise an applied joint torque); forms
+(b) and (c) take tau on every coordinate, actuated or not. The dynamics are traced with symbolic
+values for the fast path, the Taylor reference and form (d): write them with numpy arithmetic and
+elementary functions (np.sin, np.cos, np.sqrt, ...; `@`, np.einsum and np.cross work), not
+np.linalg.
 """
