@@ -55,6 +55,11 @@ def form_of(module: Any) -> str:
     )
 
 
+def written_form(module: Any) -> str:
+    """The form the person wrote (a facade remembers it; anything else is read off its functions)."""
+    return str(module.FORM) if isinstance(module, _Facade) else form_of(module)
+
+
 def _n(module: Any) -> int:
     return len(module.COORDINATES)
 

@@ -29,6 +29,7 @@ import numpy as np
 from . import probes as probing
 from .compare import States, random_states
 from .errors import HarnessError
+from .forms import written_form
 from .judge import ENGINES, EngineTerms, term_rows
 from .tolerances import TOLERANCES, Tolerances
 
@@ -178,6 +179,11 @@ def term_rows_at(
         "acceleration": ({k: e[k]["a"] for k in ENGINES}, 0.0),
     }
     cond = np.linalg.cond(e["mujoco"]["M"])
+    # Explicit accelerations (form c) give M and the forces only through an inversion of M^-1: their
+    # rounding grows with cond(M) like the accelerations', so they are judged with the solve tier.
+    tiers = dict(TERM_TIER)
+    if written_form(system.equations) == "c":
+        tiers.update({t: "solve" for t in ("mass matrix", "gravity", "velocity", "friction")})
     rows: list[dict[str, Any]] = []
     for term, (refs, floor) in theirs.items():
         if term not in mine:
@@ -189,11 +195,11 @@ def term_rows_at(
             mine[term],
             refs,
             states,
-            tier=TERM_TIER[term],
+            tier=tiers[term],
             tolerances=tolerances,
             min_scale={k: floor for k in ENGINES},
             who="hand",
-            cond=cond if TERM_TIER[term] == "solve" else None,
+            cond=cond if tiers[term] == "solve" else None,
         )
         for row in new:
             if term in errors:

@@ -1,0 +1,70 @@
+"""Systems beyond the notes, as a user brings them: a folder of their own, each derivation in one of
+the four forms, checked through the public API (tests/user_systems/, copied to a temporary folder).
+
+    furuta_pendulum   the rotary inverted pendulum, full 3D inertias, motor on the arm only   (d) energies
+    cart_pole         a slide joint with a force input                                       (b) implicit
+    acrobot           Spong's acrobot, Drake's parameters, torque at the elbow only          (c) explicit
+    spatial_arm       3 DOF, non-diagonal inertias, damping and motors on every joint        (a) M + bias
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import lagrange_xval as lx
+import pytest
+from lagrange_xval.testing import systems_in
+from lagrange_xval.validate.forms import written_form
+
+FOLDER = Path(__file__).parent / "user_systems"
+FORMS = {"furuta_pendulum": "d", "cart_pole": "b", "acrobot": "c", "spatial_arm": "a"}
+
+# One realistic mistake per system, written into its own form, and the term it is in.
+MISTAKES = {
+    "furuta_pendulum": (
+        'np.sum(k["vc1"] ** 2, axis=-1) + 0.5 * p.I1zz',
+        'np.sum(k["vc1"] ** 2, axis=-1) + p.I1zz',
+        "mass matrix",
+    ),
+    "cart_pole": ("- p.mp * lc * s * dth**2 + p.kx * dx", "+ p.mp * lc * s * dth**2 + p.kx * dx", "velocity"),
+    "acrobot": ("G2 = p.m2 * p.lc2 * p.g * s12", "G2 = p.m2 * p.l1 * p.g * s12", "gravity"),
+    "spatial_arm": ("b = np.array([p.b1, p.b2, p.b3])", "b = np.array([p.b1, p.b3, p.b2])", "friction"),
+}
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("my_systems")
+    for f in FOLDER.iterdir():
+        if f.suffix in (".py", ".xml"):
+            shutil.copy(f, out / f.name)
+    return out
+
+
+def test_the_folder_holds_every_form(folder):
+    found = {p.id: written_form(p.values[0].equations) for p in systems_in(folder)}
+    assert found == FORMS
+
+
+@pytest.mark.parametrize("name", sorted(FORMS))
+def test_user_system_passes_every_check(folder, name):
+    """Model checks, pointwise agreement of the three sources and every term at 4 probes."""
+    result = lx.check(lx.System.from_files(folder / f"{name}.xml", folder / f"{name}.py"), n_states=200, probes=4)
+    result.assert_ok()
+    assert {r.probe for r in result.rows if r.check == "derivation"} >= {0, 1, 2, 3, 4}
+
+
+@pytest.mark.parametrize("name", sorted(MISTAKES))
+def test_a_wrong_variant_of_each_user_system_is_caught(tmp_path, folder, name):
+    """The same system with one mistake in its own form: the term that holds it is named."""
+    old, new, term = MISTAKES[name]
+    text = (folder / f"{name}.py").read_text()
+    assert text.count(old) == 1, old
+    (tmp_path / f"{name}.py").write_text(text.replace(old, new))
+    shutil.copy(folder / f"{name}.xml", tmp_path / f"{name}.xml")
+    result = lx.check(lx.System.from_files(tmp_path / f"{name}.xml", tmp_path / f"{name}.py"), n_states=200, probes=2)
+    assert not result.passed
+    assert result.data["derivation"]["first_disagreeing_term"] == term, result.statement
+    with pytest.raises(AssertionError, match=term):
+        result.assert_ok()
