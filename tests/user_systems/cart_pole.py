@@ -48,7 +48,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-
 from lagrange_xval.equations._forms import NAN, body, hinge, rot_y, stack_vector
 
 DESCRIPTION = (

@@ -50,7 +50,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-
 from lagrange_xval.equations._forms import NAN, body, hinge, rot_y, rot_z, stack_matrix, stack_vector
 
 DESCRIPTION = (
