@@ -50,9 +50,17 @@ from typing import Any
 import numpy as np
 
 from .errors import HarnessError
-from .integrate import Trajectory, energy, mujoco_trajectory, time_grid
+from .integrate import DEFAULT_BUDGET, Budget, Trajectory, energy, mujoco_trajectory, time_grid
 from .mirror import INTEGRATORS, mirror_steps, mirror_trajectory, mujoco_steps
-from .reference import CHECK, DEFAULT_CACHE_DIR, _integrator, _param_key, reference_trajectory, symbolic_dynamics
+from .reference import (
+    CHECK,
+    DEFAULT_CACHE_DIR,
+    TaylorGuard,
+    _integrator,
+    _param_key,
+    reference_trajectory,
+    symbolic_dynamics,
+)
 
 SAFETY = 10.0
 ROUND_OFF_ULPS = 16  # window differences of two sources under one scheme (measured <= 3 ulps of max |x|)
@@ -88,7 +96,7 @@ _VAR_INTEGRATORS: dict[tuple[Any, ...], Any] = {}
 def _variational_integrator(system: Any, precision: str) -> Any:
     import heyoka as hy
 
-    key = (system.name, system.overrides, _param_key(system), id(system.equations), precision)
+    key = (system.name, system.overrides, _param_key(system), system.equations, precision)  # the module, not its id
     if key not in _VAR_INTEGRATORS:
         dyn = symbolic_dynamics(system)
         fp = {"double": float, "long double": np.longdouble}[precision]
@@ -107,15 +115,26 @@ def _reset_variational(ta: Any, n: int, x0: np.ndarray, tau: np.ndarray, t0: flo
     ta.pars[:] = np.asarray(tau, dtype=float).astype(dtype)
 
 
-def flow(system: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, precision: str = "double") -> Flow:
-    """The trajectory and Phi(t) = dx(t)/dx(0) on the grid `t` (starting at t[0])."""
+def flow(
+    system: Any,
+    q0: Any,
+    v0: Any,
+    tau: Any,
+    t: np.ndarray,
+    *,
+    precision: str = "double",
+    budget: Budget = DEFAULT_BUDGET,
+) -> Flow:
+    """The trajectory and Phi(t) = dx(t)/dx(0) on the grid `t` (starting at t[0]).
+
+    Raises IntegrationStopped (a HarnessError) when the equations blow up or spend `budget`."""
     n = system.nv
     ta = _variational_integrator(system, precision)
     x0 = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
     _reset_variational(ta, n, x0, np.asarray(tau, dtype=float), float(t[0]), np.eye(2 * n))
-    outcome, *_, states = ta.propagate_grid(np.asarray(t, dtype=float).astype(ta.state.dtype))
-    if "time_limit" not in str(outcome):
-        raise HarnessError(f"{system.name}: variational integration stopped early ({outcome}).")
+    guard = TaylorGuard(budget, n, float(t[0]))
+    outcome, *_, states = ta.propagate_grid(np.asarray(t, dtype=float).astype(ta.state.dtype), callback=guard)
+    guard.check(outcome, ta, source="hand", method=f"heyoka variational flow, {precision}")
     states = states.astype(float)
     return Flow(np.asarray(t, dtype=float), states[:, : 2 * n], states[:, 2 * n :].reshape(-1, 2 * n, 2 * n))
 
@@ -265,11 +284,13 @@ def lyapunov_exponent(
         raise HarnessError(f"t_end ({t_end}) must be a whole multiple of interval ({interval}).")
     logs = np.zeros(2 * n)
     running = []
+    guard = TaylorGuard(DEFAULT_BUDGET, n)  # one budget for the whole run
+    label = f"heyoka Lyapunov exponent ({method}), double"
     if method == "variational":
         ta = _variational_integrator(system, "double")
         _reset_variational(ta, n, x0, tau, 0.0, np.eye(2 * n))
         for k in range(1, steps + 1):
-            ta.propagate_until(k * interval)
+            guard.check(ta.propagate_until(k * interval, callback=guard)[0], ta, source="hand", method=label)
             qmat, rmat = np.linalg.qr(ta.state[2 * n :].reshape(2 * n, 2 * n))
             logs += np.log(np.abs(np.diag(rmat)))
             ta.state[2 * n :] = qmat.ravel()
@@ -283,7 +304,7 @@ def lyapunov_exponent(
             for state in (x, y):
                 ta.time = (k - 1) * interval
                 ta.state[:] = state
-                ta.propagate_until(k * interval)
+                guard.check(ta.propagate_until(k * interval, callback=guard)[0], ta, source="hand", method=label)
                 ends.append(ta.state.copy())
             x, sep = ends[0], ends[1] - ends[0]
             dist = float(np.linalg.norm(sep))
@@ -477,6 +498,11 @@ def _mirror_verdict(
     }
 
 
+def _slope(t: np.ndarray, y: np.ndarray) -> float:
+    """Least-squares slope of y(t); NaN where y is not finite (a run that diverged or stopped)."""
+    return float(np.polyfit(t, y, 1)[0]) if np.isfinite(y).all() else float("nan")
+
+
 def rounding_floor(ref: Trajectory) -> np.ndarray:
     """(K-1,) one rounding of the state at the end of each window: eps ||x(t_{j+1})||."""
     return np.finfo(float).eps * np.linalg.norm(np.concatenate([ref.q[1:], ref.v[1:]], axis=1), axis=1)
@@ -526,7 +552,7 @@ def convergence_order(
     for dt in dts:
         run = _run(system, sources, engine, q0, v0, tau, t, integrator=integrator, timestep=dt)
         errors.append(float(np.abs(run.q - ref.q).max()))
-    usable = [(dt, e) for dt, e in zip(dts, errors, strict=True) if e > 0]
+    usable = [(dt, e) for dt, e in zip(dts, errors, strict=True) if e > 0 and np.isfinite(e)]  # a diverged run: NaN
     order = (
         float(np.polyfit(np.log([d for d, _ in usable]), np.log([e for _, e in usable]), 1)[0])
         if len(usable) >= 2
@@ -572,7 +598,7 @@ def energy_drift(
     e_run, e_ref = energy(system, sources["hand"], run), energy(system, sources["hand"], ref)
     diff = e_run - e_ref
     scale = float(np.max(np.abs(e_ref)) or 1.0)
-    slope = float(np.polyfit(t, diff, 1)[0])
+    slope = _slope(t, diff)
     return {
         "engine": engine,
         "integrator": integrator,
@@ -760,6 +786,11 @@ def crossvalidate(
                 "difference_at": _sample(t, diff),
                 **_mirror_verdict(t, diff, w, env_m, ref, tolerance),
             }
+            status = runs[engine].stats.get("status", "ok")  # a mirror that diverged or stopped fails, with its reason
+            if status != "ok":
+                entry["mirrors"][f"mujoco~{engine}"].update(
+                    passed=False, status=status, reason=runs[engine].stats.get("reason", "")
+                )
         entry["lockstep"] = lockstep(
             system,
             {k: sources[k] for k in ("mujoco", *mirror_engines)},
@@ -776,7 +807,7 @@ def crossvalidate(
         entry["energy"] = {
             "max_abs": float(np.abs(e_run - e_ref).max()),
             "relative": float(np.abs(e_run - e_ref).max() / (np.abs(e_ref).max() or 1.0)),
-            "rate": float(np.polyfit(t, e_run - e_ref, 1)[0]),
+            "rate": _slope(t, e_run - e_ref),
         }
         out["integrators"][integrator] = entry
     # The mirrors decide (round-off windows, difference inside the envelope); the free runs against the

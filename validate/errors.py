@@ -18,3 +18,15 @@ def unknown_name(kind: str, name: str, valid: Iterable[str]) -> HarnessError:
     close = difflib.get_close_matches(name, valid, n=1, cutoff=0.5)
     hint = f" Did you mean '{close[0]}'?" if close else ""
     return HarnessError(f"Unknown {kind} '{name}'.{hint} Valid: {', '.join(valid) or '(none)'}.")
+
+
+class IntegrationStopped(HarnessError):
+    """An integration that could not go on: the equations blew up, failed or spent their budget.
+
+    A finding about the equations, raised where no partial result can stand in for the whole (the
+    Taylor reference, the variational flow); the message names the source, method, time and reason.
+    """
+
+    def __init__(self, *, source: str, method: str, t: float, reason: str) -> None:
+        self.source, self.method, self.t, self.reason = source, method, float(t), reason
+        super().__init__(f"{source} ({method}) stopped at t = {self.t:.6g} s: {reason}")

@@ -88,12 +88,30 @@ def _compile(source: str, label: str) -> Any:
     return namespace["rhs"]
 
 
+def _key(system: Any, variant: Any) -> tuple[Any, ...]:
+    """What the generated code depends on, by identity: the equations module and the functions traced
+    (a mutated or reloaded module of the same name has other function objects), the parameter values
+    and the variant's own function. Never the system's name alone: `dataclasses.replace(system,
+    equations=...)` shares the original's `_cache`."""
+    eq = system.equations
+    params = tuple((k, float(v).hex()) for k, v in sorted(vars(system.params).items()))
+    if variant is None:
+        return ("scalar_rhs", eq, eq.mass_matrix, eq.bias, eq.passive, params, None)
+    own = getattr(variant, "residual", None) or getattr(variant, "acceleration", None)
+    return ("scalar_rhs", eq, params, variant.name, own, id(variant))
+
+
 def scalar_rhs(system: Any, variant: Any = None) -> Any:
     """The compiled scalar right-hand side `rhs(t, y, tau) -> list` of the hand equations, or of a
-    printed dynamic form; cached on the System."""
-    key = ("scalar_rhs", None if variant is None else variant.name)
+    printed dynamic form; cached on the System, keyed by what it was generated from (`_key`).
+
+    The code is plain `math`: on a wrong derivation it can raise ZeroDivisionError (a singular M),
+    OverflowError or ValueError (a math domain error); the integrators turn these into a finding
+    (validate/integrate.py EQUATION_ERRORS)."""
+    key = _key(system, variant)
     cache = system._cache
     if key not in cache:
         acc = hand_accelerations(system) if variant is None else variant_accelerations(system, variant)
-        cache[key] = _compile(rhs_source(*acc), f"{system.name} {variant.name if variant else 'hand'}")
-    return cache[key]
+        label = f"{system.name} ({system.equations.__name__}) {variant.name if variant else 'hand'}"
+        cache[key] = (variant, _compile(rhs_source(*acc), label))  # the variant kept alive: id() in the key
+    return cache[key][1]

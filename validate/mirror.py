@@ -26,17 +26,27 @@ quadratic, passive linear), for which the central difference is exact; only roun
 (~1e-15 relative), so the implicit mirrors agree with MuJoCo's analytic derivative to round-off too.
 
 Loops are driven by step counts. All functions work on batches: q, v, tau are (N, n).
+
+A wrong derivation is the normal input: a free run (`mirror_trajectory`) is bounded by the wall time
+and the blow-up bound of a `Budget` (its evaluations are steps x stages, fixed in advance) and ends
+with `stats["status"]` "diverged" (with "diverged at t = ..." as the reason) or "stopped: budget",
+the samples kept up to there and NaN after; an error raised by the equations' arithmetic
+(ZeroDivisionError at a singular M, OverflowError) ends it the same way. Batched steps give NaN rows
+for states whose M is singular.
 """
 
 from __future__ import annotations
 
 import itertools
+import math
+import time
 from typing import Any
 
 import numpy as np
 
 from .errors import HarnessError, unknown_name
-from .integrate import MUJOCO_INTEGRATORS, Trajectory, mujoco_integrator
+from .integrate import DEFAULT_BUDGET, EQUATION_ERRORS, MUJOCO_INTEGRATORS, Budget, Trajectory, mujoco_integrator
+from .sources.hand import solve_or_nan
 
 INTEGRATORS = MUJOCO_INTEGRATORS
 RK4_A = ((0.5,), (0.0, 0.5), (0.0, 0.0, 1.0))
@@ -114,7 +124,10 @@ class Stepper:
             fast = self._scalar(tau[0])
             if fast is not None:
                 n = q.shape[1]
-                return np.asarray(fast(0.0, np.concatenate([q[0], v[0]]))[n:], dtype=float)[None]
+                try:
+                    return np.asarray(fast(0.0, np.concatenate([q[0], v[0]]))[n:], dtype=float)[None]
+                except EQUATION_ERRORS:  # e.g. ZeroDivisionError where M(q) is singular: no acceleration
+                    return np.full((1, n), np.nan)
         return self.source.forward(q, v, tau)
 
     def step(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -153,15 +166,40 @@ class Stepper:
                     low = np.tril(jac)
                     jac = low + np.swapaxes(np.tril(jac, -1), -1, -2)
                 lhs = m - h * jac
-            a = np.linalg.solve(lhs, f[..., None])[..., 0]
+            a = solve_or_nan(lhs, f)  # NaN rows where the (wrong) M makes lhs singular
         v_next = v + a * h
         return q + h * v_next, v_next
 
 
+class _Blowup(Exception):
+    """A free run's state left the budget's bound (or is not finite), or its wall time ran out."""
+
+
+def _check_sample(q: Any, v: Any, budget: Budget, deadline: float) -> None:
+    """Between samples: raises _Blowup past the blow-up bound (or at a non-finite entry) or the wall time."""
+    bound = budget.max_abs_state
+    for x in (*q, *v):
+        if not abs(x) <= bound:  # NaN fails every comparison
+            raise _Blowup("a non-finite state" if not math.isfinite(x) else f"|x| = {abs(float(x)):.3g} > {bound:g}")
+    if time.perf_counter() > deadline:
+        raise _Blowup(f"wall time {budget.max_wall_s:g} s")
+
+
 def _scalar_run(
-    f: Any, integrator: str, h: float, steps: int, qs: np.ndarray, vs: np.ndarray, stepper: Stepper
+    f: Any,
+    integrator: str,
+    h: float,
+    steps: int,
+    qs: np.ndarray,
+    vs: np.ndarray,
+    stepper: Stepper,
+    budget: Budget = DEFAULT_BUDGET,
+    deadline: float = float("inf"),
 ) -> None:
-    """`Stepper.step` for one state, operation for operation, on Python floats; fills rows 1.. of qs, vs."""
+    """`Stepper.step` for one state, operation for operation, on Python floats; fills rows 1.. of qs, vs.
+
+    Raises _Blowup or one of EQUATION_ERRORS at the sample where the run cannot go on (rows before it filled).
+    """
     n = qs.shape[1]
     q, v = [float(x) for x in qs[0]], [float(x) for x in vs[0]]
     rng = range(n)
@@ -190,6 +228,7 @@ def _scalar_run(
                 v = [v[i] + a[i] * h for i in rng]
                 q = [q[i] + h * v[i] for i in rng]
                 stepper.evaluations += 1
+        _check_sample(q, v, budget, deadline)
         qs[k], vs[k] = q, v
 
 
@@ -211,12 +250,19 @@ def mirror_trajectory(
     *,
     integrator: str,
     timestep: float | None = None,
+    budget: Budget = DEFAULT_BUDGET,
 ) -> Trajectory:
     """MuJoCo's `integrator` applied to `source` (hand, Pinocchio, or MuJoCo's own forward dynamics).
 
     Args:
         q0, v0, tau: (n,) initial state and constant input.
         t: (K,) uniform output grid starting at 0; `timestep` (default: the MJCF's) must divide its step.
+        budget: the wall time and blow-up bound of the run (its evaluations are fixed by the steps).
+
+    Returns:
+        The trajectory; `stats` holds "steps", "evaluations", "status" ("ok", "diverged", "stopped:
+        budget" or "failed"), "stopped_at" (s, the last good sample) and "reason" (one line, empty
+        when ok). Samples after "stopped_at" are NaN. Never raises for what the equations compute.
     """
     dt = float(timestep or system.mujoco_model().opt.timestep)
     steps = _steps_per_sample(t, dt)
@@ -224,24 +270,50 @@ def mirror_trajectory(
     q = np.asarray(q0, dtype=float)[None].copy()
     v = np.asarray(v0, dtype=float)[None].copy()
     tau_b = np.asarray(tau, dtype=float)[None]
-    qs, vs = np.empty((len(t), system.nv)), np.empty((len(t), system.nv))
+    qs, vs = np.full((len(t), system.nv), np.nan), np.full((len(t), system.nv), np.nan)
     qs[0], vs[0] = q[0], v[0]
     explicit = integrator == "RK4" or (integrator == "Euler" and not stepper.eulerdamp)
     fast = stepper._scalar(tau_b[0]) if explicit else None
-    if fast is not None:  # one state: the same operations in Python floats (IEEE, so the same rounding)
-        _scalar_run(fast, integrator, dt, steps, qs, vs, stepper)
-    else:
-        for k in range(1, len(t)):
-            for _ in range(steps):
-                q, v = stepper.step(q, v, tau_b)
-            qs[k], vs[k] = q[0], v[0]
+    deadline = time.perf_counter() + budget.max_wall_s
+    status, reason = "ok", ""
+    with np.errstate(all="ignore"):
+        try:
+            if fast is not None:  # one state: the same operations in Python floats (IEEE, so the same rounding)
+                _scalar_run(fast, integrator, dt, steps, qs, vs, stepper, budget, deadline)
+            else:
+                for k in range(1, len(t)):
+                    for _ in range(steps):
+                        q, v = stepper.step(q, v, tau_b)
+                    _check_sample(q[0], v[0], budget, deadline)
+                    qs[k], vs[k] = q[0], v[0]
+        except _Blowup as exc:
+            status = "stopped: budget" if str(exc).startswith("wall time") else "diverged"
+            reason = str(exc)
+        except EQUATION_ERRORS as exc:
+            status = "diverged" if isinstance(exc, OverflowError) else "failed"
+            reason = f"the {source.name} equations raised {type(exc).__name__}: {exc}"
+    good = int(np.argmax(np.isnan(qs[:, 0]))) if np.isnan(qs[:, 0]).any() else len(t)
+    qs[good:], vs[good:] = np.nan, np.nan
+    stopped_at = float(t[good - 1])
+    if status == "diverged":
+        reason = f"diverged at t = {float(t[min(good, len(t) - 1)]):.6g} s: {reason}"
+    elif status == "stopped: budget":
+        reason = f"stopped: budget: {reason} spent by t = {stopped_at:.6g} s"
+    elif status == "failed":
+        reason = f"{reason} between t = {stopped_at:.6g} s and the next sample"
     return Trajectory(
         source.name,
         f"mirror of MuJoCo {integrator} dt {dt:g}",
         np.asarray(t, dtype=float).copy(),
         qs,
         vs,
-        {"steps": steps * (len(t) - 1), "evaluations": stepper.evaluations},
+        {
+            "steps": steps * (len(t) - 1),
+            "evaluations": stepper.evaluations,
+            "status": status,
+            "stopped_at": stopped_at,
+            "reason": reason,
+        },
     )
 
 
@@ -260,8 +332,9 @@ def mirror_steps(
     stepper = Stepper(system, source, integrator=integrator, timestep=timestep)
     q, v = np.array(q, dtype=float), np.array(v, dtype=float)
     tau = np.broadcast_to(np.asarray(tau, dtype=float), q.shape)
-    for _ in range(steps):
-        q, v = stepper.step(q, v, tau)
+    with np.errstate(all="ignore"):  # a wrong derivation's overflow is NaN in its rows, not a warning
+        for _ in range(steps):
+            q, v = stepper.step(q, v, tau)
     return q, v
 
 

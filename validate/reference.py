@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import importlib
 import json
 import os
 import tempfile
@@ -37,8 +36,8 @@ from typing import Any
 import numpy as np
 
 from . import tracing
-from .errors import HarnessError
-from .integrate import Trajectory
+from .errors import HarnessError, IntegrationStopped
+from .integrate import DEFAULT_BUDGET, Budget, Trajectory
 from .systems import PACKAGE_ROOT
 
 CACHE_VERSION = 1  # bump when the cached content changes meaning
@@ -140,7 +139,8 @@ def _integrator(system: Any, precision: str, tol: float | None) -> Any:
     import heyoka as hy
 
     fp = _fp_types()[precision]
-    key = (system.name, system.overrides, _param_key(system), id(system.equations), precision, tol)
+    # the module itself, not its id or name: a mutated module of the same name gets its own integrator
+    key = (system.name, system.overrides, _param_key(system), system.equations, precision, tol)
     if key not in _INTEGRATORS:
         dyn = symbolic_dynamics(system)
         state = np.zeros(2 * dyn.n, dtype=fp) if fp is not hy.real128 else np.array([hy.real128(0)] * 2 * dyn.n)
@@ -160,6 +160,58 @@ def _to_fp(x: np.ndarray, precision: str) -> np.ndarray:
     return x.astype(hy.real128) if fp is hy.real128 else x.astype(fp)
 
 
+class TaylorGuard:
+    """A heyoka step callback bounding one integration (every propagate_* call it is passed to):
+    stops it once its steps exceed `budget.max_taylor_steps + budget.taylor_steps_per_s * |t - t0|`
+    (a blow-up's step density grows without bound), past `budget.max_wall_s`, or once a coordinate
+    or velocity (the first 2n state entries) leaves `budget.max_abs_state` or is not finite.
+
+    heyoka calls it after every step; returning False ends the propagation with outcome cb_stop
+    (propagate_grid then returns the rows it reached). `why` says what stopped it.
+    """
+
+    def __init__(self, budget: Budget, n: int, t0: float = 0.0) -> None:
+        self.budget, self.n, self.t0 = budget, n, float(t0)
+        self.steps = 0
+        self.deadline = time.perf_counter() + budget.max_wall_s
+        self.why: str | None = None
+
+    def __call__(self, ta: Any) -> bool:
+        self.steps += 1
+        b = self.budget
+        if self.steps > b.max_taylor_steps:
+            elapsed = abs(float(ta.time) - self.t0)
+            if self.steps > b.max_taylor_steps + b.taylor_steps_per_s * elapsed:
+                self.why = (
+                    f"stopped: budget: {self.steps} Taylor steps in {elapsed:.4g} s (allowed "
+                    f"{b.max_taylor_steps} + {b.taylor_steps_per_s:g}/s)"
+                )
+                return False
+        if not self.steps % 64 and time.perf_counter() > self.deadline:
+            self.why = f"stopped: budget: wall time {b.max_wall_s:g} s"
+            return False
+        largest = float(np.max(np.abs(np.asarray(ta.state[: 2 * self.n]).astype(float))))
+        if largest <= b.max_abs_state:
+            return True
+        self.why = "diverged: a non-finite state" if not np.isfinite(largest) else f"diverged: |x| = {largest:.3g}"
+        return False
+
+    def check(self, outcome: Any, ta: Any, *, source: str, method: str) -> None:
+        """Raises IntegrationStopped unless a propagation's `outcome` reached its time limit."""
+        if "time_limit" in str(outcome):
+            return
+        if self.why is not None:
+            reason = self.why
+        elif "err_nf_state" in str(outcome):
+            reason = "diverged: a non-finite state"
+        elif "step_limit" in str(outcome):
+            reason = f"stopped: budget: {self.steps} Taylor steps"
+        else:
+            reason = f"stopped early ({outcome})"
+        x = np.asarray(ta.state[: 2 * self.n]).astype(float)
+        raise IntegrationStopped(source=source, method=method, t=float(ta.time), reason=f"{reason} (x = {x.tolist()})")
+
+
 def taylor_solve(
     system: Any,
     q0: np.ndarray,
@@ -169,10 +221,13 @@ def taylor_solve(
     *,
     precision: str = PRIMARY,
     tol: float | None = None,
+    budget: Budget = DEFAULT_BUDGET,
 ) -> tuple[np.ndarray, dict[str, Any]]:
     """The state (K, 2n) on the grid `t` by heyoka's Taylor method, in the precision's own dtype.
 
-    `tol` defaults to heyoka's: the machine epsilon of the precision.
+    `tol` defaults to heyoka's: the machine epsilon of the precision. Bounded by `budget` (steps,
+    wall time, blow-up bound): equations that explode or break down raise IntegrationStopped (source,
+    method, t, reason), never hang.
     """
     precisions = _fp_types()
     if precision not in precisions:
@@ -185,10 +240,16 @@ def taylor_solve(
     ta.time = _to_fp(np.array(t[0]), precision)[()]
     ta.state[:] = _to_fp(np.concatenate([q0, v0]), precision)
     ta.pars[:] = _to_fp(np.asarray(tau, dtype=float), precision)
-    outcome, _min_h, _max_h, steps, _cb, states = ta.propagate_grid(_to_fp(np.asarray(t, dtype=float), precision))
+    guard = TaylorGuard(budget, system.nv, float(t[0]))
+    method = f"heyoka Taylor, {precision}"
+    try:
+        outcome, _min_h, _max_h, steps, _cb, states = ta.propagate_grid(
+            _to_fp(np.asarray(t, dtype=float), precision), callback=guard
+        )
+    except (ArithmeticError, ValueError) as exc:  # e.g. a non-finite time after a blow-up
+        raise IntegrationStopped(source="hand", method=method, t=float(ta.time), reason=f"{exc}") from None
+    guard.check(outcome, ta, source="hand", method=method)
     t2 = time.perf_counter()
-    if "time_limit" not in str(outcome):
-        raise HarnessError(f"{system.name}: heyoka {precision} integration stopped early ({outcome}).")
     return states, {
         "method": f"heyoka Taylor, {precision}, tol {float(ta.tol):.3g}, order {ta.order}",
         "precision": precision,
@@ -228,7 +289,8 @@ def cache_key(system: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t: n
     """Hash of everything the reference depends on."""
     import heyoka as hy
 
-    forms = importlib.import_module(f"{system.equations.__package__}._forms")
+    from ..equations import _forms as forms  # the harness's helpers, whatever package the module is in
+
     blob = {
         "version": CACHE_VERSION,
         "system": system.name,

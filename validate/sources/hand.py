@@ -7,6 +7,30 @@ from typing import Any
 import numpy as np
 
 
+def solve_or_nan(M: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """x with M x = b for stacks M (..., n, n), b (..., n); NaN rows where M is singular.
+
+    One batched solve (the happy path); only when it fails (a singular M somewhere) is each state
+    solved on its own, so one bad state costs its own row, not the batch. A non-finite M gives NaN
+    through LAPACK without an error.
+    """
+    try:
+        return np.linalg.solve(M, b[..., None])[..., 0]
+    except np.linalg.LinAlgError:
+        pass
+    shape = np.broadcast_shapes(M.shape[:-2], b.shape[:-1])
+    n = M.shape[-1]
+    Ms = np.broadcast_to(M, (*shape, n, n)).reshape(-1, n, n)
+    bs = np.broadcast_to(b, (*shape, n)).reshape(-1, n)
+    out = np.full(bs.shape, np.nan)
+    for i in range(len(bs)):
+        try:
+            out[i] = np.linalg.solve(Ms[i], bs[i])
+        except np.linalg.LinAlgError:
+            pass
+    return out.reshape(*shape, n)
+
+
 class HandSource:
     name = "hand"
 
@@ -25,9 +49,10 @@ class HandSource:
         return np.asarray(self.eq.passive(self.p, q, v), dtype=float)
 
     def forward(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
-        """q'' = M^-1 (tau + passive - bias), one batched solve."""
+        """q'' = M^-1 (tau + passive - bias), one batched solve; NaN at states where M(q) is singular
+        or not finite (a wrong derivation's finding, not an exception)."""
         rhs = tau + self.passive(q, v) - self.bias(q, v)
-        return np.linalg.solve(self.mass_matrix(q), rhs[..., None])[..., 0]
+        return solve_or_nan(self.mass_matrix(q), rhs)
 
     def inverse(self, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
         """tau = M a + bias - passive."""
@@ -46,7 +71,7 @@ class HandSource:
         the inverse dynamics is taken at the source's own accelerations."""
         M, bias, passive = self.mass_matrix(q), self.bias(q, v), self.passive(q, v)
         kin, pot = self.energies(q, v)
-        qacc = np.linalg.solve(M, (tau + passive - bias)[..., None])[..., 0]
+        qacc = solve_or_nan(M, tau + passive - bias)  # NaN where M(q) is singular
         return {
             "M": M,
             "bias": bias,
