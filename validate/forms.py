@@ -132,7 +132,7 @@ def normalize(module: Any) -> Any:
     n = _n(module)
     if form == "a":
         if not callable(getattr(module, "passive", None)):
-            facade.passive = lambda p, q, v: _zeros(np.broadcast_arrays(np.asarray(q), np.asarray(v))[0])  # type: ignore[attr-defined]
+            facade.passive = _no_friction  # type: ignore[attr-defined]
         return facade
     if form == "b":
         r = module.residual
@@ -179,11 +179,23 @@ def normalize(module: Any) -> Any:
             facade.passive = lambda p, q, v: parts_c(p, q, v)[2]  # type: ignore[attr-defined]
         return facade
     # form d: energies only
-    facade.mass_matrix = lambda p, q: _energy_terms(module, p, q, None)[0]  # type: ignore[attr-defined]
-    facade.bias = lambda p, q, v: (lambda _m, g, c: g + c)(*_energy_terms(module, p, q, v))  # type: ignore[attr-defined]
+
+    def mass_matrix_d(p: Any, q: Any) -> np.ndarray:
+        return _energy_terms(module, p, q, None)[0]
+
+    def bias_d(p: Any, q: Any, v: Any) -> np.ndarray:
+        _, g, cv = _energy_terms(module, p, q, v)
+        return g + cv
+
+    facade.mass_matrix = mass_matrix_d  # type: ignore[attr-defined]
+    facade.bias = bias_d  # type: ignore[attr-defined]
     if not callable(getattr(module, "passive", None)):
-        facade.passive = lambda p, q, v: _zeros(np.broadcast_arrays(np.asarray(q), np.asarray(v))[0])  # type: ignore[attr-defined]
+        facade.passive = _no_friction  # type: ignore[attr-defined]
     return facade
+
+
+def _no_friction(p: Any, q: Any, v: Any) -> np.ndarray:
+    return _zeros(np.broadcast_arrays(np.asarray(q), np.asarray(v))[0])
 
 
 @dataclasses.dataclass(frozen=True)

@@ -104,7 +104,7 @@ class System:
     equations: ModuleType
     overrides: tuple[tuple[str, float], ...] = ()
     # The MJCF text to use instead of the file's (a probe's edited copy); `mjcf` still names the file.
-    text: str | None = field(default=None, compare=False, repr=False)
+    text: str | None = field(default=None, repr=False)
     _cache: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
 
     def __post_init__(self) -> None:
