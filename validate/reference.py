@@ -15,9 +15,13 @@ positive definite, so no pivoting is needed). The module runs unmodified. The tr
 validated on every call against the numpy source (`info["rhs_check"]`: traced accelerations vs
 `HandSource.forward` at random states, relative to their range).
 
-Results are cached on disk (`.npz` named by a hash of everything that determines them: system,
-overrides, parameters, the equations module's and this file's source, initial state, input, time
-grid, heyoka version and precisions), so a second run only loads arrays.
+Results are cached on disk (validate/cache.py: `.npz` named by a hash of everything that determines
+them: system, overrides, parameters, the harness's and the equations' source, initial state, input,
+time grid, heyoka version and precisions), so a second run only loads arrays. A loaded entry is
+verified (checksum, key, schema), then checked like a fresh one: the trace against the numpy module
+(`rhs_check`), finite values on the requested grid from the requested state, and a sample of its
+windows restarted from the stored states by DOP853 (`window_check`), so an entry edited with a valid
+checksum still cannot pass for the solution.
 """
 
 from __future__ import annotations
@@ -27,7 +31,6 @@ import hashlib
 import importlib
 import json
 import os
-import tempfile
 import time
 import types
 from dataclasses import dataclass
@@ -36,16 +39,17 @@ from typing import Any
 
 import numpy as np
 
-from . import tracing
+from . import cache, tracing
 from .errors import HarnessError
 from .integrate import Trajectory
-from .systems import PACKAGE_ROOT
 
-CACHE_VERSION = 1  # bump when the cached content changes meaning
-DEFAULT_CACHE_DIR = PACKAGE_ROOT / "reports" / ".cache" / "reference"
+CACHE_VERSION = 2  # bump when the cached content changes meaning
+DEFAULT_CACHE_DIR = cache.DEFAULT  # the configured cache (validate/cache.py), "reference" folder
 PRIMARY = "long double"
 CHECK = "quad"
 RHS_CHECK_TOLERANCE = 1e-12  # relative; the trace reproduces the numpy equations to a few ulps (~1e-15)
+WINDOW_CHECK_WINDOWS = 40  # stored windows restarted by DOP853 when a cached entry is read
+WINDOW_CHECK_TOLERANCE = 1e-8  # rad and rad/s over one output window; DOP853 at rtol 1e-12 is ~1e-13
 
 
 # ----------------------------------------------------------------------------------------------
@@ -237,6 +241,7 @@ def cache_key(system: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t: n
         "equations": _source_hash(system.equations.__file__),
         "forms": _source_hash(forms.__file__),
         "reference": _source_hash(__file__),
+        "harness": cache.harness_hash(),
         "heyoka": hy.__version__,
         "primary": PRIMARY if _extended_available() else CHECK,
         "check": check,
@@ -291,18 +296,29 @@ def reference_trajectory(
     q0, v0, tau, t = _check_inputs(system, q0, v0, tau, t)
     start = time.perf_counter()
     n = system.nv
-    path = None
-    if cache_dir is not None:
-        path = Path(cache_dir) / f"{system.name}-{cache_key(system, q0, v0, tau, t, check=check)}.npz"
-        if path.is_file():
-            with np.load(path, allow_pickle=False) as z:
-                stored = json.loads(str(z["info"]))
-                traj = Trajectory(
-                    "hand", f"reference: {stored['method']}", z["t"], z["q"], z["v"], {"steps": stored["steps"]}
-                )
-            stored.update(cache="hit", cache_file=str(path))
-            stored["timing"]["load_s"] = time.perf_counter() - start
-            return traj, stored
+    where = cache.folder(cache_dir, "reference")
+    path = key = None
+    if where is not None:
+        key = cache_key(system, q0, v0, tau, t, check=check)
+        path = where / f"{system.name}-{key}.npz"
+        entry = cache.load(path, key)
+        if entry is not None:
+            arrays, stored = entry
+            traj = Trajectory(
+                "hand",
+                f"reference: {stored.get('method')}",
+                arrays.get("t", np.empty(0)),
+                arrays.get("q", np.empty((0, n))),
+                arrays.get("v", np.empty((0, n))),
+                {"steps": stored.get("steps")},
+            )
+            problem = _content_problem(system, traj, q0, v0, tau, t)
+            if problem is None:
+                stored["rhs_check"] = _checked_rhs(system)  # cheap: the trace is checked on every read
+                stored.update(cache="hit", cache_file=str(path))
+                stored["timing"]["load_s"] = time.perf_counter() - start
+                return traj, stored
+            cache.invalid(path, problem)
 
     primary = PRIMARY if _extended_available() else CHECK
     states, meta = taylor_solve(system, q0, v0, tau, t, precision=primary)
@@ -313,13 +329,8 @@ def reference_trajectory(
         "order": meta["order"],
         "steps": meta["steps"],
         "timing": {"compile_s": meta["compile_s"], "integrate_s": meta["integrate_s"]},
-        "rhs_check": rhs_check(system),
+        "rhs_check": _checked_rhs(system),
     }
-    if info["rhs_check"] > RHS_CHECK_TOLERANCE:
-        raise HarnessError(
-            f"{system.name}: the traced equations differ from equations/{system.name}.py by "
-            f"{info['rhs_check']:.2e} (relative); the symbolic trace is wrong."
-        )
     if check is not None and check != primary:
         other, cmeta = taylor_solve(system, q0, v0, tau, t, precision=check)
         diff = _difference(states, other)
@@ -333,14 +344,61 @@ def reference_trajectory(
     traj = Trajectory(
         "hand", f"reference: {info['method']}", t.copy(), x[:, :n].copy(), x[:, n:].copy(), {"steps": info["steps"]}
     )
+    if not (np.all(np.isfinite(traj.q)) and np.all(np.isfinite(traj.v))):
+        k = int(np.argwhere(~np.isfinite(np.hstack([traj.q, traj.v])))[0][0])
+        raise HarnessError(f"{system.name}: the reference solution is not finite at t = {t[k]:g} s (heyoka {primary}).")
     info["timing"]["total_s"] = time.perf_counter() - start
-    if path is not None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".npz")
-        os.close(fd)
-        np.savez(tmp, t=traj.t, q=traj.q, v=traj.v, info=np.array(json.dumps(info)))
-        os.replace(tmp, path)  # atomic: a concurrent reader sees the old file or the new one
-        info.update(cache="miss", cache_file=str(path))
+    if path is not None and key is not None:
+        written = cache.store(path, key, {"t": traj.t, "q": traj.q, "v": traj.v}, info)
+        info.update(cache="miss", cache_file=str(path) if written else None)
     else:
         info.update(cache="off", cache_file=None)
     return traj, info
+
+
+def _checked_rhs(system: Any) -> float:
+    """`rhs_check`, refusing a trace that does not reproduce the module."""
+    error = rhs_check(system)
+    if error > RHS_CHECK_TOLERANCE:
+        raise HarnessError(
+            f"{system.name}: the traced equations differ from equations/{system.name}.py by "
+            f"{error:.2e} (relative); the symbolic trace is wrong."
+        )
+    return error
+
+
+def window_check(system: Any, traj: Trajectory, tau: np.ndarray, *, windows: int = WINDOW_CHECK_WINDOWS) -> float:
+    """Largest difference (rad, rad/s) between stored samples k+1 and DOP853 (rtol 1e-12) restarted
+    from stored sample k, over `windows` windows spread over the grid: a stored solution satisfies the
+    hand equations window by window (a shifted, scaled or spliced one does not)."""
+    from .integrate import scipy_trajectory
+    from .sources.hand import HandSource
+
+    hand = HandSource(system)
+    worst = 0.0
+    for k in np.unique(np.linspace(0, len(traj.t) - 2, windows).round().astype(int)):
+        run = scipy_trajectory(system, hand, traj.q[k], traj.v[k], tau, traj.t[k : k + 2], rtol=1e-12, atol=1e-14)
+        worst = max(
+            worst, float(np.abs(run.q[-1] - traj.q[k + 1]).max()), float(np.abs(run.v[-1] - traj.v[k + 1]).max())
+        )
+    return worst
+
+
+def _content_problem(
+    system: Any, traj: Trajectory, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t: np.ndarray
+) -> str | None:
+    """Why a stored reference cannot be the solution asked for, or None."""
+    n = system.nv
+    if traj.t.shape != t.shape or traj.q.shape != (len(t), n) or traj.v.shape != (len(t), n):
+        return f"shapes t {traj.t.shape}, q {traj.q.shape}, v {traj.v.shape}; expected ({len(t)},) and ({len(t)}, {n})"
+    for name, x in (("t", traj.t), ("q", traj.q), ("v", traj.v)):
+        if not np.all(np.isfinite(x)):
+            return f"{name} has non-finite values"
+    if not np.array_equal(traj.t, t):
+        return "another time grid"
+    if not (np.array_equal(traj.q[0], q0) and np.array_equal(traj.v[0], v0)):
+        return "another initial state"
+    error = window_check(system, traj, tau)
+    if not error <= WINDOW_CHECK_TOLERANCE:
+        return f"its windows disagree with the hand equations by {error:.1e}"
+    return None
