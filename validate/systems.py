@@ -79,13 +79,33 @@ def mjcf_text(path: Path, overrides: tuple[tuple[str, float], ...] = ()) -> str:
         from .overrides import apply_overrides
 
         text = apply_overrides(text, overrides)
-    return text
+    return _absolute_includes(text, path.resolve().parent)
+
+
+def _absolute_includes(text: str, folder: Path) -> str:
+    """Relative `<include file=...>` resolved against the model's folder: the engines parse the text,
+    which has no folder of its own, and would otherwise read them from the working directory."""
+    import re
+    from xml.sax.saxutils import quoteattr
+
+    def absolute(match: re.Match[str]) -> str:
+        name = match.group(3)
+        return match.group(1) + quoteattr(name if Path(name).is_absolute() else str(folder / name))
+
+    return re.sub(r"(<include\b[^>]*?\bfile\s*=\s*)([\"'])(.*?)\2", absolute, text)
+
+
+def _ignore_warning(message: str) -> None:
+    pass
 
 
 def compile_mjcf(path: Path, overrides: tuple[tuple[str, float], ...] = ()) -> Any:
     """Compiles an MJCF file with MuJoCo; a bad file becomes a one-line HarnessError."""
     import mujoco
 
+    # MuJoCo's default warning handler appends to MUJOCO_LOG.TXT in the working directory; the
+    # harness reads the warning counters of MjData instead (validate/integrate.py).
+    mujoco.set_mju_user_warning(_ignore_warning)
     text = mjcf_text(path, overrides)
     try:
         return mujoco.MjModel.from_xml_string(text)
@@ -172,7 +192,12 @@ class System:
 
 @functools.cache
 def _equations_module(name: str) -> ModuleType:
-    module = importlib.import_module(f"{EQUATIONS_PACKAGE}.{name}")
+    try:
+        module = importlib.import_module(f"{EQUATIONS_PACKAGE}.{name}")
+    except SyntaxError as exc:
+        raise HarnessError(f"equations/{name}.py: syntax error at line {exc.lineno}: {exc.msg}.") from None
+    except Exception as exc:  # noqa: BLE001 - a module that fails to import is that system's error alone
+        raise HarnessError(f"equations/{name}.py cannot be imported ({type(exc).__name__}: {exc}).") from None
     missing = [a for a in REQUIRED_ATTRIBUTES if not hasattr(module, a)]
     if missing:
         raise HarnessError(f"equations/{name}.py lacks {', '.join(missing)} (see equations/__init__.py).")
