@@ -106,6 +106,10 @@ def store(path: Path, key: str, arrays: dict[str, np.ndarray], info: dict[str, A
     tmp = None
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
+        if path.is_dir() and not path.is_symlink():  # a folder where the entry goes: not the harness's
+            import shutil
+
+            shutil.rmtree(path)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
         with os.fdopen(fd, "wb") as f:
             payload: dict[str, Any] = {**arrays, HEADER: np.array(json.dumps(header))}
