@@ -258,3 +258,36 @@ def test_a_zip_bomb_of_a_header_is_not_trusted(tmp_path, capsys):
         z.writestr(f"{cache.HEADER}.npy", b"not an array")
     assert cache.load(path, "k") is None
     assert "unreadable" in capsys.readouterr().err
+
+
+def test_run_uses_the_cache_dir_and_the_report_says_what_came_from_it(tmp_path, capsys):
+    """`--cache-dir` holds the entries (not the checkout, not OUT); a second run loads them and its
+    report names them; the setting does not outlive the command."""
+    from lagrange_xval.validate.cli import main
+
+    before = os.environ.get(cache.CACHE_ENV)
+    args = ["run", "simple_pendulum", "--states", "10", "--no-replay", "--out", str(tmp_path / "r")]
+    assert main([*args, "--cache-dir", str(tmp_path / "c")]) == 0
+    assert "from the cache | nothing" in (tmp_path / "r" / "report.md").read_text()
+    assert sorted(p.name for p in (tmp_path / "c").iterdir()) == ["chaos", "reference"]
+    assert not (tmp_path / "r" / ".cache").exists()
+    assert main([*args, "--cache-dir", str(tmp_path / "c")]) == 0
+    report = (tmp_path / "r" / "report.md").read_text()
+    assert "from the cache | simple_pendulum (reference solution, chaos summary)" in report
+    assert os.environ.get(cache.CACHE_ENV) == before
+    capsys.readouterr()
+
+
+def test_no_cache_turns_reading_and_writing_off(tmp_path):
+    import argparse
+
+    from lagrange_xval.validate.cli import use_cache
+
+    args = argparse.Namespace(no_cache=True, cache_dir=None, out=tmp_path)
+    with use_cache(args):
+        assert cache.folder(cache.DEFAULT, "reference") is None
+        _, info = _reference(cache.DEFAULT)
+    assert info["cache"] == "off" and not list(tmp_path.iterdir())
+    args = argparse.Namespace(no_cache=False, cache_dir=None, out=tmp_path / "r")
+    with use_cache(args):
+        assert cache.folder(cache.DEFAULT, "chaos") == (tmp_path / "r" / ".cache" / "chaos").absolute()

@@ -125,6 +125,7 @@ def _parser() -> argparse.ArgumentParser:
     bench.add_argument("--quick", action="store_true", help="2 systems, small plan, 1 repeat (about 10 s)")
     bench.add_argument("--out", type=_path, default=Path("reports"), help="folder for bench.json (default: reports)")
     bench.add_argument("--repeats", type=_positive_int, default=None, help="timing repeats (default 3; --quick 1)")
+    cache_options(bench)
 
     stress = command("stress", help="numerical stability: long horizons, stable timesteps, conditioning")
     stress.add_argument("systems", nargs="*", metavar="SYSTEM")
@@ -136,6 +137,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     stress.add_argument("--quick", action="store_true", help="100 s horizons and fewer sweep points (~30 s)")
     stress.add_argument("--out", type=_path, default=Path("reports"), help="folder for stress.json")
+    cache_options(stress)
 
     replay = command("replay", help="a rerun recording of a system's trajectories")
     replay.add_argument("system")
@@ -335,15 +337,21 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
-def use_cache(args: argparse.Namespace) -> None:
+@contextlib.contextmanager
+def use_cache(args: argparse.Namespace) -> Iterator[None]:
     """Points the reference and chaos caches at --cache-dir (default OUT/.cache) or turns them off,
-    through the environment so that pool workers see the same setting."""
+    through the environment so that pool workers see the same setting; restored afterwards."""
     from .cache import CACHE_ENV
 
-    if args.no_cache:
-        os.environ[CACHE_ENV] = ""
-    else:
-        os.environ[CACHE_ENV] = str((args.cache_dir or args.out / ".cache").absolute())
+    before = os.environ.get(CACHE_ENV)
+    os.environ[CACHE_ENV] = "" if args.no_cache else str((args.cache_dir or args.out / ".cache").absolute())
+    try:
+        yield
+    finally:
+        if before is None:
+            os.environ.pop(CACHE_ENV, None)
+        else:
+            os.environ[CACHE_ENV] = before
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -352,8 +360,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from .progress import reporter
 
     check_out(args.out)  # before hours of work, not after
-    use_cache(args)
-    with reporter() as progress:
+    with use_cache(args), reporter() as progress:
         results = run(args.systems or None, n_states=args.states, seed=args.seed, progress=progress)
     write_all(results, args.out, replay=not args.no_replay)
     verdict = "all systems pass" if results["passed"] else "some systems FAIL"
@@ -386,13 +393,15 @@ def cmd_replay(args: argparse.Namespace) -> int:
 def cmd_bench(args: argparse.Namespace) -> int:
     from .bench import bench_command
 
-    return bench_command(args)
+    with use_cache(args):
+        return bench_command(args)
 
 
 def cmd_stress(args: argparse.Namespace) -> int:
     from .stress import stress_command
 
-    return stress_command(args)
+    with use_cache(args):
+        return stress_command(args)
 
 
 COMMANDS = {
@@ -407,23 +416,39 @@ COMMANDS = {
 }
 
 
-def _terminate(signum: int, frame: Any) -> None:
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not interrupt the clean-up
-    raise Terminated
+def _handlers(owner: int) -> tuple[Any, Any]:
+    """SIGINT and SIGTERM handlers for the process `owner`. A pool worker forked before its initializer
+    ran inherits them: there SIGINT is ignored (the parent reports it) and SIGTERM kills silently."""
+
+    def interrupt(signum: int, frame: Any) -> None:
+        if os.getpid() == owner:
+            raise KeyboardInterrupt
+
+    def terminate(signum: int, frame: Any) -> None:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL if os.getpid() != owner else signal.SIG_IGN)
+        if os.getpid() != owner:
+            os.kill(os.getpid(), signal.SIGTERM)
+            return
+        raise Terminated  # SIGTERM ignored from here: a second one must not interrupt the clean-up
+
+    return interrupt, terminate
 
 
 @contextlib.contextmanager
-def _stop_on_sigterm() -> Iterator[None]:
-    """SIGTERM stops a command like Ctrl-C does (workers terminated, nothing half-written)."""
+def _stop_on_signals() -> Iterator[None]:
+    """Ctrl-C and SIGTERM stop a command the same way (workers terminated, nothing half-written)."""
+    interrupt, terminate = _handlers(os.getpid())
     try:
-        previous = signal.signal(signal.SIGTERM, _terminate)
+        previous = {signal.SIGINT: signal.signal(signal.SIGINT, interrupt)}
+        previous[signal.SIGTERM] = signal.signal(signal.SIGTERM, terminate)
     except ValueError:  # not the main thread: leave signals alone
         yield
         return
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
 
 
 @contextlib.contextmanager
@@ -470,7 +495,7 @@ def main(argv: list[str] | None = None) -> int:
     (`--debug` adds the traceback) and status 2; Ctrl-C is 130, SIGTERM 143."""
     args = _parser().parse_args(argv)
     try:
-        with _stop_on_sigterm(), _only_own_output():
+        with _stop_on_signals(), _only_own_output():
             return COMMANDS[args.command](args)
     except HarnessError as exc:
         print(f"lagrange-xval: error: {exc}", file=sys.stderr)

@@ -20,6 +20,7 @@ from .modelview import ModelView
 PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 MODELS_DIR = PACKAGE_ROOT / "models"
 EQUATIONS_PACKAGE = "lagrange_xval.equations"
+MAX_MJCF_BYTES = 16 * 2**20  # the models of the notes are ~3 kB
 
 REQUIRED_ATTRIBUTES = (
     "DESCRIPTION",
@@ -65,10 +66,10 @@ def mjcf_text(path: Path, overrides: tuple[tuple[str, float], ...] = ()) -> str:
     """The MJCF text the engines parse: the file, with any overrides applied at full precision."""
     import xml.etree.ElementTree as ET
 
-    if not path.is_file():
-        raise HarnessError(f"MJCF file not found: {path}.")
+    from .inputs import regular_file
+
     try:
-        text = path.read_text()
+        text = regular_file(path, "MJCF file", max_bytes=MAX_MJCF_BYTES).decode()
         root = ET.fromstring(text).tag
     except (ET.ParseError, UnicodeDecodeError) as exc:
         raise HarnessError(f"{path.name}: not well-formed XML ({exc}).") from None
