@@ -17,6 +17,7 @@ OLD = {
     "img/gone_system_pointwise.png": "old png",
     "bench.json": "bench",
     ".cache/reference/x.npz": "cached",
+    ".gitkeep": "",
 }
 NEW = {"results.json": b"new results", "report.md": b"new md", "report.html": b"new html", "img/a.png": b"png"}
 
@@ -46,6 +47,7 @@ def test_a_run_replaces_its_own_files_and_keeps_the_others(out):
         **{k: v.decode() for k, v in NEW.items()},
         "bench.json": "bench",
         ".cache/reference/x.npz": "cached",
+        ".gitkeep": "",
     }
     assert _no_staging_left(out)
     assert all(p.stat().st_mode & 0o777 == 0o644 for p in out.rglob("*") if p.is_file() and ".cache" not in str(p))

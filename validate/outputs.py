@@ -2,7 +2,7 @@
 
 Every file is rendered in memory, written into a new folder beside the reports folder (a full disk
 fails here, with nothing replaced), the files the command does not produce (the cache, bench.json,
-stress.json) are carried over as hard links, and the new folder takes the old one's place in one
+stress.json, .gitkeep) are carried over as hard links, and the new folder takes the old one's place in one
 rename (Linux: renameat2 RENAME_EXCHANGE, atomic; elsewhere two renames, the old folder restored if
 the second fails). Files of an earlier run that this run does not produce (the .rrd and plots of
 systems not in it) are gone with the old folder.
@@ -25,6 +25,7 @@ from .results import dumps
 
 OPTIONAL_RESULTS = {"bench": "bench.json", "stress": "stress.json"}  # written by `bench` and `stress`
 CACHE_FOLDER = ".cache"
+KEPT = (CACHE_FOLDER, ".gitkeep", *OPTIONAL_RESULTS.values())  # not written by `run`: carried over
 REPORT_FILES = ("report.md", "report.html", "img")  # what `report` produces
 RUN_FILES = ("results.json", *REPORT_FILES)  # what `run` produces, with <system>.rrd
 
@@ -38,7 +39,7 @@ def _from_report(name: str) -> bool:
 
 
 def _ours(name: str) -> bool:
-    return _from_run(name) or name in OPTIONAL_RESULTS.values() or name == CACHE_FOLDER
+    return _from_run(name) or name in KEPT
 
 
 def check_out(out: Path) -> None:
