@@ -23,13 +23,13 @@ MAX_STATES_FILE_BYTES = 64 * 2**20  # a states file is read whole; 64 MiB holds 
 MAX_SEED = 2**63 - 1
 
 
-def _positive_int(text: str, *, limit: int = MAX_STATES) -> int:
+def _positive_int(text: str) -> int:
     try:
         value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
-    if value < 1 or value > limit:
-        raise argparse.ArgumentTypeError(f"must be from 1 to {limit}, got {value}")
+    if value < 1 or value > MAX_STATES:
+        raise argparse.ArgumentTypeError(f"must be from 1 to {MAX_STATES}, got {value}")
     return value
 
 
@@ -466,7 +466,8 @@ def _only_own_output() -> Iterator[None]:
         return
     stream.flush()
     saved = os.dup(fd)
-    own = os.fdopen(os.dup(saved), "w", encoding=stream.encoding, errors=stream.errors)
+    buffering = 1 if os.isatty(saved) else -1  # line by line to a terminal, as Python's own stdout
+    own = os.fdopen(os.dup(saved), "w", buffering=buffering, encoding=stream.encoding, errors=stream.errors)
     os.dup2(2, fd)  # stderr
     sys.stdout = own
     try:
