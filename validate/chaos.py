@@ -649,35 +649,59 @@ def chaos_summary(
     *,
     t: np.ndarray | None = None,
     tolerance: float = DEFAULT_TOLERANCE,
-    cache_dir: Any = "default",
+    cache_dir: Any = DEFAULT_CACHE_DIR,
 ) -> dict[str, Any]:
     """Lyapunov exponent (two methods), amplification at 2 s and 10 s, and horizons, for one start.
 
-    Cached as JSON beside the reference solutions, keyed by everything the numbers depend on
-    (system, parameters, equations source, this file's source, start, input, grid, tolerance)."""
+    Cached beside the reference solutions (validate/cache.py: verified on every read), keyed by
+    everything the numbers depend on (system, parameters, the harness's and the equations' source,
+    start, input, grid, tolerance); a loaded summary must also be consistent in itself
+    (`_summary_problem`). `cache` in the result says "hit", "miss" or "off"."""
     import json
 
-    from .reference import DEFAULT_CACHE_DIR, _source_hash, cache_key
-    from .results import atomic_write, dumps
+    from . import cache
+    from .reference import _source_hash, cache_key
+    from .results import dumps
 
     q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
     t = time_grid(10.0, 0.01) if t is None else t
-    if cache_dir is None:  # no caching, as for the reference
-        return json.loads(dumps(_chaos_summary(system, q0, v0, tau, t=t, tolerance=tolerance)))
-    folder = Path(DEFAULT_CACHE_DIR if cache_dir == "default" else cache_dir).parent / "chaos"
+    if isinstance(cache_dir, str) and cache_dir == cache.DEFAULT:
+        where = cache.folder(cache_dir, "chaos")
+    else:  # an explicit reference folder: the chaos entries go beside it
+        where = None if cache_dir is None else Path(cache_dir).parent / "chaos"
+    if where is None:
+        return {**json.loads(dumps(_chaos_summary(system, q0, v0, tau, t=t, tolerance=tolerance))), "cache": "off"}
     key = cache_key(system, q0, v0, tau, t, check=f"chaos {tolerance!r} {_source_hash(__file__)}")
-    path = folder / f"{system.name}-{key}.json"
-    if path.is_file():
-        try:
-            return json.loads(path.read_text())
-        except (OSError, json.JSONDecodeError):
-            pass  # a damaged cache entry is recomputed
-    out = _chaos_summary(system, q0, v0, tau, t=t, tolerance=tolerance)
+    path = where / f"{system.name}-{key}.npz"
+    entry = cache.load(path, key)
+    if entry is not None:
+        problem = _summary_problem(entry[1], tolerance)
+        if problem is None:
+            return {**entry[1], "cache": "hit"}
+        cache.invalid(path, problem)
+    out = json.loads(dumps(_chaos_summary(system, q0, v0, tau, t=t, tolerance=tolerance)))
+    cache.store(path, key, {}, out)
+    return {**out, "cache": "miss"}
+
+
+def _summary_problem(summary: dict[str, Any], tolerance: float) -> str | None:
+    """Why a stored chaos summary cannot be what `_chaos_summary` computed, or None: its numbers are
+    finite and tie together (the agreement of the two exponents, the horizon estimated from lambda)."""
     try:
-        atomic_write(path, dumps(out))
-    except Exception:  # noqa: BLE001 - a cache that cannot be written only costs time
-        pass
-    return json.loads(dumps(out))
+        lam = summary["lyapunov"]["lambda"]
+        lam2 = summary["lyapunov_two_trajectories"]["lambda"]
+        e0 = summary["horizon_from_rounding"]["e0"]
+        values = [lam, lam2, e0, summary["lyapunov_agreement"], summary["max_amplification"]]
+        if not all(isinstance(x, float) and np.isfinite(x) for x in values):
+            return "non-finite or missing numbers"
+        if summary["lyapunov_agreement"] != abs(lam - lam2):
+            return "the two exponents do not match their stored agreement"
+        estimate = float(np.log(tolerance / e0) / lam) if lam > 0 else None
+        if summary["horizon_estimate_from_lambda"] != estimate:
+            return "the horizon estimate does not follow from the exponent"
+    except (KeyError, TypeError):
+        return "missing fields"
+    return None
 
 
 def _chaos_summary(

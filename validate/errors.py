@@ -12,6 +12,11 @@ class HarnessError(Exception):
     exit_code = 2
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread so that it unwinds like Ctrl-C (workers stopped, staged
+    output removed, previous reports intact); the CLI exits with 143."""
+
+
 def unknown_name(kind: str, name: str, valid: Iterable[str]) -> HarnessError:
     """Builds "Unknown system 'x'. Did you mean 'y'? Valid: a, b, c." for a name not in `valid`."""
     valid = sorted(valid)

@@ -549,9 +549,34 @@ def mujoco_trajectory(
         for k in range(1, len(t)):
             mujoco.mj_step(m, d, nstep=steps)
             q[k], v[k] = source.get_state()
+            _check_step(d, system, integrator, dt, t, k, q[k], v[k])
     finally:
         m.opt.integrator, m.opt.timestep = saved
     return Trajectory("mujoco", f"MuJoCo {integrator} dt {dt:g}", t.copy(), q, v, {"steps": steps * (len(t) - 1)})
+
+
+class Diverged(HarnessError):
+    """A run that went unstable: its samples from here on are not data."""
+
+
+def _check_step(d: Any, system: Any, integrator: str, dt: float, t: np.ndarray, k: int, q: Any, v: Any) -> None:
+    """Refuses sample k of a MuJoCo run after a warning (MuJoCo then resets the state to zeros and
+    carries on) or with a non-finite value: never data, one line naming the time and the quantity."""
+    warned = [w for w, stat in enumerate(d.warning) if stat.number]
+    if warned or not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
+        import mujoco
+
+        names = [mujoco.mjtWarning(w).name for w in warned]
+        what = (
+            f"MuJoCo warned {', '.join(names)} (bad {'/'.join(n.removeprefix('mjWARN_BAD').lower() for n in names)}"
+            f", DOF {d.warning[warned[0]].lastinfo}) and reset the state"
+            if warned
+            else f"q = {np.asarray(q).tolist()}, v = {np.asarray(v).tolist()} is not finite"
+        )
+        raise Diverged(
+            f"{system.name}: MuJoCo {integrator} at dt {dt:g} diverged between t = {t[k - 1]:g} s and "
+            f"t = {t[k]:g} s: {what}; nothing written."
+        )
 
 
 def energy(system: Any, hand: Any, traj: Trajectory) -> np.ndarray:

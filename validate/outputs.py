@@ -1,14 +1,64 @@
-"""Writes what `run` produces. Everything is rendered in memory first, then each file is replaced
-atomically, so an interrupted or failed run leaves the previous reports intact."""
+"""Writes what `run` and `report` produce, as one set: a failure at any point leaves the previous set whole.
+
+Every file is rendered in memory, written into a new folder beside the reports folder (a full disk
+fails here, with nothing replaced), the files the command does not produce (the cache, bench.json,
+stress.json, .gitkeep) are carried over as hard links, and the new folder takes the old one's place in one
+rename (Linux: renameat2 RENAME_EXCHANGE, atomic; elsewhere two renames, the old folder restored if
+the second fails). Files of an earlier run that this run does not produce (the .rrd and plots of
+systems not in it) are gone with the old folder.
+"""
 
 from __future__ import annotations
 
+import ctypes
+import errno
+import os
+import shutil
+import sys
+import tempfile
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from .results import atomic_write_many, dumps
+from .errors import HarnessError
+from .results import dumps
 
 OPTIONAL_RESULTS = {"bench": "bench.json", "stress": "stress.json"}  # written by `bench` and `stress`
+CACHE_FOLDER = ".cache"
+KEPT = (CACHE_FOLDER, ".gitkeep", *OPTIONAL_RESULTS.values())  # not written by `run`: carried over
+REPORT_FILES = ("report.md", "report.html", "img")  # what `report` produces
+RUN_FILES = ("results.json", *REPORT_FILES)  # what `run` produces, with <system>.rrd
+
+
+def _from_run(name: str) -> bool:
+    return name in RUN_FILES or name.endswith(".rrd")
+
+
+def _from_report(name: str) -> bool:
+    return name in REPORT_FILES
+
+
+def _ours(name: str) -> bool:
+    return _from_run(name) or name in KEPT
+
+
+def check_out(out: Path) -> None:
+    """Refuses a reports folder that is a file, or a folder holding anything the harness did not write
+    (the folder is replaced as a whole: `--out .` must not replace a checkout)."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise HarnessError(f"--out {out} is a file, not a folder.")
+    if out.is_dir():
+        try:
+            foreign = sorted(p.name for p in out.iterdir() if not _ours(p.name))
+        except OSError as exc:
+            raise HarnessError(f"cannot read {out}: {exc.strerror or exc}.") from None
+        if foreign:
+            more = f" and {len(foreign) - 3} more" if len(foreign) > 3 else ""
+            raise HarnessError(
+                f"--out {out} holds files the harness does not write ({', '.join(foreign[:3])}{more}); "
+                "give an empty folder or a reports folder."
+            )
 
 
 def with_optional_results(results: dict[str, Any], out: Path) -> dict[str, Any]:
@@ -27,13 +77,15 @@ def with_optional_results(results: dict[str, Any], out: Path) -> dict[str, Any]:
 
 
 def write_reports(results: dict[str, Any], out: Path) -> None:
+    """report.md, report.html and their plots, replacing those of the folder as one set."""
     from .report import render
 
     files = render(with_optional_results(results, out))  # may fail: nothing written yet
-    atomic_write_many({out / name: data for name, data in files.items()})
+    replace_set(out, files, replaces=_from_report)
 
 
 def write_all(results: dict[str, Any], out: Path, *, replay: bool = True) -> None:
+    """Everything `run` produces, replacing the previous run's files (all of them) as one set."""
     from .report import render
 
     files = {"results.json": dumps(results).encode(), **render(with_optional_results(results, out))}
@@ -41,4 +93,84 @@ def write_all(results: dict[str, Any], out: Path, *, replay: bool = True) -> Non
         from .replay import render_replays
 
         files.update(render_replays(results))
-    atomic_write_many({out / name: data for name, data in files.items()})
+    replace_set(out, files, replaces=_from_run)
+
+
+def replace_set(out: Path, files: dict[str, bytes], *, replaces: Callable[[str], bool]) -> None:
+    """Makes `out` hold `files` (names relative to it) and whatever it held that `replaces` says is
+    not replaced, in one switch; on any failure the previous folder is left as it was."""
+    out = Path(out)
+    check_out(out)
+    staging: Path | None = None
+    try:
+        out.absolute().parent.mkdir(parents=True, exist_ok=True)
+        staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.staging-", dir=out.absolute().parent))
+        for name, data in files.items():
+            _write_new(staging / name, data)
+        if out.is_dir():
+            for entry in out.iterdir():
+                if not replaces(entry.name) and entry.name not in files:
+                    _carry(entry, staging / entry.name)
+        os.chmod(staging, out.stat().st_mode & 0o7777 if out.is_dir() else 0o755)
+        _switch(staging, out)
+    except OSError as exc:
+        raise HarnessError(f"cannot write {out}: {exc.strerror or exc}; previous files left as they were.") from None
+    finally:
+        if staging is not None:
+            shutil.rmtree(staging, ignore_errors=True)  # after the switch: the previous set
+
+
+def _write_new(path: Path, data: bytes | str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+    with os.fdopen(fd, "wb") as f:
+        f.write(data.encode() if isinstance(data, str) else data)
+    os.chmod(path, 0o644)  # whatever the umask: a report is for reading
+
+
+def _carry(src: Path, dst: Path) -> None:
+    """`src` at `dst` without copying data: hard links (files are only ever replaced, never edited)."""
+
+    def link(a: str, b: str) -> None:
+        try:
+            os.link(a, b)
+        except OSError:  # a file system without hard links
+            shutil.copy2(a, b)
+
+    if src.is_dir() and not src.is_symlink():
+        shutil.copytree(src, dst, copy_function=link, symlinks=True)
+    else:
+        link(str(src), str(dst))
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Swaps two paths atomically (Linux renameat2 RENAME_EXCHANGE); False where that is unavailable."""
+    if not sys.platform.startswith("linux"):
+        return False
+    renameat2 = getattr(ctypes.CDLL(None, use_errno=True), "renameat2", None)
+    if renameat2 is None:
+        return False
+    at_fdcwd, rename_exchange = -100, 2
+    if renameat2(at_fdcwd, os.fsencode(a), at_fdcwd, os.fsencode(b), rename_exchange) == 0:
+        return True
+    err = ctypes.get_errno()
+    if err in (errno.ENOSYS, errno.EINVAL):  # old kernel, or a file system that cannot exchange
+        return False
+    raise OSError(err, os.strerror(err), str(b))
+
+
+def _switch(new: Path, out: Path) -> None:
+    """`new` becomes `out`; the previous `out` (if any) is left at `new`."""
+    if not out.exists():
+        os.rename(new, out)
+        return
+    if _exchange(new, out):
+        return
+    old = new.with_name(new.name + "-old")
+    os.rename(out, old)
+    try:
+        os.rename(new, out)
+    except BaseException:
+        os.rename(old, out)
+        raise
+    os.rename(old, new)

@@ -35,8 +35,9 @@ def reporter() -> Iterator[Any]:
     else:
 
         def plain(name: str, stage: str, result: Any = None) -> None:
-            if stage == "done":
-                print(_line(name, result, time.perf_counter() - start), file=sys.stderr, flush=True)
+            elapsed = time.perf_counter() - start
+            line = _line(name, result, elapsed) if stage == "done" else f"[{elapsed:6.1f} s] {name}: started"
+            print(line, file=sys.stderr, flush=True)
 
         yield plain
 

@@ -15,9 +15,13 @@ positive definite, so no pivoting is needed). The module runs unmodified. The tr
 validated on every call against the numpy source (`info["rhs_check"]`: traced accelerations vs
 `HandSource.forward` at random states, relative to their range).
 
-Results are cached on disk (`.npz` named by a hash of everything that determines them: system,
-overrides, parameters, the equations module's and this file's source, initial state, input, time
-grid, heyoka version and precisions), so a second run only loads arrays.
+Results are cached on disk (validate/cache.py: `.npz` named by a hash of everything that determines
+them: system, overrides, parameters, the harness's and the equations' source, initial state, input,
+time grid, heyoka version and precisions), so a second run only loads arrays. A loaded entry is
+verified (checksum, key, schema), then checked like a fresh one: the trace against the numpy module
+(`rhs_check`), finite values on the requested grid from the requested state, and every one of its
+windows restarted from the stored states by RK4 (`window_check`), so an entry edited with a valid
+checksum still cannot pass for the solution.
 """
 
 from __future__ import annotations
@@ -26,7 +30,6 @@ import functools
 import hashlib
 import json
 import os
-import tempfile
 import time
 import types
 from dataclasses import dataclass
@@ -35,16 +38,19 @@ from typing import Any
 
 import numpy as np
 
-from . import tracing
+from . import cache, tracing
 from .errors import HarnessError, IntegrationStopped
 from .integrate import DEFAULT_BUDGET, Budget, Trajectory
-from .systems import PACKAGE_ROOT
 
-CACHE_VERSION = 1  # bump when the cached content changes meaning
-DEFAULT_CACHE_DIR = PACKAGE_ROOT / "reports" / ".cache" / "reference"
+CACHE_VERSION = 2  # bump when the cached content changes meaning
+DEFAULT_CACHE_DIR = cache.DEFAULT  # the configured cache (validate/cache.py), "reference" folder
 PRIMARY = "long double"
 CHECK = "quad"
 RHS_CHECK_TOLERANCE = 1e-12  # relative; the trace reproduces the numpy equations to a few ulps (~1e-15)
+WINDOW_CHECK_STEP = 2.5e-4  # s: RK4 restarted in every stored window when a cached entry is read
+# rad and rad/s over one window: RK4 at 2.5e-4 s is within 4e-11 on every system's 10 s reference; a
+# forgery below this moves no verdict (the trajectory tier is 1e-6 rad)
+WINDOW_CHECK_TOLERANCE = 1e-7
 
 
 # ----------------------------------------------------------------------------------------------
@@ -296,9 +302,12 @@ def cache_key(system: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t: n
         "system": system.name,
         "overrides": [[k, float(v).hex()] for k, v in system.overrides],
         "params": _param_key(system),
-        "equations": _source_hash(system.equations.__file__),
+        # What the equations compute, not where they came from: the traced right-hand side (a module
+        # changed in memory, or two files of one name, never share an entry).
+        "equations": hashlib.sha256(str(symbolic_dynamics(system).rhs).encode()).hexdigest(),
         "forms": _source_hash(forms.__file__),
         "reference": _source_hash(__file__),
+        "harness": cache.harness_hash(),
         "heyoka": hy.__version__,
         "primary": PRIMARY if _extended_available() else CHECK,
         "check": check,
@@ -353,18 +362,29 @@ def reference_trajectory(
     q0, v0, tau, t = _check_inputs(system, q0, v0, tau, t)
     start = time.perf_counter()
     n = system.nv
-    path = None
-    if cache_dir is not None:
-        path = Path(cache_dir) / f"{system.name}-{cache_key(system, q0, v0, tau, t, check=check)}.npz"
-        if path.is_file():
-            with np.load(path, allow_pickle=False) as z:
-                stored = json.loads(str(z["info"]))
-                traj = Trajectory(
-                    "hand", f"reference: {stored['method']}", z["t"], z["q"], z["v"], {"steps": stored["steps"]}
-                )
-            stored.update(cache="hit", cache_file=str(path))
-            stored["timing"]["load_s"] = time.perf_counter() - start
-            return traj, stored
+    where = cache.folder(cache_dir, "reference")
+    path = key = None
+    if where is not None:
+        key = cache_key(system, q0, v0, tau, t, check=check)
+        path = where / f"{system.name}-{key}.npz"
+        entry = cache.load(path, key)
+        if entry is not None:
+            arrays, stored = entry
+            traj = Trajectory(
+                "hand",
+                f"reference: {stored.get('method')}",
+                arrays.get("t", np.empty(0)),
+                arrays.get("q", np.empty((0, n))),
+                arrays.get("v", np.empty((0, n))),
+                {"steps": stored.get("steps")},
+            )
+            problem = _content_problem(system, traj, q0, v0, tau, t)
+            if problem is None:
+                stored["rhs_check"] = _checked_rhs(system)  # cheap: the trace is checked on every read
+                stored.update(cache="hit", cache_file=str(path))
+                stored["timing"]["load_s"] = time.perf_counter() - start
+                return traj, stored
+            cache.invalid(path, problem)
 
     primary = PRIMARY if _extended_available() else CHECK
     states, meta = taylor_solve(system, q0, v0, tau, t, precision=primary)
@@ -375,13 +395,8 @@ def reference_trajectory(
         "order": meta["order"],
         "steps": meta["steps"],
         "timing": {"compile_s": meta["compile_s"], "integrate_s": meta["integrate_s"]},
-        "rhs_check": rhs_check(system),
+        "rhs_check": _checked_rhs(system),
     }
-    if info["rhs_check"] > RHS_CHECK_TOLERANCE:
-        raise HarnessError(
-            f"{system.name}: the traced equations differ from equations/{system.name}.py by "
-            f"{info['rhs_check']:.2e} (relative); the symbolic trace is wrong."
-        )
     if check is not None and check != primary:
         other, cmeta = taylor_solve(system, q0, v0, tau, t, precision=check)
         diff = _difference(states, other)
@@ -395,14 +410,70 @@ def reference_trajectory(
     traj = Trajectory(
         "hand", f"reference: {info['method']}", t.copy(), x[:, :n].copy(), x[:, n:].copy(), {"steps": info["steps"]}
     )
+    if not (np.all(np.isfinite(traj.q)) and np.all(np.isfinite(traj.v))):
+        k = int(np.argwhere(~np.isfinite(np.hstack([traj.q, traj.v])))[0][0])
+        raise HarnessError(f"{system.name}: the reference solution is not finite at t = {t[k]:g} s (heyoka {primary}).")
     info["timing"]["total_s"] = time.perf_counter() - start
-    if path is not None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".npz")
-        os.close(fd)
-        np.savez(tmp, t=traj.t, q=traj.q, v=traj.v, info=np.array(json.dumps(info)))
-        os.replace(tmp, path)  # atomic: a concurrent reader sees the old file or the new one
-        info.update(cache="miss", cache_file=str(path))
+    if path is not None and key is not None:
+        written = cache.store(path, key, {"t": traj.t, "q": traj.q, "v": traj.v}, info)
+        info.update(cache="miss", cache_file=str(path) if written else None)
     else:
         info.update(cache="off", cache_file=None)
     return traj, info
+
+
+def _checked_rhs(system: Any) -> float:
+    """`rhs_check`, refusing a trace that does not reproduce the module."""
+    error = rhs_check(system)
+    if error > RHS_CHECK_TOLERANCE:
+        raise HarnessError(
+            f"{system.name}: the traced equations differ from equations/{system.name}.py by "
+            f"{error:.2e} (relative); the symbolic trace is wrong."
+        )
+    return error
+
+
+def window_check(system: Any, traj: Trajectory, tau: np.ndarray) -> float:
+    """Largest difference (rad, rad/s) between stored samples k+1 and classic RK4 (steps of at most
+    WINDOW_CHECK_STEP, all windows at once) restarted from stored sample k: a stored solution satisfies
+    the hand equations in every window (a shifted, scaled or spliced one does not)."""
+    from .sources.hand import HandSource
+
+    hand, n = HandSource(system), system.nv
+    x = np.hstack([traj.q[:-1], traj.v[:-1]])
+    h = np.diff(traj.t)[:, None]
+    steps = max(1, int(np.ceil(float(h.max()) / WINDOW_CHECK_STEP)))
+    h = h / steps
+    u = np.broadcast_to(np.asarray(tau, dtype=float), (len(x), n))
+
+    def f(y: np.ndarray) -> np.ndarray:
+        return np.hstack([y[:, n:], hand.forward(y[:, :n], y[:, n:], u)])
+
+    for _ in range(steps):
+        k1 = f(x)
+        k2 = f(x + h / 2 * k1)
+        k3 = f(x + h / 2 * k2)
+        k4 = f(x + h * k3)
+        x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    stored = np.hstack([traj.q[1:], traj.v[1:]])
+    return float(np.abs(x - stored).max())
+
+
+def _content_problem(
+    system: Any, traj: Trajectory, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t: np.ndarray
+) -> str | None:
+    """Why a stored reference cannot be the solution asked for, or None."""
+    n = system.nv
+    if traj.t.shape != t.shape or traj.q.shape != (len(t), n) or traj.v.shape != (len(t), n):
+        return f"shapes t {traj.t.shape}, q {traj.q.shape}, v {traj.v.shape}; expected ({len(t)},) and ({len(t)}, {n})"
+    for name, x in (("t", traj.t), ("q", traj.q), ("v", traj.v)):
+        if not np.all(np.isfinite(x)):
+            return f"{name} has non-finite values"
+    if not np.array_equal(traj.t, t):
+        return "another time grid"
+    if not (np.array_equal(traj.q[0], q0) and np.array_equal(traj.v[0], v0)):
+        return "another initial state"
+    error = window_check(system, traj, tau)
+    if not error <= WINDOW_CHECK_TOLERANCE:
+        return f"its windows disagree with the hand equations by {error:.1e}"
+    return None

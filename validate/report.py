@@ -588,6 +588,24 @@ def system_statuses(results: dict[str, Any]) -> list[tuple[str, str, Mark, str]]
     return out
 
 
+def _cached(results: dict[str, Any]) -> str:
+    """Which results were loaded from the cache (validate/cache.py) rather than computed in this run."""
+    hits = []
+    for name, s in sorted(results.get("systems", {}).items()):
+        chaos = s.get("chaos") or {}
+        kinds = [
+            kind
+            for kind, info in (
+                ("reference solution", (s.get("trajectories") or {}).get("reference_info")),
+                ("chaos summary", chaos.get("chaos")),
+            )
+            if isinstance(info, dict) and info.get("cache") == "hit"
+        ]
+        if kinds:
+            hits.append(f"{name} ({', '.join(kinds)})")
+    return "; ".join(hits) if hits else "nothing: every result computed in this run"
+
+
 def section_provenance(doc: Document, results: dict[str, Any]) -> None:
     meta = results.get("meta", {})
     doc.h(2, PROVENANCE)
@@ -609,6 +627,7 @@ def section_provenance(doc: Document, results: dict[str, Any]) -> None:
             ("seed", "seed"),
         )
     ]
+    rows.append(("from the cache", _cached(results)))
     doc.table("Run", ("item", "value"), rows)
     versions = meta.get("versions", {})
     doc.table("Package versions", ("package", "version"), [(k, str(v)) for k, v in sorted(versions.items())])

@@ -121,11 +121,38 @@ def dumps(results: dict[str, Any]) -> str:
     return json.dumps(to_jsonable(results), indent=1, sort_keys=True, allow_nan=False) + "\n"
 
 
+MAX_RESULTS_BYTES = 512 * 2**20  # results.json of the five systems is ~30 MB
+
+
 def load(path: Path) -> dict[str, Any]:
+    """The results `run` wrote, checked for the layout the reports are rendered from."""
+    from .inputs import parse_json, regular_file
+
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise HarnessError(f"{path} not found: run `lagrange-xval run` first.")
-    try:
-        return json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise HarnessError(f"{path} is not valid JSON (line {exc.lineno}): rerun `lagrange-xval run`.") from None
+    results = parse_json(regular_file(path, "results file", max_bytes=MAX_RESULTS_BYTES), path)
+    problem = schema_problem(results)
+    if problem:
+        raise HarnessError(
+            f"{path} is not a results file of `lagrange-xval run` ({problem}); rerun `lagrange-xval run`."
+        )
+    return results  # type: ignore[no-any-return]
+
+
+def schema_problem(results: Any) -> str | None:
+    """What is wrong with the top of a results document, or None (the parts the report reads first)."""
+    if not isinstance(results, dict):
+        return f"a JSON {type(results).__name__}, expected an object"
+    for key, kind in (("meta", dict), ("systems", dict), ("passed", bool)):
+        if key not in results:
+            return f'no "{key}"'
+        if not isinstance(results[key], kind):
+            return f'"{key}" is a JSON {type(results[key]).__name__}'
+    for name, system in results["systems"].items():
+        if not isinstance(system, dict):
+            return f'system "{name}" is a JSON {type(system).__name__}'
+        for key in ("name", "passed"):
+            if key not in system:
+                return f'system "{name}" has no "{key}"'
+    return None

@@ -21,6 +21,7 @@ from .modelview import ModelView
 PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 MODELS_DIR = PACKAGE_ROOT / "models"
 EQUATIONS_PACKAGE = "lagrange_xval.equations"
+MAX_MJCF_BYTES = 16 * 2**20  # the models of the notes are ~3 kB
 
 REQUIRED_ATTRIBUTES = (
     "DESCRIPTION",
@@ -64,11 +65,11 @@ def mjcf_text(path: Path, overrides: tuple[tuple[str, float], ...] = (), text: s
     applied at full precision."""
     import xml.etree.ElementTree as ET
 
+    from .inputs import regular_file
+
     try:
         if text is None:
-            if not path.is_file():
-                raise HarnessError(f"MJCF file not found: {path}.")
-            text = path.read_text()
+            text = regular_file(path, "MJCF file", max_bytes=MAX_MJCF_BYTES).decode()
         root = ET.fromstring(text).tag
     except (ET.ParseError, UnicodeDecodeError) as exc:
         raise HarnessError(f"{path.name}: not well-formed XML ({exc}).") from None
@@ -79,7 +80,24 @@ def mjcf_text(path: Path, overrides: tuple[tuple[str, float], ...] = (), text: s
         from .overrides import apply_overrides
 
         text = apply_overrides(text, overrides)
-    return text
+    return _absolute_includes(text, path.resolve().parent)
+
+
+def _absolute_includes(text: str, folder: Path) -> str:
+    """Relative `<include file=...>` resolved against the model's folder: the engines parse the text,
+    which has no folder of its own, and would otherwise read them from the working directory."""
+    import re
+    from xml.sax.saxutils import quoteattr
+
+    def absolute(match: re.Match[str]) -> str:
+        name = match.group(3)
+        return match.group(1) + quoteattr(name if Path(name).is_absolute() else str(folder / name))
+
+    return re.sub(r"(<include\b[^>]*?\bfile\s*=\s*)([\"'])(.*?)\2", absolute, text)
+
+
+def _ignore_warning(message: str) -> None:
+    pass
 
 
 def compile_mjcf(path: Path, overrides: tuple[tuple[str, float], ...] = (), text: str | None = None) -> Any:
@@ -87,6 +105,9 @@ def compile_mjcf(path: Path, overrides: tuple[tuple[str, float], ...] = (), text
     one-line HarnessError."""
     import mujoco
 
+    # MuJoCo's default warning handler appends to MUJOCO_LOG.TXT in the working directory; the
+    # harness reads the warning counters of MjData instead (validate/integrate.py).
+    mujoco.set_mju_user_warning(_ignore_warning)
     text = mjcf_text(path, overrides, text)
     try:
         return mujoco.MjModel.from_xml_string(text)
@@ -217,7 +238,12 @@ def _check_contract(module: ModuleType, where: str) -> ModuleType:
 
 @functools.cache
 def _equations_module(name: str) -> ModuleType:
-    module = importlib.import_module(f"{EQUATIONS_PACKAGE}.{name}")
+    try:
+        module = importlib.import_module(f"{EQUATIONS_PACKAGE}.{name}")
+    except SyntaxError as exc:
+        raise HarnessError(f"equations/{name}.py: syntax error at line {exc.lineno}: {exc.msg}.") from None
+    except Exception as exc:  # noqa: BLE001 - a module that fails to import is that system's error alone
+        raise HarnessError(f"equations/{name}.py cannot be imported ({type(exc).__name__}: {exc}).") from None
     return _check_contract(module, f"equations/{name}.py")
 
 
