@@ -68,3 +68,27 @@ def test_a_wrong_variant_of_each_user_system_is_caught(tmp_path, folder, name):
     assert result.data["derivation"]["first_disagreeing_term"] == term, result.statement
     with pytest.raises(AssertionError, match=term):
         result.assert_ok()
+
+
+def test_run_on_a_model_and_equations_outside_the_repository(tmp_path):
+    """`lagrange-xval run --model --equations` from a folder of one's own: a derivation wrong only where
+    l != 1 fails with the term named on the console, and the report set (with its replay) is written there."""
+    import subprocess
+    import sys
+
+    source = (FOLDER / "cart_pole.py").read_text()
+    old = "- p.mp * p.g * lc * s - tau[..., 1]"
+    assert source.count(old) == 1
+    (tmp_path / "my_cart.py").write_text(source.replace(old, "- p.mp * p.g * p.l * s - tau[..., 1]"))
+    shutil.copy(FOLDER / "cart_pole.xml", tmp_path / "my_cart.xml")
+    run = subprocess.run(
+        [sys.executable, "-m", "lagrange_xval.validate.cli", "run", "--model", "my_cart.xml"]
+        + ["--equations", "my_cart.py", "--out", "out", "--states", "100", "--probes", "2"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert run.returncode == 1, run.stderr[-2000:]
+    assert "my_cart: FAIL; hand derivation: gravity disagrees" in run.stderr, run.stderr[-2000:]
+    assert {p.name for p in (tmp_path / "out").iterdir()} >= {"report.html", "report.md", "results.json", "my_cart.rrd"}

@@ -33,6 +33,16 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _probe_count(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
+    if not 0 <= value <= 100:
+        raise argparse.ArgumentTypeError(f"must be from 0 to 100, got {value}")
+    return value
+
+
 def _seed(text: str) -> int:
     try:
         value = int(text)
@@ -79,6 +89,12 @@ def _parser() -> argparse.ArgumentParser:
     def command(name: str, **kwargs: Any) -> argparse.ArgumentParser:
         return sub.add_parser(name, parents=[debug], **kwargs)
 
+    def model_options(parser: argparse.ArgumentParser) -> None:
+        parser.add_argument("--model", type=_path, metavar="PATH", help="your own MJCF (with --equations)")
+        parser.add_argument(
+            "--equations", type=_path, metavar="PATH", help="your own equations module, .py (with --model)"
+        )
+
     def cache_options(parser: argparse.ArgumentParser) -> None:
         parser.add_argument(
             "--cache-dir", type=_path, metavar="DIR", help="reference and chaos cache (default: OUT/.cache)"
@@ -93,6 +109,13 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--seed", type=_seed, default=DEFAULT_SEED)
     run.add_argument("--out", type=_path, default=Path("reports"), help="report folder (default: reports)")
     run.add_argument("--no-replay", action="store_true", help="skip the rerun .rrd recordings")
+    run.add_argument(
+        "--probes",
+        type=_probe_count,
+        default=4,
+        help="probe parameter sets per derivation, every parameter moved (default 4; 0: the model's only)",
+    )
+    model_options(run)
     cache_options(run)
 
     check = command("check", help="pointwise comparison of the three sources")
@@ -361,11 +384,28 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     check_out(args.out)  # before hours of work, not after
     with use_cache(args), reporter() as progress:
-        results = run(args.systems or None, n_states=args.states, seed=args.seed, progress=progress)
+        results = run(
+            args.systems or None,
+            n_states=args.states,
+            seed=args.seed,
+            progress=progress,
+            n_probes=args.probes,
+            files=_user_files(args),
+        )
     write_all(results, args.out, replay=not args.no_replay)
     verdict = "all systems pass" if results["passed"] else "some systems FAIL"
     print(f"{verdict}; reports in {args.out}/ (report.html, report.md, results.json)")
     return 0 if results["passed"] else 1
+
+
+def _user_files(args: argparse.Namespace) -> list[tuple[Path, Path]] | None:
+    """--model and --equations: both or neither."""
+    model, equations = getattr(args, "model", None), getattr(args, "equations", None)
+    if model is None and equations is None:
+        return None
+    if model is None or equations is None:
+        raise HarnessError("--model and --equations go together: give your MJCF and your equations module.")
+    return [(model, equations)]
 
 
 def cmd_report(args: argparse.Namespace) -> int:

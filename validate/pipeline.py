@@ -6,12 +6,14 @@ Each step returns plain data; `run` assembles `results.json` and the reports ren
 from __future__ import annotations
 
 from concurrent.futures import Executor, as_completed
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from . import chaos, compare, equivalence, experiments, integrate, judge, modelsync, verdict
 from . import probes as probing
+from .errors import HarnessError
 from .probes import DEFAULT_PROBES
 from .sources import make_sources
 from .tolerances import TOLERANCES
@@ -252,8 +254,10 @@ def run_system(
         and traj_ok
         and not failed_stages
     )
+    failed = _what_failed(model, point, derivation, same, cross, traj, failed_stages)
     return {
         **_identity(system),
+        "failed": failed,
         "parameters": {k: float(v) for k, v in probing.param_fields(system.params).items()},
         "timestep": float(sources["mujoco"].m.opt.timestep),
         "model_checks": model,
@@ -270,13 +274,46 @@ def run_system(
     }
 
 
+def _what_failed(
+    model: dict[str, Any],
+    point: dict[str, Any],
+    derivation: dict[str, Any],
+    same: dict[str, Any] | None,
+    cross: dict[str, Any] | None,
+    traj: dict[str, Any] | None,
+    failed_stages: list[str],
+) -> list[str]:
+    """Each failing check of a system in one short phrase, the derivation's first."""
+    out = []
+    if derivation.get("verdict") == "disagrees":
+        out.append(f"hand derivation: {derivation.get('statement')}")
+    if not model["passed"]:
+        out.append(f"model checks: {model['mismatches'][0]['key']} ({model['mismatches'][0]['why']})")
+    bad = [r for r in point["rows"] if not r["passed"]]
+    if bad:
+        out.append(f"pointwise: {bad[0]['quantity']} {bad[0]['pair']} (and {len(bad) - 1} more)")
+    if same is not None and not same["passed"]:
+        row = next(r for r in same["rows"] if not r["passed"])
+        out.append(f"equivalence with {same['other']}: {row['quantity']} at {row.get('parameters', 'model')}")
+    if cross is not None and not cross["passed"]:
+        out.append("trajectory mirrors of MuJoCo's integrators")
+    for run in (traj or {}).get("runs", []):
+        if run.get("counts") and run.get("passed") is False:
+            out.append(f"trajectory {run['source']} ({run['method']}) beyond the threshold")
+    out += [f"stage {k} failed" for k in failed_stages]
+    return out
+
+
 def _identity(system: Any) -> dict[str, Any]:
     """What a system is: names, files, coordinates, joints, bodies and the physics it uses."""
+    from .systems import MODELS_DIR
+
+    inside = system.mjcf.resolve().parent == MODELS_DIR.resolve()
     return {
         "name": system.name,
         "description": system.description,
-        "mjcf": f"models/{system.mjcf.name}",
-        "equations": f"equations/{system.name}.py",
+        "mjcf": f"models/{system.mjcf.name}" if inside else str(system.mjcf),
+        "equations": f"equations/{system.name}.py" if inside else str(getattr(system.equations, "__file__", "?")),
         "coordinates": list(system.coordinates),
         "joints": list(system.joints),
         "bodies": list(system.bodies),
@@ -304,6 +341,7 @@ def _unreadable(system: Any, exc: Exception) -> dict[str, Any]:
         },
         "variants": [],
         "stages": {"everything after reading the parameters": f"not run: {why}"},
+        "failed": [f"hand derivation: parameters disagrees: {why}"],
         "skipped": [],
         "passed": False,
     }
@@ -316,6 +354,13 @@ def _run_one(name: str, n_states: int, seed: int, n_probes: int = DEFAULT_PROBES
     return run_system(load(name), n_states=n_states, seed=seed, n_probes=n_probes)
 
 
+def _run_files(model: str, equations: str, n_states: int, seed: int, n_probes: int) -> dict[str, Any]:
+    """One system from a model file and an equations file (picklable, for process pools)."""
+    from .systems import System
+
+    return run_system(System.from_files(model, equations), n_states=n_states, seed=seed, n_probes=n_probes)
+
+
 def run(
     names: list[str] | None,
     *,
@@ -324,18 +369,28 @@ def run(
     progress: Any = None,
     executor: Executor | None = None,
     n_probes: int = DEFAULT_PROBES,
+    files: list[tuple[Path, Path]] | None = None,
 ) -> dict[str, Any]:
     """Every system (or those named), each in a worker of `executor` (default: a process pool on
-    every core; any `concurrent.futures.Executor` will do, a distributed one included)."""
+    every core; any `concurrent.futures.Executor` will do, a distributed one included). `files`:
+    (model, equations) pairs of systems outside the repository, run instead of (or beside) names."""
     from .results import provenance
-    from .systems import load_all
+    from .systems import System, load_all
 
-    systems = load_all(names)  # unknown names fail here, before any work starts
+    # Unknown names and unreadable files fail here, before any work starts.
+    systems = load_all(names) if names or not files else []
+    users = [System.from_files(m, e) for m, e in (files or [])]
+    taken = [s.name for s in systems + users]
+    clash = sorted({n for n in taken if taken.count(n) > 1})
+    if clash:
+        raise HarnessError(f"two systems are called {', '.join(clash)}: rename one equations file.")
     out: dict[str, Any] = {"meta": provenance(seed), "tolerances": TOLERANCES.as_dict(), "systems": {}}
     from .parallel import executor_for
 
-    with executor_for(executor, tasks=len(systems)) as pool:
+    with executor_for(executor, tasks=len(systems) + len(users)) as pool:
         futures = {pool.submit(_run_one, s.name, n_states, seed, n_probes): s.name for s in systems}
+        for (model, equations), user in zip(files or [], users, strict=True):
+            futures[pool.submit(_run_files, str(model), str(equations), n_states, seed, n_probes)] = user.name
         for name in futures.values():
             if progress:
                 progress(name, "start")

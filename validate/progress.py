@@ -43,7 +43,13 @@ def reporter() -> Iterator[Any]:
 
 
 def _line(name: str, result: dict[str, Any], elapsed: float) -> str:
+    """One line per system: the verdict on its derivation first (the failing term and why), then
+    the printed forms."""
     variants = result.get("variants", [])
     wrong = sum(v["verdict"] == "disagrees" for v in variants)
     mark = "pass" if result["passed"] else "FAIL"
-    return f"[{elapsed:6.1f} s] {name}: {mark}; {len(variants)} printed forms, {wrong} disagree with the engines"
+    head = f"[{elapsed:6.1f} s] {name}: {mark}"
+    if not result["passed"] and result.get("failed"):
+        head += f"; {'; '.join(result['failed'])}"
+    forms = f"{len(variants)} printed forms, {wrong} disagree with the engines" if variants else "no printed forms"
+    return f"{head}; {forms}"

@@ -211,9 +211,13 @@ def _params(system: Any, sys_results: dict[str, Any]) -> Any:
 
 def build_scene(name: str, sys_results: dict[str, Any], *, meta: dict[str, Any] | None = None) -> dict[str, Any]:
     """The arrays and text of one system's recording. Pure numpy; no rerun calls."""
-    from .systems import load
+    from .systems import System, load, system_names
 
-    system = load(name)
+    model, equations = sys_results.get("mjcf", ""), sys_results.get("equations", "")
+    if name in system_names() and str(model).startswith("models/"):
+        system = load(name)
+    else:  # a system from the user's own files, recorded by their paths
+        system = System.from_files(model, equations, name=name)
     view = system.view
     params = _params(system, sys_results)
     traj = sys_results["trajectories"]

@@ -57,7 +57,9 @@ def system_derivation(doc: Document, name: str, s: dict[str, Any]) -> None:
         doc.p(f"Derivation verdict: {NOT_RUN}.", "missing")
         return
     ok = d.get("verdict") == "agrees"
-    doc.p(f"{'✓' if ok else '✗'} The hand derivation {d.get('statement', d.get('verdict'))}.", "pass" if ok else "fail")
+    doc.p(
+        f"{'✓' if ok else '✗'} The hand derivation: {d.get('statement', d.get('verdict'))}.", "pass" if ok else "fail"
+    )
     checked = d.get("checked", {})
     doc.p(
         f"Each term of `{s.get('equations', '?')}` is compared with both engines at {checked.get('states_at_model')} "
