@@ -408,7 +408,7 @@ def judge_system(
     tolerances: Tolerances = TOLERANCES,
     values: dict[str, dict[str, np.ndarray]] | None = None,
     n_probes: int = DEFAULT_PROBES,
-    probe_states: int = 200,
+    probe_states: int = 100,
     seed: int = 0,
 ) -> list[dict[str, Any]]:
     """Verdicts for every printed form of one system, at the model's parameters and at `n_probes`
