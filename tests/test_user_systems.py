@@ -92,3 +92,33 @@ def test_run_on_a_model_and_equations_outside_the_repository(tmp_path):
     assert run.returncode == 1, run.stderr[-2000:]
     assert "my_cart: FAIL; hand derivation: gravity disagrees" in run.stderr, run.stderr[-2000:]
     assert {p.name for p in (tmp_path / "out").iterdir()} >= {"report.html", "report.md", "results.json", "my_cart.rrd"}
+
+
+def test_run_systems_folder(tmp_path):
+    """`run --systems DIR` runs every <name>.xml with its <name>.py; a file without its partner is a
+    one-line error before any work."""
+    import subprocess
+    import sys
+
+    from lagrange_xval.validate import systems
+
+    source = systems.load("simple_pendulum")
+    (tmp_path / "mine").mkdir()
+    shutil.copy(source.mjcf, tmp_path / "mine" / "pendulum.xml")
+    (tmp_path / "mine" / "pendulum.py").write_text(
+        Path(source.equations.__file__)
+        .read_text()
+        .replace("from ._forms import", "from lagrange_xval.equations._forms import")
+    )
+    command = [sys.executable, "-m", "lagrange_xval.validate.cli", "run", "--systems", "mine", "--out", "out"]
+    ok = subprocess.run(
+        command + ["--states", "50", "--probes", "1", "--no-replay"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert ok.returncode == 0 and "pendulum: pass" in ok.stderr, ok.stderr[-2000:]
+    (tmp_path / "mine" / "lonely.xml").write_text("<mujoco/>")
+    bad = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert bad.returncode == 2 and "lonely has no partner" in bad.stderr and bad.stderr.count("\n") == 1, bad.stderr

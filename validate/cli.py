@@ -116,6 +116,13 @@ def _parser() -> argparse.ArgumentParser:
         help="probe parameter sets per derivation, every parameter moved (default 4; 0: the model's only)",
     )
     model_options(run)
+    run.add_argument(
+        "--systems",
+        dest="systems_dir",
+        type=_path,
+        metavar="DIR",
+        help="a folder of your own systems: each <name>.xml with its <name>.py",
+    )
     cache_options(run)
 
     check = command("check", help="pointwise comparison of the three sources")
@@ -399,13 +406,17 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def _user_files(args: argparse.Namespace) -> list[tuple[Path, Path]] | None:
-    """--model and --equations: both or neither."""
+    """--model and --equations (both or neither), and the pairs of a --systems folder."""
+    from .systems import pairs_in
+
     model, equations = getattr(args, "model", None), getattr(args, "equations", None)
-    if model is None and equations is None:
-        return None
-    if model is None or equations is None:
+    if (model is None) != (equations is None):
         raise HarnessError("--model and --equations go together: give your MJCF and your equations module.")
-    return [(model, equations)]
+    files = [(model, equations)] if model is not None and equations is not None else []
+    folder = getattr(args, "systems_dir", None)
+    if folder is not None:
+        files += pairs_in(folder)
+    return files or None
 
 
 def cmd_report(args: argparse.Namespace) -> int:

@@ -276,6 +276,22 @@ def load_module(path: Path) -> ModuleType:
     return _check_contract(module, str(path))
 
 
+def pairs_in(folder: Path) -> list[tuple[Path, Path]]:
+    """(model, equations) of every system in a user's folder: each <name>.xml with its <name>.py. A
+    file without its partner is an error naming it: a derivation left unchecked is never silent."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise HarnessError(f"systems folder not found: {folder} (give a folder of <name>.xml and <name>.py).")
+    models = {p.stem: p for p in folder.glob("*.xml")}
+    modules = {p.stem: p for p in folder.glob("*.py") if not p.stem.startswith("_")}
+    lonely = sorted(models.keys() ^ modules.keys())
+    if lonely:
+        raise HarnessError(f"{folder}: {', '.join(lonely)} has no partner (each system is <name>.xml and <name>.py).")
+    if not models:
+        raise HarnessError(f"{folder}: no system found (each system is <name>.xml and <name>.py).")
+    return [(models[n], modules[n]) for n in sorted(models)]
+
+
 def load(name: str, overrides: tuple[tuple[str, float], ...] = ()) -> System:
     """The system called `name`; an unknown name lists the valid ones and the closest."""
     names = system_names()

@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from lagrange_xval.validate.api import Result, System, check
-from lagrange_xval.validate.errors import HarnessError
+from lagrange_xval.validate.systems import pairs_in
 
 __all__ = ["assert_equations_match", "systems_in"]
 
@@ -48,12 +48,4 @@ def systems_in(folder: str | Path) -> list[Any]:
     A file without its partner is an error naming it (a derivation left unchecked is never silent)."""
     import pytest
 
-    folder = Path(folder)
-    if not folder.is_dir():
-        raise HarnessError(f"systems folder not found: {folder}.")
-    models = {p.stem: p for p in folder.glob("*.xml")}
-    modules = {p.stem: p for p in folder.glob("*.py") if not p.stem.startswith("_")}
-    lonely = sorted(models.keys() ^ modules.keys())
-    if lonely:
-        raise HarnessError(f"{folder}: {', '.join(lonely)} has no partner (each system is <name>.xml and <name>.py).")
-    return [pytest.param(System.from_files(models[n], modules[n]), id=n) for n in sorted(models)]
+    return [pytest.param(System.from_files(m, e), id=m.stem) for m, e in pairs_in(Path(folder))]
