@@ -122,3 +122,46 @@ def test_run_systems_folder(tmp_path):
     (tmp_path / "mine" / "lonely.xml").write_text("<mujoco/>")
     bad = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=600)
     assert bad.returncode == 2 and "lonely has no partner" in bad.stderr and bad.stderr.count("\n") == 1, bad.stderr
+
+
+def test_check_and_simulate_take_a_model_and_equations(tmp_path):
+    """`check` and `simulate` on a user's files; a SYSTEM name and files together, or neither, is one line."""
+    import json
+    import subprocess
+    import sys
+
+    shutil.copy(FOLDER / "acrobot.xml", tmp_path / "acro.xml")
+    shutil.copy(FOLDER / "acrobot.py", tmp_path / "acro.py")
+    files = ["--model", "acro.xml", "--equations", "acro.py"]
+
+    def cli(*args: str) -> subprocess.CompletedProcess[str]:
+        command = [sys.executable, "-m", "lagrange_xval.validate.cli", *args]
+        return subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=600)
+
+    checked = cli("check", *files, "--n", "20", "--json")
+    assert checked.returncode == 0, checked.stderr[-2000:]
+    assert json.loads(checked.stdout)["system"] == "acro"
+    simulated = cli("simulate", *files, "--source", "mujoco", "--q0", "0.1,0.2", "--v0", "0,0")
+    assert simulated.returncode == 2 and "--t-end" in simulated.stderr  # argparse: the required options
+    simulated = cli(
+        "simulate",
+        *files,
+        "--source",
+        "hand",
+        "--q0",
+        "0.1,0.2",
+        "--v0",
+        "0,0",
+        "--t-end",
+        "1",
+        "--dt-out",
+        "0.5",
+        "--out",
+        "sim.csv",
+    )
+    assert simulated.returncode == 0, simulated.stderr
+    assert len((tmp_path / "sim.csv").read_text().strip().splitlines()) == 4  # header and t = 0, 0.5, 1
+    both = cli("check", "simple_pendulum", *files)
+    neither = cli("check")
+    assert both.returncode == 2 and "not both" in both.stderr and both.stderr.count("\n") == 1
+    assert neither.returncode == 2 and "name a SYSTEM" in neither.stderr and neither.stderr.count("\n") == 1

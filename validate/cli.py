@@ -126,7 +126,8 @@ def _parser() -> argparse.ArgumentParser:
     cache_options(run)
 
     check = command("check", help="pointwise comparison of the three sources")
-    check.add_argument("system")
+    check.add_argument("system", nargs="?", help="a repository system (or give --model and --equations)")
+    model_options(check)
     check.add_argument(
         "--states",
         type=_path,
@@ -138,7 +139,8 @@ def _parser() -> argparse.ArgumentParser:
     check.add_argument("--json", action="store_true", help="print one JSON object")
 
     sim = command("simulate", help="one trajectory of one source, sampled every DT")
-    sim.add_argument("system")
+    sim.add_argument("system", nargs="?", help="a repository system (or give --model and --equations)")
+    model_options(sim)
     sim.add_argument("--source", choices=("hand", "mujoco", "pinocchio"), required=True)
     sim.add_argument("--q0", type=_vector, required=True, help="comma-separated, notes' coordinates (rad)")
     sim.add_argument("--v0", type=_vector, required=True, help="comma-separated (rad/s)")
@@ -253,9 +255,8 @@ def cmd_check(args: argparse.Namespace) -> int:
 
     from . import compare
     from .sources import make_sources
-    from .systems import load
 
-    system = load(args.system)
+    system = _one_system(args)
     states = (
         _states_from_file(system, args.states)
         if args.states
@@ -311,7 +312,6 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     from .compare import validate_states
     from .results import atomic_write
     from .sources import make_source
-    from .systems import load
 
     suffix = args.out.suffix.lower()
     if suffix not in (".csv", ".json"):
@@ -323,7 +323,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         raise HarnessError(
             f"--t-end {args.t_end:g} / --dt-out {args.dt_out:g} gives {samples:.3g} samples; at most {MAX_SAMPLES}."
         )
-    system = load(args.system)
+    system = _one_system(args)
     st = validate_states(system, args.q0, args.v0, args.tau)
     t = integrate.time_grid(args.t_end, args.dt_out)
     source = make_source(system, args.source)
@@ -403,6 +403,20 @@ def cmd_run(args: argparse.Namespace) -> int:
     verdict = "all systems pass" if results["passed"] else "some systems FAIL"
     print(f"{verdict}; reports in {args.out}/ (report.html, report.md, results.json)")
     return 0 if results["passed"] else 1
+
+
+def _one_system(args: argparse.Namespace) -> Any:
+    """The SYSTEM named, or the one given by --model and --equations (exactly one of the two)."""
+    from .systems import System, load
+
+    files = _user_files(args)
+    if files and args.system:
+        raise HarnessError("give a SYSTEM name or --model and --equations, not both.")
+    if files:
+        return System.from_files(*files[0])
+    if not args.system:
+        raise HarnessError("name a SYSTEM (see `lagrange-xval list`) or give --model PATH --equations PATH.")
+    return load(args.system)
 
 
 def _user_files(args: argparse.Namespace) -> list[tuple[Path, Path]] | None:
