@@ -88,6 +88,22 @@ def _f(x: Any) -> float:
         return float("nan")
 
 
+def _row(check: str, r: dict[str, Any], quantity: str) -> Row:
+    """A result row of the harness (a dict) as a typed Row."""
+    return Row(
+        check,
+        quantity,
+        r["pair"],
+        _f(r["max_abs"]),
+        _f(r["scaled"]),
+        _f(r["tolerance"]),
+        bool(r["passed"]),
+        r.get("worst_state"),
+        r.get("probe"),
+        r.get("error", ""),
+    )
+
+
 def check(
     system: System | str,
     *,
@@ -123,37 +139,11 @@ def check(
     states = compare.random_states(system, n=n_states, seed=seed)
     values = compare.evaluate(sources, states)
     point = compare.pointwise_result(values, states, seed=seed, tolerances=tolerances)
-    for r in point["rows"]:
-        rows.append(
-            Row(
-                "pointwise",
-                r["quantity"],
-                r["pair"],
-                _f(r["max_abs"]),
-                _f(r["scaled"]),
-                _f(r["tolerance"]),
-                bool(r["passed"]),
-                r.get("worst_state"),
-            )
-        )
+    rows += [_row("pointwise", r, r["quantity"]) for r in point["rows"]]
     derivation = verdict.judge_derivation(
         system, states, sources, values=values, n_probes=probes, seed=seed, tolerances=tolerances
     )
-    for r in derivation["terms"]:
-        rows.append(
-            Row(
-                "derivation",
-                r["term"],
-                r["pair"],
-                _f(r["max_abs"]),
-                _f(r["scaled"]),
-                _f(r["tolerance"]),
-                bool(r["passed"]),
-                r.get("worst_state"),
-                r.get("probe"),
-                r.get("error", ""),
-            )
-        )
+    rows += [_row("derivation", r, r["term"]) for r in derivation["terms"]]
     # Derivation rows first among the failures: they name the term, the pointwise rows the quantity.
     order = {"model": 0, "derivation": 1, "pointwise": 2}
     rows.sort(key=lambda r: (r.passed, order[r.check]))
