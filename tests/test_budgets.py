@@ -249,3 +249,17 @@ def test_generated_code_is_not_shared_with_a_mutated_module_of_the_same_name():
     assert f_mutated(0.0, y, tau)[2] == -f_original(0.0, y, tau)[2] != 0.0
     assert fastpath.scalar_rhs(original) is f_original
     assert reference.symbolic_dynamics(s) != reference.symbolic_dynamics(original)
+
+
+def test_lockstep_mujoco_side_never_reports_a_reset_state():
+    """A state from which MuJoCo warns and resets gives NaN rows in the lockstep, not zeros as data."""
+    import numpy as np
+    from lagrange_xval.validate import mirror, systems
+    from lagrange_xval.validate.sources import make_source
+
+    source = make_source(systems.load("double_pendulum_point"), "mujoco")
+    q = np.array([[0.1, 0.2], [0.1, 0.2]])
+    v = np.array([[0.0, 0.0], [1e12, -1e12]])  # MuJoCo's bad-qacc warning, then its reset
+    q1, v1 = mirror.mujoco_steps(source, q, v, np.zeros(2), integrator="Euler", timestep=0.001, steps=3)
+    assert np.all(np.isfinite(q1[0])) and np.all(np.isfinite(v1[0]))
+    assert np.all(np.isnan(q1[1])) and np.all(np.isnan(v1[1]))

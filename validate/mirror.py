@@ -341,7 +341,8 @@ def mirror_steps(
 def mujoco_steps(
     source: Any, q: np.ndarray, v: np.ndarray, tau: np.ndarray, *, integrator: str, timestep: float, steps: int = 1
 ) -> tuple[np.ndarray, np.ndarray]:
-    """`steps` calls of `mj_step` from each of N states (the MuJoCo side of a lockstep), (N, n)."""
+    """`steps` calls of `mj_step` from each of N states (the MuJoCo side of a lockstep), (N, n). A
+    state from which MuJoCo warns (and resets) gives NaN rows, never the reset state as data."""
     import mujoco
 
     _check_integrator(integrator)
@@ -357,6 +358,8 @@ def mujoco_steps(
             source.set_state(q[i], v[i], tau[i])
             mujoco.mj_step(m, d, nstep=steps)
             q_out[i], v_out[i] = source.get_state()
+            if any(stat.number for stat in d.warning):
+                q_out[i], v_out[i] = np.nan, np.nan
     finally:
         m.opt.integrator, m.opt.timestep = saved
     return q_out, v_out
