@@ -37,7 +37,10 @@ def reporter() -> Iterator[Any]:
         def plain(name: str, stage: str, result: Any = None) -> None:
             elapsed = time.perf_counter() - start
             line = _line(name, result, elapsed) if stage == "done" else f"[{elapsed:6.1f} s] {name}: started"
-            print(line, file=sys.stderr, flush=True)
+            # One write with its newline: a signal handled between print's two writes would glue its
+            # own line to this one.
+            sys.stderr.write(line + "\n")
+            sys.stderr.flush()
 
         yield plain
 
