@@ -176,3 +176,27 @@ def test_mirror_counts_evaluations():
     t = time_grid(0.1, 0.01)
     assert mirror_trajectory(system, src["hand"], q0, v0, tau, t, integrator="RK4").stats["evaluations"] == 400
     assert mirror_trajectory(system, src["hand"], q0, v0, tau, t, integrator="Euler").stats["evaluations"] == 100
+
+
+@pytest.mark.parametrize("engine", ["hand", "pinocchio"])
+def test_scalar_eulerdamp_path_is_the_batched_one(engine):
+    """A free run's one-state path of Euler with implicit damping ((M + h D)^-1 f: generated code for the
+    hand equations, CRBA and RNEA per call for Pinocchio) steps as the batched numpy path does."""
+    damped = [n for n in SYSTEMS if "damping" in systems.load(n).uses]
+    assert damped, "no discovered system uses joint damping"
+    for name in damped:
+        system = systems.load(name)
+        src = sources_of(system)
+        q0, v0, tau = start(system)
+        t = time_grid(0.5, 0.01)
+        free = mirror_trajectory(system, src[engine], q0, v0, tau, t, integrator="Euler")
+        stepper = Stepper(system, src[engine], integrator="Euler", timestep=system.mujoco_model().opt.timestep)
+        assert stepper.eulerdamp and stepper._scalar(tau) is not None, f"{name}: no one-state eulerdamp path"
+        q, v = np.repeat(q0[None], 2, axis=0), np.repeat(v0[None], 2, axis=0)  # two states: the batched path
+        batched = [q[0]]
+        for _ in range(len(t) - 1):
+            for _ in range(10):
+                q, v = stepper.step(q, v, np.repeat(tau[None], 2, axis=0))
+            batched.append(q[0])
+        gap = np.abs(free.q - np.array(batched)).max()
+        assert free.stats["status"] == "ok" and gap < 1e-12, f"{name} {engine}: one-state path differs by {gap:.1e}"

@@ -37,10 +37,22 @@ def _solve(A: Any, b: list[Any]) -> list[Any]:
     return tracing.solve_spd(A, b)
 
 
-def hand_accelerations(system: Any) -> tuple[list[Any], list[Any], list[Any], list[Any]]:
-    """a = M^-1 (tau + passive - bias) of the hand equations, symbolically."""
+def hand_accelerations(
+    system: Any, damped_step: float | None = None
+) -> tuple[list[Any], list[Any], list[Any], list[Any]]:
+    """a = M^-1 (tau + passive - bias) of the hand equations, symbolically; with `damped_step` h,
+    MuJoCo's Euler with implicit joint damping instead: a = (M + h D)^-1 (tau + passive - bias),
+    D = diag(-d passive_i / d v_i) (exact: the derivative is symbolic)."""
+    import sympy as sp
+
     qs, vs, _, taus = _symbols(system.nv)
     M, bias, passive = tracing.dynamics(system, qs, vs, tracing.sympy_backend())
+    if damped_step is not None:
+        h = sp.Float(damped_step, 17)
+        M = [
+            [M[i][j] - (h * sp.diff(passive[i], vs[i]) if i == j else 0) for j in range(len(qs))]
+            for i in range(len(qs))
+        ]
     return _solve(M, [t + p - b for t, p, b in zip(taus, passive, bias, strict=True)]), qs, vs, taus
 
 
@@ -88,7 +100,7 @@ def _compile(source: str, label: str) -> Any:
     return namespace["rhs"]
 
 
-def _key(system: Any, variant: Any) -> tuple[Any, ...]:
+def _key(system: Any, variant: Any, damped_step: float | None = None) -> tuple[Any, ...]:
     """What the generated code depends on, by identity: the equations module and the functions traced
     (a mutated or reloaded module of the same name has other function objects), the parameter values
     and the variant's own function. Never the system's name alone: `dataclasses.replace(system,
@@ -96,22 +108,24 @@ def _key(system: Any, variant: Any) -> tuple[Any, ...]:
     eq = system.equations
     params = tuple((k, float(v).hex()) for k, v in sorted(vars(system.params).items()))
     if variant is None:
-        return ("scalar_rhs", eq, eq.mass_matrix, eq.bias, eq.passive, params, None)
+        return ("scalar_rhs", eq, eq.mass_matrix, eq.bias, eq.passive, params, None, damped_step)
     own = getattr(variant, "residual", None) or getattr(variant, "acceleration", None)
     return ("scalar_rhs", eq, params, variant.name, own, id(variant))
 
 
-def scalar_rhs(system: Any, variant: Any = None) -> Any:
+def scalar_rhs(system: Any, variant: Any = None, *, damped_step: float | None = None) -> Any:
     """The compiled scalar right-hand side `rhs(t, y, tau) -> list` of the hand equations, or of a
     printed dynamic form; cached on the System, keyed by what it was generated from (`_key`).
+    `damped_step` h (hand equations only): the accelerations of MuJoCo's Euler step with implicit
+    joint damping, (M + h D)^-1 f (see `hand_accelerations`).
 
     The code is plain `math`: on a wrong derivation it can raise ZeroDivisionError (a singular M),
     OverflowError or ValueError (a math domain error); the integrators turn these into a finding
     (validate/integrate.py EQUATION_ERRORS)."""
-    key = _key(system, variant)
+    key = _key(system, variant, damped_step)
     cache = system._cache
     if key not in cache:
-        acc = hand_accelerations(system) if variant is None else variant_accelerations(system, variant)
+        acc = hand_accelerations(system, damped_step) if variant is None else variant_accelerations(system, variant)
         label = f"{system.name} ({system.equations.__name__}) {variant.name if variant else 'hand'}"
         cache[key] = (variant, _compile(rhs_source(*acc), label))  # the variant kept alive: id() in the key
     return cache[key][1]

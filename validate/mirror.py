@@ -106,21 +106,25 @@ class Stepper:
 
     def _scalar(self, tau: np.ndarray) -> Any:
         """A one-state right-hand side f(t, y) without batch overhead, or None for MuJoCo's own."""
-        key = tuple(float(x) for x in tau)
+        damped = self.h if self.eulerdamp else None  # Euler's implicit damping: (M + h D)^-1 f
+        key = (tuple(float(x) for x in tau), damped)
         cache = self.__dict__.setdefault("_scalar_cache", {})
         if key not in cache:
             if self.source.name == "hand":
                 from .fastpath import scalar_rhs
 
-                fast, tau_list = scalar_rhs(self.system), list(key)
+                fast, tau_list = scalar_rhs(self.system, damped_step=damped), list(key[0])
                 cache[key] = lambda t, y: fast(t, y, tau_list)
+            elif damped is not None:
+                make = getattr(self.source, "damped_rhs", None)
+                cache[key] = make(np.array(key[0]), damped) if make else None
             else:
-                cache[key] = self.source.rhs(np.array(key)) if hasattr(self.source, "rhs") else None
+                cache[key] = self.source.rhs(np.array(key[0])) if hasattr(self.source, "rhs") else None
         return cache[key]
 
     def _accel(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
         self.evaluations += len(q)
-        if len(q) == 1:  # free runs: the generated scalar path (hand) or the engine's per-call rhs
+        if len(q) == 1 and not self.eulerdamp:  # free runs: the generated scalar path (hand) or the engine's rhs
             fast = self._scalar(tau[0])
             if fast is not None:
                 n = q.shape[1]
@@ -272,8 +276,7 @@ def mirror_trajectory(
     tau_b = np.asarray(tau, dtype=float)[None]
     qs, vs = np.full((len(t), system.nv), np.nan), np.full((len(t), system.nv), np.nan)
     qs[0], vs[0] = q[0], v[0]
-    explicit = integrator == "RK4" or (integrator == "Euler" and not stepper.eulerdamp)
-    fast = stepper._scalar(tau_b[0]) if explicit else None
+    fast = stepper._scalar(tau_b[0]) if integrator in ("RK4", "Euler") else None
     deadline = time.perf_counter() + budget.max_wall_s
     status, reason = "ok", ""
     with np.errstate(all="ignore"):

@@ -101,6 +101,27 @@ class PinocchioSource:
 
         return f
 
+    def damped_rhs(self, tau: np.ndarray, h: float):
+        """The right-hand side of MuJoCo's Euler step with implicit joint damping on CRBA and RNEA:
+        a = (M + h D)^-1 (tau - D v - nle(q, v)), one state per call (see validate/mirror.py)."""
+        n, model, data = len(tau), self.model, self.data
+        qfull, vfull = pin.neutral(model), np.zeros(model.nv)
+        qidx, vidx, damping = self.qidx, self.vidx, self.damping
+        ix, hd = np.ix_(vidx, vidx), np.diag(h * damping)
+
+        def f(t: float, y: np.ndarray) -> np.ndarray:
+            qfull[qidx] = y[:n]
+            vfull[vidx] = y[n:]
+            full = pin.crba(model, data, qfull)
+            m = (np.triu(full) + np.triu(full, 1).T)[ix]
+            rhs = tau - damping * y[n:] - pin.nonLinearEffects(model, data, qfull, vfull)[vidx]
+            out = np.empty(2 * n)
+            out[:n] = y[n:]
+            out[n:] = np.linalg.solve(m + hd, rhs)
+            return out
+
+        return f
+
     def mass_matrix(self, q: np.ndarray) -> np.ndarray:
         out = np.empty(q.shape + (q.shape[-1],))
         for i in range(len(q)):
