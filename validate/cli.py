@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import errno
+import functools
 import json
 import os
 import signal
@@ -385,11 +386,12 @@ def use_cache(args: argparse.Namespace) -> Iterator[None]:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from .outputs import check_out, write_all
+    from .outputs import check_out, render_system, write_all
     from .pipeline import run
     from .progress import reporter
 
     check_out(args.out)  # before hours of work, not after
+    rendered: dict[str, Any] = {}
     with use_cache(args), reporter() as progress:
         results = run(
             args.systems or None,
@@ -398,8 +400,10 @@ def cmd_run(args: argparse.Namespace) -> int:
             progress=progress,
             n_probes=args.probes,
             files=_user_files(args),
+            after=functools.partial(render_system, replay=not args.no_replay),  # in the workers, overlapped
+            rendered=rendered,
         )
-    write_all(results, args.out, replay=not args.no_replay)
+    write_all(results, args.out, replay=not args.no_replay, rendered=rendered)
     verdict = "all systems pass" if results["passed"] else "some systems FAIL"
     print(f"{verdict}; reports in {args.out}/ (report.html, report.md, results.json)")
     return 0 if results["passed"] else 1

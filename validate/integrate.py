@@ -555,7 +555,7 @@ def mujoco_trajectory(
         # whose clock fell behind or whose state is not finite, or the last if only a counter says so.
         behind = np.abs(clock - (clock[0] + np.arange(len(t)) * steps * dt)) > 0.5 * dt
         broken = behind | ~np.all(np.isfinite(q), axis=1) | ~np.all(np.isfinite(v), axis=1)
-        if broken.any() or any(stat.number for stat in d.warning):
+        if broken.any() or d.warning.number.any():
             k = int(np.argmax(broken)) if broken.any() else len(t) - 1
             _check_step(d, system, integrator, dt, t, max(k, 1), q[k], v[k], force=True)
     finally:

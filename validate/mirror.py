@@ -37,6 +37,7 @@ for states whose M is singular.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 import time
@@ -189,6 +190,62 @@ def _check_sample(q: Any, v: Any, budget: Budget, deadline: float) -> None:
         raise _Blowup(f"wall time {budget.max_wall_s:g} s")
 
 
+@functools.cache
+def _scheme_code(integrator: str, n: int) -> Any:
+    """`run(f, q, v, h, steps) -> (q, v)`: `steps` steps of `Stepper.step`'s one-state scheme (RK4 or
+    semi-implicit Euler) on Python floats, generated as straight-line code for n coordinates with the
+    same operations in the same order (the zero tableau entries included), so it rounds as the loop
+    over the tableau does; a loop over lists cost twice as much per step."""
+    qs, vs = [f"q{i}" for i in range(n)], [f"v{i}" for i in range(n)]
+    rng = range(n)
+    body: list[str] = []
+    if integrator == "RK4":
+        xs, fs = [vs], [[f"a0_{i}" for i in rng]]
+        body.append(f"_y = f(0.0, [{', '.join(qs + vs)}])")
+        body += [f"a0_{i} = _y[{n + i}]" for i in rng]
+        for s, row in enumerate(RK4_A, start=1):
+            for i in rng:
+                dq = "0.0" + "".join(f" + {xs[j][i]} * {a!r}" for j, a in enumerate(row))
+                dv = "0.0" + "".join(f" + {fs[j][i]} * {a!r}" for j, a in enumerate(row))
+                body.append(f"dq{i} = {_nest(dq)}")
+                body.append(f"dv{i} = {_nest(dv)}")
+            body += [f"qs{s}_{i} = q{i} + h * dq{i}" for i in rng]
+            body += [f"vs{s}_{i} = v{i} + dv{i} * h" for i in rng]
+            body.append(f"_y = f(0.0, [{', '.join([f'qs{s}_{i}' for i in rng] + [f'vs{s}_{i}' for i in rng])}])")
+            body += [f"a{s}_{i} = _y[{n + i}]" for i in rng]
+            xs.append([f"vs{s}_{i}" for i in rng])
+            fs.append([f"a{s}_{i}" for i in rng])
+        for i in rng:
+            body.append(f"dq{i} = {_nest('0.0' + ''.join(f' + {xs[j][i]} * {b!r}' for j, b in enumerate(RK4_B)))}")
+            body.append(f"dv{i} = {_nest('0.0' + ''.join(f' + {fs[j][i]} * {b!r}' for j, b in enumerate(RK4_B)))}")
+        body += [f"v{i} = v{i} + dv{i} * h" for i in rng]
+        body += [f"q{i} = q{i} + h * dq{i}" for i in rng]
+    else:  # semi-implicit Euler
+        body.append(f"_y = f(0.0, [{', '.join(qs + vs)}])")
+        body += [f"v{i} = v{i} + _y[{n + i}] * h" for i in rng]
+        body += [f"q{i} = q{i} + h * v{i}" for i in rng]
+    lines = [
+        "def run(f, q, v, h, steps):",
+        f"    {', '.join(qs)}, = q",
+        f"    {', '.join(vs)}, = v",
+        "    for _ in range(steps):",
+        *[f"        {line}" for line in body],
+        f"    return [{', '.join(qs)}], [{', '.join(vs)}]",
+    ]
+    namespace: dict[str, Any] = {}
+    exec(compile("\n".join(lines) + "\n", f"<mirror {integrator} n={n}>", "exec"), namespace)  # noqa: S102 - ours
+    return namespace["run"]
+
+
+def _nest(expr: str) -> str:
+    """'0.0 + a + b + c' parenthesised left to right, as the loop accumulates: ((0.0 + a) + b) + c."""
+    terms = expr.split(" + ")
+    out = terms[0]
+    for term in terms[1:]:
+        out = f"({out} + {term})"
+    return out
+
+
 def _scalar_run(
     f: Any,
     integrator: str,
@@ -204,34 +261,12 @@ def _scalar_run(
 
     Raises _Blowup or one of EQUATION_ERRORS at the sample where the run cannot go on (rows before it filled).
     """
-    n = qs.shape[1]
+    run = _scheme_code(integrator, qs.shape[1])
+    per_step = 4 if integrator == "RK4" else 1
     q, v = [float(x) for x in qs[0]], [float(x) for x in vs[0]]
-    rng = range(n)
     for k in range(1, len(qs)):
-        for _ in range(steps):
-            if integrator == "RK4":
-                xs, fs = [v], [f(0.0, q + v)[n:]]
-                for row in RK4_A:
-                    dq, dv = [0.0] * n, [0.0] * n
-                    for a_ij, vj, fj in zip(row, xs, fs, strict=False):
-                        dq = [dq[i] + vj[i] * a_ij for i in rng]
-                        dv = [dv[i] + fj[i] * a_ij for i in rng]
-                    qi = [q[i] + h * dq[i] for i in rng]
-                    vi = [v[i] + dv[i] * h for i in rng]
-                    xs.append(vi)
-                    fs.append(f(0.0, qi + vi)[n:])
-                dq, dv = [0.0] * n, [0.0] * n
-                for b_j, vj, fj in zip(RK4_B, xs, fs, strict=True):
-                    dq = [dq[i] + vj[i] * b_j for i in rng]
-                    dv = [dv[i] + fj[i] * b_j for i in rng]
-                v = [v[i] + dv[i] * h for i in rng]
-                q = [q[i] + h * dq[i] for i in rng]
-                stepper.evaluations += 4
-            else:  # semi-implicit Euler
-                a = f(0.0, q + v)[n:]
-                v = [v[i] + a[i] * h for i in rng]
-                q = [q[i] + h * v[i] for i in rng]
-                stepper.evaluations += 1
+        q, v = run(f, q, v, h, steps)
+        stepper.evaluations += per_step * steps
         _check_sample(q, v, budget, deadline)
         qs[k], vs[k] = q, v
 
@@ -361,7 +396,7 @@ def mujoco_steps(
             source.set_state(q[i], v[i], tau[i])
             mujoco.mj_step(m, d, nstep=steps)
             q_out[i], v_out[i] = source.get_state()
-            if any(stat.number for stat in d.warning):
+            if d.warning.number.any():  # the array view: a loop over d.warning costs 90 us
                 q_out[i], v_out[i] = np.nan, np.nan
     finally:
         m.opt.integrator, m.opt.timestep = saved

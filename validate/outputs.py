@@ -17,6 +17,7 @@ import shutil
 import sys
 import tempfile
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -84,15 +85,48 @@ def write_reports(results: dict[str, Any], out: Path) -> None:
     replace_set(out, files, replaces=_from_report)
 
 
-def write_all(results: dict[str, Any], out: Path, *, replay: bool = True) -> None:
-    """Everything `run` produces, replacing the previous run's files (all of them) as one set."""
+@dataclass
+class SystemFiles:
+    """What one system contributes to the reports, rendered from its results alone."""
+
+    section: Any  # report.Document: the system's section of the report
+    rrd: bytes | None  # its rerun recording (None: no trajectories, or replays not asked for)
+
+
+def render_system(
+    name: str, result: dict[str, Any], meta: dict[str, Any], *, replay: bool = True
+) -> SystemFiles | None:
+    """A system's report section and recording, from its results alone: `run` calls this in the
+    worker that computed them, so rendering overlaps the other systems' work. None if rendering
+    fails (the final render then tries again in the parent and reports the failure there)."""
+    from .replay import render_system as render_rrd
+    from .report import system_section
+
+    try:
+        rrd = render_rrd(name, result, meta=meta) if replay and result.get("trajectories") else None
+        return SystemFiles(system_section(name, result), rrd)
+    except Exception:  # noqa: BLE001 - rendered again, with its error, by write_all
+        return None
+
+
+def write_all(
+    results: dict[str, Any], out: Path, *, replay: bool = True, rendered: dict[str, SystemFiles] | None = None
+) -> None:
+    """Everything `run` produces, replacing the previous run's files (all of them) as one set.
+    `rendered`: systems already rendered from these results (`render_system`), the rest is rendered here."""
     from .report import render
 
-    files = {"results.json": dumps(results).encode(), **render(with_optional_results(results, out))}
+    done = {name: f for name, f in (rendered or {}).items() if f is not None and name in results.get("systems", {})}
+    sections = {name: f.section for name, f in done.items()}
+    files = {"results.json": dumps(results).encode(), **render(with_optional_results(results, out), sections)}
     if replay:
-        from .replay import render_replays
+        from .replay import render_system as render_rrd
 
-        files.update(render_replays(results))
+        meta = results.get("meta")
+        for name, s in results["systems"].items():
+            if s.get("trajectories"):
+                pre = done[name].rrd if name in done else None
+                files[f"{name}.rrd"] = pre if pre is not None else render_rrd(name, s, meta=meta)
     replace_set(out, files, replaces=_from_run)
 
 

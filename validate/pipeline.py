@@ -361,6 +361,13 @@ def _run_files(model: str, equations: str, n_states: int, seed: int, n_probes: i
     return run_system(System.from_files(model, equations), n_states=n_states, seed=seed, n_probes=n_probes)
 
 
+def _task(fn: Any, args: tuple[Any, ...], after: Any, meta: dict[str, Any]) -> tuple[dict[str, Any], Any]:
+    """One system's work in a worker: its results, and `after(name, results, meta)` of them (None
+    without `after`)."""
+    result = fn(*args)
+    return result, (after(result["name"], result, meta) if after is not None else None)
+
+
 def run(
     names: list[str] | None,
     *,
@@ -370,10 +377,14 @@ def run(
     executor: Executor | None = None,
     n_probes: int = DEFAULT_PROBES,
     files: list[tuple[Path, Path]] | None = None,
+    after: Any = None,
+    rendered: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Every system (or those named), each in a worker of `executor` (default: a process pool on
     every core; any `concurrent.futures.Executor` will do, a distributed one included). `files`:
-    (model, equations) pairs of systems outside the repository, run instead of (or beside) names."""
+    (model, equations) pairs of systems outside the repository, run instead of (or beside) names.
+    `after(name, results, meta)`: a picklable function run in the worker on each system's results
+    (e.g. rendering its report section); what it returns goes into `rendered[name]`."""
     from .results import provenance
     from .systems import System, load_all
 
@@ -391,16 +402,20 @@ def run(
         # Longest first, so that two workers finish together: damped scenes (implicit-damping
         # mirrors step the numpy equations), then more coordinates, then more printed forms.
         order = sorted(systems, key=lambda s: ("damping" not in s.uses, -s.nv, -len(s.variants), s.name))
-        futures = {pool.submit(_run_one, s.name, n_states, seed, n_probes): s.name for s in order}
+        meta = out["meta"]
+        futures = {pool.submit(_task, _run_one, (s.name, n_states, seed, n_probes), after, meta): s.name for s in order}
         for (model, equations), user in zip(files or [], users, strict=True):
-            futures[pool.submit(_run_files, str(model), str(equations), n_states, seed, n_probes)] = user.name
+            args = (str(model), str(equations), n_states, seed, n_probes)
+            futures[pool.submit(_task, _run_files, args, after, meta)] = user.name
         for name in futures.values():
             if progress:
                 progress(name, "start")
         done: dict[str, Any] = {}
         for future in as_completed(futures):
             name = futures[future]
-            done[name] = future.result()
+            done[name], extra = future.result()
+            if rendered is not None and after is not None:
+                rendered[name] = extra
             if progress:
                 progress(name, "done", done[name])
     out["systems"] = {name: done[name] for name in sorted(done)}

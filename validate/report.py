@@ -1090,13 +1090,27 @@ def section_replay(doc: Document, results: dict[str, Any]) -> None:
     )
 
 
-def build(results: dict[str, Any]) -> Document:
-    """The whole report as blocks and images (the results must already be plain: see `_plain`)."""
+def system_section(name: str, s: dict[str, Any]) -> Document:
+    """One system's section alone (blocks and images): a pure function of that system's results, so
+    it can be rendered in the worker that computed them while others still run."""
+    doc = Document()
+    section_system(doc, name, _plain(s), {})
+    return doc
+
+
+def build(results: dict[str, Any], sections: dict[str, Document] | None = None) -> Document:
+    """The whole report as blocks and images (the results must already be plain: see `_plain`);
+    `sections`: systems' sections already rendered from these results (`system_section`)."""
     doc = Document()
     section_provenance(doc, results)
     section_summary(doc, results)
     for name, s in sorted(results.get("systems", {}).items()):
-        section_system(doc, name, s, results)
+        done = (sections or {}).get(name)
+        if done is None:
+            section_system(doc, name, s, results)
+        else:
+            doc.blocks += done.blocks
+            doc.images.update(done.images)
     section_errata(doc, results)
     section_tolerances(doc, results)
     from . import report_sections
@@ -1219,10 +1233,10 @@ def render_html(doc: Document, results: dict[str, Any]) -> str:
     )
 
 
-def render(results: dict[str, Any]) -> dict[str, bytes]:
-    """Every report file, {name relative to the reports folder: contents}."""
+def render(results: dict[str, Any], sections: dict[str, Document] | None = None) -> dict[str, bytes]:
+    """Every report file, {name relative to the reports folder: contents}; `sections` as for `build`."""
     plain = _plain(results)
-    doc = build(plain)
+    doc = build(plain, sections)
     files = {"report.md": render_markdown(doc, plain).encode(), "report.html": render_html(doc, plain).encode()}
     files.update(sorted(doc.images.items()))
     return files

@@ -74,6 +74,8 @@ def to_jsonable(x: Any) -> Any:
     if isinstance(x, (list, tuple)):
         return [to_jsonable(v) for v in x]
     if isinstance(x, np.ndarray):
+        if x.dtype.kind == "f" and np.isfinite(x).all():
+            return x.tolist()  # floats only: no call per element (time series are long)
         return to_jsonable(x.tolist())
     if isinstance(x, (np.floating, float)):
         f = float(x)
