@@ -158,6 +158,11 @@ def _parser() -> argparse.ArgumentParser:
     bench.add_argument("--quick", action="store_true", help="2 systems, small plan, 1 repeat (about 10 s)")
     bench.add_argument("--out", type=_path, default=Path("reports"), help="folder for bench.json (default: reports)")
     bench.add_argument("--repeats", type=_positive_int, default=None, help="timing repeats (default 3; --quick 1)")
+    bench.add_argument(
+        "--run-time",
+        action="store_true",
+        help="only time `lagrange-xval run`: fresh machine, cold and warm cache (--repeats, default 5); writes nothing",
+    )
     cache_options(bench)
 
     stress = command("stress", help="numerical stability: long horizons, stable timesteps, conditioning")
