@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import pytest
-from lagrange_xval.validate import compare, systems
-from lagrange_xval.validate.sources import make_sources
+from lagrange_xval.validate import systems
+from lagrange_xval.validate.checks import pointwise as compare
+from lagrange_xval.validate.engines import make_sources
 
 SYSTEMS = systems.system_names()
 N_STATES = 1000

@@ -11,10 +11,12 @@ from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import bench, compare, systems
+from lagrange_xval.validate import systems
+from lagrange_xval.validate.checks import pointwise as compare
+from lagrange_xval.validate.dynamics.fastpath import scalar_rhs
+from lagrange_xval.validate.engines import make_sources
 from lagrange_xval.validate.errors import HarnessError
-from lagrange_xval.validate.fastpath import scalar_rhs
-from lagrange_xval.validate.sources import make_sources
+from lagrange_xval.validate.studies import bench
 
 ROW_KEYS = {
     "system", "method", "engine", "driver", "scheme", "setting", "value", "atol", "status", "message", "error_2s",

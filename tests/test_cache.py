@@ -10,9 +10,10 @@ import zipfile
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import cache, chaos, reference, systems
+from lagrange_xval.validate import systems
+from lagrange_xval.validate.dynamics import cache, chaos, reference
+from lagrange_xval.validate.dynamics.integrate import time_grid
 from lagrange_xval.validate.errors import HarnessError
-from lagrange_xval.validate.integrate import time_grid
 
 POINT = systems.load("double_pendulum_point")
 START = (np.array([0.0, 3.0]), np.zeros(2), np.zeros(2))
@@ -198,7 +199,7 @@ def test_the_key_covers_the_harness_source(tmp_path, monkeypatch):
     cache.harness_hash.cache_clear()
     try:
         before = reference.cache_key(POINT, *START, GRID, check=None)
-        tracing = tmp_path / "validate" / "tracing.py"
+        tracing = tmp_path / "validate" / "systems" / "tracing.py"
         tracing.write_text(tracing.read_text() + "\n# changed\n")
         cache.harness_hash.cache_clear()
         after = reference.cache_key(POINT, *START, GRID, check=None)

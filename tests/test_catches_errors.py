@@ -6,8 +6,10 @@ import types
 
 import numpy as np
 from lagrange_xval.equations._forms import Implicit, stack_vector
-from lagrange_xval.validate import compare, judge, systems
-from lagrange_xval.validate.sources import make_sources
+from lagrange_xval.validate import systems
+from lagrange_xval.validate.checks import judge
+from lagrange_xval.validate.checks import pointwise as compare
+from lagrange_xval.validate.engines import make_sources
 
 
 def _with(system, **replaced):

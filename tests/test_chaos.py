@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import chaos, systems
-from lagrange_xval.validate.integrate import initial_state, mujoco_trajectory, time_grid
-from lagrange_xval.validate.reference import reference_trajectory
-from lagrange_xval.validate.sources import make_sources
+from lagrange_xval.validate import systems
+from lagrange_xval.validate.dynamics import chaos
+from lagrange_xval.validate.dynamics.integrate import initial_state, mujoco_trajectory, time_grid
+from lagrange_xval.validate.dynamics.reference import reference_trajectory
+from lagrange_xval.validate.engines import make_sources
 
 NOTES_START = (np.array([0.0, 3.0]), np.zeros(2))  # theta = 0, phi = 3, at rest (the notes' ode45 run)
 _sources: dict[str, dict] = {}

@@ -10,9 +10,10 @@ import sys
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import cli, integrate, systems
+from lagrange_xval.validate import cli, systems
 from lagrange_xval.validate.cli import main
-from lagrange_xval.validate.sources import make_source
+from lagrange_xval.validate.dynamics import integrate
+from lagrange_xval.validate.engines import make_source
 
 CLI = [sys.executable, "-m", "lagrange_xval.validate.cli"]
 
@@ -245,8 +246,9 @@ def test_stdout_holds_only_the_commands_output_without_home(tmp_path):
     """heyoka logs on the process's stdout when HOME is unset; `--json` consumers must still get JSON."""
     env = {k: v for k, v in os.environ.items() if k != "HOME"}
     code = (
-        "import sys; from lagrange_xval.validate import cli, reference, systems;"
-        "from lagrange_xval.validate.integrate import time_grid;"
+        "import sys; from lagrange_xval.validate import cli, systems;"
+        "from lagrange_xval.validate.dynamics import reference;"
+        "from lagrange_xval.validate.dynamics.integrate import time_grid;"
         "s = systems.load('simple_pendulum');"
         "cli.COMMANDS['list'] = lambda a: (reference.reference_trajectory(s, [0.5], [0.0], [0.0], time_grid(1, 0.1),"
         " cache_dir=None, check=None), print('{\"ok\": true}'), 0)[-1];"

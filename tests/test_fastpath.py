@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 from lagrange_xval.equations._forms import Explicit, Implicit
-from lagrange_xval.validate import fastpath
-from lagrange_xval.validate.sources.hand import HandSource
+from lagrange_xval.validate.dynamics import fastpath
+from lagrange_xval.validate.engines.hand import HandSource
 
 
 def _numpy_path(system, variant):

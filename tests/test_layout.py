@@ -5,8 +5,9 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
-from lagrange_xval.validate import modelsync, systems
-from lagrange_xval.validate.sources import make_source
+from lagrange_xval.validate import systems
+from lagrange_xval.validate.checks import modelsync
+from lagrange_xval.validate.engines import make_source
 
 
 def test_every_model_has_equations_and_every_equations_module_a_model():

@@ -5,8 +5,7 @@ from __future__ import annotations
 import os
 
 import pytest
-from lagrange_xval.validate import outputs
-from lagrange_xval.validate.cli import main
+from lagrange_xval.validate.cli import main, outputs
 from lagrange_xval.validate.errors import HarnessError
 
 OLD = {

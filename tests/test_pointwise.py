@@ -7,8 +7,8 @@ error and the worst state.
 from __future__ import annotations
 
 import pytest
-from lagrange_xval.validate import compare
-from lagrange_xval.validate.tolerances import QUANTITY_TIER
+from lagrange_xval.validate.checks import pointwise as compare
+from lagrange_xval.validate.checks.tolerances import QUANTITY_TIER
 
 from .conftest import evaluated
 
@@ -42,7 +42,7 @@ def test_mass_matrix_is_symmetric_positive_definite(system):
 def test_solve_tier_grows_with_conditioning_but_not_below_its_floor():
     """An ill-conditioned state gets cond(M)-scaled room; a well-conditioned one keeps the tier."""
     import numpy as np
-    from lagrange_xval.validate.tolerances import TOLERANCES
+    from lagrange_xval.validate.checks.tolerances import TOLERANCES
 
     solve = TOLERANCES.solve
     assert solve.at(1.0) == solve.rtol

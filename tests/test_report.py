@@ -151,7 +151,7 @@ def test_chaos_and_experiments_sections_state_the_findings(files: dict[str, byte
 
 def test_bench_and_stress_sections_render_their_files(results: dict[str, Any], tmp_path: Path) -> None:
     """bench.json and stress.json in the reports folder become the Benchmark and Stress sections."""
-    from lagrange_xval.validate.outputs import with_optional_results
+    from lagrange_xval.validate.cli.outputs import with_optional_results
 
     (tmp_path / "bench.json").write_text(
         json.dumps(

@@ -11,10 +11,11 @@ import sys
 
 import psutil
 import pytest
-from lagrange_xval.validate import modelsync, systems
+from lagrange_xval.validate import systems
+from lagrange_xval.validate.checks import modelsync
 from lagrange_xval.validate.cli import main
+from lagrange_xval.validate.engines import make_source
 from lagrange_xval.validate.errors import HarnessError
-from lagrange_xval.validate.sources import make_source
 
 POINT = systems.load("double_pendulum_point")
 

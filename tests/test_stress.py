@@ -8,11 +8,12 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import stress, systems
+from lagrange_xval.validate import systems
+from lagrange_xval.validate.dynamics.integrate import initial_state, mujoco_trajectory
+from lagrange_xval.validate.dynamics.mirror import mirror_trajectory
+from lagrange_xval.validate.engines import make_sources
 from lagrange_xval.validate.errors import HarnessError
-from lagrange_xval.validate.integrate import initial_state, mujoco_trajectory
-from lagrange_xval.validate.mirror import mirror_trajectory
-from lagrange_xval.validate.sources import make_sources
+from lagrange_xval.validate.studies import stress
 
 EPS = np.finfo(float).eps
 _cache: dict[str, tuple] = {}

@@ -15,7 +15,7 @@ from pathlib import Path
 import lagrange_xval as lx
 import pytest
 from lagrange_xval.testing import systems_in
-from lagrange_xval.validate.forms import written_form
+from lagrange_xval.validate.systems.forms import written_form
 
 FOLDER = Path(__file__).parent / "user_systems"
 FORMS = {"furuta_pendulum": "d", "cart_pole": "b", "acrobot": "c", "spatial_arm": "a"}

@@ -10,8 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import compare, equivalence, pipeline, systems, verdict
-from lagrange_xval.validate.sources import make_sources
+from lagrange_xval.validate import pipeline, systems
+from lagrange_xval.validate.checks import equivalence, verdict
+from lagrange_xval.validate.checks import pointwise as compare
+from lagrange_xval.validate.engines import make_sources
 
 from .mutations import MUTATIONS, load_mutated
 

@@ -18,8 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from .checks.tolerances import TOLERANCES, Tolerances
 from .systems import System, load
-from .tolerances import TOLERANCES, Tolerances
 
 __all__ = ["Result", "Row", "System", "check", "load"]
 
@@ -115,9 +115,10 @@ def check(
     """The verdict on `system`'s derivation (a System, or the name of a repository system): model
     checks, pointwise agreement of the three sources at `n_states` seeded states, and every term of
     the derivation at the model's parameters and at `probes` probe parameter sets. Writes nothing."""
-    from . import compare, modelsync, verdict
+    from .checks import modelsync, verdict
+    from .checks import pointwise as compare
+    from .engines import make_sources
     from .errors import HarnessError
-    from .sources import make_sources
 
     if isinstance(system, str):
         system = load(system)

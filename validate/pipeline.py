@@ -11,12 +11,14 @@ from typing import Any
 
 import numpy as np
 
-from . import chaos, compare, equivalence, experiments, integrate, judge, modelsync, verdict
-from . import probes as probing
+from .checks import equivalence, judge, modelsync, verdict
+from .checks import pointwise as compare
+from .checks import probes as probing
+from .checks.probes import DEFAULT_PROBES
+from .checks.tolerances import TOLERANCES
+from .dynamics import chaos, experiments, integrate
+from .engines import make_sources
 from .errors import HarnessError
-from .probes import DEFAULT_PROBES
-from .sources import make_sources
-from .tolerances import TOLERANCES
 
 TRAJECTORY_THRESHOLD = TOLERANCES.trajectory.rtol  # rad
 # The integrators `run` cross-validates (mirrors, convergence order, energy, free runs judged inside
@@ -33,7 +35,7 @@ JUDGE_AMPLIFICATION = 1e3
 def trajectory_results(system: Any, sources: dict[str, Any], *, t_end: float, dt_out: float) -> dict[str, Any]:
     """The three sources' free runs against the reference solution of the hand equations (heyoka's
     Taylor method in long double, cached), plus the notes' perturbed start for the divergence."""
-    from .reference import reference_trajectory
+    from .dynamics.reference import reference_trajectory
 
     q0, v0 = integrate.initial_state(system)
     tau = np.zeros(system.nv)

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import HarnessError
+from ..errors import HarnessError
 
 FORMS = {
     "a": ("mass_matrix", "bias"),
@@ -251,7 +251,7 @@ def _integer_powers(expr: Any) -> Any:
 
 def _energy_terms(module: Any, p: Any, q: Any, v: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(M, G, C v) of an energies-only module at (q, v) (v None: zero)."""
-    from ..equations._forms import stack_matrix, stack_vector
+    from ...equations._forms import stack_matrix, stack_vector
 
     try:
         derived = _derive(module, None)

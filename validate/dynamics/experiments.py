@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from ..equations._forms import Explicit, Implicit
+from ...equations._forms import Explicit, Implicit
 from .integrate import DEFAULT_BUDGET, Budget, first_exceeding, initial_state, integrate_rhs, outcome, time_grid
 
 PERTURBATION = 0.01  # rad, added to the last coordinate, as the notes perturb phi

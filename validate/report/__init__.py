@@ -770,7 +770,7 @@ def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[st
                 ],
             )
 
-    from . import report_sections
+    from . import studies as report_sections
 
     doc.h(3, "Derivation verdict", f"{_slug(name)}-derivation")
     report_sections.system_derivation(doc, name, s)
@@ -1113,7 +1113,7 @@ def build(results: dict[str, Any], sections: dict[str, Document] | None = None) 
             doc.images.update(done.images)
     section_errata(doc, results)
     section_tolerances(doc, results)
-    from . import report_sections
+    from . import studies as report_sections
 
     doc.h(2, BENCHMARK)
     report_sections.section_bench(doc, results.get("bench"))

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import HarnessError
+from ..errors import HarnessError
 
 DEFAULT_T_END = 10.0  # s
 DEFAULT_DT_OUT = 0.01  # s
@@ -31,7 +31,7 @@ def mujoco_integrator(name: str) -> Any:
     import mujoco
 
     if name not in MUJOCO_INTEGRATORS:
-        from .errors import unknown_name
+        from ..errors import unknown_name
 
         raise unknown_name("MuJoCo integrator", name, MUJOCO_INTEGRATORS)
     return {
@@ -355,7 +355,7 @@ def _solve_ivp(
     from scipy.integrate._ivp.ivp import METHODS
 
     if method not in METHODS:
-        from .errors import unknown_name
+        from ..errors import unknown_name
 
         raise unknown_name("scipy method", method, ("odeint", *METHODS))
     guard = _Guard(budget)

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import HarnessError, unknown_name
+from ..errors import HarnessError, unknown_name
 
 _JOINT_TYPES = {0: "free", 1: "ball", 2: "slide", 3: "hinge"}
 

@@ -14,7 +14,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from .errors import HarnessError, Terminated
+from ..errors import HarnessError, Terminated
 
 DEFAULT_STATES = 1000
 DEFAULT_SEED = 0
@@ -184,7 +184,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def cmd_list(args: argparse.Namespace) -> int:
-    from .systems import load, system_names
+    from ..systems import load, system_names
 
     broken = []
     for name in system_names():
@@ -224,8 +224,8 @@ def _numbers(path: Path, i: int, name: str, x: Any, system: Any) -> list[float]:
 
 
 def _states_from_file(system: Any, path: Path) -> Any:
-    from .compare import validate_states
-    from .inputs import parse_json, regular_file
+    from ..checks.pointwise import validate_states
+    from ..inputs import parse_json, regular_file
 
     items = parse_json(regular_file(path, "states file", max_bytes=MAX_STATES_FILE_BYTES), path)
     if not isinstance(items, list) or not items:
@@ -245,7 +245,7 @@ def _states_from_file(system: Any, path: Path) -> Any:
 
 def _require_same_model(system: Any, sources: dict[str, Any]) -> None:
     """Dynamics are compared only between sources that describe the same model."""
-    from . import modelsync
+    from ..checks import modelsync
 
     bad = modelsync.check(system, sources["pinocchio"])["mismatches"]
     if bad:
@@ -259,8 +259,8 @@ def _require_same_model(system: Any, sources: dict[str, Any]) -> None:
 def cmd_check(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from . import compare
-    from .sources import make_sources
+    from ..checks import pointwise as compare
+    from ..engines import make_sources
 
     system = _one_system(args)
     states = (
@@ -297,7 +297,7 @@ def cmd_check(args: argparse.Namespace) -> int:
                 "tolerance": r["tolerance"],
                 "passed": r["passed"],
             }
-        from .results import to_jsonable
+        from ..results import to_jsonable
 
         print(json.dumps(to_jsonable(out), allow_nan=False))
     else:
@@ -314,10 +314,10 @@ def cmd_check(args: argparse.Namespace) -> int:
 def cmd_simulate(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from . import integrate
-    from .compare import validate_states
-    from .results import atomic_write
-    from .sources import make_source
+    from ..checks.pointwise import validate_states
+    from ..dynamics import integrate
+    from ..engines import make_source
+    from ..results import atomic_write
 
     suffix = args.out.suffix.lower()
     if suffix not in (".csv", ".json"):
@@ -361,7 +361,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         lines = [",".join(cols)] + [",".join(repr(float(x)) for x in row) for row in table]
         atomic_write(args.out, "\n".join(lines) + "\n")
     else:
-        from .results import dumps
+        from ..results import dumps
 
         atomic_write(
             args.out,
@@ -377,7 +377,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 def use_cache(args: argparse.Namespace) -> Iterator[None]:
     """Points the reference and chaos caches at --cache-dir (default OUT/.cache) or turns them off,
     through the environment so that pool workers see the same setting; restored afterwards."""
-    from .cache import CACHE_ENV
+    from ..dynamics.cache import CACHE_ENV
 
     before = os.environ.get(CACHE_ENV)
     os.environ[CACHE_ENV] = "" if args.no_cache else str((args.cache_dir or args.out / ".cache").absolute())
@@ -391,8 +391,8 @@ def use_cache(args: argparse.Namespace) -> Iterator[None]:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    from ..pipeline import run
     from .outputs import check_out, render_system, write_all
-    from .pipeline import run
     from .progress import reporter
 
     check_out(args.out)  # before hours of work, not after
@@ -416,7 +416,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 def _one_system(args: argparse.Namespace) -> Any:
     """The SYSTEM named, or the one given by --model and --equations (exactly one of the two)."""
-    from .systems import System, load
+    from ..systems import System, load
 
     files = _user_files(args)
     if files and args.system:
@@ -430,7 +430,7 @@ def _one_system(args: argparse.Namespace) -> Any:
 
 def _user_files(args: argparse.Namespace) -> list[tuple[Path, Path]] | None:
     """--model and --equations (both or neither), and the pairs of a --systems folder."""
-    from .systems import pairs_in
+    from ..systems import pairs_in
 
     model, equations = getattr(args, "model", None), getattr(args, "equations", None)
     if (model is None) != (equations is None):
@@ -443,8 +443,8 @@ def _user_files(args: argparse.Namespace) -> list[tuple[Path, Path]] | None:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
+    from ..results import load
     from .outputs import write_reports
-    from .results import load
 
     results = load(args.out / "results.json")
     try:
@@ -459,20 +459,20 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from .replay import replay_command
+    from ..replay import replay_command
 
     return replay_command(args.system, args.save)
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    from .bench import bench_command
+    from ..studies.bench import bench_command
 
     with use_cache(args):
         return bench_command(args)
 
 
 def cmd_stress(args: argparse.Namespace) -> int:
-    from .stress import stress_command
+    from ..studies.stress import stress_command
 
     with use_cache(args):
         return stress_command(args)
@@ -599,7 +599,3 @@ def main(argv: list[str] | None = None) -> int:
             traceback.print_exc()
         hint = "" if args.debug else "; rerun with --debug for the traceback"
         return _error(f"unexpected {type(exc).__name__}: {_one_line(exc)}{hint}.")
-
-
-if __name__ == "__main__":
-    sys.exit(main())

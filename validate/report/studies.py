@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from .report import NOT_RUN, Document, Mark, Num, _new_figure, _pass_mark, _png, _rc, _series, _slug, _vec, sci
+from . import NOT_RUN, Document, Mark, Num, _new_figure, _pass_mark, _png, _rc, _series, _slug, _vec, sci
 
 WORK_PRECISION_COLOURS = (
     "#1f2937",

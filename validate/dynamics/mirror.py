@@ -45,9 +45,9 @@ from typing import Any
 
 import numpy as np
 
-from .errors import HarnessError, unknown_name
+from ..engines.hand import solve_or_nan
+from ..errors import HarnessError, unknown_name
 from .integrate import DEFAULT_BUDGET, EQUATION_ERRORS, MUJOCO_INTEGRATORS, Budget, Trajectory, mujoco_integrator
-from .sources.hand import solve_or_nan
 
 INTEGRATORS = MUJOCO_INTEGRATORS
 RK4_A = ((0.5,), (0.0, 0.5), (0.0, 0.0, 1.0))

@@ -26,11 +26,11 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import HarnessError
+from ..systems.forms import written_form
 from . import probes as probing
-from .compare import States, random_states
-from .errors import HarnessError
-from .forms import written_form
 from .judge import ENGINES, EngineTerms, term_rows
+from .pointwise import States, random_states
 from .tolerances import TOLERANCES, Tolerances
 
 HAND_TERMS = (
@@ -294,7 +294,7 @@ def judge_derivation(
     `values`) and at the probe parameter sets (`probe_set`, else `n_probes` drawn here), with the first
     disagreeing term named, where it is worst, whether the model's own values hide it, and which
     parameter alone exposes it."""
-    from .sources import make_sources
+    from ..engines import make_sources
 
     result: dict[str, Any] = {"name": "hand derivation", "kind": "hand", "equations": system.equations.__name__}
     rows, notes = term_rows_at(system, states, sources, values=values, tolerances=tolerances)
@@ -384,7 +384,7 @@ def judge_derivation(
 
 def exposing_fields(system: Any, term: str, *, tolerances: Tolerances = TOLERANCES, seed: int = 0) -> list[str]:
     """The Params fields that, moved alone, make `term` disagree."""
-    from .sources import make_sources
+    from ..engines import make_sources
 
     out = []
     for probe in probing.single_field_probes(system, seed=seed):

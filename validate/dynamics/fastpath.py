@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from . import tracing
+from ..systems import tracing
 
 
 def _symbols(n: int) -> tuple[list[Any], list[Any], list[Any], list[Any]]:
@@ -60,7 +60,7 @@ def variant_accelerations(system: Any, variant: Any) -> tuple[list[Any], list[An
     """The accelerations a printed dynamic form implies, symbolically (implicit forms solved for a)."""
     import sympy as sp
 
-    from ..equations._forms import Implicit
+    from ...equations._forms import Implicit
 
     n = system.nv
     backend = tracing.sympy_backend()

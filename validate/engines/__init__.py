@@ -127,11 +127,11 @@ def make_source(system: Any, name: str) -> Any:
 
         return HandSource(system)
     if name == "mujoco":
-        from .mujoco_source import MujocoSource
+        from .mujoco import MujocoSource
 
         engine: Any = MujocoSource(system)
     elif name == "pinocchio":
-        from .pinocchio_source import PinocchioSource
+        from .pinocchio import PinocchioSource
 
         engine = PinocchioSource(system)
     else:

@@ -38,8 +38,9 @@ from typing import Any
 
 import numpy as np
 
-from . import cache, tracing
-from .errors import HarnessError, IntegrationStopped
+from ..errors import HarnessError, IntegrationStopped
+from ..systems import tracing
+from . import cache
 from .integrate import DEFAULT_BUDGET, Budget, Trajectory
 
 CACHE_VERSION = 2  # bump when the cached content changes meaning
@@ -102,7 +103,7 @@ def symbolic_dynamics(system: Any) -> SymbolicDynamics:
 
 def rhs_check(system: Any, *, n_states: int = 64, seed: int = 0) -> float:
     """max |a_traced - a_numpy| / max |a_numpy| at random states: the trace reproduces the module."""
-    from .sources.hand import HandSource
+    from ..engines.hand import HandSource
 
     dyn = symbolic_dynamics(system)
     n = dyn.n
@@ -239,7 +240,7 @@ def taylor_solve(
     """
     precisions = _fp_types()
     if precision not in precisions:
-        from .errors import unknown_name
+        from ..errors import unknown_name
 
         raise unknown_name("precision", precision, precisions)
     t0 = time.perf_counter()
@@ -297,7 +298,7 @@ def cache_key(system: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t: n
     """Hash of everything the reference depends on."""
     import heyoka as hy
 
-    from ..equations import _forms as forms  # the harness's helpers, whatever package the module is in
+    from ...equations import _forms as forms  # the harness's helpers, whatever package the module is in
 
     blob = {
         "version": CACHE_VERSION,
@@ -439,7 +440,7 @@ def window_check(system: Any, traj: Trajectory, tau: np.ndarray) -> float:
     """Largest difference (rad, rad/s) between stored samples k+1 and classic RK4 (steps of at most
     WINDOW_CHECK_STEP, all windows at once) restarted from stored sample k: a stored solution satisfies
     the hand equations in every window (a shifted, scaled or spliced one does not)."""
-    from .sources.hand import HandSource
+    from ..engines.hand import HandSource
 
     hand, n = HandSource(system), system.nv
     x = np.hstack([traj.q[:-1], traj.v[:-1]])

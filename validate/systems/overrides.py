@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import HarnessError, unknown_name
+from ..errors import HarnessError, unknown_name
 from .modelview import ModelView
 
 PATTERNS = (

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from .systems import PACKAGE_ROOT
+from ..systems import PACKAGE_ROOT
 
 SCHEMA = 2  # bump when an entry's layout or meaning changes
 CACHE_ENV = "LAGRANGE_XVAL_CACHE"

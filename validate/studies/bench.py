@@ -64,7 +64,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import HarnessError
+from ..errors import HarnessError
 
 # ----------------------------------------------------------------------------------------------
 # The plan
@@ -152,7 +152,7 @@ def _step_spec(engine: str, driver: str, scheme: str, timestep: float) -> dict[s
 
 def plan(*, quick: bool) -> list[dict[str, Any]]:
     """Every run of one system, loosest setting first within each method."""
-    from .integrate import SCIPY_DEFAULT
+    from ..dynamics.integrate import SCIPY_DEFAULT
 
     specs: list[dict[str, Any]] = []
     if quick:
@@ -195,8 +195,8 @@ def _resources(name: str) -> tuple[Any, dict[str, Any]]:
     """The system and its three sources, built once per worker thread (setup is never timed)."""
     cache = _local.__dict__.setdefault("systems", {})
     if name not in cache:
-        from .sources import make_sources
-        from .systems import load
+        from ..engines import make_sources
+        from ..systems import load
 
         system = load(name)
         cache[name] = (system, make_sources(system))
@@ -205,7 +205,7 @@ def _resources(name: str) -> tuple[Any, dict[str, Any]]:
 
 def case_for(system: Any) -> dict[str, Any]:
     """The start the bench integrates from: the system's `initial_state`, tau = 0, the 10 s grid."""
-    from .integrate import initial_state
+    from ..dynamics.integrate import initial_state
 
     q0, v0 = initial_state(system)
     return {
@@ -220,9 +220,9 @@ def case_for(system: Any) -> dict[str, Any]:
 
 def prepare(name: str) -> dict[str, Any]:
     """Reference trajectory and predictability horizon of one system (cached on disk; a worker task)."""
-    from .chaos import chaos_summary
-    from .integrate import time_grid
-    from .reference import reference_trajectory
+    from ..dynamics.chaos import chaos_summary
+    from ..dynamics.integrate import time_grid
+    from ..dynamics.reference import reference_trajectory
 
     system, _ = _resources(name)
     case = case_for(system)
@@ -442,7 +442,7 @@ def run_mujoco(
     """
     import mujoco
 
-    from .integrate import mujoco_integrator
+    from ..dynamics.integrate import mujoco_integrator
 
     enum = mujoco_integrator(integrator)
     inner = getattr(source, "inner", source)
@@ -518,7 +518,7 @@ def run_mirror(
     deadline: float,
 ) -> dict[str, Any]:
     """`mirror_trajectory` (MuJoCo's scheme on an engine's per-call rhs), timed around the call."""
-    from .mirror import mirror_trajectory
+    from ..dynamics.mirror import mirror_trajectory
 
     src = _GuardedSource(source, deadline)
     c0, w0 = time.process_time(), time.perf_counter()
@@ -536,7 +536,7 @@ def run_mirror(
 
 def run_default(system: Any, source: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray) -> dict[str, Any]:
     """The harness's default scipy integration, as `run` calls it (no budget: it has no hook)."""
-    from . import integrate
+    from ..dynamics import integrate
 
     c0, w0 = time.process_time(), time.perf_counter()
     try:
@@ -550,8 +550,8 @@ def run_default(system: Any, source: Any, q0: Any, v0: Any, tau: Any, t: np.ndar
 
 def run_once(spec: dict[str, Any], case: dict[str, Any], *, budget: float) -> dict[str, Any]:
     """One execution of one spec on one case, in this process."""
-    from .fastpath import scalar_rhs
-    from .integrate import time_grid
+    from ..dynamics.fastpath import scalar_rhs
+    from ..dynamics.integrate import time_grid
 
     system, sources = _resources(case["system"])
     t = time_grid(case["t_end"], case["dt_out"])
@@ -957,13 +957,13 @@ def rhs_ratio(*, reps: int, calls: int = 10_000, n_states: int = 1000, seed: int
     """Ratio 1 (a worker task): the right-hand side scipy gets for the hand equations
     (`integrate._rhs`: the generated fast path behind the harness's counter) against `hand_math_rhs`,
     per call, both called as scipy calls them (f(t, y), y a float64 array) over `n_states` states."""
-    from .integrate import _rhs
-    from .sources import make_source
+    from ..dynamics.integrate import _rhs
+    from ..engines import make_source
 
     system, _ = _resources(RHS_SYSTEM)
     hand = make_source(system, "hand")
     harness, _ = _rhs(hand, np.zeros(system.nv))
-    from .fastpath import scalar_rhs
+    from ..dynamics.fastpath import scalar_rhs
 
     fast, tau0 = scalar_rhs(system), [0.0] * system.nv
     math_rhs, np_rhs = hand_math_rhs(system.params), numpy_solve_rhs(system.params)
@@ -1177,7 +1177,7 @@ def pointwise_ratio(name: str, *, reps: int, n_states: int = POINTWISE_STATES, s
     """Ratio 2 for one system (a worker task): `compare.evaluate` on `n_states` states through all
     three sources against `raw_pointwise`, interleaved; sources and states built before timing.
     Each source's share is timed too (harness: its `evaluate`, plus the hand's `inverse`)."""
-    from . import compare
+    from ..checks import pointwise as compare
 
     system, sources = _resources(name)
     states = compare.random_states(system, n=n_states, seed=seed)
@@ -1440,8 +1440,8 @@ def run_bench(
         executor: where the worker tasks run (default: a process pool on every core).
         time_run: time `lagrange-xval run` (default: not quick).
     """
-    from .results import provenance
-    from .systems import load_all, system_names
+    from ..results import provenance
+    from ..systems import load_all, system_names
 
     start = time.perf_counter()
     chosen = list(names) if names else list(QUICK_SYSTEMS if quick else system_names())
@@ -1453,7 +1453,7 @@ def run_bench(
     budget = QUICK_BUDGET if quick else BUDGET
     specs = plan(quick=quick)
     reps_small = 3 if quick else 7
-    from .parallel import executor_for
+    from ..parallel import executor_for
 
     with executor_for(executor) as pool:
         if progress:
@@ -1558,7 +1558,7 @@ def _flags_task(name: str, steps: int, reps: int) -> list[dict[str, Any]]:
 
 def write_bench(results: dict[str, Any], out: Path) -> Path:
     """`out/bench.json`, written atomically (serialised first, then a temporary file and a rename)."""
-    from .results import atomic_write, dumps
+    from ..results import atomic_write, dumps
 
     text = dumps(results)
     path = Path(out) / "bench.json"

@@ -15,10 +15,10 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-from .errors import HarnessError, unknown_name
+from ..errors import HarnessError, unknown_name
 from .modelview import ModelView
 
-PACKAGE_ROOT = Path(__file__).resolve().parent.parent
+PACKAGE_ROOT = Path(__file__).resolve().parents[2]
 MODELS_DIR = PACKAGE_ROOT / "models"
 EQUATIONS_PACKAGE = "lagrange_xval.equations"
 MAX_MJCF_BYTES = 16 * 2**20  # the models of the notes are ~3 kB
@@ -65,7 +65,7 @@ def mjcf_text(path: Path, overrides: tuple[tuple[str, float], ...] = (), text: s
     applied at full precision."""
     import xml.etree.ElementTree as ET
 
-    from .inputs import regular_file
+    from ..inputs import regular_file
 
     try:
         if text is None:

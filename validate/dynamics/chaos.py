@@ -49,7 +49,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import HarnessError
+from ..errors import HarnessError
 from .integrate import DEFAULT_BUDGET, Budget, Trajectory, energy, mujoco_trajectory, time_grid
 from .mirror import INTEGRATORS, mirror_steps, mirror_trajectory, mujoco_steps
 from .reference import (
@@ -313,7 +313,7 @@ def lyapunov_exponent(
             y = x + sep * (d0 / dist)
             running.append(logs[0] / (k * interval))
     else:
-        from .errors import unknown_name
+        from ..errors import unknown_name
 
         raise unknown_name("Lyapunov method", method, ("variational", "two trajectories"))
     running_arr = np.array(running)
@@ -542,7 +542,7 @@ def convergence_order(
     the least-squares slope of log error against log dt.
     """
     if integrator not in INTEGRATORS:
-        from .errors import unknown_name
+        from ..errors import unknown_name
 
         raise unknown_name("MuJoCo integrator", integrator, INTEGRATORS)
     dts = tuple(timesteps or CONVERGENCE_TIMESTEPS[integrator])
@@ -674,9 +674,9 @@ def chaos_summary(
     (`_summary_problem`). `cache` in the result says "hit", "miss" or "off"."""
     import json
 
+    from ..results import dumps
     from . import cache
     from .reference import _source_hash, cache_key
-    from .results import dumps
 
     q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
     t = time_grid(10.0, 0.01) if t is None else t

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import HarnessError
+from ..errors import HarnessError
 
 DEFAULT_PROBES = 4
 FACTOR_RANGES = ((0.5, 0.8), (1.25, 2.0))  # moderate perturbations, never near 1
@@ -129,8 +129,8 @@ def _assumed_values(assumed: Mapping[str, Any]) -> dict[str, Any]:
 
 def build(system: Any, values: dict[str, float], *, index: int, label: str) -> Probe:
     """The probe model for `values` (Params fields): written, compiled and read back."""
+    from ..systems.overrides import set_values
     from . import modelsync
-    from .overrides import set_values
 
     eq = system.equations
     base = system.params

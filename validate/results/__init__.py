@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from .errors import HarnessError
-from .systems import PACKAGE_ROOT
+from ..errors import HarnessError
+from ..systems import PACKAGE_ROOT
 
 PACKAGES = ("lagrange-xval", "numpy", "scipy", "mujoco", "pin", "rerun-sdk", "matplotlib", "jinja2")
 
@@ -128,7 +128,7 @@ MAX_RESULTS_BYTES = 512 * 2**20  # results.json of the five systems is ~30 MB
 
 def load(path: Path) -> dict[str, Any]:
     """The results `run` wrote, checked for the layout the reports are rendered from."""
-    from .inputs import parse_json, regular_file
+    from ..inputs import parse_json, regular_file
 
     path = Path(path)
     if not path.exists():

@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import HarnessError
+from ..errors import HarnessError
 
 TIMELINE = "time"  # s
 TRAIL_SECONDS = 1.0  # s of the tip's path drawn behind it
@@ -123,8 +123,8 @@ def replay_command(system: str, save: Path | None) -> int:
         HarnessError: unknown system, `save` not an .rrd path, or no viewer can be shown (checked
             before any work is done, where that is possible).
     """
-    from .pipeline import run
-    from .systems import load
+    from ..pipeline import run
+    from ..systems import load
 
     load(system)  # an unknown name fails here, before any work, listing the valid ones
     if save is not None and Path(save).suffix.lower() != ".rrd":
@@ -133,7 +133,7 @@ def replay_command(system: str, save: Path | None) -> int:
         _check_display(system)
     results = run([system], n_states=10, seed=0)
     if save is not None:
-        from .results import atomic_write
+        from ..results import atomic_write
 
         atomic_write(Path(save), render_system(system, results["systems"][system], meta=results.get("meta")))
         print(f"wrote {save} (open it with `rerun {save}`)")
@@ -211,7 +211,7 @@ def _params(system: Any, sys_results: dict[str, Any]) -> Any:
 
 def build_scene(name: str, sys_results: dict[str, Any], *, meta: dict[str, Any] | None = None) -> dict[str, Any]:
     """The arrays and text of one system's recording. Pure numpy; no rerun calls."""
-    from .systems import System, load, system_names
+    from ..systems import System, load, system_names
 
     model, equations = sys_results.get("mjcf", ""), sys_results.get("equations", "")
     if name in system_names() and str(model).startswith("models/"):

@@ -69,8 +69,8 @@ from typing import Any
 
 import numpy as np
 
-from .errors import HarnessError
-from .integrate import mujoco_integrator
+from ..dynamics.integrate import mujoco_integrator
+from ..errors import HarnessError
 
 EPS = float(np.finfo(float).eps)
 GROWTH = 1.0  # unstable when the energy gain exceeds GROWTH x (E0 - V_min); see the module docstring
@@ -186,7 +186,7 @@ def simulate(
         timestep: s; the run takes ceil(t_end / timestep) steps (a whole number of samples).
         eulerdamp: False disables MuJoCo's implicit treatment of joint damping in Euler (mujoco only).
     """
-    from .errors import unknown_name
+    from ..errors import unknown_name
 
     if integrator not in MUJOCO_INTEGRATORS or (engine == "mirror" and integrator not in MIRROR_INTEGRATORS):
         raise unknown_name(
@@ -225,7 +225,7 @@ def simulate(
         finally:
             m.opt.integrator, m.opt.timestep, m.opt.disableflags = saved
     elif engine == "mirror":
-        from .mirror import mirror_trajectory
+        from ..dynamics.mirror import mirror_trajectory
 
         grid = np.array([0.0, sample_steps * timestep])
         q, v = q0, v0
@@ -390,7 +390,7 @@ def conservative(system: Any) -> bool:
 
 def drift_rows(system: Any, sources: dict[str, Any], settings: Settings, *, V_min: float) -> list[dict[str, Any]]:
     """Energy over every horizon, for every MuJoCo integrator and mirror, at the MJCF timestep."""
-    from .integrate import initial_state
+    from ..dynamics.integrate import initial_state
 
     q0, v0 = initial_state(system)
     tau = np.zeros(system.nv)
@@ -519,7 +519,7 @@ def criterion_name(growth: float) -> str:
 
 def stability_rows(system: Any, sources: dict[str, Any], settings: Settings, *, V_min: float) -> list[dict[str, Any]]:
     """Per speed, engine, integrator and criterion (settings.growth_factors): the bisection's result."""
-    from .integrate import initial_state
+    from ..dynamics.integrate import initial_state
 
     q0, _ = initial_state(system)
     tau = np.zeros(system.nv)
@@ -599,7 +599,7 @@ def worst_configuration(system: Any, hand: Any) -> np.ndarray:
 
 def conditioning_states(system: Any, hand: Any, *, n: int, seed: int) -> tuple[Any, np.ndarray]:
     """compare.random_states plus TARGETED_STATES approaching the worst configuration, and that q."""
-    from . import compare
+    from ..checks import pointwise as compare
 
     states = compare.random_states(system, n=n, seed=seed)
     q_worst = worst_configuration(system, hand)
@@ -645,11 +645,11 @@ def sweep_overrides(system: Any, sweep: Sweep, ratio: float) -> tuple[tuple[str,
 def conditioning_sweeps(system: Any, hand: Any) -> list[Sweep]:
     """Ratio sweeps between the first and the last body, both ways: of masses where M depends on them,
     of inertias where it does not (the mass-balanced gimbal). None for one coordinate (cond(M) = 1)."""
-    from .systems import load
+    from ..systems import load
 
     if system.nv < 2 or len(system.bodies) < 2:
         return []
-    from .sources.hand import HandSource
+    from ..engines.hand import HandSource
 
     first, last = system.bodies[0], system.bodies[-1]
     q = np.random.default_rng(0).uniform(-np.pi, np.pi, (8, system.nv))
@@ -675,9 +675,9 @@ def conditioning_point(system: Any, *, n_states: int, seed: int) -> dict[str, An
     constant C that a per-state tier max(rtol, C kappa eps) needs to pass every state: the largest
     per-state error / (kappa eps) over the states whose error exceeds rtol (`c_state` for kappa =
     cond(M), `c_state_eq` for the equilibrated cond; 0 if none does), and over all states (`c_state_all`)."""
-    from . import compare
-    from .sources import make_sources
-    from .tolerances import TOLERANCES
+    from ..checks import pointwise as compare
+    from ..checks.tolerances import TOLERANCES
+    from ..engines import make_sources
 
     sources = make_sources(system)
     states, q_worst = conditioning_states(system, sources["hand"], n=n_states, seed=seed)
@@ -720,7 +720,7 @@ def conditioning_point(system: Any, *, n_states: int, seed: int) -> dict[str, An
 
 
 def conditioning_rows(system: Any, sources: dict[str, Any], settings: Settings) -> list[dict[str, Any]]:
-    from .systems import load
+    from ..systems import load
 
     out = []
     for sweep in conditioning_sweeps(system, sources["hand"]):
@@ -849,7 +849,7 @@ def proposed_solve_tier(summary: list[dict[str, Any]]) -> dict[str, Any]:
     cond(M), and for comparison the equilibrated cond_eq (which does not bound the error: near the
     folded point pendulum with a light elbow M is nearly diagonal yet its entries lose digits to
     cancellation in 2 + 2 cos(phi), so its error follows cond(M), not cond_eq)."""
-    from .tolerances import TOLERANCES
+    from ..checks.tolerances import TOLERANCES
 
     if not summary:
         return {}
@@ -887,10 +887,10 @@ def proposed_solve_tier(summary: list[dict[str, Any]]) -> dict[str, Any]:
 
 def stiff_rows(system: Any, settings: Settings) -> list[dict[str, Any]]:
     """Every integrator at every timestep on the system with its joint damping times each factor."""
-    from .integrate import initial_state, scipy_trajectory, time_grid
-    from .mirror import eulerdamp_active
-    from .sources import make_sources
-    from .systems import load
+    from ..dynamics.integrate import initial_state, scipy_trajectory, time_grid
+    from ..dynamics.mirror import eulerdamp_active
+    from ..engines import make_sources
+    from ..systems import load
 
     q0, v0 = initial_state(system)
     tau = np.zeros(system.nv)
@@ -986,9 +986,9 @@ def run_stress(
     Every system is loaded and compiled with the overrides first, so an unknown system, an unknown key
     or a model MuJoCo refuses is a one-line HarnessError before any long run starts.
     """
-    from .results import provenance
-    from .sources import make_sources
-    from .systems import load, system_names
+    from ..engines import make_sources
+    from ..results import provenance
+    from ..systems import load, system_names
 
     settings = settings or (QUICK if quick else FULL)
     say = progress or (lambda msg: None)
@@ -1093,7 +1093,7 @@ def _criteria() -> dict[str, str]:
 
 def write_stress(results: dict[str, Any], out: Path) -> Path:
     """Writes out/stress.json atomically (rendered in memory first: a failure leaves the old file)."""
-    from .results import atomic_write, dumps
+    from ..results import atomic_write, dumps
 
     path = Path(out) / "stress.json"
     text = dumps(results)
@@ -1237,7 +1237,7 @@ def stress_command(args: Any) -> int:
     """`lagrange-xval stress [SYSTEM ...] [--set KEY=VALUE ...] [--quick] [--out DIR]`."""
     from rich.console import Console
 
-    from .overrides import parse
+    from ..systems.overrides import parse
 
     raw = list(getattr(args, "set", None) or [])
     overrides = parse(raw) if all(isinstance(x, str) for x in raw) else tuple((str(k), float(v)) for k, v in raw)
