@@ -18,7 +18,11 @@ from typing import Any
 
 import numpy as np
 
+from .checks import modelsync, verdict
+from .checks import pointwise as compare
 from .checks.tolerances import TOLERANCES, Tolerances
+from .engines import make_sources
+from .errors import HarnessError
 from .systems import System, load
 
 __all__ = ["Result", "Row", "System", "check", "load"]
@@ -115,10 +119,6 @@ def check(
     """The verdict on `system`'s derivation (a System, or the name of a repository system): model
     checks, pointwise agreement of the three sources at `n_states` seeded states, and every term of
     the derivation at the model's parameters and at `probes` probe parameter sets. Writes nothing."""
-    from .checks import modelsync, verdict
-    from .checks import pointwise as compare
-    from .engines import make_sources
-    from .errors import HarnessError
 
     if isinstance(system, str):
         system = load(system)

@@ -17,8 +17,12 @@ from .checks import probes as probing
 from .checks.probes import DEFAULT_PROBES
 from .checks.tolerances import TOLERANCES
 from .dynamics import chaos, experiments, integrate
+from .dynamics.reference import reference_trajectory
 from .engines import make_sources
 from .errors import HarnessError
+from .parallel import executor_for
+from .results import provenance
+from .systems import MODELS_DIR, System, load, load_all
 
 TRAJECTORY_THRESHOLD = TOLERANCES.trajectory.rtol  # rad
 # The integrators `run` cross-validates (mirrors, convergence order, energy, free runs judged inside
@@ -35,7 +39,6 @@ JUDGE_AMPLIFICATION = 1e3
 def trajectory_results(system: Any, sources: dict[str, Any], *, t_end: float, dt_out: float) -> dict[str, Any]:
     """The three sources' free runs against the reference solution of the hand equations (heyoka's
     Taylor method in long double, cached), plus the notes' perturbed start for the divergence."""
-    from .dynamics.reference import reference_trajectory
 
     q0, v0 = integrate.initial_state(system)
     tau = np.zeros(system.nv)
@@ -308,7 +311,6 @@ def _what_failed(
 
 def _identity(system: Any) -> dict[str, Any]:
     """What a system is: names, files, coordinates, joints, bodies and the physics it uses."""
-    from .systems import MODELS_DIR
 
     inside = system.mjcf.resolve().parent == MODELS_DIR.resolve()
     return {
@@ -351,14 +353,12 @@ def _unreadable(system: Any, exc: Exception) -> dict[str, Any]:
 
 def _run_one(name: str, n_states: int, seed: int, n_probes: int = DEFAULT_PROBES) -> dict[str, Any]:
     """One system, by name (picklable, for process pools)."""
-    from .systems import load
 
     return run_system(load(name), n_states=n_states, seed=seed, n_probes=n_probes)
 
 
 def _run_files(model: str, equations: str, n_states: int, seed: int, n_probes: int) -> dict[str, Any]:
     """One system from a model file and an equations file (picklable, for process pools)."""
-    from .systems import System
 
     return run_system(System.from_files(model, equations), n_states=n_states, seed=seed, n_probes=n_probes)
 
@@ -387,8 +387,6 @@ def run(
     (model, equations) pairs of systems outside the repository, run instead of (or beside) names.
     `after(name, results, meta)`: a picklable function run in the worker on each system's results
     (e.g. rendering its report section); what it returns goes into `rendered[name]`."""
-    from .results import provenance
-    from .systems import System, load_all
 
     # Unknown names and unreadable files fail here, before any work starts.
     systems = load_all(names) if names or not files else []
@@ -398,7 +396,6 @@ def run(
     if clash:
         raise HarnessError(f"two systems are called {', '.join(clash)}: rename one equations file.")
     out: dict[str, Any] = {"meta": provenance(seed), "tolerances": TOLERANCES.as_dict(), "systems": {}}
-    from .parallel import executor_for
 
     with executor_for(executor, tasks=len(systems) + len(users)) as pool:
         # Longest first, so that two workers finish together: damped scenes (implicit-damping

@@ -16,8 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from ..dynamics.integrate import SCIPY_DEFAULT, scipy_trajectory, time_grid
+from ..dynamics.integrate import SCIPY_DEFAULT, initial_state, scipy_trajectory, time_grid
 from ..engines.hand import HandSource
+from ..systems import load
 from .pointwise import random_states
 from .tolerances import TOLERANCES
 
@@ -64,7 +65,6 @@ def check_equivalence(
     other_name = getattr(system.equations, "SAME_SYSTEM_AS", None)
     if other_name is None:
         return None
-    from ..systems import load
 
     other_module = load(other_name).equations
     rows: list[dict[str, Any]] = []
@@ -89,7 +89,6 @@ def check_equivalence(
             continue
         rows += _rows_at(this_sys, other_sys, B, n=n, seed=seed + i, label=label)
     # Trajectories from the other system's initial state, mapped, at this model's parameters.
-    from ..dynamics.integrate import initial_state
 
     other_sys = system.derive(equations=other_module)
     this, that = HandSource(system), HandSource(other_sys)

@@ -29,8 +29,12 @@ from typing import Any
 import numpy as np
 
 from ...equations._forms import DerivationStep, Implicit
+from ..engines import make_sources
+from ..errors import HarnessError
 from ..systems.modelview import ModelView
-from .pointwise import States, error_row
+from . import probes as probing
+from .pointwise import States, error_row, random_states
+from .probes import describe_ties
 from .tolerances import TOLERANCES, Tolerances
 
 ENGINES = ("mujoco", "pinocchio")
@@ -390,8 +394,6 @@ def _combine(judged: list[tuple[Any, dict[str, Any]]]) -> dict[str, Any]:
 def printed_probes(system: Any, *, n_probes: int, seed: int) -> tuple[list[Any], list[str]]:
     """The parameter sets the printed forms are judged at: the model's, and probes that keep the
     equalities the notes' printed forms assume (`PRINTED_FORMS_ASSUME` of the module)."""
-    from ..errors import HarnessError
-    from . import probes as probing
 
     ties = tuple(getattr(system.equations, "PRINTED_FORMS_ASSUME", ()))
     try:
@@ -417,9 +419,6 @@ def judge_system(
     `values`: the engines' quantities `compare.evaluate` already computed at `states`, if any."""
     if not system.variants:
         return []
-    from ..engines import make_sources
-    from .pointwise import random_states
-    from .probes import describe_ties
 
     probe_list, problems = printed_probes(system, n_probes=n_probes, seed=seed)
     ties = tuple(getattr(system.equations, "PRINTED_FORMS_ASSUME", ()))

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from ..engines import make_sources
 from ..errors import HarnessError
 from .tolerances import QUANTITY_TIER, SCALE_ALSO_BY, TOLERANCES, Tolerances
 
@@ -184,7 +185,6 @@ def pointwise(
     system: Any, *, n: int, seed: int, sources: dict[str, Any] | None = None, tolerances: Tolerances = TOLERANCES
 ) -> dict[str, Any]:
     """The pointwise check of one system at `n` seeded states."""
-    from ..engines import make_sources
 
     sources = sources or make_sources(system)
     states = random_states(system, n=n, seed=seed)

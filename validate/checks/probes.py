@@ -27,6 +27,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import HarnessError
+from ..systems.overrides import set_values
+from . import modelsync
 
 DEFAULT_PROBES = 4
 FACTOR_RANGES = ((0.5, 0.8), (1.25, 2.0))  # moderate perturbations, never near 1
@@ -129,8 +131,6 @@ def _assumed_values(assumed: Mapping[str, Any]) -> dict[str, Any]:
 
 def build(system: Any, values: dict[str, float], *, index: int, label: str) -> Probe:
     """The probe model for `values` (Params fields): written, compiled and read back."""
-    from ..systems.overrides import set_values
-    from . import modelsync
 
     eq = system.equations
     base = system.params

@@ -26,10 +26,12 @@ from typing import Any
 
 import numpy as np
 
+from ..engines import make_sources
 from ..errors import HarnessError
 from ..systems.forms import written_form
 from . import probes as probing
 from .judge import ENGINES, EngineTerms, term_rows
+from .modelsync import equations_vs_model
 from .pointwise import States, random_states
 from .tolerances import TOLERANCES, Tolerances
 
@@ -235,7 +237,6 @@ def _error_row(term: str, engine: str, why: str) -> dict[str, Any]:
 def _model_rows(system: Any) -> list[dict[str, Any]]:
     """A failing "parameters" row where the compiled model differs from what the derivation assumes
     of it (its parameters() or assumptions() read or state the wrong element)."""
-    from .modelsync import equations_vs_model
 
     try:
         bad = [r for r in equations_vs_model(system) if not r["passed"]]
@@ -294,7 +295,6 @@ def judge_derivation(
     `values`) and at the probe parameter sets (`probe_set`, else `n_probes` drawn here), with the first
     disagreeing term named, where it is worst, whether the model's own values hide it, and which
     parameter alone exposes it."""
-    from ..engines import make_sources
 
     result: dict[str, Any] = {"name": "hand derivation", "kind": "hand", "equations": system.equations.__name__}
     rows, notes = term_rows_at(system, states, sources, values=values, tolerances=tolerances)
@@ -384,7 +384,6 @@ def judge_derivation(
 
 def exposing_fields(system: Any, term: str, *, tolerances: Tolerances = TOLERANCES, seed: int = 0) -> list[str]:
     """The Params fields that, moved alone, make `term` disagree."""
-    from ..engines import make_sources
 
     out = []
     for probe in probing.single_field_probes(system, seed=seed):

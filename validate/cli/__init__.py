@@ -14,7 +14,23 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from ..checks import modelsync
+from ..checks import pointwise as compare
+from ..checks.pointwise import validate_states
+from ..dynamics import integrate
+from ..dynamics.cache import CACHE_ENV
+from ..engines import make_source, make_sources
 from ..errors import HarnessError, Terminated
+from ..inputs import parse_json, regular_file
+from ..pipeline import run
+from ..replay import replay_command
+from ..results import atomic_write, dumps, to_jsonable
+from ..results import load as load_results
+from ..studies.bench import bench_command
+from ..studies.stress import stress_command
+from ..systems import System, load, pairs_in, system_names
+from .outputs import check_out, render_system, write_all, write_reports
+from .progress import reporter
 
 DEFAULT_STATES = 1000
 DEFAULT_SEED = 0
@@ -184,7 +200,6 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def cmd_list(args: argparse.Namespace) -> int:
-    from ..systems import load, system_names
 
     broken = []
     for name in system_names():
@@ -224,8 +239,6 @@ def _numbers(path: Path, i: int, name: str, x: Any, system: Any) -> list[float]:
 
 
 def _states_from_file(system: Any, path: Path) -> Any:
-    from ..checks.pointwise import validate_states
-    from ..inputs import parse_json, regular_file
 
     items = parse_json(regular_file(path, "states file", max_bytes=MAX_STATES_FILE_BYTES), path)
     if not isinstance(items, list) or not items:
@@ -245,7 +258,6 @@ def _states_from_file(system: Any, path: Path) -> Any:
 
 def _require_same_model(system: Any, sources: dict[str, Any]) -> None:
     """Dynamics are compared only between sources that describe the same model."""
-    from ..checks import modelsync
 
     bad = modelsync.check(system, sources["pinocchio"])["mismatches"]
     if bad:
@@ -258,9 +270,6 @@ def _require_same_model(system: Any, sources: dict[str, Any]) -> None:
 
 def cmd_check(args: argparse.Namespace) -> int:
     import numpy as np
-
-    from ..checks import pointwise as compare
-    from ..engines import make_sources
 
     system = _one_system(args)
     states = (
@@ -297,7 +306,6 @@ def cmd_check(args: argparse.Namespace) -> int:
                 "tolerance": r["tolerance"],
                 "passed": r["passed"],
             }
-        from ..results import to_jsonable
 
         print(json.dumps(to_jsonable(out), allow_nan=False))
     else:
@@ -313,11 +321,6 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     import numpy as np
-
-    from ..checks.pointwise import validate_states
-    from ..dynamics import integrate
-    from ..engines import make_source
-    from ..results import atomic_write
 
     suffix = args.out.suffix.lower()
     if suffix not in (".csv", ".json"):
@@ -361,8 +364,6 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         lines = [",".join(cols)] + [",".join(repr(float(x)) for x in row) for row in table]
         atomic_write(args.out, "\n".join(lines) + "\n")
     else:
-        from ..results import dumps
-
         atomic_write(
             args.out,
             dumps(
@@ -377,7 +378,6 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 def use_cache(args: argparse.Namespace) -> Iterator[None]:
     """Points the reference and chaos caches at --cache-dir (default OUT/.cache) or turns them off,
     through the environment so that pool workers see the same setting; restored afterwards."""
-    from ..dynamics.cache import CACHE_ENV
 
     before = os.environ.get(CACHE_ENV)
     os.environ[CACHE_ENV] = "" if args.no_cache else str((args.cache_dir or args.out / ".cache").absolute())
@@ -391,9 +391,6 @@ def use_cache(args: argparse.Namespace) -> Iterator[None]:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from ..pipeline import run
-    from .outputs import check_out, render_system, write_all
-    from .progress import reporter
 
     check_out(args.out)  # before hours of work, not after
     rendered: dict[str, Any] = {}
@@ -416,7 +413,6 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 def _one_system(args: argparse.Namespace) -> Any:
     """The SYSTEM named, or the one given by --model and --equations (exactly one of the two)."""
-    from ..systems import System, load
 
     files = _user_files(args)
     if files and args.system:
@@ -430,7 +426,6 @@ def _one_system(args: argparse.Namespace) -> Any:
 
 def _user_files(args: argparse.Namespace) -> list[tuple[Path, Path]] | None:
     """--model and --equations (both or neither), and the pairs of a --systems folder."""
-    from ..systems import pairs_in
 
     model, equations = getattr(args, "model", None), getattr(args, "equations", None)
     if (model is None) != (equations is None):
@@ -443,10 +438,8 @@ def _user_files(args: argparse.Namespace) -> list[tuple[Path, Path]] | None:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    from ..results import load
-    from .outputs import write_reports
 
-    results = load(args.out / "results.json")
+    results = load_results(args.out / "results.json")
     try:
         write_reports(results, args.out)
     except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
@@ -459,20 +452,17 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from ..replay import replay_command
 
     return replay_command(args.system, args.save)
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    from ..studies.bench import bench_command
 
     with use_cache(args):
         return bench_command(args)
 
 
 def cmd_stress(args: argparse.Namespace) -> int:
-    from ..studies.stress import stress_command
 
     with use_cache(args):
         return stress_command(args)

@@ -22,6 +22,8 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import HarnessError
+from ..replay import render_system as render_rrd
+from ..report import render, system_section
 from ..results import dumps
 
 OPTIONAL_RESULTS = {"bench": "bench.json", "stress": "stress.json"}  # written by `bench` and `stress`
@@ -79,7 +81,6 @@ def with_optional_results(results: dict[str, Any], out: Path) -> dict[str, Any]:
 
 def write_reports(results: dict[str, Any], out: Path) -> None:
     """report.md, report.html and their plots, replacing those of the folder as one set."""
-    from ..report import render
 
     files = render(with_optional_results(results, out))  # may fail: nothing written yet
     replace_set(out, files, replaces=_from_report)
@@ -99,8 +100,6 @@ def render_system(
     """A system's report section and recording, from its results alone: `run` calls this in the
     worker that computed them, so rendering overlaps the other systems' work. None if rendering
     fails (the final render then tries again in the parent and reports the failure there)."""
-    from ..replay import render_system as render_rrd
-    from ..report import system_section
 
     try:
         rrd = render_rrd(name, result, meta=meta) if replay and result.get("trajectories") else None
@@ -114,14 +113,11 @@ def write_all(
 ) -> None:
     """Everything `run` produces, replacing the previous run's files (all of them) as one set.
     `rendered`: systems already rendered from these results (`render_system`), the rest is rendered here."""
-    from ..report import render
 
     done = {name: f for name, f in (rendered or {}).items() if f is not None and name in results.get("systems", {})}
     sections = {name: f.section for name, f in done.items()}
     files = {"results.json": dumps(results).encode(), **render(with_optional_results(results, out), sections)}
     if replay:
-        from ..replay import render_system as render_rrd
-
         meta = results.get("meta")
         for name, s in results["systems"].items():
             if s.get("trajectories"):

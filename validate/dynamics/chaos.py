@@ -49,15 +49,19 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import HarnessError
-from .integrate import DEFAULT_BUDGET, Budget, Trajectory, energy, mujoco_trajectory, time_grid
-from .mirror import INTEGRATORS, mirror_steps, mirror_trajectory, mujoco_steps
+from ..errors import HarnessError, unknown_name
+from ..results import dumps
+from . import cache
+from .integrate import DEFAULT_BUDGET, Budget, Trajectory, energy, initial_state, mujoco_trajectory, time_grid
+from .mirror import INTEGRATORS, lockstep, mirror_steps, mirror_trajectory, mujoco_steps
 from .reference import (
     CHECK,
     DEFAULT_CACHE_DIR,
     TaylorGuard,
     _integrator,
     _param_key,
+    _source_hash,
+    cache_key,
     reference_trajectory,
     symbolic_dynamics,
 )
@@ -313,8 +317,6 @@ def lyapunov_exponent(
             y = x + sep * (d0 / dist)
             running.append(logs[0] / (k * interval))
     else:
-        from ..errors import unknown_name
-
         raise unknown_name("Lyapunov method", method, ("variational", "two trajectories"))
     running_arr = np.array(running)
     times = interval * np.arange(1, steps + 1)
@@ -542,8 +544,6 @@ def convergence_order(
     the least-squares slope of log error against log dt.
     """
     if integrator not in INTEGRATORS:
-        from ..errors import unknown_name
-
         raise unknown_name("MuJoCo integrator", integrator, INTEGRATORS)
     dts = tuple(timesteps or CONVERGENCE_TIMESTEPS[integrator])
     q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
@@ -674,10 +674,6 @@ def chaos_summary(
     (`_summary_problem`). `cache` in the result says "hit", "miss" or "off"."""
     import json
 
-    from ..results import dumps
-    from . import cache
-    from .reference import _source_hash, cache_key
-
     q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
     t = time_grid(10.0, 0.01) if t is None else t
     if isinstance(cache_dir, str) and cache_dir == cache.DEFAULT:
@@ -765,8 +761,6 @@ def crossvalidate(
 
     The start is the module's INITIAL_STATE (or the harness's generic one) with zero input unless given.
     """
-    from .integrate import initial_state
-    from .mirror import lockstep
 
     if q0 is None or v0 is None:
         q0_default, v0_default = initial_state(system)

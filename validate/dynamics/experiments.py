@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from ...equations._forms import Explicit, Implicit
+from .fastpath import scalar_rhs
 from .integrate import DEFAULT_BUDGET, Budget, first_exceeding, initial_state, integrate_rhs, outcome, time_grid
 
 PERTURBATION = 0.01  # rad, added to the last coordinate, as the notes perturb phi
@@ -79,7 +80,6 @@ def run_experiments(system: Any) -> dict[str, Any]:
     q0b = q0.copy()
     q0b[-1] += PERTURBATION
     forms = dynamic_forms(system)
-    from .fastpath import scalar_rhs
 
     accurate, accurate_info = _integrate(scalar_rhs(system), q0, v0, tau, t, method="DOP853", rtol=1e-12, atol=1e-12)
     runs: list[dict[str, Any]] = []

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from ...equations._forms import Implicit
 from ..systems import tracing
 
 
@@ -59,8 +60,6 @@ def hand_accelerations(
 def variant_accelerations(system: Any, variant: Any) -> tuple[list[Any], list[Any], list[Any], list[Any]]:
     """The accelerations a printed dynamic form implies, symbolically (implicit forms solved for a)."""
     import sympy as sp
-
-    from ...equations._forms import Implicit
 
     n = system.nv
     backend = tracing.sympy_backend()

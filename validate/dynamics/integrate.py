@@ -14,7 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import HarnessError
+from ..errors import HarnessError, unknown_name
+from .fastpath import scalar_rhs
 
 DEFAULT_T_END = 10.0  # s
 DEFAULT_DT_OUT = 0.01  # s
@@ -31,8 +32,6 @@ def mujoco_integrator(name: str) -> Any:
     import mujoco
 
     if name not in MUJOCO_INTEGRATORS:
-        from ..errors import unknown_name
-
         raise unknown_name("MuJoCo integrator", name, MUJOCO_INTEGRATORS)
     return {
         "Euler": mujoco.mjtIntegrator.mjINT_EULER,
@@ -228,8 +227,6 @@ def _rhs(source: Any, tau: np.ndarray) -> tuple[Callable[..., Any], tuple[Any, .
     scalar fast path (validate/fastpath.py) with tau as a list; engines are called once per evaluation."""
     n = len(tau)
     if source.name == "hand":
-        from .fastpath import scalar_rhs
-
         return scalar_rhs(source.system), ([float(x) for x in tau],)
 
     if hasattr(source, "rhs"):
@@ -355,8 +352,6 @@ def _solve_ivp(
     from scipy.integrate._ivp.ivp import METHODS
 
     if method not in METHODS:
-        from ..errors import unknown_name
-
         raise unknown_name("scipy method", method, ("odeint", *METHODS))
     guard = _Guard(budget)
     g = guard.wrap(f, *args)

@@ -47,6 +47,7 @@ import numpy as np
 
 from ..engines.hand import solve_or_nan
 from ..errors import HarnessError, unknown_name
+from .fastpath import scalar_rhs
 from .integrate import DEFAULT_BUDGET, EQUATION_ERRORS, MUJOCO_INTEGRATORS, Budget, Trajectory, mujoco_integrator
 
 INTEGRATORS = MUJOCO_INTEGRATORS
@@ -112,8 +113,6 @@ class Stepper:
         cache = self.__dict__.setdefault("_scalar_cache", {})
         if key not in cache:
             if self.source.name == "hand":
-                from .fastpath import scalar_rhs
-
                 fast, tau_list = scalar_rhs(self.system, damped_step=damped), list(key[0])
                 cache[key] = lambda t, y: fast(t, y, tau_list)
             elif damped is not None:

@@ -38,7 +38,9 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import HarnessError, IntegrationStopped
+from ...equations import _forms as forms
+from ..engines.hand import HandSource
+from ..errors import HarnessError, IntegrationStopped, unknown_name
 from ..systems import tracing
 from . import cache
 from .integrate import DEFAULT_BUDGET, Budget, Trajectory
@@ -103,7 +105,6 @@ def symbolic_dynamics(system: Any) -> SymbolicDynamics:
 
 def rhs_check(system: Any, *, n_states: int = 64, seed: int = 0) -> float:
     """max |a_traced - a_numpy| / max |a_numpy| at random states: the trace reproduces the module."""
-    from ..engines.hand import HandSource
 
     dyn = symbolic_dynamics(system)
     n = dyn.n
@@ -240,8 +241,6 @@ def taylor_solve(
     """
     precisions = _fp_types()
     if precision not in precisions:
-        from ..errors import unknown_name
-
         raise unknown_name("precision", precision, precisions)
     t0 = time.perf_counter()
     ta = _integrator(system, precision, tol)
@@ -297,8 +296,6 @@ def _source_hash(path: str | None) -> str:
 def cache_key(system: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t: np.ndarray, *, check: str | None) -> str:
     """Hash of everything the reference depends on."""
     import heyoka as hy
-
-    from ...equations import _forms as forms  # the harness's helpers, whatever package the module is in
 
     blob = {
         "version": CACHE_VERSION,
@@ -440,7 +437,6 @@ def window_check(system: Any, traj: Trajectory, tau: np.ndarray) -> float:
     """Largest difference (rad, rad/s) between stored samples k+1 and classic RK4 (steps of at most
     WINDOW_CHECK_STEP, all windows at once) restarted from stored sample k: a stored solution satisfies
     the hand equations in every window (a shifted, scaled or spliced one does not)."""
-    from ..engines.hand import HandSource
 
     hand, n = HandSource(system), system.nv
     x = np.hstack([traj.q[:-1], traj.v[:-1]])

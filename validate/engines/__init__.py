@@ -6,37 +6,17 @@ Every source works on batches of states in the notes' coordinates: `q`, `v`, `ta
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
+from ..errors import unknown_name
+from .base import Kinematics, Source
+from .hand import HandSource
+
+__all__ = ["SOURCE_NAMES", "Kinematics", "MappedSource", "Source", "make_source", "make_sources"]
+
 SOURCE_NAMES = ("hand", "mujoco", "pinocchio")
-
-
-@dataclass(frozen=True)
-class Kinematics:
-    """Per-body kinematics at N states; the body axis follows `System.bodies`."""
-
-    com_position: np.ndarray  # (N, nb, 3) m
-    com_velocity: np.ndarray  # (N, nb, 3) m/s
-    origin_position: np.ndarray  # (N, nb, 3) m, the body frame origin (its joint)
-    origin_velocity: np.ndarray  # (N, nb, 3) m/s
-    rotation: np.ndarray  # (N, nb, 3, 3) body frame in the world frame
-    angular_velocity: np.ndarray  # (N, nb, 3) rad/s, world frame
-    kinetic_energy: np.ndarray  # (N, nb) J
-    potential_energy: np.ndarray  # (N, nb) J
-
-
-class Source(Protocol):
-    name: str
-
-    def mass_matrix(self, q: np.ndarray) -> np.ndarray: ...
-    def bias(self, q: np.ndarray, v: np.ndarray) -> np.ndarray: ...
-    def forward(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray: ...
-    def inverse(self, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray: ...
-    def energies(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
-    def body_positions(self, q: np.ndarray) -> np.ndarray: ...
 
 
 class MappedSource:
@@ -120,13 +100,9 @@ def make_source(system: Any, name: str) -> Any:
     Engines read joint coordinates; where the notes' coordinates are a linear map of them
     (`JOINT_MAP` in the equations module), the engine sources are wrapped in that map.
     """
-    from ..errors import unknown_name
-
     if name == "hand":
-        from .hand import HandSource
-
         return HandSource(system)
-    if name == "mujoco":
+    if name == "mujoco":  # the engines are imported here, when first asked for: they are heavy
         from .mujoco import MujocoSource
 
         engine: Any = MujocoSource(system)

@@ -11,7 +11,7 @@ import mujoco
 import numpy as np
 
 from ..errors import HarnessError
-from . import Kinematics
+from .base import Kinematics
 
 
 class MujocoSource:

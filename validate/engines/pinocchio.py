@@ -15,7 +15,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import HarnessError
-from . import Kinematics
+from .base import Kinematics
 
 
 def build_model(system: Any) -> Any:

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import HarnessError
+from ..inputs import parse_json, regular_file
 from ..systems import PACKAGE_ROOT
 
 PACKAGES = ("lagrange-xval", "numpy", "scipy", "mujoco", "pin", "rerun-sdk", "matplotlib", "jinja2")
@@ -128,7 +129,6 @@ MAX_RESULTS_BYTES = 512 * 2**20  # results.json of the five systems is ~30 MB
 
 def load(path: Path) -> dict[str, Any]:
     """The results `run` wrote, checked for the layout the reports are rendered from."""
-    from ..inputs import parse_json, regular_file
 
     path = Path(path)
     if not path.exists():

@@ -16,7 +16,10 @@ from types import ModuleType
 from typing import Any
 
 from ..errors import HarnessError, unknown_name
-from .modelview import ModelView
+from ..inputs import regular_file
+from .forms import normalize
+from .modelview import ModelView, from_mujoco
+from .overrides import apply_overrides, parse
 
 PACKAGE_ROOT = Path(__file__).resolve().parents[2]
 MODELS_DIR = PACKAGE_ROOT / "models"
@@ -65,8 +68,6 @@ def mjcf_text(path: Path, overrides: tuple[tuple[str, float], ...] = (), text: s
     applied at full precision."""
     import xml.etree.ElementTree as ET
 
-    from ..inputs import regular_file
-
     try:
         if text is None:
             text = regular_file(path, "MJCF file", max_bytes=MAX_MJCF_BYTES).decode()
@@ -77,8 +78,6 @@ def mjcf_text(path: Path, overrides: tuple[tuple[str, float], ...] = (), text: s
         # MuJoCo would also compile URDF; the harness reads MJCF only.
         raise HarnessError(f"{path.name}: not an MJCF file (root element <{root}>, expected <mujoco>).")
     if overrides:
-        from .overrides import apply_overrides
-
         text = apply_overrides(text, overrides)
     return _absolute_includes(text, path.resolve().parent)
 
@@ -129,7 +128,6 @@ class System:
     _cache: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
 
     def __post_init__(self) -> None:
-        from .forms import normalize
 
         object.__setattr__(self, "equations", normalize(self.equations))
 
@@ -152,7 +150,6 @@ class System:
     def with_overrides(self, **values: float) -> System:
         """A copy with parameter overrides, by key (`"body/link1/mass"`) or as keyword arguments with
         `__` for `/` (`body__link1__mass=1.5`); see validate/overrides.py for the keys."""
-        from .overrides import parse
 
         items = [f"{k.replace('__', '/')}={v!r}" for k, v in values.items()]
         return self.derive(overrides=self.overrides + parse(items))
@@ -207,8 +204,6 @@ class System:
     @property
     def view(self) -> ModelView:
         if "view" not in self._cache:
-            from .modelview import from_mujoco
-
             self._cache["view"] = from_mujoco(self.mujoco_model(), self.mjcf.name)
         return self._cache["view"]
 
@@ -225,7 +220,6 @@ class System:
 
 def _check_contract(module: ModuleType, where: str) -> ModuleType:
     """The module, brought to form (a) (validate/forms.py) once it is known to meet the contract."""
-    from .forms import normalize
 
     missing = [a for a in REQUIRED_ATTRIBUTES if not hasattr(module, a)]
     if missing:

@@ -28,7 +28,9 @@ from typing import Any
 
 import numpy as np
 
+from ...equations._forms import stack_matrix, stack_vector
 from ..errors import HarnessError
+from . import tracing
 
 FORMS = {
     "a": ("mass_matrix", "bias"),
@@ -212,8 +214,6 @@ def _derive(module: Any, numeric_params: tuple[tuple[str, float], ...] | None) -
     else the numbers given."""
     import sympy as sp
 
-    from . import tracing
-
     backend = tracing.sympy_backend()
     n = _n(module)
     qs, vs = list(sp.symbols(f"q0:{n}")), list(sp.symbols(f"v0:{n}"))
@@ -251,7 +251,6 @@ def _integer_powers(expr: Any) -> Any:
 
 def _energy_terms(module: Any, p: Any, q: Any, v: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(M, G, C v) of an energies-only module at (q, v) (v None: zero)."""
-    from ...equations._forms import stack_matrix, stack_vector
 
     try:
         derived = _derive(module, None)

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import HarnessError, unknown_name
-from .modelview import ModelView
+from .modelview import ModelView, from_mujoco
 
 PATTERNS = (
     "scale/mass",
@@ -460,8 +460,6 @@ def _same(expected: Any, actual: Any) -> bool:
 def compiled_view(text: str) -> ModelView:
     """MuJoCo's compiled model of `text`, as a ModelView; a model MuJoCo refuses is a one-line HarnessError."""
     import mujoco
-
-    from .modelview import from_mujoco
 
     try:
         model = mujoco.MjModel.from_xml_string(text)

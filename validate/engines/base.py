@@ -1,0 +1,33 @@
+"""What every source has in common: the per-body kinematics record and the batched interface."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Kinematics:
+    """Per-body kinematics at N states; the body axis follows `System.bodies`."""
+
+    com_position: np.ndarray  # (N, nb, 3) m
+    com_velocity: np.ndarray  # (N, nb, 3) m/s
+    origin_position: np.ndarray  # (N, nb, 3) m, the body frame origin (its joint)
+    origin_velocity: np.ndarray  # (N, nb, 3) m/s
+    rotation: np.ndarray  # (N, nb, 3, 3) body frame in the world frame
+    angular_velocity: np.ndarray  # (N, nb, 3) rad/s, world frame
+    kinetic_energy: np.ndarray  # (N, nb) J
+    potential_energy: np.ndarray  # (N, nb) J
+
+
+class Source(Protocol):
+    name: str
+
+    def mass_matrix(self, q: np.ndarray) -> np.ndarray: ...
+    def bias(self, q: np.ndarray, v: np.ndarray) -> np.ndarray: ...
+    def forward(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray: ...
+    def inverse(self, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray: ...
+    def energies(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+    def body_positions(self, q: np.ndarray) -> np.ndarray: ...
