@@ -139,21 +139,11 @@ def term_rows(
 def _axis_rotation(axis: np.ndarray, angle: np.ndarray, engine: str) -> np.ndarray:
     """The engine's own rotation by `angle` about the unit `axis`, (N, 3, 3)."""
     axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
-    out = np.empty((len(angle), 3, 3))
     if engine == "mujoco":
-        import mujoco
-
-        quat, mat = np.zeros(4), np.zeros(9)
-        for i, ang in enumerate(angle):
-            mujoco.mju_axisAngle2Quat(quat, axis, float(ang))
-            mujoco.mju_quat2Mat(mat, quat)
-            out[i] = mat.reshape(3, 3)
+        from ..engines import mujoco as engine_module
     else:
-        import pinocchio as pin
-
-        for i, ang in enumerate(angle):
-            out[i] = pin.exp3(axis * float(ang))
-    return out
+        from ..engines import pinocchio as engine_module  # type: ignore[no-redef]
+    return engine_module.axis_rotation(axis, np.asarray(angle, dtype=float))
 
 
 def engine_quantity(

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from ..engines.base import MUJOCO_INTEGRATORS as MUJOCO_INTEGRATORS  # re-exported: dynamics names them
 from ..errors import HarnessError, unknown_name
 from .fastpath import scalar_rhs
 
@@ -24,21 +25,11 @@ DEFAULT_DT_OUT = 0.01  # s
 SCIPY_DEFAULT: dict[str, Any] = {"method": "odeint", "rtol": 1e-11, "atol": 1e-14}
 
 
-MUJOCO_INTEGRATORS = ("Euler", "RK4", "implicit", "implicitfast")
-
-
 def mujoco_integrator(name: str) -> Any:
     """MuJoCo's enum value for an integrator name; an unknown name lists the valid ones."""
-    import mujoco
+    from ..engines.mujoco import integrator_enum
 
-    if name not in MUJOCO_INTEGRATORS:
-        raise unknown_name("MuJoCo integrator", name, MUJOCO_INTEGRATORS)
-    return {
-        "Euler": mujoco.mjtIntegrator.mjINT_EULER,
-        "RK4": mujoco.mjtIntegrator.mjINT_RK4,
-        "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
-        "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
-    }[name]
+    return integrator_enum(name)
 
 
 @dataclass
@@ -523,38 +514,24 @@ def mujoco_trajectory(
     integrator: str = "RK4",
     timestep: float | None = None,
 ) -> Trajectory:
-    """MuJoCo stepping its own integrator; samples every round(dt_out / timestep) steps."""
-    import mujoco
+    """MuJoCo stepping its own integrator; samples every round(dt_out / timestep) steps. A run that
+    went unstable (a warning, after which MuJoCo resets the state, or a non-finite state) raises
+    Diverged naming the interval: its samples are never data."""
+    from ..engines.mujoco import free_run
 
-    m, d = source.m, source.d
-    enum = mujoco_integrator(integrator)
-    saved = (m.opt.integrator, m.opt.timestep)
-    m.opt.integrator = enum
-    dt = float(timestep or m.opt.timestep)
-    m.opt.timestep = dt
+    dt = float(timestep or source.m.opt.timestep)
     dt_out = t[1] - t[0] if len(t) > 1 else dt
     steps = round(dt_out / dt)
     if steps < 1 or not np.isclose(steps * dt, dt_out, rtol=1e-9, atol=0.0):
         raise HarnessError(f"MuJoCo timestep {dt} must divide the output step {dt_out}.")
-    try:
-        mujoco.mj_resetData(m, d)
-        source.set_state(q0, v0, tau)
-        q, v = np.empty((len(t), system.nv)), np.empty((len(t), system.nv))
-        clock = np.empty(len(t))  # MuJoCo's own time: a reset after a warning sets it back to zero
-        q[0], v[0], clock[0] = q0, v0, d.time
-        for k in range(1, len(t)):
-            mujoco.mj_step(m, d, nstep=steps)
-            q[k], v[k] = source.get_state()
-            clock[k] = d.time
-        # Checked once, after the loop (per sample it cost a tenth of the stepping): the first sample
-        # whose clock fell behind or whose state is not finite, or the last if only a counter says so.
-        behind = np.abs(clock - (clock[0] + np.arange(len(t)) * steps * dt)) > 0.5 * dt
-        broken = behind | ~np.all(np.isfinite(q), axis=1) | ~np.all(np.isfinite(v), axis=1)
-        if broken.any() or d.warning.number.any():
-            k = int(np.argmax(broken)) if broken.any() else len(t) - 1
-            _check_step(d, system, integrator, dt, t, max(k, 1), q[k], v[k], force=True)
-    finally:
-        m.opt.integrator, m.opt.timestep = saved
+    q, v, clock, raised = free_run(source, q0, v0, tau, len(t), steps, integrator=integrator, timestep=dt)
+    # The first sample whose clock fell behind or whose state is not finite, or the last if only a
+    # warning counter says so (checked once, after the loop: per sample it cost a tenth of the stepping).
+    behind = np.abs(clock - (clock[0] + np.arange(len(t)) * steps * dt)) > 0.5 * dt
+    broken = behind | ~np.all(np.isfinite(q), axis=1) | ~np.all(np.isfinite(v), axis=1)
+    if broken.any() or raised:
+        k = max(int(np.argmax(broken)) if broken.any() else len(t) - 1, 1)
+        _diverged(system, integrator, dt, t, k, q[k], v[k], raised)
     return Trajectory("mujoco", f"MuJoCo {integrator} dt {dt:g}", t.copy(), q, v, {"steps": steps * (len(t) - 1)})
 
 
@@ -562,26 +539,21 @@ class Diverged(HarnessError):
     """A run that went unstable: its samples from here on are not data."""
 
 
-def _check_step(
-    d: Any, system: Any, integrator: str, dt: float, t: np.ndarray, k: int, q: Any, v: Any, *, force: bool = False
+def _diverged(
+    system: Any, integrator: str, dt: float, t: np.ndarray, k: int, q: Any, v: Any, raised: list[tuple[str, int]]
 ) -> None:
-    """Refuses sample k of a MuJoCo run after a warning (MuJoCo then resets the state to zeros and
-    carries on) or with a non-finite value: never data, one line naming the time and the quantity."""
-    warned = [w for w, stat in enumerate(d.warning) if stat.number]
-    if force or warned or not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
-        import mujoco
-
-        names = [mujoco.mjtWarning(w).name for w in warned]
-        what = (
-            f"MuJoCo warned {', '.join(names)} (bad {'/'.join(n.removeprefix('mjWARN_BAD').lower() for n in names)}"
-            f", DOF {d.warning[warned[0]].lastinfo}) and reset the state"
-            if warned
-            else f"q = {np.asarray(q).tolist()}, v = {np.asarray(v).tolist()} is not finite or was reset"
-        )
-        raise Diverged(
-            f"{system.name}: MuJoCo {integrator} at dt {dt:g} diverged between t = {t[k - 1]:g} s and "
-            f"t = {t[k]:g} s: {what}; nothing written."
-        )
+    """Refuses sample k of a MuJoCo run: one line naming the time and what went wrong."""
+    names = [name for name, _ in raised]
+    what = (
+        f"MuJoCo warned {', '.join(names)} (bad {'/'.join(n.removeprefix('mjWARN_BAD').lower() for n in names)}"
+        f", DOF {raised[0][1]}) and reset the state"
+        if raised
+        else f"q = {np.asarray(q).tolist()}, v = {np.asarray(v).tolist()} is not finite or was reset"
+    )
+    raise Diverged(
+        f"{system.name}: MuJoCo {integrator} at dt {dt:g} diverged between t = {t[k - 1]:g} s and "
+        f"t = {t[k]:g} s: {what}; nothing written."
+    )
 
 
 def energy(system: Any, hand: Any, traj: Trajectory) -> np.ndarray:

@@ -48,7 +48,7 @@ import numpy as np
 from ..engines.hand import solve_or_nan
 from ..errors import HarnessError, unknown_name
 from .fastpath import scalar_rhs
-from .integrate import DEFAULT_BUDGET, EQUATION_ERRORS, MUJOCO_INTEGRATORS, Budget, Trajectory, mujoco_integrator
+from .integrate import DEFAULT_BUDGET, EQUATION_ERRORS, MUJOCO_INTEGRATORS, Budget, Trajectory
 
 INTEGRATORS = MUJOCO_INTEGRATORS
 RK4_A = ((0.5,), (0.0, 0.5), (0.0, 0.0, 1.0))
@@ -88,11 +88,9 @@ def force_velocity_jacobian(
 
 def eulerdamp_active(system: Any) -> bool:
     """Whether MuJoCo's Euler treats joint damping implicitly for this model (flags and damping)."""
-    import mujoco
+    from ..engines import mujoco as engine
 
-    m = system.mujoco_model()
-    off = int(mujoco.mjtDisableBit.mjDSBL_EULERDAMP) | int(mujoco.mjtDisableBit.mjDSBL_DAMPER)
-    return not (m.opt.disableflags & off) and bool(np.any(m.dof_damping > 0))
+    return engine.eulerdamp_active(system.mujoco_model())
 
 
 class Stepper:
@@ -380,26 +378,10 @@ def mujoco_steps(
 ) -> tuple[np.ndarray, np.ndarray]:
     """`steps` calls of `mj_step` from each of N states (the MuJoCo side of a lockstep), (N, n). A
     state from which MuJoCo warns (and resets) gives NaN rows, never the reset state as data."""
-    import mujoco
+    from ..engines import mujoco as engine
 
     _check_integrator(integrator)
-    m, d = source.m, source.d
-    tau = np.broadcast_to(np.asarray(tau, dtype=float), np.shape(q))
-    saved = (m.opt.integrator, m.opt.timestep)
-    m.opt.integrator = mujoco_integrator(integrator)
-    m.opt.timestep = timestep
-    q_out, v_out = np.empty(np.shape(q)), np.empty(np.shape(v))
-    try:
-        for i in range(len(q)):
-            mujoco.mj_resetData(m, d)
-            source.set_state(q[i], v[i], tau[i])
-            mujoco.mj_step(m, d, nstep=steps)
-            q_out[i], v_out[i] = source.get_state()
-            if d.warning.number.any():  # the array view: a loop over d.warning costs 90 us
-                q_out[i], v_out[i] = np.nan, np.nan
-    finally:
-        m.opt.integrator, m.opt.timestep = saved
-    return q_out, v_out
+    return engine.step_states(source, q, v, tau, integrator=integrator, timestep=timestep, steps=steps)
 
 
 def lockstep(

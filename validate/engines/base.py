@@ -7,6 +7,15 @@ from typing import Protocol
 
 import numpy as np
 
+# MuJoCo's integrators by the names the harness uses (defined once; the enums live in engines/mujoco.py).
+INTEGRATOR_ENUMS = {
+    "Euler": "mjINT_EULER",
+    "RK4": "mjINT_RK4",
+    "implicit": "mjINT_IMPLICIT",
+    "implicitfast": "mjINT_IMPLICITFAST",
+}
+MUJOCO_INTEGRATORS = tuple(INTEGRATOR_ENUMS)
+
 
 @dataclass(frozen=True)
 class Kinematics:

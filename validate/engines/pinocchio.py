@@ -217,3 +217,11 @@ class PinocchioSource:
                 ke[i, k] = 0.5 * inertia.vtiv(vj)
                 pe[i, k] = -inertia.mass * self.gravity @ cp[i, k]
         return Kinematics(cp, cv, op, ov, rot, w, ke, pe)
+
+
+def axis_rotation(axis: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """Pinocchio's rotation by each angle about the unit `axis` (exp3), (N, 3, 3)."""
+    out = np.empty((len(angles), 3, 3))
+    for i, ang in enumerate(angles):
+        out[i] = pin.exp3(axis * float(ang))
+    return out
