@@ -76,13 +76,18 @@ class DerivationStep:
 Variant = Implicit | Explicit | DerivationStep
 
 
+class NotApplicable(ValueError):
+    """A printed form evaluated where its stated assumptions do not hold (the harness reports the
+    form as "not applicable" there, and catches nothing broader)."""
+
+
 def common(symbol: str, **values: float) -> float:
     """The notes' single symbol for parameters their printed forms assume equal (m for m1 and m2);
-    a printed form evaluated where they differ does not apply, so this raises ValueError."""
+    a printed form evaluated where they differ does not apply, so this raises NotApplicable."""
     first = next(iter(values.values()))
     if any(v != first for v in values.values()):
         given = ", ".join(f"{k} = {v}" for k, v in values.items())
-        raise ValueError(f"the notes' printed forms assume one {symbol} for {' and '.join(values)} (got {given})")
+        raise NotApplicable(f"the notes' printed forms assume one {symbol} for {' and '.join(values)} (got {given})")
     return first
 
 

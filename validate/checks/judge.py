@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from ...equations._forms import DerivationStep, Implicit
+from ...equations._forms import DerivationStep, Implicit, NotApplicable
 from ..engines import make_sources
 from ..errors import HarnessError
 from ..systems.modelview import ModelView
@@ -333,7 +333,7 @@ def judge_variant(
                 tier="solve",
                 tolerances=tolerances,
             )
-    except ValueError as exc:  # a printed form that does not apply to these parameters
+    except NotApplicable as exc:  # a printed form that does not apply to these parameters
         result.update(verdict="not applicable", reason=str(exc), terms=[])
         return result
     rows.sort(key=lambda r: (TERM_ORDER.index(r["term"]), r["engine"]))
