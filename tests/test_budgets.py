@@ -232,7 +232,7 @@ def test_taylor_guard_leaves_the_reference_bit_for_bit():
     q0, v0, tau = start(s)
     t = integrate.time_grid(2.0, 0.01)
     states, meta = reference.taylor_solve(s, q0, v0, tau, t, precision="double")
-    ta = reference._integrator(s, "double", None)
+    ta = reference.taylor_integrator(s, "double", None)
     ta.time, ta.state[:], ta.pars[:] = 0.0, np.concatenate([q0, v0]), tau
     outcome, *_, plain = ta.propagate_grid(t)
     assert "time_limit" in str(outcome) and np.array_equal(states, plain) and meta["steps"] > 0

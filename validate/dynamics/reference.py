@@ -73,7 +73,7 @@ class SymbolicDynamics:
         return list(zip(self.state, self.rhs, strict=True))
 
 
-def _param_key(system: Any) -> tuple[tuple[str, str], ...]:
+def param_key(system: Any) -> tuple[tuple[str, str], ...]:
     return tuple((k, float(v).hex()) for k, v in sorted(vars(system.params).items()))
 
 
@@ -142,13 +142,13 @@ def _extended_available() -> bool:
 _INTEGRATORS: dict[tuple[Any, ...], Any] = {}
 
 
-def _integrator(system: Any, precision: str, tol: float | None) -> Any:
+def taylor_integrator(system: Any, precision: str, tol: float | None) -> Any:
     """A compiled heyoka integrator for the system (kept for the process; state reset per use)."""
     import heyoka as hy
 
     fp = _fp_types()[precision]
     # the module itself, not its id or name: a mutated module of the same name gets its own integrator
-    key = (system.name, system.overrides, _param_key(system), system.equations, precision, tol)
+    key = (system.name, system.overrides, param_key(system), system.equations, precision, tol)
     if key not in _INTEGRATORS:
         dyn = symbolic_dynamics(system)
         state = np.zeros(2 * dyn.n, dtype=fp) if fp is not hy.real128 else np.array([hy.real128(0)] * 2 * dyn.n)
@@ -243,7 +243,7 @@ def taylor_solve(
     if precision not in precisions:
         raise unknown_name("precision", precision, precisions)
     t0 = time.perf_counter()
-    ta = _integrator(system, precision, tol)
+    ta = taylor_integrator(system, precision, tol)
     t1 = time.perf_counter()
     ta.time = _to_fp(np.array(t[0]), precision)[()]
     ta.state[:] = _to_fp(np.concatenate([q0, v0]), precision)
@@ -289,7 +289,7 @@ def _difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 # Cached reference
 
 
-def _source_hash(path: str | None) -> str:
+def source_hash(path: str | None) -> str:
     return hashlib.sha256(Path(path or "").read_bytes()).hexdigest() if path else ""
 
 
@@ -301,12 +301,12 @@ def cache_key(system: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t: n
         "version": CACHE_VERSION,
         "system": system.name,
         "overrides": [[k, float(v).hex()] for k, v in system.overrides],
-        "params": _param_key(system),
+        "params": param_key(system),
         # What the equations compute, not where they came from: the traced right-hand side (a module
         # changed in memory, or two files of one name, never share an entry).
         "equations": hashlib.sha256(str(symbolic_dynamics(system).rhs).encode()).hexdigest(),
-        "forms": _source_hash(forms.__file__),
-        "reference": _source_hash(__file__),
+        "forms": source_hash(forms.__file__),
+        "reference": source_hash(__file__),
         "harness": cache.harness_hash(),
         "heyoka": hy.__version__,
         "primary": PRIMARY if _extended_available() else CHECK,
