@@ -12,7 +12,7 @@ import pytest
 from lagrange_xval.equations._forms import planar_inertia
 from lagrange_xval.validate import systems
 from lagrange_xval.validate.errors import HarnessError
-from lagrange_xval.validate.systems import modelview, overrides
+from lagrange_xval.validate.systems import modelview, set_values
 
 SYSTEMS = systems.system_names()
 RTOL = 1e-13  # the contract: what is written compiles back to 1e-13 of the array's largest entry
@@ -85,7 +85,7 @@ def perturbed(view: modelview.ModelView, rng: np.random.Generator) -> dict:
 def test_own_values_give_back_the_same_model(name):
     """Every key set to its own value compiles to the same view."""
     s = systems.load(name)
-    view = compiled(overrides.set_values(s.mjcf_xml(), dict(s.view), verify=False))
+    view = compiled(set_values.set_values(s.mjcf_xml(), dict(s.view), verify=False))
     assert sorted(view) == sorted(s.view)
     assert not differing(dict(s.view), view)
 
@@ -96,7 +96,7 @@ def test_random_values_read_back_as_set(name, seed):
     """Random valid values of every settable key are what MuJoCo compiles, and the structure is unchanged."""
     s = systems.load(name)
     values = perturbed(s.view, np.random.default_rng([seed, len(name)]))
-    view = compiled(overrides.set_values(s.mjcf_xml(), values, verify=False))
+    view = compiled(set_values.set_values(s.mjcf_xml(), values, verify=False))
     assert not differing(values, view)
     structure = {k: v for k, v in s.view.items() if k.rpartition("/")[2] in STRUCTURE}
     assert not differing(structure, view)
@@ -119,7 +119,7 @@ def test_pinocchio_reads_the_edited_text_alike(name):
     """Pinocchio's mass, centre of mass and inertia of each body (in the body frame) are the values written."""
     s = systems.load(name)
     values = perturbed(s.view, np.random.default_rng([5, len(name)]))
-    model = pinocchio_model(overrides.set_values(s.mjcf_xml(), values))
+    model = pinocchio_model(set_values.set_values(s.mjcf_xml(), values))
     bad = []
     for body in (k.split("/")[1] for k in s.view if k.startswith("body/") and k.endswith("/mass")):
         frame = model.frames[model.getBodyId(body)]
@@ -145,7 +145,7 @@ def test_rotated_bodies_on_mujocos_edges_read_back(moments):
     for scale in (1e-3, 1.0, 1e3):
         R = rotation(rng)
         inertia = R @ np.diag(np.array(moments) * (scale if moments[2] > 1e-13 else 1.0)) @ R.T
-        text = overrides.set_values(s.mjcf_xml(), {"body/inner/inertia": inertia}, verify=False)
+        text = set_values.set_values(s.mjcf_xml(), {"body/inner/inertia": inertia}, verify=False)
         if not close(inertia, compiled(text)["body/inner/inertia"]):
             bad.append(scale)
     assert not bad
@@ -157,7 +157,7 @@ def test_nan_inertia_entries_are_chosen_to_keep_the_body_valid(name):
     s = systems.load(name)
     bodies = [k for k in s.view if k.endswith("/inertia")]
     values = {k: planar_inertia(50.0 * np.abs(s.view[k]).max()) for k in bodies}
-    text = overrides.set_values(s.mjcf_xml(), values)
+    text = set_values.set_values(s.mjcf_xml(), values)
     view = compiled(text)
     for k in bodies:
         inertia, p = view[k], np.linalg.eigvalsh(view[k])
@@ -178,7 +178,7 @@ def test_nan_entries_keep_the_current_values_where_valid(name):
             values[k] = float("nan")
         elif k.endswith("/com"):
             values[k] = np.array([np.nan, s.view[k][1] + 0.25, np.nan])
-    view = compiled(overrides.set_values(s.mjcf_xml(), values))
+    view = compiled(set_values.set_values(s.mjcf_xml(), values))
     expected = {k: s.view[k] for k in s.view if k.endswith(("/inertia", "/mass"))}
     expected |= {k: s.view[k] + [0.0, 0.25, 0.0] for k in s.view if k.endswith("/com")}
     assert not differing(expected, view)
@@ -189,14 +189,14 @@ def test_nan_entries_keep_every_current_component(name):
     """On a perturbed model (no zero components), NaN scalars and NaN components of every key change nothing."""
     s = systems.load(name)
     rng = np.random.default_rng([11, len(name)])
-    text = overrides.set_values(s.mjcf_xml(), perturbed(s.view, rng))
+    text = set_values.set_values(s.mjcf_xml(), perturbed(s.view, rng))
     before = compiled(text)
     values = {}
     for key, x in before.items():
         if key.rpartition("/")[2] not in STRUCTURE:
             x = np.array(x, dtype=float)
             values[key] = np.where(rng.random(x.shape) < 0.5, np.nan, x) if x.ndim else np.nan
-    assert not differing(dict(before), compiled(overrides.set_values(text, values)))
+    assert not differing(dict(before), compiled(set_values.set_values(text, values)))
 
 
 @pytest.mark.parametrize("name", SYSTEMS)
@@ -206,7 +206,7 @@ def test_one_key_changes_that_key_alone(name):
     values = perturbed(s.view, np.random.default_rng([9, len(name)]))
     bad = []
     for key, value in values.items():
-        view = compiled(overrides.set_values(s.mjcf_xml(), {key: value}, verify=False))
+        view = compiled(set_values.set_values(s.mjcf_xml(), {key: value}, verify=False))
         expected = dict(s.view) | {key: value}
         bad += [f"setting {key}: {d}" for d in differing(expected, view)]
     assert not bad
@@ -241,7 +241,7 @@ def test_bodies_without_inertial_defaults_and_degrees():
     rng = np.random.default_rng(3)
     values = perturbed(before, rng)
     for subset in (values, {"body/a/mass": 3.0}, {"gravity": [1.0, np.nan, 2.0]}, {"joint/ja/axis": [np.nan, 1.0, 0]}):
-        text = overrides.set_values(SYNTHETIC, subset)
+        text = set_values.set_values(SYNTHETIC, subset)
         assert text.startswith("<!-- header -->")
         view = compiled(text)
         expected = dict(before) | {k: np.where(np.isnan(v), before[k], v) for k, v in subset.items()}
@@ -283,7 +283,7 @@ BAD = [
 def test_bad_values_are_one_line_errors_naming_the_key(name, key, value, message):
     """Unphysical, non-finite, misshapen values and structure changes are refused, naming the key."""
     with pytest.raises(HarnessError, match=message) as err:
-        overrides.set_values(systems.load(name).mjcf_xml(), {key: value})
+        set_values.set_values(systems.load(name).mjcf_xml(), {key: value})
     assert key in str(err.value) and "\n" not in str(err.value)
 
 
@@ -300,5 +300,5 @@ def test_bad_values_are_one_line_errors_naming_the_key(name, key, value, message
 def test_unknown_keys_and_names_list_the_valid_ones(key, shown):
     """An unknown key or name is a one-line error that lists the valid ones."""
     with pytest.raises(HarnessError) as err:
-        overrides.set_values(systems.load("double_pendulum_bars").mjcf_xml(), {key: 1.0})
+        set_values.set_values(systems.load("double_pendulum_bars").mjcf_xml(), {key: 1.0})
     assert shown in str(err.value) and "Valid: " in str(err.value) and "\n" not in str(err.value)

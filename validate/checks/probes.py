@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import HarnessError
-from ..systems.overrides import set_values
+from ..systems.set_values import set_values
 from . import modelsync
 
 DEFAULT_PROBES = 4
