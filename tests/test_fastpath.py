@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 from lagrange_xval.equations._forms import Explicit, Implicit
-from lagrange_xval.validate.dynamics import fastpath
+from lagrange_xval.validate.engines import fastpath
 from lagrange_xval.validate.engines.hand import HandSource
 
 

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from ...equations._forms import Explicit, Implicit, NotApplicable
-from .fastpath import scalar_rhs
+from ..engines.fastpath import scalar_rhs
 from .integrate import DEFAULT_BUDGET, Budget, first_exceeding, initial_state, integrate_rhs, outcome, time_grid
 
 PERTURBATION = 0.01  # rad, added to the last coordinate, as the notes perturb phi

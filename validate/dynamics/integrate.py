@@ -16,7 +16,6 @@ import numpy as np
 
 from ..engines.base import MUJOCO_INTEGRATORS as MUJOCO_INTEGRATORS  # re-exported: dynamics names them
 from ..errors import HarnessError, unknown_name
-from .fastpath import scalar_rhs
 
 DEFAULT_T_END = 10.0  # s
 DEFAULT_DT_OUT = 0.01  # s
@@ -213,21 +212,18 @@ def _fmt(x: Any) -> str:
     return "[" + ", ".join(f"{float(v):.6g}" for v in np.ravel(x)) + "]"
 
 
-def _rhs(source: Any, tau: np.ndarray) -> tuple[Callable[..., Any], tuple[Any, ...]]:
-    """scipy's right-hand side as (f, args) with f(t, y, *args). The hand equations use the generated
-    scalar fast path (validate/fastpath.py) with tau as a list; engines are called once per evaluation."""
-    n = len(tau)
-    if source.name == "hand":
-        return scalar_rhs(source.system), ([float(x) for x in tau],)
-
+def source_rhs(source: Any, tau: np.ndarray) -> Callable[..., Any]:
+    """scipy's right-hand side f(t, y) for constant `tau`: the source's own one-state `rhs` where it
+    has one (the hand equations' generated code, Pinocchio's ABA), else its batched forward dynamics."""
     if hasattr(source, "rhs"):
-        return source.rhs(tau), ()
+        return source.rhs(tau)  # type: ignore[no-any-return]
+    n = len(tau)
 
     def h(t: float, y: np.ndarray) -> np.ndarray:
         a = source.forward(y[None, :n], y[None, n:], tau[None])[0]
         return np.concatenate([y[n:], a])
 
-    return h, ()
+    return h
 
 
 @dataclass
@@ -484,11 +480,11 @@ def scipy_trajectory(
     when "ok"); the samples after "stopped_at" are NaN.
     """
     n = system.nv
-    f, args = _rhs(source, tau)
+    f = source_rhs(source, tau)
     y0 = np.concatenate([q0, v0])
-    run = integrate_rhs(f, y0, t, method=method, rtol=rtol, atol=atol, budget=budget, args=args)
+    run = integrate_rhs(f, y0, t, method=method, rtol=rtol, atol=atol, budget=budget)
     label = f"scipy {method}"
-    mass = source.mass_matrix if source.name == "hand" else None
+    mass = source.mass_matrix  # to say "singular M" where a run fails
     stats: dict[str, Any] = {"nfev": run.nfev}
     stats.update(
         outcome(run, t, budget=budget, equations=f"{source.name} equations", solver=label, mass_matrix=mass, n=n)

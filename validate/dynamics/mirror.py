@@ -47,7 +47,6 @@ import numpy as np
 
 from ..engines.hand import solve_or_nan
 from ..errors import HarnessError, unknown_name
-from .fastpath import scalar_rhs
 from .integrate import DEFAULT_BUDGET, EQUATION_ERRORS, MUJOCO_INTEGRATORS, Budget, Trajectory
 
 INTEGRATORS = MUJOCO_INTEGRATORS
@@ -110,14 +109,10 @@ class Stepper:
         key = (tuple(float(x) for x in tau), damped)
         cache = self.__dict__.setdefault("_scalar_cache", {})
         if key not in cache:
-            if self.source.name == "hand":
-                fast, tau_list = scalar_rhs(self.system, damped_step=damped), list(key[0])
-                cache[key] = lambda t, y: fast(t, y, tau_list)
-            elif damped is not None:
-                make = getattr(self.source, "damped_rhs", None)
-                cache[key] = make(np.array(key[0]), damped) if make else None
-            else:
-                cache[key] = self.source.rhs(np.array(key[0])) if hasattr(self.source, "rhs") else None
+            make = getattr(self.source, "rhs" if damped is None else "damped_rhs", None)
+            cache[key] = (
+                None if make is None else make(np.array(key[0])) if damped is None else make(np.array(key[0]), damped)
+            )
         return cache[key]
 
     def _accel(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:

@@ -39,6 +39,21 @@ class HandSource:
         self.eq = system.equations
         self.p = system.params
 
+    def rhs(self, tau: np.ndarray) -> Any:
+        """The one-state right-hand side f(t, y) -> [v..., a...] for constant `tau`: the scalar code
+        generated from the equations (engines/fastpath.py), no batch overhead."""
+        from .fastpath import scalar_rhs  # sympy: loaded when first asked for
+
+        fast, tau_list = scalar_rhs(self.system), [float(x) for x in tau]
+        return lambda t, y: fast(t, y, tau_list)
+
+    def damped_rhs(self, tau: np.ndarray, h: float) -> Any:
+        """As `rhs`, for MuJoCo's Euler step with implicit joint damping: a = (M + h D)^-1 f."""
+        from .fastpath import scalar_rhs
+
+        fast, tau_list = scalar_rhs(self.system, damped_step=h), [float(x) for x in tau]
+        return lambda t, y: fast(t, y, tau_list)
+
     def mass_matrix(self, q: np.ndarray) -> np.ndarray:
         return np.asarray(self.eq.mass_matrix(self.p, q), dtype=float)
 

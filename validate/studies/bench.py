@@ -550,8 +550,8 @@ def run_default(system: Any, source: Any, q0: Any, v0: Any, tau: Any, t: np.ndar
 
 def run_once(spec: dict[str, Any], case: dict[str, Any], *, budget: float) -> dict[str, Any]:
     """One execution of one spec on one case, in this process."""
-    from ..dynamics.fastpath import scalar_rhs
     from ..dynamics.integrate import time_grid
+    from ..engines.fastpath import scalar_rhs
 
     system, sources = _resources(case["system"])
     t = time_grid(case["t_end"], case["dt_out"])
@@ -955,15 +955,15 @@ def _interleaved_medians(fns: dict[str, Callable[[], Any]], reps: int) -> dict[s
 
 def rhs_ratio(*, reps: int, calls: int = 10_000, n_states: int = 1000, seed: int = 0) -> dict[str, Any]:
     """Ratio 1 (a worker task): the right-hand side scipy gets for the hand equations
-    (`integrate._rhs`: the generated fast path behind the harness's counter) against `hand_math_rhs`,
+    (`integrate.source_rhs`: the generated fast path behind the harness's counter) against `hand_math_rhs`,
     per call, both called as scipy calls them (f(t, y), y a float64 array) over `n_states` states."""
-    from ..dynamics.integrate import _rhs
+    from ..dynamics.integrate import source_rhs
     from ..engines import make_source
 
     system, _ = _resources(RHS_SYSTEM)
     hand = make_source(system, "hand")
-    harness, _ = _rhs(hand, np.zeros(system.nv))
-    from ..dynamics.fastpath import scalar_rhs
+    harness = source_rhs(hand, np.zeros(system.nv))
+    from ..engines.fastpath import scalar_rhs
 
     fast, tau0 = scalar_rhs(system), [0.0] * system.nv
     math_rhs, np_rhs = hand_math_rhs(system.params), numpy_solve_rhs(system.params)
