@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from lagrange_xval.validate import systems
 from lagrange_xval.validate.checks import pointwise as compare
-from lagrange_xval.validate.engines.fastpath import scalar_rhs
 from lagrange_xval.validate.engines import make_sources
+from lagrange_xval.validate.engines.fastpath import scalar_rhs
 from lagrange_xval.validate.errors import HarnessError
 from lagrange_xval.validate.studies import bench
 

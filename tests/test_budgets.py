@@ -15,8 +15,7 @@ import numpy as np
 import pytest
 from lagrange_xval.validate import systems
 from lagrange_xval.validate.dynamics import chaos, experiments, integrate, mirror, reference
-from lagrange_xval.validate.engines import fastpath
-from lagrange_xval.validate.engines import make_source
+from lagrange_xval.validate.engines import fastpath, make_source
 from lagrange_xval.validate.engines.hand import HandSource
 from lagrange_xval.validate.errors import IntegrationStopped
 
