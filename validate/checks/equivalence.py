@@ -16,7 +16,14 @@ from typing import Any
 
 import numpy as np
 
-from ..dynamics.integrate import SCIPY_DEFAULT, initial_state, scipy_trajectory, time_grid
+from ..dynamics.integrate import (
+    DEFAULT_DT_OUT,
+    DEFAULT_T_END,
+    SCIPY_DEFAULT,
+    initial_state,
+    scipy_trajectory,
+    time_grid,
+)
 from ..engines.hand import HandSource
 from ..systems import load
 from .pointwise import random_states
@@ -55,7 +62,7 @@ def _rows_at(this_sys: Any, other_sys: Any, B: np.ndarray, *, n: int, seed: int,
 
 
 def check_equivalence(
-    system: Any, probe_systems: list[Any] | None = None, *, n: int = 200, seed: int = 0, t_end: float = 10.0
+    system: Any, probe_systems: list[Any] | None = None, *, n: int = 200, seed: int = 0, t_end: float = DEFAULT_T_END
 ) -> dict[str, Any] | None:
     """Rows of the mapped comparison, or None if the module names no other formulation.
 
@@ -93,7 +100,7 @@ def check_equivalence(
     other_sys = system.derive(equations=other_module)
     this, that = HandSource(system), HandSource(other_sys)
     q0, v0 = initial_state(other_sys)
-    t = time_grid(t_end, 0.01)
+    t = time_grid(t_end, DEFAULT_DT_OUT)
     tau = np.zeros(system.nv)
     tr_o = scipy_trajectory(other_sys, that, q0, v0, tau, t, **SCIPY_DEFAULT)
     tr_t = scipy_trajectory(system, this, B @ q0, B @ v0, tau, t, **SCIPY_DEFAULT)

@@ -56,7 +56,7 @@ from .flow import horizon_from_rounding as horizon_from_rounding
 from .flow import judge_free_run as judge_free_run
 from .flow import predictability_horizon as predictability_horizon
 from .flow import predicted_error, sample_at, transfer_norms
-from .integrate import Trajectory, energy, initial_state, mujoco_trajectory, time_grid
+from .integrate import DEFAULT_DT_OUT, DEFAULT_T_END, Trajectory, energy, initial_state, mujoco_trajectory, time_grid
 from .lyapunov import chaos_summary as chaos_summary
 from .lyapunov import lyapunov_exponent as lyapunov_exponent
 from .mirror import INTEGRATORS, lockstep, mirror_steps, mirror_trajectory, mujoco_steps
@@ -350,8 +350,8 @@ def crossvalidate(
     q0: Any = None,
     v0: Any = None,
     tau: Any = None,
-    t_end: float = 10.0,
-    dt_out: float = 0.01,
+    t_end: float = DEFAULT_T_END,
+    dt_out: float = DEFAULT_DT_OUT,
     tolerance: float = DEFAULT_TOLERANCE,
     integrators: tuple[str, ...] = INTEGRATORS,
     mirror_engines: tuple[str, ...] = ("hand", "pinocchio"),

@@ -8,13 +8,14 @@ from typing import Any
 
 import numpy as np
 
+from ..checks.tolerances import TOLERANCES
 from ..errors import HarnessError
 from .integrate import DEFAULT_BUDGET, Budget, time_grid
 from .reference import TaylorGuard, param_key, symbolic_dynamics
 
 SAFETY = 10.0
 HORIZON_CHUNK = 100  # grid samples per propagation of `horizon_from_rounding` (10 s at 0.1 s)
-DEFAULT_TOLERANCE = 1e-6  # rad, the trajectory tier of validate/checks/tolerances.py
+DEFAULT_TOLERANCE = TOLERANCES.trajectory.rtol  # rad, the trajectory tier
 
 
 # ----------------------------------------------------------------------------------------------

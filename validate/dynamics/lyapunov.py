@@ -22,7 +22,7 @@ from .flow import (
     sample_at,
     variational_integrator,
 )
-from .integrate import DEFAULT_BUDGET, time_grid
+from .integrate import DEFAULT_BUDGET, DEFAULT_DT_OUT, DEFAULT_T_END, time_grid
 from .reference import DEFAULT_CACHE_DIR, TaylorGuard, cache_key, source_hash, taylor_integrator
 
 LYAPUNOV_T_END = 500.0  # s: finite-time estimates fluctuate by ~+-0.03/s around 0.23/s at 100-2000 s
@@ -136,7 +136,7 @@ def chaos_summary(
     (`_summary_problem`). `cache` in the result says "hit", "miss" or "off"."""
 
     q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
-    t = time_grid(10.0, 0.01) if t is None else t
+    t = time_grid(DEFAULT_T_END, DEFAULT_DT_OUT) if t is None else t
     if isinstance(cache_dir, str) and cache_dir == cache.DEFAULT:
         where = cache.folder(cache_dir, "chaos")
     else:  # an explicit reference folder: the chaos entries go beside it
