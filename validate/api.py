@@ -13,6 +13,7 @@ model's parameters and at the probe parameter sets (validate/verdict.py).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -23,6 +24,7 @@ from .checks import pointwise as compare
 from .checks.tolerances import TOLERANCES, Tolerances
 from .engines import make_sources
 from .errors import HarnessError
+from .results.schema import CheckData
 from .systems import System, load
 
 __all__ = ["Result", "Row", "System", "check", "load"]
@@ -51,7 +53,7 @@ class Result:
     system: str
     rows: tuple[Row, ...]
     statement: str
-    data: dict[str, Any] = field(repr=False)
+    data: CheckData = field(repr=False)
 
     @property
     def passed(self) -> bool:
@@ -92,7 +94,7 @@ def _f(x: Any) -> float:
         return float("nan")
 
 
-def _row(check: str, r: dict[str, Any], quantity: str) -> Row:
+def _row(check: str, r: Mapping[str, Any], quantity: str) -> Row:
     """A result row of the harness (a dict) as a typed Row."""
     return Row(
         check,
@@ -151,5 +153,5 @@ def check(
     statement = derivation["statement"]
     if model["mismatches"]:
         statement = f"the model differs from what the derivation assumes ({model['mismatches'][0]['key']}); {statement}"
-    data = {"model_checks": model, "pointwise": point, "derivation": derivation}
+    data: CheckData = {"model_checks": model, "pointwise": point, "derivation": derivation}
     return Result(system.name, tuple(rows), statement, data)

@@ -22,6 +22,7 @@ from .engines import make_sources
 from .errors import HarnessError
 from .parallel import executor_for
 from .results import provenance
+from .results.schema import Derivation, ModelChecks, Pointwise, Provenance, RunResults, SystemResult
 from .systems import MODELS_DIR, System, load, load_all
 
 TRAJECTORY_THRESHOLD = TOLERANCES.trajectory.rtol  # rad
@@ -185,7 +186,7 @@ def run_system(
     t_end: float = integrate.DEFAULT_T_END,
     dt_out: float = integrate.DEFAULT_DT_OUT,
     n_probes: int = DEFAULT_PROBES,
-) -> dict[str, Any]:
+) -> SystemResult:
     """Everything the harness knows about one system, as plain data. The verdicts on the derivation
     (model checks, pointwise, every term at the model's parameters and at the probes) come first;
     the trajectory stages run only for a derivation that agrees (else a bounded divergence run)."""
@@ -280,9 +281,9 @@ def run_system(
 
 
 def _what_failed(
-    model: dict[str, Any],
-    point: dict[str, Any],
-    derivation: dict[str, Any],
+    model: ModelChecks,
+    point: Pointwise,
+    derivation: Derivation,
     same: dict[str, Any] | None,
     cross: dict[str, Any] | None,
     traj: dict[str, Any] | None,
@@ -309,7 +310,7 @@ def _what_failed(
     return out
 
 
-def _identity(system: Any) -> dict[str, Any]:
+def _identity(system: Any) -> SystemResult:
     """What a system is: names, files, coordinates, joints, bodies and the physics it uses."""
 
     inside = system.mjcf.resolve().parent == MODELS_DIR.resolve()
@@ -325,7 +326,7 @@ def _identity(system: Any) -> dict[str, Any]:
     }
 
 
-def _unreadable(system: Any, exc: Exception) -> dict[str, Any]:
+def _unreadable(system: Any, exc: Exception) -> SystemResult:
     """The result of a system whose parameters() or assumptions() raises: nothing else can be checked."""
     where = "parameters()" if "params" not in system._cache else "assumptions()"
     why = f"{where} raised {type(exc).__name__}: {exc}".strip()
@@ -351,19 +352,19 @@ def _unreadable(system: Any, exc: Exception) -> dict[str, Any]:
     }
 
 
-def _run_one(name: str, n_states: int, seed: int, n_probes: int = DEFAULT_PROBES) -> dict[str, Any]:
+def _run_one(name: str, n_states: int, seed: int, n_probes: int = DEFAULT_PROBES) -> SystemResult:
     """One system, by name (picklable, for process pools)."""
 
     return run_system(load(name), n_states=n_states, seed=seed, n_probes=n_probes)
 
 
-def _run_files(model: str, equations: str, n_states: int, seed: int, n_probes: int) -> dict[str, Any]:
+def _run_files(model: str, equations: str, n_states: int, seed: int, n_probes: int) -> SystemResult:
     """One system from a model file and an equations file (picklable, for process pools)."""
 
     return run_system(System.from_files(model, equations), n_states=n_states, seed=seed, n_probes=n_probes)
 
 
-def _task(fn: Any, args: tuple[Any, ...], after: Any, meta: dict[str, Any]) -> tuple[dict[str, Any], Any]:
+def _task(fn: Any, args: tuple[Any, ...], after: Any, meta: Provenance) -> tuple[dict[str, Any], Any]:
     """One system's work in a worker: its results, and `after(name, results, meta)` of them (None
     without `after`)."""
     result = fn(*args)
@@ -381,7 +382,7 @@ def run(
     files: list[tuple[Path, Path]] | None = None,
     after: Any = None,
     rendered: dict[str, Any] | None = None,
-) -> dict[str, Any]:
+) -> RunResults:
     """Every system (or those named), each in a worker of `executor` (default: a process pool on
     every core; any `concurrent.futures.Executor` will do, a distributed one included). `files`:
     (model, equations) pairs of systems outside the repository, run instead of (or beside) names.
@@ -395,7 +396,7 @@ def run(
     clash = sorted({n for n in taken if taken.count(n) > 1})
     if clash:
         raise HarnessError(f"two systems are called {', '.join(clash)}: rename one equations file.")
-    out: dict[str, Any] = {"meta": provenance(seed), "tolerances": TOLERANCES.as_dict(), "systems": {}}
+    out: RunResults = {"meta": provenance(seed), "tolerances": TOLERANCES.as_dict(), "systems": {}, "passed": False}
 
     with executor_for(executor, tasks=len(systems) + len(users)) as pool:
         # Longest first, so that two workers finish together: damped scenes (implicit-damping

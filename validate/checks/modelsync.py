@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from ..results.schema import Mismatch, ModelChecks
+
 RTOL = 1e-12  # both sides are the same compiled numbers, possibly through a few operations
 
 
@@ -37,11 +39,11 @@ def _fmt(x: Any) -> Any:
     return [None if np.isnan(y) else float(y) for y in arr.ravel()] if arr.ndim else float(arr)
 
 
-def equations_vs_model(system: Any) -> list[dict[str, Any]]:
+def equations_vs_model(system: Any) -> list[Mismatch]:
     """Rows for every key of the compiled model and every assumption; `passed` False where they differ."""
     assumed = system.equations.assumptions(system.params)
     view = system.view
-    rows = []
+    rows: list[Mismatch] = []
     for key in sorted(set(view) | set(assumed)):
         if key not in assumed:
             rows.append(
@@ -80,10 +82,10 @@ def equations_vs_model(system: Any) -> list[dict[str, Any]]:
     return rows
 
 
-def pinocchio_vs_mujoco(system: Any, pin_source: Any) -> list[dict[str, Any]]:
+def pinocchio_vs_mujoco(system: Any, pin_source: Any) -> list[Mismatch]:
     """Mass, centre of mass and inertia of each compared body, as each engine compiled it."""
     model, view = pin_source.model, system.view
-    rows = []
+    rows: list[Mismatch] = []
     for body, jid in zip(system.bodies, pin_source.joint_of_body, strict=True):
         inertia = model.inertias[jid]
         pairs = {
@@ -106,7 +108,7 @@ def pinocchio_vs_mujoco(system: Any, pin_source: Any) -> list[dict[str, Any]]:
     return rows
 
 
-def check(system: Any, pin_source: Any) -> dict[str, Any]:
+def check(system: Any, pin_source: Any) -> ModelChecks:
     rows = equations_vs_model(system) + pinocchio_vs_mujoco(system, pin_source)
     failed = [r for r in rows if not r["passed"]]
     return {"n_checked": len(rows), "passed": not failed, "mismatches": failed}

@@ -7,12 +7,13 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
 from ..engines import make_sources
 from ..errors import HarnessError
+from ..results.schema import ComparisonRow, Pointwise
 from .tolerances import QUANTITY_TIER, SCALE_ALSO_BY, TOLERANCES, Tolerances
 
 Q_RANGE = np.pi  # rad: q uniform in [-pi, pi]
@@ -156,7 +157,7 @@ def compare(
     *,
     tolerances: Tolerances = TOLERANCES,
     reference: str = "mujoco",
-) -> list[dict[str, Any]]:
+) -> list[ComparisonRow]:
     """Rows for every quantity and every pair of sources, sorted by quantity then pair."""
     rows = []
     names = sorted(values)
@@ -178,12 +179,12 @@ def compare(
                     cond=cond,
                 )
             )
-    return sorted(rows, key=lambda r: (r["quantity"], r["pair"]))
+    return cast(list[ComparisonRow], sorted(rows, key=lambda r: (r["quantity"], r["pair"])))
 
 
 def pointwise(
     system: Any, *, n: int, seed: int, sources: dict[str, Any] | None = None, tolerances: Tolerances = TOLERANCES
-) -> dict[str, Any]:
+) -> Pointwise:
     """The pointwise check of one system at `n` seeded states."""
 
     sources = sources or make_sources(system)
@@ -193,7 +194,7 @@ def pointwise(
 
 def pointwise_result(
     values: dict[str, dict[str, np.ndarray]], states: States, *, seed: int, tolerances: Tolerances = TOLERANCES
-) -> dict[str, Any]:
+) -> Pointwise:
     """The pointwise check's result from already evaluated quantities (see `evaluate`)."""
     rows = compare(values, states, tolerances=tolerances)
     return {"n_states": len(states), "seed": seed, "rows": rows, "passed": all(r["passed"] for r in rows)}

@@ -22,12 +22,13 @@ that is not symmetric positive definite is reported with the state where it is n
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
 from ..engines import make_sources
 from ..errors import HarnessError
+from ..results.schema import Derivation, TermRow
 from ..systems.forms import written_form
 from . import probes as probing
 from .judge import ENGINES, EngineTerms, term_rows
@@ -290,13 +291,13 @@ def judge_derivation(
     probe_states: int = PROBE_STATES,
     seed: int = 0,
     tolerances: Tolerances = TOLERANCES,
-) -> dict[str, Any]:
+) -> Derivation:
     """The hand derivation's verdict: every term at the model's parameters (the pointwise states and
     `values`) and at the probe parameter sets (`probe_set`, else `n_probes` drawn here), with the first
     disagreeing term named, where it is worst, whether the model's own values hide it, and which
     parameter alone exposes it."""
 
-    result: dict[str, Any] = {"name": "hand derivation", "kind": "hand", "equations": system.equations.__name__}
+    result: Derivation = {"name": "hand derivation", "kind": "hand", "equations": system.equations.__name__}
     rows, notes = term_rows_at(system, states, sources, values=values, tolerances=tolerances)
     for r in rows:
         r["probe"] = 0
@@ -332,7 +333,7 @@ def judge_derivation(
         "probes": len(probe_list),
         "evaluations": len(states) + probe_states * len(probe_list),
     }
-    result["terms"] = rows
+    result["terms"] = cast(list[TermRow], rows)
     result["summary"] = summarise(rows)
     if all_notes:
         result["notes"] = {str(k): v for k, v in all_notes.items()}

@@ -16,7 +16,7 @@ import os
 import shutil
 import sys
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -64,7 +64,7 @@ def check_out(out: Path) -> None:
             )
 
 
-def with_optional_results(results: dict[str, Any], out: Path) -> dict[str, Any]:
+def with_optional_results(results: Mapping[str, Any], out: Path) -> dict[str, Any]:
     """The results plus the benchmark and stress results found in the reports folder, for rendering."""
     import json
 
@@ -79,7 +79,7 @@ def with_optional_results(results: dict[str, Any], out: Path) -> dict[str, Any]:
     return merged
 
 
-def write_reports(results: dict[str, Any], out: Path) -> None:
+def write_reports(results: Mapping[str, Any], out: Path) -> None:
     """report.md, report.html and their plots, replacing those of the folder as one set."""
 
     files = render(with_optional_results(results, out))  # may fail: nothing written yet
@@ -109,7 +109,7 @@ def render_system(
 
 
 def write_all(
-    results: dict[str, Any], out: Path, *, replay: bool = True, rendered: dict[str, SystemFiles] | None = None
+    results: Mapping[str, Any], out: Path, *, replay: bool = True, rendered: dict[str, SystemFiles] | None = None
 ) -> None:
     """Everything `run` produces, replacing the previous run's files (all of them) as one set.
     `rendered`: systems already rendered from these results (`render_system`), the rest is rendered here."""

@@ -34,6 +34,7 @@ import os
 import re
 import socket
 import sys
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -86,7 +87,7 @@ def render_replays(results: dict[str, Any]) -> dict[str, bytes]:
     }
 
 
-def render_system(name: str, sys_results: dict[str, Any], *, meta: dict[str, Any] | None = None) -> bytes:
+def render_system(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str, Any] | None = None) -> bytes:
     """The .rrd bytes of one system's recording (recording and default blueprint).
 
     Args:
@@ -110,7 +111,7 @@ def render_system(name: str, sys_results: dict[str, Any], *, meta: dict[str, Any
     return data
 
 
-def recording_id(name: str, meta: dict[str, Any] | None) -> str:
+def recording_id(name: str, meta: Mapping[str, Any] | None) -> str:
     """Same results, same id; another run's results, another id (the viewer merges recordings that share one)."""
     digest = hashlib.sha256(json.dumps([name, meta], sort_keys=True, default=str).encode()).hexdigest()[:16]
     return f"{name}-{digest}"
@@ -198,7 +199,7 @@ def _unit(view: Any, joint: str) -> str:
         return "rad"
 
 
-def _params(system: Any, sys_results: dict[str, Any]) -> Any:
+def _params(system: Any, sys_results: Mapping[str, Any]) -> Any:
     """The parameters the results were computed with (the model's when they do not fit Params)."""
     recorded = sys_results.get("parameters")
     if recorded:
@@ -209,7 +210,7 @@ def _params(system: Any, sys_results: dict[str, Any]) -> Any:
     return system.params
 
 
-def build_scene(name: str, sys_results: dict[str, Any], *, meta: dict[str, Any] | None = None) -> dict[str, Any]:
+def build_scene(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """The arrays and text of one system's recording. Pure numpy; no rerun calls."""
     from ..systems import System, load, system_names
 
@@ -327,7 +328,7 @@ def build_scene(name: str, sys_results: dict[str, Any], *, meta: dict[str, Any] 
     }
 
 
-def _provenance(meta: dict[str, Any] | None) -> str:
+def _provenance(meta: Mapping[str, Any] | None) -> str:
     if not meta:
         return ""
     command = meta.get("command", "lagrange-xval run")
@@ -618,7 +619,7 @@ def _viewer_listening(port: int) -> bool:
         return False
 
 
-def _show(name: str, sys_results: dict[str, Any], *, meta: dict[str, Any] | None) -> None:
+def _show(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str, Any] | None) -> None:
     """Spawns a rerun viewer (or reuses one on VIEWER_PORT) and streams the recording to it."""
     import rerun as rr
 

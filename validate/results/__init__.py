@@ -9,6 +9,7 @@ import platform
 import subprocess
 import sys
 import tempfile
+from collections.abc import Mapping
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -18,6 +19,7 @@ import numpy as np
 from ..errors import HarnessError
 from ..inputs import parse_json, regular_file
 from ..systems import PACKAGE_ROOT
+from .schema import Provenance
 
 PACKAGES = ("lagrange-xval", "numpy", "scipy", "mujoco", "pin", "rerun-sdk", "matplotlib", "jinja2")
 
@@ -49,7 +51,7 @@ def _git_commit() -> str:
         return "unknown"
 
 
-def provenance(seed: int | None = None) -> dict[str, Any]:
+def provenance(seed: int | None = None) -> Provenance:
     versions = {}
     for pkg in PACKAGES:
         try:
@@ -120,7 +122,7 @@ def atomic_write_many(files: dict[Path, bytes | str]) -> None:
             Path(tmp).unlink(missing_ok=True)
 
 
-def dumps(results: dict[str, Any]) -> str:
+def dumps(results: Mapping[str, Any]) -> str:
     return json.dumps(to_jsonable(results), indent=1, sort_keys=True, allow_nan=False) + "\n"
 
 

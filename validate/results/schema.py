@@ -1,0 +1,159 @@
+"""The shape of the results: what `run` writes to results.json, what `check` returns, what the
+reports and replays read. One provenance block (`meta`) for every results file (run, bench, stress).
+
+Typed where the harness decides the shape; the long time series and the chaos study stay plain
+mappings (`dict[str, Any]`), their keys documented where they are made (dynamics/chaos.py,
+pipeline.py). Non-finite numbers are written as strings ("inf", "nan"): JSON has none.
+"""
+
+from typing import Any, NotRequired, TypedDict
+
+
+class Provenance(TypedDict):
+    """Where and how a results file was made."""
+
+    harness_version: str
+    git_commit: str  # 12 hex digits, "+dirty" with uncommitted changes, or "unknown"
+    date: str  # ISO 8601, UTC
+    command: str
+    cpu: str
+    python: str
+    platform: str
+    versions: dict[str, str]  # package -> version ("not installed")
+    seed: int | None
+
+
+class WorstState(TypedDict, total=False):
+    q: list[float]
+    v: list[float]
+    tau: list[float]
+
+
+class ComparisonRow(TypedDict):
+    """One quantity between two sources over the random states (pointwise)."""
+
+    quantity: str  # "M", "bias", "qacc", "tau_inverse", "T", "V", "body_positions", ...
+    pair: str  # "hand~mujoco", "hand~pinocchio", "mujoco~pinocchio"
+    max_abs: float
+    max_rel: float
+    scale: float
+    scaled: float  # max_abs / scale: what is judged
+    tolerance: float
+    tier: str
+    passed: bool
+    worst_state: WorstState | None
+    cond_max: NotRequired[float]
+
+
+class TermRow(TypedDict):
+    """One term of a derivation against one engine at one parameter set."""
+
+    term: str  # "parameters", "mass matrix", "gravity", "velocity", "friction", ..., "acceleration"
+    engine: str
+    pair: str
+    max_abs: float
+    max_rel: float
+    scale: float
+    scaled: float
+    tolerance: float
+    tier: str
+    passed: bool
+    worst_state: WorstState | None
+    probe: NotRequired[int]  # 0: the model's own parameters; k: probe k
+    parameters: NotRequired[str]
+    error: NotRequired[str]  # a function that raised or returned nonsense
+    cond_max: NotRequired[float]  # largest cond(M) over the states (solve-tier terms)
+
+
+class Mismatch(TypedDict):
+    """One model key checked: what the derivation (or MuJoCo) states against what was compiled."""
+
+    check: str  # "equations~mjcf" or "pinocchio~mujoco"
+    key: str
+    expected: str
+    actual: str
+    passed: bool
+    why: str  # empty when passed
+
+
+class ModelChecks(TypedDict):
+    passed: bool
+    n_checked: int
+    mismatches: list[Mismatch]
+
+
+class Pointwise(TypedDict):
+    passed: bool
+    n_states: int
+    seed: int
+    rows: list[ComparisonRow]
+
+
+class Derivation(TypedDict, total=False):
+    """The verdict on a derivation (the hand one or a printed form), term by term."""
+
+    name: str
+    kind: str
+    equations: str  # the module judged
+    verdict: str  # "agrees", "disagrees" or "not applicable"
+    statement: str
+    first_disagreeing_term: str
+    failing_terms: list[str]
+    hidden_by_model_values: bool
+    terms: list[TermRow]
+    summary: list[dict[str, Any]]  # per term and engine: rows, worst scaled error, tolerance
+    probes: list[dict[str, Any]]  # index, label, the parameters changed
+    probe_problems: list[str]  # probes that could not be built, and why
+    held_at_zero: list[str]  # parameters zero in the model: the terms they scale are not tested
+    checked: dict[str, int]  # states at the model, per probe, probes, evaluations
+    notes: dict[str, Any]  # per probe: what the terms could not check there
+    worst_term: dict[str, Any]
+    exposed_by: list[str]  # the parameters that alone expose a mistake hidden by the model's values
+    mass_matrix_not_spd: dict[str, Any]
+    disagrees_at: str
+    disagrees_where: str
+    reason: str  # why not applicable
+
+
+class SystemResult(TypedDict, total=False):
+    """Everything the harness knows about one system (pipeline.run_system)."""
+
+    name: str
+    description: str
+    mjcf: str
+    equations: str
+    coordinates: list[str]
+    joints: list[str]
+    bodies: list[str]
+    uses: list[str]
+    failed: list[str]  # each failing check in one short phrase
+    parameters: dict[str, float]
+    timestep: float
+    model_checks: ModelChecks
+    pointwise: Pointwise
+    derivation: Derivation
+    variants: list[dict[str, Any]]
+    trajectories: dict[str, Any] | None
+    experiments: dict[str, Any] | None
+    equivalence: dict[str, Any] | None
+    chaos: dict[str, Any] | None
+    stages: dict[str, str]  # a stage not run or failed, and why
+    skipped: list[str]
+    passed: bool
+
+
+class RunResults(TypedDict):
+    """results.json."""
+
+    meta: Provenance
+    tolerances: dict[str, Any]
+    systems: dict[str, SystemResult]
+    passed: bool
+
+
+class CheckData(TypedDict, total=False):
+    """What `lagrange_xval.check` computed (Result.data): the verdicts before any trajectory."""
+
+    model_checks: ModelChecks
+    pointwise: Pointwise
+    derivation: Derivation
