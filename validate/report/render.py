@@ -1,0 +1,142 @@
+"""The two renderers of one document: markdown (images beside it) and one self-contained HTML page
+(jinja2 template, inline CSS and base64 PNGs, no JavaScript, no request of any kind).
+"""
+
+from __future__ import annotations
+
+import base64
+import re
+from pathlib import Path
+from typing import Any
+
+from .document import (
+    MARK_SIGN,
+    SUBTITLE,
+    TITLE,
+    Code,
+    Document,
+    Figure,
+    Heading,
+    Items,
+    Mark,
+    Num,
+    Para,
+    Table,
+    cell_text,
+    to_plain,
+)
+from .sections import build, system_statuses, verdict_line
+
+
+def _md_cell(c: Any) -> str:
+    return cell_text(c).replace("|", "\\|").replace("\n", " ")
+
+
+def render_markdown(doc: Document, results: dict[str, Any]) -> str:
+    passed, head, detail = verdict_line(results)
+    out = [
+        f"# {TITLE}",
+        "",
+        f"{SUBTITLE}.",
+        "",
+        f"**{'✓' if passed else '✗'} {head[0].upper() + head[1:]}.** {detail}",
+        "",
+    ]
+    out += [f"- {cell_text(mark)} {name}: {text}" for name, _, mark, text in system_statuses(results)] + [""]
+    for b in doc.blocks:
+        if isinstance(b, Heading):
+            out += ["#" * b.level + " " + b.text, ""]
+        elif isinstance(b, Para):
+            out += [f"*{b.text}*" if b.kind == "missing" else b.text, ""]
+        elif isinstance(b, Table):
+            out += [
+                f"{b.title}:",
+                "",
+                "| " + " | ".join(b.columns) + " |",
+                "|" + "|".join("---:" if num else "---" for num in b.numeric) + "|",
+            ]
+            out += ["| " + " | ".join(_md_cell(c) for c in row) + " |" for row in b.rows]
+            out.append("")
+        elif isinstance(b, Figure):
+            out += [f"![{b.alt}]({b.path})", "", f"*{b.caption}*", ""]
+        elif isinstance(b, Code):
+            out += ["```sh", b.text, "```", ""]
+        elif isinstance(b, Items):
+            out += [f"- {i}" for i in b.items] + [""]
+    return "\n".join(out).rstrip("\n") + "\n"
+
+
+_ENV: Any = None
+
+
+def _env() -> Any:
+    global _ENV
+    if _ENV is None:
+        import jinja2
+        from markupsafe import Markup, escape
+
+        def inline(text: Any) -> Markup:
+            parts = re.split(r"`([^`]+)`", str(text))
+            return Markup("").join(
+                escape(p) if i % 2 == 0 else Markup("<code>%s</code>") % p for i, p in enumerate(parts)
+            )
+
+        def png_size(data: bytes) -> tuple[int, int]:
+            return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+
+        _ENV = jinja2.Environment(
+            loader=jinja2.FileSystemLoader(str(Path(__file__).parent / "templates")),
+            autoescape=True,
+            undefined=jinja2.StrictUndefined,
+            trim_blocks=True,
+            lstrip_blocks=True,
+            keep_trailing_newline=True,
+        )
+        _ENV.filters["inline"] = inline
+        _ENV.filters["wbr"] = lambda text: Markup("_<wbr>").join(escape(p) for p in str(text).split("_"))
+
+        def breakable(text: Any) -> Markup:
+            """A table cell: inline markup, and a break opportunity after ':' in long identifiers."""
+            out = inline(text)
+            return Markup(re.sub(r":(?=[A-Za-z_])", ":<wbr>", str(out))) if len(str(text)) > 24 else out
+
+        _ENV.filters["breakable"] = breakable
+        _ENV.filters["cell"] = cell_text
+        _ENV.filters["b64"] = lambda data: base64.b64encode(data).decode("ascii")
+        _ENV.globals["png_size"] = png_size
+        _ENV.globals["kind"] = lambda b: type(b).__name__
+        _ENV.globals["is_num"] = lambda c: isinstance(c, Num)
+        _ENV.globals["is_mark"] = lambda c: isinstance(c, Mark)
+    return _ENV
+
+
+def render_html(doc: Document, results: dict[str, Any]) -> str:
+    passed, head, detail = verdict_line(results)
+    toc = [(b.anchor, b.text) for b in doc.blocks if isinstance(b, Heading) and b.level == 2]
+    systems = results.get("systems", {})
+    return (
+        _env()
+        .get_template("report.html.j2")
+        .render(
+            title=TITLE,
+            subtitle=SUBTITLE,
+            passed=passed,
+            headline=head[0].upper() + head[1:],
+            detail=detail,
+            toc=toc,
+            blocks=doc.blocks,
+            images=doc.images,
+            n_systems=len(systems),
+            statuses=system_statuses(results),
+            mark_sign=MARK_SIGN,
+        )
+    )
+
+
+def render(results: dict[str, Any], sections: dict[str, Document] | None = None) -> dict[str, bytes]:
+    """Every report file, {name relative to the reports folder: contents}; `sections` as for `build`."""
+    plain = to_plain(results)
+    doc = build(plain, sections)
+    files = {"report.md": render_markdown(doc, plain).encode(), "report.html": render_html(doc, plain).encode()}
+    files.update(sorted(doc.images.items()))
+    return files

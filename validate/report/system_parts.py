@@ -1,0 +1,284 @@
+"""Parts of a system's section: the derivation's terms and probes, equivalence of coordinate sets,
+chaos and the mirrors, the notes' experiments, and what the scene skips.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .document import NOT_RUN, Document, Mark, Num, as_float, pass_mark, sci, vec
+from .figures import new_figure, png, rc, series
+
+
+def system_skipped(doc: Document, name: str, s: dict[str, Any]) -> None:
+    stages = s.get("stages") or {}
+    if stages:
+        doc.table(
+            f"Stages of {name} not run or failed",
+            ("stage", "outcome"),
+            [(k, Mark("bad", v) if str(v).startswith("failed") else v) for k, v in sorted(stages.items())],
+        )
+    skipped = s.get("skipped")
+    if skipped:
+        doc.table(f"Work {name} does not need, skipped", ("skipped",), [(x,) for x in skipped])
+
+
+def system_derivation(doc: Document, name: str, s: dict[str, Any]) -> None:
+    """The hand derivation's verdict: every term, at the model's parameters and at every probe."""
+    d = s.get("derivation")
+    if not d:
+        doc.p(f"Derivation verdict: {NOT_RUN}.", "missing")
+        return
+    ok = d.get("verdict") == "agrees"
+    doc.p(
+        f"{'✓' if ok else '✗'} The hand derivation: {d.get('statement', d.get('verdict'))}.", "pass" if ok else "fail"
+    )
+    checked = d.get("checked", {})
+    doc.p(
+        f"Each term of `{s.get('equations', '?')}` is compared with both engines at {checked.get('states_at_model')} "
+        f"random states with the model's own parameters and at {checked.get('states_per_probe')} states with each of "
+        f"{checked.get('probes')} probe parameter sets, in which every parameter of the derivation moves by its own "
+        "factor in [0.5, 0.8] or [1.25, 2], so that a mistake the model's values hide (l1 l2 for l2², m2 for m1, a "
+        "lost factor l) shows. `tolerance` is the smallest change of the term, relative to its largest value over "
+        "the states (`scale`), that the check could have seen."
+    )
+    doc.table(
+        f"Terms of {name}'s hand derivation against MuJoCo and Pinocchio, at the model's parameters and every probe",
+        ("term", "verdict", "worst scaled error", "engine", "at", "tolerance", "scale"),
+        [
+            (
+                r.get("term"),
+                pass_mark(r.get("passed")),
+                Num(r.get("worst_scaled")),
+                r.get("engine"),
+                "model" if r.get("probe") == 0 else (f"probe {r.get('probe')}" if r.get("probe") else "–"),
+                Num(r.get("tolerance"), short=True),
+                Num(r.get("scale")),
+            )
+            for r in d.get("summary", [])
+        ],
+    )
+    failing = [r for r in d.get("terms", []) if not r.get("passed")]
+    if failing:
+        doc.table(
+            f"Where {name}'s failing terms are worst",
+            ("term", "pair", "at", "scaled error", "q", "v", "why"),
+            [
+                (
+                    r.get("term"),
+                    r.get("pair"),
+                    "model" if r.get("probe") == 0 else f"probe {r.get('probe')}",
+                    Num(r.get("scaled")),
+                    vec((r.get("worst_state") or {}).get("q", [])),
+                    vec((r.get("worst_state") or {}).get("v", [])),
+                    r.get("error", ""),
+                )
+                for r in failing[:12]
+            ],
+        )
+    probes = [p for p in d.get("probes", []) if p.get("index")]
+    if probes:
+        doc.table(
+            f"Probe parameter sets of {name}'s hand derivation",
+            ("probe", "parameters moved (model's value -> probe's)"),
+            [
+                (
+                    p.get("label"),
+                    ", ".join(f"{k} {a:.4g} -> {b:.4g}" for k, (a, b) in sorted(p.get("changed", {}).items())),
+                )
+                for p in probes
+            ],
+        )
+    if d.get("held_at_zero"):
+        doc.p(
+            f"Zero in the model and so at every probe (the terms they scale are not tested): "
+            f"{', '.join(d['held_at_zero'])}.",
+            "note",
+        )
+    for problem in d.get("probe_problems", []):
+        doc.p(f"Probe not built: {problem}", "missing")
+
+
+def system_equivalence(doc: Document, name: str, s: dict[str, Any]) -> None:
+    eq = s.get("equivalence")
+    if not eq:
+        return
+    doc.p(
+        f"{name} and `{eq['other']}` are the same physical chain in other coordinates (q = B q_other, "
+        f"B = {np.asarray(eq['map']).tolist()}): their hand equations must map onto each other."
+    )
+    doc.table(
+        f"{name} mapped onto {eq['other']} at {eq['n_states']} random states and along a trajectory",
+        ("quantity", "max abs", "scaled", "tolerance", "pass"),
+        [
+            (r["quantity"], Num(r["max_abs"]), Num(r["scaled"]), Num(r["tolerance"]), pass_mark(r["passed"]))
+            for r in eq["rows"]
+        ],
+    )
+
+
+def system_chaos(doc: Document, name: str, s: dict[str, Any]) -> None:
+    cx = s.get("chaos")
+    if not cx:
+        doc.p(f"Chaos and integrator cross-validation: {NOT_RUN}.", "missing")
+        return
+    ref, ch = cx.get("reference", {}), cx.get("chaos", {})
+    doc.p(
+        f"Reference solution: the hand equations by {ref.get('method', '?')} in {ref.get('precision', '?')} "
+        f"(tolerance {sci(ref.get('tolerance'))}); a second method ({ref.get('check_method', '?')}) agrees to "
+        f"{sci(ref.get('agreement_q'))} rad in q over the run, and the traced right-hand side matches the "
+        f"numpy equations to {sci(ref.get('rhs_check'))} (relative)."
+    )
+    lyap, lyap2 = ch.get("lyapunov", {}), ch.get("lyapunov_two_trajectories", {})
+    amp = ch.get("amplification_at", {})
+    hz = ch.get("horizon_from_rounding", {})
+    rows: list[tuple[Any, ...]] = [
+        ("largest Lyapunov exponent, variational equations (1/s)", Num(lyap.get("lambda"), 3)),
+        ("largest Lyapunov exponent, two nearby trajectories (1/s)", Num(lyap2.get("lambda"), 3)),
+    ]
+    rows += [
+        (f"amplification of an initial error at {k}", Num(v, 3))
+        for k, v in sorted(amp.items(), key=lambda kv: as_float(kv[0].split()[0]))
+    ]
+    rows += [
+        (
+            f"predictability horizon at {sci(hz.get('tolerance'))} rad from rounding ({sci(hz.get('e0'))}) (s)",
+            Num(hz.get("horizon"), 3),
+        ),
+        ("the same, estimated from the exponent (s)", Num(ch.get("horizon_estimate_from_lambda"), 3)),
+    ]
+    doc.table(f"Chaos of {name} from its initial state", ("quantity", "value"), rows)
+    integ = cx.get("integrators", {})
+    if not integ:
+        return
+    rows = []
+    for iname, r in sorted(integ.items()):
+        fr = r.get("free_run", {})
+        judge = fr.get("judge", {})
+        mirrors = r.get("mirrors", {})
+        conv = r.get("convergence", {})
+        energy = r.get("energy", {})
+        rows.append(
+            (
+                iname,
+                Num(fr.get("max_error")),
+                pass_mark(judge.get("passed")),
+                Num(judge.get("judged_until"), 3),
+                Num((mirrors.get("mujoco~hand") or {}).get("max_difference")),
+                Num((mirrors.get("mujoco~pinocchio") or {}).get("max_difference")),
+                Num(conv.get("order"), 3),
+                Num(conv.get("expected"), 2),
+                Num(energy.get("relative")),
+            )
+        )
+    doc.table(
+        f"MuJoCo integrators on {name} at the MJCF timestep {sci(cx.get('timestep'))} s: free run against the "
+        f"reference, mirrors, convergence, energy",
+        (
+            "integrator",
+            "free-run max error (rad)",
+            "inside envelope",
+            "judged until (s)",
+            "mirror hand (rad)",
+            "mirror Pinocchio (rad)",
+            "order",
+            "expected",
+            "energy drift (rel.)",
+        ),
+        rows,
+    )
+    doc.p(
+        "The mirrors apply MuJoCo's own scheme (operation for operation) to the hand equations and to "
+        "Pinocchio's ABA: a stepped MuJoCo trajectory and its mirror differ by rounding only, amplified by "
+        "the chaos. The free run is judged against an error envelope that grows with the measured "
+        "amplification, inside the predictability horizon; the order is measured from a timestep sweep."
+    )
+
+
+def system_experiments(doc: Document, name: str, s: dict[str, Any]) -> None:
+    ex = s.get("experiments")
+    if not ex:
+        doc.p(f"The notes' experiments: {NOT_RUN}.", "missing")
+        return
+    coord = ex.get("perturbed_coordinate", "q")
+    doc.p(
+        f"The notes' experiment: from q0 = {np.asarray(ex['q0']).tolist()}, v0 = {np.asarray(ex['v0']).tolist()}, "
+        f"and from {coord}0 + {ex['perturbation']:g}, every dynamic form integrated by {ex['method']}. "
+        f"Separation: when the two starts differ by more than {ex['resemblance']:g} rad; departure: when the "
+        f"unperturbed run departs by as much from the accurate solution ({ex['accurate']})."
+    )
+    t_end = as_float(series(ex["t"])[-1]) if ex.get("t") else float("nan")
+
+    def when(x: Any) -> str:
+        return f"{as_float(x):.2f} s" if x is not None else f"never ({t_end:g} s)"
+
+    rows = [
+        (
+            r["form"],
+            Num(r["rtol"], 1),
+            when(r.get("separation_time")),
+            when(r.get("departure_time")),
+            r.get("status", ""),
+        )
+        for r in ex.get("runs", [])
+    ]
+    doc.table(
+        f"When the notes' two starts stop resembling each other, {name}",
+        ("form", "rtol", "separation", "departure", "status"),
+        rows,
+    )
+    by_rtol = {r["rtol"]: r for r in ex.get("runs", []) if r["form"] == "hand derivation"}
+    loose, tight = by_rtol.get(1e-3), by_rtol.get(1e-6)
+    if loose and tight:
+        finding = (
+            f"With the hand derivation at Matlab's default tolerance (rtol 1e-3) the two starts separate at "
+            f"{when(loose.get('separation_time'))}, and the unperturbed run has itself left the accurate "
+            f"solution at {when(loose.get('departure_time'))}: "
+        )
+        if loose.get("departure_time") is not None and (
+            loose.get("separation_time") is None
+            or as_float(loose["departure_time"]) <= as_float(loose["separation_time"])
+        ):
+            finding += "the loose solver's own error, not only the 0.01 rad perturbation, makes them part. "
+        else:
+            finding += "the perturbation, amplified by the chaos, makes them part. "
+        tight_sep = tight.get("separation_time")
+        later = f"at {when(tight_sep)}" if tight_sep is not None else f"later than {t_end:g} s"
+        finding += f"At rtol 1e-6 they separate {later} (the notes report about 7 s by eye, from their Figs 3-4)."
+        doc.p(finding)
+    hand = [r for r in ex.get("runs", []) if r["form"] == "hand derivation" and "q" in r]
+    if hand:
+        doc.figure(
+            f"img/{name}_experiment.png",
+            experiment_figure(name, ex, hand),
+            f"{coord} against time for the notes' two starts at both tolerances, {name}",
+            f"The last coordinate ({coord}) from both starts, at each tolerance, with the accurate "
+            "solution: at Matlab's default tolerance the solver's own error separates the curves as "
+            "early as the perturbation does.",
+        )
+
+
+def experiment_figure(name: str, ex: dict[str, Any], runs: list[dict[str, Any]]) -> bytes:
+    t = series(ex["t"])
+    acc = series(ex["q_accurate"])
+    with rc():
+        fig, axes = new_figure(8.6, 0.6 + 1.7 * len(runs), nrows=len(runs), sharex=True)
+        for ax, r in zip(axes, runs, strict=True):
+            q, qb = series(r["q"]), series(r["q_perturbed"])
+            ax.plot(t, acc[:, -1], color="#9ca3af", linewidth=2.4, label="accurate (DOP853 1e-12)")
+            ax.plot(t, q[:, -1], color="#2563eb", linewidth=1.2, label=f"start as printed, rtol {r['rtol']:g}")
+            ax.plot(
+                t,
+                qb[:, -1],
+                color="#d97706",
+                linewidth=1.2,
+                linestyle="--",
+                label=f"perturbed by {ex['perturbation']:g}, rtol {r['rtol']:g}",
+            )
+            ax.set_ylabel(f"{ex.get('perturbed_coordinate', 'q')} (rad)")
+            ax.legend(loc="lower left", ncols=3)
+        axes[0].set_title(f"{name}: the notes' perturbation experiment (RK45, as ode45)")
+        axes[-1].set_xlabel("t (s)")
+        return png(fig)
