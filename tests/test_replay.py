@@ -277,10 +277,20 @@ def test_diverged_run_leaves_gaps(results, tmp_path):
         assert np.isfinite(got[:k]).all() and np.isnan(got[k:]).all(), entity
 
 
-def test_replay_command_saves_a_readable_file(tmp_path, capsys):
-    """`replay SYSTEM --save FILE` writes an .rrd that rerun reads back, with every source's bodies."""
+@pytest.fixture(scope="module")
+def results_file(results, tmp_path_factory) -> Path:
+    """The results as `run` writes them (results.json), for the command that reads them."""
+    path = tmp_path_factory.mktemp("results") / "results.json"
+    path.write_text(dumps(results))
+    return path
+
+
+def test_replay_command_saves_a_readable_file(tmp_path, capsys, results_file, monkeypatch):
+    """`replay SYSTEM --save FILE` writes an .rrd from the run's results that rerun reads back, with
+    every source's bodies, and runs nothing."""
+    monkeypatch.setattr("lagrange_xval.validate.pipeline.run", lambda *a, **k: pytest.fail("ran the pipeline"))
     path = tmp_path / "x.rrd"
-    assert replay.replay_command(SYSTEM, save=path) == 0
+    assert replay.replay_command(SYSTEM, save=path, results_path=results_file) == 0
     assert str(path) in capsys.readouterr().out
     entities = {c.entity_path for c in read(path)}
     for source in ("hand", "mujoco", "pinocchio"):
@@ -289,31 +299,35 @@ def test_replay_command_saves_a_readable_file(tmp_path, capsys):
     assert [p.name for p in tmp_path.iterdir()] == ["x.rrd"], "temporary files left behind"
 
 
-def test_unknown_system_names_the_valid_ones(tmp_path):
-    """An unknown system is a HarnessError listing every valid system; nothing is written."""
+def test_a_system_not_in_the_results_names_those_held(tmp_path, results_file):
+    """A system the results do not hold: one line naming the systems they hold and what to run."""
     with pytest.raises(HarnessError) as info:
-        replay.replay_command("dbl_pendulum", save=tmp_path / "x.rrd")
+        replay.replay_command("dbl_pendulum", save=tmp_path / "x.rrd", results_path=results_file)
     message = str(info.value)
-    assert "dbl_pendulum" in message
-    for name in systems.system_names():
-        assert name in message
+    assert "dbl_pendulum" in message and SYSTEM in message and "lagrange-xval run dbl_pendulum" in message
     assert not list(tmp_path.iterdir())
 
 
-def test_cli_replay_errors_are_one_line(tmp_path, capsys):
+def test_missing_results_say_what_to_run(tmp_path):
+    with pytest.raises(HarnessError, match="lagrange-xval run"):
+        replay.replay_command(SYSTEM, save=tmp_path / "x.rrd", results_path=tmp_path / "none.json")
+    assert not list(tmp_path.iterdir())
+
+
+def test_cli_replay_errors_are_one_line(tmp_path, capsys, results_file):
     """The CLI turns replay errors into one stderr line and exit status 2."""
-    assert main(["replay", "dbl_pendulum", "--save", str(tmp_path / "x.rrd")]) == 2
-    assert main(["replay", SYSTEM, "--save", str(tmp_path / "x.txt")]) == 2
+    assert main(["replay", "dbl_pendulum", "--save", str(tmp_path / "x.rrd"), "--results", str(results_file)]) == 2
+    assert main(["replay", SYSTEM, "--save", str(tmp_path / "x.txt"), "--results", str(results_file)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 2 and "Valid:" in err[0] and ".rrd" in err[1]
+    assert len(err) == 2 and "holds no system" in err[0] and ".rrd" in err[1]
     assert not list(tmp_path.iterdir())
 
 
-def test_no_display_says_to_save(monkeypatch, tmp_path):
+def test_no_display_says_to_save(monkeypatch, tmp_path, results_file):
     """Without a display (Linux), replay without --save says so and suggests --save, before running anything."""
     monkeypatch.setattr(replay.sys, "platform", "linux")
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     monkeypatch.setattr("lagrange_xval.validate.pipeline.run", lambda *a, **k: pytest.fail("ran the pipeline"))
     with pytest.raises(HarnessError, match="--save"):
-        replay.replay_command(SYSTEM, save=None)
+        replay.replay_command(SYSTEM, save=None, results_path=results_file)

@@ -196,6 +196,13 @@ def _parser() -> argparse.ArgumentParser:
     replay = command("replay", help="a rerun recording of a system's trajectories")
     replay.add_argument("system")
     replay.add_argument("--save", type=_path, metavar="FILE", help="write an .rrd file instead of spawning a viewer")
+    replay.add_argument(
+        "--results",
+        type=_path,
+        default=Path("reports") / "results.json",
+        metavar="FILE",
+        help="the results `run` wrote (default: reports/results.json); nothing is recomputed",
+    )
     return p
 
 
@@ -453,7 +460,7 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 def cmd_replay(args: argparse.Namespace) -> int:
 
-    return replay_command(args.system, args.save)
+    return replay_command(args.system, args.save, args.results)
 
 
 def cmd_bench(args: argparse.Namespace) -> int:

@@ -381,8 +381,8 @@ def section_replay(doc: Document, results: dict[str, Any]) -> None:
         lines += [f"rerun reports/{name}.rrd", f"rerun --web-viewer --bind 127.0.0.1 reports/{name}.rrd"]
     doc.blocks.append(Code("\n".join(lines) if lines else "rerun reports/<system>.rrd"))
     doc.p(
-        "`lagrange-xval replay SYSTEM` records and opens one system directly; `lagrange-xval report` "
-        "re-renders this report from `reports/results.json`."
+        "`lagrange-xval replay SYSTEM` opens one system's recording, drawn again from `reports/results.json` "
+        "(nothing is recomputed); `lagrange-xval report` re-renders this report from the same file."
     )
 
 

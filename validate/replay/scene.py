@@ -1,0 +1,242 @@
+"""The scene of one system's recording: every run's bodies, links, axes and trails at the recorded
+q, placed by the equations' kinematics at the recorded parameters. Pure numpy; no rerun calls.
+"""
+
+from __future__ import annotations
+
+import colorsys
+import re
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from ..errors import HarnessError
+
+TRAIL_SECONDS = 1.0  # s of the tip's path drawn behind it
+
+
+SOURCE_COLOURS: dict[str, tuple[int, int, int]] = {
+    "hand": (31, 119, 180),  # blue
+    "mujoco": (255, 127, 14),  # orange
+    "pinocchio": (44, 160, 44),  # green
+}
+
+
+EXTRA_COLOURS: tuple[tuple[int, int, int], ...] = (
+    (214, 39, 40),  # red
+    (148, 103, 189),  # purple
+    (227, 119, 194),  # pink
+    (188, 189, 34),  # olive
+    (23, 190, 207),  # cyan
+    (140, 86, 75),  # brown
+)
+
+
+def as_floats(x: Any) -> np.ndarray:
+    """A float array from numpy or JSON data (JSON keeps inf and nan as strings)."""
+    return np.asarray(x, dtype=float) if not isinstance(x, np.ndarray) else x.astype(float, copy=False)
+
+
+def slug(text: str) -> str:
+    return re.sub(r"[^a-z0-9]+", "_", str(text).lower()).strip("_") or "run"
+
+
+def run_keys(runs: list[dict[str, Any]]) -> list[str]:
+    """Unique entity-path names for the runs: the source, then source_<label or method> for repeats."""
+    keys: list[str] = []
+    for run in runs:
+        source = slug(run.get("source", "run"))
+        key = source
+        if key in keys:
+            key = f"{source}_{slug(run.get('label') or run.get('name') or run.get('method', ''))}"
+        base, i = key, 2
+        while key in keys:
+            key, i = f"{base}_{i}", i + 1
+        keys.append(key)
+    return keys
+
+
+def run_colours(runs: list[dict[str, Any]]) -> list[tuple[int, int, int]]:
+    """A distinct colour per run: the source's colour for its first run, then the next unused colour."""
+    spare = iter(EXTRA_COLOURS)
+    golden = 0
+    taken: list[tuple[int, int, int]] = []
+    for run in runs:
+        colour = SOURCE_COLOURS.get(str(run.get("source")))
+        if colour is None or colour in taken:
+            colour = next(spare, None)
+        if colour is None:  # past the palette: golden-angle hues, still deterministic
+            golden += 1
+            r, g, b = colorsys.hsv_to_rgb((golden * 0.618033988749895) % 1.0, 0.65, 0.95)
+            colour = (round(r * 255), round(g * 255), round(b * 255))
+        taken.append(colour)
+    return taken
+
+
+def shade(colour: tuple[int, int, int], towards: float, amount: float) -> tuple[int, int, int]:
+    return tuple(round(c + (towards - c) * amount) for c in colour)  # type: ignore[return-value]
+
+
+def joint_unit(view: Any, joint: str) -> str:
+    try:
+        return "m" if view[f"joint/{joint}/type"] == "slide" else "rad"
+    except HarnessError:
+        return "rad"
+
+
+def recorded_params(system: Any, sys_results: Mapping[str, Any]) -> Any:
+    """The parameters the results were computed with (the model's when they do not fit Params)."""
+    recorded = sys_results.get("parameters")
+    if recorded:
+        try:
+            return system.equations.Params(**{k: float(v) for k, v in recorded.items()})
+        except (TypeError, ValueError):
+            pass
+    return system.params
+
+
+def build_scene(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """The arrays and text of one system's recording. Pure numpy; no rerun calls."""
+    from ..systems import System, load, system_names
+
+    model, equations = sys_results.get("mjcf", ""), sys_results.get("equations", "")
+    if name in system_names() and str(model).startswith("models/"):
+        system = load(name)
+    else:  # a system from the user's own files, recorded by their paths
+        system = System.from_files(model, equations, name=name)
+    view = system.view
+    params = recorded_params(system, sys_results)
+    traj = sys_results["trajectories"]
+    t = as_floats(traj["t"])
+    K = len(t)
+    runs_in = list(traj["runs"])
+    if not runs_in:
+        raise HarnessError(f"{name}: the results hold no trajectory runs to replay.")
+    keys, colours = run_keys(runs_in), run_colours(runs_in)
+    bodies = list(sys_results.get("bodies") or system.bodies)
+    parent = {b: view[f"body/{b}/parent"] for b in bodies}
+    children = {b for b in bodies if any(parent[c] == b for c in bodies)}
+    tips = [b for b in bodies if b not in children]
+    body_joint: dict[str, str] = {}
+    for j in system.joints:
+        body_joint.setdefault(view[f"joint/{j}/body"], j)
+    depth = {b: 0 for b in bodies}
+    for b in bodies:
+        p = parent[b]
+        while p in parent:
+            depth[b] += 1
+            p = parent[p]
+
+    runs = []
+    for key, colour, run in zip(keys, colours, runs_in, strict=True):
+        q = as_floats(run["q"]).reshape(K, -1)
+        positions = system.equations.body_positions(params, q)
+        rotations = system.equations.body_rotations(params, q)
+        com = {b: np.asarray(x, dtype=float).reshape(K, 3) for b, x in positions.items()}
+        rot = {b: np.asarray(x, dtype=float).reshape(K, 3, 3) for b, x in rotations.items()}
+        anchor = {}
+        for b in bodies:
+            origin = com[b] - rot[b] @ view[f"body/{b}/com"]
+            joint = body_joint.get(b)
+            anchor[b] = origin + rot[b] @ view[f"joint/{joint}/pos"] if joint else origin
+        links = {
+            b: np.stack([com[parent[b]] if parent[b] in com else anchor[b], anchor[b], com[b]], axis=1) for b in bodies
+        }
+        energy = as_floats(run["energy"]) if "energy" in run else None
+        error = as_floats(run["error_vs_hand"]) if "error_vs_hand" in run else None
+        envelope = as_floats(run["envelope"]) if "envelope" in run else None
+        runs.append(
+            {
+                "key": key,
+                "colour": colour,
+                "run": run,
+                "q": q,
+                "com": com,
+                "rot": rot,
+                "anchor": anchor,
+                "links": links,
+                "energy": energy,
+                "error": error,
+                "envelope": envelope if envelope is not None and envelope.shape == (K,) else None,
+            }
+        )
+
+    # Scene size: how far anything drawn reaches from the origin (1 m when everything sits there);
+    # samples of a diverged run (non-finite q) do not count.
+    norms = np.concatenate(
+        [np.linalg.norm(r[kind][b], axis=-1) for r in runs for kind in ("com", "anchor") for b in bodies]
+    )
+    reach = float(norms[np.isfinite(norms)].max(initial=0.0))
+    scale = reach if reach > 1e-9 else 1.0
+    # Bodies whose centre of mass never moves show their motion by their axes only.
+    still = [b for b in bodies if all(np.ptp(r["com"][b], axis=0).max() <= 1e-9 * scale for r in runs)]
+    dt = float(np.median(np.diff(t))) if K > 1 else 1.0
+    window = max(2, int(round(TRAIL_SECONDS / dt)) + 1) if K > 1 else 1
+    trail_index = np.clip(np.arange(K)[:, None] + np.arange(1 - window, 1)[None, :], 0, K - 1)
+    for r in runs:
+        r["axes"] = {}
+        for b in still:
+            length = 0.5 * scale * (0.8 ** depth[b])
+            ends = r["com"][b][:, None, :] + length * np.swapaxes(r["rot"][b], 1, 2)  # (K, 3 axes, 3)
+            r["axes"][b] = np.stack([np.broadcast_to(r["com"][b][:, None, :], ends.shape), ends], axis=2)
+        # The tip's path: its centre of mass, or the end of its x axis when that stays still (line of sight).
+        r["trails"] = {b: (r["axes"][b][:, 0, 1] if b in still else r["com"][b])[trail_index] for b in tips}
+    # A link whose three points coincide throughout (a body turning about its own centre) is not drawn.
+    for b in bodies:
+        if all(np.ptp(r["links"][b].reshape(-1, 3), axis=0).max() <= 1e-9 * scale for r in runs):
+            for r in runs:
+                del r["links"][b]
+
+    # Up is against gravity; a scene that disables gravity still says in the MJCF where down is.
+    gravity = np.asarray(view["gravity"], dtype=float)
+    if not gravity.any():
+        gravity = np.asarray(system.mujoco_model().opt.gravity, dtype=float)
+    up = up_axis(gravity)
+    return {
+        "name": name,
+        "sys": sys_results,
+        "t": t,
+        "runs": runs,
+        "bodies": bodies,
+        "tips": tips,
+        "still": still,
+        "parent": parent,
+        "scale": scale,
+        "window": window,
+        "up": up,
+        "coordinates": list(sys_results.get("coordinates") or system.coordinates),
+        "units": [joint_unit(view, j) for j in system.joints],
+        "roots": [b for b in bodies if parent[b] not in parent],
+        "threshold": float(traj["threshold"]) if traj.get("threshold") is not None else None,
+        "plane_normal": plane_normal(runs, bodies, scale),
+        "meta": provenance_text(meta),
+    }
+
+
+def provenance_text(meta: Mapping[str, Any] | None) -> str:
+    if not meta:
+        return ""
+    command = meta.get("command", "lagrange-xval run")
+    return (
+        f"Results of `{command}` (lagrange-xval {meta.get('harness_version', '?')}, "
+        f"commit {meta.get('git_commit', '?')}, {meta.get('date', '?')}, seed {meta.get('seed')})."
+    )
+
+
+def up_axis(gravity: np.ndarray) -> tuple[int, int]:
+    """(axis, sign) of the world axis opposite to gravity; (z, +1) when there is no gravity along an axis."""
+    g = float(np.linalg.norm(gravity))
+    if g > 0:
+        i = int(np.argmax(np.abs(gravity)))
+        if abs(gravity[i]) > 0.999 * g:
+            return i, -1 if gravity[i] > 0 else 1
+    return 2, 1
+
+
+def plane_normal(runs: list[dict[str, Any]], bodies: list[str], scale: float) -> int | None:
+    """The world axis all motion is perpendicular to, if the motion is planar (to look along it)."""
+    pts = np.concatenate([r[kind][b] for r in runs for kind in ("com", "anchor") for b in bodies])
+    spread = np.ptp(pts, axis=0)
+    flat = [i for i in range(3) if spread[i] <= 1e-9 * scale]
+    return flat[0] if len(flat) == 1 else None
