@@ -27,7 +27,7 @@ DP = "double_pendulum_point"
 
 
 def _specs(methods, rtols):
-    specs = [bench._scipy_spec("hand", "solve_ivp", m, r) for m in methods for r in rtols]
+    specs = [bench.scipy_spec("hand", "solve_ivp", m, r) for m in methods for r in rtols]
     for s in specs:
         s["method"] = bench.method_name(s)
     return specs
@@ -51,7 +51,7 @@ def tiny():
 def test_tiny_sweep_rows_are_long_format_sorted_and_complete(tiny):
     """Every (method, rtol) has one row with the expected keys, status ok, a median of both repeats."""
     assert len(tiny) == 4
-    assert tiny == sorted(tiny, key=bench._sort_key)
+    assert tiny == sorted(tiny, key=bench.sort_key)
     for r in tiny:
         assert set(r) == ROW_KEYS, set(r) ^ ROW_KEYS
         assert r["status"] == "ok", r
@@ -126,7 +126,7 @@ def test_pareto_and_epsilon_ignore_runs_that_failed():
 def test_mujoco_euler_at_a_huge_timestep_is_diverged():
     """Euler at 0.5 s from 20 rad/s: MuJoCo warns about qacc and resets the state; the run is "diverged"."""
     case = dict(bench.case_for(systems.load(DP)), v0=[20.0, -20.0], dt_out=0.5)
-    spec = bench._step_spec("mujoco", "mujoco", "Euler", 0.5)
+    spec = bench.step_spec("mujoco", "mujoco", "Euler", 0.5)
     res = bench.execute(spec, case, budget=30.0, min_timed=0.0)
     assert res["status"] == "diverged", res["message"]
     assert "BADQACC" in res["message"]
@@ -162,7 +162,7 @@ def test_a_run_past_its_budget_is_stopped_as_timeout(driver):
 
 
 @pytest.mark.parametrize(
-    "spec", [bench._step_spec("mujoco", "mujoco", "RK4", 1e-5), bench._step_spec("pinocchio", "mirror", "RK4", 1e-5)]
+    "spec", [bench.step_spec("mujoco", "mujoco", "RK4", 1e-5), bench.step_spec("pinocchio", "mirror", "RK4", 1e-5)]
 )
 def test_stepping_runs_past_their_budget_are_timeouts(spec):
     res = bench.execute(spec, bench.case_for(systems.load(DP)), budget=0.02, min_timed=0.0)
@@ -183,10 +183,10 @@ def test_a_timeout_is_kept_and_tighter_settings_are_skipped_not_dropped():
 
 def test_the_mujoco_model_options_are_restored():
     """A MuJoCo run sets the integrator and timestep it is asked for and puts the model's back."""
-    system, sources = bench._resources(DP)
+    system, sources = bench.resources(DP)
     m = sources["mujoco"].m
     before = (m.opt.integrator, m.opt.timestep)
-    bench.execute(bench._step_spec("mujoco", "mujoco", "Euler", 1e-2), bench.case_for(system), budget=30.0)
+    bench.execute(bench.step_spec("mujoco", "mujoco", "Euler", 1e-2), bench.case_for(system), budget=30.0)
     assert (m.opt.integrator, m.opt.timestep) == before
 
 

@@ -1,0 +1,92 @@
+"""Run time against error: a work-precision sweep of every integrator the harness can use, and the
+"fast harness" ratios, measured in one run and written to `bench.json` (data only; the report
+module draws the plots from it).
+
+What is swept, per system, from its `initial_state` with tau = 0, on the grid t = 0, 0.01, ..., 10 s:
+
+  scipy on the hand equations (the generated scalar fast path) and on Pinocchio's ABA
+  (`PinocchioSource.rhs`): `solve_ivp` RK45, DOP853, Radau, LSODA; the compiled drivers
+  `scipy.integrate.ode("dop853")` and `odeint` (LSODA); rtol 1e-3 ... 1e-12, atol = rtol * 1e-3
+  (the states are O(1) rad and rad/s, so the relative test is the one that binds; the small atol
+  only matters where a component crosses zero). `ode` has no dense output: on a 10 ms grid it must
+  stop at every sample, which caps its step at 10 ms and sets its error, whatever rtol; it is
+  therefore also run with two outputs only ("(2 outputs)": t = 2 s and 10 s), where rtol governs.
+  MuJoCo's Euler, implicit, implicitfast, RK4 at timesteps 1e-2 ... 1e-5 s (the model's own
+  `opt.integrator`/`opt.timestep` are set and restored), and the mirror RK4 on Pinocchio's ABA.
+  The harness's default (`integrate.scipy_trajectory` with `integrate.SCIPY_DEFAULT`) as one more run.
+
+What is measured per run: the error against the reference (heyoka Taylor in long double, accurate
+to ~1e-17, cached) as max over coordinates of |q - q_ref| at t = 2 s and 10 s, and its maximum over
+the predictability horizon (the chaos summary's horizon at 1e-6 rad; it is 73 s for the double
+pendulums and none for the regular systems, so on this 10 s grid the window is the whole run, as
+`horizon_window_s` says); the first time the error exceeds 1e-6 rad (the run's own horizon);
+CPU time (`time.process_time`) and wall time (`time.perf_counter`) of the integration alone (no
+setup, no compilation, no error computation; for MuJoCo the loop of `mj_step(m, d, nstep=k)` with a
+copy of qpos/qvel per sample, ~0.3 us each); right-hand-side evaluations (steps for MuJoCo).
+A run shorter than MIN_TIMED is executed back to back until the total reaches it and the mean is
+taken, the first (cold) execution dropped (timeit's autorange); the row's time is the median over
+repeats. Runs that diverge (non-finite values, MuJoCo's bad-qpos/qvel/qacc warnings), fail (the
+solver gives up) or exceed the per-run budget are recorded with that status, not dropped; a timeout
+is enforced from inside the right-hand side (checked every 128 calls: it raises, or for `ode`, whose
+compiled driver crashes on a Python exception, returns NaN so the driver stops), and for MuJoCo
+between samples. A setting tighter than one that timed out is not run (status "skipped").
+
+Parallelism. Timing runs execute in the workers of a `concurrent.futures.Executor` (a process pool
+with one worker per core by default; any executor will do, a distributed one included) and each run
+is timed inside its worker. Both cores time at once: measured on this 2-core machine, DOP853 on the
+double pendulum costs 0.052 s of CPU alone and 0.052-0.053 s with a second timing process on the
+other core (wall time alone 0.052 s, but 0.10 s whenever another engineer's process shared the
+machine). CPU time is therefore the cost the tables rank by; wall time is recorded beside it and is
+only as fair as the machine is quiet. CPU time is less sensitive to load, not immune (a virtual CPU
+the host preempts still accrues it; single --quick measurements have varied by 1.7x under other
+engineers' load), hence medians over interleaved repeats in the full bench (the median spread of a
+row's repeats was 2%). To keep whatever noise there is even, each repeat submits the runs
+round-robin over all methods (one setting of every method, then the next setting; later repeats
+rotate the method order) so both workers stay busy until the queue drains and noise hits all
+methods alike. The ratio measurements interleave their sides inside one task, so they are fair
+whatever runs beside them. Only `lagrange-xval run`, which uses both cores itself, is timed with
+nothing else of ours running (after the pool is shut down).
+
+Modules: plan (what is swept, budgets, targets), runners (one timed run in a worker), analysis
+(errors, rows, Pareto fronts, the sweep), ratios (the fast-harness ratios; the raw engine
+baselines live in engines/baselines.py), output (run_bench, bench.json, the summary, the command).
+"""
+
+from .analysis import errors_against, pareto_front, sort_key, sweep, time_to_epsilon
+from .output import bench_command, run_bench, run_time_command, summary, write_bench
+from .plan import ATOL_FACTOR, EPSILONS, RUN_TARGET_S, method_name, plan, scipy_spec, step_spec
+from .ratios import default_ratio, hand_math_rhs, numpy_solve_rhs, raw_pointwise, rhs_ratio, run_wall_times
+from .runners import case_for, execute, prepare, resources, run_mirror, run_mujoco, run_scipy
+
+__all__ = [
+    "ATOL_FACTOR",
+    "EPSILONS",
+    "RUN_TARGET_S",
+    "bench_command",
+    "case_for",
+    "default_ratio",
+    "errors_against",
+    "execute",
+    "hand_math_rhs",
+    "method_name",
+    "numpy_solve_rhs",
+    "pareto_front",
+    "plan",
+    "prepare",
+    "raw_pointwise",
+    "resources",
+    "rhs_ratio",
+    "run_bench",
+    "run_mirror",
+    "run_mujoco",
+    "run_scipy",
+    "run_time_command",
+    "run_wall_times",
+    "scipy_spec",
+    "sort_key",
+    "step_spec",
+    "summary",
+    "sweep",
+    "time_to_epsilon",
+    "write_bench",
+]

@@ -1,0 +1,183 @@
+"""The benchmark's plan: what is swept (drivers, schemes, tolerances, timesteps), its budgets and
+the targets of the fast-harness ratios.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+T_END = 10.0  # s: the grid of `run` (the reference cache is keyed by it)
+
+
+DT_OUT = 0.01  # s
+
+
+ERROR_TIMES = (2.0, 10.0)  # s
+
+
+HORIZON_TOLERANCE = 1e-6  # rad: the trajectory tier, and the chaos summary's horizon tolerance
+
+
+EPSILONS = (1e-3, 1e-6, 1e-9)  # rad, for "time to reach error eps" at t = 2 s
+
+
+ATOL_FACTOR = 1e-3  # atol = rtol * ATOL_FACTOR
+
+
+RTOLS = tuple(10.0**-k for k in range(3, 13))
+
+
+QUICK_RTOLS = (1e-3, 1e-6, 1e-9, 1e-12)
+
+
+IVP_METHODS = ("RK45", "DOP853", "Radau", "LSODA")
+
+
+QUICK_IVP_METHODS = ("DOP853", "RK45", "LSODA")
+
+
+MUJOCO_INTEGRATORS = ("Euler", "implicit", "implicitfast", "RK4")
+
+
+QUICK_MUJOCO_INTEGRATORS = ("RK4", "Euler")
+
+
+TIMESTEPS = (1e-2, 1e-3, 1e-4, 1e-5)  # s
+
+
+QUICK_TIMESTEPS = (1e-2, 1e-3, 1e-4)
+
+
+QUICK_SYSTEMS = ("double_pendulum_point", "gimbal")
+
+
+BUDGET = 20.0  # s of wall time per run
+
+
+QUICK_BUDGET = 5.0
+
+
+MIN_TIMED = 0.05  # s: shorter runs are repeated back to back (autorange)
+
+
+MAX_EXECUTIONS = 200
+
+
+DEFAULT_REPEATS = 3
+
+
+QUICK_REPEATS = 1
+
+
+QUICK_TARGET_S = 60.0
+
+
+CHECK_EVERY = 128  # right-hand-side calls between deadline / finiteness checks (a power of two)
+
+
+RHS_SYSTEM = "double_pendulum_point"
+
+
+RHS_TARGET = 1.5  # fast path time / hand-written math time
+
+
+POINTWISE_STATES = 10_000
+
+
+POINTWISE_TARGET = 1.5  # harness time / raw engine calls time
+
+
+DEFAULT_EPSILON = 1e-9  # rad at t = 2 s
+
+
+DEFAULT_TARGET = 1.5  # default scipy time / fastest scipy driver reaching DEFAULT_EPSILON
+
+
+RUN_REPEATS = 5
+
+
+RUN_TARGET_S = 20.0  # s wall for `lagrange-xval run` on all systems, warm or cold cache (issue 10)
+
+
+RUN_WARM_TARGET_S = 15.0  # s wall with a warm cache (issue 6)
+
+
+FLAG_INTEGRATORS = ("RK4", "Euler")
+
+
+SCIPY_DRIVERS = ("solve_ivp", "ode", "ode_endpoints", "odeint")
+
+
+STATUSES = ("ok", "diverged", "failed", "timeout", "skipped")  # a row's "status"
+
+
+def method_name(spec: dict[str, Any]) -> str:
+    """The row's method label, e.g. "hand solve_ivp DOP853", "mujoco RK4", "pinocchio mirror RK4"."""
+    engine, driver, scheme = spec["engine"], spec["driver"], spec.get("scheme")
+    label = {
+        "solve_ivp": f"solve_ivp {scheme}",
+        "ode": "ode dop853",
+        "ode_endpoints": "ode dop853 (2 outputs)",
+        "odeint": "odeint",
+        "mujoco": str(scheme),
+        "mirror": f"mirror {scheme}",
+        "default": "default scipy_trajectory",
+    }[driver]
+    return f"{engine} {label}"
+
+
+def scipy_spec(engine: str, driver: str, scheme: str | None, rtol: float) -> dict[str, Any]:
+    return {
+        "engine": engine,
+        "driver": driver,
+        "scheme": scheme,
+        "setting": "rtol",
+        "value": rtol,
+        "atol": rtol * ATOL_FACTOR,
+    }
+
+
+def step_spec(engine: str, driver: str, scheme: str, timestep: float) -> dict[str, Any]:
+    return {
+        "engine": engine,
+        "driver": driver,
+        "scheme": scheme,
+        "setting": "timestep",
+        "value": timestep,
+        "atol": None,
+    }
+
+
+def plan(*, quick: bool) -> list[dict[str, Any]]:
+    """Every run of one system, loosest setting first within each method."""
+    from ...dynamics.integrate import SCIPY_DEFAULT
+
+    specs: list[dict[str, Any]] = []
+    if quick:
+        for m in QUICK_IVP_METHODS:
+            specs += [scipy_spec("hand", "solve_ivp", m, r) for r in QUICK_RTOLS]
+        for integ in QUICK_MUJOCO_INTEGRATORS:
+            specs += [step_spec("mujoco", "mujoco", integ, dt) for dt in QUICK_TIMESTEPS]
+    else:
+        for engine in ("hand", "pinocchio"):
+            for m in IVP_METHODS:
+                specs += [scipy_spec(engine, "solve_ivp", m, r) for r in RTOLS]
+            for driver in ("ode", "ode_endpoints"):
+                specs += [scipy_spec(engine, driver, "dop853", r) for r in RTOLS]
+            specs += [scipy_spec(engine, "odeint", "LSODA", r) for r in RTOLS]
+        for integ in MUJOCO_INTEGRATORS:
+            specs += [step_spec("mujoco", "mujoco", integ, dt) for dt in TIMESTEPS]
+        specs += [step_spec("pinocchio", "mirror", "RK4", dt) for dt in TIMESTEPS]
+    specs.append(
+        {
+            "engine": "hand",
+            "driver": "default",
+            "scheme": SCIPY_DEFAULT["method"],
+            "setting": "rtol",
+            "value": SCIPY_DEFAULT["rtol"],
+            "atol": SCIPY_DEFAULT["atol"],
+        }
+    )
+    for s in specs:
+        s["method"] = method_name(s)
+    return specs

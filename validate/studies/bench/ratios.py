@@ -1,0 +1,404 @@
+"""The fast-harness ratios: the generated right-hand side against hand-written math, the pointwise
+check against the raw engine calls, MuJoCo's disable flags, the default scipy against the fastest,
+and `lagrange-xval run`'s wall time.
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ...engines.baselines import raw_mujoco, raw_pinocchio
+from .plan import (
+    DEFAULT_EPSILON,
+    DEFAULT_TARGET,
+    FLAG_INTEGRATORS,
+    POINTWISE_STATES,
+    POINTWISE_TARGET,
+    RHS_SYSTEM,
+    RHS_TARGET,
+    RUN_REPEATS,
+    RUN_TARGET_S,
+    RUN_WARM_TARGET_S,
+)
+from .runners import case_for, resources
+
+
+def hand_math_rhs(p: Any) -> Callable[[float, Any], list[float]]:
+    """double_pendulum_point's right-hand side written by hand with `math`: eqs (33)-(34) multiplied
+    back by m l^2 and generalised to m1, m2, l1, l2 and the bobs' inertia I1, I2 (what
+    equations/double_pendulum_point.py derives), solved for the accelerations by Cramer's rule.
+
+        M11 = m1 l1^2 + m2 (l1^2 + l2^2 + 2 l1 l2 cos phi) + I1 + I2
+        M12 = m2 (l2^2 + l1 l2 cos phi) + I2,   M22 = m2 l2^2 + I2
+        r1 = m2 l1 l2 sin phi (2 th' ph' + ph'^2) - (m1 + m2) g l1 sin th - m2 g l2 sin(th + ph)
+        r2 = -m2 l1 l2 sin phi th'^2 - m2 g l2 sin(th + ph)
+        th'' = (M22 r1 - M12 r2) / det,  ph'' = (M11 r2 - M12 r1) / det,  det = M11 M22 - M12^2
+    """
+    m1, m2, l1, l2, g, i1, i2 = (float(getattr(p, k)) for k in ("m1", "m2", "l1", "l2", "g", "I1", "I2"))
+    a0 = m1 * l1 * l1 + m2 * (l1 * l1 + l2 * l2) + i1 + i2
+    b = m2 * l1 * l2
+    m22 = m2 * l2 * l2 + i2
+    g1, g2 = (m1 + m2) * g * l1, m2 * g * l2
+    sin, cos = math.sin, math.cos
+
+    def rhs(t: float, y: Any) -> list[float]:
+        th, ph, w1, w2 = y
+        c, s = cos(ph), sin(ph)
+        m12 = m22 + b * c
+        m11 = a0 + 2.0 * b * c
+        h = b * s
+        grav2 = g2 * sin(th + ph)
+        r1 = h * (2.0 * w1 * w2 + w2 * w2) - g1 * sin(th) - grav2
+        r2 = -h * w1 * w1 - grav2
+        det = m11 * m22 - m12 * m12
+        return [w1, w2, (m22 * r1 - m12 * r2) / det, (m11 * r2 - m12 * r1) / det]
+
+    return rhs
+
+
+def numpy_solve_rhs(p: Any) -> Callable[[float, Any], np.ndarray]:
+    """The same formula with a 2x2 `np.linalg.solve` per call (the issue's ~18x, for context)."""
+    m1, m2, l1, l2, g, i1, i2 = (float(getattr(p, k)) for k in ("m1", "m2", "l1", "l2", "g", "I1", "I2"))
+    a0 = m1 * l1 * l1 + m2 * (l1 * l1 + l2 * l2) + i1 + i2
+    b, m22 = m2 * l1 * l2, m2 * l2 * l2 + i2
+    g1, g2 = (m1 + m2) * g * l1, m2 * g * l2
+
+    def rhs(t: float, y: Any) -> np.ndarray:
+        th, ph, w1, w2 = y
+        c, s = np.cos(ph), np.sin(ph)
+        M = np.array([[a0 + 2 * b * c, m22 + b * c], [m22 + b * c, m22]])
+        grav2 = g2 * np.sin(th + ph)
+        r = np.array([b * s * (2 * w1 * w2 + w2 * w2) - g1 * np.sin(th) - grav2, -b * s * w1 * w1 - grav2])
+        return np.concatenate([y[2:], np.linalg.solve(M, r)])
+
+    return rhs
+
+
+def interleaved_medians(fns: dict[str, Callable[[], Any]], reps: int) -> dict[str, dict[str, Any]]:
+    """Each callable timed `reps` times, in rotating order; medians of CPU and wall seconds."""
+    names = list(fns)
+    cpu: dict[str, list[float]] = {k: [] for k in names}
+    wall: dict[str, list[float]] = {k: [] for k in names}
+    for rep in range(reps):
+        for k in names[rep % len(names) :] + names[: rep % len(names)]:
+            c0, w0 = time.process_time(), time.perf_counter()
+            fns[k]()
+            cpu[k].append(time.process_time() - c0)
+            wall[k].append(time.perf_counter() - w0)
+    return {
+        k: {
+            "cpu_s": statistics.median(cpu[k]),
+            "wall_s": statistics.median(wall[k]),
+            "cpu_s_repeats": cpu[k],
+            "wall_s_repeats": wall[k],
+        }
+        for k in names
+    }
+
+
+def rhs_ratio(*, reps: int, calls: int = 10_000, n_states: int = 1000, seed: int = 0) -> dict[str, Any]:
+    """Ratio 1 (a worker task): the right-hand side scipy gets for the hand equations
+    (`integrate.source_rhs`: the generated fast path behind the harness's counter) against `hand_math_rhs`,
+    per call, both called as scipy calls them (f(t, y), y a float64 array) over `n_states` states."""
+    from ...dynamics.integrate import source_rhs
+    from ...engines import make_source
+
+    system, _ = resources(RHS_SYSTEM)
+    hand = make_source(system, "hand")
+    harness = source_rhs(hand, np.zeros(system.nv))
+    from ...engines.fastpath import scalar_rhs
+
+    fast, tau0 = scalar_rhs(system), [0.0] * system.nv
+    math_rhs, np_rhs = hand_math_rhs(system.params), numpy_solve_rhs(system.params)
+    rng = np.random.default_rng(seed)
+    ys = [rng.uniform(-3, 3, 2 * system.nv) for _ in range(n_states)]
+    passes = max(1, calls // n_states)
+
+    def loop(f: Callable[..., Any], *extra: Any) -> Callable[[], None]:
+        def run() -> None:
+            for _ in range(passes):
+                for y in ys:
+                    f(0.0, y, *extra)
+
+        return run
+
+    timed = interleaved_medians(
+        {
+            "harness": loop(harness),
+            "hand_math": loop(math_rhs),
+            "fast_path_bare": loop(fast, tau0),
+            "numpy_solve": loop(np_rhs),
+        },
+        reps,
+    )
+    per_call = {k: v["cpu_s"] / (passes * n_states) * 1e6 for k, v in timed.items()}
+    ratio = per_call["harness"] / per_call["hand_math"]
+    return {
+        "system": RHS_SYSTEM,
+        "value": ratio,
+        "target": RHS_TARGET,
+        "passed": ratio <= RHS_TARGET,
+        "per_call_us": per_call,
+        "numpy_vs_hand_math": per_call["numpy_solve"] / per_call["hand_math"],
+        "calls_per_measurement": passes * n_states,
+        "repeats": reps,
+        "how": "CPU time per call (median of interleaved repeats) of the function scipy receives "
+        "(integrate._rhs: counter + generated fast path) over the hand-written math version; "
+        "both f(t, y) with y a float64 array; the loop overhead (~30 ns/call) is in both",
+    }
+
+
+def raw_hand(system: Any, states: Any) -> dict[str, Any]:
+    """The hand side of the pointwise check as the equations module's vectorised numpy formulas,
+    called directly (one batched solve; tau_inverse at the computed accelerations)."""
+    q, v, tau = states.q, states.v, states.tau
+    eq, p = system.equations, system.params
+    M = np.asarray(eq.mass_matrix(p, q), dtype=float)
+    bias = np.asarray(eq.bias(p, q, v), dtype=float)
+    passive = np.asarray(eq.passive(p, q, v), dtype=float)
+    qacc = np.linalg.solve(M, (tau + passive - bias)[..., None])[..., 0]
+    return {
+        "M": M,
+        "bias": bias,
+        "passive": passive,
+        "qacc": qacc,
+        "tau_inverse": np.einsum("...ij,...j->...i", M, qacc) + bias - passive,
+        "T": eq.kinetic_energy(p, q, v),
+        "V": eq.potential_energy(p, q),
+        "body_positions": eq.body_positions(p, q),
+        "body_rotations": eq.body_rotations(p, q),
+    }
+
+
+def raw_pointwise(system: Any, sources: dict[str, Any], states: Any) -> dict[str, dict[str, Any]]:
+    """What `compare.evaluate` computes, as the minimal loops (`raw_hand`, `raw_mujoco`, `raw_pinocchio`;
+    the engines' inverse dynamics at the hand accelerations). {source: {quantity: array}}."""
+    hand = raw_hand(system, states)
+    return {
+        "hand": hand,
+        "mujoco": raw_mujoco(system, sources["mujoco"], states, hand["qacc"]),
+        "pinocchio": raw_pinocchio(system, sources["pinocchio"], states, hand["qacc"]),
+    }
+
+
+def pointwise_ratio(name: str, *, reps: int, n_states: int = POINTWISE_STATES, seed: int = 0) -> dict[str, Any]:
+    """Ratio 2 for one system (a worker task): `compare.evaluate` on `n_states` states through all
+    three sources against `raw_pointwise`, interleaved; sources and states built before timing.
+    Each source's share is timed too (harness: its `evaluate`, plus the hand's `inverse`)."""
+    from ...checks import pointwise as compare
+
+    system, sources = resources(name)
+    states = compare.random_states(system, n=n_states, seed=seed)
+    q, v, tau = states.q, states.v, states.tau
+    a_hand = sources["hand"].forward(q, v, tau)
+
+    def harness_hand() -> None:
+        out = sources["hand"].evaluate(q, v, tau, np.zeros_like(q))
+        sources["hand"].inverse(q, v, out["qacc"])
+
+    timed = interleaved_medians(
+        {
+            "harness": lambda: compare.evaluate(sources, states),
+            "raw": lambda: raw_pointwise(system, sources, states),
+            "harness hand": harness_hand,
+            "raw hand": lambda: raw_hand(system, states),
+            "harness mujoco": lambda: sources["mujoco"].evaluate(q, v, tau, a_hand),
+            "raw mujoco": lambda: raw_mujoco(system, sources["mujoco"], states, a_hand),
+            "harness pinocchio": lambda: sources["pinocchio"].evaluate(q, v, tau, a_hand),
+            "raw pinocchio": lambda: raw_pinocchio(system, sources["pinocchio"], states, a_hand),
+        },
+        reps,
+    )
+    ratio = timed["harness"]["cpu_s"] / timed["raw"]["cpu_s"]
+    return {
+        "system": name,
+        "value": ratio,
+        "target": POINTWISE_TARGET,
+        "passed": ratio <= POINTWISE_TARGET,
+        "harness_cpu_s": timed["harness"]["cpu_s"],
+        "raw_cpu_s": timed["raw"]["cpu_s"],
+        "harness_wall_s": timed["harness"]["wall_s"],
+        "raw_wall_s": timed["raw"]["wall_s"],
+        "by_source": {
+            src: {
+                "harness_cpu_s": timed[f"harness {src}"]["cpu_s"],
+                "raw_cpu_s": timed[f"raw {src}"]["cpu_s"],
+                "ratio": timed[f"harness {src}"]["cpu_s"] / timed[f"raw {src}"]["cpu_s"],
+            }
+            for src in ("hand", "mujoco", "pinocchio")
+        },
+        "n_states": n_states,
+        "repeats": reps,
+    }
+
+
+def flags_ratio(name: str, *, steps: int, reps: int) -> list[dict[str, Any]]:
+    """Per integrator (RK4, Euler): CPU time per mj_step at the MJCF's timestep from the system's start,
+    with the model's disable flags and with `disableflags = 0`, interleaved (a worker task)."""
+    from ...engines import mujoco as engine
+
+    system, sources = resources(name)
+    src = sources["mujoco"]
+    case = case_for(system)
+    model_flags, timestep = int(src.m.opt.disableflags), float(src.m.opt.timestep)
+    out = []
+    for integ in FLAG_INTEGRATORS:
+
+        def stepping(flags: int, integ: str = integ) -> Callable[[], None]:
+            def run() -> None:
+                with engine.scheme(src.m, integ, timestep), engine.disabled(src.m, flags):
+                    engine.steps_from(src, case["q0"], case["v0"], case["tau"], steps)
+
+            return run
+
+        timed = interleaved_medians({"model": stepping(model_flags), "none": stepping(0)}, reps)
+        per_model = timed["model"]["cpu_s"] / steps * 1e6
+        per_none = timed["none"]["cpu_s"] / steps * 1e6
+        out.append(
+            {
+                "system": name,
+                "integrator": integ,
+                "timestep": timestep,
+                "model_flags": engine.disable_flag_names(model_flags),
+                "us_per_step_model_flags": per_model,
+                "us_per_step_all_enabled": per_none,
+                "all_enabled_over_model": per_none / per_model,
+                "saving": 1.0 - per_model / per_none,
+                "steps": steps,
+                "repeats": reps,
+            }
+        )
+    return out
+
+
+def default_ratio(
+    rows: list[dict[str, Any]],
+    *,
+    system: str = RHS_SYSTEM,
+    epsilon: float = DEFAULT_EPSILON,
+    target: float = DEFAULT_TARGET,
+) -> dict[str, Any]:
+    """From the sweep: the default's CPU time over that of the fastest scipy run on the hand equations
+    reaching `epsilon` at t = 2 s (drivers giving the whole 10 ms grid, as the default must), and which
+    (method, rtol) runs would meet the target."""
+    mine = [r for r in rows if r["system"] == system]
+    default = next((r for r in mine if r["driver"] == "default"), None)
+    candidates = [
+        r
+        for r in mine
+        if r["engine"] == "hand"
+        and r["driver"] in ("solve_ivp", "ode", "odeint")
+        and r["status"] == "ok"
+        and r["error_2s"] is not None
+        and r["error_2s"] <= epsilon
+    ]
+    out: dict[str, Any] = {"system": system, "epsilon": epsilon, "target": target}
+    if default is None or not candidates or default.get("cpu_s") is None:
+        return {**out, "value": None, "passed": False, "why": "no default run or no scipy run reached epsilon"}
+    fastest = min(candidates, key=lambda r: r["cpu_s"])
+    ivp = [r for r in candidates if r["driver"] == "solve_ivp"]
+    fastest_ivp = min(ivp, key=lambda r: r["cpu_s"]) if ivp else None
+    reached = default["status"] == "ok" and default["error_2s"] is not None and default["error_2s"] <= epsilon
+    ratio = default["cpu_s"] / fastest["cpu_s"]
+
+    def brief(r: dict[str, Any] | None) -> dict[str, Any] | None:
+        return (
+            None
+            if r is None
+            else {
+                "method": r["method"],
+                "rtol": r["value"],
+                "atol": r["atol"],
+                "cpu_s": r["cpu_s"],
+                "error_2s": r["error_2s"],
+            }
+        )
+
+    return {
+        **out,
+        "value": ratio,
+        "passed": bool(reached and ratio <= target),
+        "default": {**brief(default), "reached": reached},  # type: ignore[dict-item]
+        "fastest": brief(fastest),
+        "fastest_solve_ivp": brief(fastest_ivp),
+        "default_over_fastest_solve_ivp": default["cpu_s"] / fastest_ivp["cpu_s"] if fastest_ivp else None,
+        "would_pass": [
+            brief(r) for r in sorted(candidates, key=lambda r: r["cpu_s"]) if r["cpu_s"] <= target * fastest["cpu_s"]
+        ],
+        "how": "median CPU time of each run in the interleaved sweep; the default is integrate.scipy_trajectory "
+        "with integrate.SCIPY_DEFAULT on the hand source",
+    }
+
+
+RUN_CONDITIONS = {
+    "fresh machine": "no reference or chaos cache and an empty heyoka JIT cache (XDG_CACHE_HOME in a new folder)",
+    "cold cache": "no reference or chaos cache (an empty --cache-dir); heyoka's JIT cache as the first run left it",
+    "warm cache": "the reference and chaos cache the second run wrote",
+}
+
+
+def run_wall_times(repeats: int = RUN_REPEATS, *, timeout: float = 900.0) -> dict[str, Any]:
+    """`python -m lagrange_xval.validate.cli run` (all systems, reports and replays) timed as
+    subprocesses one after another, with nothing else of the bench running: per repeat, three runs
+    into new folders, one per condition of RUN_CONDITIONS (fresh machine, cold cache, warm cache)."""
+    import os
+    import resource
+    import subprocess
+    import tempfile
+
+    walls: dict[str, list[float]] = {c: [] for c in RUN_CONDITIONS}
+    cpus: dict[str, list[float]] = {c: [] for c in RUN_CONDITIONS}
+    codes: list[int] = []
+    for _ in range(repeats):
+        with tempfile.TemporaryDirectory(prefix="bench-run-") as tmp:
+            env = {**os.environ, "XDG_CACHE_HOME": str(Path(tmp) / "xdg")}
+            for k, condition in enumerate(RUN_CONDITIONS):
+                before = resource.getrusage(resource.RUSAGE_CHILDREN)
+                w0 = time.perf_counter()
+                out, cache = Path(tmp) / f"out{k}", Path(tmp) / ("cache0" if k == 0 else "cache1")
+                proc = subprocess.run(
+                    [
+                        sys.executable,
+                        "-m",
+                        "lagrange_xval.validate.cli",
+                        "run",
+                        "--out",
+                        str(out),
+                        "--cache-dir",
+                        str(cache),
+                    ],
+                    capture_output=True,
+                    text=True,
+                    timeout=timeout,
+                    env=env,
+                )
+                walls[condition].append(time.perf_counter() - w0)
+                after = resource.getrusage(resource.RUSAGE_CHILDREN)
+                cpus[condition].append((after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime))
+                codes.append(proc.returncode)
+    medians = {c: statistics.median(w) for c, w in walls.items()}
+    worst = max(medians.values())
+    return {
+        "value": worst,
+        "target": RUN_TARGET_S,
+        "passed": worst < RUN_TARGET_S and medians["warm cache"] < RUN_WARM_TARGET_S,
+        "median_s": medians,
+        "warm_target": RUN_WARM_TARGET_S,
+        "wall_s_all": walls,
+        "cpu_s_all": cpus,
+        "exit_codes": codes,
+        "repeats": repeats,
+        "conditions": RUN_CONDITIONS,
+        "how": "wall time of `python -m lagrange_xval.validate.cli run --out <new folder> --cache-dir <folder>` "
+        f"(every system, reports and rerun replays), {repeats} repeats of three runs one after another: "
+        + "; ".join(f"{c}: {why}" for c, why in RUN_CONDITIONS.items())
+        + "; value = the slowest condition's median; CPU = user + system of the process tree",
+    }

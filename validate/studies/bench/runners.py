@@ -1,0 +1,442 @@
+"""One timed run of the sweep in a worker: the run's resources, the guard (deadline, finiteness),
+scipy's drivers, MuJoCo stepping, the mirror, the harness's default, and `execute`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import statistics
+import threading
+import time
+import warnings
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from ...errors import HarnessError
+from .plan import CHECK_EVERY, DT_OUT, ERROR_TIMES, HORIZON_TOLERANCE, MAX_EXECUTIONS, MIN_TIMED, SCIPY_DRIVERS, T_END
+
+
+class Stop(Exception):
+    """Raised from inside a right-hand side to end a run ("timeout" or "diverged")."""
+
+
+LOCAL = threading.local()
+
+
+def resources(name: str) -> tuple[Any, dict[str, Any]]:
+    """The system and its three sources, built once per worker thread (setup is never timed)."""
+    cache = LOCAL.__dict__.setdefault("systems", {})
+    if name not in cache:
+        from ...engines import make_sources
+        from ...systems import load
+
+        system = load(name)
+        cache[name] = (system, make_sources(system))
+    return cache[name]
+
+
+def case_for(system: Any) -> dict[str, Any]:
+    """The start the bench integrates from: the system's `initial_state`, tau = 0, the 10 s grid."""
+    from ...dynamics.integrate import initial_state
+
+    q0, v0 = initial_state(system)
+    return {
+        "system": system.name,
+        "q0": q0.tolist(),
+        "v0": v0.tolist(),
+        "tau": [0.0] * system.nv,
+        "t_end": T_END,
+        "dt_out": DT_OUT,
+    }
+
+
+def prepare(name: str) -> dict[str, Any]:
+    """Reference trajectory and predictability horizon of one system (cached on disk; a worker task)."""
+    from ...dynamics.chaos import chaos_summary
+    from ...dynamics.integrate import time_grid
+    from ...dynamics.reference import reference_trajectory
+
+    system, _ = resources(name)
+    case = case_for(system)
+    t = time_grid(case["t_end"], case["dt_out"])
+    ref, info = reference_trajectory(system, case["q0"], case["v0"], case["tau"], t)
+    summary = chaos_summary(system, case["q0"], case["v0"], case["tau"], t=t, tolerance=HORIZON_TOLERANCE)
+    horizon = summary["horizon_from_rounding"]["horizon"]
+    return {
+        "case": case,
+        "t": ref.t,
+        "q": ref.q,
+        "reference": {
+            "method": info.get("method"),
+            "precision": info.get("precision"),
+            "agreement_q": info.get("agreement_q"),
+            "cache": info.get("cache"),
+        },
+        "horizon_s": horizon,
+        "horizon_window_s": min(horizon, case["t_end"]) if horizon is not None else case["t_end"],
+        "lyapunov_per_s": summary["lyapunov"]["lambda"],
+    }
+
+
+def nonfinite(out: Any) -> bool:
+    try:
+        s = sum(out)
+    except TypeError:
+        return True
+    return not math.isfinite(s)
+
+
+def guarded(
+    f: Callable[..., Any], deadline: float, *, tau: list[float] | None = None, stop_with_nan: bool = False
+) -> tuple[Callable[[float, Any], Any], Callable[[], dict[str, Any]]]:
+    """`f` counted, and stopped once past `deadline` (perf_counter) or once it returns non-finite values.
+
+    The checks run every CHECK_EVERY calls, so they cost nothing measurable. Stopping raises `Stop`,
+    or with `stop_with_nan` (scipy's `ode`, which crashes on an exception in the callback) returns
+    NaN from then on, which makes the driver give up. `tau`, when given, is passed as f's third
+    argument (the scalar fast path's signature) without another call layer.
+
+    Returns:
+        The guarded f(t, y) and a function giving {"nfev": calls, "stop": None | "timeout" | "diverged"}.
+    """
+    n = 0
+    stop: list[str | None] = [None]
+    mask = CHECK_EVERY - 1
+
+    def check(out: Any) -> str | None:
+        if nonfinite(out):
+            return "diverged"
+        if time.perf_counter() > deadline:
+            return "timeout"
+        return None
+
+    if stop_with_nan:
+
+        def g_nan(t: float, y: Any) -> Any:
+            nonlocal n
+            n += 1
+            if stop[0] is not None:
+                return [math.nan] * len(y)
+            out = f(t, y, tau) if tau is not None else f(t, y)
+            if not n & mask:
+                stop[0] = check(out)
+            return out
+
+        g = g_nan
+    elif tau is not None:
+
+        def g_tau(t: float, y: Any) -> Any:
+            nonlocal n
+            n += 1
+            out = f(t, y, tau)
+            if not n & mask:
+                reason = check(out)
+                if reason:
+                    stop[0] = reason
+                    raise Stop(reason)
+            return out
+
+        g = g_tau
+    else:
+
+        def g_plain(t: float, y: Any) -> Any:
+            nonlocal n
+            n += 1
+            out = f(t, y)
+            if not n & mask:
+                reason = check(out)
+                if reason:
+                    stop[0] = reason
+                    raise Stop(reason)
+            return out
+
+        g = g_plain
+    return g, lambda: {"nfev": n, "stop": stop[0]}
+
+
+def result_row(
+    status: str,
+    message: str,
+    cpu: float,
+    wall: float,
+    *,
+    t: np.ndarray | None = None,
+    q: np.ndarray | None = None,
+    nfev: int | None = None,
+    steps: int | None = None,
+) -> dict[str, Any]:
+    if status == "ok" and q is not None and not np.all(np.isfinite(q)):
+        status, message = "diverged", "non-finite state"
+    return {
+        "status": status,
+        "message": message,
+        "cpu_s": cpu,
+        "wall_s": wall,
+        "t": t,
+        "q": q,
+        "nfev": nfev,
+        "steps": steps,
+    }
+
+
+def run_scipy(
+    driver: str,
+    scheme: str,
+    f: Callable[..., Any],
+    y0: np.ndarray,
+    t: np.ndarray,
+    *,
+    rtol: float,
+    atol: float,
+    deadline: float,
+    tau: list[float] | None = None,
+) -> dict[str, Any]:
+    """One scipy integration of y' = f(t, y) (or f(t, y, tau)), timed around the driver call alone.
+
+    Args:
+        driver: "solve_ivp" (scheme: RK45, DOP853, Radau, LSODA), "ode" (dop853, stopping at every
+            sample of `t`), "ode_endpoints" (dop853, outputs at ERROR_TIMES only) or "odeint".
+        y0: (2n,) initial state; t: (K,) output grid from 0.
+    Returns:
+        status ("ok", "diverged", "failed", "timeout"), message, cpu_s, wall_s, t, q (K, n), nfev.
+    """
+    from scipy.integrate import ode, odeint, solve_ivp
+
+    n = len(y0) // 2
+    g, stats = guarded(f, deadline, tau=tau, stop_with_nan=driver in ("ode", "ode_endpoints"))
+    ok, message, out_t = True, "", t
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            if driver == "solve_ivp":
+                c0, w0 = time.process_time(), time.perf_counter()
+                sol = solve_ivp(g, (t[0], t[-1]), y0, method=scheme, t_eval=t, rtol=rtol, atol=atol)
+                cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+                ok, message, y = bool(sol.success), str(sol.message), sol.y.T
+            elif driver in ("ode", "ode_endpoints"):
+                out_t = t if driver == "ode" else np.array([t[0], *ERROR_TIMES])
+                r = ode(g).set_integrator("dop853", rtol=rtol, atol=atol, nsteps=10**9)
+                r.set_initial_value(y0, out_t[0])
+                y = np.full((len(out_t), len(y0)), np.nan)
+                y[0] = y0
+                c0, w0 = time.process_time(), time.perf_counter()
+                for k in range(1, len(out_t)):
+                    r.integrate(out_t[k])
+                    if not r.successful():
+                        ok, message = False, f"dop853 return code {r.get_return_code()}"
+                        break
+                    y[k] = r.y
+                cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+            elif driver == "odeint":
+                c0, w0 = time.process_time(), time.perf_counter()
+                y, info = odeint(g, y0, t, rtol=rtol, atol=atol, tfirst=True, full_output=True, mxstep=10**8)
+                cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+                message = str(info["message"])
+                ok = message == "Integration successful."
+            else:
+                raise HarnessError(f"unknown scipy driver '{driver}'; valid: {', '.join(SCIPY_DRIVERS)}.")
+        except Stop:
+            cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+            s = stats()
+            return result_row(str(s["stop"]), f"stopped after {s['nfev']} evaluations", cpu, wall, nfev=s["nfev"])
+    s = stats()
+    if s["stop"] is not None:  # `ode`: stopped by NaN
+        return result_row(s["stop"], f"stopped after {s['nfev']} evaluations", cpu, wall, nfev=s["nfev"])
+    if not ok:
+        bad = not np.all(np.isfinite(y))
+        return result_row("diverged" if bad else "failed", message, cpu, wall, nfev=s["nfev"])
+    return result_row("ok", "", cpu, wall, t=np.asarray(out_t), q=np.ascontiguousarray(y[:, :n]), nfev=s["nfev"])
+
+
+def run_mujoco(
+    system: Any,
+    source: Any,
+    q0: Any,
+    v0: Any,
+    tau: Any,
+    t: np.ndarray,
+    *,
+    integrator: str,
+    timestep: float,
+    deadline: float,
+) -> dict[str, Any]:
+    """MuJoCo stepping its own integrator from (q0, v0); only the stepping loop is timed.
+
+    The model's integrator and timestep are set for the run and restored after it. A run that sets
+    any of MuJoCo's bad-state warnings (MuJoCo then resets the state and carries on) has diverged.
+    """
+    from ...engines import mujoco as engine
+
+    dt_out = float(t[1] - t[0])
+    steps = round(dt_out / timestep)
+    if steps < 1 or not np.isclose(steps * timestep, dt_out, rtol=1e-9, atol=0.0):
+        raise HarnessError(f"MuJoCo timestep {timestep} must divide the output step {dt_out}.")
+    out = engine.timed_run(
+        source, q0, v0, tau, len(t), steps, integrator=integrator, timestep=timestep, deadline=deadline
+    )
+    cpu, wall, bad, printed, k = out["cpu_s"], out["wall_s"], out["bad"], out["printed"], out["stopped_at"]
+    timed_out = k is not None
+    total = steps * (len(t) - 1)
+    if bad:
+        first = f" (first: {printed[0]})" if printed else ""
+        return result_row("diverged", f"MuJoCo warnings: {', '.join(bad)}{first}", cpu, wall, steps=total)
+    if timed_out:
+        return result_row("timeout", f"stopped at t = {t[k]:g} s", cpu, wall, steps=steps * k)
+    q = out["q"]
+    A = system.joint_map
+    if A is not None:
+        q = q @ A.T
+    return result_row("ok", "", cpu, wall, t=t, q=np.ascontiguousarray(q), steps=total)
+
+
+class GuardedSource:
+    """A source whose `rhs` is guarded (deadline, finiteness), for the mirror integrators."""
+
+    def __init__(self, source: Any, deadline: float) -> None:
+        self._source, self._deadline = source, deadline
+        self.name = source.name
+        self.stats: Callable[[], dict[str, Any]] = lambda: {"nfev": 0, "stop": None}
+
+    def __getattr__(self, attr: str) -> Any:
+        return getattr(self._source, attr)
+
+    def rhs(self, tau: np.ndarray) -> Callable[[float, Any], Any]:
+        g, self.stats = guarded(self._source.rhs(tau), self._deadline)
+        return g
+
+
+def run_mirror(
+    system: Any,
+    source: Any,
+    q0: Any,
+    v0: Any,
+    tau: Any,
+    t: np.ndarray,
+    *,
+    integrator: str,
+    timestep: float,
+    deadline: float,
+) -> dict[str, Any]:
+    """`mirror_trajectory` (MuJoCo's scheme on an engine's per-call rhs), timed around the call."""
+    from ...dynamics.mirror import mirror_trajectory
+
+    src = GuardedSource(source, deadline)
+    c0, w0 = time.process_time(), time.perf_counter()
+    try:
+        traj = mirror_trajectory(system, src, q0, v0, tau, t, integrator=integrator, timestep=timestep)
+    except Stop:
+        cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+        s = src.stats()
+        return result_row(str(s["stop"]), f"stopped after {s['nfev']} evaluations", cpu, wall, nfev=s["nfev"])
+    cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+    return result_row(
+        "ok", "", cpu, wall, t=t, q=traj.q, nfev=int(traj.stats["evaluations"]), steps=int(traj.stats["steps"])
+    )
+
+
+def run_default(system: Any, source: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray) -> dict[str, Any]:
+    """The harness's default scipy integration, as `run` calls it (no budget: it has no hook)."""
+    from ...dynamics import integrate
+
+    c0, w0 = time.process_time(), time.perf_counter()
+    try:
+        default: dict[str, Any] = dict(integrate.SCIPY_DEFAULT)
+        traj = integrate.scipy_trajectory(system, source, np.asarray(q0), np.asarray(v0), np.asarray(tau), t, **default)
+    except HarnessError as exc:
+        return result_row("failed", str(exc), time.process_time() - c0, time.perf_counter() - w0)
+    cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+    return result_row("ok", "", cpu, wall, t=traj.t, q=traj.q, nfev=int(traj.stats["nfev"]))
+
+
+def run_once(spec: dict[str, Any], case: dict[str, Any], *, budget: float) -> dict[str, Any]:
+    """One execution of one spec on one case, in this process."""
+    from ...dynamics.integrate import time_grid
+    from ...engines.fastpath import scalar_rhs
+
+    system, sources = resources(case["system"])
+    t = time_grid(case["t_end"], case["dt_out"])
+    q0, v0, tau = (np.asarray(case[k], dtype=float) for k in ("q0", "v0", "tau"))
+    driver, engine = spec["driver"], spec["engine"]
+    if driver in SCIPY_DRIVERS:
+        y0 = np.concatenate([q0, v0])
+        if engine == "hand":
+            f, tau_list = scalar_rhs(system), [float(x) for x in tau]  # compiled before the clock starts
+        else:
+            f, tau_list = sources[engine].rhs(tau), None
+        deadline = time.perf_counter() + budget
+        return run_scipy(
+            driver, spec["scheme"], f, y0, t, rtol=spec["value"], atol=spec["atol"], deadline=deadline, tau=tau_list
+        )
+    if driver == "mujoco":
+        return run_mujoco(
+            system,
+            sources["mujoco"],
+            q0,
+            v0,
+            tau,
+            t,
+            integrator=spec["scheme"],
+            timestep=spec["value"],
+            deadline=time.perf_counter() + budget,
+        )
+    if driver == "mirror":
+        if engine == "hand":
+            scalar_rhs(system)
+        return run_mirror(
+            system,
+            sources[engine],
+            q0,
+            v0,
+            tau,
+            t,
+            integrator=spec["scheme"],
+            timestep=spec["value"],
+            deadline=time.perf_counter() + budget,
+        )
+    if driver == "default":
+        scalar_rhs(system)
+        return run_default(system, sources["hand"], q0, v0, tau, t)
+    raise HarnessError(f"unknown driver '{driver}'.")
+
+
+def digest(q: np.ndarray | None) -> str | None:
+    return None if q is None else hashlib.sha256(np.ascontiguousarray(q).tobytes()).hexdigest()[:16]
+
+
+def execute(
+    spec: dict[str, Any], case: dict[str, Any], *, budget: float, min_timed: float = MIN_TIMED, samples: bool = True
+) -> dict[str, Any]:
+    """One timing of one spec (a worker task): the run, repeated back to back while the total time is
+    under `min_timed` (the first, cold, execution then dropped), mean per execution.
+
+    Returns plain data: status, message, cpu_s, wall_s, executions, nfev, steps, digest of the samples
+    (every execution must give the same bits), and the samples t, q when `samples`.
+    """
+    first = run_once(spec, case, budget=budget)
+    cpus, walls, deterministic = [first["cpu_s"]], [first["wall_s"]], True
+    if first["status"] == "ok":
+        while sum(walls) < min_timed and len(walls) < MAX_EXECUTIONS:
+            again = run_once(spec, case, budget=budget)
+            if again["status"] != "ok" or digest(again["q"]) != digest(first["q"]):
+                deterministic = False
+                break
+            cpus.append(again["cpu_s"])
+            walls.append(again["wall_s"])
+        if len(walls) > 1:
+            cpus, walls = cpus[1:], walls[1:]
+    return {
+        "status": first["status"],
+        "message": first["message"],
+        "cpu_s": statistics.fmean(cpus),
+        "wall_s": statistics.fmean(walls),
+        "executions": len(walls),
+        "nfev": first["nfev"],
+        "steps": first["steps"],
+        "digest": digest(first["q"]),
+        "deterministic": deterministic,
+        "t": first["t"] if samples else None,
+        "q": first["q"] if samples else None,
+    }
