@@ -386,3 +386,50 @@ def timed_run(
         mujoco.set_mju_user_warning(previous)
     q, v = qpos[:, source.qadr], qvel[:, source.dadr]
     return {"q": q, "v": v, "cpu_s": cpu, "wall_s": wall, "stopped_at": stopped_at, "bad": bad, "printed": printed}
+
+
+@contextlib.contextmanager
+def collected_warnings() -> Iterator[list[str]]:
+    """MuJoCo prints each warning to stderr (and logs it to a file); inside the block the texts are
+    collected in the list yielded instead."""
+    seen: list[str] = []
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(lambda msg: seen.append(str(msg)))
+    try:
+        yield seen
+    finally:
+        mujoco.set_mju_user_warning(previous)
+
+
+def sampled_run(
+    source: Any,
+    q0: np.ndarray,
+    v0: np.ndarray,
+    tau: np.ndarray,
+    chunks: int,
+    sample_steps: int,
+    *,
+    integrator: str,
+    timestep: float,
+    eulerdamp: bool = True,
+) -> tuple[list[np.ndarray], list[np.ndarray], str | None, int | None]:
+    """Up to `chunks` samples `sample_steps` steps apart, stopping at the first whose state MuJoCo
+    warned about (it then resets the state) or that is not finite. `eulerdamp=False` disables Euler's
+    implicit damping for the run. Returns the samples after the start (q, v lists), the failure (the
+    warnings' names or "non-finite state") and the chunk where it happened, or None, None."""
+    m, d = source.m, source.d
+    flags = int(m.opt.disableflags) | (0 if eulerdamp else int(mujoco.mjtDisableBit.mjDSBL_EULERDAMP))
+    qs: list[np.ndarray] = []
+    vs: list[np.ndarray] = []
+    with scheme(m, integrator, timestep), disabled(m, flags):
+        mujoco.mj_resetData(m, d)
+        source.set_state(q0, v0, tau)
+        for k in range(1, chunks + 1):
+            mujoco.mj_step(m, d, nstep=sample_steps)
+            q, v = source.get_state()
+            warned = [name for name, _ in warnings_raised(d)]
+            if warned or not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
+                return qs, vs, ", ".join(warned) if warned else "non-finite state", k
+            qs.append(q)
+            vs.append(v)
+    return qs, vs, None, None

@@ -58,18 +58,16 @@ configuration found (grid, then Nelder-Mead on log cond(M)) at distances 1e-1 ..
 
 from __future__ import annotations
 
-import contextlib
 import math
 import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..dynamics.integrate import mujoco_integrator
 from ..errors import HarnessError
 
 EPS = float(np.finfo(float).eps)
@@ -137,31 +135,11 @@ class Run:
     t_fail: float | None = None  # s, the sample time at which the failure was seen
 
 
-@contextlib.contextmanager
-def quiet_mujoco_warnings() -> Iterator[list[str]]:
-    """MuJoCo prints each warning to stderr; here they are collected (and read from d.warning) instead."""
-    import mujoco
+def quiet_mujoco_warnings() -> Any:
+    """MuJoCo's warnings collected instead of printed (engines/mujoco.py `collected_warnings`)."""
+    from ..engines import mujoco as engine
 
-    seen: list[str] = []
-    previous = mujoco.get_mju_user_warning()
-    mujoco.set_mju_user_warning(lambda msg: seen.append(str(msg)))
-    try:
-        yield seen
-    finally:
-        mujoco.set_mju_user_warning(previous)
-
-
-def _warning_names(d: Any) -> list[str]:
-    import mujoco
-
-    names = []
-    for i in range(int(mujoco.mjtWarning.mjNWARNING)):
-        if d.warning[i].number > 0:
-            try:
-                names.append(mujoco.mjtWarning(i).name)
-            except ValueError:
-                names.append(f"warning {i}")
-    return names
+    return engine.collected_warnings()
 
 
 def simulate(
@@ -199,31 +177,23 @@ def simulate(
     qs, vs, ts = [q0], [v0], [0.0]
     failure, t_fail = None, None
     if engine == "mujoco":
-        import mujoco
+        from ..engines import mujoco as mj
 
-        src = sources["mujoco"]
-        m, d = src.m, src.d
-        saved = (m.opt.integrator, m.opt.timestep, m.opt.disableflags)
-        m.opt.integrator = mujoco_integrator(integrator)
-        m.opt.timestep = timestep
-        if not eulerdamp:
-            m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_EULERDAMP)
-        try:
-            mujoco.mj_resetData(m, d)
-            src.set_state(q0, v0, tau)
-            for k in range(1, chunks + 1):
-                mujoco.mj_step(m, d, nstep=sample_steps)
-                q, v = src.get_state()
-                warned = _warning_names(d)
-                if warned or not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
-                    failure = ", ".join(warned) if warned else "non-finite state"
-                    t_fail = k * sample_steps * timestep
-                    break
-                qs.append(q)
-                vs.append(v)
-                ts.append(k * sample_steps * timestep)
-        finally:
-            m.opt.integrator, m.opt.timestep, m.opt.disableflags = saved
+        done_q, done_v, failure, k_fail = mj.sampled_run(
+            sources["mujoco"],
+            q0,
+            v0,
+            tau,
+            chunks,
+            sample_steps,
+            integrator=integrator,
+            timestep=timestep,
+            eulerdamp=eulerdamp,
+        )
+        qs += done_q
+        vs += done_v
+        ts += [k * sample_steps * timestep for k in range(1, len(done_q) + 1)]
+        t_fail = None if k_fail is None else k_fail * sample_steps * timestep
     elif engine == "mirror":
         from ..dynamics.mirror import mirror_trajectory
 
