@@ -6,6 +6,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from ...engines.base import MUJOCO_INTEGRATORS  # every one is swept
+
 T_END = 10.0  # s: the grid of `run` (the reference cache is keyed by it)
 
 
@@ -34,9 +36,6 @@ IVP_METHODS = ("RK45", "DOP853", "Radau", "LSODA")
 
 
 QUICK_IVP_METHODS = ("DOP853", "RK45", "LSODA")
-
-
-MUJOCO_INTEGRATORS = ("Euler", "implicit", "implicitfast", "RK4")
 
 
 QUICK_MUJOCO_INTEGRATORS = ("RK4", "Euler")

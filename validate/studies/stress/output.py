@@ -1,0 +1,329 @@
+"""The whole stress run (`run_stress`), stress.json, the console summary and the command."""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+from ...errors import HarnessError
+from .conditioning import conditioning_rows, conditioning_summary, proposed_solve_tier
+from .energy import conservative, drift_rows
+from .runs import minimum_potential, quiet_mujoco_warnings
+from .settings import (
+    BISECTION_RATIO,
+    DT_RANGE,
+    ENVELOPE_GROWTH,
+    FULL,
+    GROWTH,
+    LARGE_CHANGE,
+    MJ_MINVAL,
+    QUICK,
+    ROUND_OFF,
+    SERIES_POINTS,
+    STEADY_R2,
+    Settings,
+)
+from .stability import stability_rows, stiff_rows
+
+
+def sort_key(row: dict[str, Any]) -> tuple[Any, ...]:
+    keys = (
+        "system",
+        "sweep",
+        "engine",
+        "integrator",
+        "quantity",
+        "pair",
+        "horizon",
+        "speed",
+        "criterion",
+        "damping_factor",
+        "ratio",
+        "timestep",
+    )
+    return tuple((0, "") if row.get(k) is None else (1, row[k]) for k in keys)
+
+
+def run_stress(
+    names: list[str] | None,
+    *,
+    overrides: tuple[tuple[str, float], ...] = (),
+    quick: bool = False,
+    settings: Settings | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> dict[str, Any]:
+    """The four stress experiments on the systems named (all when none), with `overrides` on each.
+
+    Every system is loaded and compiled with the overrides first, so an unknown system, an unknown key
+    or a model MuJoCo refuses is a one-line HarnessError before any long run starts.
+    """
+    from ...engines import make_sources
+    from ...results import provenance
+    from ...systems import load, system_names
+
+    settings = settings or (QUICK if quick else FULL)
+    say = progress or (lambda msg: None)
+    systems_ = [load(n, overrides=tuple(overrides)) for n in (names or system_names())]
+    for s in systems_:
+        try:
+            s.mujoco_model()
+        except HarnessError as exc:
+            if "mjMINVAL" not in str(exc):
+                raise
+            raise HarnessError(
+                f"{exc} ({s.name}: MuJoCo refuses masses and principal inertias below {MJ_MINVAL:g}; "
+                f"the point bobs carry 1e-14 kg m^2, so scale body/<name>/inertia up with a smaller "
+                f"mass)."
+            ) from None
+        s.params  # noqa: B018 - the equations read the overridden model: a bad value fails here
+    results: dict[str, Any] = {
+        "provenance": provenance(settings.seed),
+        "quick": quick,
+        "settings": asdict(settings),
+        "overrides": [list(o) for o in overrides],
+        "systems": [s.name for s in systems_],
+        "criteria": criteria(),
+        "drift": [],
+        "stability": [],
+        "conditioning": [],
+        "stiff_friction": [],
+        "skipped": [],
+        "timing": {},
+    }
+    start = time.perf_counter()
+    with quiet_mujoco_warnings():
+        for s in systems_:
+            sources = make_sources(s)
+            V_min = minimum_potential(s, sources["hand"])
+            for section in settings.sections:
+                t0 = time.perf_counter()
+                if section == "drift":
+                    if conservative(s):
+                        results["drift"] += drift_rows(s, sources, settings, V_min=V_min)
+                    else:
+                        results["skipped"].append(
+                            {
+                                "system": s.name,
+                                "section": section,
+                                "why": f"not conservative (uses {', '.join(sorted(s.uses))})",
+                            }
+                        )
+                elif section == "stability":
+                    results["stability"] += stability_rows(s, sources, settings, V_min=V_min)
+                elif section == "conditioning":
+                    rows = conditioning_rows(s, sources, settings)
+                    if not rows:
+                        results["skipped"].append(
+                            {"system": s.name, "section": section, "why": "one coordinate: M is a scalar, cond(M) = 1"}
+                        )
+                    results["conditioning"] += rows
+                elif section == "stiff_friction":
+                    if "damping" in s.uses:
+                        results["stiff_friction"] += stiff_rows(s, settings)
+                    else:
+                        results["skipped"].append({"system": s.name, "section": section, "why": "no joint damping"})
+                else:
+                    raise HarnessError(f"unknown stress section '{section}'.")
+                elapsed = time.perf_counter() - t0
+                results["timing"][f"{s.name}/{section}"] = elapsed
+                say(f"[{time.perf_counter() - start:6.1f} s] {s.name}: {section} ({elapsed:.1f} s)")
+    for key in ("drift", "stability", "conditioning", "stiff_friction", "skipped"):
+        results[key] = sorted(results[key], key=sort_key)
+    summary = conditioning_summary(results["conditioning"])
+    results["conditioning_summary"] = summary
+    results["solve_tier_proposal"] = proposed_solve_tier(summary)
+    results["timing"]["total"] = time.perf_counter() - start
+    return results
+
+
+def criteria() -> dict[str, str]:
+    return {
+        "instability": (
+            f"a non-finite state, any MuJoCo warning (d.warning[i].number > 0), an overflow in a mirror, "
+            f"or (criterion 'energy x{1 + GROWTH:g}') max(E - E0) > {GROWTH:g} x (E0 - V_min); criterion "
+            f"'divergence': the first three only"
+        ),
+        "classes": (
+            f"round-off: max |dE| <= {ROUND_OFF:g} x (E0 - V_min); bounded oscillation: late |dE| envelope "
+            f"<= {ENVELOPE_GROWTH:g} x early (last vs first tenth); "
+            f"secular drift: grows, a line fits |dE| vs t (R^2 >= {STEADY_R2:g}), < {LARGE_CHANGE:.0%} of "
+            f"E0 - V_min; numerical damping / energy injection: the same with a loss / gain >= "
+            f"{LARGE_CHANGE:.0%}; irregular: grows, no line fits"
+        ),
+        "bisection": (
+            f"log(dt) in [{DT_RANGE[0]:g}, {DT_RANGE[1]:g}] s until the bracket ratio <= "
+            f"{BISECTION_RATIO:g}; the top is tried first, the bottom only if the bisection ends there"
+        ),
+        "conditioning": (
+            "cond(M): 2-norm condition number of the hand M; disagreement: compare.compare's 'scaled' "
+            "(max |a - b| / the quantity's range over the sample), tolerance and verdict from its rows"
+        ),
+        "series": f"downsampled to <= {SERIES_POINTS} points: in each bucket the sample of largest |y|",
+    }
+
+
+def write_stress(results: dict[str, Any], out: Path) -> Path:
+    """Writes out/stress.json atomically (rendered in memory first: a failure leaves the old file)."""
+    from ...results import atomic_write, dumps
+
+    path = Path(out) / "stress.json"
+    text = dumps(results)
+    atomic_write(path, text)
+    return path
+
+
+def fmt(x: Any, spec: str = ".1e") -> str:
+    return "-" if x is None else format(x, spec)
+
+
+def print_summary(results: dict[str, Any], console: Any = None) -> None:
+    """Readable tables of the results (rich)."""
+    from rich.console import Console
+    from rich.table import Table
+
+    console = console or Console()
+    if results["drift"]:
+        table = Table(title="Energy over long horizons (MJCF timestep; dE = E - E0, E by the hand equations)")
+        for col in (
+            "system",
+            "engine",
+            "integrator",
+            "horizon s",
+            "class",
+            "direction",
+            "max |dE| / (E0-Vmin)",
+            "|dE| rate J/s",
+        ):
+            table.add_column(col)
+        for r in results["drift"]:
+            table.add_row(
+                r["system"],
+                r["engine"],
+                r["integrator"],
+                f"{r['horizon']:g}",
+                r["class"],
+                r["direction"] or "-",
+                fmt(r["relative_max"], ".2e"),
+                fmt(r["rate"], ".1e"),
+            )
+        console.print(table)
+    if results["stability"]:
+        speeds = sorted({r["speed"] for r in results["stability"]})
+        criteria = sorted({r["criterion"] for r in results["stability"]}, key=lambda c: c == "divergence")
+        table = Table(
+            title=f"Largest stable timestep (s) over {results['stability'][0]['t_end']:g} s, bisection on "
+            f"log dt in [{DT_RANGE[0]:g}, {DT_RANGE[1]:g}]; v0 = speed on every coordinate; "
+            f"criteria: {' / '.join(criteria)}"
+        )
+        for col in ("system", "engine", "integrator", *[f"{s:g} rad/s" for s in speeds]):
+            table.add_column(col)
+        cells: dict[tuple[str, str, str], dict[float, dict[str, str]]] = {}
+        for r in results["stability"]:
+            text = (
+                f">={r['max_stable']:.2g}"
+                if r["min_unstable"] is None
+                else f"<{r['min_unstable']:.2g}"
+                if r["max_stable"] is None
+                else f"{r['max_stable']:.3g}"
+            )
+            cells.setdefault((r["system"], r["engine"], r["integrator"]), {}).setdefault(r["speed"], {})[
+                r["criterion"]
+            ] = text
+        for (system, engine, integrator), by_speed in cells.items():
+            table.add_row(
+                system,
+                engine,
+                integrator,
+                *[" / ".join(by_speed.get(s, {}).get(c, "-") for c in criteria) for s in speeds],
+            )
+        console.print(table)
+    if results["conditioning_summary"]:
+        table = Table(
+            title="Ill-conditioning: the worst pair's disagreement (compare's scaled error) vs cond(M) over "
+            "the sample; C = max per-state error / (cond eps)"
+        )
+        for col in (
+            "system",
+            "sweep",
+            "quantity",
+            "cond(M) max",
+            "disagreement",
+            "slope",
+            "C",
+            "C (cond_eq)",
+            "base tier fails from cond",
+            "current tier fails from cond",
+        ):
+            table.add_column(col)
+        for s in results["conditioning_summary"]:
+            table.add_row(
+                s["system"],
+                s["sweep"],
+                s["quantity"],
+                f"{s['cond_range'][0]:.1e} .. {s['cond_range'][1]:.1e}",
+                f"{s['disagreement_range'][0]:.1e} .. {s['disagreement_range'][1]:.1e}",
+                fmt(s["slope"], ".2f"),
+                f"{s['c_state']:.2g}",
+                f"{s['c_state_eq']:.2g}",
+                fmt(s["base_tier_fails_from_cond"]),
+                fmt(s["tier_fails_from_cond"]),
+            )
+        console.print(table)
+        p = results.get("solve_tier_proposal") or {}
+        if p:
+            console.print(
+                f"Solve tier per state max({p['rtol']:g}, C eps kappa): the states beyond {p['rtol']:g} needed "
+                f"C = {p['measured_C_cond']:.2g} with kappa = cond(M) ({p['measured_C_cond_eq']:.2g} with the "
+                f"equilibrated cond, whose ratio reaches {p['measured_C_cond_eq_all_states']:.2g} at states below "
+                f"{p['rtol']:g}: it does not bound the error); {p['margin']:g}x margin gives C = "
+                f"{p['C_cond']:g} on cond(M), binding from cond {fmt(p['kappa_from_cond'])}; "
+                f"current cond_factor: {p['current_cond_factor']}.",
+                highlight=False,
+            )
+    if results["stiff_friction"]:
+        dts = sorted({r["timestep"] for r in results["stiff_friction"]})
+        table = Table(
+            title="Stiff friction: stable? and max |q - q_ref| (rad) vs DOP853 rtol 1e-12 on the hand "
+            "equations, per timestep (s)"
+        )
+        for col in ("system", "damping x", "engine", "integrator", *[f"{d:g}" for d in dts]):
+            table.add_column(col)
+        cells2: dict[tuple[Any, ...], dict[float, str]] = {}
+        for r in results["stiff_friction"]:
+            cells2.setdefault((r["system"], f"{r['damping_factor']:g}", r["engine"], r["integrator"]), {})[
+                r["timestep"]
+            ] = f"{r['max_error']:.0e}" if r["stable"] else "UNSTABLE"
+        for key, by_dt in cells2.items():
+            table.add_row(*key, *[by_dt.get(d, "-") for d in dts])
+        console.print(table)
+    for s in results["skipped"]:
+        console.print(f"skipped {s['section']} on {s['system']}: {s['why']}")
+
+
+def stress_command(args: Any) -> int:
+    """`lagrange-xval stress [SYSTEM ...] [--set KEY=VALUE ...] [--quick] [--out DIR]`."""
+    from rich.console import Console
+
+    from ...systems.overrides import parse
+
+    raw = list(getattr(args, "set", None) or [])
+    overrides = parse(raw) if all(isinstance(x, str) for x in raw) else tuple((str(k), float(v)) for k, v in raw)
+    err = Console(stderr=True)
+    names = list(getattr(args, "systems", None) or []) or None
+    results = run_stress(
+        names,
+        overrides=overrides,
+        quick=bool(getattr(args, "quick", False)),
+        progress=lambda msg: err.print(msg, highlight=False),
+    )
+    path = write_stress(results, Path(getattr(args, "out", None) or "reports"))
+    print_summary(results, Console(width=None if sys.stdout.isatty() else 160))
+    print(
+        f"wrote {path} ({'quick' if results['quick'] else 'full'} stress, {results['timing']['total']:.0f} s)",
+        file=sys.stdout,
+    )
+    return 0

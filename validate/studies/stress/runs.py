@@ -1,0 +1,131 @@
+"""Long runs: MuJoCo (through engines/mujoco.py) or the mirror on the hand equations, sampled, stopping
+at the first warning or non-finite state; their energy, downsampled for the results.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ...errors import HarnessError
+from .settings import MIRROR_INTEGRATORS, MUJOCO_INTEGRATORS, SERIES_POINTS, Run
+
+
+def quiet_mujoco_warnings() -> Any:
+    """MuJoCo's warnings collected instead of printed (engines/mujoco.py `collected_warnings`)."""
+    from ...engines import mujoco as engine
+
+    return engine.collected_warnings()
+
+
+def simulate(
+    system: Any,
+    sources: dict[str, Any],
+    engine: str,
+    integrator: str,
+    q0: Any,
+    v0: Any,
+    tau: Any,
+    *,
+    timestep: float,
+    t_end: float,
+    sample_steps: int,
+    eulerdamp: bool = True,
+) -> Run:
+    """A free run sampled every `sample_steps` steps, stopped at the first sign of instability.
+
+    Args:
+        engine: "mujoco" (mj_step) or "mirror" (MuJoCo's scheme on the hand equations, validate/mirror.py).
+        q0, v0, tau: (n,) initial state and constant input.
+        timestep: s; the run takes ceil(t_end / timestep) steps (a whole number of samples).
+        eulerdamp: False disables MuJoCo's implicit treatment of joint damping in Euler (mujoco only).
+    """
+    from ...errors import unknown_name
+
+    if integrator not in MUJOCO_INTEGRATORS or (engine == "mirror" and integrator not in MIRROR_INTEGRATORS):
+        raise unknown_name(
+            f"{engine} integrator", integrator, MUJOCO_INTEGRATORS if engine == "mujoco" else MIRROR_INTEGRATORS
+        )
+    n = system.nv
+    q0, v0, tau = (np.asarray(x, dtype=float).copy() for x in (q0, v0, tau))
+    steps = max(1, math.ceil(t_end / timestep - 1e-9))
+    chunks = max(1, math.ceil(steps / sample_steps))
+    qs, vs, ts = [q0], [v0], [0.0]
+    failure, t_fail = None, None
+    if engine == "mujoco":
+        from ...engines import mujoco as mj
+
+        done_q, done_v, failure, k_fail = mj.sampled_run(
+            sources["mujoco"],
+            q0,
+            v0,
+            tau,
+            chunks,
+            sample_steps,
+            integrator=integrator,
+            timestep=timestep,
+            eulerdamp=eulerdamp,
+        )
+        qs += done_q
+        vs += done_v
+        ts += [k * sample_steps * timestep for k in range(1, len(done_q) + 1)]
+        t_fail = None if k_fail is None else k_fail * sample_steps * timestep
+    elif engine == "mirror":
+        from ...dynamics.mirror import mirror_trajectory
+
+        grid = np.array([0.0, sample_steps * timestep])
+        q, v = q0, v0
+        with np.errstate(all="ignore"):
+            for k in range(1, chunks + 1):
+                try:
+                    tr = mirror_trajectory(
+                        system, sources["hand"], q, v, tau, grid, integrator=integrator, timestep=timestep
+                    )
+                    q, v = tr.q[-1], tr.v[-1]
+                except (OverflowError, ValueError, ZeroDivisionError, FloatingPointError) as exc:
+                    failure = f"overflow ({type(exc).__name__})"
+                else:
+                    if not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
+                        failure = "non-finite state"
+                if failure:
+                    t_fail = k * sample_steps * timestep
+                    break
+                qs.append(q)
+                vs.append(v)
+                ts.append(k * sample_steps * timestep)
+    else:
+        raise HarnessError(f"engine must be 'mujoco' or 'mirror'; got '{engine}'.")
+    return Run(np.array(ts), np.array(qs).reshape(-1, n), np.array(vs).reshape(-1, n), failure, t_fail)
+
+
+def minimum_potential(system: Any, hand: Any) -> float:
+    """V_min (J): the smallest potential energy on a grid of 65 points per coordinate over [-pi, pi]."""
+    n = system.nv
+    points = 65 if n <= 3 else 9
+    g = np.linspace(-np.pi, np.pi, points)
+    q = np.stack(np.meshgrid(*[g] * n, indexing="ij"), axis=-1).reshape(-1, n)
+    return float(hand.energies(q, np.zeros_like(q))[1].min())
+
+
+def run_energy(hand: Any, run: Run) -> np.ndarray:
+    """E = T + V at every sample of a run (J), by the hand equations."""
+    with np.errstate(all="ignore"):
+        kin, pot = hand.energies(run.q, run.v)
+    return kin + pot
+
+
+def downsample(t: np.ndarray, y: np.ndarray, points: int = SERIES_POINTS) -> dict[str, list[float]]:
+    """At most `points` samples for a plot: the first sample, then in each of `points` - 1 buckets the
+    sample of largest |y| (so the envelope survives)."""
+    t, y = np.asarray(t, dtype=float), np.asarray(y, dtype=float)
+    if len(t) <= points:
+        return {"t": t.tolist(), "y": y.tolist()}
+    edges = np.linspace(1, len(t), points, dtype=int)  # points - 1 buckets after the first sample
+    idx = [0]
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        if b > a:
+            seg = np.abs(y[a:b])
+            idx.append(a + int(np.nanargmax(seg)) if np.any(np.isfinite(seg)) else a)
+    return {"t": t[idx].tolist(), "y": y[idx].tolist()}
