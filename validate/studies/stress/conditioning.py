@@ -163,7 +163,6 @@ def conditioning_point(system: Any, *, n_states: int, seed: int) -> dict[str, An
 
 
 def conditioning_rows(system: Any, sources: dict[str, Any], settings: Settings) -> list[dict[str, Any]]:
-    from ...systems import load
 
     out = []
     for sweep in conditioning_sweeps(system, sources["hand"]):
@@ -178,7 +177,7 @@ def conditioning_rows(system: Any, sources: dict[str, Any], settings: Settings) 
             }
             try:
                 point = conditioning_point(
-                    load(system.name, overrides=(*system.overrides, *extra)),
+                    system.derive(overrides=(*system.overrides, *extra)),
                     n_states=settings.cond_states,
                     seed=settings.seed,
                 )

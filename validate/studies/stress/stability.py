@@ -160,7 +160,6 @@ def stiff_rows(system: Any, settings: Settings) -> list[dict[str, Any]]:
     from ...dynamics.integrate import initial_state, scipy_trajectory, time_grid
     from ...dynamics.mirror import eulerdamp_active
     from ...engines import make_sources
-    from ...systems import load
 
     q0, v0 = initial_state(system)
     tau = np.zeros(system.nv)
@@ -168,7 +167,7 @@ def stiff_rows(system: Any, settings: Settings) -> list[dict[str, Any]]:
     rows = []
     for factor in settings.damping_factors:
         extra = tuple((f"joint/{j}/damping", float(system.view[f"joint/{j}/damping"]) * factor) for j in system.joints)
-        damped = load(system.name, overrides=(*system.overrides, *extra))
+        damped = system.derive(overrides=(*system.overrides, *extra))
         sources = make_sources(damped)
         V_min = minimum_potential(damped, sources["hand"])
         ref = scipy_trajectory(damped, sources["hand"], q0, v0, tau, t, method="DOP853", rtol=1e-12, atol=1e-12)
