@@ -188,7 +188,7 @@ def test_bench_and_stress_sections_render_their_files(results: dict[str, Any], t
     (tmp_path / "stress.json").write_text(
         json.dumps(
             {
-                "provenance": {"command": "lagrange-xval stress --quick"},
+                "meta": {"command": "lagrange-xval stress --quick"},
                 "quick": True,
                 "stability": [
                     {

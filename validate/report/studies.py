@@ -159,7 +159,7 @@ def section_stress(doc: Document, stress: dict[str, Any] | None) -> None:
             "missing",
         )
         return
-    prov = stress.get("provenance", {})
+    prov = stress.get("meta") or stress.get("provenance", {})  # stress.json before the block was named "meta"
     doc.p(
         f"`{prov.get('command', 'lagrange-xval stress')}`, {prov.get('date', '?')}"
         f"{' (quick plan)' if stress.get('quick') else ''}."

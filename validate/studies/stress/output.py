@@ -81,7 +81,7 @@ def run_stress(
             ) from None
         s.params  # noqa: B018 - the equations read the overridden model: a bad value fails here
     results: dict[str, Any] = {
-        "provenance": provenance(settings.seed),
+        "meta": provenance(settings.seed),  # one provenance block, as in results.json and bench.json
         "quick": quick,
         "settings": asdict(settings),
         "overrides": [list(o) for o in overrides],
