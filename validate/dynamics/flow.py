@@ -43,7 +43,12 @@ def variational_integrator(system: Any, precision: str) -> Any:
         fp = {"double": float, "long double": np.longdouble}[precision]
         vsys = hy.var_ode_sys(dyn.ode, hy.var_args.vars, order=1)
         _VAR_INTEGRATORS[key] = hy.taylor_adaptive(
-            vsys, np.zeros(2 * dyn.n, dtype=fp), fp_type=fp, pars=np.zeros(dyn.n, dtype=fp), compact_mode=True
+            vsys,
+            np.zeros(2 * dyn.n, dtype=fp),
+            fp_type=fp,
+            pars=np.zeros(dyn.n, dtype=fp),
+            compact_mode=True,
+            opt_level=1,
         )
     return _VAR_INTEGRATORS[key]
 

@@ -155,7 +155,7 @@ def taylor_integrator(system: Any, precision: str, tol: float | None) -> Any:
         pars = np.zeros(dyn.n, dtype=fp) if fp is not hy.real128 else np.array([hy.real128(0)] * dyn.n)
         # compact mode: compiling the unrolled Taylor code took 4 s in quad and 0.7 s in long double per
         # system (the whole of a cold run's extra time); compact code compiles in 0.2 s and runs as fast.
-        kwargs: dict[str, Any] = {"fp_type": fp, "pars": pars, "compact_mode": True}
+        kwargs: dict[str, Any] = {"fp_type": fp, "pars": pars, "compact_mode": True, "opt_level": 1}
         if tol is not None:
             kwargs["tol"] = tol
         _INTEGRATORS[key] = hy.taylor_adaptive(dyn.ode, state, **kwargs)
