@@ -53,12 +53,90 @@ def test_mesh_geom_that_pinocchio_reads_as_one_kilogram_is_named(tmp_path):
     assert {"body/link1/mass", "body/link1/com", "body/link1/inertia"} <= bad
 
 
-def test_a_joint_type_the_equations_do_not_cover_is_refused(tmp_path):
-    s = _variant(tmp_path, '<joint name="phi" type="hinge"', '<joint name="phi" type="ball"')
+FLAGS = (
+    '<flag contact="disable" constraint="disable" limit="disable" frictionloss="disable"\n'
+    '          spring="disable" damper="disable" actuation="disable" energy="enable"/>'
+)
+ENABLED = '<flag spring="disable" damper="disable" actuation="disable" energy="enable"/>'
+
+
+@pytest.mark.parametrize(
+    ("edits", "named"),
+    [
+        ([('<joint name="phi" type="hinge"', '<joint name="phi" type="ball"')], "joint 'phi' is a ball joint"),
+        ([('<joint name="theta" type="hinge" axis="0 0 1" pos="0 0 0"/>', '<freejoint name="float"/>')], "free joint"),
+        (
+            [
+                (FLAGS, ENABLED),
+                ('<geom contype="0" conaffinity="0" mass="0"/>', '<geom mass="0"/>'),
+                (
+                    "<worldbody>",
+                    '<worldbody><geom name="floor" type="plane" size="5 5 0.1" pos="0 -3 0" zaxis="0 1 0"/>',
+                ),
+            ],
+            "can collide",
+        ),
+        (
+            [(FLAGS, ENABLED), ("</worldbody>", '</worldbody><contact><pair geom1="bob1" geom2="bob2"/></contact>')],
+            "contact pair",
+        ),
+        (
+            [
+                (FLAGS, ENABLED),
+                ("</worldbody>", '</worldbody><equality><joint joint1="theta" joint2="phi"/></equality>'),
+            ],
+            "equality constraint",
+        ),
+        (
+            [(FLAGS, ENABLED), ('<joint name="phi" type="hinge"', '<joint name="phi" range="-1 1" type="hinge"')],
+            "'phi' is limited",
+        ),
+        (
+            [(FLAGS, ENABLED), ('<joint name="phi" type="hinge"', '<joint name="phi" frictionloss="0.1" type="hinge"')],
+            "frictionloss",
+        ),
+        (
+            [
+                (
+                    "</worldbody>",
+                    '</worldbody><tendon><fixed name="couple"><joint joint="theta" coef="1"/>'
+                    '<joint joint="phi" coef="-1"/></fixed></tendon>',
+                )
+            ],
+            "tendon 'couple'",
+        ),
+    ],
+    ids=["ball", "free", "colliding geoms", "contact pair", "equality", "limit", "frictionloss", "tendon"],
+)
+def test_what_cannot_be_compared_is_refused_by_name_before_any_dynamics(tmp_path, edits, named, capsys):
+    """Free and ball joints, contacts, equality constraints, limits, friction loss and tendons: one
+    line naming the element and why, when the model is first compiled; the CLI exits 2 and writes nothing."""
+    text = POINT.mjcf.read_text()
+    for old, new in edits:
+        assert old in text, old
+        text = text.replace(old, new, 1)
+    path = tmp_path / "double_pendulum_point.xml"
+    path.write_text(text)
     with pytest.raises(HarnessError) as err:
-        make_source(s, "mujoco")
-    assert "degrees of freedom" in str(err.value) and "\n" not in str(err.value)
-    assert "joint/phi/type" in {r["key"] for r in modelsync.equations_vs_model(s) if not r["passed"]}
+        systems.System(name=POINT.name, mjcf=path, equations=POINT.equations).mujoco_model()
+    assert named in str(err.value) and "\n" not in str(err.value), str(err.value)
+    out, eq = tmp_path / "out", tmp_path / "double_pendulum_point.py"
+    eq.write_text("from lagrange_xval.equations.double_pendulum_point import *  # noqa: F403\n")
+    assert main(["run", "--model", str(path), "--equations", str(eq), "--out", str(out)]) == 2
+    err_lines = capsys.readouterr().err.strip().splitlines()
+    assert len(err_lines) == 1 and named in err_lines[0]
+    assert not out.exists() or not any(out.iterdir())
+
+
+def test_the_same_elements_switched_off_by_the_model_are_in_scope(tmp_path):
+    """A limit, friction loss or colliding geoms in a model whose <option> disables them: compared."""
+    text = POINT.mjcf.read_text().replace(
+        '<joint name="phi" type="hinge"', '<joint name="phi" range="-1 1" frictionloss="0.1" type="hinge"', 1
+    )
+    text = text.replace('<geom contype="0" conaffinity="0" mass="0"/>', '<geom mass="0"/>', 1)
+    path = tmp_path / "double_pendulum_point.xml"
+    path.write_text(text)
+    assert systems.System(name=POINT.name, mjcf=path, equations=POINT.equations).mujoco_model().njnt == 2
 
 
 def test_check_refuses_models_that_differ_before_comparing_dynamics(tmp_path, monkeypatch, capsys):

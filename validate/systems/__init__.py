@@ -194,7 +194,14 @@ class System:
     def mujoco_model(self) -> Any:
         """The compiled MjModel (compiled once per System)."""
         if "model" not in self._cache:
-            self._cache["model"] = compile_mjcf(self.mjcf, self.overrides, self.text)
+            from .scope import refusals  # reads the compiled model with mujoco: loaded when first needed
+
+            model = compile_mjcf(self.mjcf, self.overrides, self.text)
+            refused = refusals(model)  # before any dynamics: what no source could compare
+            if refused:
+                more = f" (and {len(refused) - 1} more: {'; '.join(refused[1:])})" if len(refused) > 1 else ""
+                raise HarnessError(f"{self.mjcf.name}: {refused[0]}{more}.")
+            self._cache["model"] = model
         return self._cache["model"]
 
     def mjcf_xml(self) -> str:
