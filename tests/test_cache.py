@@ -282,7 +282,7 @@ def test_run_uses_the_cache_dir_and_the_report_says_what_came_from_it(tmp_path, 
 def test_no_cache_turns_reading_and_writing_off(tmp_path):
     import argparse
 
-    from lagrange_xval.validate.cli import use_cache
+    from lagrange_xval.validate.cli.commands import use_cache
 
     args = argparse.Namespace(no_cache=True, cache_dir=None, out=tmp_path)
     with use_cache(args):

@@ -114,7 +114,7 @@ def test_derived_forms_trace_for_the_fast_path(form):
 def test_a_module_without_dynamics_is_one_line():
     mod = types.ModuleType("x")
     mod.COORDINATES = ("q",)
-    with pytest.raises(HarnessError, match="no dynamics found; define one of"):
+    with pytest.raises(HarnessError, match="the dynamics are not provided .yet.; write one of"):
         forms.normalize(mod)
 
 

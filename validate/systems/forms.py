@@ -49,12 +49,18 @@ FORM_NAMES = {
 def form_of(module: Any) -> str:
     """Which form a module is written in: the first of a, b, c, d whose functions it defines."""
     for form, names in FORMS.items():
-        if all(callable(getattr(module, n, None)) for n in names):
+        if all(provided(getattr(module, n, None)) for n in names):
             return form
     raise HarnessError(
-        f"{getattr(module, '__file__', module)}: no dynamics found; define one of: mass_matrix + bias (form a), "
-        "residual(p, q, v, a, tau) (b), qacc(p, q, v, tau) (c), or kinetic_energy + potential_energy (d)."
+        f"{getattr(module, '__file__', module)}: the dynamics are not provided (yet); write one of: mass_matrix + "
+        "bias (form a), residual(p, q, v, a, tau) (b), qacc(p, q, v, tau) (c), or kinetic_energy + "
+        "potential_energy (d)."
     )
+
+
+def provided(fn: Any) -> bool:
+    """A function the module really defines: callable and not a `not_provided` stub."""
+    return callable(fn) and not getattr(fn, "not_provided", False)
 
 
 def written_form(module: Any) -> str:

@@ -1,0 +1,323 @@
+"""What each subcommand does with its parsed arguments, and what it prints."""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import functools
+import json
+import os
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+from ..checks import modelsync
+from ..checks import pointwise as compare
+from ..checks.pointwise import validate_states
+from ..dynamics import integrate
+from ..dynamics.cache import CACHE_ENV
+from ..engines import make_source, make_sources
+from ..errors import HarnessError
+from ..inputs import parse_json, regular_file
+from ..pipeline import run
+from ..replay import replay_command
+from ..results import atomic_write, dumps, to_jsonable
+from ..results import load as load_results
+from ..studies.bench import bench_command
+from ..studies.stress import stress_command
+from ..systems import System, load, pairs_in, system_names
+from ..systems.scaffold import write_module
+from .outputs import check_out, render_system, write_all, write_reports
+from .parser import MAX_SAMPLES, MAX_STATES_FILE_BYTES, one_line
+from .progress import reporter
+
+
+def cmd_list(args: argparse.Namespace) -> int:
+
+    broken = []
+    for name in system_names():
+        try:
+            s = load(name)
+        except HarnessError as exc:  # one broken equations module does not hide the others
+            broken.append(str(exc))
+            continue
+        print(f"{s.name}: {s.nv} dof, coordinates ({', '.join(s.coordinates)}); uses {', '.join(sorted(s.uses))}")
+        for v in s.variants:
+            print(f"    {v.kind:16s} {v.name}  [{', '.join(v.notes_equations)}]")
+    if broken:
+        raise HarnessError(
+            broken[0] + (f" ({len(broken) - 1} more systems cannot be loaded)" if len(broken) > 1 else "")
+        )
+    return 0
+
+
+def numbers(path: Path, i: int, name: str, x: Any, system: Any) -> list[float]:
+    """`x` as a list of nv floats; JSON types are checked, never coerced ("0.5" and true are not numbers)."""
+    if not isinstance(x, list) or len(x) != system.nv:
+        raise HarnessError(
+            f"{path}: state {i}: {name} must be a list of {system.nv} numbers "
+            f"({', '.join(system.coordinates)}); got {x!r:.80}."
+        )
+    out = []
+    for value in x:
+        if type(value) not in (int, float):  # bool is a subclass of int: refused by the exact type
+            raise HarnessError(
+                f"{path}: state {i}: {name} must be numbers; got {value!r:.40} ({type(value).__name__})."
+            )
+        try:
+            out.append(float(value))
+        except OverflowError:
+            raise HarnessError(f"{path}: state {i}: {name} has an integer too large to be a number.") from None
+    return out
+
+
+def states_from_file(system: Any, path: Path) -> Any:
+
+    items = parse_json(regular_file(path, "states file", max_bytes=MAX_STATES_FILE_BYTES), path)
+    if not isinstance(items, list) or not items:
+        raise HarnessError(f'{path} must hold a non-empty JSON list of {{"q": [...], "v": [...], "tau": [...]}}.')
+    qs, vs, taus = [], [], []
+    for i, item in enumerate(items):
+        if not isinstance(item, dict) or "q" not in item or "v" not in item:
+            raise HarnessError(f'{path}: state {i} must be an object with "q" and "v" (and optional "tau").')
+        unknown = set(item) - {"q", "v", "tau"}
+        if unknown:
+            raise HarnessError(f'{path}: state {i} has unknown keys {sorted(unknown)}; valid: "q", "v", "tau".')
+        qs.append(numbers(path, i, "q", item["q"], system))
+        vs.append(numbers(path, i, "v", item["v"], system))
+        taus.append(numbers(path, i, "tau", item.get("tau", [0.0] * system.nv), system))
+    return validate_states(system, qs, vs, taus)
+
+
+def require_same_model(system: Any, sources: dict[str, Any]) -> None:
+    """Dynamics are compared only between sources that describe the same model."""
+
+    bad = modelsync.check(system, sources["pinocchio"])["mismatches"]
+    if bad:
+        keys = ", ".join(r["key"] for r in bad[:4]) + (f" and {len(bad) - 4} more" if len(bad) > 4 else "")
+        raise HarnessError(
+            f"{system.name}: the sources describe different models ({keys}): {bad[0]['why']}; "
+            f"{bad[0]['key']} is {bad[0]['actual']}, expected {bad[0]['expected']}."
+        )
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    system = one_system(args)
+    states = (
+        states_from_file(system, args.states)
+        if args.states
+        else compare.random_states(system, n=args.n, seed=args.seed)
+    )
+    sources = make_sources(system)
+    require_same_model(system, sources)
+    values = compare.evaluate(sources, states)
+    rows = compare.compare(values, states)
+    if args.json:
+        keys = ("M", "bias", "qacc", "tau_inverse", "T", "V")
+        out = {
+            "system": system.name,
+            "coordinates": list(system.coordinates),
+            "states": [
+                {
+                    "q": states.q[i],
+                    "v": states.v[i],
+                    "tau": states.tau[i],
+                    "sources": {s: {k: values[s][k][i] for k in keys} for s in values},
+                }
+                for i in range(len(states))
+            ],
+            "max_disagreement": {r["quantity"]: {} for r in rows},  # filled below
+            "passed": all(r["passed"] for r in rows),
+        }
+        disagreement: dict[str, dict[str, Any]] = out["max_disagreement"]  # type: ignore[assignment]
+        for r in rows:
+            disagreement[r["quantity"]][r["pair"]] = {
+                "max_abs": r["max_abs"],
+                "scaled": r["scaled"],
+                "tolerance": r["tolerance"],
+                "passed": r["passed"],
+            }
+
+        print(json.dumps(to_jsonable(out), allow_nan=False))
+    else:
+        print(f"{system.name}: {len(states)} states, coordinates ({', '.join(system.coordinates)})")
+        print(f"{'quantity':15s} {'pair':20s} {'max abs':>10s} {'scaled':>10s} {'tolerance':>10s}  verdict")
+        for r in rows:
+            print(
+                f"{r['quantity']:15s} {r['pair']:20s} {r['max_abs']:10.2e} {r['scaled']:10.2e} "
+                f"{r['tolerance']:10.0e}  {'pass' if r['passed'] else 'FAIL'}"
+            )
+    return 0 if all(r["passed"] for r in rows) and np.isfinite([r["max_abs"] for r in rows]).all() else 1
+
+
+def cmd_simulate(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    suffix = args.out.suffix.lower()
+    if suffix not in (".csv", ".json"):
+        raise HarnessError(f"--out must end in .csv or .json; got '{args.out.name}'.")
+    if args.out.is_dir():
+        raise HarnessError(f"--out {args.out} is a directory; give a file name ending in {suffix}.")
+    samples = args.t_end / args.dt_out
+    if samples > MAX_SAMPLES:
+        raise HarnessError(
+            f"--t-end {args.t_end:g} / --dt-out {args.dt_out:g} gives {samples:.3g} samples; at most {MAX_SAMPLES}."
+        )
+    system = one_system(args)
+    st = validate_states(system, args.q0, args.v0, args.tau)
+    t = integrate.time_grid(args.t_end, args.dt_out)
+    source = make_source(system, args.source)
+    if args.source == "mujoco":
+        dt = source.m.opt.timestep
+        traj = integrate.mujoco_trajectory(
+            system,
+            source,
+            st.q[0],
+            st.v[0],
+            st.tau[0],
+            t,
+            integrator="RK4",
+            timestep=dt
+            if round(args.dt_out / dt) * dt == args.dt_out
+            else args.dt_out / max(1, round(args.dt_out / dt)),
+        )
+    else:
+        traj = integrate.scipy_trajectory(system, source, st.q[0], st.v[0], st.tau[0], t, **integrate.SCIPY_DEFAULT)
+    cols = ["t", *system.coordinates, *[f"d{c}" for c in system.coordinates]]
+    table = np.column_stack([traj.t, traj.q, traj.v])
+    bad = np.argwhere(~np.isfinite(table))
+    if len(bad):  # never data: a non-finite sample is the error, with where it happened
+        k, j = (int(x) for x in bad[0])
+        raise HarnessError(
+            f"{args.source} ({traj.method}): {cols[j]} is {table[k, j]} at t = {table[k, 0]:g} s; nothing written."
+        )
+    if suffix == ".csv":
+        lines = [",".join(cols)] + [",".join(repr(float(x)) for x in row) for row in table]
+        atomic_write(args.out, "\n".join(lines) + "\n")
+    else:
+        atomic_write(
+            args.out,
+            dumps(
+                {"system": system.name, "source": args.source, "method": traj.method, "columns": cols, "rows": table}
+            ),
+        )
+    print(f"wrote {args.out} ({len(table)} samples, {traj.method})")
+    return 0
+
+
+@contextlib.contextmanager
+def use_cache(args: argparse.Namespace) -> Iterator[None]:
+    """Points the reference and chaos caches at --cache-dir (default OUT/.cache) or turns them off,
+    through the environment so that pool workers see the same setting; restored afterwards."""
+
+    before = os.environ.get(CACHE_ENV)
+    os.environ[CACHE_ENV] = "" if args.no_cache else str((args.cache_dir or args.out / ".cache").absolute())
+    try:
+        yield
+    finally:
+        if before is None:
+            os.environ.pop(CACHE_ENV, None)
+        else:
+            os.environ[CACHE_ENV] = before
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+
+    check_out(args.out)  # before hours of work, not after
+    rendered: dict[str, Any] = {}
+    with use_cache(args), reporter() as progress:
+        results = run(
+            args.systems or None,
+            n_states=args.states,
+            seed=args.seed,
+            progress=progress,
+            n_probes=args.probes,
+            files=user_files(args),
+            after=functools.partial(render_system, replay=not args.no_replay),  # in the workers, overlapped
+            rendered=rendered,
+        )
+    write_all(results, args.out, replay=not args.no_replay, rendered=rendered)
+    verdict = "all systems pass" if results["passed"] else "some systems FAIL"
+    print(f"{verdict}; reports in {args.out}/ (report.html, report.md, results.json)")
+    return 0 if results["passed"] else 1
+
+
+def one_system(args: argparse.Namespace) -> Any:
+    """The SYSTEM named, or the one given by --model and --equations (exactly one of the two)."""
+
+    files = user_files(args)
+    if files and args.system:
+        raise HarnessError("give a SYSTEM name or --model and --equations, not both.")
+    if files:
+        return System.from_files(*files[0])
+    if not args.system:
+        raise HarnessError("name a SYSTEM (see `lagrange-xval list`) or give --model PATH --equations PATH.")
+    return load(args.system)
+
+
+def user_files(args: argparse.Namespace) -> list[tuple[Path, Path]] | None:
+    """--model and --equations (both or neither), and the pairs of a --systems folder."""
+
+    model, equations = getattr(args, "model", None), getattr(args, "equations", None)
+    if (model is None) != (equations is None):
+        raise HarnessError("--model and --equations go together: give your MJCF and your equations module.")
+    files = [(model, equations)] if model is not None and equations is not None else []
+    folder = getattr(args, "systems_dir", None)
+    if folder is not None:
+        files += pairs_in(folder)
+    return files or None
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+
+    results = load_results(args.out / "results.json")
+    try:
+        write_reports(results, args.out)
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
+        raise HarnessError(
+            f"{args.out / 'results.json'} lacks what the report needs ({type(exc).__name__}: {one_line(exc)}); "
+            "rerun `lagrange-xval run`."
+        ) from None
+    print(f"re-rendered {args.out}/report.md and {args.out}/report.html")
+    return 0
+
+
+def cmd_new(args: argparse.Namespace) -> int:
+    path = write_module(args.name, args.model, args.dir)
+    print(
+        f"wrote {path}: write the dynamics in one of the four forms it lists, then "
+        f"`lagrange-xval check --model {args.model} --equations {path}`"
+    )
+    return 0
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+
+    return replay_command(args.system, args.save, args.results)
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+
+    with use_cache(args):
+        return bench_command(args)
+
+
+def cmd_stress(args: argparse.Namespace) -> int:
+
+    with use_cache(args):
+        return stress_command(args)
+
+
+COMMANDS = {
+    "list": cmd_list,
+    "run": cmd_run,
+    "check": cmd_check,
+    "simulate": cmd_simulate,
+    "report": cmd_report,
+    "new": cmd_new,
+    "replay": cmd_replay,
+    "stress": cmd_stress,
+    "bench": cmd_bench,
+}
