@@ -15,6 +15,7 @@ from pathlib import Path
 import lagrange_xval as lx
 import pytest
 from lagrange_xval.testing import systems_in
+from lagrange_xval.validate import systems
 from lagrange_xval.validate.systems.forms import written_form
 
 FOLDER = Path(__file__).parent / "user_systems"
@@ -165,3 +166,25 @@ def test_check_and_simulate_take_a_model_and_equations(tmp_path):
     neither = cli("check")
     assert both.returncode == 2 and "not both" in both.stderr and both.stderr.count("\n") == 1
     assert neither.returncode == 2 and "name a SYSTEM" in neither.stderr and neither.stderr.count("\n") == 1
+
+
+def test_a_system_is_found_again_by_its_key_in_another_process():
+    """bench and stress workers find a person's system by its files (systems.key_of / from_key), and a
+    repository system by its name."""
+    from lagrange_xval.validate.systems import from_key, key_of
+
+    own = systems.System.from_files(FOLDER / "acrobot.xml", FOLDER / "acrobot.py")
+    key = key_of(own)
+    assert key.startswith("file:") and str((FOLDER / "acrobot.xml").resolve()) in key
+    again = from_key(key)
+    assert again.name == own.name and again.mjcf.resolve() == own.mjcf.resolve()
+    assert vars(again.params) == vars(own.params)  # the module is loaded again: its own Params class
+    assert key_of(systems.load("gimbal")) == "gimbal" and from_key("gimbal").name == "gimbal"
+
+
+@pytest.mark.parametrize("command", ["bench", "stress"])
+def test_bench_and_stress_take_model_and_equations_together(command, capsys):
+    from lagrange_xval.validate.cli import main
+
+    assert main([command, "--model", str(FOLDER / "acrobot.xml")]) == 2
+    assert "--model and --equations go together" in capsys.readouterr().err

@@ -299,13 +299,13 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-
+    args.files = user_files(args)  # a person's own systems, beside or instead of SYSTEM names
     with use_cache(args):
         return bench_command(args)
 
 
 def cmd_stress(args: argparse.Namespace) -> int:
-
+    args.files = user_files(args)
     with use_cache(args):
         return stress_command(args)
 

@@ -165,6 +165,7 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="only time `lagrange-xval run`: fresh machine, cold and warm cache (--repeats, default 5); writes nothing",
     )
+    model_options(bench)
     cache_options(bench)
 
     stress = command("stress", help="numerical stability: long horizons, stable timesteps, conditioning")
@@ -177,6 +178,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     stress.add_argument("--quick", action="store_true", help="100 s horizons and fewer sweep points (~30 s)")
     stress.add_argument("--out", type=path_arg, default=Path("reports"), help="folder for stress.json")
+    model_options(stress)
     cache_options(stress)
 
     new = command("new", help="write a starting equations module for your own model")

@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import importlib
+import os
 import pkgutil
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -303,3 +304,24 @@ def load(name: str, overrides: tuple[tuple[str, float], ...] = ()) -> System:
 
 def load_all(names: list[str] | None = None) -> list[System]:
     return [load(n) for n in (names or system_names())]
+
+
+FILES_KEY = "file:"  # the key of a system from a person's own files: paths and name, os.pathsep-separated
+
+
+def key_of(system: System) -> str:
+    """A string that finds `system` again in another process (`from_key`): a repository system's name,
+    or the paths of a person's model and equations module (overrides travel separately)."""
+    repository = system.text is None and system.name in system_names()
+    if repository and system.mjcf.resolve() == (MODELS_DIR / f"{system.name}.xml").resolve():
+        return system.name
+    equations = Path(getattr(system.equations, "__file__", "") or "")
+    return FILES_KEY + os.pathsep.join([str(system.mjcf.resolve()), str(equations.resolve()), system.name])
+
+
+def from_key(key: str) -> System:
+    """The system `key_of` gave the key of."""
+    if key.startswith(FILES_KEY):
+        model, equations, name = key[len(FILES_KEY) :].split(os.pathsep)
+        return System.from_files(model, equations, name=name)
+    return load(key)

@@ -45,6 +45,7 @@ def run_bench(
     executor: Executor | None = None,
     progress: Callable[[str], None] | None = None,
     time_run: bool | None = None,
+    files: list[tuple[Path, Path]] | None = None,
 ) -> dict[str, Any]:
     """The work-precision sweep and the ratios, as JSON-able data.
 
@@ -54,14 +55,17 @@ def run_bench(
         repeats: timing repeats (default 3, quick 1).
         executor: where the worker tasks run (default: a process pool on every core).
         time_run: time `lagrange-xval run` (default: not quick).
+        files: (model, equations) pairs of a person's own systems, benched beside (or instead of) names.
     """
     from ...results import provenance
-    from ...systems import load_all, system_names
+    from ...systems import System, key_of, load_all, system_names
 
     start = time.perf_counter()
-    chosen = list(names) if names else list(QUICK_SYSTEMS if quick else system_names())
-    systems = load_all(chosen)  # unknown names fail here, before any work starts
-    chosen = [s.name for s in systems]
+    chosen = list(names) if names else ([] if files else list(QUICK_SYSTEMS if quick else system_names()))
+    systems = load_all(chosen) if chosen else []  # unknown names and unreadable files fail here, before any work
+    systems += [System.from_files(m, e) for m, e in (files or [])]
+    chosen = [key_of(s) for s in systems]  # what the workers find each system by
+    named = {key_of(s): s.name for s in systems}
     repeats = repeats if repeats is not None else (QUICK_REPEATS if quick else DEFAULT_REPEATS)
     if repeats < 1:
         raise HarnessError(f"--repeats must be at least 1; got {repeats}.")
@@ -72,7 +76,7 @@ def run_bench(
 
     with executor_for(executor) as pool:
         if progress:
-            progress(f"preparing references for {', '.join(chosen)}")
+            progress(f"preparing references for {', '.join(named[k] for k in chosen)}")
         prepared = dict(zip(chosen, pool.map(prepare, chosen), strict=True))
         extra: dict[str, tuple[Callable[..., Any], tuple[Any, ...]]] = {}
         if RHS_SYSTEM in system_names():
@@ -125,6 +129,10 @@ def run_bench(
             "why": "not measured in --quick (5 full runs take over a minute)",
         }
     duration = time.perf_counter() - start
+    for r in rows:  # a person's systems are keyed by their files in the workers, named in the results
+        r["system"] = named.get(r["system"], r["system"])
+    prepared = {named[k]: v for k, v in prepared.items()}
+    chosen = [named[k] for k in chosen]
     return {
         "meta": provenance(),
         "config": {
@@ -346,6 +354,7 @@ def bench_command(args: Any) -> int:
         quick=bool(getattr(args, "quick", False)),
         repeats=getattr(args, "repeats", None),
         progress=progress,
+        files=getattr(args, "files", None),
     )
     path = write_bench(results, Path(getattr(args, "out", None) or "reports"))
     summary(results)

@@ -219,7 +219,7 @@ def pointwise_ratio(name: str, *, reps: int, n_states: int = POINTWISE_STATES, s
     )
     ratio = timed["harness"]["cpu_s"] / timed["raw"]["cpu_s"]
     return {
-        "system": name,
+        "system": system.name,
         "value": ratio,
         "target": POINTWISE_TARGET,
         "passed": ratio <= POINTWISE_TARGET,
@@ -264,7 +264,7 @@ def flags_ratio(name: str, *, steps: int, reps: int) -> list[dict[str, Any]]:
         per_none = timed["none"]["cpu_s"] / steps * 1e6
         out.append(
             {
-                "system": name,
+                "system": system.name,
                 "integrator": integ,
                 "timestep": timestep,
                 "model_flags": engine.disable_flag_names(model_flags),

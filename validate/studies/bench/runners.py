@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from ...errors import HarnessError
+from ...systems import key_of
 from .plan import CHECK_EVERY, DT_OUT, ERROR_TIMES, HORIZON_TOLERANCE, MAX_EXECUTIONS, MIN_TIMED, SCIPY_DRIVERS, T_END
 
 
@@ -31,9 +32,9 @@ def resources(name: str) -> tuple[Any, dict[str, Any]]:
     cache = LOCAL.__dict__.setdefault("systems", {})
     if name not in cache:
         from ...engines import make_sources
-        from ...systems import load
+        from ...systems import from_key
 
-        system = load(name)
+        system = from_key(name)  # a repository system's name, or a person's files (systems.key_of)
         cache[name] = (system, make_sources(system))
     return cache[name]
 
@@ -44,7 +45,7 @@ def case_for(system: Any) -> dict[str, Any]:
 
     q0, v0 = initial_state(system)
     return {
-        "system": system.name,
+        "system": key_of(system),  # what the workers find it by
         "q0": q0.tolist(),
         "v0": v0.tolist(),
         "tau": [0.0] * system.nv,

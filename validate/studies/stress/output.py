@@ -55,19 +55,22 @@ def run_stress(
     quick: bool = False,
     settings: Settings | None = None,
     progress: Callable[[str], None] | None = None,
+    files: list[tuple[Path, Path]] | None = None,
 ) -> dict[str, Any]:
-    """The four stress experiments on the systems named (all when none), with `overrides` on each.
+    """The four stress experiments on the systems named (all when none) and on a person's own
+    (`files`: (model, equations) pairs), with `overrides` on each.
 
     Every system is loaded and compiled with the overrides first, so an unknown system, an unknown key
     or a model MuJoCo refuses is a one-line HarnessError before any long run starts.
     """
     from ...engines import make_sources
     from ...results import provenance
-    from ...systems import load, system_names
+    from ...systems import System, load, system_names
 
     settings = settings or (QUICK if quick else FULL)
     say = progress or (lambda msg: None)
-    systems_ = [load(n, overrides=tuple(overrides)) for n in (names or system_names())]
+    systems_ = [load(n, overrides=tuple(overrides)) for n in (names or ([] if files else system_names()))]
+    systems_ += [System.from_files(m, e).derive(overrides=tuple(overrides)) for m, e in (files or [])]
     for s in systems_:
         try:
             s.mujoco_model()
@@ -319,6 +322,7 @@ def stress_command(args: Any) -> int:
         overrides=overrides,
         quick=bool(getattr(args, "quick", False)),
         progress=lambda msg: err.print(msg, highlight=False),
+        files=getattr(args, "files", None),
     )
     path = write_stress(results, Path(getattr(args, "out", None) or "reports"))
     print_summary(results, Console(width=None if sys.stdout.isatty() else 160))
