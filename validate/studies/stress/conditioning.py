@@ -88,8 +88,6 @@ def sweep_overrides(system: Any, sweep: Sweep, ratio: float) -> tuple[tuple[str,
 def conditioning_sweeps(system: Any, hand: Any) -> list[Sweep]:
     """Ratio sweeps between the first and the last body, both ways: of masses where M depends on them,
     of inertias where it does not (the mass-balanced gimbal). None for one coordinate (cond(M) = 1)."""
-    from ...systems import load
-
     if system.nv < 2 or len(system.bodies) < 2:
         return []
     from ...engines.hand import HandSource
@@ -97,8 +95,7 @@ def conditioning_sweeps(system: Any, hand: Any) -> list[Sweep]:
     first, last = system.bodies[0], system.bodies[-1]
     q = np.random.default_rng(0).uniform(-np.pi, np.pi, (8, system.nv))
     # twice the mass, the same inertia tensor (body/<b>/mass scales the inertia alike)
-    heavier = load(
-        system.name,
+    heavier = system.derive(
         overrides=(
             *system.overrides,
             (f"body/{last}/inertia", 0.5),
