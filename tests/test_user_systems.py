@@ -188,3 +188,17 @@ def test_bench_and_stress_take_model_and_equations_together(command, capsys):
 
     assert main([command, "--model", str(FOLDER / "acrobot.xml")]) == 2
     assert "--model and --equations go together" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name", sorted(FORMS))
+def test_every_new_system_passes_the_whole_job(name):
+    """Verdicts, trajectories, chaos and the mirrors of MuJoCo's integrators: a 3-DOF damped arm (whose
+    flow contracts phase volume until Phi is singular in double precision) and explicit accelerations
+    under Euler's implicit damping included."""
+    from lagrange_xval.validate.pipeline import run_system
+
+    result = run_system(
+        systems.System.from_files(FOLDER / f"{name}.xml", FOLDER / f"{name}.py"), n_states=100, seed=0, n_probes=1
+    )
+    assert result["passed"], result["failed"]
+    assert not result["stages"], result["stages"]

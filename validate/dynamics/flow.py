@@ -95,6 +95,16 @@ def spectral_norm(a: np.ndarray) -> np.ndarray:
     return np.sqrt(np.maximum(np.linalg.eigvalsh(g)[..., -1], 0.0))
 
 
+def inverse(phi: np.ndarray) -> np.ndarray:
+    """Phi^-1 for a stack; a damped flow contracts phase volume (det Phi = exp(-int tr(M^-1 D) dt)),
+    so over long runs Phi can become singular in double precision: there the pseudo-inverse stands
+    in (it drops the directions the damping has already erased, which no error can grow along)."""
+    try:
+        return np.linalg.inv(phi)
+    except np.linalg.LinAlgError:
+        return np.linalg.pinv(phi)
+
+
 def amplification(fl: Flow, *, rows: str = "q") -> np.ndarray:
     """A(t_k) = ||P Phi(t_k)||_2, (K,): the largest error in the `rows` part per unit initial error."""
     n = fl.x.shape[1] // 2
@@ -104,7 +114,7 @@ def amplification(fl: Flow, *, rows: str = "q") -> np.ndarray:
 def transfer_norms(fl: Flow, *, rows: str = "q") -> np.ndarray:
     """G[k, j] = ||P Phi(t_k) Phi(t_j)^-1||_2 for j <= k, 0 above the diagonal, (K, K)."""
     n = fl.x.shape[1] // 2
-    inv = np.linalg.inv(fl.phi)
+    inv = inverse(fl.phi)
     g = np.zeros((len(fl.t), len(fl.t)))
     for k in range(len(fl.t)):
         g[k, : k + 1] = spectral_norm(fl.phi[k, _rows(n, rows), :][None] @ inv[: k + 1])
@@ -154,7 +164,7 @@ def predicted_error(fl: Flow, window_errors: np.ndarray, *, rows: str = "q") -> 
     w = np.asarray(window_errors, dtype=float)
     if w.shape != (len(fl.t) - 1, 2 * n):
         raise HarnessError(f"window_errors must be ({len(fl.t) - 1}, {2 * n}); got {w.shape}.")
-    pulled_back = np.einsum("kij,kj->ki", np.linalg.inv(fl.phi[1:]), w)
+    pulled_back = np.einsum("kij,kj->ki", inverse(fl.phi[1:]), w)
     summed = np.concatenate([np.zeros((1, 2 * n)), np.cumsum(pulled_back, axis=0)])
     return np.abs(np.einsum("kij,kj->ki", fl.phi, summed)[:, _rows(n, rows)]).max(axis=1)
 

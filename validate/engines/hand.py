@@ -48,8 +48,14 @@ class HandSource:
         return lambda t, y: fast(t, y, tau_list)
 
     def damped_rhs(self, tau: np.ndarray, h: float) -> Any:
-        """As `rhs`, for MuJoCo's Euler step with implicit joint damping: a = (M + h D)^-1 f."""
+        """As `rhs`, for MuJoCo's Euler step with implicit joint damping: a = (M + h D)^-1 f; None for
+        explicit accelerations (form c), whose M is the inverse of d qacc / d tau: solved again with
+        h D added, its generated code divides by terms that vanish (the batched path stands in)."""
+        from ..systems.forms import written_form
         from .fastpath import scalar_rhs
+
+        if written_form(self.system.equations) == "c":
+            return None
 
         fast, tau_list = scalar_rhs(self.system, damped_step=h), [float(x) for x in tau]
         return lambda t, y: fast(t, y, tau_list)
