@@ -1,5 +1,5 @@
 """Systems beyond the notes, as a user brings them: a folder of their own, each derivation in one of
-the four forms, checked through the public API (tests/user_systems/, copied to a temporary folder).
+the four forms, checked through the public API (examples/, copied to a temporary folder).
 
     furuta_pendulum   the rotary inverted pendulum, full 3D inertias, motor on the arm only   (d) energies
     cart_pole         a slide joint with a force input                                       (b) implicit
@@ -18,7 +18,7 @@ from lagrange_xval.testing import systems_in
 from lagrange_xval.validate import systems
 from lagrange_xval.validate.systems.forms import written_form
 
-FOLDER = Path(__file__).parent / "user_systems"
+FOLDER = Path(__file__).resolve().parents[1] / "examples"
 FORMS = {"furuta_pendulum": "d", "cart_pole": "b", "acrobot": "c", "spatial_arm": "a"}
 
 # One realistic mistake per system, written into its own form, and the term it is in.
