@@ -22,12 +22,13 @@ Every module provides (shapes: `q`, `v`, `tau` are `(..., n)`; functions broadca
     passive(p, q, v) -> (..., n)       generalized joint friction forces (viscous damping); optional in
                                        forms (a) and (d) (zero if absent), found from (b) and (c) as the
                                        part of the equations odd in v
-    kinetic_energy(p, q, v) -> (...)
-    potential_energy(p, q) -> (...)    zero at the world origin's height: V = -sum m g . x_com, as MuJoCo
-                                       and Pinocchio count it
-    body_positions(p, q) -> {body: (..., 3)}   centres of mass in the world frame
-    body_rotations(p, q) -> {body: (..., 3, 3)} body frames in the world frame
-    VARIANTS: tuple[variant, ...]      every printed form of the notes (see _forms.py)
+    kinetic_energy(p, q, v) -> (...)   optional (except in form d): what a module leaves out of these
+    potential_energy(p, q) -> (...)    four is listed as "not checked (not provided)", never failed;
+                                       V is zero at the world origin's height: V = -sum m g . x_com, as
+                                       MuJoCo and Pinocchio count it
+    body_positions(p, q) -> {body: (..., 3)}   optional: centres of mass in the world frame
+    body_rotations(p, q) -> {body: (..., 3, 3)} optional: body frames in the world frame
+    VARIANTS: tuple[variant, ...]      optional (default none): every printed form of the notes (_forms.py)
     PRINTED_FORMS_ASSUME: (...)        optional: equalities the printed forms assume, each a mapping
                                        {Params field: k} with k * field equal across it (one m for
                                        m1 and m2: {"m1": 1, "m2": 1}); their probes keep them

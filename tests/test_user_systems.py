@@ -202,3 +202,53 @@ def test_every_new_system_passes_the_whole_job(name):
     )
     assert result["passed"], result["failed"]
     assert not result["stages"], result["stages"]
+
+
+def _without(text: str, names: tuple[str, ...]) -> str:
+    """The module's source without the top-level functions (and assignments) called `names`."""
+    import ast
+
+    lines = text.splitlines(keepends=True)
+    for node in sorted(ast.parse(text).body, key=lambda n: -n.lineno):
+        named = getattr(node, "name", None) or next(
+            (t.id for t in getattr(node, "targets", []) if isinstance(t, ast.Name)), None
+        )
+        if named in names:
+            del lines[node.lineno - 1 - len(getattr(node, "decorator_list", [])) : node.end_lineno]
+    return "".join(lines)
+
+
+def test_optional_functions_left_out_are_not_checked_never_failed(tmp_path):
+    """A derivation with only its dynamics (no energies, no body poses, no printed variants) gets the
+    whole job; what it leaves out is listed as not checked, in the derivation and the pointwise check."""
+    import json
+
+    from lagrange_xval.validate.cli import main
+
+    left_out = ("kinetic_energy", "potential_energy", "body_positions", "body_rotations", "VARIANTS")
+    shutil.copy(FOLDER / "acrobot.xml", tmp_path / "acrobot.xml")
+    (tmp_path / "acrobot.py").write_text(_without((FOLDER / "acrobot.py").read_text(), left_out))
+    system = systems.System.from_files(tmp_path / "acrobot.xml", tmp_path / "acrobot.py")
+    assert not hasattr(system.equations.ORIGINAL, "kinetic_energy")
+    out = tmp_path / "reports"
+    code = main(
+        [
+            "run",
+            "--model",
+            str(tmp_path / "acrobot.xml"),
+            "--equations",
+            str(tmp_path / "acrobot.py"),
+            "--out",
+            str(out),
+            "--states",
+            "200",
+        ]
+    )
+    result = json.loads((out / "results.json").read_text())["systems"]["acrobot"]
+    assert code == 0 and result["passed"], result["failed"]
+    assert result["derivation"]["not_checked"] == [f"{n}() not provided" for n in left_out[:4]]
+    assert {"T", "V", "body_positions", "body_rotations"} <= {s.split()[0] for s in result["pointwise"]["not_checked"]}
+    assert not {"T", "V"} & {r["quantity"] for r in result["pointwise"]["rows"] if "hand" in r["pair"]}
+    assert {"T", "V"} <= {r["quantity"] for r in result["pointwise"]["rows"]}  # the engines still agree on them
+    assert (out / "acrobot.rrd").is_file()
+    assert "Not checked (the derivation does not provide them" in (out / "report.md").read_text()

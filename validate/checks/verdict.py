@@ -29,7 +29,7 @@ import numpy as np
 from ..engines import make_sources
 from ..errors import HarnessError
 from ..results.schema import Derivation, TermRow
-from ..systems.forms import written_form
+from ..systems.forms import not_provided_in, written_form
 from . import probes as probing
 from .judge import ENGINES, EngineTerms, term_rows
 from .modelsync import equations_vs_model
@@ -49,6 +49,12 @@ HAND_TERMS = (
     "acceleration",
 )
 TERM_TIER = {t: "algebraic" for t in HAND_TERMS} | {"acceleration": "solve"}
+TERM_OF_FUNCTION = {
+    "kinetic_energy": "kinetic energy",
+    "potential_energy": "potential energy",
+    "body_positions": "body positions",
+    "body_rotations": "body rotations",
+}
 PROBE_STATES = 200  # states per probe (the model's own parameters use the pointwise sample)
 
 
@@ -69,8 +75,11 @@ def hand_terms(system: Any, states: States) -> tuple[dict[str, np.ndarray], dict
     zero = np.zeros_like(q)
     out: dict[str, np.ndarray] = {}
     errors: dict[str, str] = {}
+    missing = not_provided_in(eq)
 
     def call(term: str, fname: str, shape: tuple[int, ...], fn: Any) -> np.ndarray | None:
+        if fname in missing:
+            return None  # not provided: not checked (listed by judge_derivation), never a failure
         try:
             with np.errstate(all="ignore"):
                 arr = _shaped(f"{fname}()", fn(), shape)
@@ -188,7 +197,10 @@ def term_rows_at(
     if written_form(system.equations) == "c":
         tiers.update({t: "solve" for t in ("mass matrix", "gravity", "velocity", "friction")})
     rows: list[dict[str, Any]] = []
+    absent = {TERM_OF_FUNCTION[fn] for fn in not_provided_in(system.equations)}
     for term, (refs, floor) in theirs.items():
+        if term in absent:
+            continue  # not provided: listed as not checked by judge_derivation
         if term not in mine:
             for k in ENGINES:
                 rows.append(_error_row(term, k, errors.get(term, "not computed")))
@@ -327,6 +339,9 @@ def judge_derivation(
     result["probe_problems"] = problems
     # A parameter that is zero in the model stays zero at every probe: the terms it scales are not tested.
     result["held_at_zero"] = sorted(k for k, x in probing.param_fields(system.params).items() if x == 0.0)
+    absent = not_provided_in(system.equations)
+    if absent:
+        result["not_checked"] = [f"{fn}() not provided" for fn in absent]
     result["checked"] = {
         "states_at_model": len(states),
         "states_per_probe": probe_states,

@@ -79,10 +79,20 @@ class HandSource:
         """tau = M a + bias - passive."""
         return np.einsum("...ij,...j->...i", self.mass_matrix(q), a) + self.bias(q, v) - self.passive(q, v)
 
+    @property
+    def not_provided(self) -> list[str]:
+        """The optional functions the derivation leaves out (their quantities are not checked)."""
+        from ..systems.forms import not_provided_in
+
+        return not_provided_in(self.eq)
+
     def energies(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """T and V; NaN where the derivation does not provide them (never compared then)."""
+        missing = self.not_provided
+        nan = np.full(np.shape(q)[:-1], np.nan)
         return (
-            np.asarray(self.eq.kinetic_energy(self.p, q, v), dtype=float),
-            np.asarray(self.eq.potential_energy(self.p, q), dtype=float),
+            nan if "kinetic_energy" in missing else np.asarray(self.eq.kinetic_energy(self.p, q, v), dtype=float),
+            nan if "potential_energy" in missing else np.asarray(self.eq.potential_energy(self.p, q), dtype=float),
         )
 
     def evaluate(
@@ -93,7 +103,7 @@ class HandSource:
         M, bias, passive = self.mass_matrix(q), self.bias(q, v), self.passive(q, v)
         kin, pot = self.energies(q, v)
         qacc = solve_or_nan(M, tau + passive - bias)  # NaN where M(q) is singular
-        return {
+        out = {
             "M": M,
             "bias": bias,
             "passive": passive,
@@ -104,11 +114,22 @@ class HandSource:
             "body_positions": self.body_positions(q),
             "body_rotations": self.body_rotations(q),
         }
+        missing = self.not_provided  # quantities the derivation leaves out are left out, not compared
+        for key, fn in (("T", "kinetic_energy"), ("V", "potential_energy"), ("body_positions", "body_positions")):
+            if fn in missing:
+                out.pop(key)
+        if "body_rotations" in missing:
+            out.pop("body_rotations")
+        return out
 
     def body_positions(self, q: np.ndarray) -> np.ndarray:
+        if "body_positions" in self.not_provided:
+            return np.full((*np.shape(q)[:-1], len(self.system.bodies), 3), np.nan)
         pos = self.eq.body_positions(self.p, q)
         return np.stack([pos[b] for b in self.system.bodies], axis=-2)
 
     def body_rotations(self, q: np.ndarray) -> np.ndarray:
+        if "body_rotations" in self.not_provided:
+            return np.full((*np.shape(q)[:-1], len(self.system.bodies), 3, 3), np.nan)
         rot = self.eq.body_rotations(self.p, q)
         return np.stack([rot[b] for b in self.system.bodies], axis=-3)

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import HarnessError
+from ..systems.forms import not_provided_in
 
 TRAIL_SECONDS = 1.0  # s of the tip's path drawn behind it
 
@@ -115,6 +116,8 @@ def build_scene(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str,
         raise HarnessError(f"{name}: the results hold no trajectory runs to replay.")
     keys, colours = run_keys(runs_in), run_colours(runs_in)
     bodies = list(sys_results.get("bodies") or system.bodies)
+    if {"body_positions", "body_rotations"} & set(not_provided_in(system.equations)):
+        bodies = []  # the derivation does not place its bodies: the recording shows q, energy and errors only
     parent = {b: view[f"body/{b}/parent"] for b in bodies}
     children = {b for b in bodies if any(parent[c] == b for c in bodies)}
     tips = [b for b in bodies if b not in children]
@@ -131,8 +134,8 @@ def build_scene(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str,
     runs = []
     for key, colour, run in zip(keys, colours, runs_in, strict=True):
         q = as_floats(run["q"]).reshape(K, -1)
-        positions = system.equations.body_positions(params, q)
-        rotations = system.equations.body_rotations(params, q)
+        positions = system.equations.body_positions(params, q) if bodies else {}
+        rotations = system.equations.body_rotations(params, q) if bodies else {}
         com = {b: np.asarray(x, dtype=float).reshape(K, 3) for b, x in positions.items()}
         rot = {b: np.asarray(x, dtype=float).reshape(K, 3, 3) for b, x in rotations.items()}
         anchor = {}
@@ -166,6 +169,7 @@ def build_scene(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str,
     # samples of a diverged run (non-finite q) do not count.
     norms = np.concatenate(
         [np.linalg.norm(r[kind][b], axis=-1) for r in runs for kind in ("com", "anchor") for b in bodies]
+        or [np.zeros(1)]
     )
     reach = float(norms[np.isfinite(norms)].max(initial=0.0))
     scale = reach if reach > 1e-9 else 1.0
@@ -236,6 +240,8 @@ def up_axis(gravity: np.ndarray) -> tuple[int, int]:
 
 def plane_normal(runs: list[dict[str, Any]], bodies: list[str], scale: float) -> int | None:
     """The world axis all motion is perpendicular to, if the motion is planar (to look along it)."""
+    if not bodies:
+        return None
     pts = np.concatenate([r[kind][b] for r in runs for kind in ("com", "anchor") for b in bodies])
     spread = np.ptp(pts, axis=0)
     flat = [i for i in range(3) if spread[i] <= 1e-9 * scale]

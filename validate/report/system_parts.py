@@ -91,6 +91,12 @@ def system_derivation(doc: Document, name: str, s: dict[str, Any]) -> None:
                 for p in probes
             ],
         )
+    if d.get("not_checked") or s.get("pointwise", {}).get("not_checked"):
+        doc.p(
+            "Not checked (the derivation does not provide them, so nothing is claimed about them): "
+            + "; ".join([*d.get("not_checked", []), *s.get("pointwise", {}).get("not_checked", [])])
+            + "."
+        )
     if d.get("held_at_zero"):
         doc.p(
             f"Zero in the model and so at every probe (the terms they scale are not tested): "

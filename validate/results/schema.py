@@ -87,6 +87,7 @@ class Pointwise(TypedDict):
     n_states: int
     seed: int
     rows: list[ComparisonRow]
+    not_checked: NotRequired[list[str]]  # quantities the derivation does not provide
 
 
 class Derivation(TypedDict, total=False):
@@ -113,6 +114,7 @@ class Derivation(TypedDict, total=False):
     disagrees_at: str
     disagrees_where: str
     reason: str  # why not applicable
+    not_checked: list[str]  # terms whose functions the derivation does not provide
 
 
 class SystemResult(TypedDict, total=False):

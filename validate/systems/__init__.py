@@ -36,11 +36,6 @@ REQUIRED_ATTRIBUTES = (
     "Params",
     "parameters",
     "assumptions",
-    "kinetic_energy",
-    "potential_energy",
-    "body_positions",
-    "body_rotations",
-    "VARIANTS",
 )
 
 

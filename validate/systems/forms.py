@@ -122,14 +122,45 @@ class _Facade(types.ModuleType):
     its form. `FORM` says which form it was written in; `ORIGINAL` is the module itself."""
 
 
+# What a module may leave out: it is then "not checked (not provided)", never an answer.
+OPTIONAL_FUNCTIONS = ("kinetic_energy", "potential_energy", "body_positions", "body_rotations")
+
+
+def not_provided_in(module: Any) -> list[str]:
+    """The optional functions `module` does not provide (absent, or a `not_provided` stub)."""
+    return [name for name in OPTIONAL_FUNCTIONS if not provided(getattr(module, name, None))]
+
+
+def _stub(name: str) -> Any:
+    from ...equations._forms import not_provided
+
+    def fn(*args: Any) -> Any:
+        raise NotImplementedError
+
+    fn.__name__ = name
+    return not_provided(fn)
+
+
 def normalize(module: Any) -> Any:
-    """The module with mass_matrix, bias and passive (form a); a form-(a) module is returned as it is
-    (with a zero passive if it has none)."""
+    """The module with mass_matrix, bias and passive (form a), and a `not_provided` stub for every
+    optional function it leaves out (VARIANTS defaults to none); a complete form-(a) module is
+    returned as it is."""
     if isinstance(module, _Facade):
         return module
     form = form_of(module)
-    if form == "a" and callable(getattr(module, "passive", None)):
+    missing = [n for n in OPTIONAL_FUNCTIONS if not callable(getattr(module, n, None))]
+    if form == "a" and callable(getattr(module, "passive", None)) and not missing and hasattr(module, "VARIANTS"):
         return module
+    facade = _facade(module, form)
+    for name in missing:
+        setattr(facade, name, _stub(name))
+    if not hasattr(module, "VARIANTS"):
+        facade.VARIANTS = ()  # type: ignore[attr-defined]
+    return facade
+
+
+def _facade(module: Any, form: str) -> Any:
+    """The module as form (a)."""
     facade = _Facade(getattr(module, "__name__", "equations"))
     facade.__dict__.update({k: v for k, v in vars(module).items() if not k.startswith("__")})
     facade.__file__ = getattr(module, "__file__", None)  # type: ignore[assignment]
