@@ -6,8 +6,12 @@ and `lagrange-xval run`'s wall time.
 from __future__ import annotations
 
 import math
+import os
+import resource
 import statistics
+import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -15,7 +19,11 @@ from typing import Any
 
 import numpy as np
 
+from ...checks import pointwise as compare
+from ...dynamics.integrate import source_rhs
+from ...engines import make_source
 from ...engines.baselines import raw_mujoco, raw_pinocchio
+from ...engines.fastpath import scalar_rhs
 from .plan import (
     DEFAULT_EPSILON,
     DEFAULT_TARGET,
@@ -108,14 +116,9 @@ def rhs_ratio(*, reps: int, calls: int = 10_000, n_states: int = 1000, seed: int
     """Ratio 1 (a worker task): the right-hand side scipy gets for the hand equations
     (`integrate.source_rhs`: the generated fast path behind the harness's counter) against `hand_math_rhs`,
     per call, both called as scipy calls them (f(t, y), y a float64 array) over `n_states` states."""
-    from ...dynamics.integrate import source_rhs
-    from ...engines import make_source
-
     system, _ = resources(RHS_SYSTEM)
     hand = make_source(system, "hand")
     harness = source_rhs(hand, np.zeros(system.nv))
-    from ...engines.fastpath import scalar_rhs
-
     fast, tau0 = scalar_rhs(system), [0.0] * system.nv
     math_rhs, np_rhs = hand_math_rhs(system.params), numpy_solve_rhs(system.params)
     rng = np.random.default_rng(seed)
@@ -193,8 +196,6 @@ def pointwise_ratio(name: str, *, reps: int, n_states: int = POINTWISE_STATES, s
     """Ratio 2 for one system (a worker task): `compare.evaluate` on `n_states` states through all
     three sources against `raw_pointwise`, interleaved; sources and states built before timing.
     Each source's share is timed too (harness: its `evaluate`, plus the hand's `inverse`)."""
-    from ...checks import pointwise as compare
-
     system, sources = resources(name)
     states = compare.random_states(system, n=n_states, seed=seed)
     q, v, tau = states.q, states.v, states.tau
@@ -243,7 +244,7 @@ def pointwise_ratio(name: str, *, reps: int, n_states: int = POINTWISE_STATES, s
 def flags_ratio(name: str, *, steps: int, reps: int) -> list[dict[str, Any]]:
     """Per integrator (RK4, Euler): CPU time per mj_step at the MJCF's timestep from the system's start,
     with the model's disable flags and with `disableflags = 0`, interleaved (a worker task)."""
-    from ...engines import mujoco as engine
+    from ...engines import mujoco as engine  # imports MuJoCo: loaded when first used
 
     system, sources = resources(name)
     src = sources["mujoco"]
@@ -349,11 +350,6 @@ def run_wall_times(repeats: int = RUN_REPEATS, *, timeout: float = 900.0) -> dic
     """`python -m lagrange_xval.validate.cli run` (all systems, reports and replays) timed as
     subprocesses one after another, with nothing else of the bench running: per repeat, three runs
     into new folders, one per condition of RUN_CONDITIONS (fresh machine, cold cache, warm cache)."""
-    import os
-    import resource
-    import subprocess
-    import tempfile
-
     walls: dict[str, list[float]] = {c: [] for c in RUN_CONDITIONS}
     cpus: dict[str, list[float]] = {c: [] for c in RUN_CONDITIONS}
     codes: list[int] = []
