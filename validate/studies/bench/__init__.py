@@ -48,14 +48,17 @@ whatever runs beside them. Only `lagrange-xval run`, which uses both cores itsel
 nothing else of ours running (after the pool is shut down).
 
 Modules: plan (what is swept, budgets, targets), runners (one timed run in a worker), analysis
-(errors, rows, Pareto fronts, the sweep), ratios (the fast-harness ratios; the raw engine
-baselines live in engines/baselines.py), output (run_bench, bench.json, the summary, the command).
+(errors, rows, Pareto fronts, the sweep), baselines (what the ratios are measured against: the
+hand-written right-hand side and the minimal pointwise calls; MuJoCo's and Pinocchio's raw loops
+live in engines/baselines.py), ratios (the fast-harness ratios), output (run_bench, bench.json,
+the summary, the command).
 """
 
 from .analysis import errors_against, pareto_front, sort_key, sweep, time_to_epsilon
+from .baselines import hand_math_rhs, numpy_solve_rhs, raw_hand, raw_pointwise
 from .output import bench_command, run_bench, run_time_command, summary, write_bench
 from .plan import ATOL_FACTOR, EPSILONS, RUN_TARGET_S, method_name, plan, scipy_spec, step_spec
-from .ratios import default_ratio, hand_math_rhs, numpy_solve_rhs, raw_pointwise, rhs_ratio, run_wall_times
+from .ratios import default_ratio, rhs_ratio, run_wall_times
 from .runners import case_for, execute, prepare, resources, run_mirror, run_mujoco, run_scipy
 
 __all__ = [
@@ -73,6 +76,7 @@ __all__ = [
     "pareto_front",
     "plan",
     "prepare",
+    "raw_hand",
     "raw_pointwise",
     "resources",
     "rhs_ratio",

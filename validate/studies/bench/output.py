@@ -11,6 +11,9 @@ from pathlib import Path
 from typing import Any
 
 from ...errors import HarnessError
+from ...parallel import executor_for
+from ...results import atomic_write, dumps, provenance
+from ...systems import System, key_of, load_all, system_names
 from .analysis import pareto_front, sweep, time_to_epsilon
 from .plan import (
     ATOL_FACTOR,
@@ -57,9 +60,6 @@ def run_bench(
         time_run: time `lagrange-xval run` (default: not quick).
         files: (model, equations) pairs of a person's own systems, benched beside (or instead of) names.
     """
-    from ...results import provenance
-    from ...systems import System, key_of, load_all, system_names
-
     start = time.perf_counter()
     chosen = list(names) if names else ([] if files else list(QUICK_SYSTEMS if quick else system_names()))
     systems = load_all(chosen) if chosen else []  # unknown names and unreadable files fail here, before any work
@@ -72,8 +72,6 @@ def run_bench(
     budget = QUICK_BUDGET if quick else BUDGET
     specs = plan(quick=quick)
     reps_small = 3 if quick else 7
-    from ...parallel import executor_for
-
     with executor_for(executor) as pool:
         if progress:
             progress(f"preparing references for {', '.join(named[k] for k in chosen)}")
@@ -181,8 +179,6 @@ def flags_task(name: str, steps: int, reps: int) -> list[dict[str, Any]]:
 
 def write_bench(results: dict[str, Any], out: Path) -> Path:
     """`out/bench.json`, written atomically (serialised first, then a temporary file and a rename)."""
-    from ...results import atomic_write, dumps
-
     text = dumps(results)
     path = Path(out) / "bench.json"
     atomic_write(path, text)

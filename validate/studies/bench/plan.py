@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from ...dynamics.integrate import SCIPY_DEFAULT
 from ...engines.base import MUJOCO_INTEGRATORS  # every one is swept
 
 T_END = 10.0  # s: the grid of `run` (the reference cache is keyed by it)
@@ -149,8 +150,6 @@ def step_spec(engine: str, driver: str, scheme: str, timestep: float) -> dict[st
 
 def plan(*, quick: bool) -> list[dict[str, Any]]:
     """Every run of one system, loosest setting first within each method."""
-    from ...dynamics.integrate import SCIPY_DEFAULT
-
     specs: list[dict[str, Any]] = []
     if quick:
         for m in QUICK_IVP_METHODS:

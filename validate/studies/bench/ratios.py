@@ -1,13 +1,16 @@
 """The fast-harness ratios: the generated right-hand side against hand-written math, the pointwise
-check against the raw engine calls, MuJoCo's disable flags, the default scipy against the fastest,
-and `lagrange-xval run`'s wall time.
+check against the raw engine calls (both baselines in baselines.py), MuJoCo's disable flags, the
+default scipy against the fastest, and `lagrange-xval run`'s wall time.
 """
 
 from __future__ import annotations
 
-import math
+import os
+import resource
 import statistics
+import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -15,7 +18,12 @@ from typing import Any
 
 import numpy as np
 
+from ...checks import pointwise as compare
+from ...dynamics.integrate import source_rhs
+from ...engines import make_source
 from ...engines.baselines import raw_mujoco, raw_pinocchio
+from ...engines.fastpath import scalar_rhs
+from .baselines import hand_math_rhs, numpy_solve_rhs, raw_hand, raw_pointwise
 from .plan import (
     DEFAULT_EPSILON,
     DEFAULT_TARGET,
@@ -29,57 +37,6 @@ from .plan import (
     RUN_WARM_TARGET_S,
 )
 from .runners import case_for, resources
-
-
-def hand_math_rhs(p: Any) -> Callable[[float, Any], list[float]]:
-    """double_pendulum_point's right-hand side written by hand with `math`: eqs (33)-(34) multiplied
-    back by m l^2 and generalised to m1, m2, l1, l2 and the bobs' inertia I1, I2 (what
-    equations/double_pendulum_point.py derives), solved for the accelerations by Cramer's rule.
-
-        M11 = m1 l1^2 + m2 (l1^2 + l2^2 + 2 l1 l2 cos phi) + I1 + I2
-        M12 = m2 (l2^2 + l1 l2 cos phi) + I2,   M22 = m2 l2^2 + I2
-        r1 = m2 l1 l2 sin phi (2 th' ph' + ph'^2) - (m1 + m2) g l1 sin th - m2 g l2 sin(th + ph)
-        r2 = -m2 l1 l2 sin phi th'^2 - m2 g l2 sin(th + ph)
-        th'' = (M22 r1 - M12 r2) / det,  ph'' = (M11 r2 - M12 r1) / det,  det = M11 M22 - M12^2
-    """
-    m1, m2, l1, l2, g, i1, i2 = (float(getattr(p, k)) for k in ("m1", "m2", "l1", "l2", "g", "I1", "I2"))
-    a0 = m1 * l1 * l1 + m2 * (l1 * l1 + l2 * l2) + i1 + i2
-    b = m2 * l1 * l2
-    m22 = m2 * l2 * l2 + i2
-    g1, g2 = (m1 + m2) * g * l1, m2 * g * l2
-    sin, cos = math.sin, math.cos
-
-    def rhs(t: float, y: Any) -> list[float]:
-        th, ph, w1, w2 = y
-        c, s = cos(ph), sin(ph)
-        m12 = m22 + b * c
-        m11 = a0 + 2.0 * b * c
-        h = b * s
-        grav2 = g2 * sin(th + ph)
-        r1 = h * (2.0 * w1 * w2 + w2 * w2) - g1 * sin(th) - grav2
-        r2 = -h * w1 * w1 - grav2
-        det = m11 * m22 - m12 * m12
-        return [w1, w2, (m22 * r1 - m12 * r2) / det, (m11 * r2 - m12 * r1) / det]
-
-    return rhs
-
-
-def numpy_solve_rhs(p: Any) -> Callable[[float, Any], np.ndarray]:
-    """The same formula with a 2x2 `np.linalg.solve` per call (the issue's ~18x, for context)."""
-    m1, m2, l1, l2, g, i1, i2 = (float(getattr(p, k)) for k in ("m1", "m2", "l1", "l2", "g", "I1", "I2"))
-    a0 = m1 * l1 * l1 + m2 * (l1 * l1 + l2 * l2) + i1 + i2
-    b, m22 = m2 * l1 * l2, m2 * l2 * l2 + i2
-    g1, g2 = (m1 + m2) * g * l1, m2 * g * l2
-
-    def rhs(t: float, y: Any) -> np.ndarray:
-        th, ph, w1, w2 = y
-        c, s = np.cos(ph), np.sin(ph)
-        M = np.array([[a0 + 2 * b * c, m22 + b * c], [m22 + b * c, m22]])
-        grav2 = g2 * np.sin(th + ph)
-        r = np.array([b * s * (2 * w1 * w2 + w2 * w2) - g1 * np.sin(th) - grav2, -b * s * w1 * w1 - grav2])
-        return np.concatenate([y[2:], np.linalg.solve(M, r)])
-
-    return rhs
 
 
 def interleaved_medians(fns: dict[str, Callable[[], Any]], reps: int) -> dict[str, dict[str, Any]]:
@@ -105,17 +62,13 @@ def interleaved_medians(fns: dict[str, Callable[[], Any]], reps: int) -> dict[st
 
 
 def rhs_ratio(*, reps: int, calls: int = 10_000, n_states: int = 1000, seed: int = 0) -> dict[str, Any]:
-    """Ratio 1 (a worker task): the right-hand side scipy gets for the hand equations
-    (`integrate.source_rhs`: the generated fast path behind the harness's counter) against `hand_math_rhs`,
-    per call, both called as scipy calls them (f(t, y), y a float64 array) over `n_states` states."""
-    from ...dynamics.integrate import source_rhs
-    from ...engines import make_source
-
+    """Ratio 1 (a worker task): the right-hand side `scipy_trajectory` hands to the integrator for the
+    hand equations (`integrate.source_rhs`: the generated fast path behind one call layer; the evaluation
+    guard `integrate_rhs` puts around it is not included) against `hand_math_rhs`, per call, both called
+    as scipy calls them (f(t, y), y a float64 array) over `n_states` states."""
     system, _ = resources(RHS_SYSTEM)
     hand = make_source(system, "hand")
     harness = source_rhs(hand, np.zeros(system.nv))
-    from ...engines.fastpath import scalar_rhs
-
     fast, tau0 = scalar_rhs(system), [0.0] * system.nv
     math_rhs, np_rhs = hand_math_rhs(system.params), numpy_solve_rhs(system.params)
     rng = np.random.default_rng(seed)
@@ -150,42 +103,10 @@ def rhs_ratio(*, reps: int, calls: int = 10_000, n_states: int = 1000, seed: int
         "numpy_vs_hand_math": per_call["numpy_solve"] / per_call["hand_math"],
         "calls_per_measurement": passes * n_states,
         "repeats": reps,
-        "how": "CPU time per call (median of interleaved repeats) of the function scipy receives "
-        "(integrate._rhs: counter + generated fast path) over the hand-written math version; "
+        "how": "CPU time per call (median of interleaved repeats) of the hand source's right-hand side "
+        "(integrate.source_rhs: the generated fast path behind one call layer; integrate_rhs's evaluation "
+        "guard around it not included) over the hand-written math version; "
         "both f(t, y) with y a float64 array; the loop overhead (~30 ns/call) is in both",
-    }
-
-
-def raw_hand(system: Any, states: Any) -> dict[str, Any]:
-    """The hand side of the pointwise check as the equations module's vectorised numpy formulas,
-    called directly (one batched solve; tau_inverse at the computed accelerations)."""
-    q, v, tau = states.q, states.v, states.tau
-    eq, p = system.equations, system.params
-    M = np.asarray(eq.mass_matrix(p, q), dtype=float)
-    bias = np.asarray(eq.bias(p, q, v), dtype=float)
-    passive = np.asarray(eq.passive(p, q, v), dtype=float)
-    qacc = np.linalg.solve(M, (tau + passive - bias)[..., None])[..., 0]
-    return {
-        "M": M,
-        "bias": bias,
-        "passive": passive,
-        "qacc": qacc,
-        "tau_inverse": np.einsum("...ij,...j->...i", M, qacc) + bias - passive,
-        "T": eq.kinetic_energy(p, q, v),
-        "V": eq.potential_energy(p, q),
-        "body_positions": eq.body_positions(p, q),
-        "body_rotations": eq.body_rotations(p, q),
-    }
-
-
-def raw_pointwise(system: Any, sources: dict[str, Any], states: Any) -> dict[str, dict[str, Any]]:
-    """What `compare.evaluate` computes, as the minimal loops (`raw_hand`, `raw_mujoco`, `raw_pinocchio`;
-    the engines' inverse dynamics at the hand accelerations). {source: {quantity: array}}."""
-    hand = raw_hand(system, states)
-    return {
-        "hand": hand,
-        "mujoco": raw_mujoco(system, sources["mujoco"], states, hand["qacc"]),
-        "pinocchio": raw_pinocchio(system, sources["pinocchio"], states, hand["qacc"]),
     }
 
 
@@ -193,8 +114,6 @@ def pointwise_ratio(name: str, *, reps: int, n_states: int = POINTWISE_STATES, s
     """Ratio 2 for one system (a worker task): `compare.evaluate` on `n_states` states through all
     three sources against `raw_pointwise`, interleaved; sources and states built before timing.
     Each source's share is timed too (harness: its `evaluate`, plus the hand's `inverse`)."""
-    from ...checks import pointwise as compare
-
     system, sources = resources(name)
     states = compare.random_states(system, n=n_states, seed=seed)
     q, v, tau = states.q, states.v, states.tau
@@ -243,7 +162,7 @@ def pointwise_ratio(name: str, *, reps: int, n_states: int = POINTWISE_STATES, s
 def flags_ratio(name: str, *, steps: int, reps: int) -> list[dict[str, Any]]:
     """Per integrator (RK4, Euler): CPU time per mj_step at the MJCF's timestep from the system's start,
     with the model's disable flags and with `disableflags = 0`, interleaved (a worker task)."""
-    from ...engines import mujoco as engine
+    from ...engines import mujoco as engine  # imports MuJoCo: loaded when first used
 
     system, sources = resources(name)
     src = sources["mujoco"]
@@ -349,11 +268,6 @@ def run_wall_times(repeats: int = RUN_REPEATS, *, timeout: float = 900.0) -> dic
     """`python -m lagrange_xval.validate.cli run` (all systems, reports and replays) timed as
     subprocesses one after another, with nothing else of the bench running: per repeat, three runs
     into new folders, one per condition of RUN_CONDITIONS (fresh machine, cold cache, warm cache)."""
-    import os
-    import resource
-    import subprocess
-    import tempfile
-
     walls: dict[str, list[float]] = {c: [] for c in RUN_CONDITIONS}
     cpus: dict[str, list[float]] = {c: [] for c in RUN_CONDITIONS}
     codes: list[int] = []

@@ -15,8 +15,14 @@ from typing import Any
 
 import numpy as np
 
+from ...dynamics.chaos import chaos_summary
+from ...dynamics.integrate import SCIPY_DEFAULT, initial_state, scipy_trajectory, time_grid
+from ...dynamics.mirror import mirror_trajectory
+from ...dynamics.reference import reference_trajectory
+from ...engines import make_sources
+from ...engines.fastpath import scalar_rhs
 from ...errors import HarnessError
-from ...systems import key_of
+from ...systems import from_key, key_of
 from .plan import CHECK_EVERY, DT_OUT, ERROR_TIMES, HORIZON_TOLERANCE, MAX_EXECUTIONS, MIN_TIMED, SCIPY_DRIVERS, T_END
 
 
@@ -31,9 +37,6 @@ def resources(name: str) -> tuple[Any, dict[str, Any]]:
     """The system and its three sources, built once per worker thread (setup is never timed)."""
     cache = LOCAL.__dict__.setdefault("systems", {})
     if name not in cache:
-        from ...engines import make_sources
-        from ...systems import from_key
-
         system = from_key(name)  # a repository system's name, or a person's files (systems.key_of)
         cache[name] = (system, make_sources(system))
     return cache[name]
@@ -41,8 +44,6 @@ def resources(name: str) -> tuple[Any, dict[str, Any]]:
 
 def case_for(system: Any) -> dict[str, Any]:
     """The start the bench integrates from: the system's `initial_state`, tau = 0, the 10 s grid."""
-    from ...dynamics.integrate import initial_state
-
     q0, v0 = initial_state(system)
     return {
         "system": key_of(system),  # what the workers find it by
@@ -56,10 +57,6 @@ def case_for(system: Any) -> dict[str, Any]:
 
 def prepare(name: str) -> dict[str, Any]:
     """Reference trajectory and predictability horizon of one system (cached on disk; a worker task)."""
-    from ...dynamics.chaos import chaos_summary
-    from ...dynamics.integrate import time_grid
-    from ...dynamics.reference import reference_trajectory
-
     system, _ = resources(name)
     case = case_for(system)
     t = time_grid(case["t_end"], case["dt_out"])
@@ -204,7 +201,7 @@ def run_scipy(
     Returns:
         status ("ok", "diverged", "failed", "timeout"), message, cpu_s, wall_s, t, q (K, n), nfev.
     """
-    from scipy.integrate import ode, odeint, solve_ivp
+    from scipy.integrate import ode, odeint, solve_ivp  # ~0.5 s to import: loaded when first used
 
     n = len(y0) // 2
     g, stats = guarded(f, deadline, tau=tau, stop_with_nan=driver in ("ode", "ode_endpoints"))
@@ -269,7 +266,7 @@ def run_mujoco(
     The model's integrator and timestep are set for the run and restored after it. A run that sets
     any of MuJoCo's bad-state warnings (MuJoCo then resets the state and carries on) has diverged.
     """
-    from ...engines import mujoco as engine
+    from ...engines import mujoco as engine  # imports MuJoCo: loaded when first used
 
     dt_out = float(t[1] - t[0])
     steps = round(dt_out / timestep)
@@ -322,8 +319,6 @@ def run_mirror(
     deadline: float,
 ) -> dict[str, Any]:
     """`mirror_trajectory` (MuJoCo's scheme on an engine's per-call rhs), timed around the call."""
-    from ...dynamics.mirror import mirror_trajectory
-
     src = GuardedSource(source, deadline)
     c0, w0 = time.process_time(), time.perf_counter()
     try:
@@ -340,12 +335,10 @@ def run_mirror(
 
 def run_default(system: Any, source: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray) -> dict[str, Any]:
     """The harness's default scipy integration, as `run` calls it (no budget: it has no hook)."""
-    from ...dynamics import integrate
-
     c0, w0 = time.process_time(), time.perf_counter()
     try:
-        default: dict[str, Any] = dict(integrate.SCIPY_DEFAULT)
-        traj = integrate.scipy_trajectory(system, source, np.asarray(q0), np.asarray(v0), np.asarray(tau), t, **default)
+        default: dict[str, Any] = dict(SCIPY_DEFAULT)
+        traj = scipy_trajectory(system, source, np.asarray(q0), np.asarray(v0), np.asarray(tau), t, **default)
     except HarnessError as exc:
         return result_row("failed", str(exc), time.process_time() - c0, time.perf_counter() - w0)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
@@ -354,9 +347,6 @@ def run_default(system: Any, source: Any, q0: Any, v0: Any, tau: Any, t: np.ndar
 
 def run_once(spec: dict[str, Any], case: dict[str, Any], *, budget: float) -> dict[str, Any]:
     """One execution of one spec on one case, in this process."""
-    from ...dynamics.integrate import time_grid
-    from ...engines.fastpath import scalar_rhs
-
     system, sources = resources(case["system"])
     t = time_grid(case["t_end"], case["dt_out"])
     q0, v0, tau = (np.asarray(case[k], dtype=float) for k in ("q0", "v0", "tau"))

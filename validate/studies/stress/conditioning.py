@@ -10,6 +10,10 @@ from typing import Any
 
 import numpy as np
 
+from ...checks import pointwise as compare
+from ...checks.tolerances import TOLERANCES
+from ...engines import make_sources
+from ...engines.hand import HandSource
 from ...errors import HarnessError
 from .settings import EPS, FIT_FROM_COND, MAX_FACTOR, PROPOSAL_MARGIN, TARGET_DISTANCES, TARGETED_STATES, Settings
 
@@ -23,7 +27,7 @@ def equilibrated_cond(M: np.ndarray) -> np.ndarray:
 
 def worst_configuration(system: Any, hand: Any) -> np.ndarray:
     """The q (rad) with the largest cond(M): the best point of a grid, refined by Nelder-Mead on log cond."""
-    from scipy.optimize import minimize
+    from scipy.optimize import minimize  # heavy: loaded when first used
 
     n = system.nv
     g = np.linspace(-np.pi, np.pi, 65 if n <= 3 else 9)
@@ -42,8 +46,6 @@ def worst_configuration(system: Any, hand: Any) -> np.ndarray:
 
 def conditioning_states(system: Any, hand: Any, *, n: int, seed: int) -> tuple[Any, np.ndarray]:
     """compare.random_states plus TARGETED_STATES approaching the worst configuration, and that q."""
-    from ...checks import pointwise as compare
-
     states = compare.random_states(system, n=n, seed=seed)
     q_worst = worst_configuration(system, hand)
     rng = np.random.default_rng(seed + 1)
@@ -90,8 +92,6 @@ def conditioning_sweeps(system: Any, hand: Any) -> list[Sweep]:
     of inertias where it does not (the mass-balanced gimbal). None for one coordinate (cond(M) = 1)."""
     if system.nv < 2 or len(system.bodies) < 2:
         return []
-    from ...engines.hand import HandSource
-
     first, last = system.bodies[0], system.bodies[-1]
     q = np.random.default_rng(0).uniform(-np.pi, np.pi, (8, system.nv))
     # twice the mass, the same inertia tensor (body/<b>/mass scales the inertia alike)
@@ -115,10 +115,6 @@ def conditioning_point(system: Any, *, n_states: int, seed: int) -> dict[str, An
     constant C that a per-state tier max(rtol, C kappa eps) needs to pass every state: the largest
     per-state error / (kappa eps) over the states whose error exceeds rtol (`c_state` for kappa =
     cond(M), `c_state_eq` for the equilibrated cond; 0 if none does), and over all states (`c_state_all`)."""
-    from ...checks import pointwise as compare
-    from ...checks.tolerances import TOLERANCES
-    from ...engines import make_sources
-
     sources = make_sources(system)
     states, q_worst = conditioning_states(system, sources["hand"], n=n_states, seed=seed)
     values = compare.evaluate(sources, states)
@@ -288,8 +284,6 @@ def proposed_solve_tier(summary: list[dict[str, Any]]) -> dict[str, Any]:
     cond(M), and for comparison the equilibrated cond_eq (which does not bound the error: near the
     folded point pendulum with a light elbow M is nearly diagonal yet its entries lose digits to
     cancellation in 2 + 2 cos(phi), so its error follows cond(M), not cond_eq)."""
-    from ...checks.tolerances import TOLERANCES
-
     if not summary:
         return {}
 

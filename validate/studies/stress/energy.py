@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from ...dynamics.integrate import initial_state
 from .runs import downsample, run_energy, simulate
 from .settings import (
     ENVELOPE_GROWTH,
@@ -120,8 +121,6 @@ def conservative(system: Any) -> bool:
 
 def drift_rows(system: Any, sources: dict[str, Any], settings: Settings, *, V_min: float) -> list[dict[str, Any]]:
     """Energy over every horizon, for every MuJoCo integrator and mirror, at the MJCF timestep."""
-    from ...dynamics.integrate import initial_state
-
     q0, v0 = initial_state(system)
     tau = np.zeros(system.nv)
     dt = float(system.mujoco_model().opt.timestep)

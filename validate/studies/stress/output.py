@@ -9,7 +9,11 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
+from ...engines import make_sources
 from ...errors import HarnessError
+from ...results import atomic_write, dumps, provenance
+from ...systems import System, load, system_names
+from ...systems.overrides import parse
 from .conditioning import conditioning_rows, conditioning_summary, proposed_solve_tier
 from .energy import conservative, drift_rows
 from .runs import minimum_potential, quiet_mujoco_warnings
@@ -63,10 +67,6 @@ def run_stress(
     Every system is loaded and compiled with the overrides first, so an unknown system, an unknown key
     or a model MuJoCo refuses is a one-line HarnessError before any long run starts.
     """
-    from ...engines import make_sources
-    from ...results import provenance
-    from ...systems import System, load, system_names
-
     settings = settings or (QUICK if quick else FULL)
     say = progress or (lambda msg: None)
     systems_ = [load(n, overrides=tuple(overrides)) for n in (names or ([] if files else system_names()))]
@@ -171,8 +171,6 @@ def criteria() -> dict[str, str]:
 
 def write_stress(results: dict[str, Any], out: Path) -> Path:
     """Writes out/stress.json atomically (rendered in memory first: a failure leaves the old file)."""
-    from ...results import atomic_write, dumps
-
     path = Path(out) / "stress.json"
     text = dumps(results)
     atomic_write(path, text)
@@ -310,8 +308,6 @@ def print_summary(results: dict[str, Any], console: Any = None) -> None:
 def stress_command(args: Any) -> int:
     """`lagrange-xval stress [SYSTEM ...] [--set KEY=VALUE ...] [--quick] [--out DIR]`."""
     from rich.console import Console
-
-    from ...systems.overrides import parse
 
     raw = list(getattr(args, "set", None) or [])
     overrides = parse(raw) if all(isinstance(x, str) for x in raw) else tuple((str(k), float(v)) for k, v in raw)

@@ -9,13 +9,14 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import HarnessError
+from ...dynamics.mirror import mirror_trajectory
+from ...errors import HarnessError, unknown_name
 from .settings import MIRROR_INTEGRATORS, MUJOCO_INTEGRATORS, SERIES_POINTS, Run
 
 
 def quiet_mujoco_warnings() -> Any:
     """MuJoCo's warnings collected instead of printed (engines/mujoco.py `collected_warnings`)."""
-    from ...engines import mujoco as engine
+    from ...engines import mujoco as engine  # imports MuJoCo: loaded when first used
 
     return engine.collected_warnings()
 
@@ -42,8 +43,6 @@ def simulate(
         timestep: s; the run takes ceil(t_end / timestep) steps (a whole number of samples).
         eulerdamp: False disables MuJoCo's implicit treatment of joint damping in Euler (mujoco only).
     """
-    from ...errors import unknown_name
-
     if integrator not in MUJOCO_INTEGRATORS or (engine == "mirror" and integrator not in MIRROR_INTEGRATORS):
         raise unknown_name(
             f"{engine} integrator", integrator, MUJOCO_INTEGRATORS if engine == "mujoco" else MIRROR_INTEGRATORS
@@ -55,7 +54,7 @@ def simulate(
     qs, vs, ts = [q0], [v0], [0.0]
     failure, t_fail = None, None
     if engine == "mujoco":
-        from ...engines import mujoco as mj
+        from ...engines import mujoco as mj  # imports MuJoCo
 
         done_q, done_v, failure, k_fail = mj.sampled_run(
             sources["mujoco"],
@@ -73,8 +72,6 @@ def simulate(
         ts += [k * sample_steps * timestep for k in range(1, len(done_q) + 1)]
         t_fail = None if k_fail is None else k_fail * sample_steps * timestep
     elif engine == "mirror":
-        from ...dynamics.mirror import mirror_trajectory
-
         grid = np.array([0.0, sample_steps * timestep])
         q, v = q0, v0
         with np.errstate(all="ignore"):

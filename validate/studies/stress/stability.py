@@ -8,6 +8,9 @@ from typing import Any
 
 import numpy as np
 
+from ...dynamics.integrate import initial_state, scipy_trajectory, time_grid
+from ...dynamics.mirror import eulerdamp_active
+from ...engines import make_sources
 from ...errors import HarnessError
 from .energy import classify_energy
 from .runs import minimum_potential, run_energy, simulate
@@ -107,8 +110,6 @@ def criterion_name(growth: float) -> str:
 
 def stability_rows(system: Any, sources: dict[str, Any], settings: Settings, *, V_min: float) -> list[dict[str, Any]]:
     """Per speed, engine, integrator and criterion (settings.growth_factors): the bisection's result."""
-    from ...dynamics.integrate import initial_state
-
     q0, _ = initial_state(system)
     tau = np.zeros(system.nv)
     rows = []
@@ -157,10 +158,6 @@ def stability_rows(system: Any, sources: dict[str, Any], settings: Settings, *, 
 
 def stiff_rows(system: Any, settings: Settings) -> list[dict[str, Any]]:
     """Every integrator at every timestep on the system with its joint damping times each factor."""
-    from ...dynamics.integrate import initial_state, scipy_trajectory, time_grid
-    from ...dynamics.mirror import eulerdamp_active
-    from ...engines import make_sources
-
     q0, v0 = initial_state(system)
     tau = np.zeros(system.nv)
     t = time_grid(settings.stiff_t_end, settings.stiff_sample)

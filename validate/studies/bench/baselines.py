@@ -1,0 +1,101 @@
+"""What the fast-harness ratios are measured against: the double pendulum's right-hand side written
+by hand with `math` (and with a 2x2 numpy solve, for context), and the pointwise check's quantities
+as the minimal calls (the equations module called directly; MuJoCo's and Pinocchio's raw loops in
+engines/baselines.py). They are timing baselines, run by the bench beside the harness; tests/test_bench.py
+holds each equal to what it stands for (the generated fast path, the equations module, the harness's
+values bit for bit), as MuJoCo's rollout_test.py holds its fast path to a plain loop.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from ...engines.baselines import raw_mujoco, raw_pinocchio
+
+
+def hand_math_rhs(p: Any) -> Callable[[float, Any], list[float]]:
+    """double_pendulum_point's right-hand side written by hand with `math`: eqs (33)-(34) multiplied
+    back by m l^2 and generalised to m1, m2, l1, l2 and the bobs' inertia I1, I2 (what
+    equations/double_pendulum_point.py derives), solved for the accelerations by Cramer's rule.
+
+        M11 = m1 l1^2 + m2 (l1^2 + l2^2 + 2 l1 l2 cos phi) + I1 + I2
+        M12 = m2 (l2^2 + l1 l2 cos phi) + I2,   M22 = m2 l2^2 + I2
+        r1 = m2 l1 l2 sin phi (2 th' ph' + ph'^2) - (m1 + m2) g l1 sin th - m2 g l2 sin(th + ph)
+        r2 = -m2 l1 l2 sin phi th'^2 - m2 g l2 sin(th + ph)
+        th'' = (M22 r1 - M12 r2) / det,  ph'' = (M11 r2 - M12 r1) / det,  det = M11 M22 - M12^2
+    """
+    m1, m2, l1, l2, g, i1, i2 = (float(getattr(p, k)) for k in ("m1", "m2", "l1", "l2", "g", "I1", "I2"))
+    a0 = m1 * l1 * l1 + m2 * (l1 * l1 + l2 * l2) + i1 + i2
+    b = m2 * l1 * l2
+    m22 = m2 * l2 * l2 + i2
+    g1, g2 = (m1 + m2) * g * l1, m2 * g * l2
+    sin, cos = math.sin, math.cos
+
+    def rhs(t: float, y: Any) -> list[float]:
+        th, ph, w1, w2 = y
+        c, s = cos(ph), sin(ph)
+        m12 = m22 + b * c
+        m11 = a0 + 2.0 * b * c
+        h = b * s
+        grav2 = g2 * sin(th + ph)
+        r1 = h * (2.0 * w1 * w2 + w2 * w2) - g1 * sin(th) - grav2
+        r2 = -h * w1 * w1 - grav2
+        det = m11 * m22 - m12 * m12
+        return [w1, w2, (m22 * r1 - m12 * r2) / det, (m11 * r2 - m12 * r1) / det]
+
+    return rhs
+
+
+def numpy_solve_rhs(p: Any) -> Callable[[float, Any], np.ndarray]:
+    """The same formula with a 2x2 `np.linalg.solve` per call (the issue's ~18x, for context)."""
+    m1, m2, l1, l2, g, i1, i2 = (float(getattr(p, k)) for k in ("m1", "m2", "l1", "l2", "g", "I1", "I2"))
+    a0 = m1 * l1 * l1 + m2 * (l1 * l1 + l2 * l2) + i1 + i2
+    b, m22 = m2 * l1 * l2, m2 * l2 * l2 + i2
+    g1, g2 = (m1 + m2) * g * l1, m2 * g * l2
+
+    def rhs(t: float, y: Any) -> np.ndarray:
+        th, ph, w1, w2 = y
+        c, s = np.cos(ph), np.sin(ph)
+        M = np.array([[a0 + 2 * b * c, m22 + b * c], [m22 + b * c, m22]])
+        grav2 = g2 * np.sin(th + ph)
+        r = np.array([b * s * (2 * w1 * w2 + w2 * w2) - g1 * np.sin(th) - grav2, -b * s * w1 * w1 - grav2])
+        return np.concatenate([y[2:], np.linalg.solve(M, r)])
+
+    return rhs
+
+
+def raw_hand(system: Any, states: Any) -> dict[str, Any]:
+    """The hand side of the pointwise check as the equations module's vectorised numpy formulas,
+    called directly (one batched solve; tau_inverse at the computed accelerations)."""
+    q, v, tau = states.q, states.v, states.tau
+    eq, p = system.equations, system.params
+    M = np.asarray(eq.mass_matrix(p, q), dtype=float)
+    bias = np.asarray(eq.bias(p, q, v), dtype=float)
+    passive = np.asarray(eq.passive(p, q, v), dtype=float)
+    qacc = np.linalg.solve(M, (tau + passive - bias)[..., None])[..., 0]
+    return {
+        "M": M,
+        "bias": bias,
+        "passive": passive,
+        "qacc": qacc,
+        "tau_inverse": np.einsum("...ij,...j->...i", M, qacc) + bias - passive,
+        "T": eq.kinetic_energy(p, q, v),
+        "V": eq.potential_energy(p, q),
+        "body_positions": eq.body_positions(p, q),
+        "body_rotations": eq.body_rotations(p, q),
+    }
+
+
+def raw_pointwise(system: Any, sources: dict[str, Any], states: Any) -> dict[str, dict[str, Any]]:
+    """What `compare.evaluate` computes, as the minimal loops (`raw_hand`, `raw_mujoco`, `raw_pinocchio`;
+    the engines' inverse dynamics at the hand accelerations). {source: {quantity: array}}."""
+    hand = raw_hand(system, states)
+    return {
+        "hand": hand,
+        "mujoco": raw_mujoco(system, sources["mujoco"], states, hand["qacc"]),
+        "pinocchio": raw_pinocchio(system, sources["pinocchio"], states, hand["qacc"]),
+    }
