@@ -6,6 +6,8 @@ from typing import Any
 
 import numpy as np
 
+from ..systems.forms import not_provided_in, written_form
+
 
 def solve_or_nan(M: np.ndarray, b: np.ndarray) -> np.ndarray:
     """x with M x = b for stacks M (..., n, n), b (..., n); NaN rows where M is singular.
@@ -51,7 +53,6 @@ class HandSource:
         """As `rhs`, for MuJoCo's Euler step with implicit joint damping: a = (M + h D)^-1 f; None for
         explicit accelerations (form c), whose M is the inverse of d qacc / d tau: solved again with
         h D added, its generated code divides by terms that vanish (the batched path stands in)."""
-        from ..systems.forms import written_form
         from .fastpath import scalar_rhs
 
         if written_form(self.system.equations) == "c":
@@ -82,8 +83,6 @@ class HandSource:
     @property
     def not_provided(self) -> list[str]:
         """The optional functions the derivation leaves out (their quantities are not checked)."""
-        from ..systems.forms import not_provided_in
-
         return not_provided_in(self.eq)
 
     def energies(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import HarnessError
+from ..systems import System, load, system_names
 from ..systems.forms import not_provided_in
 
 TRAIL_SECONDS = 1.0  # s of the tip's path drawn behind it
@@ -99,8 +100,6 @@ def recorded_params(system: Any, sys_results: Mapping[str, Any]) -> Any:
 
 def build_scene(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """The arrays and text of one system's recording. Pure numpy; no rerun calls."""
-    from ..systems import System, load, system_names
-
     model, equations = sys_results.get("mjcf", ""), sys_results.get("equations", "")
     if name in system_names() and str(model).startswith("models/"):
         system = load(name)

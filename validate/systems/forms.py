@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from ...equations._forms import stack_matrix, stack_vector
+from ...equations._forms import not_provided, stack_matrix, stack_vector
 from ..errors import HarnessError
 from . import tracing
 
@@ -132,8 +132,6 @@ def not_provided_in(module: Any) -> list[str]:
 
 
 def _stub(name: str) -> Any:
-    from ...equations._forms import not_provided
-
     def fn(*args: Any) -> Any:
         raise NotImplementedError
 
