@@ -149,9 +149,9 @@ def test_malformed_mjcf_is_one_line(tmp_path):
     with pytest.raises(HarnessError) as err:
         systems.compile_mjcf(bad)
     assert "broken.xml: not" in str(err.value) and "\n" not in str(err.value)
-    not_mjcf = tmp_path / "robot.urdf"
-    not_mjcf.write_text("<robot name='r'><link name='a'/></robot>")
-    with pytest.raises(HarnessError):
-        systems.compile_mjcf(not_mjcf)
+    not_a_model = tmp_path / "page.xml"
+    not_a_model.write_text("<html><body/></html>")
+    with pytest.raises(HarnessError, match=r"root element <html>, expected <mujoco> for MJCF or <robot> for URDF"):
+        systems.compile_model(not_a_model)
     with pytest.raises(HarnessError, match="not found"):
         systems.compile_mjcf(tmp_path / "absent.xml")

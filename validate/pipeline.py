@@ -318,6 +318,7 @@ def _identity(system: Any) -> SystemResult:
         "name": system.name,
         "description": system.description,
         "mjcf": f"models/{system.mjcf.name}" if inside else str(system.mjcf),
+        "model_format": system.model_format,
         "equations": f"equations/{system.name}.py" if inside else str(getattr(system.equations, "__file__", "?")),
         "coordinates": list(system.coordinates),
         "joints": list(system.joints),

@@ -2,9 +2,12 @@
 
 1. The equations' stated assumptions against every key of the compiled MJCF (a key the equations
    do not state is a failure too: a parameter they silently ignore).
-2. Pinocchio's model of the same MJCF against MuJoCo's: masses, centres of mass, inertias of every
+2. Pinocchio's model of the same file against MuJoCo's: masses, centres of mass, inertias of every
    compared body (Pinocchio drops collision-free geoms' mass and gives mesh geoms 1 kg, so a model
-   that relies on geoms for its inertia differs between the engines).
+   that relies on geoms for its inertia differs between the engines), each compared joint's anchor
+   and axis in world coordinates at q = 0, and for a URDF, which both engines read on their own,
+   the joint damping each read. What the harness aligned between the two readings of a URDF
+   (validate/systems/urdf.py) is listed as `alignments`.
 """
 
 from __future__ import annotations
@@ -14,11 +17,12 @@ from typing import Any
 import numpy as np
 
 from ..results.schema import Mismatch, ModelChecks
+from ..systems.modelview import quat_to_mat
 
 RTOL = 1e-12  # both sides are the same compiled numbers, possibly through a few operations
 
 
-def _same(expected: Any, actual: Any) -> bool:
+def _same(expected: Any, actual: Any, floor: float = 0.0) -> bool:
     if isinstance(expected, str) or isinstance(actual, str):
         return expected == actual
     e, a = np.asarray(expected, dtype=float), np.asarray(actual, dtype=float)
@@ -28,7 +32,8 @@ def _same(expected: Any, actual: Any) -> bool:
     if not care.any():
         return True
     # Relative to the array's largest entry: an inertia's 1e-14 element carries the rounding of its 0.08 ones.
-    scale = max(np.abs(a[care]).max(), np.abs(e[care]).max())
+    # `floor`: the scale below which entries are zero (an anchor at the origin is 1e-17 m away from it).
+    scale = max(np.abs(a[care]).max(), np.abs(e[care]).max(), floor)
     return bool(np.all(np.abs(e[care] - a[care]) <= RTOL * scale))
 
 
@@ -108,7 +113,63 @@ def pinocchio_vs_mujoco(system: Any, pin_source: Any) -> list[Mismatch]:
     return rows
 
 
+def _mujoco_joint_frames(system: Any) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """MuJoCo's reading of the same (`PinocchioSource.joint_frames`), from its compiled bodies and joints."""
+    view = system.view
+    poses: dict[str, tuple[np.ndarray, np.ndarray]] = {"world": (np.zeros(3), np.eye(3))}
+
+    def pose(body: str) -> tuple[np.ndarray, np.ndarray]:
+        if body not in poses:
+            p, R = pose(view[f"body/{body}/parent"])
+            local = quat_to_mat(np.asarray(view[f"body/{body}/quat"], dtype=float))
+            poses[body] = (p + R @ np.asarray(view[f"body/{body}/pos"], dtype=float), R @ local)
+        return poses[body]
+
+    out = {}
+    for j in system.joints:
+        p, R = pose(view[f"joint/{j}/body"])
+        axis = R @ np.asarray(view[f"joint/{j}/axis"], dtype=float)
+        axis = axis / np.linalg.norm(axis)
+        zero = np.zeros(3)
+        motion = np.concatenate([zero, axis] if view[f"joint/{j}/type"] == "hinge" else [axis, zero])
+        out[j] = (p + R @ np.asarray(view[f"joint/{j}/pos"], dtype=float), motion)
+    return out
+
+
+def joints_pinocchio_vs_mujoco(system: Any, pin_source: Any) -> list[Mismatch]:
+    """Anchor (hinges) and motion axis of each compared joint at q = 0, and for a URDF the damping,
+    as each engine read them."""
+    mj, pn = _mujoco_joint_frames(system), pin_source.joint_frames()
+    damping = pin_source.read_damping() if system.reads_urdf else None
+    # anchors are compared relative to the chain's extent: one at the origin may be read as 1e-17 m
+    extent = max([float(np.abs(f[0]).max()) for f in (*mj.values(), *pn.values())] + [1e-300])
+    rows: list[Mismatch] = []
+    for i, j in enumerate(system.joints):
+        pairs = {"motion": (mj[j][1], pn[j][1])}
+        if system.view[f"joint/{j}/type"] == "hinge":  # a slide's anchor is any point on its line
+            pairs["anchor"] = (mj[j][0], pn[j][0])
+        if damping is not None:
+            pairs["damping"] = (system.view[f"joint/{j}/damping"], damping[i])
+        for what, (a, b) in pairs.items():
+            ok = _same(a, b, floor=extent if what == "anchor" else 1.0 if what == "motion" else 0.0)
+            rows.append(
+                {
+                    "check": "pinocchio~mujoco",
+                    "key": f"joint/{j}/{what}",
+                    "expected": _fmt(a),
+                    "actual": _fmt(b),
+                    "passed": ok,
+                    "why": "" if ok else "Pinocchio read this joint differently from MuJoCo",
+                }
+            )
+    return rows
+
+
 def check(system: Any, pin_source: Any) -> ModelChecks:
-    rows = equations_vs_model(system) + pinocchio_vs_mujoco(system, pin_source)
+    rows = (
+        equations_vs_model(system)
+        + pinocchio_vs_mujoco(system, pin_source)
+        + joints_pinocchio_vs_mujoco(system, pin_source)
+    )
     failed = [r for r in rows if not r["passed"]]
-    return {"n_checked": len(rows), "passed": not failed, "mismatches": failed}
+    return {"n_checked": len(rows), "passed": not failed, "mismatches": failed, "alignments": system.alignments}

@@ -1,7 +1,8 @@
-"""Pinocchio as a source: CRBA, RNEA (non-linear effects), ABA on the chain built from the same MJCF.
+"""Pinocchio as a source: CRBA, RNEA (non-linear effects), ABA on the chain built from the same MJCF
+or URDF (read natively by `buildModelFromXML`; validate/systems/urdf.py says what is aligned).
 
 Owns Pinocchio's quirks: `buildModelFromMJCF` ignores `<option gravity>` (the MuJoCo-compiled
-gravity is copied in) and joint damping (applied here as a generalized force), and its
+gravity is copied in) and joint damping (applied here as a generalized force, for URDF too), and its
 configuration vector is indexed by Pinocchio's joint order, mapped here by MJCF joint names.
 """
 
@@ -15,11 +16,20 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import HarnessError
+from ..systems.urdf import for_pinocchio
 from .base import Kinematics
 
 
 def build_model(system: Any) -> Any:
-    """Pinocchio's model of the system's MJCF (with any overrides), gravity copied from MuJoCo."""
+    """Pinocchio's model of the system's MJCF (with any overrides) or URDF, gravity copied from MuJoCo."""
+    if system.reads_urdf:
+        try:
+            model = pin.buildModelFromXML(for_pinocchio(system.urdf_text(), system.mjcf.name))
+        except Exception as exc:
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise HarnessError(f"{system.mjcf.name}: Pinocchio cannot build the model: {first}") from None
+        model.gravity.linear = np.array(system.view["gravity"], dtype=float)
+        return model
     xml = system.mjcf_xml()
     fd, path = tempfile.mkstemp(suffix=".xml", prefix=f"{system.name}_")
     try:
@@ -79,6 +89,25 @@ class PinocchioSource:
         full = np.zeros(self.model.nv)
         full[self.vidx] = v
         return full
+
+    def joint_frames(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """Pinocchio's reading of each compared joint at q = 0: its anchor in world coordinates and
+        its motion (linear, angular) per unit velocity, world-aligned: a hinge's axis sits in the
+        angular half, a slide's in the linear half."""
+        q = self._q(np.zeros(len(self.qidx)))
+        pin.computeJointJacobians(self.model, self.data, q)
+        out = {}
+        for j, v in zip(self.system.joints, self.vidx, strict=True):
+            jid = self.model.getJointId(j)
+            J = np.reshape(
+                pin.getJointJacobian(self.model, self.data, jid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED), (6, -1)
+            )
+            out[j] = (np.array(self.data.oMi[jid].translation, dtype=float), np.array(J[:, v], dtype=float))
+        return out
+
+    def read_damping(self) -> np.ndarray:
+        """The joint damping Pinocchio read from the file (its algorithms ignore it: see `passive`)."""
+        return np.array(self.model.damping[self.vidx], dtype=float)
 
     def passive(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Joint damping, which Pinocchio's algorithms ignore, as a generalized force."""

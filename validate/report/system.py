@@ -6,7 +6,21 @@ from __future__ import annotations
 
 from typing import Any
 
-from .document import NOT_RUN, Document, Mark, Num, as_float, cell_text, fmt_time, is_number, pass_mark, sci, slug, vec
+from .document import (
+    NOT_RUN,
+    Document,
+    Items,
+    Mark,
+    Num,
+    as_float,
+    cell_text,
+    fmt_time,
+    is_number,
+    pass_mark,
+    sci,
+    slug,
+    vec,
+)
 from .figures import energy_figure, error_figure, pointwise_figure, run_label, series, trajectory_figure
 from .system_parts import system_chaos, system_derivation, system_equivalence, system_experiments, system_skipped
 
@@ -20,7 +34,8 @@ def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[st
     # Model
     doc.h(3, "Model", f"{slug(name)}-model")
     doc.p(
-        f"MJCF `{s.get('mjcf', '?')}`; hand derivation `{s.get('equations', '?')}`; the scene uses "
+        f"{str(s.get('model_format', 'mjcf')).upper()} `{s.get('mjcf', '?')}`; "
+        f"hand derivation `{s.get('equations', '?')}`; the scene uses "
         f"{', '.join(s.get('uses', [])) or 'nothing beyond the chain'}; MuJoCo timestep "
         f"{sci(s.get('timestep'))} s."
     )
@@ -52,10 +67,16 @@ def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[st
         for m in mism:
             by_check[m.get("check", "?")] = by_check.get(m.get("check", "?"), 0) + 1
         doc.p(
-            "Before any dynamics: every key of the compiled MJCF against what the hand equations state they "
-            "assume (equations~mjcf), and every compared body's mass, centre of mass and inertia as "
-            "Pinocchio and MuJoCo compiled them (pinocchio~mujoco)."
+            "Before any dynamics: every key of the compiled model against what the hand equations state they "
+            "assume (equations~mjcf), and every compared body's mass, centre of mass and inertia, and every "
+            "compared joint's anchor and axis, as Pinocchio and MuJoCo read them (pinocchio~mujoco)."
         )
+        if mc.get("alignments"):
+            doc.p(
+                "The model is a URDF, which each engine reads with its own parser; what the harness aligned "
+                "between the two readings before comparing them:"
+            )
+            doc.blocks.append(Items(tuple(mc["alignments"])))
         doc.table(
             f"Model checks of {name}",
             ("check", "keys checked", "mismatches", "verdict"),

@@ -80,6 +80,7 @@ class ModelChecks(TypedDict):
     passed: bool
     n_checked: int
     mismatches: list[Mismatch]
+    alignments: list[str]  # what the harness aligned between the engines' readings of a URDF (none for MJCF)
 
 
 class Pointwise(TypedDict):
@@ -122,7 +123,8 @@ class SystemResult(TypedDict, total=False):
 
     name: str
     description: str
-    mjcf: str
+    mjcf: str  # the model file (MJCF or URDF), relative to the checkout for the repository's own
+    model_format: str  # "mjcf" or "urdf"
     equations: str
     coordinates: list[str]
     joints: list[str]

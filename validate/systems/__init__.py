@@ -1,7 +1,8 @@
 """The systems registry: `models/<name>.xml` paired with `equations/<name>.py` by file stem.
 
-Nothing lists systems by hand: they are discovered. The compiled MJCF is the only source of
-numbers; `System.params` is what the equations module reads from it.
+Nothing lists systems by hand: they are discovered. The compiled model (MJCF, or a URDF read by
+both engines: validate/systems/urdf.py) is the only source of numbers; `System.params` is what the
+equations module reads from it.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from typing import Any
 
 from ..errors import HarnessError, unknown_name
 from ..inputs import regular_file
+from . import urdf
 from .forms import normalize
 from .modelview import ModelView, from_mujoco
 from .overrides import apply_overrides, parse
@@ -26,6 +28,7 @@ PACKAGE_ROOT = Path(__file__).resolve().parents[2]
 MODELS_DIR = PACKAGE_ROOT / "models"
 EQUATIONS_PACKAGE = "lagrange_xval.equations"
 MAX_MJCF_BYTES = 16 * 2**20  # the models of the notes are ~3 kB
+MODEL_SUFFIXES = (".xml", ".urdf")  # what a folder of systems is searched for (the format is the root element's)
 
 REQUIRED_ATTRIBUTES = (
     "DESCRIPTION",
@@ -59,20 +62,40 @@ def unpaired() -> dict[str, list[str]]:
     return {"models without equations": sorted(models - eqs), "equations without model": sorted(eqs - models)}
 
 
-def mjcf_text(path: Path, overrides: tuple[tuple[str, float], ...] = (), text: str | None = None) -> str:
-    """The MJCF text the engines parse: the file (or `text`, an edited copy of it), with any overrides
-    applied at full precision."""
+def _model_file(path: Path) -> tuple[str, str]:
+    """(root element, text) of a model file: <mujoco> (MJCF) or <robot> (URDF); anything else is a
+    one-line error."""
     import xml.etree.ElementTree as ET
 
     try:
-        if text is None:
-            text = regular_file(path, "MJCF file", max_bytes=MAX_MJCF_BYTES).decode()
+        text = regular_file(path, "model file", max_bytes=MAX_MJCF_BYTES).decode()
         root = ET.fromstring(text).tag
     except (ET.ParseError, UnicodeDecodeError) as exc:
         raise HarnessError(f"{path.name}: not well-formed XML ({exc}).") from None
-    if root != "mujoco":
-        # MuJoCo would also compile URDF; the harness reads MJCF only.
-        raise HarnessError(f"{path.name}: not an MJCF file (root element <{root}>, expected <mujoco>).")
+    if root not in ("mujoco", urdf.ROOT):
+        raise HarnessError(
+            f"{path.name}: not a model file (root element <{root}>, expected <mujoco> for MJCF or <robot> for URDF)."
+        )
+    return root, text
+
+
+def mjcf_text(path: Path, overrides: tuple[tuple[str, float], ...] = (), text: str | None = None) -> str:
+    """The MJCF text the engines parse: the file (or `text`, an edited copy of it), with any overrides
+    applied at full precision. A URDF file becomes the MJCF of MuJoCo's reading of it (every number
+    written back at full precision: validate/systems/urdf.py)."""
+    import xml.etree.ElementTree as ET
+
+    if text is None:
+        root, text = _model_file(path)
+        if root == urdf.ROOT:
+            text = urdf.as_mjcf(text, path.name)
+    else:
+        try:
+            root = ET.fromstring(text).tag
+        except ET.ParseError as exc:
+            raise HarnessError(f"{path.name}: not well-formed XML ({exc}).") from None
+        if root != "mujoco":
+            raise HarnessError(f"{path.name}: not an MJCF document (root element <{root}>, expected <mujoco>).")
     if overrides:
         text = apply_overrides(text, overrides)
     return _absolute_includes(text, path.resolve().parent)
@@ -93,6 +116,12 @@ def _absolute_includes(text: str, folder: Path) -> str:
 
 def _ignore_warning(message: str) -> None:
     pass
+
+
+def compile_model(path: Path) -> Any:
+    """MuJoCo's model of a model file, MJCF or URDF (validate/systems/urdf.py)."""
+    root, text = _model_file(path)
+    return urdf.compile_urdf(text, path.name) if root == urdf.ROOT else compile_mjcf(path)
 
 
 def compile_mjcf(path: Path, overrides: tuple[tuple[str, float], ...] = (), text: str | None = None) -> Any:
@@ -133,11 +162,11 @@ class System:
 
     @classmethod
     def from_files(cls, model: str | Path, equations: str | Path, *, name: str | None = None) -> System:
-        """A system from any MJCF file and any equations module file (named after the module's file
-        stem unless `name` is given); both are checked before anything is computed."""
+        """A system from any model file (MJCF or URDF) and any equations module file (named after the
+        module's file stem unless `name` is given); both are checked before anything is computed."""
         model, equations = Path(model), Path(equations)
         if not model.is_file():
-            raise HarnessError(f"model file not found: {model} (give an MJCF .xml file).")
+            raise HarnessError(f"model file not found: {model} (give an MJCF .xml or a URDF .urdf file).")
         module = load_module(equations)
         system = cls(name=name or equations.stem, mjcf=model, equations=module)
         system.mujoco_model()  # a model MuJoCo refuses fails here, in one line
@@ -187,12 +216,39 @@ class System:
     def description(self) -> str:
         return str(self.equations.DESCRIPTION)
 
+    @property
+    def model_format(self) -> str:
+        """ "urdf" or "mjcf": the format of the model file."""
+        return "urdf" if self.text is None and self._file()[0] == urdf.ROOT else "mjcf"
+
+    @property
+    def reads_urdf(self) -> bool:
+        """Whether both engines read the URDF file itself (overrides and probes edit its MJCF form)."""
+        return self.model_format == "urdf" and not self.overrides
+
+    def urdf_text(self) -> str:
+        """The URDF file's text (only for `reads_urdf` systems)."""
+        return self._file()[1]
+
+    def _file(self) -> tuple[str, str]:
+        if "file" not in self._cache:
+            self._cache["file"] = _model_file(self.mjcf)
+        return self._cache["file"]
+
+    @property
+    def alignments(self) -> list[str]:
+        """What the harness does so that the engines' readings of a URDF agree (none for MJCF)."""
+        return urdf.alignments(self.urdf_text(), self.mjcf.name) if self.model_format == "urdf" else []
+
     def mujoco_model(self) -> Any:
         """The compiled MjModel (compiled once per System)."""
         if "model" not in self._cache:
             from .scope import refusals  # reads the compiled model with mujoco: loaded when first needed
 
-            model = compile_mjcf(self.mjcf, self.overrides, self.text)
+            if self.reads_urdf:
+                model = urdf.compile_urdf(self.urdf_text(), self.mjcf.name)
+            else:
+                model = compile_mjcf(self.mjcf, self.overrides, self.text)
             refused = refusals(model)  # before any dynamics: what no source could compare
             if refused:
                 more = f" (and {len(refused) - 1} more: {'; '.join(refused[1:])})" if len(refused) > 1 else ""
@@ -274,18 +330,25 @@ def load_module(path: Path) -> ModuleType:
 
 
 def pairs_in(folder: Path) -> list[tuple[Path, Path]]:
-    """(model, equations) of every system in a user's folder: each <name>.xml with its <name>.py. A
-    file without its partner is an error naming it: a derivation left unchecked is never silent."""
+    """(model, equations) of every system in a user's folder: each <name>.xml (MJCF) or <name>.urdf
+    with its <name>.py. A file without its partner is an error naming it: a derivation left unchecked
+    is never silent."""
     folder = Path(folder)
     if not folder.is_dir():
         raise HarnessError(f"systems folder not found: {folder} (give a folder of <name>.xml and <name>.py).")
-    models = {p.stem: p for p in folder.glob("*.xml")}
+    found = sorted(p for p in folder.iterdir() if p.suffix in MODEL_SUFFIXES and p.is_file())
+    twice = sorted({p.stem for p in found if sum(q.stem == p.stem for q in found) > 1})
+    if twice:
+        raise HarnessError(f"{folder}: {', '.join(twice)} has both an .xml and a .urdf model; keep one.")
+    models = {p.stem: p for p in found}
     modules = {p.stem: p for p in folder.glob("*.py") if not p.stem.startswith("_")}
     lonely = sorted(models.keys() ^ modules.keys())
     if lonely:
-        raise HarnessError(f"{folder}: {', '.join(lonely)} has no partner (each system is <name>.xml and <name>.py).")
+        raise HarnessError(
+            f"{folder}: {', '.join(lonely)} has no partner (each system is <name>.xml or <name>.urdf, and <name>.py)."
+        )
     if not models:
-        raise HarnessError(f"{folder}: no system found (each system is <name>.xml and <name>.py).")
+        raise HarnessError(f"{folder}: no system found (each system is <name>.xml or <name>.urdf, and <name>.py).")
     return [(models[n], modules[n]) for n in sorted(models)]
 
 

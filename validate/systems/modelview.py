@@ -54,7 +54,7 @@ class ModelView(Mapping[str, Any]):
         return len(self._values)
 
 
-def _quat_to_mat(quat: np.ndarray) -> np.ndarray:
+def quat_to_mat(quat: np.ndarray) -> np.ndarray:
     w, x, y, z = quat / np.linalg.norm(quat)
     return np.array(
         [
@@ -82,7 +82,7 @@ def from_mujoco(model: Any, source: str) -> ModelView:
     damper_off = model.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_DAMPER)
     for b in range(1, model.nbody):
         n = name(mujoco.mjtObj.mjOBJ_BODY, b)
-        rot = _quat_to_mat(np.array(model.body_iquat[b]))
+        rot = quat_to_mat(np.array(model.body_iquat[b]))
         values[f"body/{n}/mass"] = float(model.body_mass[b])
         values[f"body/{n}/com"] = np.array(model.body_ipos[b], dtype=float)
         values[f"body/{n}/inertia"] = rot @ np.diag(model.body_inertia[b]) @ rot.T

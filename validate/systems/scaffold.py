@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import HarnessError
-from . import compile_mjcf
+from . import compile_model
 from .modelview import ModelView, from_mujoco
 
 
@@ -85,7 +85,7 @@ def _fields(view: ModelView, bodies: list[str], joints: list[str], actuators: li
 
 def module_text(name: str, model: Path) -> str:
     """The text of the starting equations module for the MJCF at `model`."""
-    mj = compile_mjcf(model)
+    mj = compile_model(model)
     view = from_mujoco(mj, model.name)
     keys = list(view)
     bodies = [k.split("/")[1] for k in keys if k.startswith("body/") and k.endswith("/mass")]
@@ -222,11 +222,14 @@ def write_module(name: str, model: Path, folder: Path | None = None) -> Path:
         raise HarnessError(f"'{name}' is not a valid module name: use letters, digits and _ (not first a digit).")
     model = Path(model)
     if not model.is_file():
-        raise HarnessError(f"model file not found: {model} (give an MJCF .xml file).")
+        raise HarnessError(f"model file not found: {model} (give an MJCF .xml or a URDF .urdf file).")
     path = Path(folder or model.parent) / f"{name}.py"
+    if path.parent.exists() and not path.parent.is_dir():
+        raise HarnessError(f"--dir {path.parent} is a file, not a folder.")
     if path.exists():
         raise HarnessError(f"{path} exists already; choose another NAME or --dir (nothing is overwritten).")
     text = module_text(name, model)  # everything checked before anything is written
+    path.parent.mkdir(parents=True, exist_ok=True)
     staged = path.with_name(f".{path.name}.tmp")
     staged.write_text(text)
     os.replace(staged, path)

@@ -1,0 +1,208 @@
+"""URDF as well as MJCF: both engines read the same file, each with its own parser.
+
+MuJoCo compiles the URDF with its own URDF reader; Pinocchio reads it with `buildModelFromXML`. What
+each reader does on its own, and what the harness does so that the two readings describe the same
+chain, is stated here and listed in the results (`alignments`), never done silently:
+
+- **geometry**: `<visual>` and `<collision>` elements are removed before either engine reads the file.
+  A URDF's dynamics are its `<inertial>` elements; meshes would have to be found and parsed (MuJoCo
+  cannot read .dae files), and collision geometry would bring contacts, which the harness refuses.
+  A link without `<inertial>` is massless in both readings (URDF's rule; MuJoCo would otherwise
+  infer a mass from its geoms).
+- **fixed joints**: MuJoCo fuses a link on a fixed joint into its parent body (`fusestatic`, its URDF
+  default); Pinocchio keeps it as a frame and adds its inertia to the parent joint's. Both give the
+  same inertia per moving body; the fused link's name is not a MuJoCo body.
+- **joint limits**: MuJoCo enforces `<limit lower upper>` as constraint forces, Pinocchio's
+  algorithms ignore them; the harness compares the chain's equations of motion, so MuJoCo's limits
+  are disabled (`<flag limit="disable"/>`).
+- **effort limits**: MuJoCo turns `<limit effort>` into a clamp of the actuator force on that joint
+  (`actuatorfrcrange`); Pinocchio has none; the clamp is removed.
+- **continuous joints**: Pinocchio represents them by (cos q, sin q), MuJoCo by q; the harness hands
+  Pinocchio a revolute joint with unbounded limits instead (the same dynamics, one coordinate).
+- **transmissions**: a URDF declares its motors as `<transmission>` elements, which MuJoCo's reader
+  ignores; each becomes a MuJoCo motor named after its `<actuator>`, on its joint, with its
+  `<mechanicalReduction>` as gear (Pinocchio has no actuators: the inputs are applied as
+  generalized forces, as for an MJCF model).
+- **what URDF does not say**: gravity (-9.81 m/s^2 along z, MuJoCo's default, copied into Pinocchio),
+  MuJoCo's timestep (0.002 s) and integrator (Euler), no armature, no springs.
+"""
+
+from __future__ import annotations
+
+import re
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from typing import Any
+
+from ..errors import HarnessError
+
+ROOT = "robot"
+UNBOUNDED = 1e10  # the limits of a continuous joint handed to Pinocchio as revolute, in rad
+_GEOMETRY = re.compile(r"<(visual|collision)\b[^>]*?/>|<(visual|collision)\b.*?</\2\s*>", re.S)
+
+
+@dataclass(frozen=True)
+class Transmission:
+    actuator: str
+    joint: str
+    gear: float
+
+
+def _root(text: str, source: str) -> ET.Element:
+    try:
+        return ET.fromstring(text)
+    except ET.ParseError as exc:
+        raise HarnessError(f"{source}: not well-formed XML ({exc}).") from None
+
+
+def without_geometry(text: str) -> str:
+    """The URDF with every <visual> and <collision> element removed (comments and layout kept)."""
+    return _GEOMETRY.sub("", text)
+
+
+def transmissions(text: str, source: str) -> list[Transmission]:
+    """The URDF's <transmission> elements: one actuator on one joint each (others are refused)."""
+    out = []
+    for tr in _root(text, source).iter("transmission"):
+        name = tr.get("name", "?")
+        joints, actuators = tr.findall("joint"), tr.findall("actuator")
+        if len(joints) != 1 or len(actuators) != 1:
+            raise HarnessError(
+                f"{source}: transmission '{name}' has {len(joints)} joint(s) and {len(actuators)} actuator(s); "
+                "the harness reads one actuator on one joint per transmission"
+            )
+        reduction = actuators[0].findtext("mechanicalReduction") or tr.findtext("mechanicalReduction") or "1"
+        try:
+            gear = float(reduction)
+        except ValueError:
+            raise HarnessError(
+                f"{source}: transmission '{name}': mechanicalReduction {reduction!r} is not a number."
+            ) from None
+        out.append(Transmission(actuators[0].get("name") or name, joints[0].get("name", ""), gear))
+    return out
+
+
+def continuous_joints(text: str, source: str) -> list[str]:
+    return [j.get("name", "?") for j in _root(text, source).iter("joint") if j.get("type") == "continuous"]
+
+
+def _no_log(message: str) -> None:
+    pass
+
+
+def _spec(text: str, source: str) -> Any:
+    """MuJoCo's MjSpec of the URDF `text`, with the alignments of the module docstring."""
+    import mujoco
+
+    mujoco.set_mju_user_warning(_no_log)  # MuJoCo would append to MUJOCO_LOG.TXT in the working directory
+    try:
+        spec = mujoco.MjSpec.from_string(without_geometry(text))
+    except Exception as exc:  # mujoco raises ValueError with a multi-line message
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise HarnessError(f"{source}: MuJoCo cannot read this URDF: {first}") from None
+    spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_LIMIT)
+    for joint in spec.joints:
+        joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_FALSE
+    names = {j.name for j in spec.joints}
+    for tr in transmissions(text, source):
+        if tr.joint not in names:
+            raise HarnessError(
+                f"{source}: transmission of '{tr.actuator}' drives joint '{tr.joint}', which MuJoCo's reading lacks "
+                f"(moving joints: {', '.join(sorted(names)) or 'none'})"
+            )
+        motor = spec.add_actuator(name=tr.actuator, target=tr.joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        motor.gear[0] = tr.gear
+    return spec
+
+
+def compile_urdf(text: str, source: str) -> Any:
+    """MuJoCo's model of the URDF `text`, with the alignments of the module docstring."""
+    spec = _spec(text, source)
+    try:
+        return spec.compile()
+    except Exception as exc:
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise HarnessError(f"{source}: MuJoCo cannot compile this URDF: {first}") from None
+
+
+def for_pinocchio(text: str, source: str) -> str:
+    """The URDF text Pinocchio reads: geometry removed, continuous joints as revolute (one angle)."""
+    root = _root(without_geometry(text), source)
+    for joint in root.iter("joint"):
+        if joint.get("type") == "continuous":
+            joint.set("type", "revolute")
+            for old in joint.findall("limit"):
+                joint.remove(old)
+            ET.SubElement(joint, "limit", lower=repr(-UNBOUNDED), upper=repr(UNBOUNDED), effort="0", velocity="0")
+    return ET.tostring(root, encoding="unicode")
+
+
+def as_mjcf(text: str, source: str) -> str:
+    """An MJCF document whose compiled model equals MuJoCo's reading of the URDF (every number of
+    the model view written at full precision and read back): what probes and overrides edit."""
+    from .modelview import from_mujoco
+    from .set_values import set_values
+
+    spec = _spec(text, source)
+    view = from_mujoco(compile_urdf(text, source), source)
+    numeric = {k: v for k, v in view.items() if not isinstance(v, str)}
+    return set_values(spec.to_xml(), numeric, model_view=view)
+
+
+def alignments(text: str, source: str) -> list[str]:
+    """What the harness did so that MuJoCo's and Pinocchio's readings of this URDF describe the same
+    chain, one line each, naming the elements (the module docstring says why)."""
+    root = _root(text, source)
+    out = []
+    geometry = [
+        f"{link.get('name', '?')}"
+        for link in root.iter("link")
+        if link.find("visual") is not None or link.find("collision") is not None
+    ]
+    if geometry:
+        out.append(
+            f"visual and collision geometry removed from {len(geometry)} link(s) ({', '.join(geometry[:6])}"
+            f"{', ...' if len(geometry) > 6 else ''}): a URDF's dynamics are its <inertial> elements"
+        )
+    massless = [link.get("name", "?") for link in root.iter("link") if link.find("inertial") is None]
+    if massless:
+        out.append(f"link(s) without <inertial>, massless in both readings: {', '.join(massless)}")
+    fixed = [j.get("name", "?") for j in root.iter("joint") if j.get("type") == "fixed"]
+    if fixed:
+        out.append(
+            f"fixed joint(s) {', '.join(fixed)}: MuJoCo fuses the child link into its parent body, Pinocchio "
+            "adds its inertia to the parent joint's"
+        )
+    limited = [
+        j.get("name", "?")
+        for j in root.iter("joint")
+        if j.get("type") in ("revolute", "prismatic") and j.find("limit") is not None
+    ]
+    if limited:
+        out.append(
+            f"joint limits of {', '.join(limited)} not enforced: MuJoCo's limit constraints disabled (Pinocchio's "
+            "algorithms have none, nor do equations of motion)"
+        )
+    effort = []
+    for joint in root.iter("joint"):
+        limit = joint.find("limit")
+        if limit is not None and limit.get("effort", "0").strip() not in ("0", "0.0", ""):
+            effort.append(joint.get("name", "?"))
+    if effort:
+        out.append(f"MuJoCo's clamp of the actuator force at the URDF effort limit removed on {', '.join(effort)}")
+    continuous = continuous_joints(text, source)
+    if continuous:
+        out.append(
+            f"continuous joint(s) {', '.join(continuous)} handed to Pinocchio as revolute with unbounded limits "
+            "(one angle, as MuJoCo reads them, instead of cos/sin)"
+        )
+    for ext in root.findall("mujoco"):
+        inner = "".join(ET.tostring(child, encoding="unicode").strip() for child in ext)
+        out.append(f"MuJoCo's own <mujoco> extension read by MuJoCo only (Pinocchio ignores it): {inner[:200]}")
+    for tr in transmissions(text, source):
+        out.append(f"transmission of '{tr.actuator}' on joint '{tr.joint}' made a MuJoCo motor, gear {tr.gear:g}")
+    out.append(
+        "not in URDF, MuJoCo's defaults used: gravity (0, 0, -9.81) m/s^2 (copied into Pinocchio), timestep "
+        "0.002 s, Euler integrator, no armature, no springs"
+    )
+    return out
