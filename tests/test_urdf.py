@@ -112,6 +112,14 @@ def test_a_mujoco_only_extension_is_named_as_a_parity_difference(tmp_path):
         ('type="continuous"', 'type="floating"', "joint 'yaw' is a free joint"),
         ('<mass value="1.7"/>', '<mass value="-1.7"/>', "MuJoCo cannot"),
         ("</robot>", "", "not well-formed XML"),
+        (
+            "</robot>",
+            '<link name="l4"><inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4" ixy="0" ixz="0" '
+            'iyz="0"/></inertial></link><joint name="wrist" type="revolute"><parent link="link3"/><child link="l4"/>'
+            '<axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/><mimic joint="elbow"/></joint>'
+            "</robot>",
+            "coupling joint 'wrist' to joint 'elbow'",
+        ),
         ('<child link="link3"/>', '<child link="link9"/>', "MuJoCo cannot"),
     ],
 )

@@ -80,10 +80,14 @@ def refusals(model: Any) -> list[str]:
                 '<flag contact="disable"/> in <option>'
             )
     for e in range(model.neq if constraints else 0):
-        out.append(
-            f"equality constraint '{_name(model, mujoco.mjtObj.mjOBJ_EQUALITY, e, 'equality')}': constraint forces "
-            "cannot be compared (the hand equations of a chain have none)"
-        )
+        what = f"equality constraint '{_name(model, mujoco.mjtObj.mjOBJ_EQUALITY, e, 'equality')}'"
+        if int(model.eq_type[e]) == int(mujoco.mjtEq.mjEQ_JOINT):  # a URDF <mimic> becomes one, unnamed
+            joints = [
+                _name(model, mujoco.mjtObj.mjOBJ_JOINT, int(i), "joint")
+                for i in (model.eq_obj1id[e], model.eq_obj2id[e])
+            ]
+            what += f" coupling joint '{joints[0]}' to joint '{joints[1]}' (a URDF <mimic> is read as one)"
+        out.append(f"{what}: constraint forces cannot be compared (the hand equations of a chain have none)")
     if constraints and not _disabled(model, mujoco.mjtDisableBit.mjDSBL_LIMIT):
         for limited in np.nonzero(model.jnt_limited)[0]:
             out.append(
