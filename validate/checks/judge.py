@@ -37,7 +37,7 @@ from .pointwise import States, error_row, random_states
 from .probes import describe_ties
 from .tolerances import TOLERANCES, Tolerances
 
-ENGINES = ("mujoco", "pinocchio")
+ENGINES = ("mujoco", "pinocchio", "symbolic")  # the references a derivation is judged against
 DEFAULT_PROBES = 4
 TERM_ORDER = (
     "printed parameters",

@@ -1,4 +1,5 @@
-"""The three sources of dynamics behind one interface: the hand equations, MuJoCo, Pinocchio.
+"""The four sources of dynamics behind one interface: the hand equations, MuJoCo, Pinocchio, and the
+model's own equations derived symbolically (engines/derivation.py, engines/symbolic.py).
 
 Every source works on batches of states in the notes' coordinates: `q`, `v`, `tau`, `a` are
 (N, n) arrays, and each method returns arrays with a leading N axis. Engines are imported lazily.
@@ -16,7 +17,7 @@ from .hand import HandSource
 
 __all__ = ["SOURCE_NAMES", "Kinematics", "MappedSource", "Source", "make_source", "make_sources"]
 
-SOURCE_NAMES = ("hand", "mujoco", "pinocchio")
+SOURCE_NAMES = ("hand", "mujoco", "pinocchio", "symbolic")
 
 
 class MappedSource:
@@ -95,7 +96,7 @@ class MappedSource:
 
 
 def make_source(system: Any, name: str) -> Any:
-    """The source called `name` for `system` ("hand", "mujoco" or "pinocchio").
+    """The source called `name` for `system` ("hand", "mujoco", "pinocchio" or "symbolic").
 
     Engines read joint coordinates; where the notes' coordinates are a linear map of them
     (`JOINT_MAP` in the equations module), the engine sources are wrapped in that map.
@@ -110,6 +111,10 @@ def make_source(system: Any, name: str) -> Any:
         from .pinocchio import PinocchioSource
 
         engine = PinocchioSource(system)
+    elif name == "symbolic":
+        from .symbolic import SymbolicSource  # sympy: loaded when first asked for
+
+        engine = SymbolicSource(system)
     else:
         raise unknown_name("source", name, SOURCE_NAMES)
     A = system.joint_map

@@ -1,0 +1,168 @@
+"""The model's own equations, derived symbolically (engines/derivation.py), as a fourth source.
+
+Independent of both engines and of the user: the equations come from the compiled model's numbers
+by the notes' method, and are evaluated by numpy code that sympy generates with common
+subexpressions eliminated, vectorised over states. A derivation and its generated code are kept per
+model *structure* (names, topology, zero patterns, axes; engines/derivation.structure_key), so the
+probes, which change only values, reuse them; the parameter values are arguments of the code.
+"""
+
+from __future__ import annotations
+
+import threading
+from typing import Any
+
+import numpy as np
+
+from .base import Kinematics
+from .derivation import Derivation, derive, parameter_values, structure_key
+from .hand import solve_or_nan
+
+_LOCK = threading.Lock()
+_DERIVED: dict[Any, Derivation] = {}
+_CODE: dict[tuple[Any, str], Any] = {}
+
+
+def derivation_of(system: Any) -> Derivation:
+    """The symbolic derivation of `system`'s model in its joints' coordinates (kept per structure)."""
+    key = structure_key(system.view, system.joints)
+    with _LOCK:
+        if key not in _DERIVED:
+            _DERIVED[key] = derive(system.view, system.joints)
+        return _DERIVED[key]
+
+
+def _flat(d: Derivation, part: str) -> tuple[list[Any], list[tuple[str, tuple[int, ...]]]]:
+    """The expressions of one part of the derivation, flattened, and how to reshape them."""
+    if part == "dynamics":
+        items = {"M": d.M, "Cv": d.Cv, "G": d.G, "passive": d.passive, "T": d.T, "V": d.V}
+    else:
+        items = {}
+        for b in d.bodies:
+            for name in ("com", "origin", "rotation", "J_com", "J_origin", "J_omega"):
+                items[f"{name}/{b}"] = getattr(d, name)[b]
+            items[f"T_body/{b}"], items[f"V_body/{b}"] = d.T_body[b], d.V_body[b]
+    exprs, layout = [], []
+    for name, e in items.items():
+        shape = tuple(e.shape) if hasattr(e, "shape") else ()
+        if name.split("/")[0] in ("Cv", "G", "passive", "com", "origin"):  # columns: vectors
+            shape = shape[:1]
+        exprs.extend(list(e) if shape else [e])
+        layout.append((name, shape))
+    return exprs, layout
+
+
+def _code(d: Derivation, key: Any, part: str) -> Any:
+    """numpy code for one part, generated once per structure: f(q..., v..., params...) -> list."""
+    with _LOCK:
+        if (key, part) not in _CODE:
+            import sympy as sp
+
+            exprs, layout = _flat(d, part)
+            args = [*d.q, *d.v, *d.source]
+            fn = sp.lambdify(args, exprs, modules="numpy", cse=True)
+            _CODE[(key, part)] = (fn, layout)
+        return _CODE[(key, part)]
+
+
+class SymbolicSource:
+    """The derived equations evaluated at batches of states, in joint coordinates."""
+
+    name = "symbolic"
+
+    def __init__(self, system: Any) -> None:
+        self.system = system
+        self.derivation = derivation_of(system)
+        self.key = structure_key(system.view, system.joints)
+        values = parameter_values(self.derivation, system.view)
+        self.params = [values[s] for s in self.derivation.source]
+        self.n = system.nv
+        body_index = {b: i for i, b in enumerate(self.derivation.bodies)}
+        self.bodies = [body_index[b] for b in system.bodies]
+
+    def _eval(self, part: str, q: np.ndarray, v: np.ndarray) -> dict[str, np.ndarray]:
+        fn, layout = _code(self.derivation, self.key, part)
+        q, v = np.asarray(q, dtype=float), np.asarray(v, dtype=float)
+        batch = np.broadcast_shapes(q.shape, v.shape)[:-1]
+        raw = fn(*np.moveaxis(q, -1, 0), *np.moveaxis(v, -1, 0), *self.params)
+        out, k = {}, 0
+        for name, shape in layout:
+            size = int(np.prod(shape)) if shape else 1
+            parts = [np.broadcast_to(np.asarray(x, dtype=float), batch) for x in raw[k : k + size]]
+            k += size
+            arr = np.stack(parts, axis=-1) if shape else parts[0]
+            out[name] = arr.reshape(*batch, *shape) if shape else arr
+        return out
+
+    def _dynamics(self, q: np.ndarray, v: np.ndarray) -> dict[str, np.ndarray]:
+        return self._eval("dynamics", q, v)
+
+    def mass_matrix(self, q: np.ndarray) -> np.ndarray:
+        return self._dynamics(q, np.zeros_like(q))["M"]
+
+    def bias(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        d = self._dynamics(q, v)
+        return d["Cv"] + d["G"]
+
+    def passive(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return self._dynamics(q, v)["passive"]
+
+    def forward(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        d = self._dynamics(q, v)
+        return solve_or_nan(d["M"], tau + d["passive"] - d["Cv"] - d["G"])
+
+    def inverse(self, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
+        d = self._dynamics(q, v)
+        return np.einsum("...ij,...j->...i", d["M"], a) + d["Cv"] + d["G"] - d["passive"]
+
+    def energies(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        d = self._dynamics(q, v)
+        return d["T"], d["V"]
+
+    def evaluate(
+        self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray | None = None
+    ) -> dict[str, np.ndarray]:
+        d = self._dynamics(q, v)
+        bias = d["Cv"] + d["G"]
+        qacc = solve_or_nan(d["M"], tau + d["passive"] - bias)
+        kin = self.kinematics(q, v)
+        return {
+            "M": d["M"],
+            "bias": bias,
+            "passive": d["passive"],
+            "qacc": qacc,
+            "tau_inverse": np.einsum("...ij,...j->...i", d["M"], qacc if a_ref is None else a_ref)
+            + bias
+            - d["passive"],
+            "T": d["T"],
+            "V": d["V"],
+            "body_positions": kin.com_position,
+            "body_rotations": kin.rotation,
+        }
+
+    def kinematics(self, q: np.ndarray, v: np.ndarray) -> Kinematics:
+        k = self._eval("kinematics", q, v)
+        bodies = [self.derivation.bodies[i] for i in self.bodies]
+
+        def stack(name: str) -> np.ndarray:
+            return np.stack([k[f"{name}/{b}"] for b in bodies], axis=-3 if name == "rotation" else -2)
+
+        def rate(name: str) -> np.ndarray:  # J q' per body
+            return np.stack([np.einsum("...ij,...j->...i", k[f"{name}/{b}"], v) for b in bodies], axis=-2)
+
+        return Kinematics(
+            com_position=stack("com"),
+            com_velocity=rate("J_com"),
+            origin_position=stack("origin"),
+            origin_velocity=rate("J_origin"),
+            rotation=stack("rotation"),
+            angular_velocity=rate("J_omega"),
+            kinetic_energy=np.stack([k[f"T_body/{b}"] for b in bodies], axis=-1),
+            potential_energy=np.stack([k[f"V_body/{b}"] for b in bodies], axis=-1),
+        )
+
+    def body_positions(self, q: np.ndarray) -> np.ndarray:
+        return self.kinematics(q, np.zeros_like(q)).com_position
+
+    def body_rotations(self, q: np.ndarray) -> np.ndarray:
+        return self.kinematics(q, np.zeros_like(q)).rotation
