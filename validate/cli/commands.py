@@ -293,6 +293,52 @@ def cmd_new(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_derive(args: argparse.Namespace) -> int:
+    """Prints the model's equations of motion, derived symbolically, in the coordinates' names; the
+    text is kept in the cache (`derive` kind), keyed by the model's structure, the names, the format
+    and the harness's code."""
+    import hashlib
+
+    from ..dynamics import cache
+    from ..engines.derivation import derive, structure_key
+    from ..engines.readable import as_text, equations
+    from ..systems import model_view
+
+    if args.system or args.equations is not None:
+        if args.equations is not None and args.model is None:
+            raise HarnessError("--equations needs --model: the model whose equations are derived.")
+        system = one_system(args)
+        view, joints, coordinates, joint_map = system.view, system.joints, system.coordinates, system.joint_map
+    elif args.model is not None:
+        view = model_view(args.model)
+        joints = tuple(k.split("/")[1] for k in view if k.startswith("joint/") and k.endswith("/type"))
+        coordinates, joint_map = joints, None
+    else:
+        raise HarnessError("name a SYSTEM (see `lagrange-xval list`) or give --model PATH.")
+    if args.coordinates:
+        names = tuple(x.strip() for x in args.coordinates.split(","))
+        if len(names) != len(joints) or not all(n.isidentifier() for n in names) or len(set(names)) != len(names):
+            raise HarnessError(
+                f"--coordinates needs {len(joints)} distinct names (letters, digits, _), one per joint "
+                f"({', '.join(joints)}); got {args.coordinates!r}."
+            )
+        coordinates = names
+    fmt = "latex" if args.latex else "python" if args.python else "text"
+    where = cache.folder(cache.DEFAULT, "derive")
+    what = repr((structure_key(view, joints), tuple(coordinates), None if joint_map is None else joint_map.tolist(), fmt))
+    key = hashlib.sha256((cache.harness_hash() + what).encode()).hexdigest()
+    path = None if where is None else where / f"{key[:32]}.npz"
+    found = None if path is None else cache.load(path, key)
+    if found is not None and isinstance(found[1].get("text"), str):
+        text = found[1]["text"]
+    else:
+        text = as_text(equations(derive(view, joints), tuple(coordinates), joint_map), fmt)
+        if path is not None:
+            cache.store(path, key, {}, {"text": text})
+    print(text, end="")
+    return 0
+
+
 def cmd_replay(args: argparse.Namespace) -> int:
 
     return replay_command(args.system, args.save, args.results)
@@ -317,6 +363,7 @@ COMMANDS = {
     "simulate": cmd_simulate,
     "report": cmd_report,
     "new": cmd_new,
+    "derive": cmd_derive,
     "replay": cmd_replay,
     "stress": cmd_stress,
     "bench": cmd_bench,

@@ -187,6 +187,27 @@ def build_parser() -> argparse.ArgumentParser:
     new.add_argument(
         "--dir", type=path_arg, default=None, metavar="DIR", help="where to write NAME.py (default: the model's folder)"
     )
+    derive = command(
+        "derive",
+        help="the model's own equations of motion, derived symbolically (rotation-matrix method of the notes)",
+    )
+    derive.add_argument("system", nargs="?", help="a repository system (or give --model, with or without --equations)")
+    derive.add_argument("--model", type=path_arg, metavar="PATH", help="any MJCF or URDF model")
+    derive.add_argument(
+        "--equations",
+        type=path_arg,
+        metavar="PATH",
+        help="an equations module: its coordinates (and JOINT_MAP) name the equations",
+    )
+    derive.add_argument(
+        "--coordinates",
+        metavar="NAMES",
+        help="comma-separated names for the joints' coordinates, in the model's joint order",
+    )
+    form = derive.add_mutually_exclusive_group()
+    form.add_argument("--latex", action="store_true", help="print LaTeX instead of plain text")
+    form.add_argument("--python", action="store_true", help="print numpy code instead of plain text")
+
     replay = command("replay", help="a rerun recording of a system's trajectories")
     replay.add_argument("system")
     replay.add_argument("--save", type=path_arg, metavar="FILE", help="write an .rrd file instead of spawning a viewer")

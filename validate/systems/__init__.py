@@ -124,6 +124,19 @@ def compile_model(path: Path) -> Any:
     return urdf.compile_urdf(text, path.name) if root == urdf.ROOT else compile_mjcf(path)
 
 
+def model_view(path: Path) -> ModelView:
+    """The compiled model of a file (MJCF or URDF) as a ModelView, after the scope's refusals: what
+    `derive` reads when no equations module is given."""
+    from .scope import refusals
+
+    model = compile_model(Path(path))
+    refused = refusals(model)
+    if refused:
+        more = f" (and {len(refused) - 1} more)" if len(refused) > 1 else ""
+        raise HarnessError(f"{Path(path).name}: {refused[0]}{more}.")
+    return from_mujoco(model, Path(path).name)
+
+
 def compile_mjcf(path: Path, overrides: tuple[tuple[str, float], ...] = (), text: str | None = None) -> Any:
     """Compiles an MJCF file (or `text`, an edited copy of it) with MuJoCo; a bad file becomes a
     one-line HarnessError."""
