@@ -28,9 +28,10 @@ import numpy as np
 
 from ..engines import make_sources
 from ..errors import HarnessError
-from ..results.schema import Derivation, TermRow
+from ..results.schema import Derivation, Explanation, TermRow
 from ..systems.forms import not_provided_in, written_form
 from . import probes as probing
+from .explain import explain
 from .judge import ENGINES, EngineTerms, term_rows
 from .modelsync import equations_vs_model
 from .pointwise import States, random_states
@@ -292,6 +293,22 @@ def derivation_probes(system: Any, *, n_probes: int = probing.DEFAULT_PROBES, se
     return ProbeSet(found[1:], problems)
 
 
+def _explanations(system: Any, probe_systems: list[Any], terms: list[str], seed: int) -> list[Explanation]:
+    """The failing terms' entries as symbolic differences; an explanation that cannot be computed is
+    one line saying why, never a failed run."""
+    try:
+        return cast(list[Explanation], explain(system, probe_systems, terms, seed=seed))
+    except Exception as exc:  # noqa: BLE001 - the user's code or a model the derivation cannot read
+        return [
+            {
+                "term": terms[0] if terms else "?",
+                "entry": "",
+                "explained": False,
+                "statement": f"no symbolic explanation: {type(exc).__name__}: {exc}".strip(),
+            }
+        ]
+
+
 def judge_derivation(
     system: Any,
     states: States,
@@ -370,6 +387,9 @@ def judge_derivation(
     result["worst_term"] = {
         k: worst.get(k) for k in ("term", "engine", "probe", "max_abs", "scaled", "tolerance", "worst_state", "error")
     }
+    explained = _explanations(system, [p.system for p in probe_list], result["failing_terms"], seed)
+    if explained:
+        result["explanations"] = explained
     at_model = any(not r["passed"] for r in rows if r.get("probe") == 0)
     result["hidden_by_model_values"] = not at_model
     if result["hidden_by_model_values"] and misread is None:
@@ -388,6 +408,9 @@ def judge_derivation(
         result["statement"] = f"{first} disagrees at the model's parameters"
         if "error" in worst:
             result["statement"] += f": {worst['error']}"
+    first_explained = next((e for e in result.get("explanations", []) if e.get("explained")), None)
+    if first_explained:
+        result["statement"] += f"; {first_explained['entry']}: {first_explained['statement']}"
     spd = next((n["mass_matrix_not_spd"] for n in all_notes.values() if "mass_matrix_not_spd" in n), None)
     if spd:
         result["mass_matrix_not_spd"] = spd

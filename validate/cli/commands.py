@@ -325,7 +325,9 @@ def cmd_derive(args: argparse.Namespace) -> int:
         coordinates = names
     fmt = "latex" if args.latex else "python" if args.python else "text"
     where = cache.folder(cache.DEFAULT, "derive")
-    what = repr((structure_key(view, joints), tuple(coordinates), None if joint_map is None else joint_map.tolist(), fmt))
+    what = repr(
+        (structure_key(view, joints), tuple(coordinates), None if joint_map is None else joint_map.tolist(), fmt)
+    )
     key = hashlib.sha256((cache.harness_hash() + what).encode()).hexdigest()
     path = None if where is None else where / f"{key[:32]}.npz"
     found = None if path is None else cache.load(path, key)

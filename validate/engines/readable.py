@@ -57,6 +57,28 @@ def tidy(expr: Any, q: list[Any]) -> Any:
     return sp.Add(*(factor * sp.trigsimp(trig) for factor, trig in by_factor.items()))
 
 
+def transformed(d: Derivation, coordinates: tuple[str, ...], joint_map: Any, part: str) -> Any:
+    """One part of the derivation ("M", "Cv", "G", "passive", "T", "V") in the named coordinates,
+    q = joint_map @ (joint coordinates), not simplified: forces map by A^-T, M by A^-T M A^-1."""
+    import sympy as sp
+
+    q = [sp.Symbol(n, real=True) for n in coordinates]
+    v = [sp.Symbol(f"d{n}", real=True) for n in coordinates]
+    if joint_map is None:
+        Ainv = sp.eye(len(coordinates))
+    else:
+        inverse = np.linalg.inv(np.asarray(joint_map, dtype=float))
+        Ainv = sp.Matrix([[sp.nsimplify(x, rational=True) for x in row] for row in inverse])
+    qj, vj = Ainv * sp.Matrix(q), Ainv * sp.Matrix(v)
+    subs = {**dict(zip(d.q, qj, strict=True)), **dict(zip(d.v, vj, strict=True))}
+    expr = getattr(d, part)
+    if part == "M":
+        expr = Ainv.T * expr * Ainv
+    elif part in ("Cv", "G", "passive"):
+        expr = Ainv.T * expr
+    return sp.sympify(expr).xreplace(subs)
+
+
 def equations(d: Derivation, coordinates: tuple[str, ...] | None = None, joint_map: Any = None) -> Equations:
     """The derivation in the coordinates `coordinates` (default: the joints' names), where
     q = joint_map @ (joint coordinates) if a map is given; simplified, kept per derivation."""
@@ -69,32 +91,23 @@ def equations(d: Derivation, coordinates: tuple[str, ...] | None = None, joint_m
         if key in _DONE:
             return _DONE[key]
     q = [sp.Symbol(n, real=True) for n in names]
-    v = [sp.Symbol(f"d{n}", real=True) for n in names]
-    a = [sp.Symbol(f"dd{n}", real=True) for n in names]
-    tau = [sp.Symbol(f"tau_{n}", real=True) for n in names]
-    if A is None:
-        Ainv = sp.eye(len(names))
-    else:
-        Ainv = sp.Matrix([[sp.nsimplify(x, rational=True) for x in row] for row in np.linalg.inv(A)])
-    qj, vj = Ainv * sp.Matrix(q), Ainv * sp.Matrix(v)
-    subs = {**dict(zip(d.q, qj, strict=True)), **dict(zip(d.v, vj, strict=True))}
 
-    def fix(e: Any) -> Any:
-        return tidy(sp.sympify(e).xreplace(subs), q)
+    def part(name: str) -> Any:
+        expr = transformed(d, names, A, name)
+        return expr.applyfunc(lambda e: tidy(e, q)) if hasattr(expr, "applyfunc") else tidy(expr, q)
 
-    M = (Ainv.T * d.M * Ainv).applyfunc(fix)
     out = Equations(
         coordinates=names,
         q=tuple(q),
-        v=tuple(v),
-        a=tuple(a),
-        tau=tuple(tau),
-        T=fix(d.T),
-        V=fix(d.V),
-        M=M,
-        Cv=(Ainv.T * d.Cv).applyfunc(fix),
-        G=(Ainv.T * d.G).applyfunc(fix),
-        passive=(Ainv.T * d.passive).applyfunc(fix),
+        v=tuple(sp.Symbol(f"d{n}", real=True) for n in names),
+        a=tuple(sp.Symbol(f"dd{n}", real=True) for n in names),
+        tau=tuple(sp.Symbol(f"tau_{n}", real=True) for n in names),
+        T=part("T"),
+        V=part("V"),
+        M=part("M"),
+        Cv=part("Cv"),
+        G=part("G"),
+        passive=part("passive"),
         parameters={str(s): meaning for s, meaning in d.parameters.items()},
     )
     with _LOCK:

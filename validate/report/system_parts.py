@@ -60,6 +60,27 @@ def system_derivation(doc: Document, name: str, s: dict[str, Any]) -> None:
             for r in d.get("summary", [])
         ],
     )
+    explanations = d.get("explanations", [])
+    if explanations:
+        doc.p(
+            "What the wrong expressions lack, against the model's own equations derived symbolically (`lagrange-xval "
+            "derive`): each disagreeing entry's difference fitted onto the slips one mistake makes (a lost or doubled "
+            "term, a flipped sign, a swapped parameter, a lost factor, sin for cos), kept only where it reproduces "
+            "your numbers at states held back from the fit."
+        )
+        doc.table(
+            f"Symbolic differences of {name}'s hand derivation",
+            ("entry", "yours against the model's equations", "expected", "parameters"),
+            [
+                (
+                    e.get("entry"),
+                    e.get("statement") if e.get("explained") else f"(not explained) {e.get('statement')}",
+                    e.get("expected", ""),
+                    "; ".join(f"{k} = {v}" for k, v in sorted(e.get("symbols", {}).items())),
+                )
+                for e in explanations
+            ],
+        )
     failing = [r for r in d.get("terms", []) if not r.get("passed")]
     if failing:
         doc.table(

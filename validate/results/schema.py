@@ -91,6 +91,19 @@ class Pointwise(TypedDict):
     not_checked: NotRequired[list[str]]  # quantities the derivation does not provide
 
 
+class Explanation(TypedDict, total=False):
+    """A disagreeing entry of a term, written as a difference from the model's own equations."""
+
+    term: str  # "mass matrix", "gravity", ...
+    entry: str  # "M[theta, phi]", "G[theta]", ...
+    expected: str  # the model's own expression (sympy's notation, the model's parameter names)
+    explained: bool  # a fit reproduced the user's numbers at held-back states
+    statement: str  # "yours has m_link1 where expected has m_link2 in ...", or why none fits
+    difference: str  # yours - expected, when one term explains it
+    residual: float  # the fit's largest residual at the held-back states, relative to the entry's scale
+    symbols: dict[str, str]  # each parameter named in the statement: its model key and unit
+
+
 class Derivation(TypedDict, total=False):
     """The verdict on a derivation (the hand one or a printed form), term by term."""
 
@@ -116,6 +129,7 @@ class Derivation(TypedDict, total=False):
     disagrees_where: str
     reason: str  # why not applicable
     not_checked: list[str]  # terms whose functions the derivation does not provide
+    explanations: list[Explanation]  # each disagreeing entry as a symbolic difference (checks/explain.py)
 
 
 class SystemResult(TypedDict, total=False):

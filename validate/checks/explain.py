@@ -1,0 +1,288 @@
+"""What a wrong expression lacks: a failing term of a derivation written as a symbolic difference from
+the model's own equations (engines/derivation.py).
+
+For each entry of a disagreeing term (M[i, j], G[i], (C v)[i], passive[i], T, V), the user's numbers
+are taken at random states of the model and of the probe models (where every parameter moves by its
+own factor, so that no two parameters are confused), and the difference D = yours - expected is
+fitted onto the mistakes one slip typically makes in the expected expression E = sum_k t_k:
+
+    a term lost, doubled, with its sign flipped or a wrong number in front     D = c t_k  (c simple)
+    a parameter swapped for another of its kind (a mass, a length, an inertia) D = t_k' - t_k
+    a factor lost or an extra one                                              D = t_k / p - t_k, t_k p - t_k
+    sin for cos (or back), one coordinate for another in a trigonometric term  D = t_k' - t_k
+    two terms wrong at once                                                    D = c1 t_k + c2 t_l
+
+A fit is kept only if it reproduces the user's numbers to near round-off at states held back from the
+fit (another half of the samples); it is then stated symbolically, in the model's parameter names:
+"M[theta, theta]: yours = expected - 2*c_link2*l_link2*m_link2*cos(phi)". Where no simple form
+reproduces the numbers, the statement says so rather than guess.
+"""
+
+from __future__ import annotations
+
+import itertools
+import re
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any
+
+import numpy as np
+
+from ..engines.derivation import parameter_values
+from ..engines.readable import tidy, transformed
+from ..engines.symbolic import derivation_of
+from .pointwise import random_states
+
+PARTS = {
+    "mass matrix": "M",
+    "gravity": "G",
+    "velocity": "Cv",
+    "friction": "passive",
+    "kinetic energy": "T",
+    "potential energy": "V",
+}
+STATES_PER_MODEL = 16  # per model (the system's and each probe's): half fit, half held back
+FIT_RTOL = 1e-8  # a fit's residual at the held-back states, relative to the entry's scale
+MAX_CANDIDATES = 600
+SIMPLE = sorted(
+    {Fraction(s * a, b) for a in (1, 2, 3, 4) for b in (1, 2, 3, 4) for s in (1, -1)}, key=lambda f: (abs(f), f)
+)
+
+
+@dataclass(frozen=True)
+class Candidate:
+    basis: Any  # sympy: D = c * basis
+    kind: str  # "term", "swap", "drop", "extra", "trig", "argument"
+    text: str  # what the mistake is, when c is the one expected of it
+    fixed: Fraction | None  # the coefficient this mistake must have (None: any simple one)
+
+
+def _kind(symbol: Any) -> str:
+    name = str(symbol)
+    if name.startswith("I_"):
+        return "inertia"
+    if name[:2] in ("l_", "c_", "a_"):
+        return "length"
+    return name.split("_")[0]
+
+
+def candidates(expected: Any, q: list[Any], params: list[Any]) -> list[Candidate]:
+    """The single-slip differences from `expected`, most specific first."""
+    import sympy as sp
+
+    terms = [t for t in sp.Add.make_args(sp.expand(expected)) if t != 0] if expected != 0 else []
+    out: list[Candidate] = []
+    for t in terms:
+        present = [p for p in params if t.has(p)]
+        for p in present:
+            for r in params:
+                if r != p and _kind(r) == _kind(p) and not t.has(r):
+                    out.append(
+                        Candidate(t.xreplace({p: r}) - t, "swap", f"has {r} where expected has {p} in {t}", Fraction(1))
+                    )
+            out.append(Candidate(t / p - t, "drop", f"lacks the factor {p} in {t}", Fraction(1)))
+            out.append(Candidate(t * p - t, "extra", f"has an extra factor {p} in {t}", Fraction(1)))
+        for f in t.atoms(sp.sin, sp.cos):
+            other = (sp.cos if isinstance(f, sp.sin) else sp.sin)(f.args[0])
+            out.append(
+                Candidate(t.xreplace({f: other}) - t, "trig", f"has {other} where expected has {f} in {t}", Fraction(1))
+            )
+            for x in q:
+                if f.args[0] != x:
+                    g = f.func(x)
+                    out.append(
+                        Candidate(
+                            t.xreplace({f: g}) - t, "argument", f"has {g} where expected has {f} in {t}", Fraction(1)
+                        )
+                    )
+    for t in terms:
+        out.append(Candidate(t, "term", str(t), None))
+    return out[:MAX_CANDIDATES]
+
+
+def _simple(c: float) -> Fraction | None:
+    for f in SIMPLE:
+        if abs(c - float(f)) <= 1e-6 * max(1.0, abs(c)):
+            return f
+    return None
+
+
+def _plus(expr: Any) -> str:
+    """ "+ x" or "- x" for a sympy term."""
+    import sympy as sp
+
+    text = sp.sstr(expr)
+    return f"- {text[1:]}" if text.startswith("-") else f"+ {text}"
+
+
+def _coefficient_text(c: Fraction, basis: Any) -> str:
+    import sympy as sp
+
+    return _plus(sp.Rational(c.numerator, c.denominator) * basis)
+
+
+def _describe(cand: Candidate, c: Fraction) -> str:
+    if cand.kind != "term":
+        return f"yours {cand.text}"
+    diff = f"yours = expected {_coefficient_text(c, cand.basis)}"
+    what = {
+        Fraction(-1): f"lacks the term {cand.text}",
+        Fraction(1): f"has the term {cand.text} twice",
+        Fraction(-2): f"has the term {cand.text} with the wrong sign",
+    }.get(c)
+    return diff if what is None else f"yours {what} ({diff})"
+
+
+class _Samples:
+    """The entry's arguments at the fit and the held-back states: q, v and parameter values."""
+
+    def __init__(self, systems: list[Any], derivation: Any, symbols: dict[str, list[Any]], seed: int) -> None:
+        qs, vs, ps, self.states = [], [], [], []
+        for k, s in enumerate(systems):
+            st = random_states(s, n=STATES_PER_MODEL, seed=seed + 1000 + k)
+            values = parameter_values(derivation, s.view)
+            qs.append(st.q)
+            vs.append(st.v)
+            ps.append(np.array([[values[p] for p in derivation.source]] * len(st.q)))
+            self.states.append((s, st))
+        self.q, self.v, self.p = np.concatenate(qs), np.concatenate(vs), np.concatenate(ps)
+        self.args = [*symbols["q"], *symbols["v"], *derivation.source]
+        half = np.zeros(len(self.q), dtype=bool)
+        half[::2] = True
+        self.fit, self.held = half, ~half
+
+    def evaluate(self, exprs: list[Any]) -> np.ndarray:
+        import sympy as sp
+
+        fn = sp.lambdify(self.args, exprs, modules="numpy", cse=True)
+        raw = fn(*self.q.T, *self.v.T, *self.p.T)
+        return np.stack([np.broadcast_to(np.asarray(x, dtype=float), (len(self.q),)) for x in raw], axis=-1)
+
+
+def _user_values(system: Any, q: np.ndarray, v: np.ndarray) -> dict[str, np.ndarray]:
+    eq, p = system.equations, system.params
+    zero = np.zeros_like(q)
+    out: dict[str, np.ndarray] = {}
+    with np.errstate(all="ignore"):
+        for part, fn in (
+            ("M", lambda: eq.mass_matrix(p, q)),
+            ("G", lambda: eq.bias(p, q, zero)),
+            ("Cv", lambda: np.asarray(eq.bias(p, q, v), dtype=float) - np.asarray(eq.bias(p, q, zero), dtype=float)),
+            ("passive", lambda: eq.passive(p, q, v)),
+            ("T", lambda: eq.kinetic_energy(p, q, v)),
+            ("V", lambda: eq.potential_energy(p, q)),
+        ):
+            try:
+                out[part] = np.asarray(fn(), dtype=float)
+            except Exception:  # noqa: BLE001 - the user's code; a term it cannot give is not explained
+                pass
+    return out
+
+
+def _entries(part: str, n: int, coordinates: tuple[str, ...]) -> list[tuple[tuple[int, ...], str]]:
+    if part == "M":
+        return [((i, j), f"M[{coordinates[i]}, {coordinates[j]}]") for i in range(n) for j in range(i, n)]
+    if part in ("T", "V"):
+        return [((), part)]
+    label = {"G": "G", "Cv": "(C v)", "passive": "passive"}[part]
+    return [((i,), f"{label}[{c}]") for i, c in enumerate(coordinates)]
+
+
+def explain(system: Any, probe_systems: list[Any], terms: list[str], *, seed: int = 0) -> list[dict[str, Any]]:
+    """One record per disagreeing entry of each of `terms`: the entry, the expected expression and
+    the symbolic difference the user's numbers fit (verified at held-back states), or that none fits."""
+    import sympy as sp
+
+    d = derivation_of(system)
+    coordinates = tuple(system.coordinates)
+    symbols = {
+        "q": [sp.Symbol(c, real=True) for c in coordinates],
+        "v": [sp.Symbol(f"d{c}", real=True) for c in coordinates],
+    }
+    samples = _Samples([system, *probe_systems], d, symbols, seed)
+    users = [_user_values(s, st.q, st.v) for s, st in samples.states]
+    out = []
+    for term in terms:
+        part = PARTS.get(term)
+        if part is None or any(part not in u for u in users):
+            continue
+        user_all = np.concatenate([u[part].reshape(len(u[part]), -1) for u in users])
+        expr_all = transformed(d, coordinates, system.joint_map, part)
+        for index, label in _entries(part, system.nv, coordinates):
+            flat = int(np.ravel_multi_index(index, (system.nv,) * len(index))) if index else 0
+            entry = expr_all[index] if len(index) == 2 else expr_all[index[0]] if index else expr_all
+            expected = tidy(entry, symbols["q"])
+            mine = user_all[:, flat]
+            exp_num = samples.evaluate([expected])[:, 0]
+            scale = max(float(np.abs(exp_num).max()), float(np.abs(mine).max()), 1e-300)
+            D = mine - exp_num
+            if not np.all(np.isfinite(D)) or float(np.abs(D).max()) <= 1e-9 * scale:
+                continue
+            record = {
+                "term": term,
+                "entry": label,
+                "expected": sp.sstr(expected),
+                **_fit(expected, D, scale, samples, symbols),
+            }
+            named = {str(x) for x in sp.sympify(expected).free_symbols} | set(re.findall(r"\w+", record["statement"]))
+            record["symbols"] = {str(k): v for k, v in d.parameters.items() if str(k) in named}
+            out.append(record)
+    return out
+
+
+def _fit(
+    expected: Any, D: np.ndarray, scale: float, samples: _Samples, symbols: dict[str, list[Any]]
+) -> dict[str, Any]:
+    """The simplest candidate difference that reproduces D, or why none does."""
+    params = list(samples.args[2 * len(symbols["q"]) :])
+    found = candidates(expected, symbols["q"], params)
+    if not found:
+        return {"explained": False, "statement": "expected 0: yours has terms where the model has none"}
+    B = samples.evaluate([c.basis for c in found])
+    fit, held = samples.fit, samples.held
+    tol = FIT_RTOL * scale
+
+    def check(cols: list[int], coeffs: list[Fraction]) -> float | None:
+        model = sum(float(c) * B[:, k] for k, c in zip(cols, coeffs, strict=True))
+        resid = np.abs(D - model)
+        return float(resid[held].max()) if resid[fit].max() <= tol and resid[held].max() <= tol else None
+
+    for k, cand in enumerate(found):  # one slip
+        b = B[fit, k]
+        norm = float(b @ b)
+        if norm <= (1e-12 * scale) ** 2 * len(b):
+            continue
+        c = _simple(float(b @ D[fit]) / norm)
+        if c is None or (cand.fixed is not None and c != cand.fixed):
+            continue
+        r = check([k], [c])
+        if r is not None:
+            return {
+                "explained": True,
+                "statement": _describe(cand, c),
+                "difference": sp_str(c, cand.basis),
+                "residual": r / scale,
+            }
+    terms = [k for k, c in enumerate(found) if c.kind == "term"]
+    for i, j in itertools.combinations(terms, 2):  # two terms wrong at once
+        A = B[fit][:, [i, j]]
+        coef, *_ = np.linalg.lstsq(A, D[fit], rcond=None)
+        simple = [_simple(float(x)) for x in coef]
+        if any(s is None or s == 0 for s in simple):
+            continue
+        r = check([i, j], simple)  # type: ignore[arg-type]
+        if r is not None:
+            text = " ".join(_coefficient_text(c, found[k].basis) for k, c in zip((i, j), simple, strict=True))  # type: ignore[arg-type]
+            return {"explained": True, "statement": f"yours = expected {text}", "residual": r / scale}
+    if float(np.abs(D + samples.evaluate([expected])[:, 0]).max()) <= FIT_RTOL * scale:
+        return {"explained": True, "statement": "yours is 0 where the model has this entry", "residual": 0.0}
+    return {
+        "explained": False,
+        "statement": f"no simple form reproduces your numbers ({len(found)} single slips and pairs of terms tried)",
+    }
+
+
+def sp_str(c: Fraction, basis: Any) -> str:
+    import sympy as sp
+
+    return sp.sstr(sp.Rational(c.numerator, c.denominator) * basis)
