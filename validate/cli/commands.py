@@ -14,21 +14,21 @@ from typing import Any
 from ..checks import modelsync
 from ..checks import pointwise as compare
 from ..checks.pointwise import validate_states
-from ..dynamics import integrate
 from ..dynamics.cache import CACHE_ENV
-from ..engines import make_source, make_sources
+from ..engines import make_sources
 from ..errors import HarnessError
 from ..inputs import parse_json, regular_file
 from ..pipeline import run
 from ..replay import replay_command
-from ..results import atomic_write, dumps, to_jsonable
 from ..results import load as load_results
+from ..results import to_jsonable
 from ..studies.bench import bench_command
 from ..studies.stress import stress_command
 from ..systems import System, load, pairs_in, system_names
 from ..systems.scaffold import write_module
+from . import simulate
 from .outputs import check_out, render_system, write_all, write_reports
-from .parser import MAX_SAMPLES, MAX_STATES_FILE_BYTES, one_line
+from .parser import MAX_STATES_FILE_BYTES, one_line
 from .progress import reporter
 
 
@@ -153,58 +153,7 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
-    import numpy as np
-
-    suffix = args.out.suffix.lower()
-    if suffix not in (".csv", ".json"):
-        raise HarnessError(f"--out must end in .csv or .json; got '{args.out.name}'.")
-    if args.out.is_dir():
-        raise HarnessError(f"--out {args.out} is a directory; give a file name ending in {suffix}.")
-    samples = args.t_end / args.dt_out
-    if samples > MAX_SAMPLES:
-        raise HarnessError(
-            f"--t-end {args.t_end:g} / --dt-out {args.dt_out:g} gives {samples:.3g} samples; at most {MAX_SAMPLES}."
-        )
-    system = one_system(args)
-    st = validate_states(system, args.q0, args.v0, args.tau)
-    t = integrate.time_grid(args.t_end, args.dt_out)
-    source = make_source(system, args.source)
-    if args.source == "mujoco":
-        dt = source.m.opt.timestep
-        traj = integrate.mujoco_trajectory(
-            system,
-            source,
-            st.q[0],
-            st.v[0],
-            st.tau[0],
-            t,
-            integrator="RK4",
-            timestep=dt
-            if round(args.dt_out / dt) * dt == args.dt_out
-            else args.dt_out / max(1, round(args.dt_out / dt)),
-        )
-    else:
-        traj = integrate.scipy_trajectory(system, source, st.q[0], st.v[0], st.tau[0], t, **integrate.SCIPY_DEFAULT)
-    cols = ["t", *system.coordinates, *[f"d{c}" for c in system.coordinates]]
-    table = np.column_stack([traj.t, traj.q, traj.v])
-    bad = np.argwhere(~np.isfinite(table))
-    if len(bad):  # never data: a non-finite sample is the error, with where it happened
-        k, j = (int(x) for x in bad[0])
-        raise HarnessError(
-            f"{args.source} ({traj.method}): {cols[j]} is {table[k, j]} at t = {table[k, 0]:g} s; nothing written."
-        )
-    if suffix == ".csv":
-        lines = [",".join(cols)] + [",".join(repr(float(x)) for x in row) for row in table]
-        atomic_write(args.out, "\n".join(lines) + "\n")
-    else:
-        atomic_write(
-            args.out,
-            dumps(
-                {"system": system.name, "source": args.source, "method": traj.method, "columns": cols, "rows": table}
-            ),
-        )
-    print(f"wrote {args.out} ({len(table)} samples, {traj.method})")
-    return 0
+    return simulate.cmd_simulate(args, one_system)
 
 
 @contextlib.contextmanager

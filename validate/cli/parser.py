@@ -17,9 +17,6 @@ DEFAULT_SEED = 0
 MAX_STATES = 100_000  # random states per system: 1e5 evaluate in about a minute; more is a typo
 
 
-MAX_SAMPLES = 10_000_000  # samples of one `simulate` trajectory (about 1 GB of CSV)
-
-
 MAX_STATES_FILE_BYTES = 64 * 2**20  # a states file is read whole; 64 MiB holds ~500 000 states
 
 
@@ -150,7 +147,12 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--tau", type=vector_arg, help="comma-separated constant input (N m); default zero")
     sim.add_argument("--t-end", type=positive_float, required=True)
     sim.add_argument("--dt-out", type=positive_float, required=True)
-    sim.add_argument("--out", type=path_arg, required=True, help="FILE.csv or FILE.json")
+    sim.add_argument(
+        "--out",
+        type=path_arg,
+        required=True,
+        help="FILE.csv (a commented # header, then one row per sample) or FILE.json; both record the request and units",
+    )
 
     rep = command("report", help="re-render the reports from an existing results.json")
     rep.add_argument("--out", type=path_arg, default=Path("reports"))

@@ -201,6 +201,20 @@ class System:
         return A
 
     @property
+    def units(self) -> tuple[str, ...]:
+        """The unit of each coordinate: "rad" for hinges, "m" for slides ("mixed" where JOINT_MAP combines
+        both in one coordinate); velocities are these per second, inputs N m (hinge) or N (slide)."""
+        kinds = [self.view[f"joint/{j}/type"] for j in self.joints]
+        A = self.joint_map
+        n = range(self.nv)
+        rows = [[i] for i in n] if A is None else [[j for j in n if A[i, j]] for i in n]
+        out = []
+        for row in rows:
+            found = {"m" if kinds[j] == "slide" else "rad" for j in row}
+            out.append(found.pop() if len(found) == 1 else "mixed")
+        return tuple(out)
+
+    @property
     def bodies(self) -> tuple[str, ...]:
         return tuple(self.equations.BODIES)
 
