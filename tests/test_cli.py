@@ -24,7 +24,7 @@ def test_check_json_schema(tmp_path, capsys, system):
     states.append({"q": [0.3] * n, "v": [0.0] * n})  # tau optional
     path = tmp_path / "states.json"
     path.write_text(json.dumps(states))
-    assert main(["check", system.name, "--states", str(path), "--json"]) == 0
+    assert main(["check", system.name, "--states-file", str(path), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["system"] == system.name
     assert out["coordinates"] == list(system.coordinates)
@@ -115,11 +115,14 @@ BAD_INPUT = {
     "NaN state": (simulate_args(q0="nan,0"), "not finite"),
     "infinite state": (simulate_args(v0="inf,0"), "not finite"),
     "bad output suffix": (simulate_args(out="{tmp}/x.txt"), ".csv or .json"),
-    "missing states file": (["check", "double_pendulum_point", "--states", "{tmp}/none.json"], "not found"),
-    "states not JSON": (["check", "double_pendulum_point", "--states", "{tmp}/garbage.json"], "not valid JSON"),
-    "states NaN": (["check", "double_pendulum_point", "--states", "{tmp}/nan.json"], "not finite"),
-    "states wrong length": (["check", "double_pendulum_point", "--states", "{tmp}/short.json"], "list of 2 numbers"),
-    "states unknown key": (["check", "double_pendulum_point", "--states", "{tmp}/key.json"], "unknown keys"),
+    "missing states file": (["check", "double_pendulum_point", "--states-file", "{tmp}/none.json"], "not found"),
+    "states not JSON": (["check", "double_pendulum_point", "--states-file", "{tmp}/garbage.json"], "not valid JSON"),
+    "states NaN": (["check", "double_pendulum_point", "--states-file", "{tmp}/nan.json"], "not finite"),
+    "states wrong length": (
+        ["check", "double_pendulum_point", "--states-file", "{tmp}/short.json"],
+        "list of 2 numbers",
+    ),
+    "states unknown key": (["check", "double_pendulum_point", "--states-file", "{tmp}/key.json"], "unknown keys"),
     "missing report results": (["report", "--out", "{tmp}/empty"], "not found"),
 }
 

@@ -139,7 +139,7 @@ def test_check_and_simulate_take_a_model_and_equations(tmp_path):
         command = [sys.executable, "-m", "lagrange_xval.validate.cli", *args]
         return subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=600)
 
-    checked = cli("check", *files, "--n", "20", "--json")
+    checked = cli("check", *files, "--states", "20", "--json")
     assert checked.returncode == 0, checked.stderr[-2000:]
     assert json.loads(checked.stdout)["system"] == "acro"
     simulated = cli("simulate", *files, "--source", "mujoco", "--q0", "0.1,0.2", "--v0", "0,0")

@@ -370,6 +370,11 @@ def load(name: str, overrides: tuple[tuple[str, float], ...] = ()) -> System:
     """The system called `name`; an unknown name lists the valid ones and the closest."""
     names = system_names()
     if name not in names:
+        lonely = unpaired()
+        if name in lonely["models without equations"]:
+            raise HarnessError(f"models/{name}.xml has no equations/{name}.py, so '{name}' is not a system yet.")
+        if name in lonely["equations without model"]:
+            raise HarnessError(f"equations/{name}.py has no models/{name}.xml, so '{name}' is not a system yet.")
         raise unknown_name("system", name, names)
     return System(name=name, mjcf=MODELS_DIR / f"{name}.xml", equations=_equations_module(name), overrides=overrides)
 
