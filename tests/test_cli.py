@@ -24,7 +24,7 @@ def test_check_json_schema(tmp_path, capsys, system):
     states.append({"q": [0.3] * n, "v": [0.0] * n})  # tau optional
     path = tmp_path / "states.json"
     path.write_text(json.dumps(states))
-    assert main(["check", system.name, "--states", str(path), "--json"]) == 0
+    assert main(["check", system.name, "--states-file", str(path), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["system"] == system.name
     assert out["coordinates"] == list(system.coordinates)
@@ -72,7 +72,7 @@ def test_simulate_writes_csv_and_json(tmp_path):
         )
         == 0
     )
-    lines = csv.read_text().splitlines()
+    lines = [line for line in csv.read_text().splitlines() if not line.startswith("#")]  # the header
     assert lines[0] == "t,theta,phi,dtheta,dphi" and len(lines) == 52
     js = tmp_path / "t.json"
     assert (
@@ -97,7 +97,7 @@ def test_simulate_writes_csv_and_json(tmp_path):
         == 0
     )
     rows = np.array(json.loads(js.read_text())["rows"])
-    mj = np.loadtxt(csv, delimiter=",", skiprows=1)
+    mj = np.loadtxt(lines[1:], delimiter=",")
     assert rows.shape == mj.shape == (51, 5)
     assert np.abs(rows[:, 1:3] - mj[:, 1:3]).max() < 1e-8  # MuJoCo RK4 at 1 ms vs DOP853 over 0.5 s
 
@@ -115,11 +115,14 @@ BAD_INPUT = {
     "NaN state": (simulate_args(q0="nan,0"), "not finite"),
     "infinite state": (simulate_args(v0="inf,0"), "not finite"),
     "bad output suffix": (simulate_args(out="{tmp}/x.txt"), ".csv or .json"),
-    "missing states file": (["check", "double_pendulum_point", "--states", "{tmp}/none.json"], "not found"),
-    "states not JSON": (["check", "double_pendulum_point", "--states", "{tmp}/garbage.json"], "not valid JSON"),
-    "states NaN": (["check", "double_pendulum_point", "--states", "{tmp}/nan.json"], "not finite"),
-    "states wrong length": (["check", "double_pendulum_point", "--states", "{tmp}/short.json"], "list of 2 numbers"),
-    "states unknown key": (["check", "double_pendulum_point", "--states", "{tmp}/key.json"], "unknown keys"),
+    "missing states file": (["check", "double_pendulum_point", "--states-file", "{tmp}/none.json"], "not found"),
+    "states not JSON": (["check", "double_pendulum_point", "--states-file", "{tmp}/garbage.json"], "not valid JSON"),
+    "states NaN": (["check", "double_pendulum_point", "--states-file", "{tmp}/nan.json"], "not finite"),
+    "states wrong length": (
+        ["check", "double_pendulum_point", "--states-file", "{tmp}/short.json"],
+        "list of 2 numbers",
+    ),
+    "states unknown key": (["check", "double_pendulum_point", "--states-file", "{tmp}/key.json"], "unknown keys"),
     "missing report results": (["report", "--out", "{tmp}/empty"], "not found"),
 }
 

@@ -144,7 +144,7 @@ def test_check_refuses_models_that_differ_before_comparing_dynamics(tmp_path, mo
     from lagrange_xval.validate import cli
 
     monkeypatch.setattr(cli.commands, "load", lambda name, overrides=(): s)  # the name the CLI resolves systems by
-    assert main(["check", "double_pendulum_point", "--n", "5"]) == 2
+    assert main(["check", "double_pendulum_point", "--states", "5"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "body/link1/com" in err
 
@@ -161,7 +161,7 @@ def test_check_refuses_models_that_differ_before_comparing_dynamics(tmp_path, mo
 def test_huge_or_non_numeric_states_are_refused(tmp_path, capsys, state, message):
     path = tmp_path / "s.json"
     path.write_text(json.dumps([state]))
-    assert main(["check", "double_pendulum_point", "--states", str(path)]) == 2
+    assert main(["check", "double_pendulum_point", "--states-file", str(path)]) == 2
     assert message in capsys.readouterr().err
 
 

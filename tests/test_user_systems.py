@@ -139,7 +139,7 @@ def test_check_and_simulate_take_a_model_and_equations(tmp_path):
         command = [sys.executable, "-m", "lagrange_xval.validate.cli", *args]
         return subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=600)
 
-    checked = cli("check", *files, "--n", "20", "--json")
+    checked = cli("check", *files, "--states", "20", "--json")
     assert checked.returncode == 0, checked.stderr[-2000:]
     assert json.loads(checked.stdout)["system"] == "acro"
     simulated = cli("simulate", *files, "--source", "mujoco", "--q0", "0.1,0.2", "--v0", "0,0")
@@ -161,7 +161,8 @@ def test_check_and_simulate_take_a_model_and_equations(tmp_path):
         "sim.csv",
     )
     assert simulated.returncode == 0, simulated.stderr
-    assert len((tmp_path / "sim.csv").read_text().strip().splitlines()) == 4  # header and t = 0, 0.5, 1
+    rows = [line for line in (tmp_path / "sim.csv").read_text().splitlines() if not line.startswith("#")]
+    assert len(rows) == 4  # column names and t = 0, 0.5, 1 under the commented header
     both = cli("check", "simple_pendulum", *files)
     neither = cli("check")
     assert both.returncode == 2 and "not both" in both.stderr and both.stderr.count("\n") == 1

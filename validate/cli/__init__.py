@@ -1,8 +1,9 @@
 """The `lagrange-xval` command line. Heavy imports (engines, plotting) happen inside subcommands.
 
-Modules: parser (arguments), commands (what each subcommand does), outputs (the reports folder
-written as one set), progress (the console lines of `run`); this module runs a command and turns
-every error into one line and an exit status.
+Modules: parser (arguments, their help and units), commands (what each subcommand does), simulate
+(one trajectory written as a self-describing file), outputs (the reports folder written as one
+set), progress (the console lines of `run`); this module runs a command and turns every error into
+one line and an exit status.
 """
 
 from __future__ import annotations

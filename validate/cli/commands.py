@@ -14,41 +14,54 @@ from typing import Any
 from ..checks import modelsync
 from ..checks import pointwise as compare
 from ..checks.pointwise import validate_states
-from ..dynamics import integrate
 from ..dynamics.cache import CACHE_ENV
-from ..engines import make_source, make_sources
+from ..engines import make_sources
 from ..errors import HarnessError
 from ..inputs import parse_json, regular_file
 from ..pipeline import run
 from ..replay import replay_command
-from ..results import atomic_write, dumps, to_jsonable
 from ..results import load as load_results
+from ..results import to_jsonable
 from ..studies.bench import bench_command
 from ..studies.stress import stress_command
-from ..systems import System, load, pairs_in, system_names
+from ..systems import System, load, pairs_in, system_names, unpaired
 from ..systems.scaffold import write_module
+from . import simulate
 from .outputs import check_out, render_system, write_all, write_reports
-from .parser import MAX_SAMPLES, MAX_STATES_FILE_BYTES, one_line
+from .parser import MAX_STATES_FILE_BYTES, one_line
 from .progress import reporter
 
 
-def cmd_list(args: argparse.Namespace) -> int:
+def unpaired_lines() -> list[str]:
+    """One line per file in models/ or equations/ without its partner: not a system, so not checked."""
+    lonely = unpaired()
+    return [
+        *(f"{n}: not checked: models/{n}.xml has no equations/{n}.py" for n in lonely["models without equations"]),
+        *(f"{n}: not checked: equations/{n}.py has no models/{n}.xml" for n in lonely["equations without model"]),
+    ]
 
-    broken = []
-    for name in system_names():
-        try:
-            s = load(name)
-        except HarnessError as exc:  # one broken equations module does not hide the others
-            broken.append(str(exc))
-            continue
-        print(f"{s.name}: {s.nv} dof, coordinates ({', '.join(s.coordinates)}); uses {', '.join(sorted(s.uses))}")
-        for v in s.variants:
-            print(f"    {v.kind:16s} {v.name}  [{', '.join(v.notes_equations)}]")
-    if broken:
-        raise HarnessError(
-            broken[0] + (f" ({len(broken) - 1} more systems cannot be loaded)" if len(broken) > 1 else "")
-        )
-    return 0
+
+def describe(name: str) -> tuple[bool, list[str]]:
+    """Whether the system loads, and the lines `list` prints for it; a module that cannot be loaded or
+    read is one line saying so and why (the others are listed all the same)."""
+    try:
+        s = load(name)
+        lines = [f"{s.name}: {s.nv} dof, coordinates ({', '.join(s.coordinates)}); uses {', '.join(sorted(s.uses))}"]
+        lines += [f"    {v.kind:16s} {v.name}  [{', '.join(v.notes_equations)}]" for v in s.variants]
+    except Exception as exc:  # noqa: BLE001 - one broken equations module does not hide the others
+        why = str(exc) if isinstance(exc, HarnessError) else f"equations/{name}.py: {type(exc).__name__}: {exc}"
+        return False, [f"{name}: BROKEN: {' '.join(why.split())}"]
+    return True, lines
+
+
+def cmd_list(args: argparse.Namespace) -> int:
+    """Every system, then the files without a partner; status 1 if a system cannot be loaded."""
+    listed = [describe(name) for name in system_names()]
+    for _, lines in listed:
+        print("\n".join(lines))
+    for line in unpaired_lines():
+        print(line)
+    return 0 if all(ok for ok, _ in listed) else 1
 
 
 def numbers(path: Path, i: int, name: str, x: Any, system: Any) -> list[float]:
@@ -106,9 +119,9 @@ def cmd_check(args: argparse.Namespace) -> int:
 
     system = one_system(args)
     states = (
-        states_from_file(system, args.states)
-        if args.states
-        else compare.random_states(system, n=args.n, seed=args.seed)
+        states_from_file(system, args.states_file)
+        if args.states_file
+        else compare.random_states(system, n=args.states, seed=args.seed)
     )
     sources = make_sources(system)
     require_same_model(system, sources)
@@ -153,58 +166,7 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
-    import numpy as np
-
-    suffix = args.out.suffix.lower()
-    if suffix not in (".csv", ".json"):
-        raise HarnessError(f"--out must end in .csv or .json; got '{args.out.name}'.")
-    if args.out.is_dir():
-        raise HarnessError(f"--out {args.out} is a directory; give a file name ending in {suffix}.")
-    samples = args.t_end / args.dt_out
-    if samples > MAX_SAMPLES:
-        raise HarnessError(
-            f"--t-end {args.t_end:g} / --dt-out {args.dt_out:g} gives {samples:.3g} samples; at most {MAX_SAMPLES}."
-        )
-    system = one_system(args)
-    st = validate_states(system, args.q0, args.v0, args.tau)
-    t = integrate.time_grid(args.t_end, args.dt_out)
-    source = make_source(system, args.source)
-    if args.source == "mujoco":
-        dt = source.m.opt.timestep
-        traj = integrate.mujoco_trajectory(
-            system,
-            source,
-            st.q[0],
-            st.v[0],
-            st.tau[0],
-            t,
-            integrator="RK4",
-            timestep=dt
-            if round(args.dt_out / dt) * dt == args.dt_out
-            else args.dt_out / max(1, round(args.dt_out / dt)),
-        )
-    else:
-        traj = integrate.scipy_trajectory(system, source, st.q[0], st.v[0], st.tau[0], t, **integrate.SCIPY_DEFAULT)
-    cols = ["t", *system.coordinates, *[f"d{c}" for c in system.coordinates]]
-    table = np.column_stack([traj.t, traj.q, traj.v])
-    bad = np.argwhere(~np.isfinite(table))
-    if len(bad):  # never data: a non-finite sample is the error, with where it happened
-        k, j = (int(x) for x in bad[0])
-        raise HarnessError(
-            f"{args.source} ({traj.method}): {cols[j]} is {table[k, j]} at t = {table[k, 0]:g} s; nothing written."
-        )
-    if suffix == ".csv":
-        lines = [",".join(cols)] + [",".join(repr(float(x)) for x in row) for row in table]
-        atomic_write(args.out, "\n".join(lines) + "\n")
-    else:
-        atomic_write(
-            args.out,
-            dumps(
-                {"system": system.name, "source": args.source, "method": traj.method, "columns": cols, "rows": table}
-            ),
-        )
-    print(f"wrote {args.out} ({len(table)} samples, {traj.method})")
-    return 0
+    return simulate.cmd_simulate(args, one_system)
 
 
 @contextlib.contextmanager
@@ -227,6 +189,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     check_out(args.out)  # before hours of work, not after
     rendered: dict[str, Any] = {}
+    files = user_files(args)
     with use_cache(args), reporter() as progress:
         results = run(
             args.systems or None,
@@ -234,11 +197,14 @@ def cmd_run(args: argparse.Namespace) -> int:
             seed=args.seed,
             progress=progress,
             n_probes=args.probes,
-            files=user_files(args),
+            files=files,
             after=functools.partial(render_system, replay=not args.no_replay),  # in the workers, overlapped
             rendered=rendered,
         )
     write_all(results, args.out, replay=not args.no_replay, rendered=rendered)
+    if args.systems or not files:  # the repository's systems were run: say which files were not
+        for line in unpaired_lines():
+            print(line)
     verdict = "all systems pass" if results["passed"] else "some systems FAIL"
     print(f"{verdict}; reports in {args.out}/ (report.html, report.md, results.json)")
     return 0 if results["passed"] else 1

@@ -1,12 +1,32 @@
 """The command line's arguments: every subcommand, its options, and the checks of their values
 (each bad value one line naming what is valid).
+
+One name per meaning on every command: `--states N` is always a count of random states, `--seed S`
+always their seed, `--out` always where the command writes, `--model`/`--equations` always a
+person's own files. Every option's help gives its unit or its valid values.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
+
+from ..results import harness_version
+from ..systems import system_names
+
+DESCRIPTION = (
+    "Checks hand-derived Lagrangian equations of motion against MuJoCo and Pinocchio. For each system "
+    "(a model file, MJCF or URDF, paired with an equations module) it compares the mass matrix, bias "
+    "forces, energies, body poses and trajectories of the three sources, says which term of the "
+    "derivation disagrees and where, and writes a report."
+)
+EPILOG = (
+    "Start with `lagrange-xval run` (every system; reports in reports/) or `lagrange-xval list`. "
+    "`lagrange-xval COMMAND -h` describes a command's options."
+)
 
 DEFAULT_STATES = 1000
 
@@ -15,9 +35,6 @@ DEFAULT_SEED = 0
 
 
 MAX_STATES = 100_000  # random states per system: 1e5 evaluate in about a minute; more is a typo
-
-
-MAX_SAMPLES = 10_000_000  # samples of one `simulate` trajectory (about 1 GB of CSV)
 
 
 MAX_STATES_FILE_BYTES = 64 * 2**20  # a states file is read whole; 64 MiB holds ~500 000 states
@@ -34,6 +51,18 @@ def positive_int(text: str) -> int:
     if value < 1 or value > MAX_STATES:
         raise argparse.ArgumentTypeError(f"must be from 1 to {MAX_STATES}, got {value}")
     return value
+
+
+def state_count(text: str) -> int:
+    """`--states N`: a count on every command; a file name here is pointed to --states-file."""
+    try:
+        int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"'{text}' is not a whole number (--states N is a count of random states; "
+            "a file of states is --states-file FILE)"
+        ) from None
+    return positive_int(text)
 
 
 def probe_count(text: str) -> int:
@@ -80,20 +109,49 @@ def vector_arg(text: str) -> list[float]:
         raise argparse.ArgumentTypeError(f"'{text}' is not a comma-separated list of numbers") from None
 
 
+def system_help(what: str) -> str:
+    """Help for a SYSTEM argument, naming the valid names (discovered, never listed by hand)."""
+    try:
+        names = ", ".join(system_names()) or "(none)"
+    except Exception:  # noqa: BLE001 - a broken equations package must not take --help down with it
+        names = "see `lagrange-xval list`"
+    return f"{what}; one of: {names}"
+
+
+class Deprecated(argparse.Action):
+    """An old spelling that still works, with one warning line on stderr naming the new one."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str, *, instead: str, **kwargs: Any) -> None:
+        self.instead = instead
+        super().__init__(option_strings, dest, **kwargs)
+
+    def __call__(self, parser: Any, namespace: Any, values: Any, option_string: str | None = None) -> None:
+        print(f"lagrange-xval: warning: {option_string} is deprecated; use {self.instead}.", file=sys.stderr)
+        setattr(namespace, self.dest, values)
+
+
 def build_parser() -> argparse.ArgumentParser:
     debug = argparse.ArgumentParser(add_help=False)
-    debug.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help="show tracebacks")
-    p = argparse.ArgumentParser(
-        prog="lagrange-xval", description=__doc__.splitlines()[0] if __doc__ else None, parents=[debug]
+    debug.add_argument(
+        "--debug", action="store_true", default=argparse.SUPPRESS, help="print the traceback of an error"
+    )
+    p = argparse.ArgumentParser(prog="lagrange-xval", description=DESCRIPTION, epilog=EPILOG, parents=[debug])
+    p.add_argument(
+        "--version",
+        action="version",
+        version=f"%(prog)s {harness_version()}",
+        help="print the harness's version and exit",
     )
     p.set_defaults(debug=False)
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     def command(name: str, **kwargs: Any) -> argparse.ArgumentParser:
-        return sub.add_parser(name, parents=[debug], **kwargs)
+        return sub.add_parser(name, parents=[debug], description=kwargs.get("help"), **kwargs)
 
     def model_options(parser: argparse.ArgumentParser) -> None:
-        parser.add_argument("--model", type=path_arg, metavar="PATH", help="your own MJCF (with --equations)")
+        parser.add_argument(
+            "--model", type=path_arg, metavar="PATH", help="your own model, MJCF .xml or URDF .urdf (with --equations)"
+        )
         parser.add_argument(
             "--equations", type=path_arg, metavar="PATH", help="your own equations module, .py (with --model)"
         )
@@ -104,19 +162,55 @@ def build_parser() -> argparse.ArgumentParser:
         )
         parser.add_argument("--no-cache", action="store_true", help="compute everything, read and write no cache")
 
+    def seed_option(parser: argparse.ArgumentParser, what: str) -> None:
+        parser.add_argument(
+            "--seed",
+            type=seed_arg,
+            default=DEFAULT_SEED,
+            metavar="S",
+            help=f"seed of the random {what}, 0 to 2**63 - 1 (default {DEFAULT_SEED}); the same seed, the same draws",
+        )
+
+    def states_option(parser: Any, what: str) -> Any:  # a parser or a mutually exclusive group
+        return parser.add_argument(
+            "--states",
+            type=state_count,
+            default=DEFAULT_STATES,
+            metavar="N",
+            help=f"number of seeded random states {what}, 1 to {MAX_STATES} (default {DEFAULT_STATES})",
+        )
+
+    def systems_argument(parser: argparse.ArgumentParser, what: str) -> None:
+        parser.add_argument("systems", nargs="*", metavar="SYSTEM", help=system_help(what))
+
+    def one_system_argument(parser: argparse.ArgumentParser) -> None:
+        parser.add_argument(
+            "system",
+            nargs="?",
+            metavar="SYSTEM",
+            help=system_help("a repository system (or give --model and --equations)"),
+        )
+
     command("list", help="the systems, their coordinates, degrees of freedom and printed forms")
 
     run = command("run", help="validate every system (or those named) and write the reports")
-    run.add_argument("systems", nargs="*", metavar="SYSTEM")
-    run.add_argument("--states", type=positive_int, default=DEFAULT_STATES, help="random states per system")
-    run.add_argument("--seed", type=seed_arg, default=DEFAULT_SEED)
-    run.add_argument("--out", type=path_arg, default=Path("reports"), help="report folder (default: reports)")
+    systems_argument(run, "the systems to validate (default: every one)")
+    states_option(run, "per system")
+    seed_option(run, "states and probe parameter sets")
+    run.add_argument(
+        "--out",
+        type=path_arg,
+        default=Path("reports"),
+        metavar="DIR",
+        help="reports folder: report.html, report.md, results.json, <system>.rrd (default: reports)",
+    )
     run.add_argument("--no-replay", action="store_true", help="skip the rerun .rrd recordings")
     run.add_argument(
         "--probes",
         type=probe_count,
         default=4,
-        help="probe parameter sets per derivation, every parameter moved (default 4; 0: the model's only)",
+        metavar="K",
+        help="probe parameter sets per derivation, every parameter moved, 0 to 100 (default 4; 0: the model's only)",
     )
     model_options(run)
     run.add_argument(
@@ -124,42 +218,101 @@ def build_parser() -> argparse.ArgumentParser:
         dest="systems_dir",
         type=path_arg,
         metavar="DIR",
-        help="a folder of your own systems: each <name>.xml with its <name>.py",
+        help="a folder of your own systems: each <name>.xml or <name>.urdf with its <name>.py",
     )
     cache_options(run)
 
     check = command("check", help="pointwise comparison of the three sources")
-    check.add_argument("system", nargs="?", help="a repository system (or give --model and --equations)")
+    one_system_argument(check)
     model_options(check)
-    check.add_argument(
-        "--states",
+    given = check.add_mutually_exclusive_group()
+    states_option(given, "to compare at")
+    given.add_argument(
+        "--states-file",
         type=path_arg,
         metavar="FILE",
-        help='JSON list of {"q": [...], "v": [...], "tau": [...]} in the notes\' coordinates',
+        help='compare at the states of a JSON list of {"q": [...], "v": [...], "tau": [...]} in the '
+        "notes' coordinates (rad, rad/s, N m; m, m/s, N for a slide) instead of random ones",
     )
-    check.add_argument("--n", type=positive_int, default=DEFAULT_STATES, help="random states when no FILE")
-    check.add_argument("--seed", type=seed_arg, default=DEFAULT_SEED)
-    check.add_argument("--json", action="store_true", help="print one JSON object")
+    given.add_argument(
+        "--n",
+        dest="states",
+        type=state_count,
+        metavar="N",
+        action=Deprecated,
+        instead="--states N",
+        help="deprecated spelling of --states N",
+    )
+    seed_option(check, "states (not used with --states-file)")
+    check.add_argument("--json", action="store_true", help="print one JSON object (schema in the README)")
 
-    sim = command("simulate", help="one trajectory of one source, sampled every DT")
-    sim.add_argument("system", nargs="?", help="a repository system (or give --model and --equations)")
+    sim = command(
+        "simulate", help="one trajectory of one source, sampled every --dt-out seconds, written as CSV or JSON"
+    )
+    one_system_argument(sim)
     model_options(sim)
-    sim.add_argument("--source", choices=("hand", "mujoco", "pinocchio"), required=True)
-    sim.add_argument("--q0", type=vector_arg, required=True, help="comma-separated, notes' coordinates (rad)")
-    sim.add_argument("--v0", type=vector_arg, required=True, help="comma-separated (rad/s)")
-    sim.add_argument("--tau", type=vector_arg, help="comma-separated constant input (N m); default zero")
-    sim.add_argument("--t-end", type=positive_float, required=True)
-    sim.add_argument("--dt-out", type=positive_float, required=True)
-    sim.add_argument("--out", type=path_arg, required=True, help="FILE.csv or FILE.json")
+    sim.add_argument(
+        "--source",
+        choices=("hand", "mujoco", "pinocchio"),
+        required=True,
+        help="hand: your equations (scipy odeint); mujoco: MuJoCo RK4 at the model's timestep, made to "
+        "divide --dt-out if it does not (the output says so); "
+        "pinocchio: ABA (scipy odeint)",
+    )
+    sim.add_argument(
+        "--q0",
+        type=vector_arg,
+        required=True,
+        metavar="A,B,...",
+        help="initial coordinates, comma-separated, notes' coordinates (rad; m for a slide)",
+    )
+    sim.add_argument(
+        "--v0",
+        type=vector_arg,
+        required=True,
+        metavar="A,B,...",
+        help="initial velocities, comma-separated (rad/s; m/s for a slide)",
+    )
+    sim.add_argument(
+        "--tau",
+        type=vector_arg,
+        metavar="A,B,...",
+        help="constant generalized input, comma-separated (N m; N for a slide); default zero",
+    )
+    sim.add_argument(
+        "--t-end", type=positive_float, required=True, metavar="T", help="duration (s), a whole multiple of --dt-out"
+    )
+    sim.add_argument("--dt-out", type=positive_float, required=True, metavar="DT", help="output sampling interval (s)")
+    sim.add_argument(
+        "--out",
+        type=path_arg,
+        required=True,
+        metavar="FILE",
+        help="FILE.csv (a commented # header, then one row per sample) or FILE.json; both record the request and units",
+    )
 
     rep = command("report", help="re-render the reports from an existing results.json")
-    rep.add_argument("--out", type=path_arg, default=Path("reports"))
+    rep.add_argument(
+        "--out",
+        type=path_arg,
+        default=Path("reports"),
+        metavar="DIR",
+        help="the reports folder: reads its results.json, rewrites report.md, report.html and img/ (default: reports)",
+    )
 
     bench = command("bench", help="run time against error: work-precision sweep and the fast-harness ratios")
-    bench.add_argument("systems", nargs="*", metavar="SYSTEM")
+    systems_argument(bench, "the systems to time (default: every one)")
     bench.add_argument("--quick", action="store_true", help="2 systems, small plan, 1 repeat (about 10 s)")
-    bench.add_argument("--out", type=path_arg, default=Path("reports"), help="folder for bench.json (default: reports)")
-    bench.add_argument("--repeats", type=positive_int, default=None, help="timing repeats (default 3; --quick 1)")
+    bench.add_argument(
+        "--out", type=path_arg, default=Path("reports"), metavar="DIR", help="folder for bench.json (default: reports)"
+    )
+    bench.add_argument(
+        "--repeats",
+        type=positive_int,
+        default=None,
+        metavar="N",
+        help="timing repeats, the median is kept (default 3; --quick 1; --run-time 5)",
+    )
     bench.add_argument(
         "--run-time",
         action="store_true",
@@ -169,21 +322,26 @@ def build_parser() -> argparse.ArgumentParser:
     cache_options(bench)
 
     stress = command("stress", help="numerical stability: long horizons, stable timesteps, conditioning")
-    stress.add_argument("systems", nargs="*", metavar="SYSTEM")
+    systems_argument(stress, "the systems to stress (default: every one)")
     stress.add_argument(
         "--set",
         action="append",
         metavar="KEY=VALUE",
-        help="parameter override applied to every system (e.g. scale/mass=2, joint/psi/damping=1)",
+        help="parameter override applied to every system, in the model's units (e.g. scale/mass=2, "
+        "joint/psi/damping=1); repeat for several",
     )
     stress.add_argument("--quick", action="store_true", help="100 s horizons and fewer sweep points (~30 s)")
-    stress.add_argument("--out", type=path_arg, default=Path("reports"), help="folder for stress.json")
+    stress.add_argument(
+        "--out", type=path_arg, default=Path("reports"), metavar="DIR", help="folder for stress.json (default: reports)"
+    )
     model_options(stress)
     cache_options(stress)
 
     new = command("new", help="write a starting equations module for your own model")
-    new.add_argument("name", help="the module's name (NAME.py)")
-    new.add_argument("--model", type=path_arg, required=True, metavar="PATH", help="your MJCF model")
+    new.add_argument("name", metavar="NAME", help="the module's name (NAME.py), a Python identifier")
+    new.add_argument(
+        "--model", type=path_arg, required=True, metavar="PATH", help="your model, MJCF .xml or URDF .urdf"
+    )
     new.add_argument(
         "--dir", type=path_arg, default=None, metavar="DIR", help="where to write NAME.py (default: the model's folder)"
     )
@@ -209,8 +367,8 @@ def build_parser() -> argparse.ArgumentParser:
     form.add_argument("--python", action="store_true", help="print numpy code instead of plain text")
 
     replay = command("replay", help="a rerun recording of a system's trajectories")
-    replay.add_argument("system")
-    replay.add_argument("--save", type=path_arg, metavar="FILE", help="write an .rrd file instead of spawning a viewer")
+    replay.add_argument("system", metavar="SYSTEM", help=system_help("a system in the results (or one of yours)"))
+    replay.add_argument("--save", type=path_arg, metavar="FILE", help="write a .rrd file instead of spawning a viewer")
     replay.add_argument(
         "--results",
         type=path_arg,

@@ -9,7 +9,7 @@ import platform
 import subprocess
 import sys
 import tempfile
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -51,6 +51,14 @@ def _git_commit() -> str:
         return "unknown"
 
 
+def harness_version() -> str:
+    """The installed package's version (importlib.metadata), or a sentence saying it is not installed."""
+    try:
+        return metadata.version("lagrange-xval")
+    except metadata.PackageNotFoundError:
+        return "unknown (not installed: pip install -e .)"
+
+
 def provenance(seed: int | None = None) -> Provenance:
     versions = {}
     for pkg in PACKAGES:
@@ -90,13 +98,14 @@ def to_jsonable(x: Any) -> Any:
     return x
 
 
-def atomic_write(path: Path, data: bytes | str) -> None:
+def atomic_write(path: Path, data: bytes | str | Iterable[str]) -> None:
     """Writes `path` through a temporary file in the same folder and a rename: a reader sees the
-    old file or the new one, never half of one."""
+    old file or the new one, never half of one. `data` may be text produced in pieces (an iterable
+    of strings), so that a long file is never held in memory whole."""
     atomic_write_many({Path(path): data})
 
 
-def atomic_write_many(files: dict[Path, bytes | str]) -> None:
+def atomic_write_many(files: Mapping[Path, bytes | str | Iterable[str]]) -> None:
     """Writes several files so that either all are replaced or none: every file is staged as a
     temporary file first (a full disk fails here, with nothing replaced), then each is renamed."""
     staged: list[tuple[str, Path]] = []
@@ -108,7 +117,11 @@ def atomic_write_many(files: dict[Path, bytes | str]) -> None:
                 fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
                 staged.append((tmp, path))
                 with os.fdopen(fd, "wb") as f:
-                    f.write(data.encode() if isinstance(data, str) else data)
+                    if isinstance(data, (bytes, str)):
+                        f.write(data.encode() if isinstance(data, str) else data)
+                    else:
+                        for piece in data:
+                            f.write(piece.encode())
                 os.chmod(tmp, 0o644)
             except OSError as exc:
                 raise HarnessError(

@@ -214,6 +214,20 @@ class System:
         return A
 
     @property
+    def units(self) -> tuple[str, ...]:
+        """The unit of each coordinate: "rad" for hinges, "m" for slides ("mixed" where JOINT_MAP combines
+        both in one coordinate); velocities are these per second, inputs N m (hinge) or N (slide)."""
+        kinds = [self.view[f"joint/{j}/type"] for j in self.joints]
+        A = self.joint_map
+        n = range(self.nv)
+        rows = [[i] for i in n] if A is None else [[j for j in n if A[i, j]] for i in n]
+        out = []
+        for row in rows:
+            found = {"m" if kinds[j] == "slide" else "rad" for j in row}
+            out.append(found.pop() if len(found) == 1 else "mixed")
+        return tuple(out)
+
+    @property
     def bodies(self) -> tuple[str, ...]:
         return tuple(self.equations.BODIES)
 
@@ -369,6 +383,11 @@ def load(name: str, overrides: tuple[tuple[str, float], ...] = ()) -> System:
     """The system called `name`; an unknown name lists the valid ones and the closest."""
     names = system_names()
     if name not in names:
+        lonely = unpaired()
+        if name in lonely["models without equations"]:
+            raise HarnessError(f"models/{name}.xml has no equations/{name}.py, so '{name}' is not a system yet.")
+        if name in lonely["equations without model"]:
+            raise HarnessError(f"equations/{name}.py has no models/{name}.xml, so '{name}' is not a system yet.")
         raise unknown_name("system", name, names)
     return System(name=name, mjcf=MODELS_DIR / f"{name}.xml", equations=_equations_module(name), overrides=overrides)
 
