@@ -295,6 +295,7 @@ def _what_failed(
         out.append(f"hand derivation: {derivation.get('statement')}")
     if not model["passed"]:
         out.append(f"model checks: {model['mismatches'][0]['key']} ({model['mismatches'][0]['why']})")
+    out += [f"harness bug: {b}" for b in point.get("harness_bugs", [])]
     bad = [r for r in point["rows"] if not r["passed"]]
     if bad:
         out.append(f"pointwise: {bad[0]['quantity']} {bad[0]['pair']} (and {len(bad) - 1} more)")

@@ -194,12 +194,30 @@ def pointwise(
     return pointwise_result(evaluate(sources, states), states, seed=seed, tolerances=tolerances)
 
 
+def harness_bugs(rows: list[ComparisonRow]) -> list[str]:
+    """Quantities where the symbolic derivation disagrees with both engines while they agree with
+    each other: the model's own equations were derived wrongly, a bug of the harness, not a finding
+    about the equations being checked."""
+    passed = {(r["quantity"], r["pair"]): r["passed"] for r in rows}
+    return [
+        f"{quantity}: the model's equations derived symbolically disagree with MuJoCo and Pinocchio, which agree "
+        "with each other: a bug of the harness (engines/derivation.py), not of the equations checked"
+        for quantity in QUANTITY_TIER
+        if passed.get((quantity, "mujoco~pinocchio"))
+        and passed.get((quantity, "mujoco~symbolic")) is False
+        and passed.get((quantity, "pinocchio~symbolic")) is False
+    ]
+
+
 def pointwise_result(
     values: dict[str, dict[str, np.ndarray]], states: States, *, seed: int, tolerances: Tolerances = TOLERANCES
 ) -> Pointwise:
     """The pointwise check's result from already evaluated quantities (see `evaluate`)."""
     rows = compare(values, states, tolerances=tolerances)
     out: Pointwise = {"n_states": len(states), "seed": seed, "rows": rows, "passed": all(r["passed"] for r in rows)}
+    bugs = harness_bugs(rows)
+    if bugs:
+        out["harness_bugs"] = bugs
     skipped = sorted(q for q in QUANTITY_TIER if any(q not in v for v in values.values()))
     if skipped:
         out["not_checked"] = [f"{q} (not provided by the derivation)" for q in skipped]

@@ -107,9 +107,12 @@ def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[st
         rows = pw.get("rows", [])
         doc.p(
             f"Every quantity of every pair of sources at {pw.get('n_states')} random states (seed "
-            f"{pw.get('seed')}). `max abs` is the largest `|a - b|`; `scaled` divides it by the largest "
+            f"{pw.get('seed')}): the hand derivation, MuJoCo, Pinocchio and the model's own equations derived "
+            "symbolically (`symbolic`). `max abs` is the largest `|a - b|`; `scaled` divides it by the largest "
             "magnitude the quantity takes over the states; a row passes when scaled ≤ tolerance."
         )
+        for bug in pw.get("harness_bugs", []):
+            doc.p(f"✗ Harness bug: {bug}.", "fail")
         doc.table(
             f"Pointwise agreement of {name} at {pw.get('n_states')} random states (seed {pw.get('seed')})",
             ("quantity", "pair", "tier", "max abs", "scale", "scaled", "tolerance", "verdict"),

@@ -89,6 +89,7 @@ class Pointwise(TypedDict):
     seed: int
     rows: list[ComparisonRow]
     not_checked: NotRequired[list[str]]  # quantities the derivation does not provide
+    harness_bugs: NotRequired[list[str]]  # the symbolic source against both agreeing engines
 
 
 class Explanation(TypedDict, total=False):
