@@ -14,6 +14,7 @@ import numpy as np
 from .checks import equivalence, judge, modelsync, verdict
 from .checks import pointwise as compare
 from .checks import probes as probing
+from .checks.derived import derived_data
 from .checks.probes import DEFAULT_PROBES
 from .checks.tolerances import TOLERANCES
 from .dynamics import chaos, experiments, integrate
@@ -212,6 +213,7 @@ def run_system(
         or []
     )
     same = _stage(stages, "equivalence", lambda: equivalence.check_equivalence(system, probe_set.systems()))
+    derived = _stage(stages, "derived equations", lambda: derived_data(system))
     agrees = model["passed"] and point["passed"] and derivation["verdict"] == "agrees"
     traj = notes_experiments = cross = None
     if agrees:
@@ -270,6 +272,7 @@ def run_system(
         "pointwise": point,
         "derivation": derivation,
         "variants": variants,
+        "derived": derived,
         "trajectories": traj,
         "experiments": notes_experiments,
         "equivalence": same,

@@ -263,11 +263,7 @@ def cmd_derive(args: argparse.Namespace) -> int:
     """Prints the model's equations of motion, derived symbolically, in the coordinates' names; the
     text is kept in the cache (`derive` kind), keyed by the model's structure, the names, the format
     and the harness's code."""
-    import hashlib
-
-    from ..dynamics import cache
-    from ..engines.derivation import derive, structure_key
-    from ..engines.readable import as_text, equations
+    from ..checks.derived import derived_text
     from ..systems import model_view
 
     if args.system or args.equations is not None:
@@ -290,19 +286,7 @@ def cmd_derive(args: argparse.Namespace) -> int:
             )
         coordinates = names
     fmt = "latex" if args.latex else "python" if args.python else "text"
-    where = cache.folder(cache.DEFAULT, "derive")
-    what = repr(
-        (structure_key(view, joints), tuple(coordinates), None if joint_map is None else joint_map.tolist(), fmt)
-    )
-    key = hashlib.sha256((cache.harness_hash() + what).encode()).hexdigest()
-    path = None if where is None else where / f"{key[:32]}.npz"
-    found = None if path is None else cache.load(path, key)
-    if found is not None and isinstance(found[1].get("text"), str):
-        text = found[1]["text"]
-    else:
-        text = as_text(equations(derive(view, joints), tuple(coordinates), joint_map), fmt)
-        if path is not None:
-            cache.store(path, key, {}, {"text": text})
+    text = derived_text(view, tuple(joints), tuple(coordinates), joint_map, fmt)
     print(text, end="")
     return 0
 

@@ -53,13 +53,18 @@ def _flat(d: Derivation, part: str) -> tuple[list[Any], list[tuple[str, tuple[in
 
 
 def _code(d: Derivation, key: Any, part: str) -> Any:
-    """numpy code for one part, generated once per structure: f(q..., v..., params...) -> list."""
+    """numpy code for one part, generated once per structure: f(q..., v..., params...) -> list; for
+    "scalar", `math` code of M (row-major) and C v + G - passive at one state, for the integrators."""
     with _LOCK:
         if (key, part) not in _CODE:
             import sympy as sp
 
-            exprs, layout = _flat(d, part)
             args = [*d.q, *d.v, *d.source]
+            if part == "scalar":
+                exprs = [*d.M, *(d.Cv + d.G - d.passive)]
+                _CODE[(key, part)] = (sp.lambdify(args, exprs, modules="math", cse=True), [])
+                return _CODE[(key, part)]
+            exprs, layout = _flat(d, part)
             fn = sp.lambdify(args, exprs, modules="numpy", cse=True)
             _CODE[(key, part)] = (fn, layout)
         return _CODE[(key, part)]
@@ -79,6 +84,20 @@ class SymbolicSource:
         self.n = system.nv
         body_index = {b: i for i, b in enumerate(self.derivation.bodies)}
         self.bodies = [body_index[b] for b in system.bodies]
+
+    def rhs(self, tau: np.ndarray) -> Any:
+        """scipy's right-hand side f(t, y) -> [v..., a...] for constant `tau`: generated scalar `math`
+        code for M and the forces, one small solve per call."""
+        fn, _ = _code(self.derivation, self.key, "scalar")
+        n, params, tau = self.n, self.params, np.asarray(tau, dtype=float)
+
+        def f(t: float, y: np.ndarray) -> np.ndarray:
+            vals = fn(*y, *params)
+            M = np.array(vals[: n * n], dtype=float).reshape(n, n)
+            a = np.linalg.solve(M, tau - np.array(vals[n * n :], dtype=float))
+            return np.concatenate([y[n:], a])
+
+        return f
 
     def _eval(self, part: str, q: np.ndarray, v: np.ndarray) -> dict[str, np.ndarray]:
         fn, layout = _code(self.derivation, self.key, part)

@@ -22,6 +22,7 @@ SOURCE_COLOURS: dict[str, tuple[int, int, int]] = {
     "hand": (31, 119, 180),  # blue
     "mujoco": (255, 127, 14),  # orange
     "pinocchio": (44, 160, 44),  # green
+    "symbolic": (140, 86, 75),  # brown
 }
 
 
@@ -31,7 +32,6 @@ EXTRA_COLOURS: tuple[tuple[int, int, int], ...] = (
     (227, 119, 194),  # pink
     (188, 189, 34),  # olive
     (23, 190, 207),  # cyan
-    (140, 86, 75),  # brown
 )
 
 

@@ -55,6 +55,7 @@ SOURCE_STYLE = {  # colour, line style, width: the reference solid, the engines 
     "hand": ("#1f2937", "-", 1.6),
     "mujoco": ("#2563eb", (0, (5, 3)), 1.4),
     "pinocchio": ("#d97706", (0, (1, 2)), 1.8),
+    "symbolic": ("#059669", (0, (3, 1, 1, 1)), 1.4),
 }
 
 

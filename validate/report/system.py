@@ -22,7 +22,14 @@ from .document import (
     vec,
 )
 from .figures import energy_figure, error_figure, pointwise_figure, run_label, series, trajectory_figure
-from .system_parts import system_chaos, system_derivation, system_equivalence, system_experiments, system_skipped
+from .system_parts import (
+    system_chaos,
+    system_derivation,
+    system_derived,
+    system_equivalence,
+    system_experiments,
+    system_skipped,
+)
 
 
 def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[str, Any]) -> None:
@@ -94,6 +101,8 @@ def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[st
                     for m in mism
                 ],
             )
+
+    system_derived(doc, name, s)
 
     doc.h(3, "Derivation verdict", f"{slug(name)}-derivation")
     system_derivation(doc, name, s)

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from .document import NOT_RUN, Document, Mark, Num, as_float, pass_mark, sci, vec
+from .document import NOT_RUN, Code, Document, Mark, Num, as_float, pass_mark, sci, slug, vec
 from .figures import new_figure, png, rc, series
 
 
@@ -23,6 +23,36 @@ def system_skipped(doc: Document, name: str, s: dict[str, Any]) -> None:
     skipped = s.get("skipped")
     if skipped:
         doc.table(f"Work {name} does not need, skipped", ("skipped",), [(x,) for x in skipped])
+
+
+def system_derived(doc: Document, name: str, s: dict[str, Any]) -> None:
+    """The model's own equations of motion, derived symbolically: the fourth source, readable."""
+    d = s.get("derived")
+    doc.h(3, "Equations of motion derived from the model", f"{slug(name)}-derived")
+    if not d:
+        doc.p(f"Derived equations: {NOT_RUN}.", "missing")
+        return
+    names = d.get("coordinates", [])
+    doc.p(
+        "The model's own equations, derived from its compiled numbers by the notes' section-3 method (rotation "
+        "matrix per joint, centre-of-mass velocities, body-frame inertia, Lagrange's equations with the Christoffel "
+        "symbols of M), independently of both engines and of the hand derivation; the `symbolic` source of the "
+        "comparisons. Parameters are named after the model's elements; `d<name>` is a velocity. "
+        "`lagrange-xval derive` prints them (`--latex`, `--python`)."
+    )
+    n = len(names)
+    lines = [f"T = {d['T']['text']}", f"V = {d['V']['text']}"]
+    lines += [f"M[{names[i]}, {names[j]}] = {d['M'][i][j]['text']}" for i in range(n) for j in range(i, n)]
+    lines += [f"(C v)[{c}] = {d['Cv'][i]['text']}" for i, c in enumerate(names)]
+    lines += [f"G[{c}] = {d['G'][i]['text']}" for i, c in enumerate(names)]
+    if any(x["text"] != "0" for x in d.get("passive", [])):
+        lines += [f"passive[{c}] = {d['passive'][i]['text']}" for i, c in enumerate(names)]
+    doc.blocks.append(Code("\n".join(lines)))
+    doc.table(
+        f"Parameters of {name}'s derived equations",
+        ("symbol", "model element, unit"),
+        sorted(d.get("parameters", {}).items()),
+    )
 
 
 def system_derivation(doc: Document, name: str, s: dict[str, Any]) -> None:

@@ -147,6 +147,7 @@ class SystemResult(TypedDict, total=False):
     uses: list[str]
     failed: list[str]  # each failing check in one short phrase
     parameters: dict[str, float]
+    derived: dict[str, Any] | None  # the model's equations derived symbolically (engines/readable.as_data)
     timestep: float
     model_checks: ModelChecks
     pointwise: Pointwise

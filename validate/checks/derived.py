@@ -1,0 +1,56 @@
+"""The model's derived equations as text and as results data, kept in the cache (kind `derive`).
+
+Simplifying a 3-joint arm's equations takes about 20 s (engines/readable.py); the text depends only
+on the model's structure (engines/derivation.structure_key), the coordinates' names, the format and
+the harness's code, which together key the cache entry, so a second `derive` or `run` reads it back.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from typing import Any
+
+from ..dynamics import cache
+from ..engines.derivation import derive, structure_key
+from ..engines.readable import as_data, as_text, equations
+
+
+def _cached(what: str, compute: Any) -> Any:
+    """`compute()` (JSON-able), or what the cache holds for `what`."""
+    key = hashlib.sha256((cache.harness_hash() + what).encode()).hexdigest()
+    where = cache.folder(cache.DEFAULT, "derive")
+    path = None if where is None else where / f"{key[:32]}.npz"
+    found = None if path is None else cache.load(path, key)
+    if found is not None and "value" in found[1]:
+        return found[1]["value"]
+    value = compute()
+    if path is not None:
+        cache.store(path, key, {}, {"value": value})
+    return value
+
+
+def _what(view: Any, joints: tuple[str, ...], coordinates: tuple[str, ...], joint_map: Any, fmt: str) -> str:
+    mapping = None if joint_map is None else [[float(x) for x in row] for row in joint_map]
+    return repr((structure_key(view, joints), tuple(coordinates), json.dumps(mapping), fmt))
+
+
+def derived_text(view: Any, joints: tuple[str, ...], coordinates: tuple[str, ...], joint_map: Any, fmt: str) -> str:
+    """The equations of motion of the model `view` as text, LaTeX or Python (engines/readable.as_text)."""
+    return str(
+        _cached(
+            _what(view, joints, coordinates, joint_map, fmt),
+            lambda: as_text(equations(derive(view, joints), tuple(coordinates), joint_map), fmt),
+        )
+    )
+
+
+def derived_data(system: Any) -> dict[str, Any]:
+    """The system's derived equations for the results: each term as text and LaTeX (readable.as_data)."""
+    view, joints = system.view, system.joints
+    return dict(
+        _cached(
+            _what(view, joints, system.coordinates, system.joint_map, "data"),
+            lambda: as_data(equations(derive(view, joints), tuple(system.coordinates), system.joint_map)),
+        )
+    )
