@@ -43,7 +43,8 @@ PARTS = {
 }
 STATES_PER_MODEL = 16  # per model (the system's and each probe's): half fit, half held back
 FIT_RTOL = 1e-8  # a fit's residual at the held-back states, relative to the entry's scale
-MAX_CANDIDATES = 600
+MAX_CANDIDATES = 800
+PAIR_POOL = 24  # two-slip fits are tried among the candidates most aligned with the difference
 SIMPLE = sorted(
     {Fraction(s * a, b) for a in (1, 2, 3, 4) for b in (1, 2, 3, 4) for s in (1, -1)}, key=lambda f: (abs(f), f)
 )
@@ -67,36 +68,52 @@ def _kind(symbol: Any) -> str:
 
 
 def candidates(expected: Any, q: list[Any], params: list[Any]) -> list[Candidate]:
-    """The single-slip differences from `expected`, most specific first."""
+    """The single-slip differences from `expected`, most specific first: slips in one term, then
+    slips across the whole entry, then each term on its own (lost, doubled, sign, wrong number)."""
     import sympy as sp
 
-    terms = [t for t in sp.Add.make_args(sp.expand(expected)) if t != 0] if expected != 0 else []
+    expanded = sp.expand(expected)
+    terms = [t for t in sp.Add.make_args(expanded) if t != 0] if expanded != 0 else []
+    one = Fraction(1)
     out: list[Candidate] = []
     for t in terms:
         present = [p for p in params if t.has(p)]
         for p in present:
+            power = sp.degree(t, p) if t.is_polynomial(p) else 1
             for r in params:
-                if r != p and _kind(r) == _kind(p) and not t.has(r):
+                if r == p or _kind(r) != _kind(p):
+                    continue
+                if not t.has(r):
+                    out.append(Candidate(t.xreplace({p: r}) - t, "swap", f"has {r} where expected has {p} in {t}", one))
+                if power >= 2:  # one factor of p^2 for another length: l1 l2 for l2^2
                     out.append(
-                        Candidate(t.xreplace({p: r}) - t, "swap", f"has {r} where expected has {p} in {t}", Fraction(1))
+                        Candidate(t * r / p - t, "swap", f"has {p}*{r} where expected has {p}**{power} in {t}", one)
                     )
-            out.append(Candidate(t / p - t, "drop", f"lacks the factor {p} in {t}", Fraction(1)))
-            out.append(Candidate(t * p - t, "extra", f"has an extra factor {p} in {t}", Fraction(1)))
+            out.append(Candidate(t / p - t, "drop", f"lacks the factor {p} in {t}", one))
+            out.append(Candidate(t * p - t, "extra", f"has an extra factor {p} in {t}", one))
         for f in t.atoms(sp.sin, sp.cos):
             other = (sp.cos if isinstance(f, sp.sin) else sp.sin)(f.args[0])
-            out.append(
-                Candidate(t.xreplace({f: other}) - t, "trig", f"has {other} where expected has {f} in {t}", Fraction(1))
-            )
+            out.append(Candidate(t.xreplace({f: other}) - t, "trig", f"has {other} where expected has {f} in {t}", one))
             for x in q:
                 if f.args[0] != x:
                     g = f.func(x)
                     out.append(
-                        Candidate(
-                            t.xreplace({f: g}) - t, "argument", f"has {g} where expected has {f} in {t}", Fraction(1)
-                        )
+                        Candidate(t.xreplace({f: g}) - t, "argument", f"has {g} where expected has {f} in {t}", one)
                     )
+    present = [p for p in params if expanded.has(p)]
+    for p, r in itertools.permutations(present, 2):  # across the entry
+        if _kind(p) == _kind(r) and str(p) < str(r):
+            out.append(
+                Candidate(expanded.xreplace({p: r, r: p}) - expanded, "exchange", f"has {p} and {r} exchanged", one)
+            )
+    for p in present:
+        out.append(Candidate(expanded.xreplace({p: 1}) - expanded, "drop", f"lacks the factor {p} everywhere", one))
+    for f in expanded.atoms(sp.sin, sp.cos):
+        other = (sp.cos if isinstance(f, sp.sin) else sp.sin)(f.args[0])
+        out.append(Candidate(expanded.xreplace({f: other}) - expanded, "trig", f"has {other} for {f} everywhere", one))
     for t in terms:
         out.append(Candidate(t, "term", str(t), None))
+    out.append(Candidate(expanded, "scale", "expected", None))
     return out[:MAX_CANDIDATES]
 
 
@@ -122,6 +139,8 @@ def _coefficient_text(c: Fraction, basis: Any) -> str:
 
 
 def _describe(cand: Candidate, c: Fraction) -> str:
+    if cand.kind == "scale":
+        return "yours = -expected (the whole entry's sign)" if c == -2 else f"yours = {1 + c} * expected"
     if cand.kind != "term":
         return f"yours {cand.text}"
     diff = f"yours = expected {_coefficient_text(c, cand.basis)}"
@@ -247,12 +266,16 @@ def _fit(
         resid = np.abs(D - model)
         return float(resid[held].max()) if resid[fit].max() <= tol and resid[held].max() <= tol else None
 
+    usable, fitted = [], []
     for k, cand in enumerate(found):  # one slip
         b = B[fit, k]
         norm = float(b @ b)
-        if norm <= (1e-12 * scale) ** 2 * len(b):
+        if norm <= (1e-12 * scale) ** 2 * len(b) or not np.isfinite(norm):
             continue
-        c = _simple(float(b @ D[fit]) / norm)
+        raw = float(b @ D[fit]) / norm
+        usable.append(k)
+        fitted.append(abs(raw) * np.sqrt(norm) / max(float(np.linalg.norm(D[fit])), 1e-300))  # |cos| of the angle
+        c = _simple(raw)
         if c is None or (cand.fixed is not None and c != cand.fixed):
             continue
         r = check([k], [c])
@@ -263,22 +286,24 @@ def _fit(
                 "difference": sp_str(c, cand.basis),
                 "residual": r / scale,
             }
-    terms = [k for k, c in enumerate(found) if c.kind == "term"]
-    for i, j in itertools.combinations(terms, 2):  # two terms wrong at once
+    best = [usable[i] for i in np.argsort(fitted)[::-1][:PAIR_POOL]]
+    for i, j in itertools.combinations(sorted(best), 2):  # two slips at once
         A = B[fit][:, [i, j]]
         coef, *_ = np.linalg.lstsq(A, D[fit], rcond=None)
         simple = [_simple(float(x)) for x in coef]
-        if any(s is None or s == 0 for s in simple):
+        if any(x is None or x == 0 for x in simple):
+            continue
+        if any(found[k].fixed is not None and x != found[k].fixed for k, x in zip((i, j), simple, strict=True)):
             continue
         r = check([i, j], simple)  # type: ignore[arg-type]
         if r is not None:
-            text = " ".join(_coefficient_text(c, found[k].basis) for k, c in zip((i, j), simple, strict=True))  # type: ignore[arg-type]
-            return {"explained": True, "statement": f"yours = expected {text}", "residual": r / scale}
+            statement = "; ".join(_describe(found[k], x) for k, x in zip((i, j), simple, strict=True))  # type: ignore[arg-type]
+            return {"explained": True, "statement": statement, "residual": r / scale}
     if float(np.abs(D + samples.evaluate([expected])[:, 0]).max()) <= FIT_RTOL * scale:
         return {"explained": True, "statement": "yours is 0 where the model has this entry", "residual": 0.0}
     return {
         "explained": False,
-        "statement": f"no simple form reproduces your numbers ({len(found)} single slips and pairs of terms tried)",
+        "statement": f"no simple form reproduces your numbers ({len(found)} single slips and pairs of them tried)",
     }
 
 
