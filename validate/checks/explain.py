@@ -28,8 +28,8 @@ from typing import Any
 
 import numpy as np
 
-from ..engines.derivation import parameter_values
-from ..engines.readable import tidy, transformed
+from ..engines.derivation import axis_rotation, parameter_values
+from ..engines.readable import in_coordinates, tidy, transformed
 from ..engines.symbolic import derivation_of
 from .pointwise import random_states
 
@@ -67,7 +67,7 @@ def _kind(symbol: Any) -> str:
     return name.split("_")[0]
 
 
-def candidates(expected: Any, q: list[Any], params: list[Any]) -> list[Candidate]:
+def candidates(expected: Any, q: list[Any], params: list[Any], rates: tuple[Any, ...] = ()) -> list[Candidate]:
     """The single-slip differences from `expected`, most specific first: slips in one term, then
     slips across the whole entry, then each term on its own (lost, doubled, sign, wrong number)."""
     import sympy as sp
@@ -100,7 +100,19 @@ def candidates(expected: Any, q: list[Any], params: list[Any]) -> list[Candidate
                     out.append(
                         Candidate(t.xreplace({f: g}) - t, "argument", f"has {g} where expected has {f} in {t}", one)
                     )
+        for x in rates:  # one rate for another: (theta' + theta') for (theta' + phi')
+            if t.has(x):
+                for y in rates:
+                    if y != x:
+                        out.append(
+                            Candidate(t.xreplace({x: y}) - t, "argument", f"has {y} where expected has {x} in {t}", one)
+                        )
     present = [p for p in params if expanded.has(p)]
+    for p in present:  # every term in p by the same wrong number: a 1/2 misplaced in front of a group
+        members = [t for t in terms if t.has(p)]
+        group = sp.Add(*members)
+        if len(members) > 1 and group != expanded:
+            out.append(Candidate(group, "group", f"the terms in {p}: {group}", None))
     for p, r in itertools.permutations(present, 2):  # across the entry
         if _kind(p) == _kind(r) and str(p) < str(r):
             out.append(
@@ -141,6 +153,9 @@ def _coefficient_text(c: Fraction, basis: Any) -> str:
 def _describe(cand: Candidate, c: Fraction) -> str:
     if cand.kind == "scale":
         return "yours = -expected (the whole entry's sign)" if c == -2 else f"yours = {1 + c} * expected"
+    if cand.kind == "group":
+        times = "lacks" if c == -1 else f"has {1 + c} times"
+        return f"yours {times} {cand.text} (yours = expected {_coefficient_text(c, cand.basis)})"
     if cand.kind != "term":
         return f"yours {cand.text}"
     diff = f"yours = expected {_coefficient_text(c, cand.basis)}"
@@ -178,26 +193,6 @@ class _Samples:
         return np.stack([np.broadcast_to(np.asarray(x, dtype=float), (len(self.q),)) for x in raw], axis=-1)
 
 
-def _user_values(system: Any, q: np.ndarray, v: np.ndarray) -> dict[str, np.ndarray]:
-    eq, p = system.equations, system.params
-    zero = np.zeros_like(q)
-    out: dict[str, np.ndarray] = {}
-    with np.errstate(all="ignore"):
-        for part, fn in (
-            ("M", lambda: eq.mass_matrix(p, q)),
-            ("G", lambda: eq.bias(p, q, zero)),
-            ("Cv", lambda: np.asarray(eq.bias(p, q, v), dtype=float) - np.asarray(eq.bias(p, q, zero), dtype=float)),
-            ("passive", lambda: eq.passive(p, q, v)),
-            ("T", lambda: eq.kinetic_energy(p, q, v)),
-            ("V", lambda: eq.potential_energy(p, q)),
-        ):
-            try:
-                out[part] = np.asarray(fn(), dtype=float)
-            except Exception:  # noqa: BLE001 - the user's code; a term it cannot give is not explained
-                pass
-    return out
-
-
 def _entries(part: str, n: int, coordinates: tuple[str, ...]) -> list[tuple[tuple[int, ...], str]]:
     if part == "M":
         return [((i, j), f"M[{coordinates[i]}, {coordinates[j]}]") for i in range(n) for j in range(i, n)]
@@ -207,46 +202,124 @@ def _entries(part: str, n: int, coordinates: tuple[str, ...]) -> list[tuple[tupl
     return [((i,), f"{label}[{c}]") for i, c in enumerate(coordinates)]
 
 
-def explain(system: Any, probe_systems: list[Any], terms: list[str], *, seed: int = 0) -> list[dict[str, Any]]:
-    """One record per disagreeing entry of each of `terms`: the entry, the expected expression and
-    the symbolic difference the user's numbers fit (verified at held-back states), or that none fits."""
+def _symbols(coordinates: tuple[str, ...]) -> dict[str, list[Any]]:
     import sympy as sp
 
-    d = derivation_of(system)
-    coordinates = tuple(system.coordinates)
-    symbols = {
+    return {
         "q": [sp.Symbol(c, real=True) for c in coordinates],
         "v": [sp.Symbol(f"d{c}", real=True) for c in coordinates],
     }
+
+
+def explain_entries(
+    system: Any, probe_systems: list[Any], items: list[tuple[str, str, Any, Any]], *, seed: int = 0
+) -> list[dict[str, Any]]:
+    """One record per disagreeing item (term, entry label, expected sympy expression in the named
+    coordinates, user(system, q, v) -> one value per state): the expected expression and the symbolic
+    difference the user's numbers fit (verified at held-back states), or that none fits."""
+    import sympy as sp
+
+    d = derivation_of(system)
+    symbols = _symbols(tuple(system.coordinates))
     samples = _Samples([system, *probe_systems], d, symbols, seed)
-    users = [_user_values(s, st.q, st.v) for s, st in samples.states]
     out = []
+    for term, label, entry, user in items:
+        try:
+            with np.errstate(all="ignore"):
+                mine = np.concatenate([np.asarray(user(s, st.q, st.v), dtype=float) for s, st in samples.states])
+        except Exception:  # noqa: BLE001 - the user's code; an entry it cannot give is not explained
+            continue
+        expected = tidy(entry, symbols["q"])
+        exp_num = samples.evaluate([expected])[:, 0]
+        scale = max(float(np.abs(exp_num).max()), float(np.abs(mine).max()), 1e-300)
+        D = mine - exp_num
+        if not np.all(np.isfinite(D)) or float(np.abs(D).max()) <= 1e-9 * scale:
+            continue
+        record = {
+            "term": term,
+            "entry": label,
+            "expected": sp.sstr(expected),
+            **_fit(expected, D, scale, samples, symbols),
+        }
+        named = {str(x) for x in sp.sympify(expected).free_symbols} | set(re.findall(r"\w+", record["statement"]))
+        record["symbols"] = {str(k): v for k, v in d.parameters.items() if str(k) in named}
+        out.append(record)
+    return out
+
+
+def _user_part(part: str, index: tuple[int, ...]) -> Any:
+    """user(system, q, v) for one entry of one part of a derivation (mass_matrix, bias, ...)."""
+
+    def user(system: Any, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        eq, p = system.equations, system.params
+        zero = np.zeros_like(q)
+        if part == "M":
+            x = eq.mass_matrix(p, q)
+        elif part == "G":
+            x = eq.bias(p, q, zero)
+        elif part == "Cv":
+            x = np.asarray(eq.bias(p, q, v), dtype=float) - np.asarray(eq.bias(p, q, zero), dtype=float)
+        elif part == "passive":
+            x = eq.passive(p, q, v)
+        elif part == "T":
+            x = eq.kinetic_energy(p, q, v)
+        else:
+            x = eq.potential_energy(p, q)
+        arr: np.ndarray = np.broadcast_to(np.asarray(x, dtype=float), (len(q), *(len(q[0]),) * len(index)))
+        where: tuple[Any, ...] = (slice(None), *index)
+        return np.asarray(arr[where])
+
+    return user
+
+
+def step_expression(system: Any, quantity: tuple[Any, ...], angle_index: int = 0) -> Any:
+    """The model's own expression of a derivation step's quantity (judge.engine_quantity's list), in
+    the system's coordinates: a scalar, a 3-vector or a 3x3 matrix."""
+    import sympy as sp
+
+    d = derivation_of(system)
+    kind, which = quantity[0], quantity[1] if len(quantity) > 1 else None
+    v = sp.Matrix(d.v)
+    if kind == "axis_rotation":
+        expr = axis_rotation(sp.Matrix([sp.nsimplify(x) for x in (which or ())]), d.q[angle_index])
+    elif which is None:
+        expr = {"kinetic_energy": d.T, "potential_energy": d.V, "lagrangian": d.T - d.V}[kind]
+    else:
+        b = which
+        mass = sp.Symbol(f"m_{b}", positive=True) if any(str(x) == f"m_{b}" for x in d.source) else 0
+        trans = mass * (d.J_com[b] * v).dot(d.J_com[b] * v) / 2
+        table = {
+            "com_position": lambda: d.com[b],
+            "com_velocity": lambda: d.J_com[b] * v,
+            "origin_position": lambda: d.origin[b],
+            "origin_velocity": lambda: d.J_origin[b] * v,
+            "rotation": lambda: d.rotation[b],
+            "angular_velocity": lambda: d.J_omega[b] * v,
+            "kinetic_energy": lambda: d.T_body[b],
+            "potential_energy": lambda: d.V_body[b],
+            "translational_kinetic_energy": lambda: trans,
+            "rotational_kinetic_energy": lambda: d.T_body[b] - trans,
+            "com_speed_squared": lambda: (d.J_com[b] * v).dot(d.J_com[b] * v),
+            "angular_velocity_body": lambda: d.rotation[b].T * d.J_omega[b] * v,
+        }
+        expr = table[kind]()
+    return in_coordinates(d, tuple(system.coordinates), system.joint_map, expr)[0]
+
+
+def explain(system: Any, probe_systems: list[Any], terms: list[str], *, seed: int = 0) -> list[dict[str, Any]]:
+    """The disagreeing entries of a derivation's `terms` (mass matrix, gravity, ...), explained."""
+    d = derivation_of(system)
+    coordinates = tuple(system.coordinates)
+    items = []
     for term in terms:
         part = PARTS.get(term)
-        if part is None or any(part not in u for u in users):
+        if part is None:
             continue
-        user_all = np.concatenate([u[part].reshape(len(u[part]), -1) for u in users])
-        expr_all = transformed(d, coordinates, system.joint_map, part)
+        expr = transformed(d, coordinates, system.joint_map, part)
         for index, label in _entries(part, system.nv, coordinates):
-            flat = int(np.ravel_multi_index(index, (system.nv,) * len(index))) if index else 0
-            entry = expr_all[index] if len(index) == 2 else expr_all[index[0]] if index else expr_all
-            expected = tidy(entry, symbols["q"])
-            mine = user_all[:, flat]
-            exp_num = samples.evaluate([expected])[:, 0]
-            scale = max(float(np.abs(exp_num).max()), float(np.abs(mine).max()), 1e-300)
-            D = mine - exp_num
-            if not np.all(np.isfinite(D)) or float(np.abs(D).max()) <= 1e-9 * scale:
-                continue
-            record = {
-                "term": term,
-                "entry": label,
-                "expected": sp.sstr(expected),
-                **_fit(expected, D, scale, samples, symbols),
-            }
-            named = {str(x) for x in sp.sympify(expected).free_symbols} | set(re.findall(r"\w+", record["statement"]))
-            record["symbols"] = {str(k): v for k, v in d.parameters.items() if str(k) in named}
-            out.append(record)
-    return out
+            entry = expr[index] if len(index) == 2 else expr[index[0]] if index else expr
+            items.append((term, label, entry, _user_part(part, index)))
+    return explain_entries(system, probe_systems, items, seed=seed)
 
 
 def _fit(
@@ -254,7 +327,7 @@ def _fit(
 ) -> dict[str, Any]:
     """The simplest candidate difference that reproduces D, or why none does."""
     params = list(samples.args[2 * len(symbols["q"]) :])
-    found = candidates(expected, symbols["q"], params)
+    found = candidates(expected, symbols["q"], params, tuple(symbols["v"]))
     if not found:
         return {"explained": False, "statement": "expected 0: yours has terms where the model has none"}
     B = samples.evaluate([c.basis for c in found])

@@ -33,6 +33,7 @@ from ..engines import make_sources
 from ..errors import HarnessError
 from ..systems.modelview import ModelView
 from . import probes as probing
+from .explain import explain_entries, step_expression
 from .pointwise import States, error_row, random_states
 from .probes import describe_ties
 from .tolerances import TOLERANCES, Tolerances
@@ -435,7 +436,89 @@ def judge_system(
         )
         for var in system.variants
     ]
-    for v in verdicts:
+    for var, v in zip(system.variants, verdicts, strict=True):
         v["assumes"] = describe_ties(ties)
         v["probe_problems"] = problems
+        if v["verdict"] == "disagrees":
+            failing = sorted({r["term"] for r in v["terms"] if not r["passed"]})
+            v["explanations"] = explain_variant(system, var, [p.system for p in probe_list[1:]], failing, seed=seed)
     return verdicts
+
+
+def _entry_label(name: str, shape: tuple[int, ...], index: tuple[int, ...]) -> str:
+    if not shape:
+        return name
+    if len(shape) == 1:
+        return f"{name}[{'xyz'[index[0]] if shape == (3,) else index[0]}]"
+    return f"{name}[{index[0]},{index[1]}]"
+
+
+def explain_variant(
+    system: Any, variant: Any, probe_systems: list[Any], failing: list[str], *, seed: int = 0
+) -> list[dict[str, Any]]:
+    """A wrong printed form's disagreeing entries as symbolic differences from the model's own
+    equations (checks/explain.py), at the probes that keep the printed form's equalities: a derivation
+    step's value entry by entry; an explicit form's accelerations by term, through their numerators
+    (det M times the acceleration, against -adj(M) G, -adj(M) C v, adj(M) passive). Parameters the
+    printed form assumes equal cannot be told apart by the fit. An explanation that cannot be computed
+    is one line saying why."""
+    import sympy as sp
+
+    from ..engines.readable import transformed
+    from ..engines.symbolic import derivation_of
+
+    try:
+        items: list[tuple[str, str, Any, Any]] = []
+        if isinstance(variant, DerivationStep):
+            expr = step_expression(system, variant.quantity, variant.angle_index)
+            shape = tuple(expr.shape) if hasattr(expr, "shape") else ()
+            shape = (shape[0],) if len(shape) == 2 and shape[1] == 1 else shape
+            for index in np.ndindex(*shape) if shape else [()]:
+                entry = expr[index] if len(index) == 2 else expr[index[0]] if index else expr
+
+                def user(s: Any, q: np.ndarray, v: np.ndarray, index: tuple[int, ...] = index) -> np.ndarray:
+                    out = np.broadcast_to(np.asarray(variant.evaluate(s.params, q, v), dtype=float), (len(q), *shape))
+                    where: tuple[Any, ...] = (slice(None), *index)
+                    return np.asarray(out[where])
+
+                items.append(("value", _entry_label(variant.name, shape, index), entry, user))
+        elif hasattr(variant, "acceleration") and not isinstance(variant, Implicit):
+            d, names = derivation_of(system), tuple(system.coordinates)
+            M = transformed(d, names, system.joint_map, "M")
+            adj = M.adjugate()
+            numerators = {
+                "gravity": -adj * transformed(d, names, system.joint_map, "G"),
+                "velocity": -adj * transformed(d, names, system.joint_map, "Cv"),
+                "friction": adj * transformed(d, names, system.joint_map, "passive"),
+            }
+
+            def accel(term: str, i: int) -> Any:
+                def user(s: Any, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+                    f = variant.acceleration
+                    zero = np.zeros_like(q)
+                    p, p0 = s.params, frictionless_params(s)
+                    a = {
+                        "gravity": lambda: f(p, q, zero, zero),
+                        "velocity": lambda: np.asarray(f(p0, q, v, zero)) - np.asarray(f(p0, q, zero, zero)),
+                        "friction": lambda: np.asarray(f(p, q, v, zero)) - np.asarray(f(p0, q, v, zero)),
+                    }[term]()
+                    det = np.linalg.det(make_sources(s)["symbolic"].mass_matrix(q))
+                    return det * np.asarray(a, dtype=float)[:, i]
+
+                return user
+
+            for term in failing:
+                if term in numerators:
+                    for i, c in enumerate(names):
+                        items.append((term, f"det(M) * {term} acceleration[{c}]", numerators[term][i], accel(term, i)))
+        return explain_entries(system, probe_systems, items, seed=seed)
+    except Exception as exc:  # noqa: BLE001 - a printed form the symbolic basis cannot hold
+        return [
+            {
+                "term": failing[0] if failing else "?",
+                "entry": "",
+                "explained": False,
+                "statement": f"no symbolic explanation: {type(exc).__name__}: {exc}".strip(),
+                "expected": sp.sstr(0),
+            }
+        ]

@@ -198,7 +198,7 @@ def _quat_matrix(w: Any, x: Any, y: Any, z: Any) -> Any:
     )
 
 
-def _axis_rotation(axis: Any, angle: Any) -> Any:
+def axis_rotation(axis: Any, angle: Any) -> Any:
     """Rodrigues' rotation about a unit axis; R_z(angle) etc. exactly for the coordinate axes."""
     import sympy as sp
 
@@ -253,7 +253,7 @@ def derive(view: Any, joints: tuple[str, ...]) -> Derivation:
             i = index[j]
             if kind == "hinge":
                 anchor = P.vector(f"a_{_clean(j)}", f"joint/{j}/pos", "m")
-                Rj = _axis_rotation(axis, q[i])
+                Rj = axis_rotation(axis, q[i])
                 x = x + R * (anchor - Rj * anchor)
                 Jw[:, i] = R * axis
                 R = R * Rj

@@ -57,9 +57,9 @@ def tidy(expr: Any, q: list[Any]) -> Any:
     return sp.Add(*(factor * sp.trigsimp(trig) for factor, trig in by_factor.items()))
 
 
-def transformed(d: Derivation, coordinates: tuple[str, ...], joint_map: Any, part: str) -> Any:
-    """One part of the derivation ("M", "Cv", "G", "passive", "T", "V") in the named coordinates,
-    q = joint_map @ (joint coordinates), not simplified: forces map by A^-T, M by A^-T M A^-1."""
+def in_coordinates(d: Derivation, coordinates: tuple[str, ...], joint_map: Any, expr: Any) -> Any:
+    """`expr` (in the derivation's joint coordinates and rates) in the named coordinates, where
+    q = joint_map @ (joint coordinates); returns (expr, A^-1 as a sympy Matrix)."""
     import sympy as sp
 
     q = [sp.Symbol(n, real=True) for n in coordinates]
@@ -71,12 +71,18 @@ def transformed(d: Derivation, coordinates: tuple[str, ...], joint_map: Any, par
         Ainv = sp.Matrix([[sp.nsimplify(x, rational=True) for x in row] for row in inverse])
     qj, vj = Ainv * sp.Matrix(q), Ainv * sp.Matrix(v)
     subs = {**dict(zip(d.q, qj, strict=True)), **dict(zip(d.v, vj, strict=True))}
-    expr = getattr(d, part)
+    return sp.sympify(expr).xreplace(subs), Ainv
+
+
+def transformed(d: Derivation, coordinates: tuple[str, ...], joint_map: Any, part: str) -> Any:
+    """One part of the derivation ("M", "Cv", "G", "passive", "T", "V") in the named coordinates,
+    q = joint_map @ (joint coordinates), not simplified: forces map by A^-T, M by A^-T M A^-1."""
+    expr, Ainv = in_coordinates(d, coordinates, joint_map, getattr(d, part))
     if part == "M":
-        expr = Ainv.T * expr * Ainv
-    elif part in ("Cv", "G", "passive"):
-        expr = Ainv.T * expr
-    return sp.sympify(expr).xreplace(subs)
+        return Ainv.T * expr * Ainv
+    if part in ("Cv", "G", "passive"):
+        return Ainv.T * expr
+    return expr
 
 
 def equations(d: Derivation, coordinates: tuple[str, ...] | None = None, joint_map: Any = None) -> Equations:

@@ -239,9 +239,18 @@ def section_errata(doc: Document, results: dict[str, Any]) -> None:
     )
     for name, text in assumed:
         doc.p(f"The printed forms of {name} assume {text}; their probes keep these equalities.", "note")
-    rows, notes = [], []
+    rows, notes, explained = [], [], []
     for name, s in sorted(results.get("systems", {}).items()):
         for v in s.get("variants", []):
+            for e in v.get("explanations", []):
+                explained.append(
+                    (
+                        name,
+                        v.get("name"),
+                        e.get("entry"),
+                        e.get("statement") if e.get("explained") else f"(not explained) {e.get('statement')}",
+                    )
+                )
             w = v.get("worst_term") if v.get("verdict") == "disagrees" else None
             rows.append(
                 (
@@ -282,6 +291,19 @@ def section_errata(doc: Document, results: dict[str, Any]) -> None:
         rows,
         group=True,
     )
+    if explained:
+        doc.p(
+            "What each wrong printed form lacks, against the model's own equations derived symbolically: the "
+            "difference in each disagreeing entry fitted onto one slip (or two) and kept only where it reproduces the "
+            "printed form's numbers at states held back from the fit, at the probes that keep the printed form's "
+            "equalities (parameters it assumes equal cannot be told apart). An explicit form is compared through its "
+            "numerator, det(M) times the acceleration."
+        )
+        doc.table(
+            "Symbolic differences of the wrong printed forms",
+            ("system", "printed form", "entry", "difference"),
+            explained,
+        )
     if notes:
         doc.p("Notes on the transcription:")
         doc.blocks.append(Items(tuple(notes)))
