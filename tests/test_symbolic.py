@@ -5,6 +5,7 @@ recovered exactly, a fourth source that agrees with both engines on every system
 from __future__ import annotations
 
 import pathlib
+import re
 import shutil
 import subprocess
 import sys
@@ -329,3 +330,33 @@ def test_the_notes_errata_are_explained_as_the_errata_table_says():
             assert v["verdict"] == "disagrees"
             statements = [e["statement"] for e in v["explanations"] if e["explained"]]
             assert any(want in s for s in statements), (v["name"], statements, v.get("note"))
+
+
+def test_long_chains_leave_the_symbolic_source_out(tmp_path):
+    """Beyond SYMBOLIC_MAX_DOF joints the derivation would take minutes: the source is left out and
+    the others still compare (a 7-link planar chain written here, its module from `new`)."""
+    from lagrange_xval.validate.engines import SYMBOLIC_MAX_DOF, make_sources
+    from lagrange_xval.validate.systems.scaffold import write_module
+
+    n = SYMBOLIC_MAX_DOF + 1
+    body = ""
+    for i in reversed(range(n)):
+        body = (
+            f'<body name="b{i}" pos="0 {-0.3 if i else 0} 0"><joint name="j{i}" type="hinge" axis="0 0 1"/>'
+            f'<inertial pos="0 -0.15 0" mass="{1 + 0.1 * i}" diaginertia="0.01 0.002 0.01"/>{body}</body>'
+        )
+    model = tmp_path / "chain.xml"
+    model.write_text(f'<mujoco><option gravity="0 -9.81 0"/><worldbody>{body}</worldbody></mujoco>')
+    module = write_module("chain", model, tmp_path)
+    text = re.sub(r"@not_provided\ndef (mass_matrix|bias)\(.*?(?=\n\n\n|\Z)", "", module.read_text(), flags=re.S)
+    module.write_text(
+        text
+        + "\n\ndef mass_matrix(p, q):\n    return np.broadcast_to(np.eye(q.shape[-1]), q.shape + q.shape[-1:]).copy()\n"
+        "\n\ndef bias(p, q, v):\n    return np.zeros(np.broadcast_shapes(q.shape, v.shape))\n"
+    )
+    system = System.from_files(model, module)
+    sources = make_sources(system)
+    assert set(sources) == {"hand", "mujoco", "pinocchio"}
+    states = pointwise.random_states(system, n=20, seed=0)
+    rows = pointwise.compare(pointwise.evaluate(sources, states), states)
+    assert all(r["passed"] for r in rows if r["pair"] == "mujoco~pinocchio")

@@ -39,6 +39,13 @@ from .probes import describe_ties
 from .tolerances import TOLERANCES, Tolerances
 
 ENGINES = ("mujoco", "pinocchio", "symbolic")  # the references a derivation is judged against
+
+
+def engines_of(sources: Any) -> tuple[str, ...]:
+    """The references among `sources` (the symbolic one is left out of chains too long to derive)."""
+    return tuple(n for n in ENGINES if n in sources)
+
+
 DEFAULT_PROBES = 4
 TERM_ORDER = (
     "printed parameters",
@@ -72,8 +79,9 @@ class EngineTerms:
         """`values`: what `compare.evaluate` already computed at these states, reused rather than recomputed."""
         q, v, tau = states.q, states.v, states.tau
         zero = np.zeros_like(q)
+        self.engines = engines_of(sources)
         self.by_engine: dict[str, dict[str, np.ndarray]] = {}
-        for name in ENGINES:
+        for name in self.engines:
             src = sources[name]
             known = (values or {}).get(name)
             M = known["M"] if known else src.mass_matrix(q)
@@ -96,14 +104,14 @@ class EngineTerms:
         self._sources, self._states = sources, states
         self.energies = {
             name: (values[name]["T"], values[name]["V"]) if values and name in values else sources[name].energies(q, v)
-            for name in ENGINES
+            for name in self.engines
         }
 
     @functools.cached_property
     def kinematics(self) -> dict[str, Any]:
         """Per-body kinematics of each engine, computed on first use (derivation steps need them)."""
         q, v = self._states.q, self._states.v
-        return {name: self._sources[name].kinematics(q, v) for name in ENGINES}
+        return {name: self._sources[name].kinematics(q, v) for name in self.engines}
 
 
 def term_rows(
@@ -240,9 +248,7 @@ def judge_variant(
         rows = _printed_parameter_rows(system, variant) if printed_parameters else []
         if isinstance(variant, DerivationStep):
             printed = np.asarray(variant.evaluate(p, q, v), dtype=float)
-            refs = {
-                n: engine_quantity(system, terms, variant.quantity, n, states, variant.angle_index) for n in ENGINES
-            }
+            refs = {n: engine_quantity(system, terms, variant.quantity, n, states, variant.angle_index) for n in e}
             printed = np.broadcast_to(printed, refs["mujoco"].shape)
             rows += term_rows("value", printed, refs, states, tier="algebraic", tolerances=tolerances)
         elif isinstance(variant, Implicit):
@@ -255,25 +261,25 @@ def judge_variant(
             rows += term_rows(
                 "mass matrix",
                 mass,
-                {k: s[:, None] * e[k]["M"] for k in ENGINES},
+                {k: s[:, None] * e[k]["M"] for k in e},
                 states,
                 tier="algebraic",
                 tolerances=tolerances,
             )
             if "gravity" in uses:
                 rows += term_rows(
-                    "gravity", r00, {k: s * e[k]["G"] for k in ENGINES}, states, tier="algebraic", tolerances=tolerances
+                    "gravity", r00, {k: s * e[k]["G"] for k in e}, states, tier="algebraic", tolerances=tolerances
                 )
             vel = r(p0, q, v, zero, zero) - r(p0, q, zero, zero, zero)
             rows += term_rows(
-                "velocity", vel, {k: s * e[k]["Cv"] for k in ENGINES}, states, tier="algebraic", tolerances=tolerances
+                "velocity", vel, {k: s * e[k]["Cv"] for k in e}, states, tier="algebraic", tolerances=tolerances
             )
             if "damping" in uses:
                 fr = r(p, q, v, zero, zero) - r(p0, q, v, zero, zero)
                 rows += term_rows(
                     "friction",
                     fr,
-                    {k: -s * e[k]["passive"] for k in ENGINES},
+                    {k: -s * e[k]["passive"] for k in e},
                     states,
                     tier="algebraic",
                     tolerances=tolerances,
@@ -281,10 +287,10 @@ def judge_variant(
             if "actuation" in uses:
                 act = r(p, q, zero, zero, tau) - r00
                 rows += term_rows(
-                    "actuation", act, {k: -s * tau for k in ENGINES}, states, tier="algebraic", tolerances=tolerances
+                    "actuation", act, {k: -s * tau for k in e}, states, tier="algebraic", tolerances=tolerances
                 )
-            residual = {k: r(p, q, v, e[k]["a"], tau) for k in ENGINES}
-            for k in ENGINES:  # the residual at the engine's own accelerations should vanish
+            residual = {k: r(p, q, v, e[k]["a"], tau) for k in e}
+            for k in e:  # the residual at the engine's own accelerations should vanish
                 scale = float(np.abs(s * (e[k]["Cv"] + e[k]["G"])).max())
                 rows += term_rows(
                     "residual",
@@ -300,18 +306,18 @@ def judge_variant(
             f00 = f(p, q, zero, zero)
             if "gravity" in uses:
                 rows += term_rows(
-                    "gravity", f00, {k: e[k]["a_gravity"] for k in ENGINES}, states, tier="solve", tolerances=tolerances
+                    "gravity", f00, {k: e[k]["a_gravity"] for k in e}, states, tier="solve", tolerances=tolerances
                 )
             vel = f(p0, q, v, zero) - f(p0, q, zero, zero)
             rows += term_rows(
-                "velocity", vel, {k: e[k]["a_velocity"] for k in ENGINES}, states, tier="solve", tolerances=tolerances
+                "velocity", vel, {k: e[k]["a_velocity"] for k in e}, states, tier="solve", tolerances=tolerances
             )
             if "damping" in uses:
                 fr = f(p, q, v, zero) - f(p0, q, v, zero)
                 rows += term_rows(
                     "friction",
                     fr,
-                    {k: e[k]["a_friction"] for k in ENGINES},
+                    {k: e[k]["a_friction"] for k in e},
                     states,
                     tier="solve",
                     tolerances=tolerances,
@@ -321,7 +327,7 @@ def judge_variant(
                 rows += term_rows(
                     "actuation",
                     act,
-                    {k: e[k]["a_actuation"] for k in ENGINES},
+                    {k: e[k]["a_actuation"] for k in e},
                     states,
                     tier="solve",
                     tolerances=tolerances,
@@ -329,7 +335,7 @@ def judge_variant(
             rows += term_rows(
                 "acceleration",
                 f(p, q, v, tau),
-                {k: e[k]["a"] for k in ENGINES},
+                {k: e[k]["a"] for k in e},
                 states,
                 tier="solve",
                 tolerances=tolerances,

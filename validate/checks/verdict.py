@@ -26,13 +26,13 @@ from typing import Any, cast
 
 import numpy as np
 
-from ..engines import make_sources
+from ..engines import SYMBOLIC_MAX_DOF, make_sources
 from ..errors import HarnessError
 from ..results.schema import Derivation, Explanation, TermRow
 from ..systems.forms import not_provided_in, written_form
 from . import probes as probing
 from .explain import explain
-from .judge import ENGINES, EngineTerms, term_rows
+from .judge import EngineTerms, engines_of, term_rows
 from .modelsync import equations_vs_model
 from .pointwise import States, random_states
 from .tolerances import TOLERANCES, Tolerances
@@ -155,9 +155,9 @@ def definiteness(M: np.ndarray, states: States) -> dict[str, Any] | None:
 def engine_values(sources: dict[str, Any], states: States, values: dict[str, Any] | None = None) -> dict[str, Any]:
     """The engines' quantities at `states` (reusing what the pointwise check computed, if given)."""
     if values is not None:
-        return {k: values[k] for k in ENGINES}
+        return {k: values[k] for k in engines_of(sources)}
     zero = np.zeros_like(states.q)
-    return {k: sources[k].evaluate(states.q, states.v, states.tau, zero) for k in ENGINES}
+    return {k: sources[k].evaluate(states.q, states.v, states.tau, zero) for k in engines_of(sources)}
 
 
 def term_rows_at(
@@ -170,26 +170,26 @@ def term_rows_at(
 ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     """Every term of the derivation against both engines at one parameter set; and notes (errors,
     mass-matrix definiteness)."""
-    ev = engine_values(sources, states, values)
+    ev = engine_values(sources, states, values)  # keyed by the engines present
     terms = EngineTerms(system, sources, states, ev)
     e = terms.by_engine
     mine, errors = hand_terms(system, states)
     force = max(
         float(np.abs(np.concatenate([e[k][x].ravel() for x in ("G", "Cv", "passive", "tau")])).max(initial=0.0))
-        for k in ENGINES
+        for k in ev
     )
-    energy = max(float(np.abs(np.concatenate([ev[k]["T"], ev[k]["V"]])).max(initial=0.0)) for k in ENGINES)
-    length = max(float(np.abs(ev[k]["body_positions"]).max(initial=0.0)) for k in ENGINES)
+    energy = max(float(np.abs(np.concatenate([ev[k]["T"], ev[k]["V"]])).max(initial=0.0)) for k in ev)
+    length = max(float(np.abs(ev[k]["body_positions"]).max(initial=0.0)) for k in ev)
     theirs = {
-        "mass matrix": ({k: e[k]["M"] for k in ENGINES}, 0.0),
-        "gravity": ({k: e[k]["G"] for k in ENGINES}, force),
-        "velocity": ({k: e[k]["Cv"] for k in ENGINES}, force),
-        "friction": ({k: e[k]["passive"] for k in ENGINES}, force),
-        "kinetic energy": ({k: ev[k]["T"] for k in ENGINES}, energy),
-        "potential energy": ({k: ev[k]["V"] for k in ENGINES}, energy),
-        "body positions": ({k: ev[k]["body_positions"] for k in ENGINES}, length),
-        "body rotations": ({k: ev[k]["body_rotations"] for k in ENGINES}, 1.0),
-        "acceleration": ({k: e[k]["a"] for k in ENGINES}, 0.0),
+        "mass matrix": ({k: e[k]["M"] for k in ev}, 0.0),
+        "gravity": ({k: e[k]["G"] for k in ev}, force),
+        "velocity": ({k: e[k]["Cv"] for k in ev}, force),
+        "friction": ({k: e[k]["passive"] for k in ev}, force),
+        "kinetic energy": ({k: ev[k]["T"] for k in ev}, energy),
+        "potential energy": ({k: ev[k]["V"] for k in ev}, energy),
+        "body positions": ({k: ev[k]["body_positions"] for k in ev}, length),
+        "body rotations": ({k: ev[k]["body_rotations"] for k in ev}, 1.0),
+        "acceleration": ({k: e[k]["a"] for k in ev}, 0.0),
     }
     cond = np.linalg.cond(e["mujoco"]["M"])
     # Explicit accelerations (form c) give M and the forces only through an inversion of M^-1: their
@@ -203,7 +203,7 @@ def term_rows_at(
         if term in absent:
             continue  # not provided: listed as not checked by judge_derivation
         if term not in mine:
-            for k in ENGINES:
+            for k in ev:
                 rows.append(_error_row(term, k, errors.get(term, "not computed")))
             continue
         new = term_rows(
@@ -213,7 +213,7 @@ def term_rows_at(
             states,
             tier=tiers[term],
             tolerances=tolerances,
-            min_scale={k: floor for k in ENGINES},
+            min_scale={k: floor for k in ev},
             who="hand",
             cond=cond if tiers[term] == "solve" else None,
         )
@@ -296,6 +296,16 @@ def derivation_probes(system: Any, *, n_probes: int = probing.DEFAULT_PROBES, se
 def _explanations(system: Any, probe_systems: list[Any], terms: list[str], seed: int) -> list[Explanation]:
     """The failing terms' entries as symbolic differences; an explanation that cannot be computed is
     one line saying why, never a failed run."""
+    if system.nv > SYMBOLIC_MAX_DOF:
+        return [
+            {
+                "term": terms[0] if terms else "?",
+                "entry": "",
+                "explained": False,
+                "statement": f"no symbolic explanation: {system.nv} joints, more than the {SYMBOLIC_MAX_DOF} the "
+                "symbolic derivation is run for",
+            }
+        ]
     try:
         return cast(list[Explanation], explain(system, probe_systems, terms, seed=seed))
     except Exception as exc:  # noqa: BLE001 - the user's code or a model the derivation cannot read

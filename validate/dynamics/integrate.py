@@ -582,5 +582,9 @@ def run_trajectories(
         scipy_trajectory(system, sources["hand"], q0, v0, tau, t, **SCIPY_DEFAULT),
         mujoco_trajectory(system, sources["mujoco"], q0, v0, tau, t, integrator="RK4"),
         scipy_trajectory(system, sources["pinocchio"], q0, v0, tau, t, **SCIPY_DEFAULT),
-        scipy_trajectory(system, sources["symbolic"], q0, v0, tau, t, **SCIPY_DEFAULT),
+        *(
+            [scipy_trajectory(system, sources["symbolic"], q0, v0, tau, t, **SCIPY_DEFAULT)]
+            if "symbolic" in sources
+            else []
+        ),
     ]

@@ -15,7 +15,7 @@ from ..errors import unknown_name
 from .base import Kinematics, Source
 from .hand import HandSource
 
-__all__ = ["SOURCE_NAMES", "Kinematics", "MappedSource", "Source", "make_source", "make_sources"]
+__all__ = ["SOURCE_NAMES", "SYMBOLIC_MAX_DOF", "Kinematics", "MappedSource", "Source", "make_source", "make_sources"]
 
 SOURCE_NAMES = ("hand", "mujoco", "pinocchio", "symbolic")
 
@@ -121,5 +121,10 @@ def make_source(system: Any, name: str) -> Any:
     return engine if A is None else MappedSource(engine, A)
 
 
+SYMBOLIC_MAX_DOF = 6  # beyond, deriving and generating code takes minutes: the symbolic source is left out
+
+
 def make_sources(system: Any) -> dict[str, Any]:
-    return {n: make_source(system, n) for n in SOURCE_NAMES}
+    """Every source for `system`; the symbolic one only for chains of at most SYMBOLIC_MAX_DOF joints
+    (a 6-joint arm derives in about 6 s and its code is generated in about 10 s)."""
+    return {n: make_source(system, n) for n in SOURCE_NAMES if n != "symbolic" or system.nv <= SYMBOLIC_MAX_DOF}
