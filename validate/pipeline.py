@@ -77,7 +77,7 @@ def trajectory_results(system: Any, sources: dict[str, Any], *, t_end: float, dt
 
 def _run_entry(system: Any, sources: dict[str, Any], tr: Any, ref: Any) -> dict[str, Any]:
     err = integrate.error_against(tr, ref)
-    e = integrate.energy(system, sources["hand"], tr)
+    e = integrate.energy(system, sources.get("hand") or sources.get("symbolic") or sources["mujoco"], tr)
     run = {
         "source": tr.source,
         "method": tr.method,
@@ -118,6 +118,53 @@ def judge_trajectories(traj: dict[str, Any], amplification: Any) -> None:
         err = np.asarray(run["error_vs_hand"], dtype=float)[t <= until + 1e-12]
         run["judged_until"] = until
         run["passed"] = bool(np.all(np.isfinite(err)) and err.max(initial=0.0) <= traj["threshold"])
+
+
+def model_only_result(system: Any, *, n_states: int, seed: int, t_end: float, dt_out: float) -> SystemResult:
+    """The model alone (no derivation given, e.g. a robot's URDF): the two engines' readings of it
+    compared, then MuJoCo, Pinocchio and the model's equations derived symbolically (up to
+    SYMBOLIC_MAX_DOF joints) pointwise and along free runs from 0.5 rad at rest, against MuJoCo's."""
+    sources = make_sources(system)
+    model = modelsync.check(system, sources["pinocchio"])
+    states = compare.random_states(system, n=n_states, seed=seed)
+    point = compare.pointwise_result(compare.evaluate(sources, states), states, seed=seed)
+    why = "no derivation given: the engines' and the derived equations' free runs, against MuJoCo's (information only)"
+    stages: dict[str, Any] = {}
+    traj = _stage(
+        stages, "trajectories", lambda: divergence_results(system, sources, t_end=t_end, dt_out=dt_out, why=why)
+    )
+    if system.nv <= READABLE_MAX_DOF and "symbolic" in sources:
+        derived = _stage(stages, "derived equations", lambda: derived_data(system))
+    else:
+        derived = None
+        stages["derived equations"] = f"not run: {system.nv} joints (`lagrange-xval derive --model` prints them)"
+    derivation: Derivation = {
+        "name": "no derivation",
+        "kind": "none",
+        "verdict": "not applicable",
+        "statement": "no equations module given: the engines and the model's derived equations are compared",
+        "reason": "no equations module given",
+    }
+    failed_stages = [k for k, v in stages.items() if str(v).startswith("failed")]
+    failed = _what_failed(model, point, derivation, None, None, None, failed_stages)
+    return {
+        **_identity(system),
+        "failed": failed,
+        "parameters": {},
+        "timestep": float(sources["mujoco"].m.opt.timestep),
+        "model_checks": model,
+        "pointwise": point,
+        "derivation": derivation,
+        "variants": [],
+        "derived": derived,
+        "trajectories": traj,
+        "experiments": None,
+        "equivalence": None,
+        "chaos": None,
+        "stages": stages,
+        "skipped": skipped_work(system),
+        "passed": model["passed"] and point["passed"] and not failed_stages,
+    }
 
 
 def divergence_results(
@@ -194,6 +241,8 @@ def run_system(
     """Everything the harness knows about one system, as plain data. The verdicts on the derivation
     (model checks, pointwise, every term at the model's parameters and at the probes) come first;
     the trajectory stages run only for a derivation that agrees (else a bounded divergence run)."""
+    if system.equations is None:
+        return model_only_result(system, n_states=n_states, seed=seed, t_end=t_end, dt_out=dt_out)
     try:
         system.params  # noqa: B018 - the user's parameters(), read before anything depends on it
         system.equations.assumptions(system.params)
@@ -333,7 +382,13 @@ def _identity(system: Any) -> SystemResult:
         "description": system.description,
         "mjcf": f"models/{system.mjcf.name}" if inside else str(system.mjcf),
         "model_format": system.model_format,
-        "equations": f"equations/{system.name}.py" if inside else str(getattr(system.equations, "__file__", "?")),
+        "equations": (
+            ""
+            if system.equations is None
+            else f"equations/{system.name}.py"
+            if inside
+            else str(getattr(system.equations, "__file__", "?"))
+        ),
         "coordinates": list(system.coordinates),
         "joints": list(system.joints),
         "bodies": list(system.bodies),
@@ -376,7 +431,8 @@ def _run_one(name: str, n_states: int, seed: int, n_probes: int = DEFAULT_PROBES
 def _run_files(model: str, equations: str, n_states: int, seed: int, n_probes: int) -> SystemResult:
     """One system from a model file and an equations file (picklable, for process pools)."""
 
-    return run_system(System.from_files(model, equations), n_states=n_states, seed=seed, n_probes=n_probes)
+    system = System.from_files(model, equations) if equations else System.model_only(model)
+    return run_system(system, n_states=n_states, seed=seed, n_probes=n_probes)
 
 
 def _task(fn: Any, args: tuple[Any, ...], after: Any, meta: Provenance) -> tuple[dict[str, Any], Any]:
@@ -394,19 +450,20 @@ def run(
     progress: Any = None,
     executor: Executor | None = None,
     n_probes: int = DEFAULT_PROBES,
-    files: list[tuple[Path, Path]] | None = None,
+    files: list[tuple[Path, Path | None]] | None = None,
     after: Any = None,
     rendered: dict[str, Any] | None = None,
 ) -> RunResults:
     """Every system (or those named), each in a worker of `executor` (default: a process pool on
     every core; any `concurrent.futures.Executor` will do, a distributed one included). `files`:
-    (model, equations) pairs of systems outside the repository, run instead of (or beside) names.
+    (model, equations) pairs of systems outside the repository, run instead of (or beside) names
+    (equations None: the model alone, engines and derived equations only, `model_only_result`).
     `after(name, results, meta)`: a picklable function run in the worker on each system's results
     (e.g. rendering its report section); what it returns goes into `rendered[name]`."""
 
     # Unknown names and unreadable files fail here, before any work starts.
     systems = load_all(names) if names or not files else []
-    users = [System.from_files(m, e) for m, e in (files or [])]
+    users = [System.from_files(m, e) if e is not None else System.model_only(m) for m, e in (files or [])]
     taken = [s.name for s in systems + users]
     clash = sorted({n for n in taken if taken.count(n) > 1})
     if clash:
@@ -420,7 +477,7 @@ def run(
         meta = out["meta"]
         futures = {pool.submit(_task, _run_one, (s.name, n_states, seed, n_probes), after, meta): s.name for s in order}
         for (model, equations), user in zip(files or [], users, strict=True):
-            args = (str(model), str(equations), n_states, seed, n_probes)
+            args = (str(model), "" if equations is None else str(equations), n_states, seed, n_probes)
             futures[pool.submit(_task, _run_files, args, after, meta)] = user.name
         for name in futures.values():
             if progress:

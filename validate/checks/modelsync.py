@@ -167,7 +167,7 @@ def joints_pinocchio_vs_mujoco(system: Any, pin_source: Any) -> list[Mismatch]:
 
 def check(system: Any, pin_source: Any) -> ModelChecks:
     rows = (
-        equations_vs_model(system)
+        (equations_vs_model(system) if system.equations is not None else [])
         + pinocchio_vs_mujoco(system, pin_source)
         + joints_pinocchio_vs_mujoco(system, pin_source)
     )

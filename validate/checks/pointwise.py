@@ -85,10 +85,15 @@ def evaluate(sources: dict[str, Any], states: States) -> dict[str, dict[str, np.
     """Every quantity from every source: {source: {quantity: (N, ...) array}}.
 
     `qacc` is the forward dynamics at the given tau; `tau_inverse` is each source's inverse
-    dynamics at the hand source's accelerations (so it should give back tau).
+    dynamics at the hand source's accelerations (so it should give back tau); without a hand source
+    (the model alone), at MuJoCo's.
     """
     q, v, tau = states.q, states.v, states.tau
     engines = {name: src for name, src in sources.items() if name != "hand"}
+    if "hand" not in sources:  # the model alone: the engines' inverse dynamics at MuJoCo's accelerations
+        first = engines.get("mujoco") or next(iter(engines.values()))
+        a_ref = np.nan_to_num(first.forward(q, v, tau))
+        return {name: src.evaluate(q, v, tau, a_ref) for name, src in engines.items()}
     try:
         with np.errstate(all="ignore"):
             hand = sources["hand"].evaluate(q, v, tau)  # its inverse dynamics at its own accelerations

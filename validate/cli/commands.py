@@ -217,19 +217,24 @@ def one_system(args: argparse.Namespace) -> Any:
     if files and args.system:
         raise HarnessError("give a SYSTEM name or --model and --equations, not both.")
     if files:
-        return System.from_files(*files[0])
+        model, equations = files[0]
+        return System.from_files(model, equations) if equations is not None else System.model_only(model)
     if not args.system:
         raise HarnessError("name a SYSTEM (see `lagrange-xval list`) or give --model PATH --equations PATH.")
     return load(args.system)
 
 
-def user_files(args: argparse.Namespace) -> list[tuple[Path, Path]] | None:
+def user_files(args: argparse.Namespace) -> list[tuple[Path, Path | None]] | None:
     """--model and --equations (both or neither), and the pairs of a --systems folder."""
 
     model, equations = getattr(args, "model", None), getattr(args, "equations", None)
-    if (model is None) != (equations is None):
-        raise HarnessError("--model and --equations go together: give your MJCF and your equations module.")
-    files = [(model, equations)] if model is not None and equations is not None else []
+    if equations is not None and model is None:
+        raise HarnessError("--equations needs --model: give your model (MJCF or URDF) and your equations module.")
+    if model is not None and equations is None and getattr(args, "command", "") not in ("run", "derive"):
+        raise HarnessError(
+            "--model and --equations go together here (only `run` takes a model alone): give your equations module."
+        )
+    files: list[Any] = [(model, equations)] if model is not None else []
     folder = getattr(args, "systems_dir", None)
     if folder is not None:
         files += pairs_in(folder)

@@ -579,7 +579,7 @@ def run_trajectories(
     tau = np.zeros(system.nv)
     t = time_grid(t_end, dt_out)
     return [
-        scipy_trajectory(system, sources["hand"], q0, v0, tau, t, **SCIPY_DEFAULT),
+        *([scipy_trajectory(system, sources["hand"], q0, v0, tau, t, **SCIPY_DEFAULT)] if "hand" in sources else []),
         mujoco_trajectory(system, sources["mujoco"], q0, v0, tau, t, integrator="RK4"),
         scipy_trajectory(system, sources["pinocchio"], q0, v0, tau, t, **SCIPY_DEFAULT),
         *(

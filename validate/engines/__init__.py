@@ -127,4 +127,7 @@ SYMBOLIC_MAX_DOF = 6  # beyond, deriving and generating code takes minutes: the 
 def make_sources(system: Any) -> dict[str, Any]:
     """Every source for `system`; the symbolic one only for chains of at most SYMBOLIC_MAX_DOF joints
     (a 6-joint arm derives in about 6 s and its code is generated in about 10 s)."""
-    return {n: make_source(system, n) for n in SOURCE_NAMES if n != "symbolic" or system.nv <= SYMBOLIC_MAX_DOF}
+    skip = {"symbolic"} if system.nv > SYMBOLIC_MAX_DOF else set()
+    if system.equations is None:  # the model alone: no hand derivation
+        skip.add("hand")
+    return {n: make_source(system, n) for n in SOURCE_NAMES if n not in skip}

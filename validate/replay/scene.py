@@ -103,10 +103,12 @@ def build_scene(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str,
     model, equations = sys_results.get("mjcf", ""), sys_results.get("equations", "")
     if name in system_names() and str(model).startswith("models/"):
         system = load(name)
-    else:  # a system from the user's own files, recorded by their paths
+    elif equations:  # a system from the user's own files, recorded by their paths
         system = System.from_files(model, equations, name=name)
+    else:  # the model alone: no derivation places the bodies
+        system = System.model_only(model, name=name)
     view = system.view
-    params = recorded_params(system, sys_results)
+    params = recorded_params(system, sys_results) if system.equations is not None else None
     traj = sys_results["trajectories"]
     t = as_floats(traj["t"])
     K = len(t)
@@ -115,7 +117,7 @@ def build_scene(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str,
         raise HarnessError(f"{name}: the results hold no trajectory runs to replay.")
     keys, colours = run_keys(runs_in), run_colours(runs_in)
     bodies = list(sys_results.get("bodies") or system.bodies)
-    if {"body_positions", "body_rotations"} & set(not_provided_in(system.equations)):
+    if system.equations is None or {"body_positions", "body_rotations"} & set(not_provided_in(system.equations)):
         bodies = []  # the derivation does not place its bodies: the recording shows q, energy and errors only
     parent = {b: view[f"body/{b}/parent"] for b in bodies}
     children = {b for b in bodies if any(parent[c] == b for c in bodies)}

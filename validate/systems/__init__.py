@@ -159,7 +159,7 @@ class System:
 
     name: str
     mjcf: Path
-    equations: ModuleType
+    equations: Any  # the equations module (form a after normalize), or None for the model alone
     overrides: tuple[tuple[str, float], ...] = ()
     # The MJCF text to use instead of the file's (a probe's edited copy); `mjcf` still names the file.
     text: str | None = field(default=None, repr=False)
@@ -167,11 +167,23 @@ class System:
 
     def __post_init__(self) -> None:
 
-        object.__setattr__(self, "equations", normalize(self.equations))
+        if self.equations is not None:  # None: the model alone (`model_only`), no derivation to check
+            object.__setattr__(self, "equations", normalize(self.equations))
 
     def derive(self, **changes: Any) -> System:
         """A copy with `changes` (overrides, text, equations) and nothing compiled or read yet."""
         return dataclasses.replace(self, **changes, _cache={})
+
+    @classmethod
+    def model_only(cls, model: str | Path, *, name: str | None = None) -> System:
+        """The model alone, for the engines and the symbolic source (no derivation): coordinates are
+        the model's joints in order, the bodies those the joints move."""
+        model = Path(model)
+        if not model.is_file():
+            raise HarnessError(f"model file not found: {model} (give an MJCF .xml or a URDF .urdf file).")
+        system = cls(name=name or model.stem, mjcf=model, equations=None)
+        system.mujoco_model()
+        return system
 
     @classmethod
     def from_files(cls, model: str | Path, equations: str | Path, *, name: str | None = None) -> System:
@@ -194,10 +206,12 @@ class System:
 
     @property
     def coordinates(self) -> tuple[str, ...]:
-        return tuple(self.equations.COORDINATES)
+        return self.joints if self.equations is None else tuple(self.equations.COORDINATES)
 
     @property
     def joints(self) -> tuple[str, ...]:
+        if self.equations is None:
+            return tuple(k.split("/")[1] for k in self.view if k.startswith("joint/") and k.endswith("/type"))
         return tuple(self.equations.JOINTS)
 
     @property
@@ -229,10 +243,25 @@ class System:
 
     @property
     def bodies(self) -> tuple[str, ...]:
+        if self.equations is None:  # every body a joint moves
+            moved = {self.view[f"joint/{j}/body"] for j in self.joints}
+            return tuple(
+                b
+                for b in (k.split("/")[1] for k in self.view if k.startswith("body/") and k.endswith("/mass"))
+                if b in moved
+            )
         return tuple(self.equations.BODIES)
 
     @property
     def uses(self) -> frozenset[str]:
+        if self.equations is None:
+            view = self.view
+            found = {
+                "gravity": any(float(x) != 0.0 for x in view["gravity"]),
+                "damping": any(view[f"joint/{j}/damping"] > 0 for j in self.joints),
+                "actuation": any(k.startswith("actuator/") for k in view),
+            }
+            return frozenset(k for k, on in found.items() if on)
         return frozenset(self.equations.USES)
 
     @property
@@ -241,6 +270,8 @@ class System:
 
     @property
     def description(self) -> str:
+        if self.equations is None:
+            return f"the model {self.mjcf.name} alone (no derivation)"
         return str(self.equations.DESCRIPTION)
 
     @property
