@@ -338,7 +338,7 @@ def test_long_chains_leave_the_symbolic_source_out(tmp_path):
     from lagrange_xval.validate.engines import SYMBOLIC_MAX_DOF, make_sources
     from lagrange_xval.validate.systems.scaffold import write_module
 
-    n = SYMBOLIC_MAX_DOF + 1
+    n = SYMBOLIC_MAX_DOF + 1  # planar links
     body = ""
     for i in reversed(range(n)):
         body = (

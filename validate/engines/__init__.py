@@ -121,12 +121,13 @@ def make_source(system: Any, name: str) -> Any:
     return engine if A is None else MappedSource(engine, A)
 
 
-SYMBOLIC_MAX_DOF = 6  # beyond, deriving and generating code takes minutes: the symbolic source is left out
+# Beyond this many joints the symbolic source is left out: a 6-joint arm took 16 s (UR5, axis-aligned
+# frames) to 2 min (Kinova, SO-100: frames at general angles) to derive and generate code for.
+SYMBOLIC_MAX_DOF = 4
 
 
 def make_sources(system: Any) -> dict[str, Any]:
-    """Every source for `system`; the symbolic one only for chains of at most SYMBOLIC_MAX_DOF joints
-    (a 6-joint arm derives in about 6 s and its code is generated in about 10 s)."""
+    """Every source for `system`; the symbolic one only for chains of at most SYMBOLIC_MAX_DOF joints."""
     skip = {"symbolic"} if system.nv > SYMBOLIC_MAX_DOF else set()
     if system.equations is None:  # the model alone: no hand derivation
         skip.add("hand")

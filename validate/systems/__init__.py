@@ -161,6 +161,7 @@ class System:
     mjcf: Path
     equations: Any  # the equations module (form a after normalize), or None for the model alone
     overrides: tuple[tuple[str, float], ...] = ()
+    locked: tuple[str, ...] = ()  # URDF joints made fixed (urdf.lock), a named step listed in the alignments
     # The MJCF text to use instead of the file's (a probe's edited copy); `mjcf` still names the file.
     text: str | None = field(default=None, repr=False)
     _cache: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
@@ -175,13 +176,13 @@ class System:
         return dataclasses.replace(self, **changes, _cache={})
 
     @classmethod
-    def model_only(cls, model: str | Path, *, name: str | None = None) -> System:
+    def model_only(cls, model: str | Path, *, name: str | None = None, locked: tuple[str, ...] = ()) -> System:
         """The model alone, for the engines and the symbolic source (no derivation): coordinates are
-        the model's joints in order, the bodies those the joints move."""
+        the model's joints in order, the bodies those the joints move; `locked`: URDF joints made fixed."""
         model = Path(model)
         if not model.is_file():
             raise HarnessError(f"model file not found: {model} (give an MJCF .xml or a URDF .urdf file).")
-        system = cls(name=name or model.stem, mjcf=model, equations=None)
+        system = cls(name=name or model.stem, mjcf=model, equations=None, locked=tuple(locked))
         system.mujoco_model()
         return system
 
@@ -285,8 +286,9 @@ class System:
         return self.model_format == "urdf" and not self.overrides
 
     def urdf_text(self) -> str:
-        """The URDF file's text (only for `reads_urdf` systems)."""
-        return self._file()[1]
+        """The URDF file's text (only for `reads_urdf` systems), with the `locked` joints made fixed."""
+        text = self._file()[1]
+        return urdf.lock(text, self.locked, self.mjcf.name) if self.locked else text
 
     def _file(self) -> tuple[str, str]:
         if "file" not in self._cache:
@@ -296,13 +298,18 @@ class System:
     @property
     def alignments(self) -> list[str]:
         """What the harness does so that the engines' readings of a URDF agree (none for MJCF)."""
-        return urdf.alignments(self.urdf_text(), self.mjcf.name) if self.model_format == "urdf" else []
+        if self.model_format != "urdf":
+            return []
+        locked = [f"joint(s) {', '.join(self.locked)} locked at zero (made fixed) in the URDF both engines read"]
+        return (locked if self.locked else []) + urdf.alignments(self.urdf_text(), self.mjcf.name)
 
     def mujoco_model(self) -> Any:
         """The compiled MjModel (compiled once per System)."""
         if "model" not in self._cache:
             from .scope import refusals  # reads the compiled model with mujoco: loaded when first needed
 
+            if self.locked and not self.reads_urdf:
+                raise HarnessError(f"{self.mjcf.name}: joints can be locked in a URDF read as it is (no overrides).")
             if self.reads_urdf:
                 model = urdf.compile_urdf(self.urdf_text(), self.mjcf.name)
             else:

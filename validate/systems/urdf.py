@@ -82,6 +82,34 @@ def transmissions(text: str, source: str) -> list[Transmission]:
     return out
 
 
+def fixed_joints(text: str, source: str) -> list[str]:
+    return [j.get("name", "?") for j in _root(text, source).iter("joint") if j.get("type") == "fixed"]
+
+
+def lock(text: str, joints: tuple[str, ...], source: str) -> str:
+    """The URDF with `joints` made fixed at their zero angle (a gripper's fingers, say): the named,
+    listed step that takes a joint out of the chain both engines read. An unknown name is an error."""
+    root = _root(text, source)
+    found = {j.get("name"): j for j in root.iter("joint")}
+    unknown = [j for j in joints if j not in found]
+    if unknown:
+        raise HarnessError(f"{source}: no joint '{unknown[0]}' to lock (joints: {', '.join(sorted(map(str, found)))}).")
+    for name in joints:
+        joint = found[name]
+        joint.set("type", "fixed")
+        for child in [
+            *joint.findall("limit"),
+            *joint.findall("mimic"),
+            *joint.findall("axis"),
+            *joint.findall("dynamics"),
+        ]:
+            joint.remove(child)
+    for tr in list(root.iter("transmission")):
+        if any(j.get("name") in joints for j in tr.findall("joint")):
+            root.remove(tr)
+    return ET.tostring(root, encoding="unicode")
+
+
 def continuous_joints(text: str, source: str) -> list[str]:
     return [j.get("name", "?") for j in _root(text, source).iter("joint") if j.get("type") == "continuous"]
 
@@ -104,7 +132,10 @@ def _spec(text: str, source: str) -> Any:
     for joint in spec.joints:
         joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_FALSE
     names = {j.name for j in spec.joints}
+    fixed = set(fixed_joints(text, source))
     for tr in transmissions(text, source):
+        if tr.joint in fixed:
+            continue  # a motor on a fixed joint moves nothing (listed in the alignments)
         if tr.joint not in names:
             raise HarnessError(
                 f"{source}: transmission of '{tr.actuator}' drives joint '{tr.joint}', which MuJoCo's reading lacks "
@@ -199,8 +230,12 @@ def alignments(text: str, source: str) -> list[str]:
     for ext in root.findall("mujoco"):
         inner = "".join(ET.tostring(child, encoding="unicode").strip() for child in ext)
         out.append(f"MuJoCo's own <mujoco> extension read by MuJoCo only (Pinocchio ignores it): {inner[:200]}")
+    welded = set(fixed_joints(text, source))
     for tr in transmissions(text, source):
-        out.append(f"transmission of '{tr.actuator}' on joint '{tr.joint}' made a MuJoCo motor, gear {tr.gear:g}")
+        if tr.joint in welded:
+            out.append(f"transmission of '{tr.actuator}' on the fixed joint '{tr.joint}' ignored (it moves nothing)")
+        else:
+            out.append(f"transmission of '{tr.actuator}' on joint '{tr.joint}' made a MuJoCo motor, gear {tr.gear:g}")
     out.append(
         "not in URDF, MuJoCo's defaults used: gravity (0, 0, -9.81) m/s^2 (copied into Pinocchio), timestep "
         "0.002 s, Euler integrator, no armature, no springs"

@@ -1,0 +1,111 @@
+"""Models no one here wrote (issue 14): real robot URDFs shipped by the `example-robot-data` package
+(in requirements.lock; nothing is downloaded at run time), read by MuJoCo and Pinocchio each with
+its own parser, checked without a hand derivation: the readings' parity, and MuJoCo, Pinocchio (and
+the derived equations, for chains short enough) pointwise within the tolerance tiers."""
+
+from __future__ import annotations
+
+import importlib.metadata
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from lagrange_xval.validate.checks import modelsync, pointwise
+from lagrange_xval.validate.engines import SYMBOLIC_MAX_DOF, make_sources
+from lagrange_xval.validate.errors import HarnessError
+from lagrange_xval.validate.systems import System
+
+
+def _robots() -> Path | None:
+    try:
+        dist = importlib.metadata.distribution("example-robot-data")
+    except importlib.metadata.PackageNotFoundError:
+        return None
+    return Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))
+
+
+ROBOTS = _robots()
+needs_robots = pytest.mark.skipif(
+    ROBOTS is None and os.environ.get("CI") != "true",  # under CI the lock installs it: a missing one fails
+    reason="example-robot-data is not installed (pip install -r requirements.lock)",
+)
+
+# (file, joints locked as a named step, moving joints expected)
+ARMS = [
+    ("ur_description/urdf/ur5_robot.urdf", (), 6),
+    # the gripper's fingers: the second mimics the first (an equality constraint in MuJoCo's reading)
+    ("panda_description/urdf/panda.urdf", ("panda_finger_joint1", "panda_finger_joint2"), 7),
+    # its fingers are fixed joints with transmissions: the transmissions are ignored, and listed so
+    ("kinova_description/robots/kinova.urdf", (), 6),
+    ("double_pendulum_description/urdf/double_pendulum_continuous.urdf", (), 2),
+]
+
+
+@needs_robots
+@pytest.mark.parametrize(("path", "locked", "dof"), ARMS, ids=[Path(a[0]).stem for a in ARMS])
+def test_real_robots_engines_agree_and_every_alignment_is_named(path, locked, dof):
+    assert ROBOTS is not None, "example-robot-data is not installed"
+    system = System.model_only(ROBOTS / path, locked=locked)
+    assert system.nv == dof and system.model_format == "urdf"
+    sources = make_sources(system)
+    assert ("symbolic" in sources) is (dof <= SYMBOLIC_MAX_DOF)
+    parity = modelsync.check(system, sources["pinocchio"])
+    assert parity["passed"], parity["mismatches"]
+    assert parity["n_checked"] >= 5 * dof  # masses, centres, inertias, anchors, axes, damping
+    text = "\n".join(parity["alignments"])
+    assert ("joint limits of" in text or "continuous joint(s)" in text) and "geometry removed" in text
+    if locked:
+        assert f"joint(s) {', '.join(locked)} locked" in text
+    states = pointwise.random_states(system, n=200, seed=1)
+    rows = pointwise.compare(pointwise.evaluate(sources, states), states)
+    assert {r["pair"] for r in rows} >= {"mujoco~pinocchio"}
+    bad = [f"{r['quantity']} {r['pair']} {r['scaled']:.1e} > {r['tolerance']:.0e}" for r in rows if not r["passed"]]
+    assert not bad, bad
+
+
+@needs_robots
+def test_a_mimic_joint_is_refused_unless_locked_and_fixed_finger_transmissions_are_listed():
+    assert ROBOTS is not None
+    with pytest.raises(HarnessError, match="coupling joint 'panda_finger_joint2' to joint 'panda_finger_joint1'"):
+        System.model_only(ROBOTS / "panda_description/urdf/panda.urdf")
+    with pytest.raises(HarnessError, match="no joint 'nope' to lock"):
+        System.model_only(ROBOTS / "panda_description/urdf/panda.urdf", locked=("nope",))
+    kinova = System.model_only(ROBOTS / "kinova_description/robots/kinova.urdf")
+    assert any("on the fixed joint 'j2s6s200_joint_finger_1' ignored" in a for a in kinova.alignments)
+
+
+@needs_robots
+def test_run_on_a_robot_urdf_alone_end_to_end(tmp_path):
+    """`lagrange-xval run --model ur5_robot.urdf --out DIR`: no equations module, report and replay."""
+    assert ROBOTS is not None
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "lagrange_xval.validate.cli",
+            "run",
+            "--model",
+            str(ROBOTS / ARMS[0][0]),
+            "--out",
+            "out",
+        ],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "No hand derivation was given" in report and "URDF `" in report
+    assert "made a MuJoCo motor" in report
+    assert (tmp_path / "out" / "ur5_robot.rrd").stat().st_size > 0
+    bad = subprocess.run(
+        [sys.executable, "-m", "lagrange_xval.validate.cli", "check", "--model", str(ROBOTS / ARMS[0][0])],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert bad.returncode != 0 and "only `run` takes a model alone" in bad.stderr
