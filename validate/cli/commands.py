@@ -302,6 +302,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
+    if args.chains:
+        from ..studies.chains import chains_command
+
+        return chains_command(args)
     args.files = user_files(args)  # a person's own systems, beside or instead of SYSTEM names
     with use_cache(args):
         return bench_command(args)

@@ -314,6 +314,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="timing repeats, the median is kept (default 3; --quick 1; --run-time 5)",
     )
     bench.add_argument(
+        "--chains",
+        action="store_true",
+        help="only the scaling study: generated n-link chains, n = 2..30, every source's cost and agreement "
+        "against n; writes OUT/chains.json (--quick: about a minute)",
+    )
+    bench.add_argument(
         "--run-time",
         action="store_true",
         help="only time `lagrange-xval run`: fresh machine, cold and warm cache (--repeats, default 5); writes nothing",
