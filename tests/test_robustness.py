@@ -239,7 +239,7 @@ def test_ctrl_c_mid_run_stops_cleanly(tmp_path, how, status, line, attempt):
         os.killpg(proc.pid, signal.SIGINT)
     else:
         proc.send_signal(signal.SIGTERM)
-    _, err = proc.communicate(timeout=60)
+    _, err = proc.communicate(timeout=180)
     err = first + err
     assert proc.returncode == status, err
     lines = err.strip().splitlines()  # progress lines come first
@@ -257,7 +257,7 @@ def test_workers_exit_when_the_parent_is_killed(tmp_path):
     """A parent killed outright (SIGKILL: no handler runs) takes its pool's workers with it."""
     proc, _, workers = _start_run(tmp_path / "reports")
     os.kill(proc.pid, signal.SIGKILL)
-    proc.communicate(timeout=60)
+    proc.communicate(timeout=180)
     _, alive = psutil.wait_procs(workers, timeout=10)
     assert not alive, f"orphaned workers: {alive}"
 
