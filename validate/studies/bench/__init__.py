@@ -57,19 +57,42 @@ the summary, the command).
 from .analysis import errors_against, pareto_front, sort_key, sweep, time_to_epsilon
 from .baselines import hand_math_rhs, numpy_solve_rhs, raw_hand, raw_pointwise
 from .output import bench_command, run_bench, run_time_command, summary, write_bench
-from .plan import ATOL_FACTOR, EPSILONS, RUN_TARGET_S, method_name, plan, scipy_spec, step_spec
-from .ratios import default_ratio, rhs_ratio, run_wall_times
-from .runners import case_for, execute, prepare, resources, run_mirror, run_mujoco, run_scipy
+from .plan import (
+    ATOL_FACTOR,
+    EPSILONS,
+    FRONTIER_EPSILONS,
+    RUN_TARGET_S,
+    method_name,
+    plan,
+    scipy_spec,
+    step_spec,
+    taylor_spec,
+)
+from .ratios import default_ratio, frontier_ratios, rhs_ratio, run_wall_times
+from .runners import (
+    case_for,
+    execute,
+    prepare,
+    resources,
+    run_compiled_rk4,
+    run_mirror,
+    run_mujoco,
+    run_rollout,
+    run_scipy,
+    run_taylor,
+)
 
 __all__ = [
     "ATOL_FACTOR",
     "EPSILONS",
+    "FRONTIER_EPSILONS",
     "RUN_TARGET_S",
     "bench_command",
     "case_for",
     "default_ratio",
     "errors_against",
     "execute",
+    "frontier_ratios",
     "hand_math_rhs",
     "method_name",
     "numpy_solve_rhs",
@@ -81,15 +104,19 @@ __all__ = [
     "resources",
     "rhs_ratio",
     "run_bench",
+    "run_compiled_rk4",
     "run_mirror",
     "run_mujoco",
+    "run_rollout",
     "run_scipy",
+    "run_taylor",
     "run_time_command",
     "run_wall_times",
     "scipy_spec",
     "sort_key",
     "step_spec",
     "summary",
+    "taylor_spec",
     "sweep",
     "time_to_epsilon",
     "write_bench",
