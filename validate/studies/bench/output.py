@@ -369,7 +369,7 @@ def frontier_table(frontier: dict[str, Any], console: Any) -> None:
     console.print(table)
 
 
-def bench_command(args: Any) -> int:
+def bench_command(args: Any, executor: Executor | None = None) -> int:
     """`lagrange-xval bench [SYSTEM ...] [--quick] [--out DIR] [--repeats N]`.
 
     Writes DIR/bench.json and prints the summary. Exit status 0 when every ratio with a target meets
@@ -391,7 +391,9 @@ def bench_command(args: Any) -> int:
         repeats=getattr(args, "repeats", None),
         progress=progress,
         files=getattr(args, "files", None),
+        executor=executor,
     )
+    results["config"]["executor"] = getattr(args, "executor", None) or "local"
     path = write_bench(results, Path(getattr(args, "out", None) or "reports"))
     summary(results)
     print(f"wrote {path}")
