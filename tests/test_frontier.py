@@ -139,3 +139,19 @@ def test_frontier_ratio_compares_the_default_path_with_the_fastest_at_equal_erro
     assert by_eps[1e-9]["fastest_contender"]["value"] == 1e-9
     assert by_eps[1e-12]["default_path"] is None and by_eps[1e-12]["ratio"] is None
     assert by_eps[1e-12]["fastest"]["value"] == 1e-12
+
+
+def test_the_report_names_the_fastest_method_at_each_eps():
+    from lagrange_xval.validate.report.document import Document
+    from lagrange_xval.validate.report.studies import frontier_section
+
+    rows = [
+        _row("hand odeint", "odeint", "hand", 1e-9, 4.0, 5e-10),
+        _row("hand heyoka Taylor (double)", "taylor", "hand", 1e-9, 0.5, 1e-10),
+    ]
+    doc = Document()
+    frontier_section(doc, bench.frontier_ratios(rows, (1e-9, 1e-12)))
+    (table,) = doc.blocks
+    assert [r[:2] for r in table.rows] == [("s", "1e-9"), ("s", "1e-12")]
+    assert table.rows[0][2].startswith("hand heyoka Taylor (double)") and table.rows[0][4] == "8.0x"
+    assert table.rows[1][2] == "not reached" and table.rows[1][4] == "no run reaches eps"

@@ -14,6 +14,12 @@ What is swept, per system, from its `initial_state` with tau = 0, on the grid t 
   MuJoCo's Euler, implicit, implicitfast, RK4 at timesteps 1e-2 ... 1e-5 s (the model's own
   `opt.integrator`/`opt.timestep` are set and restored), and the mirror RK4 on Pinocchio's ABA.
   The harness's default (`integrate.scipy_trajectory` with `integrate.SCIPY_DEFAULT`) as one more run.
+  The frontier contenders (dynamics/compiled.py): heyoka's adaptive Taylor integrator in double
+  precision on the hand equations at tol 1e-6 ... 1e-16; the hand equations as a compiled function
+  (heyoka `cfunc`, engine "hand-cfunc") under `solve_ivp` DOP853 and `odeint`; RK4 with its steps
+  compiled ("compiled RK4", up to 10 steps per call); MuJoCo's `rollout` at 1e-2 ... 1e-4 s, for one
+  trajectory and for a batch of ROLLOUT_BATCH copies of the start (its row's time is the batch's
+  divided by ROLLOUT_BATCH). Compilation is never timed.
 
 What is measured per run: the error against the reference (heyoka Taylor in long double, accurate
 to ~1e-17, cached) as max over coordinates of |q - q_ref| at t = 2 s and 10 s, and its maximum over
@@ -50,7 +56,8 @@ nothing else of ours running (after the pool is shut down).
 Modules: plan (what is swept, budgets, targets), runners (one timed run in a worker), analysis
 (errors, rows, Pareto fronts, the sweep), baselines (what the ratios are measured against: the
 hand-written right-hand side and the minimal pointwise calls; MuJoCo's and Pinocchio's raw loops
-live in engines/baselines.py), ratios (the fast-harness ratios), output (run_bench, bench.json,
+live in engines/baselines.py), ratios (the fast-harness ratios and the default path against the
+fastest method at equal error, `frontier_ratios`), output (run_bench, bench.json,
 the summary, the command).
 """
 
