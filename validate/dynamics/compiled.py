@@ -10,6 +10,10 @@ module by `reference.rhs_check`.
                      1e-16; the order follows the tolerance). Not in compact mode: for these small
                      systems the unrolled code runs 1.6-1.8x faster (measured on double_pendulum_point,
                      0.27 vs 0.49 ms over 10 s at tol 1e-12) and compiles in 0.1-0.4 s (not timed).
+                     With `source="symbolic"`: the same on the model's own equations derived
+                     symbolically (engines/symbolic.py; sympy's expressions turned into heyoka's by
+                     `heyoka.from_sympy`), in the joints' coordinates (`JOINT_MAP` applied on the way
+                     in and out by `taylor_grid`'s caller).
   compiled_rhs       a = M^-1 f as a `cfunc` called once per state from Python. Measured on
                      double_pendulum_point: 2.5-2.7 us a call against 1.9 us for the generated `math`
                      code (engines/fastpath.py): the call from Python costs more than the arithmetic,
@@ -27,7 +31,10 @@ from typing import Any
 
 import numpy as np
 
+from ..engines.derivation import parameter_values
+from ..engines.symbolic import derivation_of
 from ..errors import HarnessError
+from ..systems import tracing
 from .reference import param_key, symbolic_dynamics
 
 RK4_STEPS_PER_CALL = 10  # steps composed into one compiled call (compile time grows with it)
@@ -39,17 +46,41 @@ def _key(system: Any, *what: Any) -> tuple[Any, ...]:
     return (system.name, system.overrides, param_key(system), system.equations, *what)
 
 
-def taylor_integrator(system: Any, tol: float, *, compact: bool = False) -> Any:
-    """heyoka's adaptive Taylor integrator of the hand equations in double precision at `tol`
-    (tau = par[0:n]); built once per process and reused (its state is set by `taylor_grid`)."""
+def derived_ode(system: Any) -> list[tuple[Any, Any]]:
+    """The model's equations derived symbolically (the "symbolic" source) as a heyoka ODE in the
+    joints' coordinates: x = (q_joint, v_joint), a = M^-1 (tau - (C v + G - passive)), tau = par[0:n]."""
     import heyoka as hy
 
-    key = _key(system, "taylor", float(tol), compact)
+    d = derivation_of(system)
+    values = parameter_values(d, system.view)
+    n = system.nv
+    qs = [hy.expression(f"q{i}") for i in range(n)]
+    vs = [hy.expression(f"v{i}") for i in range(n)]
+    names = {**dict(zip(d.q, qs, strict=True)), **dict(zip(d.v, vs, strict=True))}
+    names.update({sym: hy.expression(float(values[sym])) for sym in d.source})
+
+    def conv(e: Any) -> Any:
+        return hy.from_sympy(e, names)
+
+    m = [[conv(d.M[i, j]) for j in range(n)] for i in range(n)]
+    forces = d.Cv + d.G - d.passive
+    a = tracing.solve_spd(m, [hy.par[i] - conv(forces[i]) for i in range(n)])
+    return list(zip(qs + vs, vs + a, strict=True))
+
+
+def taylor_integrator(system: Any, tol: float, *, compact: bool = False, source: str = "hand") -> Any:
+    """heyoka's adaptive Taylor integrator in double precision at `tol` of the hand equations (or,
+    with source="symbolic", of the derived ones in joint coordinates); tau = par[0:n]. Built once per
+    process and reused (its state is set by `taylor_grid`)."""
+    import heyoka as hy
+
+    if source not in ("hand", "symbolic"):
+        raise HarnessError(f"no Taylor integrator of the '{source}' source; valid: hand, symbolic.")
+    key = _key(system, "taylor", float(tol), compact, source)
     if key not in _CACHE:
-        dyn = symbolic_dynamics(system)
-        _CACHE[key] = hy.taylor_adaptive(
-            dyn.ode, np.zeros(2 * dyn.n), pars=np.zeros(dyn.n), tol=float(tol), compact_mode=compact
-        )
+        ode = symbolic_dynamics(system).ode if source == "hand" else derived_ode(system)
+        n = system.nv
+        _CACHE[key] = hy.taylor_adaptive(ode, np.zeros(2 * n), pars=np.zeros(n), tol=float(tol), compact_mode=compact)
     return _CACHE[key]
 
 

@@ -171,8 +171,9 @@ def scipy_spec(engine: str, driver: str, scheme: str | None, rtol: float) -> dic
     }
 
 
-def taylor_spec(tol: float) -> dict[str, Any]:
-    return {"engine": "hand", "driver": "taylor", "scheme": "double", "setting": "tol", "value": tol, "atol": None}
+def taylor_spec(tol: float, engine: str = "hand") -> dict[str, Any]:
+    """heyoka's Taylor integrator in double precision on the hand equations or the "symbolic" source."""
+    return {"engine": engine, "driver": "taylor", "scheme": "double", "setting": "tol", "value": tol, "atol": None}
 
 
 def step_spec(engine: str, driver: str, scheme: str, timestep: float) -> dict[str, Any]:
@@ -197,6 +198,7 @@ def plan(*, quick: bool) -> list[dict[str, Any]]:
         specs += [scipy_spec("hand", "odeint", "LSODA", r) for r in QUICK_RTOLS]  # the default's driver
         specs += [scipy_spec("hand-cfunc", "odeint", "LSODA", r) for r in QUICK_RTOLS]
         specs += [taylor_spec(tol) for tol in QUICK_TAYLOR_TOLERANCES]
+        specs += [taylor_spec(tol, "symbolic") for tol in QUICK_TAYLOR_TOLERANCES]
         specs += [step_spec("hand", "compiled_rk4", "RK4", dt) for dt in QUICK_TIMESTEPS]
         specs += [step_spec("mujoco", "rollout", "RK4", dt) for dt in QUICK_ROLLOUT_TIMESTEPS]
         specs += [step_spec("mujoco", "rollout_batch", "RK4", dt) for dt in QUICK_ROLLOUT_TIMESTEPS]
@@ -213,6 +215,7 @@ def plan(*, quick: bool) -> list[dict[str, Any]]:
         specs += [scipy_spec("hand-cfunc", "solve_ivp", "DOP853", r) for r in RTOLS]
         specs += [scipy_spec("hand-cfunc", "odeint", "LSODA", r) for r in RTOLS]
         specs += [taylor_spec(tol) for tol in TAYLOR_TOLERANCES]
+        specs += [taylor_spec(tol, "symbolic") for tol in TAYLOR_TOLERANCES]
         specs += [step_spec("hand", "compiled_rk4", "RK4", dt) for dt in TIMESTEPS]
         for driver in ("rollout", "rollout_batch"):
             specs += [step_spec("mujoco", driver, "RK4", dt) for dt in ROLLOUT_TIMESTEPS]
