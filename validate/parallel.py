@@ -1,7 +1,13 @@
 """Where sweeps run: any `concurrent.futures.Executor`, by default a process pool on every core.
 
 The harness only submits work through the standard executor interface, so a distributed executor
-can be handed in instead. A pool the harness makes itself is stopped cleanly on Ctrl-C and SIGTERM:
+can be handed in instead: `named_executor("dask")` is a dask.distributed `LocalCluster` on this
+machine (one single-threaded worker process per core, so each run is timed alone on its core as in
+the local pool), `named_executor("dask:tcp://HOST:8786")` a running scheduler's cluster; both give
+`Client.get_executor(pure=False)` (pure=False: a repeat of the same run is run again, not served
+from dask's cache of results). The command line's `--executor local|dask[:ADDRESS]` names them.
+
+A pool the harness makes itself is stopped cleanly on Ctrl-C and SIGTERM:
 its workers ignore SIGINT and take SIGTERM's default action (the parent reports one line and
 terminates them), and on Linux they are killed when the parent dies (PR_SET_PDEATHSIG), so a parent
 killed outright leaves no worker waiting for work that never comes.
@@ -13,6 +19,10 @@ import contextlib
 import os
 from collections.abc import Iterator
 from concurrent.futures import Executor, ProcessPoolExecutor, ThreadPoolExecutor
+
+from .errors import HarnessError
+
+EXECUTOR_KINDS = ("local", "dask")
 
 
 def _worker_init(parent: int) -> None:
@@ -55,3 +65,57 @@ def executor_for(executor: Executor | None, *, tasks: int | None = None) -> Iter
         raise
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
+
+
+def parse_executor(text: str) -> tuple[str, str | None]:
+    """`local`, `dask` or `dask:ADDRESS` as (kind, address or None); anything else is a HarnessError."""
+    kind, sep, address = text.strip().partition(":")
+    if kind not in EXECUTOR_KINDS or (kind == "local" and sep) or (sep and not address.strip()):
+        raise HarnessError(
+            f"unknown executor '{text}'; valid: local, dask (a LocalCluster on this machine) or "
+            "dask:ADDRESS (a running scheduler, e.g. dask:tcp://10.0.0.5:8786)."
+        )
+    return kind, address.strip() or None
+
+
+@contextlib.contextmanager
+def named_executor(
+    text: str | None, *, workers: int | None = None, processes: bool = True
+) -> Iterator[Executor | None]:
+    """The executor `text` names (see `parse_executor`), closed on exit: None for "local" (the callers
+    then make their own process pool), else a dask.distributed client's executor, on a new LocalCluster
+    of `workers` single-threaded workers (default: one per core; `processes=False` keeps them as
+    threads of this process) or on the scheduler at ADDRESS."""
+    kind, address = parse_executor(text or "local")
+    if kind == "local":
+        yield None
+        return
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise HarnessError(
+            "--executor dask needs dask.distributed, which is not installed: "
+            "pip install 'lagrange-xval[dask]' (or the pinned dask and distributed of requirements.lock)."
+        ) from None
+    cluster = None
+    if address is None:
+        loopback = {"host": "127.0.0.1"} if processes else {}  # threads talk in-process, not over TCP
+        cluster = LocalCluster(
+            n_workers=workers or os.cpu_count() or 1,
+            threads_per_worker=1,
+            processes=processes,
+            dashboard_address="127.0.0.1:0",  # its HTTP server on loopback, any free port
+            **loopback,
+        )
+        client = Client(cluster)
+    else:
+        try:
+            client = Client(address, timeout=30)
+        except (OSError, TimeoutError) as exc:
+            raise HarnessError(f"cannot reach the dask scheduler at {address}: {exc}") from None
+    try:
+        yield client.get_executor(pure=False)
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()

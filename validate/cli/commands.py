@@ -18,6 +18,7 @@ from ..dynamics.cache import CACHE_ENV
 from ..engines import make_sources
 from ..errors import HarnessError
 from ..inputs import parse_json, regular_file
+from ..parallel import named_executor
 from ..pipeline import run
 from ..replay import replay_command
 from ..results import load as load_results
@@ -190,12 +191,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     check_out(args.out)  # before hours of work, not after
     rendered: dict[str, Any] = {}
     files = user_files(args)
-    with use_cache(args), reporter() as progress:
+    # the executor inside the cache setting: a LocalCluster's workers inherit the environment
+    with use_cache(args), named_executor(args.executor) as executor, reporter() as progress:
         results = run(
             args.systems or None,
             n_states=args.states,
             seed=args.seed,
             progress=progress,
+            executor=executor,
             n_probes=args.probes,
             files=files,
             after=functools.partial(render_system, replay=not args.no_replay),  # in the workers, overlapped
@@ -307,14 +310,14 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
         return chains_command(args)
     args.files = user_files(args)  # a person's own systems, beside or instead of SYSTEM names
-    with use_cache(args):
-        return bench_command(args)
+    with use_cache(args), named_executor(args.executor) as executor:
+        return bench_command(args, executor=executor)
 
 
 def cmd_stress(args: argparse.Namespace) -> int:
     args.files = user_files(args)
-    with use_cache(args):
-        return stress_command(args)
+    with use_cache(args), named_executor(args.executor) as executor:
+        return stress_command(args, executor=executor)
 
 
 COMMANDS = {

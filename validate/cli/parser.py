@@ -14,6 +14,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from ..errors import HarnessError
+from ..parallel import parse_executor
 from ..results import harness_version
 from ..systems import system_names
 
@@ -102,6 +104,15 @@ def positive_float(text: str) -> float:
     return value
 
 
+def executor_arg(text: str) -> str:
+    """`--executor local|dask[:ADDRESS]`, checked here so a typo fails before any work."""
+    try:
+        parse_executor(text)
+    except HarnessError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
+
+
 def vector_arg(text: str) -> list[float]:
     try:
         return [float(x) for x in text.split(",")]
@@ -162,6 +173,17 @@ def build_parser() -> argparse.ArgumentParser:
         )
         parser.add_argument("--no-cache", action="store_true", help="compute everything, read and write no cache")
 
+    def executor_option(parser: argparse.ArgumentParser, what: str, here: str = "a process pool on every core") -> None:
+        parser.add_argument(
+            "--executor",
+            type=executor_arg,
+            default="local",
+            metavar="local|dask[:ADDRESS]",
+            help=f"where {what} run: local (default; {here}), "
+            "dask (a dask.distributed LocalCluster, one worker per core) or dask:ADDRESS (a running dask scheduler, "
+            "e.g. dask:tcp://HOST:8786; needs the [dask] extra)",
+        )
+
     def seed_option(parser: argparse.ArgumentParser, what: str) -> None:
         parser.add_argument(
             "--seed",
@@ -221,6 +243,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="a folder of your own systems: each <name>.xml or <name>.urdf with its <name>.py",
     )
     cache_options(run)
+    executor_option(run, "the systems")
 
     check = command("check", help="pointwise comparison of the three sources")
     one_system_argument(check)
@@ -326,6 +349,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     model_options(bench)
     cache_options(bench)
+    executor_option(bench, "the timed runs")
 
     stress = command("stress", help="numerical stability: long horizons, stable timesteps, conditioning")
     systems_argument(stress, "the systems to stress (default: every one)")
@@ -342,6 +366,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     model_options(stress)
     cache_options(stress)
+    executor_option(stress, "the sections", "one after another in this process")
 
     new = command("new", help="write a starting equations module for your own model")
     new.add_argument("name", metavar="NAME", help="the module's name (NAME.py), a Python identifier")

@@ -54,6 +54,7 @@ def section_bench(doc: Document, bench: dict[str, Any] | None) -> None:
         )
     if rows:
         doc.table("The fast-harness ratios, measured in the same run", ("ratio", "measured", "target", "verdict"), rows)
+    frontier_section(doc, bench.get("ratios", {}).get("default_path_vs_frontier"))
     flags = bench.get("ratios", {}).get("mujoco_disable_flags", {})
     frows = (
         [
@@ -119,6 +120,37 @@ def section_bench(doc: Document, bench: dict[str, Any] | None) -> None:
                 ("method", *[f"eps {e:g}" for e in eps]),
                 table,
             )
+
+
+def frontier_section(doc: Document, frontier: Any) -> None:
+    """Per system and eps: the fastest method measured, and the harness's default path against it."""
+    if not isinstance(frontier, dict) or not frontier.get("per_system"):
+        return
+
+    def run(r: Any) -> str:
+        if not isinstance(r, dict):
+            return "not reached"
+        return f"{r.get('method')} ({r.get('setting')} {sci(r.get('value'))}): {sci(r.get('cpu_s'))} s"
+
+    rows = []
+    for system, per_eps in sorted(frontier["per_system"].items()):
+        for e in per_eps:
+            ratio = e.get("ratio")
+            rows.append(
+                (
+                    system,
+                    sci(e.get("epsilon")),
+                    run(e.get("fastest")),
+                    run(e.get("default_path")),
+                    f"{ratio:.1f}x" if ratio is not None else e.get("why") or "-",
+                )
+            )
+    doc.table(
+        "The fastest method measured at each error (error at t = 2 s <= eps, whole 10 ms grid) and the harness's "
+        "default trajectory path (odeint on the hand equations) at the same error",
+        ("system", "eps (rad)", "fastest", "default path", "default / fastest (CPU)"),
+        rows,
+    )
 
 
 def _work_precision_figure(system: str, rows: list[dict[str, Any]]) -> bytes:

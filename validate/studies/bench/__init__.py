@@ -14,6 +14,12 @@ What is swept, per system, from its `initial_state` with tau = 0, on the grid t 
   MuJoCo's Euler, implicit, implicitfast, RK4 at timesteps 1e-2 ... 1e-5 s (the model's own
   `opt.integrator`/`opt.timestep` are set and restored), and the mirror RK4 on Pinocchio's ABA.
   The harness's default (`integrate.scipy_trajectory` with `integrate.SCIPY_DEFAULT`) as one more run.
+  The frontier contenders (dynamics/compiled.py): heyoka's adaptive Taylor integrator in double
+  precision on the hand equations at tol 1e-6 ... 1e-16; the hand equations as a compiled function
+  (heyoka `cfunc`, engine "hand-cfunc") under `solve_ivp` DOP853 and `odeint`; RK4 with its steps
+  compiled ("compiled RK4", up to 10 steps per call); MuJoCo's `rollout` at 1e-2 ... 1e-4 s, for one
+  trajectory and for a batch of ROLLOUT_BATCH copies of the start (its row's time is the batch's
+  divided by ROLLOUT_BATCH). Compilation is never timed.
 
 What is measured per run: the error against the reference (heyoka Taylor in long double, accurate
 to ~1e-17, cached) as max over coordinates of |q - q_ref| at t = 2 s and 10 s, and its maximum over
@@ -50,26 +56,50 @@ nothing else of ours running (after the pool is shut down).
 Modules: plan (what is swept, budgets, targets), runners (one timed run in a worker), analysis
 (errors, rows, Pareto fronts, the sweep), baselines (what the ratios are measured against: the
 hand-written right-hand side and the minimal pointwise calls; MuJoCo's and Pinocchio's raw loops
-live in engines/baselines.py), ratios (the fast-harness ratios), output (run_bench, bench.json,
+live in engines/baselines.py), ratios (the fast-harness ratios and the default path against the
+fastest method at equal error, `frontier_ratios`), output (run_bench, bench.json,
 the summary, the command).
 """
 
 from .analysis import errors_against, pareto_front, sort_key, sweep, time_to_epsilon
 from .baselines import hand_math_rhs, numpy_solve_rhs, raw_hand, raw_pointwise
 from .output import bench_command, run_bench, run_time_command, summary, write_bench
-from .plan import ATOL_FACTOR, EPSILONS, RUN_TARGET_S, method_name, plan, scipy_spec, step_spec
-from .ratios import default_ratio, rhs_ratio, run_wall_times
-from .runners import case_for, execute, prepare, resources, run_mirror, run_mujoco, run_scipy
+from .plan import (
+    ATOL_FACTOR,
+    EPSILONS,
+    FRONTIER_EPSILONS,
+    RUN_TARGET_S,
+    method_name,
+    plan,
+    scipy_spec,
+    step_spec,
+    taylor_spec,
+)
+from .ratios import default_ratio, frontier_ratios, rhs_ratio, run_wall_times
+from .runners import (
+    case_for,
+    execute,
+    prepare,
+    resources,
+    run_compiled_rk4,
+    run_mirror,
+    run_mujoco,
+    run_rollout,
+    run_scipy,
+    run_taylor,
+)
 
 __all__ = [
     "ATOL_FACTOR",
     "EPSILONS",
+    "FRONTIER_EPSILONS",
     "RUN_TARGET_S",
     "bench_command",
     "case_for",
     "default_ratio",
     "errors_against",
     "execute",
+    "frontier_ratios",
     "hand_math_rhs",
     "method_name",
     "numpy_solve_rhs",
@@ -81,15 +111,19 @@ __all__ = [
     "resources",
     "rhs_ratio",
     "run_bench",
+    "run_compiled_rk4",
     "run_mirror",
     "run_mujoco",
+    "run_rollout",
     "run_scipy",
+    "run_taylor",
     "run_time_command",
     "run_wall_times",
     "scipy_spec",
     "sort_key",
     "step_spec",
     "summary",
+    "taylor_spec",
     "sweep",
     "time_to_epsilon",
     "write_bench",

@@ -36,7 +36,15 @@ from .plan import (
     T_END,
     plan,
 )
-from .ratios import RUN_CONDITIONS, default_ratio, flags_ratio, pointwise_ratio, rhs_ratio, run_wall_times
+from .ratios import (
+    RUN_CONDITIONS,
+    default_ratio,
+    flags_ratio,
+    frontier_ratios,
+    pointwise_ratio,
+    rhs_ratio,
+    run_wall_times,
+)
 from .runners import prepare
 
 
@@ -105,6 +113,7 @@ def run_bench(
         if RHS_SYSTEM in chosen
         else {"value": None, "passed": None, "why": f"{RHS_SYSTEM} not in this bench"}
     )
+    ratios["default_path_vs_frontier"] = frontier_ratios(rows)
     ratios["mujoco_disable_flags"] = {
         "target": None,
         "rows": sorted((r for n in chosen for r in extras[f"flags {n}"]), key=lambda r: (r["system"], r["integrator"])),
@@ -194,7 +203,7 @@ def fmt_ms(x: float | None) -> str:
 def fmt_setting(setting: str | None, value: float | None) -> str:
     if setting is None or value is None:
         return ""
-    return f"{'rtol' if setting == 'rtol' else 'dt'} {value:.0e}"
+    return f"{ {'rtol': 'rtol', 'tol': 'tol'}.get(setting, 'dt') } {value:.0e}"
 
 
 def summary(results: dict[str, Any], console: Any = None) -> None:
@@ -313,6 +322,7 @@ def summary(results: dict[str, Any], console: Any = None) -> None:
                 or "none"
             )
         )
+    frontier_table(ratios["default_path_vs_frontier"], console)
     table = Table(
         title="MuJoCo step cost: model's disable flags vs all enabled (us per step, CPU)", title_justify="left"
     )
@@ -329,7 +339,37 @@ def summary(results: dict[str, Any], console: Any = None) -> None:
     console.print(table)
 
 
-def bench_command(args: Any) -> int:
+def frontier_table(frontier: dict[str, Any], console: Any) -> None:
+    """The harness's default trajectory path against the fastest method at equal error, per system."""
+    from rich.table import Table
+
+    table = Table(
+        title="Default trajectory path (hand odeint) vs the fastest method at equal error (error at 2 s <= eps, CPU)",
+        title_justify="left",
+    )
+    for col in ("system", "eps", "default path", "fastest", "ratio", "fastest contender"):
+        table.add_column(col)
+
+    def cell(r: dict[str, Any] | None) -> str:
+        if r is None:
+            return "not reached"
+        return f"{r['method']} {fmt_setting(r['setting'], r['value'])}: {fmt_ms(r['cpu_s'])} ({r['error_2s']:.1e})"
+
+    for system, per_eps in frontier.get("per_system", {}).items():
+        for e in per_eps:
+            ratio = f"{e['ratio']:.1f}x" if e["ratio"] is not None else str(e["why"])
+            table.add_row(
+                system,
+                f"{e['epsilon']:.0e}",
+                cell(e["default_path"]),
+                cell(e["fastest"]),
+                ratio,
+                cell(e["fastest_contender"]),
+            )
+    console.print(table)
+
+
+def bench_command(args: Any, executor: Executor | None = None) -> int:
     """`lagrange-xval bench [SYSTEM ...] [--quick] [--out DIR] [--repeats N]`.
 
     Writes DIR/bench.json and prints the summary. Exit status 0 when every ratio with a target meets
@@ -351,7 +391,9 @@ def bench_command(args: Any) -> int:
         repeats=getattr(args, "repeats", None),
         progress=progress,
         files=getattr(args, "files", None),
+        executor=executor,
     )
+    results["config"]["executor"] = getattr(args, "executor", None) or "local"
     path = write_bench(results, Path(getattr(args, "out", None) or "reports"))
     summary(results)
     print(f"wrote {path}")

@@ -21,7 +21,10 @@ ERROR_TIMES = (2.0, 10.0)  # s
 HORIZON_TOLERANCE = 1e-6  # rad: the trajectory tier, and the chaos summary's horizon tolerance
 
 
-EPSILONS = (1e-3, 1e-6, 1e-9)  # rad, for "time to reach error eps" at t = 2 s
+EPSILONS = (1e-3, 1e-6, 1e-9, 1e-12)  # rad, for "time to reach error eps" at t = 2 s
+
+
+FRONTIER_EPSILONS = (1e-6, 1e-9, 1e-12)  # rad at t = 2 s: the default path against the fastest contender
 
 
 ATOL_FACTOR = 1e-3  # atol = rtol * ATOL_FACTOR
@@ -46,6 +49,24 @@ TIMESTEPS = (1e-2, 1e-3, 1e-4, 1e-5)  # s
 
 
 QUICK_TIMESTEPS = (1e-2, 1e-3, 1e-4)
+
+
+TAYLOR_TOLERANCES = tuple(10.0**-k for k in range(6, 17))  # heyoka's Taylor in double: 1e-6 .. 1e-16
+
+
+QUICK_TAYLOR_TOLERANCES = (1e-6, 1e-9, 1e-12, 1e-15)
+
+
+TAYLOR_MAX_STEPS = 1_000_000  # a budget without a per-step callback: the references take ~46 steps/s
+
+
+ROLLOUT_TIMESTEPS = (1e-2, 1e-3, 1e-4)  # rollout records every step: 1e-5 s would hold 1e6 states per copy
+
+
+QUICK_ROLLOUT_TIMESTEPS = (1e-2, 1e-3)
+
+
+ROLLOUT_BATCH = 8  # copies of the start in one batched rollout (its row's time is per trajectory)
 
 
 QUICK_SYSTEMS = ("double_pendulum_point", "gimbal")
@@ -108,6 +129,15 @@ FLAG_INTEGRATORS = ("RK4", "Euler")
 SCIPY_DRIVERS = ("solve_ivp", "ode", "ode_endpoints", "odeint")
 
 
+# The drivers that give the whole 10 ms grid (as the harness's own trajectories must): all but
+# "ode_endpoints", which samples t = 2 s and 10 s only.
+GRID_DRIVERS = ("solve_ivp", "ode", "odeint", "mujoco", "mirror", "default", "taylor", "compiled_rk4", "rollout")
+
+
+# Contenders: the methods a person who cares about run time against error would pick, beside scipy.
+CONTENDER_DRIVERS = ("taylor", "compiled_rk4", "rollout", "rollout_batch")
+
+
 STATUSES = ("ok", "diverged", "failed", "timeout", "skipped")  # a row's "status"
 
 
@@ -122,6 +152,10 @@ def method_name(spec: dict[str, Any]) -> str:
         "mujoco": str(scheme),
         "mirror": f"mirror {scheme}",
         "default": "default scipy_trajectory",
+        "taylor": "heyoka Taylor (double)",
+        "compiled_rk4": "compiled RK4 (heyoka cfunc)",
+        "rollout": f"rollout {scheme}",
+        "rollout_batch": f"rollout {scheme} (batch of {ROLLOUT_BATCH}, per trajectory)",
     }[driver]
     return f"{engine} {label}"
 
@@ -135,6 +169,11 @@ def scipy_spec(engine: str, driver: str, scheme: str | None, rtol: float) -> dic
         "value": rtol,
         "atol": rtol * ATOL_FACTOR,
     }
+
+
+def taylor_spec(tol: float, engine: str = "hand") -> dict[str, Any]:
+    """heyoka's Taylor integrator in double precision on the hand equations or the "symbolic" source."""
+    return {"engine": engine, "driver": "taylor", "scheme": "double", "setting": "tol", "value": tol, "atol": None}
 
 
 def step_spec(engine: str, driver: str, scheme: str, timestep: float) -> dict[str, Any]:
@@ -156,6 +195,13 @@ def plan(*, quick: bool) -> list[dict[str, Any]]:
             specs += [scipy_spec("hand", "solve_ivp", m, r) for r in QUICK_RTOLS]
         for integ in QUICK_MUJOCO_INTEGRATORS:
             specs += [step_spec("mujoco", "mujoco", integ, dt) for dt in QUICK_TIMESTEPS]
+        specs += [scipy_spec("hand", "odeint", "LSODA", r) for r in QUICK_RTOLS]  # the default's driver
+        specs += [scipy_spec("hand-cfunc", "odeint", "LSODA", r) for r in QUICK_RTOLS]
+        specs += [taylor_spec(tol) for tol in QUICK_TAYLOR_TOLERANCES]
+        specs += [taylor_spec(tol, "symbolic") for tol in QUICK_TAYLOR_TOLERANCES]
+        specs += [step_spec("hand", "compiled_rk4", "RK4", dt) for dt in QUICK_TIMESTEPS]
+        specs += [step_spec("mujoco", "rollout", "RK4", dt) for dt in QUICK_ROLLOUT_TIMESTEPS]
+        specs += [step_spec("mujoco", "rollout_batch", "RK4", dt) for dt in QUICK_ROLLOUT_TIMESTEPS]
     else:
         for engine in ("hand", "pinocchio"):
             for m in IVP_METHODS:
@@ -166,6 +212,13 @@ def plan(*, quick: bool) -> list[dict[str, Any]]:
         for integ in MUJOCO_INTEGRATORS:
             specs += [step_spec("mujoco", "mujoco", integ, dt) for dt in TIMESTEPS]
         specs += [step_spec("pinocchio", "mirror", "RK4", dt) for dt in TIMESTEPS]
+        specs += [scipy_spec("hand-cfunc", "solve_ivp", "DOP853", r) for r in RTOLS]
+        specs += [scipy_spec("hand-cfunc", "odeint", "LSODA", r) for r in RTOLS]
+        specs += [taylor_spec(tol) for tol in TAYLOR_TOLERANCES]
+        specs += [taylor_spec(tol, "symbolic") for tol in TAYLOR_TOLERANCES]
+        specs += [step_spec("hand", "compiled_rk4", "RK4", dt) for dt in TIMESTEPS]
+        for driver in ("rollout", "rollout_batch"):
+            specs += [step_spec("mujoco", driver, "RK4", dt) for dt in ROLLOUT_TIMESTEPS]
     specs.append(
         {
             "engine": "hand",

@@ -25,9 +25,12 @@ from ...engines.baselines import raw_mujoco, raw_pinocchio
 from ...engines.fastpath import scalar_rhs
 from .baselines import hand_math_rhs, numpy_solve_rhs, raw_hand, raw_pointwise
 from .plan import (
+    CONTENDER_DRIVERS,
     DEFAULT_EPSILON,
     DEFAULT_TARGET,
     FLAG_INTEGRATORS,
+    FRONTIER_EPSILONS,
+    GRID_DRIVERS,
     POINTWISE_STATES,
     POINTWISE_TARGET,
     RHS_SYSTEM,
@@ -254,6 +257,60 @@ def default_ratio(
         ],
         "how": "median CPU time of each run in the interleaved sweep; the default is integrate.scipy_trajectory "
         "with integrate.SCIPY_DEFAULT on the hand source",
+    }
+
+
+def frontier_ratios(rows: list[dict[str, Any]], epsilons: tuple[float, ...] = FRONTIER_EPSILONS) -> dict[str, Any]:
+    """From the sweep, per system and eps: the harness's default trajectory path (its driver, `odeint`
+    on the hand equations' generated right-hand side, at the cheapest rtol reaching eps at t = 2 s; the
+    default rtol itself as one of them) against the fastest run of any method reaching eps that gives
+    the whole 10 ms grid (as the harness's trajectories must). CPU time ratios; nothing is asserted."""
+    out: dict[str, Any] = {}
+
+    def brief(r: dict[str, Any] | None) -> dict[str, Any] | None:
+        if r is None:
+            return None
+        keys = ("method", "setting", "value", "cpu_s", "wall_s", "error_2s", "error_10s")
+        return {k: r[k] for k in keys}
+
+    def reaching(rs: list[dict[str, Any]], eps: float) -> list[dict[str, Any]]:
+        return [
+            r
+            for r in rs
+            if r["status"] == "ok" and r.get("cpu_s") is not None and r["error_2s"] is not None and r["error_2s"] <= eps
+        ]
+
+    for system in sorted({r["system"] for r in rows}):
+        mine = [r for r in rows if r["system"] == system and r["driver"] in GRID_DRIVERS]
+        path = [r for r in mine if (r["engine"], r["driver"]) == ("hand", "odeint") or r["driver"] == "default"]
+        per_eps = []
+        for eps in epsilons:
+            good, mine_good = reaching(path, eps), reaching(mine, eps)
+            default = min(good, key=lambda r: r["cpu_s"]) if good else None
+            fastest = min(mine_good, key=lambda r: r["cpu_s"]) if mine_good else None
+            contenders = [r for r in mine_good if r["driver"] in CONTENDER_DRIVERS]
+            best_contender = min(contenders, key=lambda r: r["cpu_s"]) if contenders else None
+            per_eps.append(
+                {
+                    "epsilon": eps,
+                    "default_path": brief(default),
+                    "fastest": brief(fastest),
+                    "fastest_contender": brief(best_contender),
+                    "ratio": default["cpu_s"] / fastest["cpu_s"] if default and fastest else None,
+                    "why": None
+                    if default and fastest
+                    else ("the default path does not reach eps" if fastest else "no run reaches eps"),
+                }
+            )
+        out[system] = per_eps
+    return {
+        "target": None,
+        "epsilons": list(epsilons),
+        "per_system": out,
+        "how": "median CPU time of the sweep's runs; default path = odeint (LSODA) on the hand equations' "
+        "generated right-hand side, as integrate.scipy_trajectory runs it, at the cheapest rtol of the sweep "
+        "whose error at t = 2 s is <= eps (the default rtol included); fastest = the cheapest run of any method "
+        "with the whole output grid reaching eps; ratio = default path / fastest",
     }
 
 

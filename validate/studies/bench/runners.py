@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from ...dynamics.chaos import chaos_summary
+from ...dynamics.compiled import compiled_rhs, compiled_rk4, rk4_grid, rk4_plan, taylor_grid, taylor_integrator
 from ...dynamics.integrate import SCIPY_DEFAULT, initial_state, scipy_trajectory, time_grid
 from ...dynamics.mirror import mirror_trajectory
 from ...dynamics.reference import reference_trajectory
@@ -23,7 +24,18 @@ from ...engines import make_sources
 from ...engines.fastpath import scalar_rhs
 from ...errors import HarnessError
 from ...systems import from_key, key_of
-from .plan import CHECK_EVERY, DT_OUT, ERROR_TIMES, HORIZON_TOLERANCE, MAX_EXECUTIONS, MIN_TIMED, SCIPY_DRIVERS, T_END
+from .plan import (
+    CHECK_EVERY,
+    DT_OUT,
+    ERROR_TIMES,
+    HORIZON_TOLERANCE,
+    MAX_EXECUTIONS,
+    MIN_TIMED,
+    ROLLOUT_BATCH,
+    SCIPY_DRIVERS,
+    T_END,
+    TAYLOR_MAX_STEPS,
+)
 
 
 class Stop(Exception):
@@ -88,7 +100,7 @@ def nonfinite(out: Any) -> bool:
 
 
 def guarded(
-    f: Callable[..., Any], deadline: float, *, tau: list[float] | None = None, stop_with_nan: bool = False
+    f: Callable[..., Any], deadline: float, *, tau: Any = None, stop_with_nan: bool = False
 ) -> tuple[Callable[[float, Any], Any], Callable[[], dict[str, Any]]]:
     """`f` counted, and stopped once past `deadline` (perf_counter) or once it returns non-finite values.
 
@@ -190,7 +202,7 @@ def run_scipy(
     rtol: float,
     atol: float,
     deadline: float,
-    tau: list[float] | None = None,
+    tau: Any = None,
 ) -> dict[str, Any]:
     """One scipy integration of y' = f(t, y) (or f(t, y, tau)), timed around the driver call alone.
 
@@ -333,6 +345,64 @@ def run_mirror(
     )
 
 
+def run_taylor(
+    system: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, tol: float, source: str = "hand"
+) -> dict[str, Any]:
+    """heyoka's Taylor integrator in double precision at `tol` on the hand equations or the derived
+    ones ("symbolic": joint coordinates, JOINT_MAP applied outside the clock); compiled before the
+    clock starts, `propagate_grid` alone timed. At most TAYLOR_MAX_STEPS steps."""
+    n = len(q0)
+    A = system.joint_map if source == "symbolic" else None
+    if A is not None:  # q_notes = A q_joint, and the inputs' work: tau_joint = A^T tau_notes
+        q0, v0, tau = np.linalg.solve(A, q0), np.linalg.solve(A, v0), A.T @ np.asarray(tau, dtype=float)
+    ta = taylor_integrator(system, tol, source=source)
+    c0, w0 = time.process_time(), time.perf_counter()
+    outcome, states, steps = taylor_grid(ta, q0, v0, tau, t, max_steps=TAYLOR_MAX_STEPS)
+    cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+    if outcome != "ok":
+        status = "diverged" if "nf_state" in outcome else "failed"
+        return result_row(status, f"heyoka stopped: {outcome} after {steps} steps", cpu, wall, steps=steps)
+    q = states[:, :n] if A is None else states[:, :n] @ A.T
+    return result_row("ok", "", cpu, wall, t=t, q=np.ascontiguousarray(q), steps=steps)
+
+
+def run_compiled_rk4(
+    system: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, timestep: float, deadline: float
+) -> dict[str, Any]:
+    """Classic RK4 with its steps compiled (heyoka cfunc, `compiled.rk4_plan` steps per call), one
+    Python call per group of steps; the loop over the samples is timed."""
+    n = len(q0)
+    per_call, calls = rk4_plan(float(t[1] - t[0]), timestep)
+    cf = compiled_rk4(system, per_call)
+    c0, w0 = time.process_time(), time.perf_counter()
+    status, states = rk4_grid(cf, calls, q0, v0, tau, t, timestep=timestep, deadline=deadline)
+    cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+    total = calls * per_call * (len(t) - 1)
+    if status != "ok":
+        return result_row(status, f"{status} before t = {t[-1]:g} s", cpu, wall, steps=total)
+    return result_row("ok", "", cpu, wall, t=t, q=np.ascontiguousarray(states[:, :n]), nfev=4 * total, steps=total)
+
+
+def run_rollout(
+    system: Any, source: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, integrator: str, timestep: float, batch: int
+) -> dict[str, Any]:
+    """MuJoCo's `rollout` of `batch` copies of the start (engines/mujoco.rollout_run); the row's time is
+    the batch's CPU time divided by `batch` (per trajectory), its samples those of the first copy."""
+    from ...engines import mujoco as engine  # imports MuJoCo: loaded when first used
+
+    steps = round(float(t[1] - t[0]) / timestep)
+    out = engine.rollout_run(
+        source, q0, v0, tau, len(t), steps, integrator=integrator, timestep=timestep, batch=batch, nthread=batch
+    )
+    cpu, wall, total = out["cpu_s"] / batch, out["wall_s"] / batch, steps * (len(t) - 1)
+    if out["bad"]:
+        return result_row("diverged", f"MuJoCo warnings: {', '.join(out['bad'])}", cpu, wall, steps=total)
+    if not out["identical"]:
+        return result_row("failed", "the copies of one start gave different states", cpu, wall, steps=total)
+    q = out["q"] if system.joint_map is None else out["q"] @ system.joint_map.T
+    return result_row("ok", "", cpu, wall, t=t, q=np.ascontiguousarray(q), steps=total)
+
+
 def run_default(system: Any, source: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray) -> dict[str, Any]:
     """The harness's default scipy integration, as `run` calls it (no budget: it has no hook)."""
     c0, w0 = time.process_time(), time.perf_counter()
@@ -353,10 +423,13 @@ def run_once(spec: dict[str, Any], case: dict[str, Any], *, budget: float) -> di
     driver, engine = spec["driver"], spec["engine"]
     if driver in SCIPY_DRIVERS:
         y0 = np.concatenate([q0, v0])
+        tau_list: Any = None
         if engine == "hand":
             f, tau_list = scalar_rhs(system), [float(x) for x in tau]  # compiled before the clock starts
+        elif engine == "hand-cfunc":
+            f, tau_list = compiled_rhs(system), np.array(tau, dtype=float)
         else:
-            f, tau_list = sources[engine].rhs(tau), None
+            f = sources[engine].rhs(tau)
         deadline = time.perf_counter() + budget
         return run_scipy(
             driver, spec["scheme"], f, y0, t, rtol=spec["value"], atol=spec["atol"], deadline=deadline, tau=tau_list
@@ -386,6 +459,17 @@ def run_once(spec: dict[str, Any], case: dict[str, Any], *, budget: float) -> di
             integrator=spec["scheme"],
             timestep=spec["value"],
             deadline=time.perf_counter() + budget,
+        )
+    if driver == "taylor":
+        if engine not in sources:
+            return result_row("skipped", f"no {engine} source for {system.name}", 0.0, 0.0)
+        return run_taylor(system, q0, v0, tau, t, tol=spec["value"], source=engine)
+    if driver == "compiled_rk4":
+        return run_compiled_rk4(system, q0, v0, tau, t, timestep=spec["value"], deadline=time.perf_counter() + budget)
+    if driver in ("rollout", "rollout_batch"):
+        batch = ROLLOUT_BATCH if driver == "rollout_batch" else 1
+        return run_rollout(
+            system, sources["mujoco"], q0, v0, tau, t, integrator=spec["scheme"], timestep=spec["value"], batch=batch
         )
     if driver == "default":
         scalar_rhs(system)

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import sys
+import threading
 import time
 from collections.abc import Callable
+from concurrent.futures import Executor, as_completed
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
@@ -12,7 +14,7 @@ from typing import Any
 from ...engines import make_sources
 from ...errors import HarnessError
 from ...results import atomic_write, dumps, provenance
-from ...systems import System, load, system_names
+from ...systems import System, from_key, key_of, load, system_names
 from ...systems.overrides import parse
 from .conditioning import conditioning_rows, conditioning_summary, proposed_solve_tier
 from .energy import conservative, drift_rows
@@ -60,9 +62,11 @@ def run_stress(
     settings: Settings | None = None,
     progress: Callable[[str], None] | None = None,
     files: list[tuple[Path, Path]] | None = None,
+    executor: Executor | None = None,
 ) -> dict[str, Any]:
     """The four stress experiments on the systems named (all when none) and on a person's own
-    (`files`: (model, equations) pairs), with `overrides` on each.
+    (`files`: (model, equations) pairs), with `overrides` on each; in this process, or with `executor`
+    (any `concurrent.futures.Executor`, a dask cluster's included) one task per system and section.
 
     Every system is loaded and compiled with the overrides first, so an unknown system, an unknown key
     or a model MuJoCo refuses is a one-line HarnessError before any long run starts.
@@ -98,42 +102,24 @@ def run_stress(
         "timing": {},
     }
     start = time.perf_counter()
-    with quiet_mujoco_warnings():
-        for s in systems_:
-            sources = make_sources(s)
-            V_min = minimum_potential(s, sources["hand"])
-            for section in settings.sections:
-                t0 = time.perf_counter()
-                if section == "drift":
-                    if conservative(s):
-                        results["drift"] += drift_rows(s, sources, settings, V_min=V_min)
-                    else:
-                        results["skipped"].append(
-                            {
-                                "system": s.name,
-                                "section": section,
-                                "why": f"not conservative (uses {', '.join(sorted(s.uses))})",
-                            }
-                        )
-                elif section == "stability":
-                    results["stability"] += stability_rows(s, sources, settings, V_min=V_min)
-                elif section == "conditioning":
-                    rows = conditioning_rows(s, sources, settings)
-                    if not rows:
-                        results["skipped"].append(
-                            {"system": s.name, "section": section, "why": "one coordinate: M is a scalar, cond(M) = 1"}
-                        )
-                    results["conditioning"] += rows
-                elif section == "stiff_friction":
-                    if "damping" in s.uses:
-                        results["stiff_friction"] += stiff_rows(s, settings)
-                    else:
-                        results["skipped"].append({"system": s.name, "section": section, "why": "no joint damping"})
-                else:
-                    raise HarnessError(f"unknown stress section '{section}'.")
-                elapsed = time.perf_counter() - t0
-                results["timing"][f"{s.name}/{section}"] = elapsed
-                say(f"[{time.perf_counter() - start:6.1f} s] {s.name}: {section} ({elapsed:.1f} s)")
+    tasks = [(s, section) for s in systems_ for section in settings.sections]
+    if executor is None:  # in this process, one system's sources shared by its sections
+        with quiet_mujoco_warnings():
+            for s in systems_:
+                prepared = (s, *prepare(s))
+                for section in settings.sections:
+                    done = run_section(prepared, section, settings)
+                    collect(results, done)
+                    say(f"[{time.perf_counter() - start:6.1f} s] {s.name}: {section} ({done['elapsed']:.1f} s)")
+    else:  # one task per system and section, each worker keeping the systems it has built
+        futures = {
+            executor.submit(section_task, key_of(s), tuple(overrides), section, settings): (s, section)
+            for s, section in tasks
+        }
+        for fut in as_completed(futures):
+            done = fut.result()
+            collect(results, done)
+            say(f"[{time.perf_counter() - start:6.1f} s] {done['system']}: {done['section']} ({done['elapsed']:.1f} s)")
     for key in ("drift", "stability", "conditioning", "stiff_friction", "skipped"):
         results[key] = sorted(results[key], key=sort_key)
     summary = conditioning_summary(results["conditioning"])
@@ -141,6 +127,64 @@ def run_stress(
     results["solve_tier_proposal"] = proposed_solve_tier(summary)
     results["timing"]["total"] = time.perf_counter() - start
     return results
+
+
+LOCAL = threading.local()
+
+
+def prepare(system: Any) -> tuple[dict[str, Any], float]:
+    """A system's sources and the smallest potential on its grid (shared by its sections)."""
+    sources = make_sources(system)
+    return sources, minimum_potential(system, sources["hand"])
+
+
+def section_task(
+    key: str, overrides: tuple[tuple[str, float], ...], section: str, settings: Settings
+) -> dict[str, Any]:
+    """One system's section in a worker (the system found by `systems.key_of`'s key, with the
+    overrides); the system, its sources and V_min are built once per worker thread."""
+    cache = LOCAL.__dict__.setdefault("systems", {})
+    if (key, overrides) not in cache:
+        base = from_key(key)
+        system = base.derive(overrides=overrides) if overrides else base
+        cache[(key, overrides)] = (system, *prepare(system))
+    with quiet_mujoco_warnings():
+        return run_section(cache[(key, overrides)], section, settings)
+
+
+def run_section(prepared: tuple[Any, dict[str, Any], float], section: str, settings: Settings) -> dict[str, Any]:
+    """One section's rows on one system: {"system", "section", "rows", "skipped", "elapsed"}."""
+    s, sources, V_min = prepared
+    t0 = time.perf_counter()
+    rows: list[dict[str, Any]] = []
+    skipped: list[dict[str, Any]] = []
+    if section == "drift":
+        if conservative(s):
+            rows = drift_rows(s, sources, settings, V_min=V_min)
+        else:
+            skipped.append(
+                {"system": s.name, "section": section, "why": f"not conservative (uses {', '.join(sorted(s.uses))})"}
+            )
+    elif section == "stability":
+        rows = stability_rows(s, sources, settings, V_min=V_min)
+    elif section == "conditioning":
+        rows = conditioning_rows(s, sources, settings)
+        if not rows:
+            skipped.append({"system": s.name, "section": section, "why": "one coordinate: M is a scalar, cond(M) = 1"})
+    elif section == "stiff_friction":
+        if "damping" in s.uses:
+            rows = stiff_rows(s, settings)
+        else:
+            skipped.append({"system": s.name, "section": section, "why": "no joint damping"})
+    else:
+        raise HarnessError(f"unknown stress section '{section}'.")
+    return {"system": s.name, "section": section, "rows": rows, "skipped": skipped, "elapsed": time.perf_counter() - t0}
+
+
+def collect(results: dict[str, Any], done: dict[str, Any]) -> None:
+    results[done["section"]] += done["rows"]
+    results["skipped"] += done["skipped"]
+    results["timing"][f"{done['system']}/{done['section']}"] = done["elapsed"]
 
 
 def criteria() -> dict[str, str]:
@@ -305,7 +349,7 @@ def print_summary(results: dict[str, Any], console: Any = None) -> None:
         console.print(f"skipped {s['section']} on {s['system']}: {s['why']}")
 
 
-def stress_command(args: Any) -> int:
+def stress_command(args: Any, executor: Executor | None = None) -> int:
     """`lagrange-xval stress [SYSTEM ...] [--set KEY=VALUE ...] [--quick] [--out DIR]`."""
     from rich.console import Console
 
@@ -319,6 +363,7 @@ def stress_command(args: Any) -> int:
         quick=bool(getattr(args, "quick", False)),
         progress=lambda msg: err.print(msg, highlight=False),
         files=getattr(args, "files", None),
+        executor=executor,
     )
     path = write_stress(results, Path(getattr(args, "out", None) or "reports"))
     print_summary(results, Console(width=None if sys.stdout.isatty() else 160))

@@ -1,0 +1,188 @@
+"""The hand equations compiled: heyoka's Taylor integrator in double precision, and heyoka's
+compiled functions (`cfunc`) as a right-hand side and as whole fixed-step RK4 steps.
+
+Everything starts from the trace the reference uses (reference.symbolic_dynamics: the equations
+module's own `mass_matrix`, `bias`, `passive` called on heyoka expressions, a = M^-1 f by symbolic
+elimination), so what is compiled here is the hand derivation itself, checked against the numpy
+module by `reference.rhs_check`.
+
+  taylor_integrator  heyoka's adaptive Taylor method in double precision at a tolerance (1e-6 ..
+                     1e-16; the order follows the tolerance). Not in compact mode: for these small
+                     systems the unrolled code runs 1.6-1.8x faster (measured on double_pendulum_point,
+                     0.27 vs 0.49 ms over 10 s at tol 1e-12) and compiles in 0.1-0.4 s (not timed).
+                     With `source="symbolic"`: the same on the model's own equations derived
+                     symbolically (engines/symbolic.py; sympy's expressions turned into heyoka's by
+                     `heyoka.from_sympy`), in the joints' coordinates (`JOINT_MAP` applied on the way
+                     in and out by `taylor_grid`'s caller).
+  compiled_rhs       a = M^-1 f as a `cfunc` called once per state from Python. Measured on
+                     double_pendulum_point: 2.5-2.7 us a call against 1.9 us for the generated `math`
+                     code (engines/fastpath.py): the call from Python costs more than the arithmetic,
+                     so a compiled right-hand side does not speed up scipy's drivers (the bench shows it).
+  compiled_rk4       `k` steps of classic RK4 (MuJoCo's tableau, mirror.py) composed into one `cfunc`:
+                     one Python call per k steps, the arithmetic compiled. k is the steps per output
+                     sample, at most RK4_STEPS_PER_CALL (100 steps compile in ~6 s, 10 in ~0.3 s).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from ..engines.derivation import parameter_values
+from ..engines.symbolic import derivation_of
+from ..errors import HarnessError
+from ..systems import tracing
+from .reference import param_key, symbolic_dynamics
+
+RK4_STEPS_PER_CALL = 10  # steps composed into one compiled call (compile time grows with it)
+_CACHE: dict[tuple[Any, ...], Any] = {}
+
+
+def _key(system: Any, *what: Any) -> tuple[Any, ...]:
+    # the module itself, not its name: a mutated module of the same name gets its own code
+    return (system.name, system.overrides, param_key(system), system.equations, *what)
+
+
+def derived_ode(system: Any) -> list[tuple[Any, Any]]:
+    """The model's equations derived symbolically (the "symbolic" source) as a heyoka ODE in the
+    joints' coordinates: x = (q_joint, v_joint), a = M^-1 (tau - (C v + G - passive)), tau = par[0:n]."""
+    import heyoka as hy
+
+    d = derivation_of(system)
+    values = parameter_values(d, system.view)
+    n = system.nv
+    qs = [hy.expression(f"q{i}") for i in range(n)]
+    vs = [hy.expression(f"v{i}") for i in range(n)]
+    names = {**dict(zip(d.q, qs, strict=True)), **dict(zip(d.v, vs, strict=True))}
+    names.update({sym: hy.expression(float(values[sym])) for sym in d.source})
+
+    def conv(e: Any) -> Any:
+        return hy.from_sympy(e, names)
+
+    m = [[conv(d.M[i, j]) for j in range(n)] for i in range(n)]
+    forces = d.Cv + d.G - d.passive
+    a = tracing.solve_spd(m, [hy.par[i] - conv(forces[i]) for i in range(n)])
+    return list(zip(qs + vs, vs + a, strict=True))
+
+
+def taylor_integrator(system: Any, tol: float, *, compact: bool = False, source: str = "hand") -> Any:
+    """heyoka's adaptive Taylor integrator in double precision at `tol` of the hand equations (or,
+    with source="symbolic", of the derived ones in joint coordinates); tau = par[0:n]. Built once per
+    process and reused (its state is set by `taylor_grid`)."""
+    import heyoka as hy
+
+    if source not in ("hand", "symbolic"):
+        raise HarnessError(f"no Taylor integrator of the '{source}' source; valid: hand, symbolic.")
+    key = _key(system, "taylor", float(tol), compact, source)
+    if key not in _CACHE:
+        ode = symbolic_dynamics(system).ode if source == "hand" else derived_ode(system)
+        n = system.nv
+        _CACHE[key] = hy.taylor_adaptive(ode, np.zeros(2 * n), pars=np.zeros(n), tol=float(tol), compact_mode=compact)
+    return _CACHE[key]
+
+
+def taylor_grid(
+    ta: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, max_steps: int = 0
+) -> tuple[str, np.ndarray, int]:
+    """The state (K, 2n) on the grid `t` from (q0, v0) at t[0] with input `tau`: (outcome, states,
+    steps). outcome "ok", or heyoka's own word when it stopped early (the rows it did not reach NaN).
+    `max_steps` > 0 bounds the Taylor steps (a budget with no per-step callback, which would cost more
+    than the step itself)."""
+    ta.time = float(t[0])
+    ta.state[:] = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
+    ta.pars[:] = np.asarray(tau, dtype=float)
+    outcome, _min_h, _max_h, steps, _cb, states = ta.propagate_grid(np.asarray(t, dtype=float), max_steps=max_steps)
+    word = str(outcome).split(".")[-1]
+    out = np.full((len(t), ta.dim), np.nan)
+    out[: len(states)] = states
+    return ("ok" if word == "time_limit" else word), out, int(steps)
+
+
+def compiled_rhs(system: Any) -> Callable[[float, Any, Any], np.ndarray]:
+    """f(t, y, tau) -> (2n,) [v, a] of the hand equations as one compiled call (a heyoka `cfunc`)."""
+    import heyoka as hy
+
+    key = _key(system, "cfunc")
+    if key not in _CACHE:
+        dyn = symbolic_dynamics(system)
+        _CACHE[key] = hy.cfunc(list(dyn.rhs), list(dyn.state))
+    cf = _CACHE[key]
+
+    def rhs(t: float, y: Any, tau: Any) -> np.ndarray:
+        return cf(y, pars=tau)  # type: ignore[no-any-return]
+
+    return rhs
+
+
+def _rk4_expressions(system: Any, steps: int) -> tuple[list[Any], list[Any]]:
+    """`steps` RK4 steps of the hand equations as heyoka expressions of the state; tau = par[0:n],
+    the timestep h = par[n]."""
+    import heyoka as hy
+
+    dyn = symbolic_dynamics(system)
+    n, state, f = dyn.n, list(dyn.state), list(dyn.rhs)
+    h = hy.par[n]
+    names = [str(s) for s in state]
+
+    def rate(x: list[Any]) -> list[Any]:
+        return [hy.subs(e, dict(zip(names, x, strict=True))) for e in f]
+
+    x = state
+    for _ in range(steps):
+        k1 = rate(x)
+        k2 = rate([a + 0.5 * h * b for a, b in zip(x, k1, strict=True)])
+        k3 = rate([a + 0.5 * h * b for a, b in zip(x, k2, strict=True)])
+        k4 = rate([a + h * b for a, b in zip(x, k3, strict=True)])
+        x = [
+            a + h * (b1 / 6.0 + b2 / 3.0 + b3 / 3.0 + b4 / 6.0)
+            for a, b1, b2, b3, b4 in zip(x, k1, k2, k3, k4, strict=True)
+        ]
+    return x, state
+
+
+def compiled_rk4(system: Any, steps: int) -> Any:
+    """A heyoka `cfunc` doing `steps` RK4 steps of the hand equations: cf(y, pars=[tau..., h]) -> y'."""
+    import heyoka as hy
+
+    if steps < 1:
+        raise HarnessError(f"compiled RK4 needs at least one step per call; got {steps}.")
+    key = _key(system, "rk4", steps)
+    if key not in _CACHE:
+        out, state = _rk4_expressions(system, steps)
+        _CACHE[key] = hy.cfunc(out, state)
+    return _CACHE[key]
+
+
+def rk4_plan(dt_out: float, timestep: float) -> tuple[int, int]:
+    """(steps per compiled call, calls per output sample) for RK4 at `timestep` sampled every `dt_out`."""
+    per_sample = round(dt_out / timestep)
+    if per_sample < 1 or not np.isclose(per_sample * timestep, dt_out, rtol=1e-9, atol=0.0):
+        raise HarnessError(f"the timestep {timestep} must divide the output step {dt_out}.")
+    per_call = max(k for k in range(1, min(per_sample, RK4_STEPS_PER_CALL) + 1) if per_sample % k == 0)
+    return per_call, per_sample // per_call
+
+
+def rk4_grid(
+    cf: Any, calls: int, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, timestep: float, deadline: float = np.inf
+) -> tuple[str, np.ndarray]:
+    """The state (K, 2n) on the grid `t` by `calls` calls of the compiled RK4 steps `cf` per sample:
+    ("ok" | "diverged" | "timeout", states; rows not reached are NaN). The deadline (perf_counter)
+    and finiteness are checked once per sample."""
+    y = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
+    pars = np.concatenate([np.asarray(tau, dtype=float), [float(timestep)]])
+    out = np.full((len(t), len(y)), np.nan)
+    out[0] = y
+    clock = time.perf_counter
+    for k in range(1, len(t)):
+        for _ in range(calls):
+            y = cf(y, pars=pars)
+        out[k] = y
+        if not np.isfinite(y).all():
+            out[k] = np.nan
+            return "diverged", out
+        if clock() > deadline:
+            return "timeout", out
+    return "ok", out
