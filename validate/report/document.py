@@ -59,7 +59,7 @@ SOURCE_STYLE = {  # colour, line style, width: the reference solid, the engines 
 }
 
 
-PAIR_COLOURS = ("#2563eb", "#d97706", "#059669", "#7c3aed", "#db2777")
+PAIR_COLOURS = ("#2563eb", "#d97706", "#059669", "#7c3aed", "#db2777", "#0891b2")  # one per pair of four sources
 
 
 FIG_DPI = 110
