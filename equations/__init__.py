@@ -32,7 +32,11 @@ Every module provides (shapes: `q`, `v`, `tau` are `(..., n)`; functions broadca
     PRINTED_FORMS_ASSUME: (...)        optional: equalities the printed forms assume, each a mapping
                                        {Params field: k} with k * field equal across it (one m for
                                        m1 and m2: {"m1": 1, "m2": 1}); their probes keep them
-    INITIAL_STATE: (q0, v0)            optional: the notes' simulation experiment for this system
+    INITIAL_STATE: (q0, v0)            optional: the start of the trajectories and of the perturbation
+                                       experiment (the notes' simulation, where they have one)
+    NOTES_EXPERIMENT: str              optional: where the notes run INITIAL_STATE ("section 1, Figs 3-4");
+                                       without it the report says nothing of the notes' experiment
+    NOTES_SEPARATION: float            optional: when the notes say the two starts stop resembling each other (s)
     SAME_SYSTEM_AS: str                optional: another system that is the same physical chain in other
                                        coordinates (the harness checks that the two map onto each other)
 

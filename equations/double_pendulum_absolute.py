@@ -40,6 +40,7 @@ JOINT_MAP = np.array([[1.0, 0.0], [1.0, 1.0]])
 SAME_SYSTEM_AS = "double_pendulum_point"
 # The notes' experiment in these coordinates: theta = 0, phi = 3 is theta1 = 0, theta2 = 3.
 INITIAL_STATE = ((0.0, 3.0), (0.0, 0.0))
+NOTES_EXPERIMENT = "section 1's start, theta = 0, phi = 3, in absolute angles"
 BODIES = ("link1", "link2")
 USES = frozenset({"gravity"})
 

@@ -61,6 +61,7 @@ BODIES = ("link1", "link2")
 USES = frozenset({"gravity"})
 # The notes' Modelica experiment: theta(start = 0), phi(start = 3), at rest, 10 s.
 INITIAL_STATE = ((0.0, 3.0), (0.0, 0.0))
+NOTES_EXPERIMENT = "the Modelica simulation's start, theta = 0, phi = 3, at rest"
 
 # The notes' printed forms assume one mass, one length with the centres of mass at mid-length and
 # one central inertia (m = m1 = m2, l = l1 = 2 c1 = 2 c2, Izz = I1 = I2): their probes keep these

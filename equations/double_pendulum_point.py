@@ -45,6 +45,8 @@ BODIES = ("link1", "link2")
 USES = frozenset({"gravity"})
 # The notes' experiment: ode45 from theta = 0, phi = 3, at rest ([0, 3, 0, 0]).
 INITIAL_STATE = ((0.0, 3.0), (0.0, 0.0))
+NOTES_EXPERIMENT = "section 1: ode45 from theta = 0, phi = 3 and from phi = 3.01, Figs 3-4"
+NOTES_SEPARATION = 7.0  # s: "after about 7 s" the two responses stop resembling each other (read by eye)
 
 # The notes' printed forms assume one mass and one length (m = m1 = m2, l = l1 = l2): their probes
 # keep these equalities while every other parameter moves (validate/probes.py).

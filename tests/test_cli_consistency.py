@@ -165,7 +165,10 @@ def test_list_and_run_report_unpaired_files(lonely_models, capsys):
     args = ["run", "simple_pendulum", "--states", "10", "--probes", "0", "--no-replay", "--no-cache"]
     assert main([*args, "--out", str(out)]) == 0
     lines = capsys.readouterr().out.splitlines()
-    assert lines[-3:-1] == UNPAIRED and lines[-1].startswith("all systems pass"), lines
+    # the unpaired files, the tally, then the verdict on each derivation (issue 17: the findings last)
+    assert lines[:2] == UNPAIRED and lines[2].startswith("all systems pass"), lines
+    assert lines[-2:] == ["derivations, each judged term by term against the engines:", lines[-1]], lines
+    assert lines[-1].startswith("  pass simple_pendulum: ") and "agrees with the engines in every term" in lines[-1]
 
 
 def test_naming_an_unpaired_system_says_what_is_missing(lonely_models, capsys):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -331,3 +332,22 @@ def test_no_display_says_to_save(monkeypatch, tmp_path, results_file):
     monkeypatch.setattr("lagrange_xval.validate.pipeline.run", lambda *a, **k: pytest.fail("ran the pipeline"))
     with pytest.raises(HarnessError, match="--save"):
         replay.replay_command(SYSTEM, save=None, results_path=results_file)
+
+
+def test_wrong_printed_forms_run_beside_the_engines(results, rrd):
+    """Issue 17: the recording holds the runs of the wrong printed forms from the same start (the
+    notes' experiment at its tightest tolerance, on its own time grid), beside the engines' runs."""
+    s = results["systems"][SYSTEM]
+    wrong = [v["name"] for v in s["variants"] if v["verdict"] == "disagrees"]
+    ex = s["experiments"]
+    dynamic = {r["form"] for r in ex["runs"]}
+    expected = [f for f in wrong if f in dynamic]
+    assert expected, "explicit (35)-(36) and the Matlab form are wrong and integrated"
+    chunks = read(rrd)
+    for form in expected:
+        key = "printed_" + re.sub(r"[^a-z0-9]+", "_", form.lower()).strip("_")
+        rows = temporal(chunks, f"/{SYSTEM}/{key}/bodies/link2").to_record_batch().num_rows
+        assert rows == len(ex["t"]), (form, rows)
+    batch = static(chunks, f"/{SYSTEM}/description")
+    text = batch.column(batch.schema.get_field_index("TextDocument:text")).to_pylist()[0][0]
+    assert "wrong printed forms of the notes from the same start" in " ".join(text.split())

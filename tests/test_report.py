@@ -204,9 +204,9 @@ def test_bench_and_stress_sections_render_their_files(results: dict[str, Any], t
         )
     )
     md = report.render(with_optional_results(json.loads(dumps(results)), tmp_path))["report.md"].decode()
+    assert "rhs fast path vs hand math" not in md, "developer-facing ratios stay in bench.json (issue 17)"
     for text in (
-        "The fast-harness ratios, measured in the same run",
-        "rhs fast path vs hand math",
+        "The fast-harness ratios and MuJoCo's step costs are for the harness's developers",
         f"Work-precision diagram of {SYSTEM}",
         f"Pareto front of {SYSTEM}",
         "Largest stable timestep (s), by bisection",
@@ -235,7 +235,7 @@ def test_failing_results_show_the_failure_mark(results: dict[str, Any]) -> None:
     r["passed"] = False
     files = report.render(r)
     md, html = files["report.md"].decode(), files["report.html"].decode()
-    assert "**✗ 1 of 1 systems fail.**" in md
+    assert f"**✗ {SYSTEM} fails: pointwise {s['pointwise']['rows'][0]['quantity']} disagrees (" in md, md[:600]
     assert f"| {SYSTEM} | hand derivation | hand | ✗ FAIL |" in md
     assert '<div class="verdict bad"' in html and '<span class="mark bad">✗ FAIL</span>' in html
 
@@ -395,10 +395,25 @@ class Chromium:
         shutil.rmtree(self.profile, ignore_errors=True)
 
 
+FIRST_SCREEN = """(() => {
+  const width = document.documentElement.clientWidth, height = window.innerHeight;
+  const items = Array.from(document.querySelectorAll('ol.wrong li.finding')).map(li => {
+    const r = li.getBoundingClientRect();
+    return {text: li.innerText, top: r.top, bottom: r.bottom, height: r.height};
+  });
+  const wide = Array.from(document.images).filter(i => {
+    const r = i.getBoundingClientRect();
+    return r.width > 0 && (r.right > width + 0.5 || r.left < -0.5);
+  }).map(i => i.alt);
+  return {items, wide, width, height, scroll_width: document.documentElement.scrollWidth};
+})()"""
+
+
 @pytest.mark.browser
-def test_report_in_headless_chromium(files: dict[str, bytes], tmp_path: Path) -> None:
-    """Opened from disk in headless Chromium: every <img> decodes, the console stays clean, no
-    request goes anywhere but the file itself and its data: images, and the first screen renders."""
+def test_report_in_headless_chromium(results: dict[str, Any], files: dict[str, bytes], tmp_path: Path) -> None:
+    """Opened from disk in headless Chromium at 1280 x 900: every <img> decodes, the console stays clean,
+    no request goes anywhere but the file itself and its data: images; the first screen shows every wrong
+    printed form with its term and reason, and no image is wider than the page."""
     binary = chromium_binary()
     missing = "no Chromium binary on PATH (chromium, chromium-browser, google-chrome): apt-get install chromium"
     if binary is None and os.environ.get("CI"):
@@ -414,6 +429,7 @@ def test_report_in_headless_chromium(files: dict[str, bytes], tmp_path: Path) ->
             "Array.from(document.images).map(i => ({alt: i.alt, complete: i.complete, w: i.naturalWidth}))"
         )
         title = browser.evaluate("document.title")
+        layout = browser.evaluate(FIRST_SCREEN)
         shot = tmp_path / "first_screen.png"
         browser.screenshot(shot)
     finally:
@@ -427,5 +443,20 @@ def test_report_in_headless_chromium(files: dict[str, bytes], tmp_path: Path) ->
     assert not outside, f"requests that left the page: {outside}"
     png = shot.read_bytes()
     assert png.startswith(b"\x89PNG") and int.from_bytes(png[16:20], "big") == 1280
+    # issue 17: the first screen (1280 x 900) shows every wrong printed form with its term and reason
+    from lagrange_xval.validate.report import findings
+
+    wrong = findings.wrong_forms(report.document.to_plain(results))
+    assert wrong, "double_pendulum_point prints wrong forms"
+    shown = layout["items"]
+    assert len(shown) == len(wrong), shown
+    for f, item in zip(wrong, shown, strict=True):
+        assert item["height"] > 0 and item["bottom"] <= layout["height"], f"{f.form} is below the first screen: {item}"
+        text = " ".join(item["text"].split())
+        for part in (f.system, f.form, f.term, " ".join(f.reason.split())):
+            assert part in text, f"{part!r} not shown for {f.form}: {text}"
+    # no image (nor anything else) wider than the page
+    assert not layout["wide"], f"images wider than the page: {layout['wide']}"
+    assert layout["scroll_width"] <= layout["width"], f"the page scrolls sideways: {layout}"
     if os.environ.get("XVAL_SCREENSHOT"):  # a person wants to look at it
         shutil.copyfile(shot, os.environ["XVAL_SCREENSHOT"])

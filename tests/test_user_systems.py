@@ -91,7 +91,7 @@ def test_run_on_a_model_and_equations_outside_the_repository(tmp_path):
         timeout=600,
     )
     assert run.returncode == 1, run.stderr[-2000:]
-    assert "my_cart: FAIL; hand derivation: gravity disagrees" in run.stderr, run.stderr[-2000:]
+    assert "my_cart: FAIL; your derivation: gravity disagrees (hand~" in run.stderr, run.stderr[-2000:]
     assert {p.name for p in (tmp_path / "out").iterdir()} >= {"report.html", "report.md", "results.json", "my_cart.rrd"}
 
 

@@ -25,6 +25,7 @@ from .parallel import executor_for
 from .results import provenance
 from .results.schema import Derivation, ModelChecks, Pointwise, Provenance, RunResults, SystemResult
 from .systems import MODELS_DIR, System, load, load_all
+from .systems.units import parameter_keys
 
 TRAJECTORY_THRESHOLD = TOLERANCES.trajectory.rtol  # rad
 # The integrators `run` cross-validates (mirrors, convergence order, energy, free runs judged inside
@@ -203,7 +204,8 @@ OPTIONAL = {"gravity": "gravity", "damping": "damper", "actuation": "actuation"}
 def skipped_work(system: Any) -> list[str]:
     """What the scene does not need, and so neither MuJoCo nor the harness computes."""
     uses = system.uses
-    out = [f"MuJoCo: {', '.join(NEVER_USED)} disabled (no contacts, limits, dry friction or springs in the notes)"]
+    where = "in the notes" if _from_notes(system) else "that the harness checks"
+    out = [f"MuJoCo: {', '.join(NEVER_USED)} disabled (no contacts, limits, dry friction or springs {where})"]
     for use, flag in OPTIONAL.items():
         if use not in uses:
             out.append(
@@ -296,9 +298,9 @@ def run_system(
         why = (
             "not run: the hand derivation already disagrees with the engines "
             f"({derivation.get('first_disagreeing_term') or 'model checks or pointwise'}); the reference, chaos and "
-            "the notes' experiments are built on the hand equations, so they would only amplify the same mistake"
+            "the perturbation experiments are built on the hand equations, so they would only amplify the same mistake"
         )
-        for name in ("reference trajectory", "chaos and mirrors", "the notes' experiments"):
+        for name in ("reference trajectory", "chaos and mirrors", "perturbation experiments"):
             stages[name] = why
         traj = _stage(
             stages,
@@ -326,6 +328,7 @@ def run_system(
         **_identity(system),
         "failed": failed,
         "parameters": {k: float(v) for k, v in probing.param_fields(system.params).items()},
+        "parameter_keys": parameter_keys(system),
         "timestep": float(sources["mujoco"].m.opt.timestep),
         "model_checks": model,
         "pointwise": point,
@@ -373,13 +376,19 @@ def _what_failed(
     return out
 
 
+def _from_notes(system: Any) -> bool:
+    """One of the repository's systems (models/ and equations/), not a user's files."""
+    return bool(system.mjcf.resolve().parent == MODELS_DIR.resolve())
+
+
 def _identity(system: Any) -> SystemResult:
     """What a system is: names, files, coordinates, joints, bodies and the physics it uses."""
 
-    inside = system.mjcf.resolve().parent == MODELS_DIR.resolve()
+    inside = _from_notes(system)
     return {
         "name": system.name,
         "description": system.description,
+        "origin": "notes" if inside else "user",
         "mjcf": f"models/{system.mjcf.name}" if inside else str(system.mjcf),
         "model_format": system.model_format,
         "equations": (

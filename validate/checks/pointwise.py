@@ -124,8 +124,10 @@ def error_row(
     min_scale: float = 0.0,
     cond: np.ndarray | None = None,
 ) -> dict[str, Any]:
-    """One row: the max absolute error, the max error relative to each state's magnitude, the error
-    scaled by the quantity's range over the sample (what the tier judges), and the worst state."""
+    """One row: the max absolute error, the max error relative to each state's magnitude, `scaled`
+    (results.schema.SCALED_DEFINITION: the max absolute error divided by the largest magnitude either
+    source gives the quantity over the states, or `min_scale` if larger; what the tier judges), and the
+    worst state."""
     n = len(states)
     diff = np.abs(a - b).reshape(n, -1)
     mag = np.maximum(np.abs(a), np.abs(b)).reshape(n, -1)

@@ -1,8 +1,9 @@
 """Named tolerance tiers. Each carries the reason it is what it is; pass them by keyword.
 
-An error is measured as `max |a - b| / scale`, where `scale` is the largest magnitude the
-reference source takes for that quantity over the whole sample (so a tier is a fraction of the
-quantity's range, not of a value that happens to pass near zero).
+An error is measured as `scaled = max |a - b| / scale`, where `scale` is the largest magnitude
+either source gives that quantity over the whole sample, over every entry (results.schema.
+SCALED_DEFINITION; so a tier is a fraction of the quantity's largest magnitude, not of a value that
+happens to pass near zero).
 """
 
 from __future__ import annotations
@@ -29,12 +30,13 @@ class Tolerances:
         1e-12,
         "Closed-form terms (M, bias, energies, positions, velocities) computed by two exact algorithms "
         "in double precision differ by a few ulps times the number of operations (tens): about 1e-14 "
-        "of the quantity's range; 1e-12 leaves 100x margin and is still 1e10 below any printed error.",
+        "of the quantity's largest magnitude; 1e-12 leaves 100x margin and is still 1e10 below any slip in a "
+        "derivation (a lost factor or term changes a quantity by a sizeable fraction of it).",
     )
     solve: Tier = Tier(
         1e-10,
         "Accelerations and inverse dynamics pass through a solve with M (or ABA's recursion): the "
-        "rounding error grows like cond(M) eps. On the notes' systems cond(M) < 1e3, so ~1e-13 is "
+        "rounding error grows like cond(M) eps. Where cond(M) < 1e3 (the pendulums and the gimbal), ~1e-13 is "
         "expected and 1e-10 keeps the margin of the algebraic tier; on an ill-conditioned model the "
         "tolerance of each state grows to 20 cond(M) eps (the stress sweeps to cond 2.5e13 needed at "
         "most 1.8 cond(M) eps), so a correct model is not called wrong.",
@@ -43,8 +45,9 @@ class Tolerances:
     trajectory: Tier = Tier(
         1e-6,
         "Free-running trajectories over 10 s: each source's integrator error (scipy at rtol 1e-12, "
-        "MuJoCo RK4 at 1e-4 s) is amplified by the chaotic dynamics by ~1e3; 1e-6 rad separates "
-        "integrator error from wrong equations, which diverge at order 1e-1 within a second.",
+        "MuJoCo RK4 at 1e-4 s) is amplified at most ~1e3-fold within the judged interval (the run is judged "
+        "only up to where the dynamics amplify errors 1000-fold); 1e-6 rad separates integrator error from "
+        "wrong equations, which part at order 1e-1 within a second.",
     )
 
     def as_dict(self) -> dict[str, dict[str, float | str | None]]:
@@ -66,6 +69,6 @@ QUANTITY_TIER = {
     "tau_inverse": "solve",
 }
 
-# Quantities that are small differences of large terms are scaled by those terms' range:
+# Quantities that are small differences of large terms are scaled by those terms' largest magnitude:
 # inverse dynamics returns tau (zero for an unactuated system) as M a + bias - passive.
 SCALE_ALSO_BY = {"tau_inverse": ("bias",), "passive": ("bias",)}

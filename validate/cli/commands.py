@@ -20,7 +20,9 @@ from ..errors import HarnessError
 from ..inputs import parse_json, regular_file
 from ..parallel import named_executor
 from ..pipeline import run
-from ..replay import replay_command
+from ..replay import replay_command, shown_path, viewer_command
+from ..report import ReplayHint
+from ..report.findings import console_lines
 from ..results import load as load_results
 from ..results import to_jsonable
 from ..studies.bench import bench_command
@@ -204,13 +206,23 @@ def cmd_run(args: argparse.Namespace) -> int:
             after=functools.partial(render_system, replay=not args.no_replay),  # in the workers, overlapped
             rendered=rendered,
         )
-    write_all(results, args.out, replay=not args.no_replay, rendered=rendered)
+    hint = replay_hint(args.out, written=not args.no_replay)
+    write_all(results, args.out, replay=not args.no_replay, rendered=rendered, hint=hint)
     if args.systems or not files:  # the repository's systems were run: say which files were not
         for line in unpaired_lines():
             print(line)
     verdict = "all systems pass" if results["passed"] else "some systems FAIL"
-    print(f"{verdict}; reports in {args.out}/ (report.html, report.md, results.json)")
+    print(f"{verdict}; reports in {hint.out}/ (report.html, report.md, results.json)")
+    if hint.written and any(s.get("trajectories") for s in results["systems"].values()):
+        print(f"replays: {hint.viewer} {hint.out}/<system>.rrd")
+    for line in console_lines(dict(results), f"{hint.out}/report.html"):
+        print(line)
     return 0 if results["passed"] else 1
+
+
+def replay_hint(out: Path, *, written: bool = True) -> ReplayHint:
+    """The reports folder and the rerun viewer as a command run from here reaches them."""
+    return ReplayHint(out=shown_path(out), viewer=viewer_command(), written=written)
 
 
 def one_system(args: argparse.Namespace) -> Any:
@@ -247,8 +259,9 @@ def user_files(args: argparse.Namespace) -> list[tuple[Path, Path | None]] | Non
 def cmd_report(args: argparse.Namespace) -> int:
 
     results = load_results(args.out / "results.json")
+    rrd = any(p.suffix == ".rrd" for p in args.out.iterdir()) if args.out.is_dir() else False
     try:
-        write_reports(results, args.out)
+        write_reports(results, args.out, hint=replay_hint(args.out, written=rrd))
     except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
         raise HarnessError(
             f"{args.out / 'results.json'} lacks what the report needs ({type(exc).__name__}: {one_line(exc)}); "

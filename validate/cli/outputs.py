@@ -23,7 +23,7 @@ from typing import Any
 
 from ..errors import HarnessError
 from ..replay import render_system as render_rrd
-from ..report import render, system_section
+from ..report import ReplayHint, render, system_section
 from ..results import dumps
 
 OPTIONAL_RESULTS = {"bench": "bench.json", "stress": "stress.json"}  # written by `bench` and `stress`
@@ -79,10 +79,10 @@ def with_optional_results(results: Mapping[str, Any], out: Path) -> dict[str, An
     return merged
 
 
-def write_reports(results: Mapping[str, Any], out: Path) -> None:
+def write_reports(results: Mapping[str, Any], out: Path, *, hint: ReplayHint | None = None) -> None:
     """report.md, report.html and their plots, replacing those of the folder as one set."""
 
-    files = render(with_optional_results(results, out))  # may fail: nothing written yet
+    files = render(with_optional_results(results, out), hint=hint)  # may fail: nothing written yet
     replace_set(out, files, replaces=_from_report)
 
 
@@ -109,14 +109,22 @@ def render_system(
 
 
 def write_all(
-    results: Mapping[str, Any], out: Path, *, replay: bool = True, rendered: dict[str, SystemFiles] | None = None
+    results: Mapping[str, Any],
+    out: Path,
+    *,
+    replay: bool = True,
+    rendered: dict[str, SystemFiles] | None = None,
+    hint: ReplayHint | None = None,
 ) -> None:
     """Everything `run` produces, replacing the previous run's files (all of them) as one set.
     `rendered`: systems already rendered from these results (`render_system`), the rest is rendered here."""
 
     done = {name: f for name, f in (rendered or {}).items() if f is not None and name in results.get("systems", {})}
     sections = {name: f.section for name, f in done.items()}
-    files = {"results.json": dumps(results).encode(), **render(with_optional_results(results, out), sections)}
+    files = {
+        "results.json": dumps(results).encode(),
+        **render(with_optional_results(results, out), sections, hint=hint or ReplayHint(written=replay)),
+    }
     if replay:
         meta = results.get("meta")
         for name, s in results["systems"].items():

@@ -8,6 +8,8 @@ import time
 from collections.abc import Iterator
 from typing import Any
 
+from ..report.findings import is_user, system_headline
+
 
 @contextlib.contextmanager
 def reporter() -> Iterator[Any]:
@@ -46,13 +48,13 @@ def reporter() -> Iterator[Any]:
 
 
 def _line(name: str, result: dict[str, Any], elapsed: float) -> str:
-    """One line per system: the verdict on its derivation first (the failing term and why), then
-    the printed forms."""
+    """One line per system: the verdict on its derivation first (a failing one with the failing term,
+    the pair and why), then the printed forms of the notes, if it has any."""
     variants = result.get("variants", [])
     wrong = sum(v["verdict"] == "disagrees" for v in variants)
-    mark = "pass" if result["passed"] else "FAIL"
-    head = f"[{elapsed:6.1f} s] {name}: {mark}"
-    if not result["passed"] and result.get("failed"):
-        head += f"; {'; '.join(result['failed'])}"
-    forms = f"{len(variants)} printed forms, {wrong} disagree with the engines" if variants else "no printed forms"
-    return f"{head}; {forms}"
+    head = f"[{elapsed:6.1f} s] {name}: {'pass' if result['passed'] else 'FAIL'}"
+    if not result["passed"]:
+        head += f"; {system_headline(result)[1]}"
+    if variants:
+        return f"{head}; {len(variants)} printed forms of the notes, {wrong} wrong"
+    return head if is_user(result) else f"{head}; no printed forms in the notes"

@@ -118,4 +118,7 @@ def run_experiments(system: Any) -> dict[str, Any]:
         "q_accurate": accurate,
         "accurate_status": _status(accurate_info),
         "runs": runs,
+        # What the notes say of this experiment (equations module; None where the notes have none).
+        "notes_experiment": getattr(system.equations, "NOTES_EXPERIMENT", None),
+        "notes_separation": getattr(system.equations, "NOTES_SEPARATION", None),
     }

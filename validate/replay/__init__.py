@@ -57,6 +57,8 @@ __all__ = [
     "render_replays",
     "render_system",
     "replay_command",
+    "shown_path",
+    "viewer_command",
     "run_colours",
     "run_keys",
 ]
@@ -141,10 +143,32 @@ def replay_command(system: str, save: Path | None, results_path: Path = DEFAULT_
         _check_display(system)
     if save is not None:
         atomic_write(Path(save), render_system(system, held[system], meta=results.get("meta")))
-        print(f"wrote {save} (open it with `rerun {save}`)")
+        print(f"wrote {save} (open it with `{viewer_command()} {save}`)")
         return 0
     _show(system, held[system], meta=results.get("meta"))
     return 0
+
+
+def shown_path(path: Path) -> str:
+    """A path as a command run from the working folder reaches it: relative under it, else absolute."""
+    path = Path(os.path.abspath(path))
+    try:
+        return str(path.relative_to(Path.cwd()))
+    except ValueError:
+        return str(path)
+
+
+def viewer_command() -> str:
+    """The rerun viewer that came with this Python's rerun-sdk: `.venv/bin/rerun` after the README's
+    set-up (the wheel installs it beside the interpreter), else `python -m rerun` with this Python."""
+    import shlex
+
+    beside = Path(sys.executable).with_name("rerun")
+    if beside.is_file():
+        shown = shown_path(beside)
+        return shlex.quote(shown if "/" in shown else "./" + shown)
+    python = shown_path(Path(sys.executable))
+    return f"{shlex.quote(python if '/' in python else './' + python)} -m rerun"
 
 
 def _save_hint(name: str) -> str:

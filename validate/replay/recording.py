@@ -75,37 +75,42 @@ def log_scene(rec: Any, scene: dict[str, Any]) -> None:
     events = []
     for r in scene["runs"]:
         base, colour, run = f"{root}/{r['key']}", r["colour"], r["run"]
+        run_times = [time_column(r["t"])]
+
+        def send_run(path: str, columns: Any, run_times: Any = run_times) -> None:
+            send(path, columns, run_times)
+
         for b in scene["bodies"]:
             static(f"{base}/bodies/{b}", rr.Points3D.from_fields(colors=colour, radii=radius))
-            send(f"{base}/bodies/{b}", rr.Points3D.columns(positions=r["com"][b]))
+            send_run(f"{base}/bodies/{b}", rr.Points3D.columns(positions=r["com"][b]))
         for b, strips in r["links"].items():
             static(f"{base}/links/{b}", rr.LineStrips3D.from_fields(colors=colour, radii=0.25 * radius))
-            send(f"{base}/links/{b}", rr.LineStrips3D.columns(strips=strips))
+            send_run(f"{base}/links/{b}", rr.LineStrips3D.columns(strips=strips))
         for b, strips in r["trails"].items():
             static(f"{base}/trail/{b}", rr.LineStrips3D.from_fields(colors=colour, radii=0.12 * radius))
-            send(f"{base}/trail/{b}", rr.LineStrips3D.columns(strips=strips))
+            send_run(f"{base}/trail/{b}", rr.LineStrips3D.columns(strips=strips))
         for b, segments in r["axes"].items():
             shades = [colour, shade(colour, 255, 0.55), shade(colour, 0, 0.45)]  # x, y, z
             static(f"{base}/axes/{b}", rr.LineStrips3D.from_fields(colors=shades, radii=0.3 * radius))
-            send(
+            send_run(
                 f"{base}/axes/{b}",
-                rr.LineStrips3D.columns(strips=segments.reshape(-1, 2, 3)).partition(np.full(len(t), 3)),
+                rr.LineStrips3D.columns(strips=segments.reshape(-1, 2, 3)).partition(np.full(len(r["t"]), 3)),
             )
         for i, c in enumerate(scene["coordinates"]):
             static(f"{base}/q/{c}", rr.SeriesLines(colors=colour, names=f"{r['key']}: {c}"))
-            send(f"{base}/q/{c}", rr.Scalars.columns(scalars=plottable(r["q"][:, i])))
+            send_run(f"{base}/q/{c}", rr.Scalars.columns(scalars=plottable(r["q"][:, i])))
         if r["error"] is not None:
             static(f"{base}/log10_error", rr.SeriesLines(colors=colour, names=r["key"]))
-            send(f"{base}/log10_error", rr.Scalars.columns(scalars=log10_error(r["error"])))
+            send_run(f"{base}/log10_error", rr.Scalars.columns(scalars=log10_error(r["error"])))
         if r["envelope"] is not None:
             static(
                 f"{base}/log10_envelope",
                 rr.SeriesLines(colors=shade(colour, 255, 0.5), widths=1.0, names=f"{r['key']} envelope"),
             )
-            send(f"{base}/log10_envelope", rr.Scalars.columns(scalars=log10_error(r["envelope"])))
+            send_run(f"{base}/log10_envelope", rr.Scalars.columns(scalars=log10_error(r["envelope"])))
         if r["energy"] is not None:
             static(f"{base}/energy_change", rr.SeriesLines(colors=colour, names=r["key"]))
-            send(f"{base}/energy_change", rr.Scalars.columns(scalars=plottable(r["energy"] - r["energy"][0])))
+            send_run(f"{base}/energy_change", rr.Scalars.columns(scalars=plottable(r["energy"] - r["energy"][0])))
         first_time = run.get("first_exceeds_threshold")
         if first_time is not None and r["error"] is not None and np.isfinite(float(first_time)):
             k = int(np.argmin(np.abs(t - float(first_time))))
@@ -219,7 +224,7 @@ def describe(scene: dict[str, Any]) -> str:
     for r in scene["runs"]:
         run = r["run"]
         colour = "#{:02x}{:02x}{:02x}".format(*r["colour"])
-        v = as_floats(run["v"]).reshape(len(t), -1) if "v" in run else None
+        v = as_floats(run["v"]).reshape(len(r["t"]), -1) if "v" in run else None
         first_time = run.get("first_exceeds_threshold")
         max_error = f"{float(np.max(r['error'])):.3g}" if r["error"] is not None else "-"
         drift = f"{float(np.max(np.abs(r['energy'] - r['energy'][0]))):.3g}" if r["energy"] is not None else "-"
@@ -242,7 +247,13 @@ def describe(scene: dict[str, Any]) -> str:
             if scene["still"]
             else ""
         ),
-        "- **q**: one plot per coordinate, one line per run.",
+        "- **q**: one plot per coordinate, one line per run."
+        + (
+            " Runs named `printed_...` are wrong printed forms of the notes from the same start (their own"
+            " time grid; no error or energy is recorded for them): the motion they predict, beside the engines'."
+            if any(r["run"].get("wrong_form") for r in scene["runs"])
+            else ""
+        ),
         "- **log10 error**: log10 of the run's error against the reference (max over coordinates of"
         f" |q - q_ref| per sample). Errors of exactly 0 are clipped to {ERROR_FLOOR:g}, drawn at"
         f" {np.log10(ERROR_FLOOR):g}; samples clipped: "

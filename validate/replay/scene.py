@@ -49,7 +49,7 @@ def run_keys(runs: list[dict[str, Any]]) -> list[str]:
     keys: list[str] = []
     for run in runs:
         source = slug(run.get("source", "run"))
-        key = source
+        key = f"{source}_{slug(run.get('label', ''))}" if run.get("wrong_form") else source
         if key in keys:
             key = f"{source}_{slug(run.get('label') or run.get('name') or run.get('method', ''))}"
         base, i = key, 2
@@ -111,10 +111,10 @@ def build_scene(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str,
     params = recorded_params(system, sys_results) if system.equations is not None else None
     traj = sys_results["trajectories"]
     t = as_floats(traj["t"])
-    K = len(t)
     runs_in = list(traj["runs"])
     if not runs_in:
         raise HarnessError(f"{name}: the results hold no trajectory runs to replay.")
+    runs_in += wrong_form_runs(sys_results)
     keys, colours = run_keys(runs_in), run_colours(runs_in)
     bodies = list(sys_results.get("bodies") or system.bodies)
     if system.equations is None or {"body_positions", "body_rotations"} & set(not_provided_in(system.equations)):
@@ -134,11 +134,13 @@ def build_scene(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str,
 
     runs = []
     for key, colour, run in zip(keys, colours, runs_in, strict=True):
-        q = as_floats(run["q"]).reshape(K, -1)
+        t_run = as_floats(run["t"]) if "t" in run else t
+        q = as_floats(run["q"]).reshape(len(t_run), -1)
+        K_run = len(t_run)
         positions = system.equations.body_positions(params, q) if bodies else {}
         rotations = system.equations.body_rotations(params, q) if bodies else {}
-        com = {b: np.asarray(x, dtype=float).reshape(K, 3) for b, x in positions.items()}
-        rot = {b: np.asarray(x, dtype=float).reshape(K, 3, 3) for b, x in rotations.items()}
+        com = {b: np.asarray(x, dtype=float).reshape(K_run, 3) for b, x in positions.items()}
+        rot = {b: np.asarray(x, dtype=float).reshape(K_run, 3, 3) for b, x in rotations.items()}
         anchor = {}
         for b in bodies:
             origin = com[b] - rot[b] @ view[f"body/{b}/com"]
@@ -155,6 +157,7 @@ def build_scene(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str,
                 "key": key,
                 "colour": colour,
                 "run": run,
+                "t": t_run,
                 "q": q,
                 "com": com,
                 "rot": rot,
@@ -162,7 +165,7 @@ def build_scene(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str,
                 "links": links,
                 "energy": energy,
                 "error": error,
-                "envelope": envelope if envelope is not None and envelope.shape == (K,) else None,
+                "envelope": envelope if envelope is not None and envelope.shape == (K_run,) else None,
             }
         )
 
@@ -176,10 +179,10 @@ def build_scene(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str,
     scale = reach if reach > 1e-9 else 1.0
     # Bodies whose centre of mass never moves show their motion by their axes only.
     still = [b for b in bodies if all(np.ptp(r["com"][b], axis=0).max() <= 1e-9 * scale for r in runs)]
-    dt = float(np.median(np.diff(t))) if K > 1 else 1.0
-    window = max(2, int(round(TRAIL_SECONDS / dt)) + 1) if K > 1 else 1
-    trail_index = np.clip(np.arange(K)[:, None] + np.arange(1 - window, 1)[None, :], 0, K - 1)
+    window = _window(t)
     for r in runs:
+        n, w = len(r["t"]), _window(r["t"])
+        trail_index = np.clip(np.arange(n)[:, None] + np.arange(1 - w, 1)[None, :], 0, n - 1)
         r["axes"] = {}
         for b in still:
             length = 0.5 * scale * (0.8 ** depth[b])
@@ -217,6 +220,40 @@ def build_scene(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str,
         "plane_normal": plane_normal(runs, bodies, scale),
         "meta": provenance_text(meta),
     }
+
+
+def _window(t: np.ndarray) -> int:
+    """Samples in TRAIL_SECONDS of a time grid."""
+    if len(t) < 2:
+        return 1
+    return max(2, int(round(TRAIL_SECONDS / float(np.median(np.diff(t))))) + 1)
+
+
+def wrong_form_runs(sys_results: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """The runs of the wrong printed forms from the experiment's unperturbed start at its tightest
+    tolerance (the same start as the trajectories'), on the experiment's own time grid: the motion
+    a wrong form predicts, beside the engines'."""
+    ex = sys_results.get("experiments") or {}
+    wrong = {v.get("name") for v in sys_results.get("variants") or [] if v.get("verdict") == "disagrees"}
+    runs = [r for r in ex.get("runs") or [] if r.get("form") in wrong and "q" in r]
+    if not runs or "t" not in ex:
+        return []
+    tight = min(float(r["rtol"]) for r in runs)
+    start = (sys_results.get("trajectories") or {}).get("q0")
+    if start is not None and not np.allclose(as_floats(ex.get("q0", start)), as_floats(start)):
+        return []  # another start: not comparable with the trajectories
+    return [
+        {
+            "source": "printed",
+            "label": r["form"],
+            "method": f"{ex.get('method', 'scipy RK45')}, rtol {float(r['rtol']):g}; a wrong printed form",
+            "t": ex["t"],
+            "q": r["q"],
+            "wrong_form": True,
+        }
+        for r in runs
+        if float(r["rtol"]) == tight
+    ]
 
 
 def provenance_text(meta: Mapping[str, Any] | None) -> str:

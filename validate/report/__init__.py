@@ -17,14 +17,15 @@ two runs with the same seed differ only in the provenance lines.
 The only arithmetic done here is selection (the worst row of a table) and presentation (E - E0,
 downsampling a series for a plot).
 
-Modules: document (the block model, titles, number formatting), figures, system (one system's
+Modules: document (the block model, titles, number formatting), findings (what the first screen and the
+console lead with), errata, figures, system (one system's
 section) and system_parts, sections (the other sections and `build`), studies (bench and stress),
 render (markdown and HTML).
 """
 
 from .document import SECTION_TITLES, SUBTITLE, SYSTEM_SUBSECTIONS, TITLE, Document
 from .render import render, render_html, render_markdown
-from .sections import build, system_section, system_statuses, verdict_line
+from .sections import ReplayHint, build, system_section, system_statuses, verdict_line
 
 __all__ = [
     "SECTION_TITLES",
@@ -32,6 +33,7 @@ __all__ = [
     "SYSTEM_SUBSECTIONS",
     "TITLE",
     "Document",
+    "ReplayHint",
     "build",
     "render",
     "render_html",

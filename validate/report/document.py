@@ -59,7 +59,7 @@ SOURCE_STYLE = {  # colour, line style, width: the reference solid, the engines 
 }
 
 
-PAIR_COLOURS = ("#2563eb", "#d97706", "#059669", "#7c3aed", "#db2777")
+PAIR_COLOURS = ("#2563eb", "#d97706", "#059669", "#7c3aed", "#db2777", "#0891b2")  # one per pair of four sources
 
 
 FIG_DPI = 110
@@ -95,7 +95,7 @@ class Heading:
 @dataclass(frozen=True)
 class Para:
     text: str  # `backticks` mark code
-    kind: str = ""  # "", "note" (a remark) or "missing" (a section that was not run)
+    kind: str = ""  # "", "note" (a remark), "missing" (a section that was not run), "finding" (what is wrong)
 
 
 @dataclass(frozen=True)
@@ -124,6 +124,14 @@ class Items:
     items: tuple[str, ...]
 
 
+@dataclass(frozen=True)
+class Fold:
+    """Blocks folded under a one-line summary (HTML <details>, closed by default)."""
+
+    summary: str
+    blocks: tuple[Any, ...]
+
+
 @dataclass
 class Document:
     blocks: list[Any] = field(default_factory=list)
@@ -146,6 +154,14 @@ class Document:
         rows_t = tuple(tuple(r) for r in rows)
         numeric = tuple(bool(rows_t) and all(isinstance(r[i], Num) for r in rows_t) for i in range(len(columns)))
         self.blocks.append(Table(title, tuple(columns), rows_t, numeric, group))
+
+    def items(self, items: list[str] | tuple[str, ...]) -> None:
+        self.blocks.append(Items(tuple(items)))
+
+    def fold(self, summary: str, inner: Document) -> None:
+        """`inner`'s blocks folded under `summary`; its figures join this document's."""
+        self.blocks.append(Fold(summary, tuple(inner.blocks)))
+        self.images.update(inner.images)
 
     def figure(self, path: str, png: bytes, alt: str, caption: str) -> None:
         self.images[path] = png

@@ -33,10 +33,28 @@ def _plain_log_labels(fig: Any) -> None:
                     axis.set_minor_formatter(NullFormatter())
 
 
+def fit_legends(fig: Any) -> None:
+    """Widens the figure where a legend placed right of its axes would pass the figure's edge, keeping
+    the axes where they are: no legend is cut off, whatever its labels' length."""
+    legends = [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None]
+    if not legends:
+        return
+    renderer = fig.canvas.get_renderer()
+    over = max(legend.get_window_extent(renderer).x1 for legend in legends) - fig.bbox.x1
+    if over <= 0:
+        return
+    w, h = fig.get_size_inches()
+    extra = over / fig.dpi + 0.08
+    left, right = fig.subplotpars.left * w, (1 - fig.subplotpars.right) * w
+    fig.set_size_inches(w + extra, h)
+    fig.subplots_adjust(left=left / (w + extra), right=1 - (right + extra) / (w + extra))
+
+
 def png(fig: Any) -> bytes:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     FigureCanvasAgg(fig)
+    fit_legends(fig)
     _plain_log_labels(fig)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=FIG_DPI, metadata={"Software": None})
@@ -120,7 +138,7 @@ def pointwise_figure(name: str, rows: list[dict[str, Any]]) -> bytes:
     pairs = sorted({r["pair"] for r in rows})
     floor = 1e-18
     with rc():
-        fig, (ax,) = new_figure(8.6, 3.3)
+        fig, (ax,) = new_figure(8.6, 3.3, legend_right=LEGEND_W)
         width = 0.8 / max(1, len(pairs))
         x = np.arange(len(quantities))
         for j, pair in enumerate(pairs):
@@ -158,9 +176,9 @@ def pointwise_figure(name: str, rows: list[dict[str, Any]]) -> bytes:
         ax.set_ylim(floor, max(1.0, top * 10))
         ax.set_xticks(x, [q.replace("_", "\n") for q in quantities], rotation=0)
         ax.tick_params(axis="x", labelsize=8)
-        ax.set_ylabel("max |a - b| / range (log)")
-        ax.set_title(f"{name}: largest scaled error over the random states, per quantity and source pair")
-        ax.legend(ncols=len(pairs) + 1, loc="upper left")
+        ax.set_ylabel("scaled: max |a - b| / max |a|, |b|")
+        ax.set_title(f"{name}: largest scaled error over the random states")
+        legend_right(ax)
         return png(fig)
 
 
@@ -172,7 +190,7 @@ def run_label(run: dict[str, Any]) -> str:
 def run_style(run: dict[str, Any]) -> tuple[str, Any, float]:
     """Colour, line style and width: by source, green dash-dot for a labelled extra run (a perturbed start)."""
     if run.get("label"):
-        return "#059669", (0, (6, 2, 1, 2)), 1.2
+        return "#7c3aed", (0, (6, 2, 1, 2)), 1.2  # not a source's colour: a perturbed start is no source
     return SOURCE_STYLE.get(run["source"], ("#6b7280", "-", 1.2))
 
 

@@ -16,6 +16,7 @@ from .document import (
     Code,
     Document,
     Figure,
+    Fold,
     Heading,
     Items,
     Mark,
@@ -25,29 +26,20 @@ from .document import (
     cell_text,
     to_plain,
 )
-from .sections import build, system_statuses, verdict_line
+from .sections import HIDDEN, ReplayHint, build, header
 
 
 def _md_cell(c: Any) -> str:
     return cell_text(c).replace("|", "\\|").replace("\n", " ")
 
 
-def render_markdown(doc: Document, results: dict[str, Any]) -> str:
-    passed, head, detail = verdict_line(results)
-    out = [
-        f"# {TITLE}",
-        "",
-        f"{SUBTITLE}.",
-        "",
-        f"**{'✓' if passed else '✗'} {head[0].upper() + head[1:]}.** {detail}",
-        "",
-    ]
-    out += [f"- {cell_text(mark)} {name}: {text}" for name, _, mark, text in system_statuses(results)] + [""]
-    for b in doc.blocks:
+def _md_blocks(blocks: Any) -> list[str]:
+    out: list[str] = []
+    for b in blocks:
         if isinstance(b, Heading):
             out += ["#" * b.level + " " + b.text, ""]
         elif isinstance(b, Para):
-            out += [f"*{b.text}*" if b.kind == "missing" else b.text, ""]
+            out += [f"*{b.text}*" if b.kind == "missing" else f"**{b.text}**" if b.kind == "finding" else b.text, ""]
         elif isinstance(b, Table):
             out += [
                 f"{b.title}:",
@@ -63,6 +55,34 @@ def render_markdown(doc: Document, results: dict[str, Any]) -> str:
             out += ["```sh", b.text, "```", ""]
         elif isinstance(b, Items):
             out += [f"- {i}" for i in b.items] + [""]
+        elif isinstance(b, Fold):
+            out += [f"<details><summary>{b.summary}</summary>", "", *_md_blocks(b.blocks), "</details>", ""]
+    return out
+
+
+def render_markdown(doc: Document, results: dict[str, Any]) -> str:
+    head = header(results)
+    out = [
+        f"# {TITLE}",
+        "",
+        f"{SUBTITLE}.",
+        "",
+        f"**{MARK_SIGN[head.state if head.state != 'warn' else 'ok']} {head.headline}.** {head.detail}",
+        "",
+    ]
+    out += [f"- {cell_text(mark)} {name}: {text}" for name, _, mark, text in head.statuses] + [""]
+    if head.wrong:
+        out += [f"{head.wrong_title}:", ""]
+        out += [
+            f"- ✗ [{f.system}, {f.form}](#{f.anchor}): `{f.term}`: {f.reason}" + (f" ({HIDDEN})" if f.hidden else "")
+            for f in head.wrong
+        ]
+        out.append("")
+    if head.agreeing:
+        out += [f"<details><summary>{head.agreeing_title}</summary>", ""]
+        out += [f"- {system}, {form}: {verdict}" for system, form, verdict in head.agreeing]
+        out += ["", "</details>", ""]
+    out += _md_blocks(doc.blocks)
     return "\n".join(out).rstrip("\n") + "\n"
 
 
@@ -111,32 +131,32 @@ def _env() -> Any:
 
 
 def render_html(doc: Document, results: dict[str, Any]) -> str:
-    passed, head, detail = verdict_line(results)
+    head = header(results)
     toc = [(b.anchor, b.text) for b in doc.blocks if isinstance(b, Heading) and b.level == 2]
-    systems = results.get("systems", {})
     return (
         _env()
         .get_template("report.html.j2")
         .render(
             title=TITLE,
             subtitle=SUBTITLE,
-            passed=passed,
-            headline=head[0].upper() + head[1:],
-            detail=detail,
+            head=head,
+            hidden=HIDDEN,
             toc=toc,
             blocks=doc.blocks,
             images=doc.images,
-            n_systems=len(systems),
-            statuses=system_statuses(results),
             mark_sign=MARK_SIGN,
         )
     )
 
 
-def render(results: dict[str, Any], sections: dict[str, Document] | None = None) -> dict[str, bytes]:
-    """Every report file, {name relative to the reports folder: contents}; `sections` as for `build`."""
+def render(
+    results: dict[str, Any], sections: dict[str, Document] | None = None, *, hint: ReplayHint | None = None
+) -> dict[str, bytes]:
+    """Every report file, {name relative to the reports folder: contents}; `sections` as for `build`;
+    `hint`: where the recordings were written and the viewer that opens them (the README's set-up by
+    default)."""
     plain = to_plain(results)
-    doc = build(plain, sections)
+    doc = build(plain, sections, hint)
     files = {"report.md": render_markdown(doc, plain).encode(), "report.html": render_html(doc, plain).encode()}
     files.update(sorted(doc.images.items()))
     return files

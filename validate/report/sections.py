@@ -4,8 +4,10 @@ replay) and `build`, which puts every section in order.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
+from ..results.schema import SCALED_DEFINITION
 from .document import (
     BENCHMARK,
     ERRATA,
@@ -28,6 +30,18 @@ from .document import (
     slug,
     to_plain,
     verdict_mark,
+)
+from .errata import section_errata
+from .findings import (
+    Finding,
+    agreeing_forms,
+    derivation_label,
+    form_term,
+    forms_tally,
+    is_chaotic,
+    is_user,
+    system_headline,
+    wrong_forms,
 )
 from .studies import section_bench, section_stress
 from .system import section_system, shorten
@@ -66,39 +80,93 @@ def counts(results: dict[str, Any]) -> dict[str, int]:
     }
 
 
+HIDDEN = "the notes' parameter values hide it; a probe shows it"
+
+
 def verdict_line(results: dict[str, Any]) -> tuple[bool, str, str]:
-    """(passed, headline, detail) for the top of the report."""
+    """(passed, headline, detail) for the top of the report: the derivations' verdict first, then the
+    printed forms; a failing system is named with its failing term and pair."""
     c = counts(results)
+    systems = results.get("systems", {})
     passed = results.get("passed") is True and c["failed"] == 0
+    users = [n for n, s in systems.items() if is_user(s)]
     if c["systems"] == 0:
-        head = "no system was run"
-        passed = False
-    elif passed:
-        head = f"all {c['systems']} systems pass" if c["systems"] > 1 else "the system passes"
+        return False, "no system was run", ""
+    if passed:
+        if c["systems"] == 1:
+            head = f"{derivation_label(next(iter(systems.values())))} agrees with the engines"
+        elif len(users) == c["systems"]:
+            head = f"all {c['systems']} of your derivations agree with the engines"
+        else:
+            head = f"all {c['systems']} derivations agree with the engines"
     else:
-        head = f"{c['failed']} of {c['systems']} systems fail"
-    detail = (
-        f"{c['forms']} printed forms of the notes judged: {c['forms'] - c['disagree'] - c['not_applicable']} agree "
-        f"with the engines, {c['disagree']} disagree (see {ERRATA})"
-    )
-    if c["not_applicable"]:
-        detail += f", {c['not_applicable']} could not be judged"
-    return passed, head, detail + "."
+        failing = sorted(n for n, s in systems.items() if s.get("passed") is not True)
+        first = failing[0]
+        head = (
+            f"{first} fails: {system_headline(systems[first])[1]}"
+            if len(failing) == 1
+            else f"{len(failing)} of {c['systems']} systems fail; {first}: {system_headline(systems[first])[1]}"
+        )
+    if c["forms"]:
+        detail = (
+            f"{c['disagree']} of the {c['forms']} printed forms of the notes are wrong (listed below, each with its "
+            f"term and reason; details in {ERRATA})"
+            if c["disagree"]
+            else f"All {c['forms']} printed forms of the notes agree with the engines"
+        )
+        if c["not_applicable"]:
+            detail += f"; {c['not_applicable']} could not be judged"
+    else:
+        detail = (
+            "Judged term by term against MuJoCo and Pinocchio at the model's parameters and at probe parameter sets"
+        )
+    return passed, (head if not passed else head[0].upper() + head[1:]), detail + "."
 
 
 def system_statuses(results: dict[str, Any]) -> list[tuple[str, str, Mark, str]]:
     """(name, anchor, verdict mark, one-line detail) of every system, for the top of the report."""
     out = []
     for name, s in sorted(results.get("systems", {}).items()):
+        ok, text = system_headline(s)
         variants = s.get("variants", [])
         wrong = sum(1 for v in variants if v.get("verdict") == "disagrees")
-        forms = f"{len(variants)} printed form" + ("s" if len(variants) != 1 else "")
-        detail = f"{forms}, {wrong} disagree" if variants else "no printed form"
-        d = s.get("derivation") or {}
-        if d.get("verdict") == "disagrees":
-            detail = f"hand derivation: {d.get('statement')}; {detail}"
-        out.append((name, f"system-{slug(name)}", pass_mark(s.get("passed")), detail))
+        if variants:
+            text += f"; {wrong} of {len(variants)} printed forms wrong"
+        out.append((name, f"system-{slug(name)}", pass_mark(s.get("passed")), text))
     return out
+
+
+@dataclass(frozen=True)
+class Header:
+    """What the first screen says, in order: the verdict, each derivation, every wrong printed form
+    with its term and reason, and the forms that agree (folded)."""
+
+    state: str  # "ok", "warn" (every derivation agrees, some printed forms are wrong) or "bad"
+    headline: str
+    detail: str
+    statuses: list[tuple[str, str, Mark, str]]
+    wrong: list[Finding]
+    wrong_title: str
+    agreeing: list[tuple[str, str, str]]
+    agreeing_title: str
+
+
+def header(results: dict[str, Any]) -> Header:
+    passed, head, detail = verdict_line(results)
+    n, wrong, _ = forms_tally(results)
+    agreeing = agreeing_forms(results)
+    agree = sum(1 for *_, v in agreeing if v == "agrees")
+    return Header(
+        state="bad" if not passed else "warn" if wrong else "ok",
+        headline=head,
+        detail=detail,
+        statuses=system_statuses(results),
+        wrong=wrong_forms(results),
+        wrong_title=f"Wrong printed forms of the notes ({wrong} of {n}): the term that disagrees and why",
+        agreeing=agreeing,
+        agreeing_title=f"{agree} printed forms agree with the engines"
+        + (f", {len(agreeing) - agree} not judged" if len(agreeing) > agree else ""),
+    )
 
 
 def cached_line(results: dict[str, Any]) -> str:
@@ -146,167 +214,73 @@ def section_provenance(doc: Document, results: dict[str, Any]) -> None:
     doc.table("Package versions", ("package", "version"), [(k, str(v)) for k, v in sorted(versions.items())])
 
 
+def derivation_row(name: str, s: dict[str, Any]) -> tuple[Any, ...]:
+    prow = s.get("pointwise", {}).get("rows", [])
+    d = s.get("derivation") or {}
+    label = "your derivation" if is_user(s) else "hand derivation"
+    term: Any
+    pair: Any
+    if d.get("summary"):
+        failing = [r for r in d["summary"] if not r.get("passed")]
+        w = (
+            failing[0]
+            if failing
+            else max(
+                d["summary"],
+                key=lambda r: as_float(r.get("worst_scaled")) / max(as_float(r.get("tolerance")), 1e-300),
+            )
+        )
+        term, pair, err, tol = w.get("term"), f"hand~{w.get('engine')}", w.get("worst_scaled"), w.get("tolerance")
+    elif prow:
+        w = max(prow, key=ratio)
+        term, pair, err, tol = w.get("quantity"), w.get("pair"), w.get("scaled"), w.get("tolerance")
+    else:
+        term = pair = err = tol = None
+    return (name, label, "hand", pass_mark(s.get("passed")), term, pair, Num(err), Num(tol, short=True))
+
+
+def form_row(name: str, v: dict[str, Any]) -> tuple[Any, ...]:
+    w = variant_worst(v)
+    engine = (w or {}).get("engine")
+    wrong = v.get("verdict") == "disagrees"
+    return (
+        name,
+        v.get("name"),
+        v.get("kind"),
+        verdict_mark(v.get("verdict", "")),
+        form_term(v) if wrong else (w or {}).get("term"),
+        f"printed~{engine}" if engine else None,
+        Num((w or {}).get("scaled")),
+        Num(variant_tolerance(v, w), short=True),
+    )
+
+
+SUMMARY_COLUMNS = ("system", "form", "kind", "verdict", "term (worst)", "pair", "scaled error", "tolerance")
+
+
 def section_summary(doc: Document, results: dict[str, Any]) -> None:
     doc.h(2, SUMMARY)
+    forms = any(s.get("variants") for s in results.get("systems", {}).values())
     doc.p(
-        "One row per system and per form of its equations: first the hand derivation (judged on every "
-        "quantity against both engines, and on the model checks), then each form printed in the notes. "
-        "The error is the largest `|a - b|` over the random states divided by the quantity's range; "
-        "the worst row is the one closest to (or furthest past) its tolerance."
+        "One row per derivation (judged on every term against the engines, and on the model checks)"
+        + (
+            ", then one per wrong printed form of the notes; the printed forms that agree are folded below"
+            if forms
+            else ""
+        )
+        + f". {SCALED_DEFINITION}; the row shows the term closest to (or furthest past) its tolerance."
     )
     rows: list[tuple[Any, ...]] = []
+    passing: list[tuple[Any, ...]] = []
     for name, s in sorted(results.get("systems", {}).items()):
-        prow = s.get("pointwise", {}).get("rows", [])
-        d = s.get("derivation") or {}
-        if d.get("summary"):
-            failing = [r for r in d["summary"] if not r.get("passed")]
-            w = (
-                failing[0]
-                if failing
-                else max(
-                    d["summary"],
-                    key=lambda r: as_float(r.get("worst_scaled")) / max(as_float(r.get("tolerance")), 1e-300),
-                )
-            )
-            rows.append(
-                (
-                    name,
-                    "hand derivation",
-                    "hand",
-                    pass_mark(s.get("passed")),
-                    w.get("term"),
-                    f"hand~{w.get('engine')}",
-                    Num(w.get("worst_scaled")),
-                    Num(w.get("tolerance"), short=True),
-                )
-            )
-        elif prow:
-            w = max(prow, key=ratio)
-            rows.append(
-                (
-                    name,
-                    "hand derivation",
-                    "hand",
-                    pass_mark(s.get("passed")),
-                    w.get("quantity"),
-                    w.get("pair"),
-                    Num(w.get("scaled")),
-                    Num(w.get("tolerance"), short=True),
-                )
-            )
-        else:
-            rows.append((name, "hand derivation", "hand", pass_mark(s.get("passed")), None, None, Num(None), Num(None)))
+        rows.append(derivation_row(name, s))
         for v in s.get("variants", []):
-            w = variant_worst(v)
-            engine = (w or {}).get("engine")
-            rows.append(
-                (
-                    name,
-                    v.get("name"),
-                    v.get("kind"),
-                    verdict_mark(v.get("verdict", "")),
-                    (w or {}).get("term"),
-                    f"printed~{engine}" if engine else None,
-                    Num((w or {}).get("scaled")),
-                    Num(variant_tolerance(v, w), short=True),
-                )
-            )
-    doc.table(
-        "Verdict of every system and printed form",
-        ("system", "form", "kind", "verdict", "worst quantity", "pair", "scaled error", "tolerance"),
-        rows,
-        group=True,
-    )
-
-
-def section_errata(doc: Document, results: dict[str, Any]) -> None:
-    doc.h(2, ERRATA)
-    doc.p(
-        "Every form of the equations printed in the notes, transcribed as printed and judged term by term "
-        "against both engines, with the notes' parameters and at probe parameter sets in which every parameter "
-        "moves by its own factor, keeping only the equalities the printed forms assume (so a slip such as a "
-        "missing factor l shows even where l = 1). `first disagreeing term` is the first term, in the order mass "
-        "matrix, gravity, velocity, friction, actuation, that disagrees; `worst term` is the largest error; "
-        "`disagrees at` says whether the model's own parameters already show it or only a probe does."
-    )
-    assumed = sorted(
-        {
-            (name, v["assumes"])
-            for name, s in results.get("systems", {}).items()
-            for v in s.get("variants", [])
-            if v.get("assumes")
-        }
-    )
-    for name, text in assumed:
-        doc.p(f"The printed forms of {name} assume {text}; their probes keep these equalities.", "note")
-    rows, notes, explained = [], [], []
-    for name, s in sorted(results.get("systems", {}).items()):
-        for v in s.get("variants", []):
-            for e in v.get("explanations", []):
-                explained.append(
-                    (
-                        name,
-                        v.get("name"),
-                        e.get("entry"),
-                        e.get("statement") if e.get("explained") else f"(not explained) {e.get('statement')}",
-                    )
-                )
-            w = v.get("worst_term") if v.get("verdict") == "disagrees" else None
-            rows.append(
-                (
-                    name,
-                    v.get("name"),
-                    ", ".join(v.get("notes_equations", [])),
-                    v.get("kind"),
-                    verdict_mark(v.get("verdict", "")),
-                    v.get("first_disagreeing_term"),
-                    (w or {}).get("term"),
-                    (w or {}).get("engine"),
-                    Num((w or {}).get("scaled")),
-                    v.get("disagrees_at"),
-                )
-            )
-            extra = v.get("note") or ""
-            if v.get("reason"):
-                extra = (extra + " " if extra else "") + f"Not judged: {v['reason']}"
-            if extra:
-                notes.append(f"{name}, {v.get('name')}: {extra}")
-    if not rows:
-        doc.p("No printed form was judged in these results.", "missing")
-        return
-    doc.table(
-        "Printed forms of the notes and their verdicts",
-        (
-            "system",
-            "printed form",
-            "notes eqs",
-            "kind",
-            "verdict",
-            "first disagreeing term",
-            "worst term",
-            "engine",
-            "scaled error",
-            "disagrees at",
-        ),
-        rows,
-        group=True,
-    )
-    if explained:
-        doc.p(
-            "What each wrong printed form lacks, against the model's own equations derived symbolically: the "
-            "difference in each disagreeing entry fitted onto one slip (or two) and kept only where it reproduces the "
-            "printed form's numbers at states held back from the fit, at the probes that keep the printed form's "
-            "equalities (parameters it assumes equal cannot be told apart). An explicit form is compared through its "
-            "numerator, det(M) times the acceleration."
-        )
-        doc.table(
-            "Symbolic differences of the wrong printed forms",
-            ("system", "printed form", "entry", "difference"),
-            explained,
-        )
-    if notes:
-        doc.p("Notes on the transcription:")
-        doc.blocks.append(Items(tuple(notes)))
+            (rows if v.get("verdict") == "disagrees" else passing).append(form_row(name, v))
+    doc.table("Verdict of every derivation and wrong printed form", SUMMARY_COLUMNS, rows, group=True)
+    if passing:
+        inner = Document()
+        inner.table("Printed forms that agree with the engines", SUMMARY_COLUMNS, passing, group=True)
+        doc.fold(f"{len(passing)} printed forms agree with the engines or were not judged", inner)
 
 
 def section_tolerances(doc: Document, results: dict[str, Any]) -> None:
@@ -319,8 +293,9 @@ def section_tolerances(doc: Document, results: dict[str, Any]) -> None:
         if s.get("trajectories"):
             used.setdefault("trajectory", set()).add("trajectories")
     doc.p(
-        "Every comparison is judged with one named tier: a fraction of the quantity's range over the states "
-        "(or, for trajectories, a distance in rad). Each tier says why it is what it is."
+        "Every comparison is judged with one named tier: a bound on `scaled` (the largest `|a - b|` over the states "
+        "divided by the largest magnitude the quantity takes over them) or, for trajectories, a distance in rad. "
+        "Each tier says why it is what it is."
     )
     doc.table(
         "Tolerance tiers, what each judges and why",
@@ -335,31 +310,57 @@ def section_tolerances(doc: Document, results: dict[str, Any]) -> None:
 def section_limitations(doc: Document, results: dict[str, Any]) -> None:
     doc.h(2, LIMITATIONS)
     doc.p("What these results do not show:")
-    items = [
-        "Point-mass bobs are given a rotational inertia of 1e-14 kg m^2 in the MJCF, because MuJoCo refuses a "
-        "moving body without one. The hand derivations include it exactly; the notes' printed forms omit it, an "
-        "error of about 1e-14 relative in M, far below the algebraic tier, so it cannot flip a verdict.",
+    systems = results.get("systems", {})
+    items = []
+    placeholders = {
+        name: sorted(k for k, v in s.get("parameters", {}).items() if is_number(v) and 0 < abs(v) <= 1e-12)
+        for name, s in sorted(systems.items())
+    }
+    with_placeholders = [n for n, keys in placeholders.items() if keys]
+    if with_placeholders:
+        items.append(
+            f"{', '.join(with_placeholders)}: bodies the derivation treats as point masses are given a rotational "
+            "inertia of order 1e-14 kg m^2 in the model, because MuJoCo refuses a moving body without one; the "
+            "derivations include it exactly, the printed forms that omit it are off by about 1e-14 relative, far "
+            "below the algebraic tier, so it cannot flip a verdict."
+        )
+    items += [
         "Pointwise results keep only the largest error over the random states (and the state where it "
         "occurred), not each state's error: the per-quantity charts show those maxima, not a distribution.",
         "The random states cover a box of angles and velocities; states outside it (very fast motion) are "
         "not sampled. Engines are compared on the quantities listed in each pointwise table; the Coriolis "
         "matrix itself is only compared through C(q, v) v inside the bias.",
-        "A printed form is judged at two parameter sets (the notes' and one probe); a slip that happens to "
-        "vanish at both would not show.",
-        "Each trajectory starts from one initial state. The motion is chaotic, so after the predictability "
-        "horizon the sources drift apart by integrator error alone; the trajectory threshold judges the "
-        "interval before that, not the equations.",
+    ]
+    sets = sorted({len(v.get("probes") or []) for s in systems.values() for v in s.get("variants", [])} - {0})
+    if sets:
+        counted = " or ".join(str(n) for n in sets)
+        items.append(
+            f"A printed form is judged at {counted} parameter sets (the model's and its probes); a slip that happens "
+            "to vanish at every one of them would not show."
+        )
+    chaotic = [n for n, s in sorted(systems.items()) if is_chaotic(s)]
+    regular = [n for n, s in sorted(systems.items()) if s.get("chaos") and not is_chaotic(s)]
+    if chaotic:
+        items.append(
+            f"Each trajectory starts from one initial state. From theirs, {', '.join(chaotic)} move chaotically: "
+            "beyond the predictability horizon the sources drift apart by integrator error alone, so the trajectory "
+            "threshold judges the interval before it, not the equations."
+        )
+    if regular:
+        items.append(
+            f"{', '.join(regular)}: not chaotic from the initial state run (see their error-growth tables); one "
+            "start says nothing of motion elsewhere in the state space."
+        )
+    items += [
         "Contacts, joint limits, constraints and closed chains are not part of any system and are not checked.",
         "This report only presents results.json; it recomputes nothing. A number here is only as recent as "
         "that file (see Provenance).",
     ]
-    systems = results.get("systems", {})
     skips: dict[str, list[str]] = {}
     for name, s in sorted(systems.items()):
-        tiny = sorted(k for k, v in s.get("parameters", {}).items() if is_number(v) and 0 < abs(v) <= 1e-12)
-        if tiny:
+        if placeholders[name]:
             items.append(
-                f"{name}: parameters {', '.join(tiny)} are placeholders of order 1e-14 (see above), "
+                f"{name}: parameters {', '.join(placeholders[name])} are placeholders of order 1e-14 (see above), "
                 "not physical values."
             )
         for v in s.get("variants", []):
@@ -391,20 +392,52 @@ def section_limitations(doc: Document, results: dict[str, Any]) -> None:
     doc.blocks.append(Items(tuple(items)))
 
 
-def section_replay(doc: Document, results: dict[str, Any]) -> None:
+@dataclass(frozen=True)
+class ReplayHint:
+    """Where `run` wrote the recordings and the viewer command that opens them on this machine."""
+
+    out: str = "reports"  # the reports folder, as the recordings' paths are written
+    viewer: str = ".venv/bin/rerun"  # after the README's set-up, from the checkout
+    written: bool = True  # False: run with --no-replay
+
+
+def section_replay(doc: Document, results: dict[str, Any], hint: ReplayHint | None = None) -> None:
+    hint = hint or ReplayHint()
     doc.h(2, REPLAY)
+    names = sorted(n for n, s in results.get("systems", {}).items() if s.get("trajectories"))
+    if not hint.written:
+        doc.p(
+            f"This run was made with `--no-replay`: no recording was written. `lagrange-xval replay SYSTEM --results "
+            f"{hint.out}/results.json --save FILE.rrd` draws one from these results.",
+            "missing",
+        )
+        return
+    if not names:
+        doc.p("No system has trajectories, so no recording was written.", "missing")
+        return
     doc.p(
-        "`lagrange-xval run` records every system's trajectories for the rerun viewer next to this report "
-        "(`reports/<system>.rrd`, unless run with `--no-replay`). Open one in the native viewer, or in the "
+        f"`lagrange-xval run` wrote each system's trajectories for the rerun viewer beside this report, in "
+        f"`{hint.out}/`"
+        + (
+            "; the runs of the wrong printed forms from the same start are in the same recording, beside the engines'"
+            if any(
+                v.get("verdict") == "disagrees"
+                for s in results.get("systems", {}).values()
+                for v in s.get("variants", [])
+            )
+            else ""
+        )
+        + f". Open one in the native viewer (`{hint.viewer}` is the viewer installed with lagrange-xval), or in the "
         "web viewer served on this machine only:"
     )
     lines = []
-    for name in sorted(results.get("systems", {})):
-        lines += [f"rerun reports/{name}.rrd", f"rerun --web-viewer --bind 127.0.0.1 reports/{name}.rrd"]
-    doc.blocks.append(Code("\n".join(lines) if lines else "rerun reports/<system>.rrd"))
+    for name in names:
+        path = f"{hint.out}/{name}.rrd"
+        lines += [f"{hint.viewer} {path}", f"{hint.viewer} --web-viewer --bind 127.0.0.1 {path}"]
+    doc.blocks.append(Code("\n".join(lines)))
     doc.p(
-        "`lagrange-xval replay SYSTEM` opens one system's recording, drawn again from `reports/results.json` "
-        "(nothing is recomputed); `lagrange-xval report` re-renders this report from the same file."
+        f"`lagrange-xval replay SYSTEM --results {hint.out}/results.json` opens one system's recording, drawn again "
+        "from the results (nothing is recomputed); `lagrange-xval report` re-renders this report from the same file."
     )
 
 
@@ -416,12 +449,16 @@ def system_section(name: str, s: dict[str, Any]) -> Document:
     return doc
 
 
-def build(results: dict[str, Any], sections: dict[str, Document] | None = None) -> Document:
+def build(
+    results: dict[str, Any], sections: dict[str, Document] | None = None, hint: ReplayHint | None = None
+) -> Document:
     """The whole report as blocks and images (the results must already be plain: see `to_plain`);
-    `sections`: systems' sections already rendered from these results (`system_section`)."""
+    `sections`: systems' sections already rendered from these results (`system_section`). The
+    findings first (summary, errata), then each system, then the reference sections."""
     doc = Document()
-    section_provenance(doc, results)
     section_summary(doc, results)
+    if any(s.get("variants") or not is_user(s) for s in results.get("systems", {}).values()):
+        section_errata(doc, results)  # a run of the user's own systems alone has no errata of the notes
     for name, s in sorted(results.get("systems", {}).items()):
         done = (sections or {}).get(name)
         if done is None:
@@ -429,7 +466,6 @@ def build(results: dict[str, Any], sections: dict[str, Document] | None = None) 
         else:
             doc.blocks += done.blocks
             doc.images.update(done.images)
-    section_errata(doc, results)
     section_tolerances(doc, results)
 
     doc.h(2, BENCHMARK)
@@ -437,5 +473,6 @@ def build(results: dict[str, Any], sections: dict[str, Document] | None = None) 
     doc.h(2, STRESS)
     section_stress(doc, results.get("stress"))
     section_limitations(doc, results)
-    section_replay(doc, results)
+    section_replay(doc, results, hint)
+    section_provenance(doc, results)
     return doc

@@ -7,7 +7,9 @@ from typing import Any
 import numpy as np
 
 from .document import NOT_RUN, Document, Num, as_float, pass_mark, sci, slug
-from .figures import new_figure, png, rc, series
+from .figures import LEGEND_W, legend_right, new_figure, png, rc, series
+
+LINE_STYLES = ("-", (0, (5, 2)), (0, (1, 1.5)), (0, (6, 2, 1, 2)))
 
 WORK_PRECISION_COLOURS = (
     "#1f2937",
@@ -40,41 +42,12 @@ def section_bench(doc: Document, bench: dict[str, Any] | None) -> None:
         f"{cfg.get('repeats')} repeat(s), median CPU time of interleaved repeats; errors against the reference "
         f"solution at t = 2 s and 10 s."
     )
-    rows = []
-    for key, r in sorted(bench.get("ratios", {}).items()):
-        if not isinstance(r, dict) or "value" not in r:
-            continue
-        rows.append(
-            (
-                key.replace("_", " "),
-                Num(r.get("value"), 3),
-                Num(r.get("target"), 2),
-                pass_mark(r.get("passed")) if r.get("passed") is not None else "not measured",
-            )
-        )
-    if rows:
-        doc.table("The fast-harness ratios, measured in the same run", ("ratio", "measured", "target", "verdict"), rows)
     frontier_section(doc, bench.get("ratios", {}).get("default_path_vs_frontier"))
-    flags = bench.get("ratios", {}).get("mujoco_disable_flags", {})
-    frows = (
-        [
-            (
-                r.get("system"),
-                r.get("integrator"),
-                Num(r.get("us_per_step_model_flags"), 3),
-                Num(r.get("us_per_step_all_enabled"), 3),
-                f"{100 * as_float(r.get('saving')):.0f}%",
-            )
-            for r in flags.get("rows", [])
-        ]
-        if isinstance(flags, dict)
-        else []
-    )
-    if frows:
-        doc.table(
-            "MuJoCo step cost with the scene's disable flags and with everything enabled (us per step)",
-            ("system", "integrator", "model flags", "all enabled", "saving"),
-            frows,
+    if bench.get("ratios"):
+        doc.p(
+            "The fast-harness ratios and MuJoCo's step costs are for the harness's developers: `lagrange-xval bench` "
+            "prints them and bench.json keeps them; this report shows what the methods cost and how accurate they are.",
+            "note",
         )
     rows_all = bench.get("rows", [])
     for system in bench.get("systems", []):
@@ -156,7 +129,7 @@ def frontier_section(doc: Document, frontier: Any) -> None:
 def _work_precision_figure(system: str, rows: list[dict[str, Any]]) -> bytes:
     methods = sorted({r["method"] for r in rows})
     with rc():
-        fig, (ax,) = new_figure(8.6, 4.2)
+        fig, (ax,) = new_figure(8.6, 4.2, legend_right=2.3)
         for i, m in enumerate(methods):
             pts = sorted(
                 (as_float(r.get("cpu_s")), as_float(r.get("error_10s")))
@@ -175,11 +148,13 @@ def _work_precision_figure(system: str, rows: list[dict[str, Any]]) -> bytes:
                 linewidth=1.1,
                 label=m,
                 color=WORK_PRECISION_COLOURS[i % len(WORK_PRECISION_COLOURS)],
+                linestyle=LINE_STYLES[(i // len(WORK_PRECISION_COLOURS)) % len(LINE_STYLES)],
             )
         ax.set_xlabel("CPU time (s)")
         ax.set_ylabel("error at t = 10 s (rad)")
         ax.set_title(f"{system}: work against precision")
-        ax.legend(loc="upper right", ncols=2, fontsize=7)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=7)
         return png(fig)
 
 
@@ -277,44 +252,74 @@ def section_stress(doc: Document, stress: dict[str, Any] | None) -> None:
         )
     stiff = stress.get("stiff_friction", [])
     if stiff:
-        doc.table(
-            "Stiff friction: the gimbal with damping up to 1e3 times the notes' value",
-            ("damping factor", "integrator", "engine", "timestep (s)", "stable", "max error (rad)"),
-            [
-                (
-                    Num(r.get("damping_factor"), 1),
-                    r.get("integrator"),
-                    r.get("engine"),
-                    Num(r.get("timestep"), 1),
-                    pass_mark(r.get("stable"), "stable", "unstable"),
-                    Num(r.get("max_error")),
-                )
-                for r in sorted(
-                    stiff,
-                    key=lambda r: (
-                        as_float(r.get("damping_factor")),
-                        r.get("integrator", ""),
-                        r.get("engine", ""),
-                        as_float(r.get("timestep")),
-                    ),
-                )
-            ],
-        )
+        stiff_friction(doc, stiff)
+
+
+def stiff_friction(doc: Document, stiff: list[dict[str, Any]]) -> None:
+    """The stiff-friction sweep as a compact grid (the largest stable timestep of each integrator at each
+    damping factor), every run folded below it."""
+    factors = sorted({as_float(r.get("damping_factor")) for r in stiff})
+    methods = sorted({(str(r.get("integrator", "")), str(r.get("engine", ""))) for r in stiff})
+    grid = []
+    for integrator, engine in methods:
+        cells: list[Any] = [integrator, engine]
+        for f in factors:
+            runs = [
+                r
+                for r in stiff
+                if (r.get("integrator"), r.get("engine"), as_float(r.get("damping_factor"))) == (integrator, engine, f)
+            ]
+            stable = [as_float(r.get("timestep")) for r in runs if r.get("stable")]
+            cells.append(Num(max(stable), 1, unit="s") if stable else ("none stable" if runs else "–"))
+        grid.append(tuple(cells))
+    doc.table(
+        "Stiff friction: the gimbal with damping up to 1e3 times the notes' value, largest stable timestep tried",
+        ("integrator", "engine", *[f"damping x{f:g}" for f in factors]),
+        grid,
+    )
+    inner = Document()
+    inner.table(
+        "Every stiff-friction run",
+        ("damping factor", "integrator", "engine", "timestep (s)", "stable", "max error (rad)"),
+        [
+            (
+                Num(r.get("damping_factor"), 1),
+                r.get("integrator"),
+                r.get("engine"),
+                Num(r.get("timestep"), 1),
+                pass_mark(r.get("stable"), "stable", "unstable"),
+                Num(r.get("max_error")),
+            )
+            for r in sorted(
+                stiff,
+                key=lambda r: (
+                    as_float(r.get("damping_factor")),
+                    r.get("integrator", ""),
+                    r.get("engine", ""),
+                    as_float(r.get("timestep")),
+                ),
+            )
+        ],
+    )
+    doc.fold(f"All {len(stiff)} stiff-friction runs, with their errors", inner)
 
 
 def _drift_figure(drift: list[dict[str, Any]]) -> bytes:
     system = drift[0].get("system")
     runs = [r for r in drift if r.get("system") == system and r.get("engine") == "mujoco" and r.get("series")]
     with rc():
-        fig, (ax,) = new_figure(8.6, 3.2)
+        fig, (ax,) = new_figure(8.6, 3.2, legend_right=LEGEND_W + 0.3)
         for i, r in enumerate(runs):
             ser = r["series"]
             t, de = series(ser.get("t", [])), series(ser.get("dE", []))
             if len(t) and len(t) == len(de):
+                # every series visible where two coincide: its own dash pattern, later ones thinner and on top
                 ax.plot(
                     t,
                     de,
-                    linewidth=1.0,
+                    linewidth=max(2.4 - 0.6 * i, 0.9),
+                    linestyle=LINE_STYLES[i % len(LINE_STYLES)],
+                    zorder=2 + i,
                     color=WORK_PRECISION_COLOURS[i % len(WORK_PRECISION_COLOURS)],
                     label=f"{r.get('integrator')} ({r.get('horizon'):g} s)",
                 )
@@ -322,7 +327,7 @@ def _drift_figure(drift: list[dict[str, Any]]) -> bytes:
         ax.set_ylabel("E(t) - E(0) (J)")
         ax.set_title(f"{system}: energy error of MuJoCo's integrators")
         if ax.get_legend_handles_labels()[0]:
-            ax.legend(loc="upper left", ncols=2)
+            legend_right(ax)
         return png(fig)
 
 
@@ -331,7 +336,7 @@ def _conditioning_figure(rows: list[dict[str, Any]]) -> bytes:
     pts = [(as_float(r.get("cond_max")), as_float(r.get("scaled"))) for r in rows if r.get("quantity") == "qacc"]
     pts = [(c, e) for c, e in pts if c > 0 and np.isfinite(e)]
     with rc():
-        fig, (ax,) = new_figure(8.6, 3.6)
+        fig, (ax,) = new_figure(8.6, 3.6, legend_right=LEGEND_W + 0.2)
         if pts:
             c, e = zip(*pts, strict=True)
             ax.loglog(c, np.maximum(e, 1e-18), "o", markersize=3, color="#2563eb", label="measured (any pair)")
@@ -342,5 +347,5 @@ def _conditioning_figure(rows: list[dict[str, Any]]) -> bytes:
         ax.set_ylabel("scaled disagreement in q''")
         ax.set_title("Sources' disagreement against conditioning")
         if ax.get_legend_handles_labels()[0]:
-            ax.legend(loc="upper left")
+            legend_right(ax)
         return png(fig)

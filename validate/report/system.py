@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..results.schema import SCALED_DEFINITION
 from .document import (
     NOT_RUN,
     Document,
@@ -22,6 +23,7 @@ from .document import (
     vec,
 )
 from .figures import energy_figure, error_figure, pointwise_figure, run_label, series, trajectory_figure
+from .findings import chaos_facts, derivation_label, is_damped, is_driven, system_headline
 from .system_parts import (
     system_chaos,
     system_derivation,
@@ -36,21 +38,30 @@ def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[st
     doc.h(2, f"System {name}", f"system-{slug(name)}")
     doc.p(s.get("description", ""))
     mark = pass_mark(s.get("passed"))
-    doc.p(f"Verdict: {cell_text(mark)}.", {"ok": "pass", "bad": "fail"}.get(mark.state, ""))
+    doc.p(f"Verdict: {cell_text(mark)}: {system_headline(s)[1]}.", {"ok": "pass", "bad": "finding"}.get(mark.state, ""))
 
     # Model
     doc.h(3, "Model", f"{slug(name)}-model")
     doc.p(
         f"{str(s.get('model_format', 'mjcf')).upper()} `{s.get('mjcf', '?')}`; "
-        f"hand derivation `{s.get('equations', '?')}`; the scene uses "
+        f"{derivation_label(s)} `{s.get('equations', '?')}`; the scene uses "
         f"{', '.join(s.get('uses', [])) or 'nothing beyond the chain'}; MuJoCo timestep "
         f"{sci(s.get('timestep'))} s."
     )
     params = s.get("parameters", {})
+    keys = s.get("parameter_keys") or {}
     doc.table(
-        f"Parameters of {name}, read from the compiled MJCF",
-        ("parameter", "value"),
-        [(k, Num(v, short=True)) for k, v in sorted(params.items(), key=lambda kv: (kv[0].lower(), kv[0]))],
+        f"Parameters of {name}'s derivation, read from the compiled model",
+        ("parameter", "value", "unit", "model keys it sets"),
+        [
+            (
+                k,
+                Num(v, short=True),
+                (keys.get(k) or {}).get("unit") or "–",
+                ", ".join((keys.get(k) or {}).get("keys") or []) or "–",
+            )
+            for k, v in sorted(params.items(), key=lambda kv: (kv[0].lower(), kv[0]))
+        ],
     )
     coords, joints = s.get("coordinates", []), s.get("joints", [])
     bodies = s.get("bodies", [])
@@ -117,8 +128,8 @@ def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[st
         doc.p(
             f"Every quantity of every pair of sources at {pw.get('n_states')} random states (seed "
             f"{pw.get('seed')}): the hand derivation, MuJoCo, Pinocchio and the model's own equations derived "
-            "symbolically (`symbolic`). `max abs` is the largest `|a - b|`; `scaled` divides it by the largest "
-            "magnitude the quantity takes over the states; a row passes when scaled ≤ tolerance."
+            f"symbolically (`symbolic`). `max abs` is the largest `|a - b|`, `scale` the largest magnitude; "
+            f"{SCALED_DEFINITION}; a row passes when scaled ≤ tolerance."
         )
         for bug in pw.get("harness_bugs", []):
             doc.p(f"✗ Harness bug: {bug}.", "fail")
@@ -172,81 +183,125 @@ def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[st
     if not tr or not tr.get("runs"):
         doc.p(f"Trajectories: {NOT_RUN}.", "missing")
     else:
-        t = series(tr.get("t", []))
-        thr = as_float(tr.get("threshold"))
-        doc.p(
-            f"Free motion from q0 = {vec(tr.get('q0', []))} rad, v0 = {vec(tr.get('v0', []))} rad/s, "
-            f"tau = {vec(tr.get('tau', []))}, sampled every {fmt_g(tr.get('dt_out'))} s "
-            f"up to {fmt_g(tr.get('t_end'))} s. "
-            f"The reference is {tr.get('reference')}; the error is the largest coordinate's distance to it, "
-            f"judged against the trajectory threshold {sci(thr)} rad."
-        )
-        doc.table(
-            f"Trajectory runs of {name}",
-            ("source", "method", "cost", "max error vs reference", "first above threshold", "energy drift", "verdict"),
-            [
-                (
-                    run_label(r),
-                    r.get("method"),
-                    fmt_stats(r.get("stats")),
-                    Num(r.get("max_error_vs_hand"), unit="rad"),
-                    fmt_time(r.get("first_exceeds_threshold")),
-                    Num(r.get("energy_drift"), unit="J"),
-                    run_verdict(r),
-                )
-                for r in tr["runs"]
-            ],
-        )
-        if tr.get("judged_until") is not None:
-            doc.p(f"Runs are judged until {fmt_g(tr['judged_until'])} s, not beyond: {tr.get('judged_because')}.")
-        for why in sorted({r["why_not_counted"] for r in tr["runs"] if r.get("why_not_counted")}):
-            doc.p(f"Not part of the verdict: {why}.", "note")
-        runs = tr["runs"]
-        doc.figure(
-            f"img/{name}_trajectories.png",
-            trajectory_figure(name, s.get("coordinates", []), t, runs),
-            f"Coordinates of {name} against time for every source",
-            "Coordinates against time: the sources overlay each other while they agree.",
-        )
-        doc.figure(
-            f"img/{name}_error.png",
-            error_figure(name, t, runs, thr, str(tr.get("reference"))),
-            f"log10 of the distance of each source to the reference trajectory of {name}",
-            "Distance to the reference trajectory on a log10 scale; dashed red: the threshold; a dotted "
-            "vertical line marks where a source first passes it. Sources identical to the reference "
-            "are not drawn.",
-        )
-        doc.figure(
-            f"img/{name}_energy.png",
-            energy_figure(name, t, runs),
-            f"Energy of {name} against time for every source",
-            f"Total energy T + V by the hand equations along each source's trajectory, relative to "
-            f"E(0) = {sci(series(runs[0]['energy'])[0], 6)} J; a conservative system should stay at 0.",
-        )
+        section_trajectories(doc, name, s, tr)
 
     system_equivalence(doc, name, s)
-    doc.h(3, "Chaos", f"{slug(name)}-chaos")
+    facts = chaos_facts(s)
+    chaotic = bool(facts and facts["chaotic"])
+    doc.h(3, "Chaos" if chaotic or not facts else "Error growth", f"{slug(name)}-chaos")
     system_chaos(doc, name, s)
     doc.h(3, "Experiments", f"{slug(name)}-experiments")
     system_experiments(doc, name, s)
     system_skipped(doc, name, s)
 
 
-def run_verdict(run: dict[str, Any]) -> Any:
-    """A trajectory run's verdict as the table shows it: judged up to a time, or information only."""
+def section_trajectories(doc: Document, name: str, s: dict[str, Any], tr: dict[str, Any]) -> None:
+    t = series(tr.get("t", []))
+    thr = as_float(tr.get("threshold"))
+    runs = tr["runs"]
+    damped = is_damped(s)
+    doc.p(
+        f"Free motion from q0 = {vec(tr.get('q0', []))} rad, v0 = {vec(tr.get('v0', []))} rad/s, "
+        f"tau = {vec(tr.get('tau', []))}, sampled every {fmt_g(tr.get('dt_out'))} s "
+        f"up to {fmt_g(tr.get('t_end'))} s. "
+        f"The reference is {tr.get('reference')}; the error is the largest coordinate's distance to it, "
+        f"judged against the trajectory threshold {sci(thr)} rad."
+    )
+    energy_column = "energy change (friction)" if damped else "energy drift"
+    doc.table(
+        f"Trajectory runs of {name}",
+        ("source", "method", "cost", "max error vs reference", "first above threshold", energy_column, "verdict"),
+        [
+            (
+                run_label(r),
+                r.get("method"),
+                fmt_stats(r.get("stats")),
+                Num(r.get("max_error_vs_hand"), unit="rad"),
+                first_above(r, tr),
+                Num(r.get("energy_drift"), unit="J"),
+                run_verdict(r, tr.get("t_end")),
+            )
+            for r in runs
+        ],
+    )
+    if tr.get("judged_until") is not None:
+        doc.p(f"Runs are judged until {fmt_g(tr['judged_until'])} s, not beyond: {tr.get('judged_because')}.")
+    for why in sorted({r["why_not_counted"] for r in runs if r.get("why_not_counted")}):
+        doc.p(f"Not part of the verdict: {why}.", "note")
+    doc.figure(
+        f"img/{name}_trajectories.png",
+        trajectory_figure(name, s.get("coordinates", []), t, runs),
+        f"Coordinates of {name} against time for every source",
+        "Coordinates against time: the sources overlay each other while they agree.",
+    )
+    doc.figure(
+        f"img/{name}_error.png",
+        error_figure(name, t, runs, thr, str(tr.get("reference"))),
+        f"log10 of the distance of each source to the reference trajectory of {name}",
+        "Distance to the reference trajectory on a log10 scale; dashed red: the threshold; a dotted "
+        "vertical line marks where a source first passes it (a run from another start passes it at once). "
+        "Sources identical to the reference are not drawn.",
+    )
+    if damped:
+        energy_text = (
+            "the joints' viscous friction dissipates energy, so E falls; every source should fall along the same curve"
+            + (" (the inputs also do work)" if is_driven(s) else "")
+            + "."
+        )
+    elif is_driven(s):
+        energy_text = "the inputs do work, so E changes; every source should change along the same curve."
+    else:
+        energy_text = "the system is conservative, so each curve is that source's drift and should stay near 0."
+    doc.figure(
+        f"img/{name}_energy.png",
+        energy_figure(name, t, runs),
+        f"Energy of {name} against time for every source",
+        f"Total energy T + V by the hand equations along each source's trajectory, relative to "
+        f"E(0) = {sci(series(runs[0]['energy'])[0], 6)} J; {energy_text}",
+    )
+
+
+def first_above(run: dict[str, Any], tr: dict[str, Any]) -> str:
+    """When a run first passes the threshold, and why where it is expected."""
+    first = run.get("first_exceeds_threshold")
+    if first is None:
+        return "never"
+    when = fmt_time(first)
+    if run.get("label"):
+        return f"{when} (starts elsewhere: {run['label']})"
+    if not run.get("counts", True):
+        return f"{when} (information only)"
+    if run.get("passed") is False:
+        return f"{when} (fails)"
+    judged = run.get("judged_until", tr.get("judged_until"))
+    if judged is not None and as_float(first) > as_float(judged):
+        return f"{when} (after {fmt_g(judged)} s, beyond the judged interval)"
+    return when
+
+
+def run_verdict(run: dict[str, Any], t_end: Any = None) -> Any:
+    """A trajectory run's verdict as the table shows it: what interval was judged, or information only."""
     if not run.get("counts", True):
         return "information only"
     if "passed" not in run:
         return "–"
-    mark = pass_mark(run["passed"])
-    return Mark(mark.state, f"{mark.text} (until {fmt_g(run.get('judged_until'))} s)")
+    judged = run.get("judged_until")
+    if run["passed"] is False:
+        first = run.get("first_exceeds_threshold")
+        return Mark("bad", "FAIL" + (f": above the threshold from {fmt_g(first)} s" if first is not None else ""))
+    if run["passed"] is True:
+        if judged is not None and t_end is not None and as_float(judged) < as_float(t_end):
+            return Mark("ok", f"pass until {fmt_g(judged)} s, not judged beyond")
+        return Mark("ok", f"pass over the whole run ({fmt_g(judged if judged is not None else t_end)} s)")
+    return pass_mark(run["passed"])
 
 
 def fmt_stats(stats: Any) -> str:
+    """The cost of a run: its function evaluations and steps (the integrator's status is not a cost)."""
     if not isinstance(stats, dict) or not stats:
         return "–"
-    names = {"nfev": "evaluations", "steps": "steps"}
-    return ", ".join(f"{v} {names.get(k, k)}" for k, v in sorted(stats.items()) if k != "label") or "–"
+    names = {"nfev": "evaluations", "steps": "steps", "njev": "Jacobians"}
+    return ", ".join(f"{v} {names[k]}" for k, v in sorted(stats.items()) if k in names and is_number(v)) or "–"
 
 
 def fmt_g(x: Any) -> str:

@@ -8,8 +8,9 @@ from typing import Any
 
 import numpy as np
 
-from .document import NOT_RUN, Code, Document, Mark, Num, as_float, pass_mark, sci, slug, vec
-from .figures import new_figure, png, rc, series
+from .document import ERRATA, NOT_RUN, Code, Document, Mark, Num, as_float, pass_mark, sci, slug, vec, verdict_mark
+from .figures import LEGEND_W, legend_right, new_figure, png, rc, series
+from .findings import CHAOS_LAMBDA, chaos_facts, is_chaotic, is_damped, is_user
 
 
 def system_skipped(doc: Document, name: str, s: dict[str, Any]) -> None:
@@ -34,10 +35,11 @@ def system_derived(doc: Document, name: str, s: dict[str, Any]) -> None:
         return
     names = d.get("coordinates", [])
     doc.p(
-        "The model's own equations, derived from its compiled numbers by the notes' section-3 method (rotation "
-        "matrix per joint, centre-of-mass velocities, body-frame inertia, Lagrange's equations with the Christoffel "
-        "symbols of M), independently of both engines and of the hand derivation; the `symbolic` source of the "
-        "comparisons. Parameters are named after the model's elements; `d<name>` is a velocity. "
+        "The model's own equations, derived from its compiled numbers by "
+        + ("the notes' section-3 method" if not is_user(s) else "the rotation-matrix method")
+        + " (rotation matrix per joint, centre-of-mass velocities, body-frame inertia, Lagrange's equations with the "
+        "Christoffel symbols of M), independently of both engines and of the hand derivation; the `symbolic` source "
+        "of the comparisons. Parameters are named after the model's elements; `d<name>` is a velocity. "
         "`lagrange-xval derive` prints them (`--latex`, `--python`)."
     )
     n = len(names)
@@ -185,6 +187,26 @@ def system_chaos(doc: Document, name: str, s: dict[str, Any]) -> None:
         doc.p(f"Chaos and integrator cross-validation: {NOT_RUN}.", "missing")
         return
     ref, ch = cx.get("reference", {}), cx.get("chaos", {})
+    facts = chaos_facts(s)
+    chaotic = bool(facts and facts["chaotic"])
+    if facts and chaotic:
+        doc.p(
+            f"{name} moves chaotically from its initial state: the largest Lyapunov exponent is "
+            f"{facts['lambda']:.3g} 1/s, and the rounding of the initial state alone grows to "
+            f"{sci(facts['tolerance'])} rad by {facts['horizon']:g} s."
+        )
+    elif facts:
+        grows = (
+            f"grows to {sci(facts['tolerance'])} rad only by {facts['horizon']:g} s"
+            if facts["horizon"] is not None
+            else f"stays below {sci(facts['tolerance'])} rad for the {facts['t_end']:g} s computed"
+        )
+        doc.p(
+            f"{name} is not chaotic from its initial state: the largest Lyapunov exponent is {facts['lambda']:.3g} 1/s "
+            f"(below {CHAOS_LAMBDA:g} 1/s: no exponential growth of errors over the runs"
+            + (", the friction damps the motion" if is_damped(s) else "")
+            + f"), and the rounding of the initial state {grows}."
+        )
     doc.p(
         f"Reference solution: the hand equations by {ref.get('method', '?')} in {ref.get('precision', '?')} "
         f"(tolerance {sci(ref.get('tolerance'))}); a second method ({ref.get('check_method', '?')}) agrees to "
@@ -202,30 +224,47 @@ def system_chaos(doc: Document, name: str, s: dict[str, Any]) -> None:
         (f"amplification of an initial error at {k}", Num(v, 3))
         for k, v in sorted(amp.items(), key=lambda kv: as_float(kv[0].split()[0]))
     ]
+    never = f"never within {as_float(hz.get('t_end')):g} s"
     rows += [
         (
             f"predictability horizon at {sci(hz.get('tolerance'))} rad from rounding ({sci(hz.get('e0'))}) (s)",
-            Num(hz.get("horizon"), 3),
+            Num(hz.get("horizon"), 3) if hz.get("horizon") is not None else never,
         ),
-        ("the same, estimated from the exponent (s)", Num(ch.get("horizon_estimate_from_lambda"), 3)),
+        (
+            "the same, estimated from the exponent (s)",
+            Num(ch.get("horizon_estimate_from_lambda"), 3) if chaotic else "– (no chaos: not estimated)",
+        ),
     ]
-    doc.table(f"Chaos of {name} from its initial state", ("quantity", "value"), rows)
+    doc.table(f"{'Chaos' if chaotic else 'Error growth'} of {name} from its initial state", ("quantity", "value"), rows)
     integ = cx.get("integrators", {})
     if not integ:
         return
     rows = []
+    short: list[str] = []
+    t_end = as_float(cx.get("t_end", (s.get("trajectories") or {}).get("t_end")))
     for iname, r in sorted(integ.items()):
         fr = r.get("free_run", {})
         judge = fr.get("judge", {})
         mirrors = r.get("mirrors", {})
         conv = r.get("convergence", {})
         energy = r.get("energy", {})
+        until = judge.get("judged_until")
+        if judge.get("passed") is True and until is not None and not (as_float(until) >= t_end):
+            verdict = Mark("ok", f"inside until {as_float(until):g} s, not judged beyond")
+            short.append(
+                f"MuJoCo {iname}: its own error per output interval (up to {sci(fr.get('max_window_error'))} rad), "
+                f"propagated, reaches {sci(judge.get('tolerance'))} rad at {as_float(until):g} s, so its free run is "
+                f"judged only until then; its whole-run error {sci(fr.get('max_error'))} rad is shown, not judged."
+            )
+        elif judge.get("passed") is True:
+            verdict = Mark("ok", f"inside over the whole run ({as_float(until):g} s)")
+        else:
+            verdict = pass_mark(judge.get("passed"))
         rows.append(
             (
                 iname,
                 Num(fr.get("max_error")),
-                pass_mark(judge.get("passed")),
-                Num(judge.get("judged_until"), 3),
+                verdict,
                 Num((mirrors.get("mujoco~hand") or {}).get("max_difference")),
                 Num((mirrors.get("mujoco~pinocchio") or {}).get("max_difference")),
                 Num(conv.get("order"), 3),
@@ -238,33 +277,39 @@ def system_chaos(doc: Document, name: str, s: dict[str, Any]) -> None:
         f"reference, mirrors, convergence, energy",
         (
             "integrator",
-            "free-run max error (rad)",
-            "inside envelope",
-            "judged until (s)",
+            "free-run max error, whole run (rad)",
+            "inside the error envelope",
             "mirror hand (rad)",
             "mirror Pinocchio (rad)",
             "order",
             "expected",
-            "energy drift (rel.)",
+            "energy change (rel.)" if is_damped(s) else "energy drift (rel.)",
         ),
         rows,
     )
     doc.p(
         "The mirrors apply MuJoCo's own scheme (operation for operation) to the hand equations and to "
-        "Pinocchio's ABA: a stepped MuJoCo trajectory and its mirror differ by rounding only, amplified by "
-        "the chaos. The free run is judged against an error envelope that grows with the measured "
-        "amplification, inside the predictability horizon; the order is measured from a timestep sweep."
+        "Pinocchio's ABA: a stepped MuJoCo trajectory and its mirror differ by rounding only"
+        + (", amplified by the chaos" if chaotic else "")
+        + ". The free run is judged against an error envelope that grows with the measured "
+        "amplification, up to where the envelope reaches the tolerance; the order is measured from a timestep sweep."
     )
+    if short:
+        doc.items(short)
 
 
 def system_experiments(doc: Document, name: str, s: dict[str, Any]) -> None:
     ex = s.get("experiments")
     if not ex:
-        doc.p(f"The notes' experiments: {NOT_RUN}.", "missing")
+        label = "Perturbation experiment" if is_user(s) else "The notes' experiments"
+        doc.p(f"{label}: {NOT_RUN}.", "missing")
         return
     coord = ex.get("perturbed_coordinate", "q")
+    notes = ex.get("notes_experiment") if not is_user(s) else None
+    chaotic = is_chaotic(s)
+    what = f"The notes' experiment ({notes})" if notes else "A perturbation experiment"
     doc.p(
-        f"The notes' experiment: from q0 = {np.asarray(ex['q0']).tolist()}, v0 = {np.asarray(ex['v0']).tolist()}, "
+        f"{what}: from q0 = {np.asarray(ex['q0']).tolist()}, v0 = {np.asarray(ex['v0']).tolist()}, "
         f"and from {coord}0 + {ex['perturbation']:g}, every dynamic form integrated by {ex['method']}. "
         f"Separation: when the two starts differ by more than {ex['resemblance']:g} rad; departure: when the "
         f"unperturbed run departs by as much from the accurate solution ({ex['accurate']})."
@@ -274,71 +319,116 @@ def system_experiments(doc: Document, name: str, s: dict[str, Any]) -> None:
     def when(x: Any) -> str:
         return f"{as_float(x):.2f} s" if x is not None else f"never ({t_end:g} s)"
 
+    verdicts = {v.get("name"): v.get("verdict") for v in s.get("variants", [])}
+    whose = "notes' " if notes else ""
+
+    def form_verdict(form: str) -> Any:
+        if form == "hand derivation":
+            return verdict_mark((s.get("derivation") or {}).get("verdict", ""))
+        return verdict_mark(verdicts.get(form, "–"))
+
+    def integration(r: dict[str, Any]) -> str:
+        status = str(r.get("status", ""))
+        return "completed" if status == "ok" else status
+
     rows = [
         (
             r["form"],
+            form_verdict(r["form"]),
             Num(r["rtol"], 1),
             when(r.get("separation_time")),
             when(r.get("departure_time")),
-            r.get("status", ""),
+            integration(r),
         )
         for r in ex.get("runs", [])
     ]
     doc.table(
-        f"When the notes' two starts stop resembling each other, {name}",
-        ("form", "rtol", "separation", "departure", "status"),
+        f"When the {whose}two starts stop resembling each other, {name}",
+        ("form", "form's verdict", "rtol", "separation", "departure", "integration"),
         rows,
     )
+    wrong = sorted({r["form"] for r in ex.get("runs", []) if verdicts.get(r["form"]) == "disagrees"})
+    if wrong:
+        doc.p(
+            f"{', '.join(wrong)} {'is' if len(wrong) == 1 else 'are'} wrong (see {ERRATA}): their times say how soon "
+            "the wrong equations part from the right motion, not how the system behaves.",
+            "note",
+        )
     by_rtol = {r["rtol"]: r for r in ex.get("runs", []) if r["form"] == "hand derivation"}
     loose, tight = by_rtol.get(1e-3), by_rtol.get(1e-6)
+    solver_first = False
     if loose and tight:
-        finding = (
-            f"With the hand derivation at Matlab's default tolerance (rtol 1e-3) the two starts separate at "
-            f"{when(loose.get('separation_time'))}, and the unperturbed run has itself left the accurate "
-            f"solution at {when(loose.get('departure_time'))}: "
-        )
-        if loose.get("departure_time") is not None and (
-            loose.get("separation_time") is None
-            or as_float(loose["departure_time"]) <= as_float(loose["separation_time"])
-        ):
-            finding += "the loose solver's own error, not only the 0.01 rad perturbation, makes them part. "
-        else:
-            finding += "the perturbation, amplified by the chaos, makes them part. "
+        sep, dep = loose.get("separation_time"), loose.get("departure_time")
         tight_sep = tight.get("separation_time")
-        later = f"at {when(tight_sep)}" if tight_sep is not None else f"later than {t_end:g} s"
-        finding += f"At rtol 1e-6 they separate {later} (the notes report about 7 s by eye, from their Figs 3-4)."
+        if sep is None and tight_sep is None:
+            finding = (
+                f"With the hand derivation the two starts stay within {ex['resemblance']:g} rad of each other for the "
+                f"whole {t_end:g} s at both tolerances"
+                + ("" if chaotic else f" ({name} is not chaotic from this start)")
+                + "."
+            )
+            if dep is not None:
+                finding += f" At rtol 1e-3 the run itself departs from the accurate solution at {when(dep)}."
+        else:
+            finding = (
+                f"With the hand derivation at ode45's default tolerance (rtol 1e-3) the two starts separate at "
+                f"{when(sep)}, and the unperturbed run has itself left the accurate solution at {when(dep)}: "
+            )
+            solver_first = dep is not None and (sep is None or as_float(dep) <= as_float(sep))
+            if solver_first:
+                finding += (
+                    f"the loose solver's own error, not only the {ex['perturbation']:g} rad perturbation, makes them "
+                    "part. "
+                )
+            elif chaotic:
+                finding += "the perturbation, amplified by the chaos, makes them part. "
+            else:
+                finding += f"the {ex['perturbation']:g} rad perturbation makes them part. "
+            later = f"at {when(tight_sep)}" if tight_sep is not None else f"later than {t_end:g} s"
+            finding += f"At rtol 1e-6 they separate {later}"
+            claim = ex.get("notes_separation") if notes else None
+            finding += f" (the notes report about {as_float(claim):g} s by eye)." if claim is not None else "."
         doc.p(finding)
     hand = [r for r in ex.get("runs", []) if r["form"] == "hand derivation" and "q" in r]
     if hand:
+        caption = f"The last coordinate ({coord}) from both starts, at each tolerance, with the accurate solution"
+        caption += (
+            ": at ode45's default tolerance the solver's own error separates the curves as early as the "
+            "perturbation does."
+            if solver_first
+            else "."
+        )
         doc.figure(
             f"img/{name}_experiment.png",
-            experiment_figure(name, ex, hand),
-            f"{coord} against time for the notes' two starts at both tolerances, {name}",
-            f"The last coordinate ({coord}) from both starts, at each tolerance, with the accurate "
-            "solution: at Matlab's default tolerance the solver's own error separates the curves as "
-            "early as the perturbation does.",
+            experiment_figure(name, ex, hand, notes=bool(notes)),
+            f"{coord} against time for the two starts at both tolerances, {name}",
+            caption,
         )
 
 
-def experiment_figure(name: str, ex: dict[str, Any], runs: list[dict[str, Any]]) -> bytes:
+def experiment_figure(name: str, ex: dict[str, Any], runs: list[dict[str, Any]], *, notes: bool = False) -> bytes:
+    """The perturbed coordinate from both starts at each tolerance, one panel per tolerance; the legend
+    on the right, clear of the curves."""
     t = series(ex["t"])
     acc = series(ex["q_accurate"])
     with rc():
-        fig, axes = new_figure(8.6, 0.6 + 1.7 * len(runs), nrows=len(runs), sharex=True)
+        fig, axes = new_figure(8.6, 0.6 + 1.7 * len(runs), nrows=len(runs), sharex=True, legend_right=LEGEND_W + 0.3)
         for ax, r in zip(axes, runs, strict=True):
             q, qb = series(r["q"]), series(r["q_perturbed"])
-            ax.plot(t, acc[:, -1], color="#9ca3af", linewidth=2.4, label="accurate (DOP853 1e-12)")
-            ax.plot(t, q[:, -1], color="#2563eb", linewidth=1.2, label=f"start as printed, rtol {r['rtol']:g}")
+            ax.plot(t, acc[:, -1], color="#9ca3af", linewidth=2.4, label="accurate\n(DOP853 1e-12)")
+            ax.plot(t, q[:, -1], color="#2563eb", linewidth=1.2, label="start as given")
             ax.plot(
                 t,
                 qb[:, -1],
                 color="#d97706",
                 linewidth=1.2,
                 linestyle="--",
-                label=f"perturbed by {ex['perturbation']:g}, rtol {r['rtol']:g}",
+                label=f"perturbed by {ex['perturbation']:g}",
             )
             ax.set_ylabel(f"{ex.get('perturbed_coordinate', 'q')} (rad)")
-            ax.legend(loc="lower left", ncols=3)
-        axes[0].set_title(f"{name}: the notes' perturbation experiment (RK45, as ode45)")
+            ax.text(0.995, 0.97, f"rtol {r['rtol']:g}", transform=ax.transAxes, ha="right", va="top", fontsize=8)
+        legend_right(axes[0])
+        what = "the notes' perturbation experiment" if notes else "a perturbation experiment"
+        axes[0].set_title(f"{name}: {what} (RK45, as ode45)")
         axes[-1].set_xlabel("t (s)")
         return png(fig)

@@ -8,6 +8,13 @@ pipeline.py). Non-finite numbers are written as strings ("inf", "nan"): JSON has
 
 from typing import Any, NotRequired, TypedDict
 
+# The one definition of the number every comparison is judged by (checks/pointwise.error_row computes
+# it; the README and the report say it in these words).
+SCALED_DEFINITION = (
+    "`scaled` is the largest `|a - b|` over the states divided by the largest magnitude the quantity takes "
+    "over the states (the larger of `|a|` and `|b|`, over every entry and every state)"
+)
+
 
 class Provenance(TypedDict):
     """Where and how a results file was made."""
@@ -36,7 +43,7 @@ class ComparisonRow(TypedDict):
     pair: str  # "hand~mujoco", "hand~pinocchio", "mujoco~pinocchio"
     max_abs: float
     max_rel: float
-    scale: float
+    scale: float  # the largest magnitude either source gives the quantity over the states (see SCALED_DEFINITION)
     scaled: float  # max_abs / scale: what is judged
     tolerance: float
     tier: str
@@ -138,6 +145,7 @@ class SystemResult(TypedDict, total=False):
 
     name: str
     description: str
+    origin: str  # "notes": the repository's models/ and equations/; "user": files from anywhere else
     mjcf: str  # the model file (MJCF or URDF), relative to the checkout for the repository's own
     model_format: str  # "mjcf" or "urdf"
     equations: str
@@ -147,6 +155,7 @@ class SystemResult(TypedDict, total=False):
     uses: list[str]
     failed: list[str]  # each failing check in one short phrase
     parameters: dict[str, float]
+    parameter_keys: dict[str, dict[str, Any]]  # per parameter: the model keys it sets and their unit
     derived: dict[str, Any] | None  # the model's equations derived symbolically (engines/readable.as_data)
     timestep: float
     model_checks: ModelChecks

@@ -207,7 +207,7 @@ def criteria() -> dict[str, str]:
         ),
         "conditioning": (
             "cond(M): 2-norm condition number of the hand M; disagreement: compare.compare's 'scaled' "
-            "(max |a - b| / the quantity's range over the sample), tolerance and verdict from its rows"
+            "(max |a - b| / the largest magnitude of the quantity over the sample), tolerance and verdict from its rows"
         ),
         "series": f"downsampled to <= {SERIES_POINTS} points: in each bucket the sample of largest |y|",
     }
