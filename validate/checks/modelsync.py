@@ -99,18 +99,20 @@ def pinocchio_vs_mujoco(system: Any, pin_source: Any) -> list[Mismatch]:
             "inertia": (view[f"body/{body}/inertia"], inertia.inertia),
         }
         for what, (mj, pn) in pairs.items():
-            ok = _same(mj, pn)
-            rows.append(
-                {
-                    "check": "pinocchio~mujoco",
-                    "key": f"body/{body}/{what}",
-                    "expected": _fmt(mj),
-                    "actual": _fmt(pn),
-                    "passed": ok,
-                    "why": "" if ok else "Pinocchio compiled this body differently from MuJoCo",
-                }
-            )
+            rows.append(_engine_row(f"body/{body}/{what}", mj, pn, _same(mj, pn), "compiled this body"))
     return rows
+
+
+def _engine_row(key: str, mujoco_value: Any, pinocchio_value: Any, ok: bool, what: str) -> Mismatch:
+    """One pinocchio~mujoco row: MuJoCo's reading expected, Pinocchio's actual."""
+    return {
+        "check": "pinocchio~mujoco",
+        "key": key,
+        "expected": _fmt(mujoco_value),
+        "actual": _fmt(pinocchio_value),
+        "passed": ok,
+        "why": "" if ok else f"Pinocchio {what} differently from MuJoCo",
+    }
 
 
 def _mujoco_joint_frames(system: Any) -> dict[str, tuple[np.ndarray, np.ndarray]]:
@@ -152,16 +154,7 @@ def joints_pinocchio_vs_mujoco(system: Any, pin_source: Any) -> list[Mismatch]:
             pairs["damping"] = (system.view[f"joint/{j}/damping"], damping[i])
         for what, (a, b) in pairs.items():
             ok = _same(a, b, floor=extent if what == "anchor" else 1.0 if what == "motion" else 0.0)
-            rows.append(
-                {
-                    "check": "pinocchio~mujoco",
-                    "key": f"joint/{j}/{what}",
-                    "expected": _fmt(a),
-                    "actual": _fmt(b),
-                    "passed": ok,
-                    "why": "" if ok else "Pinocchio read this joint differently from MuJoCo",
-                }
-            )
+            rows.append(_engine_row(f"joint/{j}/{what}", a, b, ok, "read this joint"))
     return rows
 
 

@@ -132,6 +132,16 @@ def _rows(e: Equations) -> list[Any]:
     ]
 
 
+def _dots(e: Equations) -> dict[Any, str]:
+    """LaTeX names of the rates and accelerations: \\dot{theta}, \\ddot{theta}."""
+    import sympy as sp
+
+    return {
+        **{v: rf"\dot{{{sp.latex(q)}}}" for q, v in zip(e.q, e.v, strict=True)},
+        **{a: rf"\ddot{{{sp.latex(q)}}}" for q, a in zip(e.q, e.a, strict=True)},
+    }
+
+
 def as_text(e: Equations, fmt: str = "text") -> str:
     """The equations as plain text (sympy's notation), LaTeX, or Python (numpy) code."""
     import sympy as sp
@@ -150,10 +160,7 @@ def as_text(e: Equations, fmt: str = "text") -> str:
             lines.append(f"{name} = np.array([{', '.join(printer.doprint(vec[i]) for i in range(n))}])")
         return "\n".join(lines) + "\n"
     if fmt == "latex":
-        dots = {
-            **{v: rf"\dot{{{sp.latex(q)}}}" for q, v in zip(e.q, e.v, strict=True)},
-            **{a: rf"\ddot{{{sp.latex(q)}}}" for q, a in zip(e.q, e.a, strict=True)},
-        }
+        dots = _dots(e)
 
         def show(x: Any) -> str:
             return str(sp.latex(x, symbol_names=dots))
@@ -185,10 +192,7 @@ def as_data(e: Equations) -> dict[str, Any]:
 
     n = len(e.q)
 
-    dots = {
-        **{v: rf"\dot{{{sp.latex(q)}}}" for q, v in zip(e.q, e.v, strict=True)},
-        **{a: rf"\ddot{{{sp.latex(q)}}}" for q, a in zip(e.q, e.a, strict=True)},
-    }
+    dots = _dots(e)
 
     def both(x: Any) -> dict[str, str]:
         return {"text": sp.sstr(x), "latex": sp.latex(x, symbol_names=dots)}
