@@ -99,6 +99,7 @@ def test_run_on_a_robot_urdf_alone_end_to_end(tmp_path):
     assert done.returncode == 0, done.stdout + done.stderr
     report = (tmp_path / "out" / "report.md").read_text()
     assert "No hand derivation was given" in report and "URDF `" in report
+    assert "no derivation given; the engines" in done.stdout
     assert "made a MuJoCo motor" in report
     assert (tmp_path / "out" / "ur5_robot.rrd").stat().st_size > 0
     bad = subprocess.run(

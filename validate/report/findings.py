@@ -240,6 +240,14 @@ def system_headline(s: dict[str, Any]) -> tuple[bool | None, str]:
         probes = checked.get("probes")
         at = f"the model's parameters and {probes} probe sets" if probes else "the model's parameters"
         return (s.get("passed") is True or None), f"{who} agrees with the engines in every term, at {at}"
+    if d.get("kind") == "none":  # the model alone
+        pairs = {r.get("pair") for r in (s.get("pointwise") or {}).get("rows", [])}
+        derived = " and the derived equations" if "mujoco~symbolic" in pairs else ""
+        return s.get("passed"), (
+            f"no derivation given; the engines' readings, and MuJoCo, Pinocchio{derived}, agree"
+            if s.get("passed")
+            else "no derivation given"
+        )
     return s.get("passed"), f"{who}: {d.get('verdict') or 'not judged'}"
 
 
