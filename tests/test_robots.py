@@ -110,3 +110,31 @@ def test_run_on_a_robot_urdf_alone_end_to_end(tmp_path):
         timeout=120,
     )
     assert bad.returncode != 0 and "only `run` takes a model alone" in bad.stderr
+
+
+@needs_robots
+@pytest.mark.parametrize(
+    ("path", "lock"),
+    [
+        ("panda_description/urdf/panda.urdf", "panda_finger_joint1,panda_finger_joint2"),
+        ("kinova_description/robots/kinova.urdf", ""),
+    ],
+    ids=["panda", "kinova"],
+)
+def test_run_the_other_arms_end_to_end(tmp_path, path, lock):
+    """The Panda with its fingers locked from the command line (a step the report lists) and the Kinova."""
+    assert ROBOTS is not None
+    args = ["run", "--model", str(ROBOTS / path), "--out", "out"] + (["--lock", lock] if lock else [])
+    done = subprocess.run(
+        [sys.executable, "-m", "lagrange_xval.validate.cli", *args],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "no derivation given; the engines' readings, and MuJoCo and Pinocchio, agree" in done.stdout
+    report = (tmp_path / "out" / "report.md").read_text()
+    if lock:
+        assert "panda_finger_joint1, panda_finger_joint2 locked at zero" in report
+    assert (tmp_path / "out" / f"{Path(path).stem}.rrd").stat().st_size > 0

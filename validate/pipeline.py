@@ -391,6 +391,7 @@ def _identity(system: Any) -> SystemResult:
         "origin": "notes" if inside else "user",
         "mjcf": f"models/{system.mjcf.name}" if inside else str(system.mjcf),
         "model_format": system.model_format,
+        "locked": list(system.locked),
         "equations": (
             ""
             if system.equations is None
@@ -437,10 +438,15 @@ def _run_one(name: str, n_states: int, seed: int, n_probes: int = DEFAULT_PROBES
     return run_system(load(name), n_states=n_states, seed=seed, n_probes=n_probes)
 
 
-def _run_files(model: str, equations: str, n_states: int, seed: int, n_probes: int) -> SystemResult:
+def _run_files(
+    model: str, equations: str, n_states: int, seed: int, n_probes: int, locked: tuple[str, ...] = ()
+) -> SystemResult:
     """One system from a model file and an equations file (picklable, for process pools)."""
 
-    system = System.from_files(model, equations) if equations else System.model_only(model)
+    if equations:
+        system = System.from_files(model, equations, locked=locked)
+    else:
+        system = System.model_only(model, locked=locked)
     return run_system(system, n_states=n_states, seed=seed, n_probes=n_probes)
 
 
@@ -462,17 +468,22 @@ def run(
     files: list[tuple[Path, Path | None]] | None = None,
     after: Any = None,
     rendered: dict[str, Any] | None = None,
+    locked: tuple[str, ...] = (),
 ) -> RunResults:
     """Every system (or those named), each in a worker of `executor` (default: a process pool on
     every core; any `concurrent.futures.Executor` will do, a distributed one included). `files`:
     (model, equations) pairs of systems outside the repository, run instead of (or beside) names
     (equations None: the model alone, engines and derived equations only, `model_only_result`).
     `after(name, results, meta)`: a picklable function run in the worker on each system's results
-    (e.g. rendering its report section); what it returns goes into `rendered[name]`."""
+    (e.g. rendering its report section); what it returns goes into `rendered[name]`. `locked`: URDF
+    joints made fixed in the `files` systems (a gripper's fingers), a named step listed in their report."""
 
     # Unknown names and unreadable files fail here, before any work starts.
     systems = load_all(names) if names or not files else []
-    users = [System.from_files(m, e) if e is not None else System.model_only(m) for m, e in (files or [])]
+    users = [
+        System.from_files(m, e, locked=locked) if e is not None else System.model_only(m, locked=locked)
+        for m, e in (files or [])
+    ]
     taken = [s.name for s in systems + users]
     clash = sorted({n for n in taken if taken.count(n) > 1})
     if clash:
@@ -486,7 +497,7 @@ def run(
         meta = out["meta"]
         futures = {pool.submit(_task, _run_one, (s.name, n_states, seed, n_probes), after, meta): s.name for s in order}
         for (model, equations), user in zip(files or [], users, strict=True):
-            args = (str(model), "" if equations is None else str(equations), n_states, seed, n_probes)
+            args = (str(model), "" if equations is None else str(equations), n_states, seed, n_probes, locked)
             futures[pool.submit(_task, _run_files, args, after, meta)] = user.name
         for name in futures.values():
             if progress:

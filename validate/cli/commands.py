@@ -193,6 +193,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     check_out(args.out)  # before hours of work, not after
     rendered: dict[str, Any] = {}
     files = user_files(args)
+    locked = tuple(j.strip() for j in (args.lock or "").split(",") if j.strip())
+    if locked and args.model is None:
+        raise HarnessError("--lock takes joints of the --model URDF; give --model PATH.")
     # the executor inside the cache setting: a LocalCluster's workers inherit the environment
     with use_cache(args), named_executor(args.executor) as executor, reporter() as progress:
         results = run(
@@ -205,6 +208,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             files=files,
             after=functools.partial(render_system, replay=not args.no_replay),  # in the workers, overlapped
             rendered=rendered,
+            locked=locked,
         )
     hint = replay_hint(args.out, written=not args.no_replay)
     write_all(results, args.out, replay=not args.no_replay, rendered=rendered, hint=hint)

@@ -236,6 +236,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     model_options(run)
     run.add_argument(
+        "--lock",
+        metavar="JOINTS",
+        help="comma-separated joints of the --model URDF to make fixed at zero (a gripper's fingers), a step the "
+        "report lists",
+    )
+    run.add_argument(
         "--systems",
         dest="systems_dir",
         type=path_arg,

@@ -104,9 +104,9 @@ def build_scene(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str,
     if name in system_names() and str(model).startswith("models/"):
         system = load(name)
     elif equations:  # a system from the user's own files, recorded by their paths
-        system = System.from_files(model, equations, name=name)
+        system = System.from_files(model, equations, name=name, locked=tuple(sys_results.get("locked") or ()))
     else:  # the model alone: no derivation places the bodies
-        system = System.model_only(model, name=name)
+        system = System.model_only(model, name=name, locked=tuple(sys_results.get("locked") or ()))
     view = system.view
     params = recorded_params(system, sys_results) if system.equations is not None else None
     traj = sys_results["trajectories"]

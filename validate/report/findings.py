@@ -242,9 +242,11 @@ def system_headline(s: dict[str, Any]) -> tuple[bool | None, str]:
         return (s.get("passed") is True or None), f"{who} agrees with the engines in every term, at {at}"
     if d.get("kind") == "none":  # the model alone
         pairs = {r.get("pair") for r in (s.get("pointwise") or {}).get("rows", [])}
-        derived = " and the derived equations" if "mujoco~symbolic" in pairs else ""
+        sources = (
+            "MuJoCo, Pinocchio and the derived equations" if "mujoco~symbolic" in pairs else "MuJoCo and Pinocchio"
+        )
         return s.get("passed"), (
-            f"no derivation given; the engines' readings, and MuJoCo, Pinocchio{derived}, agree"
+            f"no derivation given; the engines' readings, and {sources}, agree"
             if s.get("passed")
             else "no derivation given"
         )

@@ -148,6 +148,7 @@ class SystemResult(TypedDict, total=False):
     origin: str  # "notes": the repository's models/ and equations/; "user": files from anywhere else
     mjcf: str  # the model file (MJCF or URDF), relative to the checkout for the repository's own
     model_format: str  # "mjcf" or "urdf"
+    locked: list[str]  # URDF joints made fixed (System.locked)
     equations: str
     coordinates: list[str]
     joints: list[str]

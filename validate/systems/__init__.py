@@ -187,14 +187,17 @@ class System:
         return system
 
     @classmethod
-    def from_files(cls, model: str | Path, equations: str | Path, *, name: str | None = None) -> System:
+    def from_files(
+        cls, model: str | Path, equations: str | Path, *, name: str | None = None, locked: tuple[str, ...] = ()
+    ) -> System:
         """A system from any model file (MJCF or URDF) and any equations module file (named after the
-        module's file stem unless `name` is given); both are checked before anything is computed."""
+        module's file stem unless `name` is given); both are checked before anything is computed.
+        `locked`: URDF joints made fixed, a named step listed in the alignments."""
         model, equations = Path(model), Path(equations)
         if not model.is_file():
             raise HarnessError(f"model file not found: {model} (give an MJCF .xml or a URDF .urdf file).")
         module = load_module(equations)
-        system = cls(name=name or equations.stem, mjcf=model, equations=module)
+        system = cls(name=name or equations.stem, mjcf=model, equations=module, locked=tuple(locked))
         system.mujoco_model()  # a model MuJoCo refuses fails here, in one line
         return system
 
