@@ -26,7 +26,7 @@ from ..replay import render_system as render_rrd
 from ..report import ReplayHint, render, system_section
 from ..results import dumps
 
-OPTIONAL_RESULTS = {"bench": "bench.json", "stress": "stress.json"}  # written by `bench` and `stress`
+OPTIONAL_RESULTS = {"bench": "bench.json", "stress": "stress.json", "chains": "chains.json"}  # bench, stress
 CACHE_FOLDER = ".cache"
 KEPT = (CACHE_FOLDER, ".gitkeep", *OPTIONAL_RESULTS.values())  # not written by `run`: carried over
 REPORT_FILES = ("report.md", "report.html", "img")  # what `report` produces

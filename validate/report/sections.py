@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..results.schema import SCALED_DEFINITION
+from .chains import section_chains
 from .document import (
     BENCHMARK,
     ERRATA,
@@ -472,6 +473,7 @@ def build(
     section_bench(doc, results.get("bench"))
     doc.h(2, STRESS)
     section_stress(doc, results.get("stress"))
+    section_chains(doc, results.get("chains"))
     section_limitations(doc, results)
     section_replay(doc, results, hint)
     section_provenance(doc, results)
