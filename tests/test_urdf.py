@@ -183,3 +183,15 @@ def test_new_writes_a_module_for_a_urdf(tmp_path):
     text = (folder / "my_arm.py").read_text()
     for name in ("'yaw'", "'shoulder'", "'elbow'", "link3", "elbow_motor"):
         assert name in text, name
+
+
+def test_random_states_stay_inside_the_joints_stated_limits(arm):
+    """The URDF's <limit lower upper> narrows the draw (never its forces: limits are not compared)."""
+    from lagrange_xval.validate.checks.pointwise import random_states
+
+    ranges = arm.joint_ranges
+    assert ranges[0].tolist() == [float("-inf"), float("inf")]  # the continuous yaw
+    assert ranges[1].tolist() == [-2.5, 2.5] and ranges[2].tolist() == [-2.8, 2.8]
+    q = random_states(arm, n=2000, seed=0).q
+    assert np.all(np.abs(q[:, 1]) <= 2.5) and np.all(np.abs(q[:, 2]) <= 2.8)
+    assert np.abs(q[:, 0]).max() > 2.9  # the unlimited joint keeps the full [-pi, pi]

@@ -39,10 +39,12 @@ class States:
 
 
 def random_states(system: Any, *, n: int, seed: int) -> States:
-    """N seeded states; tau is random only where the scene is actuated."""
+    """N seeded states, inside the joints' stated limits; tau is random only where the scene is actuated."""
     rng = np.random.default_rng(seed)
     nv = system.nv
-    q = rng.uniform(-Q_RANGE, Q_RANGE, (n, nv))
+    ranges = system.joint_ranges  # a joint's stated limits narrow the draw (a real arm's, say)
+    lo, hi = np.maximum(-Q_RANGE, ranges[:, 0]), np.minimum(Q_RANGE, ranges[:, 1])
+    q = rng.uniform(lo, hi, (n, nv))
     v = rng.uniform(-V_RANGE, V_RANGE, (n, nv))
     tau = rng.uniform(-TAU_RANGE, TAU_RANGE, (n, nv)) if "actuation" in system.uses else np.zeros((n, nv))
     return States(q, v, tau)

@@ -246,6 +246,25 @@ class System:
         return tuple(out)
 
     @property
+    def joint_ranges(self) -> Any:
+        """(n, 2) lower and upper limits of the coordinates' joints as the model states them (a URDF's
+        <limit>, an MJCF range), -inf/inf where none; random states are drawn inside them. The limits'
+        forces are never compared (they are refused or disabled)."""
+        import mujoco
+        import numpy as np
+
+        m = self.mujoco_model()
+        out = np.tile([-np.inf, np.inf], (len(self.joints), 1))
+        for i, j in enumerate(self.joints):
+            jid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j)
+            lo, hi = m.jnt_range[jid]
+            if jid >= 0 and m.jnt_limited[jid] and lo < hi:
+                out[i] = lo, hi
+        if self.joint_map is not None:  # coordinates mixing joints: no box in these coordinates
+            return np.tile([-np.inf, np.inf], (len(self.joints), 1))
+        return out
+
+    @property
     def bodies(self) -> tuple[str, ...]:
         if self.equations is None:  # every body a joint moves
             moved = {self.view[f"joint/{j}/body"] for j in self.joints}
