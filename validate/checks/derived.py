@@ -14,6 +14,7 @@ from typing import Any
 from ..dynamics import cache
 from ..engines.derivation import derive, structure_key
 from ..engines.readable import as_data, as_text, equations
+from ..engines.symbolic import derivation_of
 
 
 def _cached(what: str, compute: Any) -> Any:
@@ -51,6 +52,6 @@ def derived_data(system: Any) -> dict[str, Any]:
     return dict(
         _cached(
             _what(view, joints, system.coordinates, system.joint_map, "data"),
-            lambda: as_data(equations(derive(view, joints), tuple(system.coordinates), system.joint_map)),
+            lambda: as_data(equations(derivation_of(system), tuple(system.coordinates), system.joint_map)),
         )
     )

@@ -239,7 +239,7 @@ def explain_entries(
             "term": term,
             "entry": label,
             "expected": sp.sstr(expected),
-            **_fit(expected, D, scale, samples, symbols),
+            **_fit(expected, exp_num, D, scale, samples, symbols),
         }
         named = {str(x) for x in sp.sympify(expected).free_symbols} | set(re.findall(r"\w+", record["statement"]))
         record["symbols"] = {str(k): v for k, v in d.parameters.items() if str(k) in named}
@@ -323,7 +323,7 @@ def explain(system: Any, probe_systems: list[Any], terms: list[str], *, seed: in
 
 
 def _fit(
-    expected: Any, D: np.ndarray, scale: float, samples: _Samples, symbols: dict[str, list[Any]]
+    expected: Any, exp_num: np.ndarray, D: np.ndarray, scale: float, samples: _Samples, symbols: dict[str, list[Any]]
 ) -> dict[str, Any]:
     """The simplest candidate difference that reproduces D, or why none does."""
     params = list(samples.args[2 * len(symbols["q"]) :])
@@ -372,7 +372,7 @@ def _fit(
         if r is not None:
             statement = "; ".join(_describe(found[k], x) for k, x in zip((i, j), simple, strict=True))  # type: ignore[arg-type]
             return {"explained": True, "statement": statement, "residual": r / scale}
-    if float(np.abs(D + samples.evaluate([expected])[:, 0]).max()) <= FIT_RTOL * scale:
+    if float(np.abs(D + exp_num).max()) <= FIT_RTOL * scale:
         return {"explained": True, "statement": "yours is 0 where the model has this entry", "residual": 0.0}
     return {
         "explained": False,

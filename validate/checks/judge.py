@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from ...equations._forms import DerivationStep, Implicit, NotApplicable
-from ..engines import make_sources
+from ..engines import make_source, make_sources
 from ..errors import HarnessError
 from ..systems.modelview import ModelView
 from . import probes as probing
@@ -498,6 +498,13 @@ def explain_variant(
                 "friction": adj * transformed(d, names, system.joint_map, "passive"),
             }
 
+            sources: dict[int, Any] = {}
+
+            def symbolic_of(s: Any) -> Any:  # one per probe system, not one per entry
+                if id(s) not in sources:
+                    sources[id(s)] = make_source(s, "symbolic")
+                return sources[id(s)]
+
             def accel(term: str, i: int) -> Any:
                 def user(s: Any, q: np.ndarray, v: np.ndarray) -> np.ndarray:
                     f = variant.acceleration
@@ -508,7 +515,7 @@ def explain_variant(
                         "velocity": lambda: np.asarray(f(p0, q, v, zero)) - np.asarray(f(p0, q, zero, zero)),
                         "friction": lambda: np.asarray(f(p, q, v, zero)) - np.asarray(f(p0, q, v, zero)),
                     }[term]()
-                    det = np.linalg.det(make_sources(s)["symbolic"].mass_matrix(q))
+                    det = np.linalg.det(symbolic_of(s).mass_matrix(q))
                     return det * np.asarray(a, dtype=float)[:, i]
 
                 return user

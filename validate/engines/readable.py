@@ -9,7 +9,6 @@ where `trigsimp` on the entries takes 31 s, with the same result.
 
 from __future__ import annotations
 
-import threading
 from collections import defaultdict
 from dataclasses import dataclass
 from typing import Any
@@ -17,9 +16,6 @@ from typing import Any
 import numpy as np
 
 from .derivation import Derivation
-
-_LOCK = threading.Lock()
-_DONE: dict[tuple[int, tuple[str, ...], Any], Equations] = {}
 
 
 @dataclass(frozen=True)
@@ -87,15 +83,12 @@ def transformed(d: Derivation, coordinates: tuple[str, ...], joint_map: Any, par
 
 def equations(d: Derivation, coordinates: tuple[str, ...] | None = None, joint_map: Any = None) -> Equations:
     """The derivation in the coordinates `coordinates` (default: the joints' names), where
-    q = joint_map @ (joint coordinates) if a map is given; simplified, kept per derivation."""
+    q = joint_map @ (joint coordinates) if a map is given; simplified (checks/derived.py keeps the
+    result in the cache)."""
     import sympy as sp
 
     names = tuple(coordinates or d.joints)
     A = None if joint_map is None else np.asarray(joint_map, dtype=float)
-    key = (id(d), names, None if A is None else A.tobytes())
-    with _LOCK:
-        if key in _DONE:
-            return _DONE[key]
     q = [sp.Symbol(n, real=True) for n in names]
 
     def part(name: str) -> Any:
@@ -116,8 +109,6 @@ def equations(d: Derivation, coordinates: tuple[str, ...] | None = None, joint_m
         passive=part("passive"),
         parameters={str(s): meaning for s, meaning in d.parameters.items()},
     )
-    with _LOCK:
-        _DONE[key] = out
     return out
 
 

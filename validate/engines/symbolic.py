@@ -23,9 +23,10 @@ _DERIVED: dict[Any, Derivation] = {}
 _CODE: dict[tuple[Any, str], Any] = {}
 
 
-def derivation_of(system: Any) -> Derivation:
-    """The symbolic derivation of `system`'s model in its joints' coordinates (kept per structure)."""
-    key = structure_key(system.view, system.joints)
+def derivation_of(system: Any, key: Any = None) -> Derivation:
+    """The symbolic derivation of `system`'s model in its joints' coordinates (kept per structure;
+    `key`: its structure_key, if already computed)."""
+    key = structure_key(system.view, system.joints) if key is None else key
     with _LOCK:
         if key not in _DERIVED:
             _DERIVED[key] = derive(system.view, system.joints)
@@ -77,8 +78,8 @@ class SymbolicSource:
 
     def __init__(self, system: Any) -> None:
         self.system = system
-        self.derivation = derivation_of(system)
         self.key = structure_key(system.view, system.joints)
+        self.derivation = derivation_of(system, self.key)
         values = parameter_values(self.derivation, system.view)
         self.params = [values[s] for s in self.derivation.source]
         self.n = system.nv

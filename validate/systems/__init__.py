@@ -253,15 +253,14 @@ class System:
         import mujoco
         import numpy as np
 
-        m = self.mujoco_model()
         out = np.tile([-np.inf, np.inf], (len(self.joints), 1))
+        if self.joint_map is not None:  # coordinates mixing joints: no box in these coordinates
+            return out
+        m = self.mujoco_model()
         for i, j in enumerate(self.joints):
             jid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j)
-            lo, hi = m.jnt_range[jid]
-            if jid >= 0 and m.jnt_limited[jid] and lo < hi:
-                out[i] = lo, hi
-        if self.joint_map is not None:  # coordinates mixing joints: no box in these coordinates
-            return np.tile([-np.inf, np.inf], (len(self.joints), 1))
+            if jid >= 0 and m.jnt_limited[jid] and m.jnt_range[jid][0] < m.jnt_range[jid][1]:
+                out[i] = m.jnt_range[jid]
         return out
 
     @property

@@ -148,7 +148,10 @@ def _spec(text: str, source: str) -> Any:
 
 def compile_urdf(text: str, source: str) -> Any:
     """MuJoCo's model of the URDF `text`, with the alignments of the module docstring."""
-    spec = _spec(text, source)
+    return _compiled(_spec(text, source), source)
+
+
+def _compiled(spec: Any, source: str) -> Any:
     try:
         return spec.compile()
     except Exception as exc:
@@ -175,7 +178,7 @@ def as_mjcf(text: str, source: str) -> str:
     from .set_values import set_values
 
     spec = _spec(text, source)
-    view = from_mujoco(compile_urdf(text, source), source)
+    view = from_mujoco(_compiled(spec, source), source)
     numeric = {k: v for k, v in view.items() if not isinstance(v, str)}
     return set_values(spec.to_xml(), numeric, model_view=view)
 
