@@ -17,7 +17,7 @@ from .checks import probes as probing
 from .checks.derived import derived_data
 from .checks.probes import DEFAULT_PROBES
 from .checks.tolerances import TOLERANCES
-from .dynamics import chaos, experiments, integrate
+from .dynamics import chaos, experiments, fast, integrate
 from .dynamics.reference import reference_trajectory
 from .engines import make_sources
 from .errors import HarnessError
@@ -50,10 +50,10 @@ def trajectory_results(system: Any, sources: dict[str, Any], *, t_end: float, dt
     tau = np.zeros(system.nv)
     t = integrate.time_grid(t_end, dt_out)
     ref, ref_info = reference_trajectory(system, q0, v0, tau, t)
-    trajs = integrate.run_trajectories(system, sources, t_end=t_end, dt_out=dt_out)
+    trajs = fast.run_trajectories(system, sources, t_end=t_end, dt_out=dt_out)
     q0b = q0.copy()
     q0b[-1] += experiments.PERTURBATION
-    perturbed = integrate.scipy_trajectory(system, sources["hand"], q0b, v0, tau, t, **integrate.SCIPY_DEFAULT)
+    perturbed = fast.accurate_trajectory(system, sources["hand"], q0b, v0, tau, t)
     perturbed.stats["label"] = f"{system.coordinates[-1]}0 + {experiments.PERTURBATION:g}"
     runs = [_run_entry(system, sources, tr, ref) for tr in [*trajs, perturbed]]
     runs[-1]["counts"] = False
@@ -176,7 +176,7 @@ def divergence_results(
     q0, v0 = integrate.initial_state(system)
     tau = np.zeros(system.nv)
     t = integrate.time_grid(t_end, dt_out)
-    trajs = integrate.run_trajectories(system, sources, t_end=t_end, dt_out=dt_out)
+    trajs = fast.run_trajectories(system, sources, t_end=t_end, dt_out=dt_out)
     ref = next(tr for tr in trajs if tr.source == "mujoco")
     runs = [_run_entry(system, sources, tr, ref) for tr in trajs]
     for run in runs:

@@ -16,12 +16,11 @@ from typing import Any
 
 import numpy as np
 
+from ..dynamics.fast import accurate_trajectory
 from ..dynamics.integrate import (
     DEFAULT_DT_OUT,
     DEFAULT_T_END,
-    SCIPY_DEFAULT,
     initial_state,
-    scipy_trajectory,
     time_grid,
 )
 from ..engines.hand import HandSource
@@ -102,8 +101,8 @@ def check_equivalence(
     q0, v0 = initial_state(other_sys)
     t = time_grid(t_end, DEFAULT_DT_OUT)
     tau = np.zeros(system.nv)
-    tr_o = scipy_trajectory(other_sys, that, q0, v0, tau, t, **SCIPY_DEFAULT)
-    tr_t = scipy_trajectory(system, this, B @ q0, B @ v0, tau, t, **SCIPY_DEFAULT)
+    tr_o = accurate_trajectory(other_sys, that, q0, v0, tau, t)
+    tr_t = accurate_trajectory(system, this, B @ q0, B @ v0, tau, t)
     err = np.abs(tr_t.q - tr_o.q @ B.T).max(axis=1)
     worst = float(np.nanmax(err)) if np.isfinite(err).any() else float("inf")
     rows.append(

@@ -37,6 +37,9 @@ from ..errors import HarnessError
 from ..systems import tracing
 from .reference import param_key, symbolic_dynamics
 
+# MuJoCo's RK4 tableau (`mj_RungeKutta(m, d, 4)`), used by the mirrors (mirror.py) and the compiled steps
+RK4_A = ((0.5,), (0.0, 0.5), (0.0, 0.0, 1.0))
+RK4_B = (1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0)
 RK4_STEPS_PER_CALL = 10  # steps composed into one compiled call (compile time grows with it)
 _CACHE: dict[tuple[Any, ...], Any] = {}
 
@@ -119,7 +122,9 @@ def compiled_rhs(system: Any) -> Callable[[float, Any, Any], np.ndarray]:
 
 def _rk4_expressions(system: Any, steps: int) -> tuple[list[Any], list[Any]]:
     """`steps` RK4 steps of the hand equations as heyoka expressions of the state; tau = par[0:n],
-    the timestep h = par[n]."""
+    the timestep h = par[n]. MuJoCo's `mj_RungeKutta` operation for operation (mirror.py: the stage
+    increments accumulated from 0 over the tableau's row, q_i = q + h dq, v_i = v + dv h, the final
+    B-weighted sums the same way), so a compiled mirror rounds as the Python one does."""
     import heyoka as hy
 
     dyn = symbolic_dynamics(system)
@@ -128,17 +133,25 @@ def _rk4_expressions(system: Any, steps: int) -> tuple[list[Any], list[Any]]:
     names = [str(s) for s in state]
 
     def rate(x: list[Any]) -> list[Any]:
-        return [hy.subs(e, dict(zip(names, x, strict=True))) for e in f]
+        return [hy.subs(e, dict(zip(names, x, strict=True))) for e in f[n:]]
+
+    def weighted(weights: tuple[float, ...], terms: list[list[Any]], i: int) -> Any:
+        total = hy.expression(0.0)
+        for w, term in zip(weights, terms, strict=False):
+            total = total + term[i] * w
+        return total
 
     x = state
     for _ in range(steps):
-        k1 = rate(x)
-        k2 = rate([a + 0.5 * h * b for a, b in zip(x, k1, strict=True)])
-        k3 = rate([a + 0.5 * h * b for a, b in zip(x, k2, strict=True)])
-        k4 = rate([a + h * b for a, b in zip(x, k3, strict=True)])
-        x = [
-            a + h * (b1 / 6.0 + b2 / 3.0 + b3 / 3.0 + b4 / 6.0)
-            for a, b1, b2, b3, b4 in zip(x, k1, k2, k3, k4, strict=True)
+        q, v = x[:n], x[n:]
+        vs, acc = [v], [rate(x)]
+        for row in RK4_A:
+            qi = [q[i] + h * weighted(row, vs, i) for i in range(n)]
+            vi = [v[i] + weighted(row, acc, i) * h for i in range(n)]
+            vs.append(vi)
+            acc.append(rate(qi + vi))
+        x = [q[i] + h * weighted(RK4_B, vs, i) for i in range(n)] + [
+            v[i] + weighted(RK4_B, acc, i) * h for i in range(n)
         ]
     return x, state
 

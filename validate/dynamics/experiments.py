@@ -8,7 +8,8 @@ ode45) at both tolerances, and two times are reported:
 
     separation   when the two initial conditions differ by more than RESEMBLANCE (rad);
     departure    when the phi = 3 run departs by more than RESEMBLANCE from the accurate solution
-                 of the hand equations (DOP853 at rtol 1e-12): how long the loose solver is right.
+                 of the hand equations (heyoka Taylor in double, dynamics/fast.py): how long the loose
+                 solver is right.
 
 Some printed forms are wrong, so every integration is bounded (validate/integrate.py `Budget`): a
 form that blows up or spends its budget is recorded with the reason ("diverged at t = ...",
@@ -23,6 +24,8 @@ import numpy as np
 
 from ...equations._forms import Explicit, Implicit, NotApplicable
 from ..engines.fastpath import scalar_rhs
+from ..engines.hand import HandSource
+from .fast import accurate_trajectory
 from .integrate import DEFAULT_BUDGET, Budget, first_exceeding, initial_state, integrate_rhs, outcome, time_grid
 
 PERTURBATION = 0.01  # rad, added to the last coordinate, as the notes perturb phi
@@ -81,7 +84,8 @@ def run_experiments(system: Any) -> dict[str, Any]:
     q0b[-1] += PERTURBATION
     forms = dynamic_forms(system)
 
-    accurate, accurate_info = _integrate(scalar_rhs(system), q0, v0, tau, t, method="DOP853", rtol=1e-12, atol=1e-12)
+    fast = accurate_trajectory(system, HandSource(system), q0, v0, tau, t)
+    accurate, accurate_info = fast.q, fast.stats
     runs: list[dict[str, Any]] = []
     for name, variant in forms:
         try:
@@ -108,7 +112,7 @@ def run_experiments(system: Any) -> dict[str, Any]:
             )
     return {
         "method": "scipy RK45 (Dormand-Prince 5(4), as Matlab's ode45), atol 1e-6",
-        "accurate": "hand equations, scipy DOP853 rtol 1e-12",
+        "accurate": f"hand equations, {fast.method}",
         "q0": q0,
         "v0": v0,
         "perturbed_coordinate": system.coordinates[-1],

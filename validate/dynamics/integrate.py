@@ -567,24 +567,3 @@ def first_exceeding(t: np.ndarray, err: np.ndarray, threshold: float) -> float |
     """The first sample time where err > threshold, or None if it never does."""
     above = np.nonzero(err > threshold)[0]
     return float(t[above[0]]) if len(above) else None
-
-
-def run_trajectories(
-    system: Any, sources: dict[str, Any], *, t_end: float = DEFAULT_T_END, dt_out: float = DEFAULT_DT_OUT
-) -> list[Trajectory]:
-    """The four sources from the system's initial state: scipy on the hand equations, on Pinocchio's
-    ABA and on the model's equations derived symbolically (same method and tolerances), MuJoCo RK4 at
-    the model's timestep."""
-    q0, v0 = initial_state(system)
-    tau = np.zeros(system.nv)
-    t = time_grid(t_end, dt_out)
-    return [
-        *([scipy_trajectory(system, sources["hand"], q0, v0, tau, t, **SCIPY_DEFAULT)] if "hand" in sources else []),
-        mujoco_trajectory(system, sources["mujoco"], q0, v0, tau, t, integrator="RK4"),
-        scipy_trajectory(system, sources["pinocchio"], q0, v0, tau, t, **SCIPY_DEFAULT),
-        *(
-            [scipy_trajectory(system, sources["symbolic"], q0, v0, tau, t, **SCIPY_DEFAULT)]
-            if "symbolic" in sources
-            else []
-        ),
-    ]

@@ -45,13 +45,12 @@ from typing import Any
 
 import numpy as np
 
-from ..engines.hand import solve_or_nan
+from ..engines.hand import HandSource, solve_or_nan
 from ..errors import HarnessError, unknown_name
+from .compiled import RK4_A, RK4_B, compiled_rk4, rk4_plan
 from .integrate import DEFAULT_BUDGET, EQUATION_ERRORS, MUJOCO_INTEGRATORS, Budget, Trajectory
 
 INTEGRATORS = MUJOCO_INTEGRATORS
-RK4_A = ((0.5,), (0.0, 0.5), (0.0, 0.0, 1.0))
-RK4_B = (1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0)
 DERIVATIVE_STEP = 1.0  # rad/s: central differences are exact for F quadratic in v, so a large step only cuts rounding
 
 
@@ -263,6 +262,54 @@ def _scalar_run(
         qs[k], vs[k] = q, v
 
 
+def compiled_steps(source: Any, integrator: str, steps: int) -> tuple[Any, int] | None:
+    """(cf, calls): MuJoCo's RK4 compiled (compiled.py `compiled_rk4`, cf(y, pars=[tau..., h]) does
+    `steps / calls` steps, on one state (2n,) or a batch (2n, N)) for the hand equations of the
+    source's system (a HandSource itself: a subclass may compute other dynamics than the module it
+    traces); None for any other source or integrator, or where tracing or compiling fails (the Python
+    scheme stands in). Measured (fast.py): 11x faster free runs, 35x faster batched windows, within
+    1.03 ulp of MuJoCo's windows."""
+    if integrator != "RK4" or type(source) is not HandSource:
+        return None
+    per_call, calls = rk4_plan(float(steps), 1.0)
+    try:
+        return compiled_rk4(source.system, per_call), calls
+    except Exception:  # noqa: BLE001 - equations heyoka cannot trace: the Python scheme, as before
+        return None
+
+
+_BLOCK = 16  # samples of a compiled run between blow-up and wall-time checks (a per-sample check cost 60%)
+
+
+def _compiled_run(
+    cf: Any, calls: int, h: float, tau: np.ndarray, qs: np.ndarray, vs: np.ndarray, budget: Budget, deadline: float
+) -> None:
+    """The compiled steps sample by sample; fills rows 1.. of qs, vs. Every _BLOCK samples (and at the
+    end) the block is checked against the blow-up bound and the deadline: raises _Blowup with the rows
+    from the first bad one on made NaN (a fixed-step run spends at most a block more after a blow-up)."""
+    n = qs.shape[1]
+    y = np.concatenate([qs[0], vs[0]])
+    pars = np.concatenate([tau, [h]])
+    bound, last = budget.max_abs_state, 1
+    for k in range(1, len(qs)):
+        for _ in range(calls):
+            y = cf(y, pars=pars)
+        qs[k], vs[k] = y[:n], y[n:]
+        if k % _BLOCK and k != len(qs) - 1:
+            continue
+        ok = (np.abs(qs[last : k + 1]) <= bound).all(axis=1) & (np.abs(vs[last : k + 1]) <= bound).all(axis=1)
+        if not ok.all():
+            bad = last + int(np.argmin(ok))
+            x = np.concatenate([qs[bad], vs[bad]])
+            qs[bad:], vs[bad:] = np.nan, np.nan
+            big = float(np.abs(x).max())
+            raise _Blowup("a non-finite state" if not np.isfinite(x).all() else f"|x| = {big:.3g} > {bound:g}")
+        if time.perf_counter() > deadline:
+            qs[k + 1 :], vs[k + 1 :] = np.nan, np.nan
+            raise _Blowup(f"wall time {budget.max_wall_s:g} s")
+        last = k + 1
+
+
 def _steps_per_sample(t: np.ndarray, timestep: float) -> int:
     dt_out = float(t[1] - t[0]) if len(t) > 1 else timestep
     steps = round(dt_out / timestep)
@@ -303,12 +350,16 @@ def mirror_trajectory(
     tau_b = np.asarray(tau, dtype=float)[None]
     qs, vs = np.full((len(t), system.nv), np.nan), np.full((len(t), system.nv), np.nan)
     qs[0], vs[0] = q[0], v[0]
-    fast = stepper._scalar(tau_b[0]) if integrator in ("RK4", "Euler") else None
+    compiled = compiled_steps(source, integrator, steps)
+    fast = stepper._scalar(tau_b[0]) if integrator in ("RK4", "Euler") and compiled is None else None
     deadline = time.perf_counter() + budget.max_wall_s
     status, reason = "ok", ""
     with np.errstate(all="ignore"):
         try:
-            if fast is not None:  # one state: the same operations in Python floats (IEEE, so the same rounding)
+            if compiled is not None:  # MuJoCo's RK4 compiled: the same operations, one call per steps
+                _compiled_run(*compiled, dt, tau_b[0], qs, vs, budget, deadline)
+                stepper.evaluations += 4 * steps * (len(t) - 1)
+            elif fast is not None:  # one state: the same operations in Python floats (IEEE, so the same rounding)
                 _scalar_run(fast, integrator, dt, steps, qs, vs, stepper, budget, deadline)
             else:
                 for k in range(1, len(t)):
@@ -333,7 +384,7 @@ def mirror_trajectory(
         reason = f"{reason} between t = {stopped_at:.6g} s and the next sample"
     return Trajectory(
         source.name,
-        f"mirror of MuJoCo {integrator} dt {dt:g}",
+        f"mirror of MuJoCo {integrator} dt {dt:g}" + (" (compiled)" if compiled is not None else ""),
         np.asarray(t, dtype=float).copy(),
         qs,
         vs,
@@ -358,10 +409,20 @@ def mirror_steps(
     timestep: float,
     steps: int = 1,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """`steps` mirror steps from each of N states at once, (N, n) in and out."""
-    stepper = Stepper(system, source, integrator=integrator, timestep=timestep)
+    """`steps` mirror steps from each of N states at once, (N, n) in and out (compiled in one call
+    per group of steps for a source `compiled_steps` accepts: non-finite rows where it blows up)."""
     q, v = np.array(q, dtype=float), np.array(v, dtype=float)
     tau = np.broadcast_to(np.asarray(tau, dtype=float), q.shape)
+    compiled = compiled_steps(source, integrator, steps) if len(q) else None
+    if compiled is not None:
+        cf, calls = compiled
+        n = q.shape[1]
+        y = np.ascontiguousarray(np.concatenate([q, v], axis=1).T)
+        pars = np.ascontiguousarray(np.concatenate([tau, np.full((len(q), 1), float(timestep))], axis=1).T)
+        for _ in range(calls):
+            y = cf(y, pars=pars)
+        return np.ascontiguousarray(y[:n].T), np.ascontiguousarray(y[n:].T)
+    stepper = Stepper(system, source, integrator=integrator, timestep=timestep)
     with np.errstate(all="ignore"):  # a wrong derivation's overflow is NaN in its rows, not a warning
         for _ in range(steps):
             q, v = stepper.step(q, v, tau)

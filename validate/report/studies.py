@@ -43,6 +43,7 @@ def section_bench(doc: Document, bench: dict[str, Any] | None) -> None:
         f"solution at t = 2 s and 10 s."
     )
     frontier_section(doc, bench.get("ratios", {}).get("default_path_vs_frontier"))
+    checks_section(doc, bench.get("ratios", {}).get("harness_checks_vs_fastest"))
     if bench.get("ratios"):
         doc.p(
             "The fast-harness ratios and MuJoCo's step costs are for the harness's developers: `lagrange-xval bench` "
@@ -122,6 +123,48 @@ def frontier_section(doc: Document, frontier: Any) -> None:
         "The fastest method measured at each error (error at t = 2 s <= eps, whole 10 ms grid) and the harness's "
         "default trajectory path (odeint on the hand equations) at the same error",
         ("system", "eps (rad)", "fastest", "default path", "default / fastest (CPU)"),
+        rows,
+    )
+
+
+def checks_section(doc: Document, checks: Any) -> None:
+    """The harness's own trajectory checks, each against the fastest run computing the same at its error."""
+    if not isinstance(checks, dict) or not checks.get("rows"):
+        return
+    rows = []
+    for e in checks["rows"]:
+        best = e.get("fastest")
+        fastest = (
+            f"{best.get('method')} ({best.get('setting')} {sci(best.get('value'))}): {sci(best.get('cpu_s'))} s"
+            if isinstance(best, dict)
+            else e.get("why") or "-"
+        )
+        if e.get("kind") == "windows":
+            error = f"{e.get('windows_ulps_vs_mujoco', float('nan')):.2f} ulp of MuJoCo's windows"
+        else:
+            error = sci(e.get("error_2s"))
+        ratio = e.get("ratio")
+        verdict = (
+            "no target: the path a user of scipy takes"
+            if e.get("kind") == "user"
+            else ("-" if e.get("passed") is None else "within" if e["passed"] else "beyond")
+        )
+        rows.append(
+            (
+                e.get("system"),
+                e.get("check"),
+                f"{e.get('method')}: {sci(e.get('cpu_s'))} s",
+                error,
+                fastest,
+                f"{ratio:.2f}x" if ratio is not None else "-",
+                verdict,
+            )
+        )
+    doc.table(
+        f"The harness's own trajectory checks against the fastest run computing the same thing at their error "
+        f"(CPU; target {checks.get('target')}x): accurate runs against any method on the same equations, a "
+        "mirror of RK4 against every run of that scheme at the model's timestep, the windows against MuJoCo's",
+        ("system", "check", "as `run` does it", "error at 2 s (rad)", "fastest at that error", "ratio", "target"),
         rows,
     )
 

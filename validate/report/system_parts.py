@@ -415,7 +415,7 @@ def experiment_figure(name: str, ex: dict[str, Any], runs: list[dict[str, Any]],
         fig, axes = new_figure(8.6, 0.6 + 1.7 * len(runs), nrows=len(runs), sharex=True, legend_right=LEGEND_W + 0.3)
         for ax, r in zip(axes, runs, strict=True):
             q, qb = series(r["q"]), series(r["q_perturbed"])
-            ax.plot(t, acc[:, -1], color="#9ca3af", linewidth=2.4, label="accurate\n(DOP853 1e-12)")
+            ax.plot(t, acc[:, -1], color="#9ca3af", linewidth=2.4, label="accurate\n(Taylor, double)")
             ax.plot(t, q[:, -1], color="#2563eb", linewidth=1.2, label="start as given")
             ax.plot(
                 t,

@@ -15,6 +15,7 @@ from ...parallel import executor_for
 from ...results import atomic_write, dumps, provenance
 from ...systems import System, key_of, load_all, system_names
 from .analysis import pareto_front, sweep, time_to_epsilon
+from .checks import checks_ratios, measure_checks
 from .plan import (
     ATOL_FACTOR,
     BUDGET,
@@ -90,6 +91,7 @@ def run_bench(
         for name in chosen:
             extra[f"pointwise {name}"] = (pointwise_task, (name, 5 if not quick else 3))
             extra[f"flags {name}"] = (flags_task, (name, 20_000 if not quick else 5_000, reps_small))
+            extra[f"checks {name}"] = (checks_task, (name, reps_small))
         rows, extras = sweep(
             prepared, specs, repeats=repeats, executor=pool, budget=budget, progress=progress, extra=extra
         )
@@ -138,6 +140,7 @@ def run_bench(
     duration = time.perf_counter() - start
     for r in rows:  # a person's systems are keyed by their files in the workers, named in the results
         r["system"] = named.get(r["system"], r["system"])
+    ratios["harness_checks_vs_fastest"] = checks_ratios([extras[f"checks {n}"] for n in chosen], rows)
     prepared = {named[k]: v for k, v in prepared.items()}
     chosen = [named[k] for k in chosen]
     return {
@@ -184,6 +187,10 @@ def pointwise_task(name: str, reps: int) -> dict[str, Any]:
 
 def flags_task(name: str, steps: int, reps: int) -> list[dict[str, Any]]:
     return flags_ratio(name, steps=steps, reps=reps)
+
+
+def checks_task(name: str, reps: int) -> dict[str, Any]:
+    return measure_checks(name, reps=reps)
 
 
 def write_bench(results: dict[str, Any], out: Path) -> Path:
@@ -323,6 +330,8 @@ def summary(results: dict[str, Any], console: Any = None) -> None:
             )
         )
     frontier_table(ratios["default_path_vs_frontier"], console)
+    if "harness_checks_vs_fastest" in ratios:
+        checks_table(ratios["harness_checks_vs_fastest"], console)
     table = Table(
         title="MuJoCo step cost: model's disable flags vs all enabled (us per step, CPU)", title_justify="left"
     )
@@ -366,6 +375,44 @@ def frontier_table(frontier: dict[str, Any], console: Any) -> None:
                 ratio,
                 cell(e["fastest_contender"]),
             )
+    console.print(table)
+
+
+def checks_table(checks: dict[str, Any], console: Any) -> None:
+    """The harness's own trajectory checks against the fastest run computing the same at their error."""
+    from rich.table import Table
+
+    table = Table(
+        title="The harness's own trajectory checks vs the fastest run computing the same at their error "
+        f"(CPU; target <= {checks['target']}x)",
+        title_justify="left",
+    )
+    for col in ("system", "check", "method", "time", "error at 2 s", "fastest at that error", "ratio", "verdict"):
+        table.add_column(col)
+    for e in checks["rows"]:
+        best = e["fastest"]
+        fastest = (
+            str(e["why"])
+            if best is None
+            else f"{best['method']} {fmt_setting(best['setting'], best['value'])}: {fmt_ms(best['cpu_s'])}"
+        )
+        if e["kind"] == "windows":
+            err = f"{e['windows_ulps_vs_mujoco']:.2f} ulp of MuJoCo's"
+        else:
+            err = f"{e['error_2s']:.1e}" if e["error_2s"] is not None else "-"
+        verdict = "-" if e["passed"] is None else ("pass" if e["passed"] else "FAIL")
+        if e["kind"] == "user":
+            verdict = "no target: stays as the user's path"
+        table.add_row(
+            e["system"],
+            e["check"],
+            e["method"],
+            fmt_ms(e["cpu_s"]),
+            err,
+            fastest,
+            f"{e['ratio']:.2f}x" if e["ratio"] is not None else "-",
+            verdict,
+        )
     console.print(table)
 
 

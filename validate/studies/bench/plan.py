@@ -108,6 +108,9 @@ POINTWISE_STATES = 10_000
 POINTWISE_TARGET = 1.5  # harness time / raw engine calls time
 
 
+CHECKS_TARGET = 1.5  # a harness trajectory check's time / the fastest run computing the same at its error
+
+
 DEFAULT_EPSILON = 1e-9  # rad at t = 2 s
 
 
@@ -197,10 +200,12 @@ def plan(*, quick: bool) -> list[dict[str, Any]]:
             specs += [step_spec("mujoco", "mujoco", integ, dt) for dt in QUICK_TIMESTEPS]
         specs += [scipy_spec("hand", "odeint", "LSODA", r) for r in QUICK_RTOLS]  # the default's driver
         specs += [scipy_spec("hand-cfunc", "odeint", "LSODA", r) for r in QUICK_RTOLS]
+        specs += [scipy_spec("pinocchio", "odeint", "LSODA", r) for r in QUICK_RTOLS]  # Pinocchio's check's driver
         specs += [taylor_spec(tol) for tol in QUICK_TAYLOR_TOLERANCES]
         specs += [taylor_spec(tol, "symbolic") for tol in QUICK_TAYLOR_TOLERANCES]
         specs += [step_spec("hand", "compiled_rk4", "RK4", dt) for dt in QUICK_TIMESTEPS]
         specs += [step_spec("mujoco", "rollout", "RK4", dt) for dt in QUICK_ROLLOUT_TIMESTEPS]
+        specs += [step_spec("pinocchio", "mirror", "RK4", dt) for dt in QUICK_ROLLOUT_TIMESTEPS]  # its check's
         specs += [step_spec("mujoco", "rollout_batch", "RK4", dt) for dt in QUICK_ROLLOUT_TIMESTEPS]
     else:
         for engine in ("hand", "pinocchio"):

@@ -1,0 +1,159 @@
+"""The harness's own fast trajectories: the fastest method the benchmark found at the error a check needs.
+
+`lagrange-xval bench` times every method against the long-double reference (studies/bench); the
+harness's own trajectory checks use what it found fastest at their error, and the bench's table
+"the harness's own checks against the fastest contender" measures each of them again:
+
+  taylor_trajectory  free runs of the hand equations or of the model's derived equations that must be
+                     accurate (the perturbed start beside the reference, the notes' experiments' accurate
+                     run, the symbolic source's free run): heyoka's adaptive Taylor method in double
+                     precision at FAST_TOLERANCE, not in compact mode, with no per-step callback. Measured
+                     on double_pendulum_point (0, 3) over 10 s: 0.44-0.53 ms for a 1e-14 error, where scipy's
+                     DOP853 at rtol 1e-12 takes ~30 ms for 1e-9 and odeint at rtol 1e-11 13 ms for 1e-8;
+                     the integrator compiles once per process (0.015 s with heyoka's code cache warm,
+                     0.1-0.4 s on a fresh machine) after the trace the reference and the flow already
+                     need.
+  mirror RK4 (hand)  MuJoCo's RK4 on the hand equations as compiled steps (dynamics/compiled.py
+                     `compiled_rk4`): 5.2 ms over 10 s at 1 ms against 60 ms for the generated Python
+                     scheme, the windows restarted from the reference 0.2 ms for 1000 states in one call
+                     against 7.7 ms; both within 1.03 ulp of MuJoCo's own windows (mirror.py).
+
+Where the equations cannot be traced (a module heyoka's expressions do not pass through), the scipy
+path is used instead and the trajectory's method says so; nothing is silently replaced.
+
+The scipy integration of the hand equations (integrate.scipy_trajectory with SCIPY_DEFAULT) stays
+beside them as the path a user of scipy takes; the bench reports how far it is from the frontier.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..errors import HarnessError
+from .compiled import taylor_grid, taylor_integrator
+from .integrate import (
+    DEFAULT_BUDGET,
+    DEFAULT_DT_OUT,
+    DEFAULT_T_END,
+    EQUATION_ERRORS,
+    SCIPY_DEFAULT,
+    Budget,
+    Trajectory,
+    initial_state,
+    mujoco_trajectory,
+    scipy_trajectory,
+    time_grid,
+)
+
+FAST_TOLERANCE = 1e-15  # heyoka's Taylor in double: ~1e-14 rad after 10 s on the double pendulum (bench)
+TAYLOR_SOURCES = ("hand", "symbolic")
+
+
+def taylor_method(tol: float = FAST_TOLERANCE) -> str:
+    return f"heyoka Taylor (double) tol {tol:g}"
+
+
+def taylor_trajectory(
+    system: Any,
+    source: str,
+    q0: Any,
+    v0: Any,
+    tau: Any,
+    t: np.ndarray,
+    *,
+    tol: float = FAST_TOLERANCE,
+    budget: Budget = DEFAULT_BUDGET,
+) -> Trajectory:
+    """A free run of the hand equations (source "hand") or of the model's derived equations ("symbolic",
+    integrated in the joints' coordinates and mapped to the equations' by JOINT_MAP) by heyoka's Taylor
+    method in double precision, on the grid `t`.
+
+    Never raises for what the equations compute: `stats` holds "steps", "status" (integrate.STATUSES),
+    "stopped_at" and "reason" as integrate.scipy_trajectory's do; the samples after a stop are NaN. The
+    budget bounds the Taylor steps (max_taylor_steps + taylor_steps_per_s x the span) and the state
+    (max_abs_state, checked on the grid): heyoka takes no per-step callback here, which would cost more
+    than the step itself.
+    """
+    if source not in TAYLOR_SOURCES:
+        raise HarnessError(f"no Taylor trajectory of the '{source}' source; valid: {', '.join(TAYLOR_SOURCES)}.")
+    n = system.nv
+    q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
+    A = system.joint_map if source == "symbolic" else None
+    if A is not None:  # q_notes = A q_joint; the inputs' work: tau_joint = A^T tau_notes
+        q0, v0, tau = np.linalg.solve(A, q0), np.linalg.solve(A, v0), A.T @ tau
+    ta = taylor_integrator(system, tol, source=source)
+    span = abs(float(t[-1] - t[0]))
+    max_steps = int(budget.max_taylor_steps + budget.taylor_steps_per_s * span)
+    try:
+        word, states, steps = taylor_grid(ta, q0, v0, tau, t, max_steps=max_steps)
+    except EQUATION_ERRORS as exc:  # e.g. a non-finite time after a blow-up
+        word, states, steps = f"failed ({exc})", np.full((len(t), 2 * n), np.nan), 0
+    status, reason, k = "ok", "", len(t)
+    if not np.abs(states).max() <= budget.max_abs_state:  # NaN fails too: rows not reached
+        big = ~(np.abs(states) <= budget.max_abs_state).all(axis=1)
+        k = int(np.argmax(big))
+        states[k:] = np.nan
+        if word == "ok" or "nf_state" in word:
+            status, reason = "diverged", f"diverged at t = {t[k]:.6g} s"
+        elif "step_limit" in word:
+            status, reason = "stopped: budget", f"stopped: budget: {steps} Taylor steps by t = {t[k]:.6g} s"
+        else:
+            status, reason = "failed", f"heyoka stopped ({word}) at t = {t[k]:.6g} s"
+    q, v = states[:, :n], states[:, n:]
+    if A is not None:
+        q, v = q @ A.T, v @ A.T
+    stats = {
+        "steps": steps,
+        "status": status,
+        "stopped_at": float(t[max(k - 1, 0)]),
+        "reason": reason,
+    }
+    return Trajectory(source, taylor_method(tol), np.array(t, dtype=float), q, v, stats)
+
+
+def accurate_trajectory(
+    system: Any,
+    source: Any,
+    q0: Any,
+    v0: Any,
+    tau: Any,
+    t: np.ndarray,
+    *,
+    budget: Budget = DEFAULT_BUDGET,
+    fallback: dict[str, Any] | None = None,
+) -> Trajectory:
+    """The fastest accurate free run of a source the Taylor method can integrate (`taylor_trajectory`);
+    scipy (`fallback`, default SCIPY_DEFAULT) for any other source, or where the equations cannot be
+    turned into heyoka's expressions, in which case `stats["fast_path"]` says why."""
+    why = None
+    if source.name in TAYLOR_SOURCES:
+        try:
+            taylor_integrator(system, FAST_TOLERANCE, source=source.name)  # built once, then looked up
+        except Exception as exc:  # noqa: BLE001 - any failure to trace or compile: the scipy path, said
+            why = f"not available ({type(exc).__name__}: {exc})".strip()
+        else:
+            return taylor_trajectory(system, source.name, q0, v0, tau, t, budget=budget)
+    traj = scipy_trajectory(system, source, q0, v0, tau, t, **(fallback or SCIPY_DEFAULT), budget=budget)
+    if why is not None:
+        traj.stats["fast_path"] = why
+    return traj
+
+
+def run_trajectories(
+    system: Any, sources: dict[str, Any], *, t_end: float = DEFAULT_T_END, dt_out: float = DEFAULT_DT_OUT
+) -> list[Trajectory]:
+    """The sources' free runs from the system's initial state: scipy (SCIPY_DEFAULT) on the hand
+    equations, the path a user of scipy takes, and on Pinocchio's ABA (an engine's right-hand side
+    called from Python: odeint is its fastest driver, bench); MuJoCo's RK4 at the model's timestep; the
+    model's derived equations by the fast path (`accurate_trajectory`)."""
+    q0, v0 = initial_state(system)
+    tau = np.zeros(system.nv)
+    t = time_grid(t_end, dt_out)
+    return [
+        *([scipy_trajectory(system, sources["hand"], q0, v0, tau, t, **SCIPY_DEFAULT)] if "hand" in sources else []),
+        mujoco_trajectory(system, sources["mujoco"], q0, v0, tau, t, integrator="RK4"),
+        scipy_trajectory(system, sources["pinocchio"], q0, v0, tau, t, **SCIPY_DEFAULT),
+        *([accurate_trajectory(system, sources["symbolic"], q0, v0, tau, t)] if "symbolic" in sources else []),
+    ]

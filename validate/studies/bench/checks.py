@@ -1,0 +1,230 @@
+"""The harness's own trajectory checks against the fastest method at the same error.
+
+`lagrange-xval run` integrates more than the hand equations' scipy run (the path a user of scipy
+takes, which stays and is compared with the frontier in ratios.frontier_ratios): the accurate runs of
+the hand and derived equations, the mirrors of MuJoCo's RK4 and their windows restarted from the
+reference, Pinocchio's free run. Each is timed here as `run` calls it (a worker task; compiling is
+done before the clock, as for the sweep's contenders), its error measured against the reference as
+the sweep measures every row's, and set against the fastest run of the sweep that computes the same
+thing at least as accurately:
+
+  accurate runs        any method on the same equations whose error at t = 2 s is at most the check's
+                       (the hand equations: "hand" and "hand-cfunc" rows; the derived: "symbolic" rows);
+  Pinocchio's run      any method on Pinocchio's ABA reaching the check's error ("pinocchio" rows);
+  a mirror of RK4      a mirror must reproduce the scheme, not merely reach its error: every run of
+                       MuJoCo's RK4 at the model's timestep on the same equations (the hand mirror: the
+                       compiled RK4 contender; Pinocchio's: the sweep's Pinocchio mirror);
+  the mirror's windows one window (dt_out) from each reference sample: MuJoCo's own windows
+                       (mj_step from each state, engines/mujoco.py), timed in the same task.
+
+The hand equations' scipy run is listed beside them with its ratio and no target. The mirrors of
+MuJoCo's Euler are not listed: no other run of the sweep integrates the same equations with that
+scheme (MuJoCo's own Euler integrates MuJoCo's equations).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from ...dynamics.fast import accurate_trajectory
+from ...dynamics.integrate import SCIPY_DEFAULT, scipy_trajectory, time_grid
+from ...dynamics.mirror import mirror_steps, mirror_trajectory, mujoco_steps
+from ...dynamics.reference import reference_trajectory
+from .plan import CHECKS_TARGET, GRID_DRIVERS, MAX_EXECUTIONS, MIN_TIMED
+from .ratios import interleaved_medians
+from .runners import case_for, resources
+
+SAME_EQUATIONS = {"hand": ("hand", "hand-cfunc"), "symbolic": ("symbolic",), "pinocchio": ("pinocchio",)}
+
+
+def _error_2s(t: np.ndarray, q: np.ndarray, ref_q: np.ndarray) -> float:
+    k = int(np.argmin(np.abs(t - 2.0)))
+    return float(np.abs(q[k] - ref_q[k]).max())
+
+
+def _looped(fn: Callable[[], Any]) -> tuple[Callable[[], None], int]:
+    """`fn` executed back to back often enough to last MIN_TIMED (as the sweep times its short runs),
+    and how many times: the execution count is set from one untimed call."""
+    w0 = time.perf_counter()
+    fn()
+    once = time.perf_counter() - w0
+    k = max(1, min(MAX_EXECUTIONS, math.ceil(MIN_TIMED / max(once, 1e-9))))
+
+    def run() -> None:
+        for _ in range(k):
+            fn()
+
+    return run, k
+
+
+def measure_checks(name: str, *, reps: int) -> dict[str, Any]:
+    """Each of the harness's own trajectory checks on one system (a worker task): CPU time (median of
+    `reps` interleaved repeats of back-to-back executions lasting MIN_TIMED, per execution, after
+    untimed calls that compile what they need), error at t = 2 s
+    against the reference, and what it is compared with (`kind`, see the module docstring)."""
+    system, sources = resources(name)
+    case = case_for(system)
+    t = time_grid(case["t_end"], case["dt_out"])
+    q0, v0, tau = (np.asarray(case[k], dtype=float) for k in ("q0", "v0", "tau"))
+    ref, _ = reference_trajectory(system, q0, v0, tau, t)
+    dt = float(sources["mujoco"].m.opt.timestep)
+    steps = round(float(t[1] - t[0]) / dt)
+    hand = sources["hand"]
+    jobs: dict[str, tuple[str, str, Callable[[], Any]]] = {
+        "hand accurate run": ("hand", "accurate", lambda: accurate_trajectory(system, hand, q0, v0, tau, t)),
+        "hand scipy run (the user's path)": (
+            "hand",
+            "user",
+            lambda: scipy_trajectory(system, hand, q0, v0, tau, t, **SCIPY_DEFAULT),
+        ),
+        "hand mirror RK4": (
+            "hand",
+            "scheme",
+            lambda: mirror_trajectory(system, hand, q0, v0, tau, t, integrator="RK4", timestep=dt),
+        ),
+        "pinocchio mirror RK4": (
+            "pinocchio",
+            "scheme",
+            lambda: mirror_trajectory(system, sources["pinocchio"], q0, v0, tau, t, integrator="RK4", timestep=dt),
+        ),
+        "pinocchio scipy run": (
+            "pinocchio",
+            "accurate",
+            lambda: scipy_trajectory(system, sources["pinocchio"], q0, v0, tau, t, **SCIPY_DEFAULT),
+        ),
+    }
+    if "symbolic" in sources:
+        jobs["symbolic accurate run"] = (
+            "symbolic",
+            "accurate",
+            lambda: accurate_trajectory(system, sources["symbolic"], q0, v0, tau, t),
+        )
+    qw, vw = ref.q[:-1], ref.v[:-1]
+    windows = {
+        "hand mirror RK4 windows": lambda: mirror_steps(
+            system, hand, qw, vw, tau, integrator="RK4", timestep=dt, steps=steps
+        ),
+        "MuJoCo RK4 windows": lambda: mujoco_steps(
+            sources["mujoco"], qw, vw, tau, integrator="RK4", timestep=dt, steps=steps
+        ),
+    }
+    outputs = {k: fn() for k, (_, _, fn) in jobs.items()}  # compiles, and gives the errors
+    ends = {k: fn() for k, fn in windows.items()}
+    loops = {k: _looped(fn) for k, fn in {**{k: fn for k, (_, _, fn) in jobs.items()}, **windows}.items()}
+    medians = interleaved_medians({k: run for k, (run, _) in loops.items()}, reps)
+    timed = {k: {c: medians[k][c] / loops[k][1] for c in ("cpu_s", "wall_s")} for k in loops}
+    out = []
+    for label, (engine, kind, _) in jobs.items():
+        tr = outputs[label]
+        out.append(
+            {
+                "system": system.name,
+                "check": label,
+                "engine": engine,
+                "kind": kind,
+                "method": tr.method,
+                "cpu_s": timed[label]["cpu_s"],
+                "wall_s": timed[label]["wall_s"],
+                "error_2s": _error_2s(t, tr.q, ref.q),
+                "status": tr.stats.get("status", "ok"),
+                "timestep": dt if kind == "scheme" else None,
+            }
+        )
+    ulp = float(np.spacing(np.abs(np.concatenate([ref.q, ref.v], axis=1)).max()))
+    mine, theirs = ends["hand mirror RK4 windows"], ends["MuJoCo RK4 windows"]
+    out.append(
+        {
+            "system": system.name,
+            "check": "hand mirror RK4 windows",
+            "engine": "hand",
+            "kind": "windows",
+            "method": f"{len(qw)} windows of {steps} steps, compiled RK4 in one batched call",
+            "cpu_s": timed["hand mirror RK4 windows"]["cpu_s"],
+            "wall_s": timed["hand mirror RK4 windows"]["wall_s"],
+            "error_2s": None,
+            "status": "ok",
+            "timestep": dt,
+            "windows_ulps_vs_mujoco": float(
+                max(np.abs(mine[0] - theirs[0]).max(), np.abs(mine[1] - theirs[1]).max()) / ulp
+            ),
+            "mujoco_windows_cpu_s": timed["MuJoCo RK4 windows"]["cpu_s"],
+        }
+    )
+    return {"system": system.name, "rows": out, "repeats": reps}
+
+
+def _fastest(check: dict[str, Any], rows: list[dict[str, Any]]) -> dict[str, Any] | None:
+    """The sweep's fastest run computing what `check` computes (module docstring), or None."""
+    mine = [
+        r
+        for r in rows
+        if r["system"] == check["system"]
+        and r["status"] == "ok"
+        and r.get("cpu_s") is not None
+        and r["engine"] in SAME_EQUATIONS[check["engine"]]
+        and r["driver"] in GRID_DRIVERS
+    ]
+    if check["kind"] == "scheme":
+        same = [
+            r
+            for r in mine
+            if r.get("scheme") == "RK4"
+            and r.get("setting") == "timestep"
+            and np.isclose(r["value"], check["timestep"], rtol=1e-9)
+        ]
+    else:
+        err = check["error_2s"]
+        same = [r for r in mine if r["error_2s"] is not None and err is not None and r["error_2s"] <= err]
+    return min(same, key=lambda r: r["cpu_s"]) if same else None
+
+
+def checks_ratios(measured: list[dict[str, Any]], rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """Per check: the ratio of its CPU time to the fastest comparable run (the sweep's, or MuJoCo's
+    windows for the windows); the target CHECKS_TARGET applies to every check but the user's path."""
+    entries = []
+    for per_system in measured:
+        for check in per_system["rows"]:
+            best: dict[str, Any] | None
+            if check["kind"] == "windows":
+                best = {
+                    "method": "MuJoCo mj_step windows",
+                    "setting": "timestep",
+                    "value": check["timestep"],
+                    "cpu_s": check["mujoco_windows_cpu_s"],
+                    "error_2s": None,
+                }
+            else:
+                found = _fastest(check, rows)
+                best = (
+                    None
+                    if found is None
+                    else {k: found[k] for k in ("method", "setting", "value", "cpu_s", "error_2s")}
+                )
+            ratio = check["cpu_s"] / best["cpu_s"] if best and best["cpu_s"] else None
+            targeted = check["kind"] != "user"
+            entries.append(
+                {
+                    **check,
+                    "fastest": best,
+                    "ratio": ratio,
+                    "target": CHECKS_TARGET if targeted else None,
+                    "passed": (ratio is not None and ratio <= CHECKS_TARGET) if targeted else None,
+                    "why": None if best else "no run of the sweep computes the same thing at this error",
+                }
+            )
+    judged = [e for e in entries if e["target"] is not None and e["ratio"] is not None]
+    return {
+        "value": max((e["ratio"] for e in judged), default=None),
+        "target": CHECKS_TARGET,
+        "passed": bool(judged) and all(e["passed"] for e in judged),
+        "rows": entries,
+        "how": "CPU time (median of interleaved repeats) of each check as `run` calls it, over the CPU time of "
+        "the sweep's fastest run computing the same thing at least as accurately (error at t = 2 s against "
+        "the long-double reference; for a mirror, the same scheme at the same timestep; for the windows, "
+        "MuJoCo's own windows timed in the same task); compiling is not timed, as for the sweep's contenders",
+    }
