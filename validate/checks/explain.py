@@ -16,11 +16,19 @@ A fit is kept only if it reproduces the user's numbers to near round-off at stat
 fit (another half of the samples); it is then stated symbolically, in the model's parameter names:
 "M[theta, theta]: yours = expected - 2*c_link2*l_link2*m_link2*cos(phi)". Where no simple form
 reproduces the numbers, the statement says so rather than guess.
+
+Simplifying and fitting cost seconds per entry (2.2 s per printed form of the double pendulum, most
+of a warm `run`); each entry's record is kept in the cache (kind "explain") under a hash of everything
+it is computed from: the harness's code, the expected expression and its arguments, the sample states
+and parameter values, and the user's numbers at those states (what the printed form computes, not
+where it came from: an equations module changed in memory never shares an entry).
 """
 
 from __future__ import annotations
 
+import hashlib
 import itertools
+import json
 import re
 from dataclasses import dataclass
 from fractions import Fraction
@@ -28,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from ..dynamics import cache
 from ..engines.derivation import axis_rotation, parameter_values
 from ..engines.readable import in_coordinates, tidy, transformed
 from ..engines.symbolic import derivation_of
@@ -216,9 +225,8 @@ def explain_entries(
 ) -> list[dict[str, Any]]:
     """One record per disagreeing item (term, entry label, expected sympy expression in the named
     coordinates, user(system, q, v) -> one value per state): the expected expression and the symbolic
-    difference the user's numbers fit (verified at held-back states), or that none fits."""
-    import sympy as sp
-
+    difference the user's numbers fit (verified at held-back states), or that none fits; each record
+    read from the cache where it was computed before."""
     d = derivation_of(system)
     symbols = _symbols(tuple(system.coordinates))
     samples = _Samples([system, *probe_systems], d, symbols, seed)
@@ -229,22 +237,63 @@ def explain_entries(
                 mine = np.concatenate([np.asarray(user(s, st.q, st.v), dtype=float) for s, st in samples.states])
         except Exception:  # noqa: BLE001 - the user's code; an entry it cannot give is not explained
             continue
-        expected = tidy(entry, symbols["q"])
-        exp_num = samples.evaluate([expected])[:, 0]
-        scale = max(float(np.abs(exp_num).max()), float(np.abs(mine).max()), 1e-300)
-        D = mine - exp_num
-        if not np.all(np.isfinite(D)) or float(np.abs(D).max()) <= 1e-9 * scale:
-            continue
-        record = {
-            "term": term,
-            "entry": label,
-            "expected": sp.sstr(expected),
-            **_fit(expected, exp_num, D, scale, samples, symbols),
-        }
-        named = {str(x) for x in sp.sympify(expected).free_symbols} | set(re.findall(r"\w+", record["statement"]))
-        record["symbols"] = {str(k): v for k, v in d.parameters.items() if str(k) in named}
-        out.append(record)
+        key = _entry_key(d, samples, term, label, entry, mine)
+        found = _cached(key)
+        record = found["record"] if found is not None else _explain_entry(d, samples, symbols, term, label, entry, mine)
+        if found is None:
+            _keep(key, record)
+        if record is not None:
+            out.append(record)
     return out
+
+
+def _explain_entry(
+    d: Any, samples: _Samples, symbols: dict[str, list[Any]], term: str, label: str, entry: Any, mine: np.ndarray
+) -> dict[str, Any] | None:
+    """One entry's record, or None where the user's numbers equal the expected entry's."""
+    import sympy as sp
+
+    expected = tidy(entry, symbols["q"])
+    exp_num = samples.evaluate([expected])[:, 0]
+    scale = max(float(np.abs(exp_num).max()), float(np.abs(mine).max()), 1e-300)
+    D = mine - exp_num
+    if not np.all(np.isfinite(D)) or float(np.abs(D).max()) <= 1e-9 * scale:
+        return None
+    record = {
+        "term": term,
+        "entry": label,
+        "expected": sp.sstr(expected),
+        **_fit(expected, exp_num, D, scale, samples, symbols),
+    }
+    named = {str(x) for x in sp.sympify(expected).free_symbols} | set(re.findall(r"\w+", record["statement"]))
+    record["symbols"] = {str(k): v for k, v in d.parameters.items() if str(k) in named}
+    return record
+
+
+def _entry_key(d: Any, samples: _Samples, term: str, label: str, entry: Any, mine: np.ndarray) -> str:
+    """A hash of everything an entry's record is computed from (module docstring)."""
+    import sympy as sp
+
+    h = hashlib.sha256((cache.harness_hash() + "\0").encode())
+    text = [term, label, sp.srepr(entry), [str(a) for a in samples.args], sorted(map(str, d.parameters.items()))]
+    h.update(json.dumps(text).encode() + b"\0")
+    for a in (samples.q, samples.v, samples.p, mine):
+        x = np.ascontiguousarray(a, dtype=float)
+        h.update(f"{x.shape}".encode() + x.tobytes())
+    return h.hexdigest()
+
+
+def _cached(key: str) -> dict[str, Any] | None:
+    """{"record": ...} as kept for `key`, or None (not kept, or no cache)."""
+    where = cache.folder(cache.DEFAULT, "explain")
+    found = None if where is None else cache.load(where / f"{key[:32]}.npz", key)
+    return found[1] if found is not None and "record" in found[1] else None
+
+
+def _keep(key: str, record: dict[str, Any] | None) -> None:
+    where = cache.folder(cache.DEFAULT, "explain")
+    if where is not None:
+        cache.store(where / f"{key[:32]}.npz", key, {}, {"record": record})
 
 
 def _user_part(part: str, index: tuple[int, ...]) -> Any:
