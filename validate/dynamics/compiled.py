@@ -40,7 +40,11 @@ from .reference import param_key, symbolic_dynamics
 # MuJoCo's RK4 tableau (`mj_RungeKutta(m, d, 4)`), used by the mirrors (mirror.py) and the compiled steps
 RK4_A = ((0.5,), (0.0, 0.5), (0.0, 0.0, 1.0))
 RK4_B = (1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0)
-RK4_STEPS_PER_CALL = 10  # steps composed into one compiled call (compile time grows with it)
+RK4_STEPS_PER_CALL = 10
+# The harness's own runs (fast.py, mirror.py): unrolled Taylor code and RK4_STEPS_PER_CALL steps per
+# call up to this many joints; beyond, compact code and 2 steps per call (unrolled code of a 3-joint
+# arm's derived equations compiled in 13.7 s on a fresh machine, compact in 1.3 s).
+UNROLLED_MAX_DOF = 2  # steps composed into one compiled call (compile time grows with it)
 _CACHE: dict[tuple[Any, ...], Any] = {}
 
 
@@ -169,12 +173,13 @@ def compiled_rk4(system: Any, steps: int) -> Any:
     return _CACHE[key]
 
 
-def rk4_plan(dt_out: float, timestep: float) -> tuple[int, int]:
-    """(steps per compiled call, calls per output sample) for RK4 at `timestep` sampled every `dt_out`."""
+def rk4_plan(dt_out: float, timestep: float, most: int = RK4_STEPS_PER_CALL) -> tuple[int, int]:
+    """(steps per compiled call, calls per output sample) for RK4 at `timestep` sampled every `dt_out`,
+    at most `most` steps per call."""
     per_sample = round(dt_out / timestep)
     if per_sample < 1 or not np.isclose(per_sample * timestep, dt_out, rtol=1e-9, atol=0.0):
         raise HarnessError(f"the timestep {timestep} must divide the output step {dt_out}.")
-    per_call = max(k for k in range(1, min(per_sample, RK4_STEPS_PER_CALL) + 1) if per_sample % k == 0)
+    per_call = max(k for k in range(1, min(per_sample, most) + 1) if per_sample % k == 0)
     return per_call, per_sample // per_call
 
 

@@ -7,12 +7,15 @@ harness's own trajectory checks use what it found fastest at their error, and th
   taylor_trajectory  free runs of the hand equations or of the model's derived equations that must be
                      accurate (the perturbed start beside the reference, the notes' experiments' accurate
                      run, the symbolic source's free run): heyoka's adaptive Taylor method in double
-                     precision at FAST_TOLERANCE, not in compact mode, with no per-step callback. Measured
-                     on double_pendulum_point (0, 3) over 10 s: 0.44-0.53 ms for a 1e-14 error, where scipy's
-                     DOP853 at rtol 1e-12 takes ~30 ms for 1e-9 and odeint at rtol 1e-11 13 ms for 1e-8;
-                     the integrator compiles once per process (0.015 s with heyoka's code cache warm,
-                     0.1-0.4 s on a fresh machine) after the trace the reference and the flow already
-                     need.
+                     precision at FAST_TOLERANCE with no per-step callback. Measured on
+                     double_pendulum_point (0, 3) over 10 s: 0.44-0.53 ms for a 1e-14 error, where scipy's
+                     DOP853 at rtol 1e-12 takes ~30 ms for 1e-9 and odeint at rtol 1e-11 13 ms for 1e-8.
+                     The integrator compiles once per process after the trace the reference and the flow
+                     already need; heyoka keeps the code on disk, so later processes load it (0.015 s).
+                     Up to UNROLLED_MAX_DOF joints the code is unrolled (the fastest per run: compact mode
+                     is 1.2-1.9x slower); beyond, compact, because unrolled code compiles too slowly to pay
+                     for a handful of runs: on a fresh machine the 3-joint spatial arm's derived equations
+                     took 13.7 s unrolled against 1.3 s compact (the notes' 2-joint systems 0.3-0.9 s).
   mirror RK4 (hand)  MuJoCo's RK4 on the hand equations as compiled steps (dynamics/compiled.py
                      `compiled_rk4`): 5.2 ms over 10 s at 1 ms against 60 ms for the generated Python
                      scheme, the windows restarted from the reference 0.2 ms for 1000 states in one call
@@ -32,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import HarnessError
-from .compiled import taylor_grid, taylor_integrator
+from .compiled import UNROLLED_MAX_DOF, taylor_grid, taylor_integrator
 from .integrate import (
     DEFAULT_BUDGET,
     DEFAULT_DT_OUT,
@@ -83,7 +86,7 @@ def taylor_trajectory(
     A = system.joint_map if source == "symbolic" else None
     if A is not None:  # q_notes = A q_joint; the inputs' work: tau_joint = A^T tau_notes
         q0, v0, tau = np.linalg.solve(A, q0), np.linalg.solve(A, v0), A.T @ tau
-    ta = taylor_integrator(system, tol, source=source)
+    ta = taylor_integrator(system, tol, source=source, compact=system.nv > UNROLLED_MAX_DOF)
     span = abs(float(t[-1] - t[0]))
     max_steps = int(budget.max_taylor_steps + budget.taylor_steps_per_s * span)
     try:
@@ -130,7 +133,7 @@ def accurate_trajectory(
     why = None
     if source.name in TAYLOR_SOURCES:
         try:
-            taylor_integrator(system, FAST_TOLERANCE, source=source.name)  # built once, then looked up
+            taylor_integrator(system, FAST_TOLERANCE, source=source.name, compact=system.nv > UNROLLED_MAX_DOF)
         except Exception as exc:  # noqa: BLE001 - any failure to trace or compile: the scipy path, said
             why = f"not available ({type(exc).__name__}: {exc})".strip()
         else:
