@@ -17,7 +17,10 @@ thing at least as accurately:
   the mirror's windows one window (dt_out) from each reference sample: MuJoCo's own windows
                        (mj_step from each state, engines/mujoco.py), timed in the same task.
 
-The hand equations' scipy run is listed beside them with its ratio and no target. The mirrors of
+The hand equations' scipy run is listed beside them with its ratio and no target. Beyond
+compiled.UNROLLED_MAX_DOF joints the harness compiles its Taylor code compact (fast.py: unrolled code
+compiles too slowly to pay for a handful of runs), while the sweep's Taylor rows are unrolled: there
+the accurate runs' ratio is expected at 1.2-1.9x, the price of a bounded compile. The mirrors of
 MuJoCo's Euler are not listed: no other run of the sweep integrates the same equations with that
 scheme (MuJoCo's own Euler integrates MuJoCo's equations).
 """
