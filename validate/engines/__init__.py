@@ -79,8 +79,10 @@ class MappedSource:
 
         return f
 
-    def evaluate(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray) -> dict[str, np.ndarray]:
-        out = self.inner.evaluate(self._j(q), self._j(v), tau @ self.A, self._j(a_ref))
+    def evaluate(
+        self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray, **options: Any
+    ) -> dict[str, np.ndarray]:
+        out = self.inner.evaluate(self._j(q), self._j(v), tau @ self.A, self._j(a_ref), **options)
         out["M"] = self.Ainv.T @ out["M"] @ self.Ainv
         for k in ("bias", "passive", "tau_inverse"):
             out[k] = self._force(out[k])

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -40,3 +41,15 @@ class Source(Protocol):
     def inverse(self, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray: ...
     def energies(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
     def body_positions(self, q: np.ndarray) -> np.ndarray: ...
+
+
+# An engine's batch is split over threads only from this many states per thread (a thread's share of
+# the batch's set-up is then small); results do not depend on the split (tests/test_batch.py).
+THREAD_MIN_STATES = 1024
+
+
+def batch_threads(n_states: int) -> int:
+    """Threads for an engine's batch of `n_states` states (MuJoCo's `mujoco.batch` runs them without
+    the GIL): one per core this process may run on, fewer where the batch is small."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return max(1, min(cores, n_states // THREAD_MIN_STATES))

@@ -85,8 +85,9 @@ def raw_mujoco(system: Any, source: Any, states: Any, a_ref: np.ndarray) -> dict
 
 
 def raw_pinocchio(system: Any, source: Any, states: Any, a_ref: np.ndarray) -> dict[str, np.ndarray]:
-    """Per state: crba, nonLinearEffects, aba, rnea, computeKineticEnergy, computePotentialEnergy (which
-    also places the joints, read for the body poses). The same outputs as `PinocchioSource.evaluate`."""
+    """Per state: crba, rnea at zero acceleration (the bias), aba, rnea, computeKineticEnergy,
+    computePotentialEnergy (which also places the joints, read for the body poses). The same outputs as
+    `PinocchioSource.evaluate`."""
     import pinocchio as pin
 
     qj, vj, aj, tauj = joint_coordinates(system, states, a_ref)
@@ -97,6 +98,8 @@ def raw_pinocchio(system: Any, source: Any, states: Any, a_ref: np.ndarray) -> d
     vi, qi = pn.vidx, pn.qidx
     ix = np.ix_(vi, vi)
     passive = -pn.damping * vj
+    zero = np.zeros(model.nv)
+    world = pin.Convention.WORLD  # as the harness's batched ABA
     joints = pn.joint_of_body
     levers = [model.inertias[j].lever for j in joints]
     frame_rot = [model.frames[f].placement.rotation for f in pn.frames]
@@ -108,7 +111,7 @@ def raw_pinocchio(system: Any, source: Any, states: Any, a_ref: np.ndarray) -> d
     )
     kin, pot = np.empty(n_states), np.empty(n_states)
     pos, rot = np.empty((n_states, len(joints), 3)), np.empty((n_states, len(joints), 3, 3))
-    crba, nle, aba, rnea = pin.crba, pin.nonLinearEffects, pin.aba, pin.rnea
+    crba, aba, rnea = pin.crba, pin.aba, pin.rnea
     kinetic, potential = pin.computeKineticEnergy, pin.computePotentialEnergy
     for i in range(n_states):
         qfull[qi] = qj[i]
@@ -117,8 +120,8 @@ def raw_pinocchio(system: Any, source: Any, states: Any, a_ref: np.ndarray) -> d
         afull[vi] = aj[i]
         full = crba(model, data, qfull)
         M[i] = (np.triu(full) + np.triu(full, 1).T)[ix]
-        bias[i] = nle(model, data, qfull, vfull)[vi]
-        qacc[i] = aba(model, data, qfull, vfull, ffull)[vi]
+        bias[i] = rnea(model, data, qfull, vfull, zero)[vi]  # the non-linear effects: RNEA at a = 0
+        qacc[i] = aba(model, data, qfull, vfull, ffull, convention=world)[vi]
         tau_inv[i] = rnea(model, data, qfull, vfull, afull)[vi]
         kin[i] = kinetic(model, data, qfull, vfull)
         pot[i] = potential(model, data, qfull)
@@ -138,3 +141,15 @@ def raw_pinocchio(system: Any, source: Any, states: Any, a_ref: np.ndarray) -> d
         "body_rotations": rot,
     }
     return to_notes(system, out)
+
+
+def raw_symbolic(system: Any, source: Any, states: Any) -> list[Any]:
+    """The derived equations' generated numpy code (dynamics and the bodies' kinematics) called once on
+    the batch, nothing unpacked or solved: the least the symbolic source can cost."""
+    sym = getattr(source, "inner", source)
+    q, v, _, _ = joint_coordinates(system, states, states.q)
+    out = []
+    for part in ("dynamics", "kinematics"):
+        fn, params = sym.generated(part)
+        out.append(fn(*q.T, *v.T, *params))
+    return out

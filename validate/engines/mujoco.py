@@ -14,7 +14,68 @@ import mujoco
 import numpy as np
 
 from ..errors import HarnessError, unknown_name
-from .base import INTEGRATOR_ENUMS, MUJOCO_INTEGRATORS, Kinematics
+from .base import INTEGRATOR_ENUMS, MUJOCO_INTEGRATORS, Kinematics, batch_threads
+
+# What a batch sets per state with one mj_setState call (in this order in a state row).
+STATE_SPEC = int(
+    mujoco.mjtState.mjSTATE_QPOS
+    | mujoco.mjtState.mjSTATE_QVEL
+    | mujoco.mjtState.mjSTATE_CTRL
+    | mujoco.mjtState.mjSTATE_QFRC_APPLIED
+)
+# From this many states mj_forward runs in MuJoCo's batch (making one costs about 0.5 ms, 400 states' loop).
+BATCH_MIN_STATES = 256
+OUTPUTS = ("M", "bias", "passive", "qacc", "tau_inverse", "T", "V", "body_positions", "body_rotations")
+# Each output's array in MjData, copied whole per state: (mjData field, row shape from the model).
+RAW_OF = {
+    "M": "M",
+    "bias": "qfrc_bias",
+    "passive": "qfrc_passive",
+    "qacc": "qacc",
+    "tau_inverse": "qfrc_inverse",
+    "T": "energy",
+    "V": "energy",
+    "body_positions": "xipos",
+    "body_rotations": "xmat",
+}
+ROW_SHAPES = {
+    "M": lambda m: (m.nv, m.nv),
+    "qfrc_bias": lambda m: (m.nv,),
+    "qfrc_passive": lambda m: (m.nv,),
+    "qacc": lambda m: (m.nv,),
+    "qfrc_inverse": lambda m: (m.nv,),
+    "energy": lambda m: (2,),
+    "xipos": lambda m: (m.nbody, 3),
+    "xmat": lambda m: (m.nbody, 9),
+}
+
+
+def _rows(
+    m: Any, d: Any, states: np.ndarray, accel: np.ndarray | None, out: dict[str, np.ndarray], lo: int, hi: int
+) -> None:
+    """States lo..hi-1 of a batch into `out` (keys of ROW_SHAPES): per state one mj_setState, mj_forward
+    (when anything but the inverse dynamics is asked for), mj_fullM, copies of whole MjData arrays, and
+    for "qfrc_inverse" qacc = accel and mj_inverse. Nothing else runs in the loop: it is the engine's
+    calls plus a copy per output (the bench's pointwise ratio measures what that adds)."""
+    set_state, forward, full_m, inverse = mujoco.mj_setState, mujoco.mj_forward, mujoco.mj_fullM, mujoco.mj_inverse
+    views = {k: getattr(d, k) for k in out if k not in ("M", "qfrc_inverse")}
+    copies = [(out[k], views[k]) for k in views]
+    M = out.get("M")
+    inv = out.get("qfrc_inverse")
+    needs_forward = M is not None or bool(copies)
+    qacc, qfrc_inverse = d.qacc, d.qfrc_inverse
+    for i in range(lo, hi):
+        set_state(m, d, states[i], STATE_SPEC)
+        if needs_forward:
+            forward(m, d)
+            if M is not None:
+                full_m(m, d, M[i])
+            for dst, src in copies:
+                dst[i] = src
+        if inv is not None:
+            qacc[:] = accel[i]  # type: ignore[index]
+            inverse(m, d)  # qfrc_inverse does not depend on ctrl or qfrc_applied
+            inv[i] = qfrc_inverse
 
 
 class MujocoSource:
@@ -67,6 +128,13 @@ class MujocoSource:
         bids = self.body_ids
         consecutive = len(bids) > 0 and np.array_equal(bids, np.arange(bids[0], bids[0] + len(bids)))
         self.body_slice: slice | np.ndarray = slice(int(bids[0]), int(bids[0]) + len(bids)) if consecutive else bids
+        # Batches: one state row (qpos, qvel, ctrl, qfrc_applied) per state, set by one mj_setState call.
+        self.state_size = mujoco.mj_stateSize(self.m, STATE_SPEC)
+        self.state0 = np.zeros(self.state_size)
+        self.state0[: self.m.nq] = self.m.qpos0
+        # MuJoCo's sparse M: row i holds columns M_colind[M_rowadr[i] : M_rowadr[i] + M_rownnz[i]] (j <= i).
+        self.m_rows = np.repeat(np.arange(self.m.nv), self.m.M_rownnz)
+        self.m_cols = np.array(self.m.M_colind)
 
     # -- state setting ------------------------------------------------------------------------
     def _set(self, q: np.ndarray, v: np.ndarray | None = None, tau: np.ndarray | None = None) -> None:
@@ -88,104 +156,115 @@ class MujocoSource:
         return self.d.qpos[self.qadr].copy(), self.d.qvel[self.dadr].copy()
 
     # -- dynamics -----------------------------------------------------------------------------
-    def _full_m(self) -> np.ndarray:
-        full = np.zeros((self.m.nv, self.m.nv))
-        mujoco.mj_fullM(self.m, self.d, full)
-        return full[np.ix_(self.dadr, self.dadr)]
-
     def mass_matrix(self, q: np.ndarray) -> np.ndarray:
-        out = np.empty(q.shape + (q.shape[-1],))
-        for i in range(len(q)):
-            self._set(q[i])
-            mujoco.mj_forward(self.m, self.d)
-            out[i] = self._full_m()
-        return out
+        return self._batch(q, np.zeros_like(q), None, None, ("M",))["M"]
 
     def bias(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        out = np.empty_like(q)
-        for i in range(len(q)):
-            self._set(q[i], v[i])
-            mujoco.mj_forward(self.m, self.d)
-            out[i] = self.d.qfrc_bias[self.dadr]
-        return out
+        return self._batch(q, v, None, None, ("bias",))["bias"]
 
     def passive(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        out = np.empty_like(q)
-        for i in range(len(q)):
-            self._set(q[i], v[i])
-            mujoco.mj_forward(self.m, self.d)
-            out[i] = self.d.qfrc_passive[self.dadr]
-        return out
+        return self._batch(q, v, None, None, ("passive",))["passive"]
 
     def forward(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
-        out = np.empty_like(q)
-        for i in range(len(q)):
-            self._set(q[i], v[i], tau[i])
-            mujoco.mj_forward(self.m, self.d)
-            out[i] = self.d.qacc[self.dadr]
-        return out
+        return self._batch(q, v, tau, None, ("qacc",))["qacc"]
 
     def inverse(self, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
-        out = np.empty_like(q)
-        for i in range(len(q)):
-            self._set(q[i], v[i])
-            self.d.qacc[self.dadr] = a[i]
-            mujoco.mj_inverse(self.m, self.d)
-            out[i] = self.d.qfrc_inverse[self.dadr]
-        return out
+        return self._batch(q, v, None, a, ("tau_inverse",))["tau_inverse"]
 
     def energies(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        kin, pot = np.empty(len(q)), np.empty(len(q))
-        for i in range(len(q)):
-            self._set(q[i], v[i])
-            mujoco.mj_forward(self.m, self.d)
-            pot[i], kin[i] = self.d.energy
-        return kin, pot
+        out = self._batch(q, v, None, None, ("T", "V"))
+        return out["T"], out["V"]
 
-    def evaluate(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray) -> dict[str, np.ndarray]:
+    def evaluate(
+        self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray, *, threads: int | None = None
+    ) -> dict[str, np.ndarray]:
         """Every pointwise quantity in one pass: one mj_forward and one mj_inverse per state.
 
-        `qacc` is the forward dynamics at tau; `tau_inverse` the inverse dynamics at `a_ref`.
-        The loop holds only the engine calls and copies: inputs are mapped for all states first,
-        and where the coordinates are the model's joints in order, whole arrays are copied."""
-        m, d = self.m, self.d
-        n, nb = q.shape
-        M, bias, passive = np.empty((n, nb, nb)), np.empty((n, nb)), np.empty((n, nb))
-        qacc, tau_inv, kin, pot = np.empty((n, nb)), np.empty((n, nb)), np.empty(n), np.empty(n)
-        pos, rot = np.empty((n, len(self.body_ids), 3)), np.empty((n, len(self.body_ids), 3, 3))
-        ctrl, applied = self._inputs(tau)
-        qsel, dsel = (slice(None), slice(None)) if self.identity else (self.qadr, self.dadr)
-        full = None if self.identity else np.zeros((m.nv, m.nv))
-        ix = np.ix_(self.dadr, self.dadr)
-        bodies, xipos, xmat = self.body_slice, d.xipos, d.xmat
-        for i in range(n):
-            d.qpos[qsel] = q[i]
-            d.qvel[dsel] = v[i]
-            d.ctrl[:] = ctrl[i]
-            d.qfrc_applied[:] = applied[i]
-            mujoco.mj_forward(m, d)
-            if full is None:
-                mujoco.mj_fullM(m, d, M[i])
+        `qacc` is the forward dynamics at tau; `tau_inverse` the inverse dynamics at `a_ref`. From
+        BATCH_MIN_STATES states mj_forward runs in MuJoCo's batch on `threads` threads (default
+        `batch_threads`); the inverse dynamics one call per state."""
+        return self._batch(q, v, tau, a_ref, OUTPUTS, threads=threads)
+
+    def _batch(
+        self,
+        q: np.ndarray,
+        v: np.ndarray,
+        tau: np.ndarray | None,
+        a: np.ndarray | None,
+        want: tuple[str, ...],
+        *,
+        threads: int | None = None,
+    ) -> dict[str, np.ndarray]:
+        """The quantities `want` (of OUTPUTS) at N states: inputs mapped to MuJoCo's state rows for all
+        states at once; mj_forward's outputs by MuJoCo's batch (`_forward_batch`) or, for fewer than
+        BATCH_MIN_STATES states, the per-state loop `_rows` (the reference path: the two are equal bit
+        for bit, tests/test_batch.py); the coordinates' columns and the bodies selected after."""
+        m = self.m
+        n = len(q)
+        states = np.empty((n, self.state_size))
+        states[:] = self.state0
+        states[:, self.qadr] = q
+        states[:, m.nq + self.dadr] = v
+        if tau is not None:
+            ctrl, applied = self._inputs(tau)
+            states[:, m.nq + m.nv : m.nq + m.nv + m.nu] = ctrl
+            states[:, m.nq + m.nv + m.nu :] = applied
+        accel = None
+        if a is not None:
+            accel = np.zeros((n, m.nv))
+            accel[:, self.dadr] = a
+        fields = {RAW_OF[w] for w in want}
+        raw: dict[str, np.ndarray] = {}
+        ahead = fields - {"qfrc_inverse"}  # what mj_forward computes
+        if ahead and n >= BATCH_MIN_STATES:
+            raw.update(self._forward_batch(states, ahead, threads))
+        elif ahead:
+            raw.update({k: np.empty((n, *ROW_SHAPES[k](m))) for k in ahead})
+            _rows(m, self.d, states, None, raw, 0, n)
+        if "qfrc_inverse" in fields:  # mujoco.batch has no mj_inverse: one call per state
+            inverse = {"qfrc_inverse": np.empty((n, m.nv))}
+            _rows(m, self.d, states, accel, inverse, 0, n)
+            raw.update(inverse)
+        out: dict[str, np.ndarray] = {}
+        dsel = slice(None) if self.identity else self.dadr
+        for w in want:
+            x = raw[RAW_OF[w]]
+            if w == "M":
+                out[w] = x if self.identity else x[:, self.dadr][:, :, self.dadr]
+            elif w in ("T", "V"):
+                out[w] = x[:, 1] if w == "T" else x[:, 0]
+            elif w == "body_positions":
+                out[w] = x[:, self.body_slice]
+            elif w == "body_rotations":
+                out[w] = x[:, self.body_slice].reshape(n, -1, 3, 3)
             else:
-                mujoco.mj_fullM(m, d, full)
-                M[i] = full[ix]
-            bias[i], passive[i], qacc[i] = d.qfrc_bias[dsel], d.qfrc_passive[dsel], d.qacc[dsel]
-            pot[i], kin[i] = d.energy
-            pos[i], rot[i] = xipos[bodies], xmat[bodies].reshape(-1, 3, 3)
-            d.qacc[dsel] = a_ref[i]
-            mujoco.mj_inverse(m, d)  # qfrc_inverse does not depend on ctrl or qfrc_applied
-            tau_inv[i] = d.qfrc_inverse[dsel]
-        return {
-            "M": M,
-            "bias": bias,
-            "passive": passive,
-            "qacc": qacc,
-            "tau_inverse": tau_inv,
-            "T": kin,
-            "V": pot,
-            "body_positions": pos,
-            "body_rotations": rot,
-        }
+                out[w] = x[:, dsel]
+        return out
+
+    def _forward_batch(self, states: np.ndarray, fields: set[str], threads: int | None) -> dict[str, np.ndarray]:
+        """mj_forward at every state row by MuJoCo's own batch (`mujoco.batch`: C loops on a thread pool,
+        bit-identical to a loop over one MjData at any thread count), the fields of ROW_SHAPES copied
+        out by it; the dense M scattered from MuJoCo's sparse rows as mj_fullM does."""
+        from mujoco import batch  # MuJoCo 4's batched simulations
+
+        m, n = self.m, len(states)
+        runner = batch.Batch(m, nsim=n, nthread=threads or batch_threads(n))
+        bound = {k: runner.bind(k) for k in fields}
+        runner.qpos[:] = states[:, : m.nq]
+        runner.qvel[:] = states[:, m.nq : m.nq + m.nv]
+        if m.nu:
+            runner.ctrl[:] = states[:, m.nq + m.nv : m.nq + m.nv + m.nu]
+        runner.qfrc_applied[:] = states[:, m.nq + m.nv + m.nu :]
+        runner.forward()
+        out = {k: np.array(x) for k, x in bound.items() if k != "M"}
+        if "M" in fields:
+            out["M"] = np.zeros((n, m.nv, m.nv))
+            out["M"][:, self.m_rows, self.m_cols] = bound["M"]
+            out["M"][:, self.m_cols, self.m_rows] = bound["M"]
+        for k in ("xipos", "xmat"):
+            if k in out:
+                out[k] = out[k].reshape(n, *ROW_SHAPES[k](m))
+        return out
 
     def _inputs(self, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(ctrl (N, nu), qfrc_applied (N, nv)) carrying tau: actuated coordinates through ctrl = tau / gear."""

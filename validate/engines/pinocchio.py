@@ -19,6 +19,8 @@ from ..errors import HarnessError
 from ..systems.urdf import for_pinocchio
 from .base import Kinematics
 
+WORLD = pin.Convention.WORLD  # ABA's convention in the batched algorithms, used per state too
+
 
 def build_model(system: Any) -> Any:
     """Pinocchio's model of the system's MJCF (with any overrides) or URDF, gravity copied from MuJoCo."""
@@ -79,6 +81,8 @@ class PinocchioSource:
             self.frames.append(fid)
             self.joint_of_body.append(self.model.frames[fid].parentJoint)
         self.gravity = np.array(system.view["gravity"], dtype=float)
+        self.q_neutral = pin.neutral(self.model)
+        self._pool: Any = None  # Pinocchio's ModelPool for the batched algorithms, made when first used
 
     def _q(self, q: np.ndarray) -> np.ndarray:
         full = pin.neutral(self.model)
@@ -89,6 +93,30 @@ class PinocchioSource:
         full = np.zeros(self.model.nv)
         full[self.vidx] = v
         return full
+
+    def _columns(self, x: np.ndarray, idx: np.ndarray, base: np.ndarray) -> np.ndarray:
+        """N states (N, n) as Pinocchio's full vectors in columns, (size, N) column-major (no copy
+        when handed to the batched algorithms)."""
+        rows = np.empty((len(x), len(base)))
+        rows[:] = base
+        rows[:, idx] = x
+        return rows.T
+
+    def _qs(self, q: np.ndarray) -> np.ndarray:
+        return self._columns(q, self.qidx, self.q_neutral)
+
+    def _vs(self, v: np.ndarray) -> np.ndarray:
+        return self._columns(v, self.vidx, np.zeros(self.model.nv))
+
+    def _in_c(self, algorithm: Any, q: np.ndarray, v: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """ABA or RNEA at N states in one call: Pinocchio's C++ loop over the columns (`abaInParallel`,
+        `rneaInParallel` on one thread, so no OpenMP thread outlives the call; equal bit for bit to
+        `aba(..., convention=WORLD)` and `rnea` called per state, tests/test_batch.py). (N, n)."""
+        if self._pool is None:
+            self._pool = pin.ModelPool(self.model, 1)
+        out = np.empty((len(q), self.model.nv))
+        algorithm(1, self._pool, self._qs(q), self._vs(v), self._vs(x), out.T)
+        return out[:, self.vidx]
 
     def joint_frames(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         """Pinocchio's reading of each compared joint at q = 0: its anchor in world coordinates and
@@ -114,7 +142,8 @@ class PinocchioSource:
         return -self.damping * v
 
     def rhs(self, tau: np.ndarray):
-        """scipy's right-hand side on ABA, with no per-call work beyond the call and the damping."""
+        """scipy's right-hand side on ABA, with no per-call work beyond the call and the damping; ABA in
+        the world convention, as the batched `forward` runs it, so a run and its windows round alike."""
         n, model, data = len(tau), self.model, self.data
         qfull, vfull, tfull = pin.neutral(model), np.zeros(model.nv), np.zeros(model.nv)
         qidx, vidx, damping = self.qidx, self.vidx, self.damping
@@ -125,7 +154,7 @@ class PinocchioSource:
             tfull[vidx] = tau - damping * y[n:]
             out = np.empty(2 * n)
             out[:n] = y[n:]
-            out[n:] = pin.aba(model, data, qfull, vfull, tfull)[vidx]
+            out[n:] = pin.aba(model, data, qfull, vfull, tfull, convention=WORLD)[vidx]
             return out
 
         return f
@@ -134,7 +163,7 @@ class PinocchioSource:
         """The right-hand side of MuJoCo's Euler step with implicit joint damping on CRBA and RNEA:
         a = (M + h D)^-1 (tau - D v - nle(q, v)), one state per call (see validate/mirror.py)."""
         n, model, data = len(tau), self.model, self.data
-        qfull, vfull = pin.neutral(model), np.zeros(model.nv)
+        qfull, vfull, zero = pin.neutral(model), np.zeros(model.nv), np.zeros(model.nv)
         qidx, vidx, damping = self.qidx, self.vidx, self.damping
         ix, hd = np.ix_(vidx, vidx), np.diag(h * damping)
 
@@ -143,7 +172,7 @@ class PinocchioSource:
             vfull[vidx] = y[n:]
             full = pin.crba(model, data, qfull)
             m = (np.triu(full) + np.triu(full, 1).T)[ix]
-            rhs = tau - damping * y[n:] - pin.nonLinearEffects(model, data, qfull, vfull)[vidx]
+            rhs = tau - damping * y[n:] - pin.rnea(model, data, qfull, vfull, zero)[vidx]  # as `bias`
             out = np.empty(2 * n)
             out[:n] = y[n:]
             out[n:] = np.linalg.solve(m + hd, rhs)
@@ -152,73 +181,78 @@ class PinocchioSource:
         return f
 
     def mass_matrix(self, q: np.ndarray) -> np.ndarray:
-        out = np.empty(q.shape + (q.shape[-1],))
-        for i in range(len(q)):
-            full = pin.crba(self.model, self.data, self._q(q[i]))
-            full = np.triu(full) + np.triu(full, 1).T  # CRBA fills the upper triangle
-            out[i] = full[np.ix_(self.vidx, self.vidx)]
-        return out
+        """CRBA per state (it has no batched form), the stack symmetrised and selected at once."""
+        model, data, crba = self.model, self.data, pin.crba
+        full = np.empty((len(q), model.nv, model.nv))
+        for i, qi in enumerate(self._qs(q).T):
+            full[i] = crba(model, data, qi)
+        return self._symmetric(full)
+
+    def _symmetric(self, full: np.ndarray) -> np.ndarray:
+        upper = np.triu(full)  # CRBA fills the upper triangle
+        return (upper + np.swapaxes(np.triu(full, 1), -1, -2))[:, self.vidx][:, :, self.vidx]
 
     def bias(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        out = np.empty_like(q)
-        for i in range(len(q)):
-            out[i] = pin.nonLinearEffects(self.model, self.data, self._q(q[i]), self._v(v[i]))[self.vidx]
-        return out
+        """C(q, v) v + G(q): RNEA at zero acceleration, in Pinocchio's C++ loop over the states."""
+        return self._in_c(pin.rneaInParallel, q, v, np.zeros_like(v))
 
     def forward(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
-        out = np.empty_like(q)
-        total = tau + self.passive(q, v)
-        for i in range(len(q)):
-            out[i] = pin.aba(self.model, self.data, self._q(q[i]), self._v(v[i]), self._v(total[i]))[self.vidx]
-        return out
+        return self._in_c(pin.abaInParallel, q, v, tau + self.passive(q, v))
 
     def inverse(self, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
-        out = np.empty_like(q)
-        for i in range(len(q)):
-            out[i] = pin.rnea(self.model, self.data, self._q(q[i]), self._v(v[i]), self._v(a[i]))[self.vidx]
-        return out - self.passive(q, v)
+        return self._in_c(pin.rneaInParallel, q, v, a) - self.passive(q, v)
 
     def energies(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        kin, pot = np.empty(len(q)), np.empty(len(q))
-        for i in range(len(q)):
-            qi, vi = self._q(q[i]), self._v(v[i])
-            kin[i] = pin.computeKineticEnergy(self.model, self.data, qi, vi)
-            pot[i] = pin.computePotentialEnergy(self.model, self.data, qi)
-        return kin, pot
+        out = self._per_state(q, v, poses=False)
+        return out["T"], out["V"]
+
+    def _per_state(self, q: np.ndarray, v: np.ndarray, *, poses: bool, mass: bool = False) -> dict[str, np.ndarray]:
+        """What has no batched form in Pinocchio, one state at a time with nothing else in the loop:
+        forward kinematics, the kinetic and potential energy from it, CRBA (`mass`) and the joints'
+        placements (`poses`: the bodies' positions and rotations composed after the loop, at once)."""
+        model, data = self.model, self.data
+        n, nb = len(q), len(self.frames)
+        kin, pot = np.empty(n), np.empty(n)
+        full = np.empty((n, model.nv, model.nv)) if mass else None
+        R, p = np.empty((n, nb, 3, 3)), np.empty((n, nb, 3))
+        fk, crba = pin.forwardKinematics, pin.crba
+        kinetic, potential = pin.computeKineticEnergy, pin.computePotentialEnergy
+        placements, joints = data.oMi, self.joint_of_body if poses else []
+        for i, (qi, vi) in enumerate(zip(self._qs(q).T, self._vs(v).T, strict=True)):
+            if full is not None:
+                full[i] = crba(model, data, qi)
+            fk(model, data, qi, vi)
+            kin[i] = kinetic(model, data)
+            pot[i] = potential(model, data)
+            for k, jid in enumerate(joints):
+                oMi = placements[jid]
+                R[i, k] = oMi.rotation
+                p[i, k] = oMi.translation
+        out = {"T": kin, "V": pot}
+        if full is not None:
+            out["M"] = self._symmetric(full)
+        if poses:
+            levers = np.array([model.inertias[j].lever for j in self.joint_of_body])
+            frame_rot = np.array([model.frames[f].placement.rotation for f in self.frames])
+            out["body_positions"] = np.einsum("nkij,kj->nki", R, levers) + p
+            out["body_rotations"] = R @ frame_rot
+        return out
 
     def evaluate(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray) -> dict[str, np.ndarray]:
-        """Every pointwise quantity in one pass: CRBA, NLE, ABA, RNEA and the energies per state."""
-        model, data = self.model, self.data
-        n, nb = q.shape
-        M, bias, qacc, tau_inv = np.empty((n, nb, nb)), np.empty((n, nb)), np.empty((n, nb)), np.empty((n, nb))
-        kin, pot = np.empty(n), np.empty(n)
-        pos, rot = np.empty((n, len(self.frames), 3)), np.empty((n, len(self.frames), 3, 3))
-        passive = -self.damping * v
-        ix, vidx = np.ix_(self.vidx, self.vidx), self.vidx
-        levers = [model.inertias[j].lever for j in self.joint_of_body]
-        for i in range(n):
-            qi, vi = self._q(q[i]), self._v(v[i])
-            full = pin.crba(model, data, qi)
-            M[i] = (np.triu(full) + np.triu(full, 1).T)[ix]
-            bias[i] = pin.nonLinearEffects(model, data, qi, vi)[vidx]
-            qacc[i] = pin.aba(model, data, qi, vi, self._v(tau[i] + passive[i]))[vidx]
-            tau_inv[i] = pin.rnea(model, data, qi, vi, self._v(a_ref[i]))[vidx] - passive[i]
-            kin[i] = pin.computeKineticEnergy(model, data, qi, vi)
-            pot[i] = pin.computePotentialEnergy(model, data, qi)  # also places every joint (data.oMi)
-            for k, (jid, lever) in enumerate(zip(self.joint_of_body, levers, strict=True)):
-                oMi = data.oMi[jid]
-                pos[i, k] = oMi.act(lever)
-                rot[i, k] = oMi.rotation @ model.frames[self.frames[k]].placement.rotation
+        """Every pointwise quantity: ABA, RNEA (bias: at zero acceleration) in Pinocchio's C++ loops over
+        the states; CRBA, forward kinematics and the energies per state (`_per_state`)."""
+        passive = self.passive(q, v)
+        out = self._per_state(q, v, poses=True, mass=True)
         return {
-            "M": M,
-            "bias": bias,
+            "M": out["M"],
+            "bias": self.bias(q, v),
             "passive": passive,
-            "qacc": qacc,
-            "tau_inverse": tau_inv,
-            "T": kin,
-            "V": pot,
-            "body_positions": pos,
-            "body_rotations": rot,
+            "qacc": self._in_c(pin.abaInParallel, q, v, tau + passive),
+            "tau_inverse": self._in_c(pin.rneaInParallel, q, v, a_ref) - passive,
+            "T": out["T"],
+            "V": out["V"],
+            "body_positions": out["body_positions"],
+            "body_rotations": out["body_rotations"],
         }
 
     def body_positions(self, q: np.ndarray) -> np.ndarray:

@@ -145,7 +145,8 @@ class SymbolicSource:
         d = self._dynamics(q, v)
         bias = d["Cv"] + d["G"]
         qacc = solve_or_nan(d["M"], tau + d["passive"] - bias)
-        kin = self.kinematics(q, v)
+        k = self._eval("kinematics", q, v)  # the poses only: no velocity of a body is compared here
+        bodies = [self.derivation.bodies[i] for i in self.bodies]
         return {
             "M": d["M"],
             "bias": bias,
@@ -156,9 +157,16 @@ class SymbolicSource:
             - d["passive"],
             "T": d["T"],
             "V": d["V"],
-            "body_positions": kin.com_position,
-            "body_rotations": kin.rotation,
+            "body_positions": np.stack([k[f"com/{b}"] for b in bodies], axis=-2),
+            "body_rotations": np.stack([k[f"rotation/{b}"] for b in bodies], axis=-3),
         }
+
+    def generated(self, part: str) -> tuple[Any, list[float]]:
+        """The generated numpy function of one part ("dynamics" or "kinematics"), called as
+        f(q..., v..., *params) on arrays of states in joint coordinates, and the parameter values it
+        takes: the bench's baseline of this source (its raw calls)."""
+        fn, _ = _code(self.derivation, self.key, part)
+        return fn, self.params
 
     def kinematics(self, q: np.ndarray, v: np.ndarray) -> Kinematics:
         k = self._eval("kinematics", q, v)

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ...engines.baselines import raw_mujoco, raw_pinocchio
+from ...engines.baselines import raw_mujoco, raw_pinocchio, raw_symbolic
 
 
 def hand_math_rhs(p: Any) -> Callable[[float, Any], list[float]]:
@@ -90,12 +90,16 @@ def raw_hand(system: Any, states: Any) -> dict[str, Any]:
     }
 
 
-def raw_pointwise(system: Any, sources: dict[str, Any], states: Any) -> dict[str, dict[str, Any]]:
+def raw_pointwise(system: Any, sources: dict[str, Any], states: Any) -> dict[str, Any]:
     """What `compare.evaluate` computes, as the minimal loops (`raw_hand`, `raw_mujoco`, `raw_pinocchio`;
-    the engines' inverse dynamics at the hand accelerations). {source: {quantity: array}}."""
+    the engines' inverse dynamics at the hand accelerations; `raw_symbolic` where the symbolic source
+    is on). {source: {quantity: array}} (the symbolic source: its generated code's raw output)."""
     hand = raw_hand(system, states)
-    return {
+    out: dict[str, Any] = {
         "hand": hand,
         "mujoco": raw_mujoco(system, sources["mujoco"], states, hand["qacc"]),
         "pinocchio": raw_pinocchio(system, sources["pinocchio"], states, hand["qacc"]),
     }
+    if "symbolic" in sources:
+        out["symbolic"] = raw_symbolic(system, sources["symbolic"], states)
+    return out

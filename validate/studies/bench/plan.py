@@ -102,7 +102,7 @@ RHS_SYSTEM = "double_pendulum_point"
 RHS_TARGET = 1.5  # fast path time / hand-written math time
 
 
-POINTWISE_STATES = 10_000
+POINTWISE_SIZES = (1_000, 100_000)  # states per batch: the pointwise ratio at each
 
 
 POINTWISE_TARGET = 1.5  # harness time / raw engine calls time

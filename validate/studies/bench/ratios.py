@@ -21,7 +21,7 @@ import numpy as np
 from ...checks import pointwise as compare
 from ...dynamics.integrate import source_rhs
 from ...engines import make_source
-from ...engines.baselines import raw_mujoco, raw_pinocchio
+from ...engines.baselines import raw_mujoco, raw_pinocchio, raw_symbolic
 from ...engines.fastpath import scalar_rhs
 from .baselines import hand_math_rhs, numpy_solve_rhs, raw_hand, raw_pointwise
 from .plan import (
@@ -31,7 +31,7 @@ from .plan import (
     FLAG_INTEGRATORS,
     FRONTIER_EPSILONS,
     GRID_DRIVERS,
-    POINTWISE_STATES,
+    POINTWISE_SIZES,
     POINTWISE_TARGET,
     RHS_SYSTEM,
     RHS_TARGET,
@@ -113,52 +113,65 @@ def rhs_ratio(*, reps: int, calls: int = 10_000, n_states: int = 1000, seed: int
     }
 
 
-def pointwise_ratio(name: str, *, reps: int, n_states: int = POINTWISE_STATES, seed: int = 0) -> dict[str, Any]:
-    """Ratio 2 for one system (a worker task): `compare.evaluate` on `n_states` states through all
-    three sources against `raw_pointwise`, interleaved; sources and states built before timing.
-    Each source's share is timed too (harness: its `evaluate`, plus the hand's `inverse`)."""
+def pointwise_ratio(name: str, *, reps: int, sizes: tuple[int, ...] = POINTWISE_SIZES, seed: int = 0) -> dict[str, Any]:
+    """Ratio 2 for one system (a worker task), at each batch size of `sizes`: `compare.evaluate` through
+    every source against `raw_pointwise` (the minimal loops computing the same), interleaved; and each
+    source's own `evaluate` against its raw calls (`raw_hand`; `raw_mujoco`, `raw_pinocchio`: the engine's
+    calls state by state with nothing else in the loop; `raw_symbolic`: the generated code alone).
+    Sources and states are built, and the symbolic code generated, before timing. Value: the worst
+    size's whole-evaluate ratio."""
     system, sources = resources(name)
+    per_size = [_pointwise_at(system, sources, n_states, seed=seed, reps=reps) for n_states in sizes]
+    worst = max(per_size, key=lambda r: r["value"])
+    return {
+        "system": system.name,
+        "value": worst["value"],
+        "target": POINTWISE_TARGET,
+        "passed": all(r["value"] <= POINTWISE_TARGET for r in per_size),
+        "per_size": per_size,
+        "by_source": worst["by_source"],
+        "repeats": reps,
+    }
+
+
+def _pointwise_at(system: Any, sources: dict[str, Any], n_states: int, *, seed: int, reps: int) -> dict[str, Any]:
+    """`pointwise_ratio` at one batch size."""
     states = compare.random_states(system, n=n_states, seed=seed)
     q, v, tau = states.q, states.v, states.tau
     a_hand = sources["hand"].forward(q, v, tau)
+    compare.evaluate(sources, compare.States(q[:2], v[:2], tau[:2]))  # generates the symbolic code
 
-    def harness_hand() -> None:
-        out = sources["hand"].evaluate(q, v, tau, np.zeros_like(q))
-        sources["hand"].inverse(q, v, out["qacc"])
-
-    timed = interleaved_medians(
-        {
-            "harness": lambda: compare.evaluate(sources, states),
-            "raw": lambda: raw_pointwise(system, sources, states),
-            "harness hand": harness_hand,
-            "raw hand": lambda: raw_hand(system, states),
-            "harness mujoco": lambda: sources["mujoco"].evaluate(q, v, tau, a_hand),
-            "raw mujoco": lambda: raw_mujoco(system, sources["mujoco"], states, a_hand),
-            "harness pinocchio": lambda: sources["pinocchio"].evaluate(q, v, tau, a_hand),
-            "raw pinocchio": lambda: raw_pinocchio(system, sources["pinocchio"], states, a_hand),
-        },
-        reps,
-    )
-    ratio = timed["harness"]["cpu_s"] / timed["raw"]["cpu_s"]
+    fns: dict[str, Callable[[], Any]] = {
+        "harness": lambda: compare.evaluate(sources, states),
+        "raw": lambda: raw_pointwise(system, sources, states),
+        "harness hand": lambda: sources["hand"].evaluate(q, v, tau),  # inverse dynamics at its own qacc
+        "raw hand": lambda: raw_hand(system, states),
+        "harness mujoco": lambda: sources["mujoco"].evaluate(q, v, tau, a_hand),
+        "raw mujoco": lambda: raw_mujoco(system, sources["mujoco"], states, a_hand),
+        "harness pinocchio": lambda: sources["pinocchio"].evaluate(q, v, tau, a_hand),
+        "raw pinocchio": lambda: raw_pinocchio(system, sources["pinocchio"], states, a_hand),
+    }
+    if "symbolic" in sources:
+        fns["harness symbolic"] = lambda: sources["symbolic"].evaluate(q, v, tau, a_hand)
+        fns["raw symbolic"] = lambda: raw_symbolic(system, sources["symbolic"], states)
+    # a large batch costs seconds per repeat: fewer repeats there (medians of at least 3 still)
+    timed = interleaved_medians(fns, reps if n_states <= 10_000 else max(3, reps // 2))
+    per_state = {k: t["cpu_s"] / n_states * 1e6 for k, t in timed.items()}
     return {
-        "system": system.name,
-        "value": ratio,
-        "target": POINTWISE_TARGET,
-        "passed": ratio <= POINTWISE_TARGET,
-        "harness_cpu_s": timed["harness"]["cpu_s"],
-        "raw_cpu_s": timed["raw"]["cpu_s"],
+        "n_states": n_states,
+        "value": timed["harness"]["cpu_s"] / timed["raw"]["cpu_s"],
+        "harness_us_per_state": per_state["harness"],
+        "raw_us_per_state": per_state["raw"],
         "harness_wall_s": timed["harness"]["wall_s"],
         "raw_wall_s": timed["raw"]["wall_s"],
         "by_source": {
             src: {
-                "harness_cpu_s": timed[f"harness {src}"]["cpu_s"],
-                "raw_cpu_s": timed[f"raw {src}"]["cpu_s"],
-                "ratio": timed[f"harness {src}"]["cpu_s"] / timed[f"raw {src}"]["cpu_s"],
+                "harness_us_per_state": per_state[f"harness {src}"],
+                "raw_us_per_state": per_state[f"raw {src}"],
+                "ratio": per_state[f"harness {src}"] / per_state[f"raw {src}"],
             }
-            for src in ("hand", "mujoco", "pinocchio")
+            for src in sources
         },
-        "n_states": n_states,
-        "repeats": reps,
     }
 
 
