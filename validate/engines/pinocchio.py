@@ -108,14 +108,15 @@ class PinocchioSource:
     def _vs(self, v: np.ndarray) -> np.ndarray:
         return self._columns(v, self.vidx, np.zeros(self.model.nv))
 
-    def _in_c(self, algorithm: Any, q: np.ndarray, v: np.ndarray, x: np.ndarray) -> np.ndarray:
+    def _in_c(self, algorithm: Any, qs: np.ndarray, vs: np.ndarray, x: np.ndarray) -> np.ndarray:
         """ABA or RNEA at N states in one call: Pinocchio's C++ loop over the columns (`abaInParallel`,
         `rneaInParallel` on one thread, so no OpenMP thread outlives the call; equal bit for bit to
-        `aba(..., convention=WORLD)` and `rnea` called per state, tests/test_batch.py). (N, n)."""
+        `aba(..., convention=WORLD)` and `rnea` called per state, tests/test_batch.py). `qs`, `vs`: the
+        states as `_qs`, `_vs` give them (built once per batch); x (N, n). Returns (N, n)."""
         if self._pool is None:
             self._pool = pin.ModelPool(self.model, 1)
-        out = np.empty((len(q), self.model.nv))
-        algorithm(1, self._pool, self._qs(q), self._vs(v), self._vs(x), out.T)
+        out = np.empty((qs.shape[1], self.model.nv))
+        algorithm(1, self._pool, qs, vs, self._vs(x), out.T)
         return out[:, self.vidx]
 
     def joint_frames(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
@@ -194,31 +195,31 @@ class PinocchioSource:
 
     def bias(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """C(q, v) v + G(q): RNEA at zero acceleration, in Pinocchio's C++ loop over the states."""
-        return self._in_c(pin.rneaInParallel, q, v, np.zeros_like(v))
+        return self._in_c(pin.rneaInParallel, self._qs(q), self._vs(v), np.zeros_like(v))
 
     def forward(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
-        return self._in_c(pin.abaInParallel, q, v, tau + self.passive(q, v))
+        return self._in_c(pin.abaInParallel, self._qs(q), self._vs(v), tau + self.passive(q, v))
 
     def inverse(self, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
-        return self._in_c(pin.rneaInParallel, q, v, a) - self.passive(q, v)
+        return self._in_c(pin.rneaInParallel, self._qs(q), self._vs(v), a) - self.passive(q, v)
 
     def energies(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        out = self._per_state(q, v, poses=False)
+        out = self._per_state(self._qs(q), self._vs(v), poses=False)
         return out["T"], out["V"]
 
-    def _per_state(self, q: np.ndarray, v: np.ndarray, *, poses: bool, mass: bool = False) -> dict[str, np.ndarray]:
+    def _per_state(self, qs: np.ndarray, vs: np.ndarray, *, poses: bool, mass: bool = False) -> dict[str, np.ndarray]:
         """What has no batched form in Pinocchio, one state at a time with nothing else in the loop:
         forward kinematics, the kinetic and potential energy from it, CRBA (`mass`) and the joints'
         placements (`poses`: the bodies' positions and rotations composed after the loop, at once)."""
         model, data = self.model, self.data
-        n, nb = len(q), len(self.frames)
+        n, nb = qs.shape[1], len(self.frames)
         kin, pot = np.empty(n), np.empty(n)
         full = np.empty((n, model.nv, model.nv)) if mass else None
         R, p = np.empty((n, nb, 3, 3)), np.empty((n, nb, 3))
         fk, crba = pin.forwardKinematics, pin.crba
         kinetic, potential = pin.computeKineticEnergy, pin.computePotentialEnergy
         placements, joints = data.oMi, self.joint_of_body if poses else []
-        for i, (qi, vi) in enumerate(zip(self._qs(q).T, self._vs(v).T, strict=True)):
+        for i, (qi, vi) in enumerate(zip(qs.T, vs.T, strict=True)):
             if full is not None:
                 full[i] = crba(model, data, qi)
             fk(model, data, qi, vi)
@@ -242,13 +243,14 @@ class PinocchioSource:
         """Every pointwise quantity: ABA, RNEA (bias: at zero acceleration) in Pinocchio's C++ loops over
         the states; CRBA, forward kinematics and the energies per state (`_per_state`)."""
         passive = self.passive(q, v)
-        out = self._per_state(q, v, poses=True, mass=True)
+        qs, vs = self._qs(q), self._vs(v)  # the states as Pinocchio's full vectors, once for every call
+        out = self._per_state(qs, vs, poses=True, mass=True)
         return {
             "M": out["M"],
-            "bias": self.bias(q, v),
+            "bias": self._in_c(pin.rneaInParallel, qs, vs, np.zeros_like(v)),
             "passive": passive,
-            "qacc": self._in_c(pin.abaInParallel, q, v, tau + passive),
-            "tau_inverse": self._in_c(pin.rneaInParallel, q, v, a_ref) - passive,
+            "qacc": self._in_c(pin.abaInParallel, qs, vs, tau + passive),
+            "tau_inverse": self._in_c(pin.rneaInParallel, qs, vs, a_ref) - passive,
             "T": out["T"],
             "V": out["V"],
             "body_positions": out["body_positions"],
