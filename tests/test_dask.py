@@ -104,3 +104,24 @@ def test_the_commands_refuse_a_bad_executor_before_any_work(command, capsys, tmp
     assert exc.value.code == 2
     assert "--executor" in capsys.readouterr().err
     assert not list(tmp_path.iterdir())
+
+
+def test_the_scaling_study_on_a_local_dask_cluster_equals_the_in_process_run(cluster_executor):
+    """The planar and spatial chains as two tasks on the cluster: the same models, the same agreement
+    and the same sizes as one after the other in this process (times per state aside)."""
+    from lagrange_xval.validate.studies import chains
+
+    def measured(result):
+        return [
+            (r["kind"], r["n"], r["worst_scaled"], r["all_within_tiers"], r["cond_M_max"], r["symbolic"]["ops_M_Cv"])
+            for r in result["rows"]
+        ]
+
+    here = chains.run_chains(ns=(2, 3), n_states=20, repeats=1)
+    lines: list[str] = []
+    there = chains.run_chains(ns=(2, 3), n_states=20, repeats=1, executor=cluster_executor, progress=lines.append)
+    assert measured(there) == measured(here)
+    assert [(r["kind"], r["n"]) for r in there["rows"]] == [(k, n) for k in ("planar", "spatial") for n in (2, 3)]
+    assert all(set(r["per_state_s"]) == {"mujoco", "pinocchio", "symbolic"} for r in there["rows"])
+    assert there["symbolic_stopped_at"] == here["symbolic_stopped_at"] == {}
+    assert len(lines) == 4 and lines[0].startswith("planar n=2: agree")

@@ -325,7 +325,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
     if args.chains:
         from ..studies.chains import chains_command
 
-        return chains_command(args)
+        with named_executor(args.executor) as executor:  # local: in this process, each chain timed alone
+            return chains_command(args, executor)
     args.files = user_files(args)  # a person's own systems, beside or instead of SYSTEM names
     with use_cache(args), named_executor(args.executor) as executor:
         return bench_command(args, executor=executor)

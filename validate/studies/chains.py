@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import tempfile
 import time
+from concurrent.futures import Executor
 from pathlib import Path
 from typing import Any
 
@@ -105,53 +106,83 @@ def _symbolic(system: Any, budget: float) -> dict[str, Any]:
     return out
 
 
-def run_chains(
-    *, quick: bool = False, n_states: int = 200, repeats: int = 3, progress: Any = None, ns: tuple[int, ...] = ()
-) -> dict[str, Any]:
-    """The scaling study: every chain, every source; see the module docstring (`ns`: other chain lengths)."""
-    ns = ns or (QUICK_NS if quick else FULL_NS)
-    budget = SYMBOLIC_BUDGET["quick" if quick else "full"]
+def kind_rows(
+    kind: str, ns: tuple[int, ...], n_states: int, repeats: int, budget: float, progress: Any = None
+) -> tuple[list[dict[str, Any]], dict[str, Any] | None]:
+    """One kind's chains ("planar" or "spatial"), every n in turn: the rows, and where the symbolic
+    source stopped (None if it ran at every n). One task of the study: it runs in a worker as it does here."""
     rows: list[dict[str, Any]] = []
-    stopped: dict[str, Any] = {}
+    stopped: dict[str, Any] | None = None
+    symbolic_on, last = True, None  # last: (n, derivation + code seconds) of the previous chain
     with tempfile.TemporaryDirectory(prefix="lagrange_xval_chains_") as folder:
-        for kind in ("planar", "spatial"):
-            symbolic_on, last = True, None  # last: (n, derivation + code seconds) of the previous chain
-            for n in ns:
-                path = Path(folder) / f"{kind}{n}.xml"
-                path.write_text(chain_mjcf(n, kind))
-                system = System.model_only(path, name=f"{kind}{n}")
-                states = pointwise.random_states(system, n=n_states, seed=n)
-                sources = {name: make_source(system, name) for name in ("mujoco", "pinocchio")}
-                row: dict[str, Any] = {"kind": kind, "n": n}
-                if symbolic_on and last is not None and last[1] * (n / last[0]) ** GROWTH > budget:
-                    symbolic_on = False  # predicted, not tried: a derivation cannot be interrupted
-                    predicted = last[1] * (n / last[0]) ** GROWTH
-                    stopped[kind] = {
-                        "n": n,
-                        "why": f"predicted {predicted:.0f} s (n = {last[0]} took {last[1]:.1f} s; the time grows "
-                        f"about as n^{GROWTH}), over the {budget:g} s budget",
-                    }
-                if symbolic_on:
-                    sym = _symbolic(system, budget)
-                    row["symbolic"] = {k: v for k, v in sym.items() if k != "source"}
-                    spent = sym["derive_s"] + sym.get("codegen_s", 0.0)
-                    last = (n, spent)
-                    if "source" in sym and spent <= budget:
-                        sources["symbolic"] = sym["source"]
-                    else:
-                        symbolic_on = False
-                        stopped[kind] = {"n": n, "why": f"derivation and code took more than {budget:g} s"}
-                row["per_state_s"] = {name: _timings(src, states, repeats) for name, src in sources.items()}
-                compared = pointwise.compare(pointwise.evaluate(sources, states), states)
-                row["worst_scaled"] = {f"{r['quantity']} {r['pair']}": float(r["scaled"]) for r in compared}
-                row["all_within_tiers"] = all(r["passed"] for r in compared)
-                row["cond_M_max"] = float(np.max(np.linalg.cond(sources["mujoco"].mass_matrix(states.q))))
-                rows.append(row)
+        for n in ns:
+            path = Path(folder) / f"{kind}{n}.xml"
+            path.write_text(chain_mjcf(n, kind))
+            system = System.model_only(path, name=f"{kind}{n}")
+            states = pointwise.random_states(system, n=n_states, seed=n)
+            sources = {name: make_source(system, name) for name in ("mujoco", "pinocchio")}
+            row: dict[str, Any] = {"kind": kind, "n": n}
+            if symbolic_on and last is not None and last[1] * (n / last[0]) ** GROWTH > budget:
+                symbolic_on = False  # predicted, not tried: a derivation cannot be interrupted
+                predicted = last[1] * (n / last[0]) ** GROWTH
+                stopped = {
+                    "n": n,
+                    "why": f"predicted {predicted:.0f} s (n = {last[0]} took {last[1]:.1f} s; the time grows "
+                    f"about as n^{GROWTH}), over the {budget:g} s budget",
+                }
+            if symbolic_on:
+                sym = _symbolic(system, budget)
+                row["symbolic"] = {k: v for k, v in sym.items() if k != "source"}
+                spent = sym["derive_s"] + sym.get("codegen_s", 0.0)
+                last = (n, spent)
+                if "source" in sym and spent <= budget:
+                    sources["symbolic"] = sym["source"]
+                else:
+                    symbolic_on = False
+                    stopped = {"n": n, "why": f"derivation and code took more than the {budget:g} s budget"}
+            row["per_state_s"] = {name: _timings(src, states, repeats) for name, src in sources.items()}
+            compared = pointwise.compare(pointwise.evaluate(sources, states), states)
+            row["worst_scaled"] = {f"{r['quantity']} {r['pair']}": float(r["scaled"]) for r in compared}
+            row["all_within_tiers"] = all(r["passed"] for r in compared)
+            row["cond_M_max"] = float(np.max(np.linalg.cond(sources["mujoco"].mass_matrix(states.q))))
+            rows.append(row)
+            if progress:
+                progress(_progress_line(row))
+    return rows, stopped
+
+
+def _progress_line(row: dict[str, Any]) -> str:
+    verdict = "agree" if row["all_within_tiers"] else "DISAGREE"
+    return f"{row['kind']} n={row['n']}: {verdict}, cond(M) {row['cond_M_max']:.1e}"
+
+
+def run_chains(
+    *,
+    quick: bool = False,
+    n_states: int = 200,
+    repeats: int = 3,
+    progress: Any = None,
+    ns: tuple[int, ...] = (),
+    executor: Executor | None = None,
+) -> dict[str, Any]:
+    """The scaling study: every chain, every source; see the module docstring (`ns`: other chain lengths).
+    With an `executor` (e.g. a dask cluster's), the planar and the spatial chains are two tasks run
+    there side by side; without, both run in this process one after the other (each timing alone)."""
+    ns = tuple(ns or (QUICK_NS if quick else FULL_NS))
+    budget = SYMBOLIC_BUDGET["quick" if quick else "full"]
+    kinds = ("planar", "spatial")
+    if executor is None:
+        done = [kind_rows(kind, ns, n_states, repeats, budget, progress) for kind in kinds]
+    else:
+        futures = [executor.submit(kind_rows, kind, ns, n_states, repeats, budget) for kind in kinds]
+        done = []
+        for future in futures:
+            done.append(future.result())
+            for row in done[-1][0]:
                 if progress:
-                    progress(
-                        f"{kind} n={n}: {'agree' if row['all_within_tiers'] else 'DISAGREE'}, "
-                        f"cond(M) {row['cond_M_max']:.1e}"
-                    )
+                    progress(_progress_line(row))
+    rows = [row for kind_done in done for row in kind_done[0]]
+    stopped = {kind: where for kind, (_, where) in zip(kinds, done, strict=True) if where is not None}
     return {
         "ns": list(ns),
         "n_states": n_states,
@@ -180,14 +211,15 @@ def slopes(rows: list[dict[str, Any]]) -> dict[str, dict[str, float]]:
     return out
 
 
-def chains_command(args: Any) -> int:
-    """`lagrange-xval bench --chains [--quick] [--out DIR]`: writes DIR/chains.json, prints the table."""
+def chains_command(args: Any, executor: Executor | None = None) -> int:
+    """`lagrange-xval bench --chains [--quick] [--out DIR] [--executor ...]`: writes DIR/chains.json,
+    prints the table."""
     import sys
 
     def progress(msg: str) -> None:
         print(msg, file=sys.stderr, flush=True)
 
-    results = run_chains(quick=bool(getattr(args, "quick", False)), progress=progress)
+    results = run_chains(quick=bool(getattr(args, "quick", False)), progress=progress, executor=executor)
     out = Path(getattr(args, "out", None) or "reports")
     out.mkdir(parents=True, exist_ok=True)
     path = out / "chains.json"
