@@ -1,6 +1,6 @@
 """The model's derived equations as text and as results data, kept in the cache (kind `derive`).
 
-Simplifying a 3-joint arm's equations takes about 20 s (engines/readable.py); the text depends only
+Simplifying a 3-joint arm's equations takes about 10 s (engines/readable.py); the text depends only
 on the model's structure (engines/derivation.structure_key), the coordinates' names, the format and
 the harness's code, which together key the cache entry, so a second `derive` or `run` reads it back.
 """
