@@ -83,6 +83,23 @@ def _zeros(q: Any) -> np.ndarray:
     return np.zeros(np.shape(q))
 
 
+def _rows_of(fn: Any, p: Any, calls: list[tuple[Any, ...]]) -> list[np.ndarray]:
+    """[fn(p, *args) for args in calls], in one call of `fn` on the calls' states concatenated along
+    the batch axis where every argument is a float array of one shape (the module computes state by
+    state: the same values, at a fraction of the calls' overhead; the mirrors call these per step);
+    call by call otherwise (traced arguments) or where the answer's shape is not one row per state."""
+    arrays = [np.asarray(x) for args in calls for x in args]
+    shape = arrays[0].shape
+    if len(calls) > 1 and shape and all(a.dtype.kind == "f" and a.shape == shape for a in arrays):
+        k, width = len(calls), len(calls[0])
+        flat = [np.concatenate([np.reshape(args[i], (-1, shape[-1])) for args in calls]) for i in range(width)]
+        out = np.asarray(fn(p, *flat))
+        rows = int(np.prod(shape[:-1], dtype=int))
+        if out.shape == (k * rows, shape[-1]):
+            return [x.reshape(shape) for x in np.split(out, k)]
+    return [np.asarray(fn(p, *args)) for args in calls]
+
+
 def _stack_columns(cols: list[Any]) -> np.ndarray:
     return np.stack([np.asarray(c) for c in np.broadcast_arrays(*[np.asarray(c) for c in cols])], axis=-1)
 
@@ -176,14 +193,13 @@ def _facade(module: Any, form: str) -> Any:
 
         def mass_matrix_b(p: Any, q: Any) -> np.ndarray:
             z = _zeros(q)
-            r0 = np.asarray(r(p, q, z, z, z))
-            return _stack_columns([np.asarray(r(p, q, z, _unit(q, j, n), z)) - r0 for j in range(n)])
+            r0, *cols = _rows_of(r, p, [(q, z, z, z)] + [(q, z, _unit(q, j, n), z) for j in range(n)])
+            return _stack_columns([c - r0 for c in cols])
 
         def parts_b(p: Any, q: Any, v: Any) -> tuple[Any, Any, Any]:
             z = _zeros(q)
-            g = np.asarray(r(p, q, z, z, z))
-            plus = np.asarray(r(p, q, v, z, z)) - g
-            minus = np.asarray(r(p, q, -np.asarray(v), z, z)) - g
+            g, at_v, at_minus_v = _rows_of(r, p, [(q, z, z, z), (q, v, z, z), (q, -np.asarray(v), z, z)])
+            plus, minus = at_v - g, at_minus_v - g
             return g, (plus + minus) / 2, -(plus - minus) / 2
 
         facade.mass_matrix = mass_matrix_b  # type: ignore[attr-defined]
@@ -196,8 +212,8 @@ def _facade(module: Any, form: str) -> Any:
 
         def minv_c(p: Any, q: Any) -> np.ndarray:
             z = _zeros(q)
-            a0 = np.asarray(f(p, q, z, z))
-            return _stack_columns([np.asarray(f(p, q, z, _unit(q, j, n))) - a0 for j in range(n)])
+            a0, *cols = _rows_of(f, p, [(q, z, z)] + [(q, z, _unit(q, j, n)) for j in range(n)])
+            return _stack_columns([c - a0 for c in cols])
 
         def mass_matrix_c(p: Any, q: Any) -> np.ndarray:
             return inverse(minv_c(p, q))
@@ -205,9 +221,8 @@ def _facade(module: Any, form: str) -> Any:
         def parts_c(p: Any, q: Any, v: Any) -> tuple[Any, Any, Any]:
             z = _zeros(q)
             M = mass_matrix_c(p, q)
-            a0 = np.asarray(f(p, q, z, z))
-            plus = np.asarray(f(p, q, v, z)) - a0
-            minus = np.asarray(f(p, q, -np.asarray(v), z)) - a0
+            a0, at_v, at_minus_v = _rows_of(f, p, [(q, z, z), (q, v, z), (q, -np.asarray(v), z)])
+            plus, minus = at_v - a0, at_minus_v - a0
             return -_matvec(M, a0), -_matvec(M, (plus + minus) / 2), _matvec(M, (plus - minus) / 2)
 
         facade.mass_matrix = mass_matrix_c  # type: ignore[attr-defined]
