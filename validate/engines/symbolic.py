@@ -100,18 +100,35 @@ class SymbolicSource:
 
         return f
 
-    def _eval(self, part: str, q: np.ndarray, v: np.ndarray) -> dict[str, np.ndarray]:
+    def _raw(self, part: str, q: np.ndarray, v: np.ndarray) -> tuple[list[Any], dict[str, Any], tuple[int, ...]]:
+        """The generated code of one part called once on the batch: its flat outputs, where each named
+        output lies in them ({name: (start, shape)}) and the batch shape."""
         fn, layout = _code(self.derivation, self.key, part)
         q, v = np.asarray(q, dtype=float), np.asarray(v, dtype=float)
         batch = np.broadcast_shapes(q.shape, v.shape)[:-1]
         raw = fn(*np.moveaxis(q, -1, 0), *np.moveaxis(v, -1, 0), *self.params)
-        out, k = {}, 0
+        where, k = {}, 0
         for name, shape in layout:
-            size = int(np.prod(shape)) if shape else 1
-            parts = [np.broadcast_to(np.asarray(x, dtype=float), batch) for x in raw[k : k + size]]
-            k += size
-            arr = np.stack(parts, axis=-1) if shape else parts[0]
-            out[name] = arr.reshape(*batch, *shape) if shape else arr
+            where[name] = (k, shape)
+            k += int(np.prod(shape)) if shape else 1
+        return raw, where, batch
+
+    @staticmethod
+    def _columns(raw: list[Any], where: dict[str, Any], batch: tuple[int, ...], names: list[str]) -> np.ndarray:
+        """The outputs `names`, flattened and side by side in one array (*batch, total size): one copy."""
+        cols = []
+        for name in names:
+            k, shape = where[name]
+            cols.extend(raw[k : k + (int(np.prod(shape)) if shape else 1)])
+        return np.stack([np.broadcast_to(np.asarray(x, dtype=float), batch) for x in cols], axis=-1)
+
+    def _eval(self, part: str, q: np.ndarray, v: np.ndarray) -> dict[str, np.ndarray]:
+        """The generated code's outputs of one part by name, each an array over the batch."""
+        raw, where, batch = self._raw(part, q, v)
+        out = {}
+        for name, (_, shape) in where.items():
+            arr = self._columns(raw, where, batch, [name])
+            out[name] = arr.reshape(*batch, *shape) if shape else arr[..., 0]
         return out
 
     def _dynamics(self, q: np.ndarray, v: np.ndarray) -> dict[str, np.ndarray]:
@@ -145,8 +162,10 @@ class SymbolicSource:
         d = self._dynamics(q, v)
         bias = d["Cv"] + d["G"]
         qacc = solve_or_nan(d["M"], tau + d["passive"] - bias)
-        k = self._eval("kinematics", q, v)  # the poses only: no velocity of a body is compared here
         bodies = [self.derivation.bodies[i] for i in self.bodies]
+        raw, where, batch = self._raw("kinematics", q, v)  # the poses only: no velocity of a body is compared
+        positions = self._columns(raw, where, batch, [f"com/{b}" for b in bodies])
+        rotations = self._columns(raw, where, batch, [f"rotation/{b}" for b in bodies])
         return {
             "M": d["M"],
             "bias": bias,
@@ -157,8 +176,8 @@ class SymbolicSource:
             - d["passive"],
             "T": d["T"],
             "V": d["V"],
-            "body_positions": np.stack([k[f"com/{b}"] for b in bodies], axis=-2),
-            "body_rotations": np.stack([k[f"rotation/{b}"] for b in bodies], axis=-3),
+            "body_positions": positions.reshape(*batch, len(bodies), 3),
+            "body_rotations": rotations.reshape(*batch, len(bodies), 3, 3),
         }
 
     def generated(self, part: str) -> tuple[Any, list[float]]:
