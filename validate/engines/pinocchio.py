@@ -148,6 +148,19 @@ class PinocchioSource:
         n, model, data = len(tau), self.model, self.data
         qfull, vfull, tfull = pin.neutral(model), np.zeros(model.nv), np.zeros(model.nv)
         qidx, vidx, damping = self.qidx, self.vidx, self.damping
+        aba = pin.aba
+
+        if self._whole():  # every coordinate of the model is a joint of the system, in order: no copies
+
+            def whole(t: float, y: np.ndarray) -> np.ndarray:  # y: an array or a list of floats
+                qfull[:] = y[:n]
+                vfull[:] = y[n:]
+                out = np.empty(2 * n)
+                out[:n] = vfull
+                out[n:] = aba(model, data, qfull, vfull, tau - damping * vfull, convention=WORLD)
+                return out
+
+            return whole
 
         def f(t: float, y: np.ndarray) -> np.ndarray:
             qfull[qidx] = y[:n]
@@ -167,12 +180,14 @@ class PinocchioSource:
         qfull, vfull, zero = pin.neutral(model), np.zeros(model.nv), np.zeros(model.nv)
         qidx, vidx, damping = self.qidx, self.vidx, self.damping
         ix, hd = np.ix_(vidx, vidx), np.diag(h * damping)
+        lower = np.tril_indices(model.nv, -1)
 
         def f(t: float, y: np.ndarray) -> np.ndarray:
             qfull[qidx] = y[:n]
             vfull[vidx] = y[n:]
-            full = pin.crba(model, data, qfull)
-            m = (np.triu(full) + np.triu(full, 1).T)[ix]
+            full = np.array(pin.crba(model, data, qfull))
+            full[lower] = full.T[lower]  # CRBA fills the upper triangle: mirrored, as `_symmetric` does
+            m = full[ix]
             rhs = tau - damping * y[n:] - pin.rnea(model, data, qfull, vfull, zero)[vidx]  # as `bias`
             out = np.empty(2 * n)
             out[:n] = y[n:]
@@ -180,6 +195,15 @@ class PinocchioSource:
             return out
 
         return f
+
+    def _whole(self) -> bool:
+        """Whether the system's joints are every coordinate of the model, in the model's order."""
+        nq, nv = self.model.nq, self.model.nv
+        return (
+            nq == nv == len(self.qidx)
+            and bool(np.array_equal(self.qidx, np.arange(nq)))
+            and bool(np.array_equal(self.vidx, np.arange(nv)))
+        )
 
     def mass_matrix(self, q: np.ndarray) -> np.ndarray:
         """CRBA per state (it has no batched form), the stack symmetrised and selected at once."""
