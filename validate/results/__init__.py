@@ -136,7 +136,18 @@ def atomic_write_many(files: Mapping[Path, bytes | str | Iterable[str]]) -> None
 
 
 def dumps(results: Mapping[str, Any]) -> str:
-    return json.dumps(to_jsonable(results), indent=1, sort_keys=True, allow_nan=False) + "\n"
+    """The results as JSON text: every object indented one space a level, keys sorted; every list on
+    one line (a time series is one line, not one line per number) by the json module's C encoder,
+    which `indent` would turn off (0.34 s for the five systems' results where indent=1 took 0.95 s)."""
+    return _dumps(to_jsonable(results), 0) + "\n"
+
+
+def _dumps(x: Any, depth: int) -> str:
+    if isinstance(x, dict) and x:
+        pad = "\n" + " " * (depth + 1)
+        items = [f"{pad}{json.dumps(k)}: {_dumps(x[k], depth + 1)}" for k in sorted(x)]
+        return "{" + ",".join(items) + "\n" + " " * depth + "}"
+    return json.dumps(x, sort_keys=True, allow_nan=False, separators=(", ", ": "))
 
 
 MAX_RESULTS_BYTES = 512 * 2**20  # results.json of the five systems is ~30 MB
