@@ -90,9 +90,18 @@ def _rows(n: int, rows: str) -> slice:
 
 
 def spectral_norm(a: np.ndarray) -> np.ndarray:
-    """||a||_2 for a stack (..., r, c), via the eigenvalues of the smaller Gram matrix."""
+    """||a||_2 for a stack (..., r, c), via the largest eigenvalue of the smaller Gram matrix (in closed
+    form for a 1x1 or 2x2 one: (g11 + g22)/2 + hypot((g11 - g22)/2, g12), no cancellation; LAPACK's
+    eigvalsh beyond)."""
     g = a @ np.swapaxes(a, -1, -2) if a.shape[-2] <= a.shape[-1] else np.swapaxes(a, -1, -2) @ a
-    return np.sqrt(np.maximum(np.linalg.eigvalsh(g)[..., -1], 0.0))
+    if g.shape[-1] == 1:
+        largest = g[..., 0, 0]
+    elif g.shape[-1] == 2:
+        half_sum, half_diff = (g[..., 0, 0] + g[..., 1, 1]) / 2, (g[..., 0, 0] - g[..., 1, 1]) / 2
+        largest = half_sum + np.hypot(half_diff, g[..., 0, 1])
+    else:
+        largest = np.linalg.eigvalsh(g)[..., -1]
+    return np.sqrt(np.maximum(largest, 0.0))
 
 
 def inverse(phi: np.ndarray) -> np.ndarray:
@@ -115,10 +124,15 @@ def transfer_norms(fl: Flow, *, rows: str = "q") -> np.ndarray:
     """G[k, j] = ||P Phi(t_k) Phi(t_j)^-1||_2 for j <= k, 0 above the diagonal, (K, K)."""
     n = fl.x.shape[1] // 2
     inv = inverse(fl.phi)
-    g = np.zeros((len(fl.t), len(fl.t)))
-    for k in range(len(fl.t)):
-        g[k, : k + 1] = spectral_norm(fl.phi[k, _rows(n, rows), :][None] @ inv[: k + 1])
-    return g
+    head = fl.phi[:, _rows(n, rows), :]  # P Phi(t_k), (K, r, 2n)
+    size = len(fl.t)
+    g = np.zeros((size, size))
+    block = max(1, 2**20 // (size * head.shape[1] * head.shape[2]))  # rows of G at once: ~8 MB of products
+    for start in range(0, size, block):
+        stop = min(size, start + block)
+        # rows start..stop-1 need the columns up to stop-1 only; the ones above the diagonal are zeroed
+        g[start:stop, :stop] = spectral_norm(head[start:stop, None] @ inv[None, :stop])
+    return np.tril(g)
 
 
 def error_envelope(
