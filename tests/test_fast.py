@@ -186,6 +186,30 @@ def test_each_check_is_set_against_the_fastest_run_computing_the_same_at_its_err
     assert out["passed"] is False and out["value"] == pytest.approx(5.0)  # the worst targeted ratio
 
 
+def test_a_check_timed_again_beside_its_fastest_run_takes_the_ratio_of_the_pair():
+    """Two timings minutes apart carry what else the machine did: the side-by-side pair decides."""
+    measured = [{"rows": [check("hand accurate", "hand", "accurate", 3e-3, 2e-15), check("u", "hand", "user", 1, 1)]}]
+    first = checks.checks_ratios(measured, ROWS)
+    assert first["rows"][0]["ratio"] == pytest.approx(3.0) and first["passed"] is False
+    pairs = checks.pairs_to_time(first)
+    assert list(pairs) == ["s"] and [label for label, _ in pairs["s"]] == ["hand accurate"]  # the user's path: none
+    spec = pairs["s"][0][1]
+    assert (spec["driver"], spec["engine"], spec["value"]) == ("taylor", "hand", 1e-15)
+    again = checks.checks_ratios(measured, ROWS, {"s": {"hand accurate": {"cpu_s": 1.1e-3, "fastest_cpu_s": 1e-3}}})
+    entry = again["rows"][0]
+    assert entry["ratio"] == pytest.approx(1.1) and entry["sweep_ratio"] == pytest.approx(3.0)
+    assert again["passed"] is True and again["value"] == pytest.approx(1.1)
+
+
+def test_paired_timings_time_the_check_and_the_sweeps_run_in_one_task():
+    from lagrange_xval.validate.studies import bench
+
+    spec = {**bench.taylor_spec(1e-15), "method": "hand heyoka Taylor (double)"}
+    out = checks.paired_timings("simple_pendulum", [("hand accurate run", spec)], reps=2, budget=60.0)
+    assert set(out) == {"hand accurate run"}
+    assert out["hand accurate run"]["cpu_s"] > 0 and out["hand accurate run"]["fastest_cpu_s"] > 0
+
+
 def test_measure_checks_times_what_run_does_and_measures_its_errors():
     out = checks.measure_checks("gimbal", reps=1)
     by = {r["check"]: r for r in out["rows"]}

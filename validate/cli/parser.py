@@ -331,7 +331,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     bench = command("bench", help="run time against error: work-precision sweep and the fast-harness ratios")
     systems_argument(bench, "the systems to time (default: every one)")
-    bench.add_argument("--quick", action="store_true", help="2 systems, small plan, 1 repeat (about 1.5 min on 2 cores)")
+    bench.add_argument(
+        "--quick", action="store_true", help="2 systems, small plan, 1 repeat (about 1.5 min on 2 cores)"
+    )
     bench.add_argument(
         "--out", type=path_arg, default=Path("reports"), metavar="DIR", help="folder for bench.json (default: reports)"
     )

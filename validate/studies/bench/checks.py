@@ -28,6 +28,7 @@ scheme (MuJoCo's own Euler integrates MuJoCo's equations).
 from __future__ import annotations
 
 import math
+import statistics
 import time
 from collections.abc import Callable
 from typing import Any
@@ -40,7 +41,7 @@ from ...dynamics.mirror import mirror_steps, mirror_trajectory, mujoco_steps
 from ...dynamics.reference import reference_trajectory
 from .plan import CHECKS_TARGET, GRID_DRIVERS, MAX_EXECUTIONS, MIN_TIMED
 from .ratios import interleaved_medians
-from .runners import case_for, resources
+from .runners import case_for, execute, resources
 
 SAME_EQUATIONS = {"hand": ("hand", "hand-cfunc"), "symbolic": ("symbolic",), "pinocchio": ("pinocchio",)}
 
@@ -65,18 +66,13 @@ def _looped(fn: Callable[[], Any]) -> tuple[Callable[[], None], int]:
     return run, k
 
 
-def measure_checks(name: str, *, reps: int) -> dict[str, Any]:
-    """Each of the harness's own trajectory checks on one system (a worker task): CPU time (median of
-    `reps` interleaved repeats of back-to-back executions lasting MIN_TIMED, per execution, after
-    untimed calls that compile what they need), error at t = 2 s
-    against the reference, and what it is compared with (`kind`, see the module docstring)."""
+def check_jobs(name: str) -> dict[str, tuple[str, str, Callable[[], Any]]]:
+    """The harness's trajectory checks on one system as `run` calls them: {label: (engine, kind, run)}."""
     system, sources = resources(name)
     case = case_for(system)
     t = time_grid(case["t_end"], case["dt_out"])
     q0, v0, tau = (np.asarray(case[k], dtype=float) for k in ("q0", "v0", "tau"))
-    ref, _ = reference_trajectory(system, q0, v0, tau, t)
     dt = float(sources["mujoco"].m.opt.timestep)
-    steps = round(float(t[1] - t[0]) / dt)
     hand = sources["hand"]
     jobs: dict[str, tuple[str, str, Callable[[], Any]]] = {
         "hand accurate run": ("hand", "accurate", lambda: accurate_trajectory(system, hand, q0, v0, tau, t)),
@@ -107,6 +103,23 @@ def measure_checks(name: str, *, reps: int) -> dict[str, Any]:
             "accurate",
             lambda: accurate_trajectory(system, sources["symbolic"], q0, v0, tau, t),
         )
+    return jobs
+
+
+def measure_checks(name: str, *, reps: int) -> dict[str, Any]:
+    """Each of the harness's own trajectory checks on one system (a worker task): CPU time (median of
+    `reps` interleaved repeats of back-to-back executions lasting MIN_TIMED, per execution, after
+    untimed calls that compile what they need), error at t = 2 s
+    against the reference, and what it is compared with (`kind`, see the module docstring)."""
+    system, sources = resources(name)
+    case = case_for(system)
+    t = time_grid(case["t_end"], case["dt_out"])
+    q0, v0, tau = (np.asarray(case[k], dtype=float) for k in ("q0", "v0", "tau"))
+    ref, _ = reference_trajectory(system, q0, v0, tau, t)
+    dt = float(sources["mujoco"].m.opt.timestep)
+    steps = round(float(t[1] - t[0]) / dt)
+    hand = sources["hand"]
+    jobs = check_jobs(name)
     qw, vw = ref.q[:-1], ref.v[:-1]
     windows = {
         "hand mirror RK4 windows": lambda: mirror_steps(
@@ -161,6 +174,46 @@ def measure_checks(name: str, *, reps: int) -> dict[str, Any]:
     return {"system": system.name, "rows": out, "repeats": reps}
 
 
+SPEC_KEYS = ("engine", "driver", "scheme", "setting", "value", "atol")  # what a sweep row was run from
+
+
+def paired_timings(name: str, pairs: list[tuple[str, dict[str, Any]]], *, reps: int, budget: float) -> dict[str, Any]:
+    """Each check of `pairs` and the sweep run it is set against (its spec), timed again side by side in
+    one worker task (a worker task): `reps` alternations of the check (as `measure_checks` times it) and
+    the run (as the sweep times it, `execute`), medians of each. A ratio of two timings taken minutes
+    apart carries whatever else the machine did meanwhile; these two share it. {label: {cpu_s,
+    fastest_cpu_s}}."""
+    system, _ = resources(name)
+    case = case_for(system)
+    jobs = check_jobs(name)
+    out: dict[str, Any] = {}
+    for label, spec in pairs:
+        fn = jobs[label][2]
+        fn()  # compiles what it needs, untimed
+        run, k = _looped(fn)
+        execute(spec, case, budget=budget, samples=False)  # the same for the run
+        mine, theirs = [], []
+        for rep in range(reps):
+            for side in ("check", "run") if rep % 2 == 0 else ("run", "check"):
+                if side == "check":
+                    c0 = time.process_time()
+                    run()
+                    mine.append((time.process_time() - c0) / k)
+                else:
+                    theirs.append(execute(spec, case, budget=budget, samples=False)["cpu_s"])
+        out[label] = {"cpu_s": statistics.median(mine), "fastest_cpu_s": statistics.median(theirs)}
+    return out
+
+
+def pairs_to_time(ratios: dict[str, Any]) -> dict[str, list[tuple[str, dict[str, Any]]]]:
+    """From `checks_ratios`: per system, the targeted checks set against a sweep run, with that run's spec."""
+    out: dict[str, list[tuple[str, dict[str, Any]]]] = {}
+    for e in ratios["rows"]:
+        if e["target"] is not None and e["fastest"] is not None and "spec" in e["fastest"]:
+            out.setdefault(e["system"], []).append((e["check"], e["fastest"]["spec"]))
+    return out
+
+
 def _fastest(check: dict[str, Any], rows: list[dict[str, Any]]) -> dict[str, Any] | None:
     """The sweep's fastest run computing what `check` computes (module docstring), or None."""
     mine = [
@@ -186,9 +239,13 @@ def _fastest(check: dict[str, Any], rows: list[dict[str, Any]]) -> dict[str, Any
     return min(same, key=lambda r: r["cpu_s"]) if same else None
 
 
-def checks_ratios(measured: list[dict[str, Any]], rows: list[dict[str, Any]]) -> dict[str, Any]:
+def checks_ratios(
+    measured: list[dict[str, Any]], rows: list[dict[str, Any]], paired: dict[str, dict[str, Any]] | None = None
+) -> dict[str, Any]:
     """Per check: the ratio of its CPU time to the fastest comparable run (the sweep's, or MuJoCo's
-    windows for the windows); the target CHECKS_TARGET applies to every check but the user's path."""
+    windows for the windows); the target CHECKS_TARGET applies to every check but the user's path.
+    `paired` ({system: `paired_timings`}): where a check and its fastest run were timed again side by
+    side, the ratio is theirs (the separate timings stay in the entry, as `sweep_ratio`)."""
     entries = []
     for per_system in measured:
         for check in per_system["rows"]:
@@ -206,15 +263,24 @@ def checks_ratios(measured: list[dict[str, Any]], rows: list[dict[str, Any]]) ->
                 best = (
                     None
                     if found is None
-                    else {k: found[k] for k in ("method", "setting", "value", "cpu_s", "error_2s")}
+                    else {
+                        **{k: found[k] for k in ("method", "setting", "value", "cpu_s", "error_2s")},
+                        "spec": {k: found.get(k) for k in SPEC_KEYS},
+                    }
                 )
             ratio = check["cpu_s"] / best["cpu_s"] if best and best["cpu_s"] else None
+            again = (paired or {}).get(check["system"], {}).get(check["check"])
+            sweep_ratio = ratio
+            if again is not None and again["fastest_cpu_s"] > 0:
+                ratio = again["cpu_s"] / again["fastest_cpu_s"]
             targeted = check["kind"] != "user"
             entries.append(
                 {
                     **check,
                     "fastest": best,
                     "ratio": ratio,
+                    "sweep_ratio": sweep_ratio,
+                    "paired": again,
                     "target": CHECKS_TARGET if targeted else None,
                     "passed": (ratio is not None and ratio <= CHECKS_TARGET) if targeted else None,
                     "why": None if best else "no run of the sweep computes the same thing at this error",
@@ -229,5 +295,8 @@ def checks_ratios(measured: list[dict[str, Any]], rows: list[dict[str, Any]]) ->
         "how": "CPU time (median of interleaved repeats) of each check as `run` calls it, over the CPU time of "
         "the sweep's fastest run computing the same thing at least as accurately (error at t = 2 s against "
         "the long-double reference; for a mirror, the same scheme at the same timestep; for the windows, "
-        "MuJoCo's own windows timed in the same task); compiling is not timed, as for the sweep's contenders",
+        "MuJoCo's own windows timed in the same task); compiling is not timed, as for the sweep's contenders. "
+        "Each check and its fastest run are then timed again side by side in one task (alternating, medians) "
+        "and the ratio is theirs: two timings minutes apart differ by what else the machine did "
+        "(sweep_ratio keeps the separate one)",
     }

@@ -15,7 +15,7 @@ from ...parallel import executor_for
 from ...results import atomic_write, dumps, provenance
 from ...systems import System, key_of, load_all, system_names
 from .analysis import pareto_front, sweep, time_to_epsilon
-from .checks import checks_ratios, measure_checks
+from .checks import checks_ratios, measure_checks, paired_timings, pairs_to_time
 from .plan import (
     ATOL_FACTOR,
     BUDGET,
@@ -145,7 +145,20 @@ def run_bench(
     duration = time.perf_counter() - start
     for r in rows:  # a person's systems are keyed by their files in the workers, named in the results
         r["system"] = named.get(r["system"], r["system"])
-    ratios["harness_checks_vs_fastest"] = checks_ratios([extras[f"checks {n}"] for n in chosen], rows)
+    measured = [extras[f"checks {n}"] for n in chosen]
+    pairs = pairs_to_time(checks_ratios(measured, rows))
+    if pairs:
+        if progress:
+            progress(f"timing {sum(len(v) for v in pairs.values())} checks again beside their fastest runs")
+        key = {v: k for k, v in named.items()}
+        with executor_for(executor, tasks=len(pairs)) as pool:
+            futures = {
+                n: pool.submit(paired_timings, key[n], p, reps=reps_small, budget=budget) for n, p in pairs.items()
+            }
+            paired = {n: f.result() for n, f in futures.items()}
+    else:
+        paired = {}
+    ratios["harness_checks_vs_fastest"] = checks_ratios(measured, rows, paired)
     prepared = {named[k]: v for k, v in prepared.items()}
     chosen = [named[k] for k in chosen]
     return {
@@ -417,10 +430,23 @@ def checks_table(checks: dict[str, Any], console: Any) -> None:
             fmt_ms(e["cpu_s"]),
             err,
             fastest,
-            f"{e['ratio']:.2f}x" if e["ratio"] is not None else "-",
+            _ratio_cell(e, fmt_ms),
             verdict,
         )
     console.print(table)
+
+
+def _ratio_cell(e: dict[str, Any], fmt: Callable[[Any], str]) -> str:
+    """The ratio, and where it was timed again beside its fastest run, both times and the ratio apart."""
+    if e.get("ratio") is None:
+        return "-"
+    pair = e.get("paired")
+    if not pair:
+        return f"{e['ratio']:.2f}x"
+    apart = e.get("sweep_ratio")
+    return f"{e['ratio']:.2f}x (side by side: {fmt(pair['cpu_s'])} vs {fmt(pair['fastest_cpu_s'])}" + (
+        f"; timed apart {apart:.2f}x)" if apart is not None else ")"
+    )
 
 
 def bench_command(args: Any, executor: Executor | None = None) -> int:
