@@ -17,7 +17,9 @@ thing at least as accurately:
   the mirror's windows one window (dt_out) from each reference sample: MuJoCo's own windows
                        (mj_step from each state, engines/mujoco.py), timed in the same task.
 
-The hand equations' scipy run is listed beside them with its ratio and no target. Beyond
+Timings taken minutes apart differ by whatever else the machine did meanwhile, so each check and the
+run chosen for it are then timed again side by side in one task (`paired_timings`, alternating) and the
+ratio is that pair's. The hand equations' scipy run is listed beside them with its ratio and no target. Beyond
 compiled.UNROLLED_MAX_DOF joints the harness compiles its Taylor code compact (fast.py: unrolled code
 compiles too slowly to pay for a handful of runs), while the sweep's Taylor rows are unrolled: there
 the accurate runs' ratio is expected at 1.2-1.9x, the price of a bounded compile. The mirrors of
@@ -179,7 +181,7 @@ SPEC_KEYS = ("engine", "driver", "scheme", "setting", "value", "atol")  # what a
 
 def paired_timings(name: str, pairs: list[tuple[str, dict[str, Any]]], *, reps: int, budget: float) -> dict[str, Any]:
     """Each check of `pairs` and the sweep run it is set against (its spec), timed again side by side in
-    one worker task (a worker task): `reps` alternations of the check (as `measure_checks` times it) and
+    one worker task: `reps` alternations of the check (as `measure_checks` times it) and
     the run (as the sweep times it, `execute`), medians of each. A ratio of two timings taken minutes
     apart carries whatever else the machine did meanwhile; these two share it. {label: {cpu_s,
     fastest_cpu_s}}."""
