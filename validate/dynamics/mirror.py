@@ -83,7 +83,7 @@ def force_velocity_jacobian(
     if bias:
         forces = forces - source.bias(qs, vs)
     forces = forces.reshape(n, 2, *q.shape)
-    return np.stack([(forces[j, 0] - forces[j, 1]) / (2 * step) for j in range(n)], axis=-1)
+    return np.moveaxis((forces[:, 0] - forces[:, 1]) / (2 * step), 0, -1)
 
 
 def eulerdamp_active(system: Any) -> bool:

@@ -148,19 +148,6 @@ class PinocchioSource:
         n, model, data = len(tau), self.model, self.data
         qfull, vfull, tfull = pin.neutral(model), np.zeros(model.nv), np.zeros(model.nv)
         qidx, vidx, damping = self.qidx, self.vidx, self.damping
-        aba = pin.aba
-
-        if self._whole():  # every coordinate of the model is a joint of the system, in order: no copies
-
-            def whole(t: float, y: np.ndarray) -> np.ndarray:  # y: an array or a list of floats
-                qfull[:] = y[:n]
-                vfull[:] = y[n:]
-                out = np.empty(2 * n)
-                out[:n] = vfull
-                out[n:] = aba(model, data, qfull, vfull, tau - damping * vfull, convention=WORLD)
-                return out
-
-            return whole
 
         def f(t: float, y: np.ndarray) -> np.ndarray:
             qfull[qidx] = y[:n]
@@ -195,15 +182,6 @@ class PinocchioSource:
             return out
 
         return f
-
-    def _whole(self) -> bool:
-        """Whether the system's joints are every coordinate of the model, in the model's order."""
-        nq, nv = self.model.nq, self.model.nv
-        return (
-            nq == nv == len(self.qidx)
-            and bool(np.array_equal(self.qidx, np.arange(nq)))
-            and bool(np.array_equal(self.vidx, np.arange(nv)))
-        )
 
     def mass_matrix(self, q: np.ndarray) -> np.ndarray:
         """CRBA per state (it has no batched form), the stack symmetrised and selected at once."""

@@ -210,18 +210,20 @@ def _facade(module: Any, form: str) -> Any:
     if form == "c":
         f = module.qacc
 
-        def minv_c(p: Any, q: Any) -> np.ndarray:
+        def calls_c(p: Any, q: Any, extra: list[tuple[Any, ...]]) -> tuple[Any, np.ndarray, list[np.ndarray]]:
+            """qacc at rest, at each unit torque and at the `extra` arguments, in one batched call:
+            (qacc at rest, M^-1 column by column, the answers at `extra`)."""
             z = _zeros(q)
-            a0, *cols = _rows_of(f, p, [(q, z, z)] + [(q, z, _unit(q, j, n)) for j in range(n)])
-            return _stack_columns([c - a0 for c in cols])
+            a0, *rest = _rows_of(f, p, [(q, z, z)] + [(q, z, _unit(q, j, n)) for j in range(n)] + extra)
+            return a0, _stack_columns([c - a0 for c in rest[:n]]), rest[n:]
 
         def mass_matrix_c(p: Any, q: Any) -> np.ndarray:
-            return inverse(minv_c(p, q))
+            return inverse(calls_c(p, q, [])[1])
 
         def parts_c(p: Any, q: Any, v: Any) -> tuple[Any, Any, Any]:
             z = _zeros(q)
-            M = mass_matrix_c(p, q)
-            a0, at_v, at_minus_v = _rows_of(f, p, [(q, z, z), (q, v, z), (q, -np.asarray(v), z)])
+            a0, minv, (at_v, at_minus_v) = calls_c(p, q, [(q, v, z), (q, -np.asarray(v), z)])
+            M = inverse(minv)
             plus, minus = at_v - a0, at_minus_v - a0
             return -_matvec(M, a0), -_matvec(M, (plus + minus) / 2), _matvec(M, (plus - minus) / 2)
 

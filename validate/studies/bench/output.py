@@ -142,7 +142,6 @@ def run_bench(
             "passed": None,
             "why": "not measured in --quick (5 full runs take over a minute)",
         }
-    duration = time.perf_counter() - start
     for r in rows:  # a person's systems are keyed by their files in the workers, named in the results
         r["system"] = named.get(r["system"], r["system"])
     measured = [extras[f"checks {n}"] for n in chosen]
@@ -159,6 +158,7 @@ def run_bench(
     else:
         paired = {}
     ratios["harness_checks_vs_fastest"] = checks_ratios(measured, rows, paired)
+    duration = time.perf_counter() - start
     prepared = {named[k]: v for k, v in prepared.items()}
     chosen = [named[k] for k in chosen]
     return {
