@@ -44,12 +44,27 @@ def _fmt(x: Any) -> Any:
     return [None if np.isnan(y) else float(y) for y in arr.ravel()] if arr.ndim else float(arr)
 
 
+def states_every_key(system: Any) -> bool:
+    """Whether the derivation's `assumptions()` state the whole model (every key of it): then every
+    number it reads is one of its stated parameters, and a key it leaves out is a parameter it silently
+    ignores. A module without `assumptions()`, or with only the relations its formulas bake in, reads
+    the rest from the model, and the probes move what it reads (validate/checks/probes.py)."""
+    if not getattr(system.equations, "STATES_ASSUMPTIONS", True):
+        return False
+    return set(system.view) <= set(system.equations.assumptions(system.params))
+
+
 def equations_vs_model(system: Any) -> list[Mismatch]:
-    """Rows for every key of the compiled model and every assumption; `passed` False where they differ."""
+    """Rows for every key of the compiled model and every assumption; `passed` False where they differ.
+    Where the assumptions are partial (or absent), a key they do not state is read from the model, not
+    assumed: no row."""
     assumed = system.equations.assumptions(system.params)
     view = system.view
+    strict = set(view) <= set(assumed)
     rows: list[Mismatch] = []
     for key in sorted(set(view) | set(assumed)):
+        if key not in assumed and not strict:
+            continue
         if key not in assumed:
             rows.append(
                 {

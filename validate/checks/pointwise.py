@@ -173,8 +173,8 @@ def compare(
     cond = np.linalg.cond(values[reference]["M"]) if reference in values else None
     for quantity, tier in QUANTITY_TIER.items():
         for a, b in itertools.combinations(names, 2):
-            if quantity not in values[a] or quantity not in values[b]:
-                continue  # a quantity the derivation does not provide: listed as not checked
+            if quantity not in values[a] or quantity not in values[b] or np.size(values[a][quantity]) == 0:
+                continue  # a quantity the derivation does not provide (or no body to pose): not checked
             also = [values[s][k] for k in SCALE_ALSO_BY.get(quantity, ()) for s in (a, b) if k in values[s]]
             min_scale = max((float(np.abs(x).max()) for x in also), default=0.0)
             rows.append(

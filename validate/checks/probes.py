@@ -15,6 +15,13 @@ zero in the model stays zero, a model number the derivation does not have as a p
 `assumptions` fix it) stays as it is. The notes' printed forms also assume equal parameters (one m,
 one l, l = 2c); a module declares such ties once as `PRINTED_FORMS_ASSUME` (see
 equations/__init__.py), and the printed forms' probes keep them while moving everything else.
+
+A derivation whose `assumptions()` do not state the whole model (none at all, or only the relations
+its formulas bake in: a uniform rod's inertia m l^2 / 12) reads the rest from the model. Its probes
+move the model's own numbers that `parameters()` reads (validate/systems/reads.py), each by its own
+factor, write the relations `assumptions()` states at the parameters read from the moved numbers, and
+take as the probe's parameters what `parameters()` reads from the compiled probe model: such a probe
+never blames `parameters()` for reading what the model holds.
 """
 
 from __future__ import annotations
@@ -27,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import HarnessError
+from ..systems.reads import Knob, Overlay, knobs, numeric_fields
 from ..systems.set_values import set_values
 from . import modelsync
 
@@ -73,14 +81,7 @@ class ParametersMisread(ProbeError):
 
 def param_fields(params: Any) -> dict[str, float]:
     """The numeric fields of a Params dataclass, by name."""
-    if not dataclasses.is_dataclass(params):
-        raise HarnessError(f"parameters() must return a dataclass instance; got {type(params).__name__}.")
-    out = {}
-    for f in dataclasses.fields(params):
-        value = getattr(params, f.name)
-        if isinstance(value, (int, float, np.floating, np.integer)) and not isinstance(value, bool):
-            out[f.name] = float(value)
-    return out
+    return numeric_fields(params)
 
 
 def describe_ties(ties: tuple[Mapping[str, float], ...]) -> str:
@@ -162,6 +163,79 @@ def build(system: Any, values: dict[str, float], *, index: int, label: str) -> P
     return Probe(index, label, probe_system, changed)
 
 
+def reads_model(system: Any) -> bool:
+    """Whether the derivation reads numbers from the model that its assumptions() do not state (the
+    probes then move the model's numbers, not the Params fields)."""
+    return not modelsync.states_every_key(system)
+
+
+def _merge(values: dict[str, Any], key: str, new: Any) -> None:
+    """values[key] with `new`'s non-NaN entries written over it (NaN entries: leave as is)."""
+    new = np.asarray(new, dtype=float)
+    if key not in values or new.ndim == 0:
+        values[key] = new if new.ndim else float(new)
+        return
+    old = np.asarray(values[key], dtype=float)
+    values[key] = np.where(np.isnan(new), old, new)
+
+
+def _full(view: Any, key: str, partial: Any) -> Any:
+    """The key's value in `view` with `partial`'s non-NaN entries written over it."""
+    partial = np.asarray(partial, dtype=float)
+    if partial.ndim == 0:
+        return float(partial)
+    return np.where(np.isnan(partial), np.asarray(view[key], dtype=float), partial)
+
+
+def build_moved(system: Any, moved: dict[Knob, float], *, index: int, label: str) -> Probe:
+    """The probe model with the model numbers `moved` (Knob -> new value) and the relations the
+    derivation's assumptions() state at the parameters read from them: written, compiled, read."""
+    view, eq = system.view, system.equations
+    values: dict[str, Any] = {}
+    for knob, value in moved.items():
+        _merge(values, knob.key, knob.moved(value))
+    read = eq.parameters(Overlay(view, {k: _full(view, k, v) for k, v in values.items()}))
+    try:
+        assumed = _assumed_values(eq.assumptions(read))
+    except Exception as exc:  # noqa: BLE001 - the user's module: its failure is a finding
+        raise ProbeError(f"assumptions() fails at the probe parameters: {type(exc).__name__}: {exc}") from None
+    for key, value in assumed.items():
+        _merge(values, key, value)
+    text = set_values(system.mjcf_xml(), values, model_view=view)
+    probe_system = system.derive(text=text, overrides=())
+    probe_system.mujoco_model()  # a model MuJoCo refuses is a ProbeError for the caller to redraw
+    mismatches = [r for r in modelsync.equations_vs_model(probe_system) if not r["passed"]]
+    if mismatches:
+        keys = ", ".join(r["key"] for r in mismatches[:4])
+        raise ProbeError(f"the probe model differs from what assumptions() says at {keys}")
+    nominal, now = param_fields(system.params), param_fields(probe_system.params)
+    changed = {k: (nominal[k], now[k]) for k in nominal if k in now and now[k] != nominal[k]}
+    return Probe(index, label, probe_system, changed)
+
+
+def _draw_moved(knob_list: list[Knob], rng: np.random.Generator, only: Knob | None = None) -> dict[Knob, float]:
+    return {k: k.value * _factor(rng) for k in knob_list if only is None or k == only}
+
+
+def _moved_probes(system: Any, k: int, seed: int, family: str) -> tuple[list[Probe], list[str]]:
+    """Probes of a derivation that reads the model: its numbers moved, each independently."""
+    knob_list = knobs(system.equations.parameters, system.view)
+    out = [Probe(0, "model", system, {})]
+    problems: list[str] = []
+    rng = np.random.default_rng([seed, k, len(family)])
+    for i in range(1, k + 1):
+        last = ""
+        for _ in range(ATTEMPTS):
+            try:
+                out.append(build_moved(system, _draw_moved(knob_list, rng), index=i, label=f"probe {i}"))
+                break
+            except HarnessError as exc:
+                last = str(exc)
+        else:
+            problems.append(f"probe {i}: no valid model in {ATTEMPTS} draws ({last})")
+    return out, problems
+
+
 def probes(
     system: Any,
     *,
@@ -173,6 +247,8 @@ def probes(
     """The model's own parameters (index 0) and up to `k` probes; the second item lists why any
     probe could not be built (each after ATTEMPTS draws). ParametersMisread propagates: it is a
     finding about the derivation, not a failed draw."""
+    if reads_model(system) and not ties:
+        return _moved_probes(system, k, seed, family)
     nominal = param_fields(system.params)
     out = [Probe(0, "model", system, {})]
     problems: list[str] = []
@@ -194,7 +270,10 @@ def probes(
 
 
 def single_field_probes(system: Any, *, seed: int = 0) -> list[Probe]:
-    """One probe per non-zero field, that field alone moved: which parameter exposes a mistake."""
+    """One probe per non-zero field, that field alone moved: which parameter exposes a mistake (for a
+    derivation that reads the model: one per model number it reads)."""
+    if reads_model(system):
+        return _single_moved(system, seed)
     nominal = param_fields(system.params)
     rng = np.random.default_rng([seed, 7])
     out = []
@@ -202,6 +281,21 @@ def single_field_probes(system: Any, *, seed: int = 0) -> list[Probe]:
         for _ in range(ATTEMPTS):
             try:
                 out.append(build(system, draw(nominal, rng, only=(name,)), index=100 + i, label=f"{name} alone"))
+                break
+            except HarnessError:
+                continue
+    return out
+
+
+def _single_moved(system: Any, seed: int) -> list[Probe]:
+    knob_list = knobs(system.equations.parameters, system.view)
+    rng = np.random.default_rng([seed, 7])
+    out = []
+    for i, knob in enumerate(knob_list):
+        for _ in range(ATTEMPTS):
+            try:
+                moved = _draw_moved(knob_list, rng, only=knob)
+                out.append(build_moved(system, moved, index=100 + i, label=f"{'/'.join(knob.fields)} alone"))
                 break
             except HarnessError:
                 continue

@@ -78,10 +78,9 @@ def param_key(system: Any) -> tuple[tuple[str, str], ...]:
 
 
 @functools.cache
-def _symbolic(name: str, module: types.ModuleType, p: Any) -> SymbolicDynamics:
+def _symbolic(name: str, module: types.ModuleType, p: Any, n: int) -> SymbolicDynamics:
     import heyoka as hy
 
-    n = len(module.COORDINATES)
     qs = [hy.expression(f"q{i}") for i in range(n)]
     vs = [hy.expression(f"v{i}") for i in range(n)]
     try:
@@ -100,7 +99,7 @@ def _symbolic(name: str, module: types.ModuleType, p: Any) -> SymbolicDynamics:
 
 def symbolic_dynamics(system: Any) -> SymbolicDynamics:
     """The system's hand equations as heyoka expressions (traced once per parameter set)."""
-    return _symbolic(system.name, system.equations, system.params)
+    return _symbolic(system.name, system.equations, system.params, system.nv)
 
 
 def rhs_check(system: Any, *, n_states: int = 64, seed: int = 0) -> float:

@@ -106,7 +106,7 @@ class MujocoSource:
             if bid < 0:
                 raise HarnessError(f"{system.mjcf.name} has no body '{b}' (equations/{system.name}.py BODIES).")
             body_ids.append(bid)
-        self.body_ids = np.array(body_ids)
+        self.body_ids = np.array(body_ids, dtype=int)
         # Inputs: a coordinate driven by a joint actuator takes tau through ctrl = tau / gear.
         self.ctrl_of_coord = np.full(n, -1)
         self.gear = np.ones(n)

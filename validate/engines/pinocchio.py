@@ -235,8 +235,8 @@ class PinocchioSource:
         if full is not None:
             out["M"] = self._symmetric(full)
         if poses:
-            levers = np.array([model.inertias[j].lever for j in self.joint_of_body])
-            frame_rot = np.array([model.frames[f].placement.rotation for f in self.frames])
+            levers = np.array([model.inertias[j].lever for j in self.joint_of_body]).reshape(nb, 3)
+            frame_rot = np.array([model.frames[f].placement.rotation for f in self.frames]).reshape(nb, 3, 3)
             out["body_positions"] = np.einsum("nkij,kj->nki", R, levers) + p
             out["body_rotations"] = R @ frame_rot
         return out

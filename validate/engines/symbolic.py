@@ -120,6 +120,8 @@ class SymbolicSource:
         for name in names:
             k, shape = where[name]
             cols.extend(raw[k : k + (int(np.prod(shape)) if shape else 1)])
+        if not cols:  # no body compared
+            return np.zeros((*batch, 0))
         return np.stack([np.broadcast_to(np.asarray(x, dtype=float), batch) for x in cols], axis=-1)
 
     def _eval(self, part: str, q: np.ndarray, v: np.ndarray) -> dict[str, np.ndarray]:

@@ -92,7 +92,7 @@ def recorded_params(system: Any, sys_results: Mapping[str, Any]) -> Any:
     recorded = sys_results.get("parameters")
     if recorded:
         try:
-            return system.equations.Params(**{k: float(v) for k, v in recorded.items()})
+            return type(system.params)(**{k: float(v) for k, v in recorded.items()})
         except (TypeError, ValueError):
             pass
     return system.params

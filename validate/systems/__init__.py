@@ -30,16 +30,11 @@ EQUATIONS_PACKAGE = "lagrange_xval.equations"
 MAX_MJCF_BYTES = 16 * 2**20  # the models of the notes are ~3 kB
 MODEL_SUFFIXES = (".xml", ".urdf")  # what a folder of systems is searched for (the format is the root element's)
 
-REQUIRED_ATTRIBUTES = (
-    "DESCRIPTION",
-    "COORDINATES",
-    "JOINTS",
-    "BODIES",
-    "USES",
-    "Params",
-    "parameters",
-    "assumptions",
-)
+# The contract's one required name (and the dynamics in one form: validate/systems/forms.py). Everything
+# else has a default: COORDINATES and JOINTS the model's joints in order, DESCRIPTION the module's
+# docstring, BODIES none (pose checks "not provided"), assumptions() none (the probes move what
+# parameters() reads); the physics a scene uses is read from the model.
+REQUIRED_ATTRIBUTES = ("parameters",)
 
 
 def model_stems() -> set[str]:
@@ -210,13 +205,25 @@ class System:
 
     @property
     def coordinates(self) -> tuple[str, ...]:
-        return self.joints if self.equations is None else tuple(self.equations.COORDINATES)
+        given = getattr(self.equations, "COORDINATES", None)
+        return self.joints if given is None else tuple(given)
+
+    @property
+    def model_joints(self) -> tuple[str, ...]:
+        """The model's joints, in the model's order."""
+        return tuple(k.split("/")[1] for k in self.view if k.startswith("joint/") and k.endswith("/type"))
 
     @property
     def joints(self) -> tuple[str, ...]:
-        if self.equations is None:
-            return tuple(k.split("/")[1] for k in self.view if k.startswith("joint/") and k.endswith("/type"))
-        return tuple(self.equations.JOINTS)
+        """The joint measuring each coordinate: the module's JOINTS; else its COORDINATES where they
+        name the model's joints; else the model's joints in order."""
+        given = getattr(self.equations, "JOINTS", None)
+        if given is not None:
+            return tuple(given)
+        named = getattr(self.equations, "COORDINATES", None)
+        if named is not None and set(named) <= set(self.model_joints):
+            return tuple(named)
+        return self.model_joints
 
     @property
     def joint_map(self) -> Any:
@@ -265,26 +272,43 @@ class System:
 
     @property
     def bodies(self) -> tuple[str, ...]:
-        if self.equations is None:  # every body a joint moves
-            moved = {self.view[f"joint/{j}/body"] for j in self.joints}
-            return tuple(
-                b
-                for b in (k.split("/")[1] for k in self.view if k.startswith("body/") and k.endswith("/mass"))
-                if b in moved
-            )
-        return tuple(self.equations.BODIES)
+        """The bodies whose poses are compared: the module's BODIES; else those its body_positions()
+        names; none where it gives no poses; for the model alone, every body a joint moves."""
+        if self.equations is not None:
+            given = getattr(self.equations, "BODIES", None)
+            return tuple(given) if given is not None else self._posed_bodies()
+        moved = {self.view[f"joint/{j}/body"] for j in self.joints}
+        return tuple(
+            b
+            for b in (k.split("/")[1] for k in self.view if k.startswith("body/") and k.endswith("/mass"))
+            if b in moved
+        )
+
+    def _posed_bodies(self) -> tuple[str, ...]:
+        """The bodies a module's body_positions() (or body_rotations()) names, read at q = 0."""
+        import numpy as np
+
+        from .forms import provided
+
+        for name in ("body_positions", "body_rotations"):
+            fn = getattr(self.equations, name, None)
+            if provided(fn):
+                try:
+                    return tuple(fn(self.params, np.zeros(self.nv)))
+                except Exception:  # noqa: BLE001 - the user's function: its failure is judged where it is called
+                    return ()
+        return ()
 
     @property
     def uses(self) -> frozenset[str]:
-        if self.equations is None:
-            view = self.view
-            found = {
-                "gravity": any(float(x) != 0.0 for x in view["gravity"]),
-                "damping": any(view[f"joint/{j}/damping"] > 0 for j in self.joints),
-                "actuation": any(k.startswith("actuator/") for k in view),
-            }
-            return frozenset(k for k, on in found.items() if on)
-        return frozenset(self.equations.USES)
+        """The physics the scene uses, read from the model: gravity, joint damping, actuators."""
+        view = self.view
+        found = {
+            "gravity": any(float(x) != 0.0 for x in view["gravity"]),
+            "damping": any(view[f"joint/{j}/damping"] > 0 for j in self.joints),
+            "actuation": any(k.startswith("actuator/") for k in view),
+        }
+        return frozenset(k for k, on in found.items() if on)
 
     @property
     def nv(self) -> int:
@@ -294,7 +318,8 @@ class System:
     def description(self) -> str:
         if self.equations is None:
             return f"the model {self.mjcf.name} alone (no derivation)"
-        return str(self.equations.DESCRIPTION)
+        given = getattr(self.equations, "DESCRIPTION", None) or (self.equations.__doc__ or "").strip()
+        return " ".join(str(given).split("\n\n")[0].split()) or f"the equations in {self.equations.__name__}"
 
     @property
     def model_format(self) -> str:

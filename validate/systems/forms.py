@@ -68,10 +68,6 @@ def written_form(module: Any) -> str:
     return str(module.FORM) if isinstance(module, _Facade) else form_of(module)
 
 
-def _n(module: Any) -> int:
-    return len(module.COORDINATES)
-
-
 def _unit(q: Any, j: int, n: int) -> np.ndarray:
     """e_j broadcast to q's leading shape (floats; object entries stay objects where q is traced)."""
     e = np.zeros(np.shape(q)[:-1] + (n,))
@@ -164,14 +160,23 @@ def normalize(module: Any) -> Any:
         return module
     form = form_of(module)
     missing = [n for n in OPTIONAL_FUNCTIONS if not callable(getattr(module, n, None))]
-    if form == "a" and callable(getattr(module, "passive", None)) and not missing and hasattr(module, "VARIANTS"):
+    complete = all(hasattr(module, n) for n in ("VARIANTS", "assumptions"))
+    if form == "a" and callable(getattr(module, "passive", None)) and not missing and complete:
         return module
     facade = _facade(module, form)
     for name in missing:
         setattr(facade, name, _stub(name))
     if not hasattr(module, "VARIANTS"):
         facade.VARIANTS = ()  # type: ignore[attr-defined]
+    if not callable(getattr(module, "assumptions", None)):
+        facade.assumptions = _no_assumptions  # type: ignore[attr-defined]
+        facade.STATES_ASSUMPTIONS = False  # type: ignore[attr-defined]
     return facade
+
+
+def _no_assumptions(p: Any) -> dict[str, Any]:
+    """A module that states no assumptions: every number it uses is read from the model."""
+    return {}
 
 
 def _facade(module: Any, form: str) -> Any:
@@ -183,7 +188,6 @@ def _facade(module: Any, form: str) -> Any:
     facade.__package__ = getattr(module, "__package__", None)
     facade.FORM = form  # type: ignore[attr-defined]
     facade.ORIGINAL = module  # type: ignore[attr-defined]
-    n = _n(module)
     if form == "a":
         if not callable(getattr(module, "passive", None)):
             facade.passive = _no_friction  # type: ignore[attr-defined]
@@ -192,7 +196,7 @@ def _facade(module: Any, form: str) -> Any:
         r = module.residual
 
         def mass_matrix_b(p: Any, q: Any) -> np.ndarray:
-            z = _zeros(q)
+            z, n = _zeros(q), np.shape(q)[-1]
             r0, *cols = _rows_of(r, p, [(q, z, z, z)] + [(q, z, _unit(q, j, n), z) for j in range(n)])
             return _stack_columns([c - r0 for c in cols])
 
@@ -213,7 +217,7 @@ def _facade(module: Any, form: str) -> Any:
         def calls_c(p: Any, q: Any, extra: list[tuple[Any, ...]]) -> tuple[Any, np.ndarray, list[np.ndarray]]:
             """qacc at rest, at each unit torque and at the `extra` arguments, in one batched call:
             (qacc at rest, M^-1 column by column, the answers at `extra`)."""
-            z = _zeros(q)
+            z, n = _zeros(q), np.shape(q)[-1]
             a0, *rest = _rows_of(f, p, [(q, z, z)] + [(q, z, _unit(q, j, n)) for j in range(n)] + extra)
             return a0, _stack_columns([c - a0 for c in rest[:n]]), rest[n:]
 
@@ -260,23 +264,22 @@ class _Derived:
 
 
 @functools.cache
-def _derive(module: Any, numeric_params: tuple[tuple[str, float], ...] | None) -> _Derived:
+def _derive(module: Any, params_type: type, n: int, numeric_params: tuple[tuple[str, float], ...] | None) -> _Derived:
     """M, G and C v of an energies-only module, differentiated symbolically and generated as numpy
     code. Parameters are symbols where the module's code allows it (one derivation for every probe),
     else the numbers given."""
     import sympy as sp
 
     backend = tracing.sympy_backend()
-    n = _n(module)
     qs, vs = list(sp.symbols(f"q0:{n}")), list(sp.symbols(f"v0:{n}"))
     q, v = tracing.wrap(qs, backend), tracing.wrap(vs, backend)
     if numeric_params is None:
-        names = tuple(f.name for f in dataclasses.fields(module.Params))
+        names = tuple(f.name for f in dataclasses.fields(params_type))
         psyms = [sp.Symbol(k) for k in names]
-        p = module.Params(**{k: tracing.Traced(s, backend) for k, s in zip(names, psyms, strict=True)})
+        p = params_type(**{k: tracing.Traced(s, backend) for k, s in zip(names, psyms, strict=True)})
     else:
         names, psyms = (), []
-        p = module.Params(**dict(numeric_params))
+        p = params_type(**dict(numeric_params))
     T = _integer_powers(tracing.unwrap(np.asarray(module.kinetic_energy(p, q, v), dtype=object), backend))
     V = _integer_powers(tracing.unwrap(np.asarray(module.potential_energy(p, q), dtype=object), backend))
     dT_dv = [sp.diff(T, x) for x in vs]
@@ -304,12 +307,13 @@ def _integer_powers(expr: Any) -> Any:
 def _energy_terms(module: Any, p: Any, q: Any, v: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(M, G, C v) of an energies-only module at (q, v) (v None: zero)."""
 
+    n = np.shape(q)[-1]
     try:
-        derived = _derive(module, None)
+        derived = _derive(module, type(p), n, None)
     except Exception:  # noqa: BLE001 - code that needs numbers for its parameters: derive per parameter set
         values = tuple((f.name, float(getattr(p, f.name))) for f in dataclasses.fields(p))
         try:
-            derived = _derive(module, values)
+            derived = _derive(module, type(p), n, values)
         except Exception as exc:
             raise HarnessError(
                 f"cannot differentiate kinetic_energy/potential_energy symbolically ({type(exc).__name__}: {exc}); "
