@@ -101,7 +101,7 @@ def test_from_files_errors_are_one_line(tmp_path):
         "missing.py": ("equations file not found", None),
         "broken.py": ("syntax error", "def f(:\n"),
         "raises.py": ("importing it raised ZeroDivisionError", "x = 1 / 0\n"),
-        "empty.py": ("lacks DESCRIPTION", "X = 1\n"),
+        "empty.py": (r"lacks parameters\(model\)", "X = 1\n"),
     }
     for filename, (message, text) in cases.items():
         path = tmp_path / filename

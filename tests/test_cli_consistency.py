@@ -124,7 +124,7 @@ def _without(module_name: str, attribute: str, monkeypatch):
 
 def test_list_names_a_module_missing_an_attribute_as_broken_and_lists_the_others(capsys, monkeypatch):
     names = systems.system_names()
-    _without(names[-1], "USES", monkeypatch)
+    _without(names[-1], "parameters", monkeypatch)
     systems._equations_module.cache_clear()
     try:
         status = main(["list"])
@@ -132,7 +132,7 @@ def test_list_names_a_module_missing_an_attribute_as_broken_and_lists_the_others
         systems._equations_module.cache_clear()
     out = capsys.readouterr().out
     assert status == 1
-    assert f"{names[-1]}: BROKEN: equations/{names[-1]}.py lacks USES" in out, out
+    assert f"{names[-1]}: BROKEN: equations/{names[-1]}.py lacks parameters(model)" in out, out
     for name in names[:-1]:
         assert f"{name}: " in out and f"{name}: BROKEN" not in out
 

@@ -46,7 +46,11 @@ def random_states(system: Any, *, n: int, seed: int) -> States:
     lo, hi = np.maximum(-Q_RANGE, ranges[:, 0]), np.minimum(Q_RANGE, ranges[:, 1])
     q = rng.uniform(lo, hi, (n, nv))
     v = rng.uniform(-V_RANGE, V_RANGE, (n, nv))
-    tau = rng.uniform(-TAU_RANGE, TAU_RANGE, (n, nv)) if "actuation" in system.uses else np.zeros((n, nv))
+    if system.inputs == "u":  # the actuators' controls: tau = B u, in the range of the inputs only
+        B = system.input_matrix
+        tau = rng.uniform(-TAU_RANGE, TAU_RANGE, (n, B.shape[1])) @ B.T
+    else:
+        tau = rng.uniform(-TAU_RANGE, TAU_RANGE, (n, nv)) if "actuation" in system.uses else np.zeros((n, nv))
     return States(q, v, tau)
 
 

@@ -26,13 +26,14 @@ from typing import Any, cast
 
 import numpy as np
 
+from ...equations._forms import Explicit
 from ..engines import SYMBOLIC_MAX_DOF, make_sources
 from ..errors import HarnessError
 from ..results.schema import Derivation, Explanation, TermRow
-from ..systems.forms import not_provided_in, written_form
+from ..systems.forms import accelerations_only, not_provided_in, written_form
 from . import probes as probing
 from .explain import explain
-from .judge import EngineTerms, engines_of, term_rows
+from .judge import EngineTerms, engines_of, judge_variant, term_rows
 from .modelsync import equations_vs_model
 from .pointwise import States, random_states
 from .tolerances import TOLERANCES, Tolerances
@@ -43,6 +44,7 @@ HAND_TERMS = (
     "gravity",
     "velocity",
     "friction",
+    "actuation",
     "kinetic energy",
     "potential energy",
     "body positions",
@@ -199,6 +201,11 @@ def term_rows_at(
         tiers.update({t: "solve" for t in ("mass matrix", "gravity", "velocity", "friction")})
     rows: list[dict[str, Any]] = []
     absent = {TERM_OF_FUNCTION[fn] for fn in not_provided_in(system.equations)}
+    if accelerations_only(system.equations):  # judged in accelerations: M and the forces are not the person's
+        absent |= {"mass matrix", "gravity", "velocity", "friction", "acceleration"}
+        rows += acceleration_rows(system, states, terms, tolerances=tolerances)
+    elif system.inputs == "u":
+        rows += actuation_rows(system, states, terms, tolerances=tolerances)
     for term, (refs, floor) in theirs.items():
         if term in absent:
             continue  # not provided: listed as not checked by judge_derivation
@@ -229,6 +236,75 @@ def term_rows_at(
         if spd:
             notes["mass_matrix_not_spd"] = spd
     return rows, notes
+
+
+def _controls(system: Any, tau: np.ndarray) -> np.ndarray:
+    """u with B u = tau (the states' tau is drawn in the inputs' range)."""
+    return np.asarray(tau) @ np.linalg.pinv(system.input_matrix).T
+
+
+def _unit_controls(system: Any, q: np.ndarray) -> list[np.ndarray]:
+    nu = system.input_matrix.shape[1]
+    return [np.broadcast_to(np.eye(nu)[k], (len(q), nu)) for k in range(nu)]
+
+
+def _ignored_inputs(system: Any, response: list[np.ndarray], fname: str) -> list[dict[str, Any]]:
+    """A failing actuation row for each input the person's function ignores (its response is zero)."""
+    out = []
+    for k, col in enumerate(response):
+        if np.all(np.isfinite(col)) and not np.any(col):
+            why = f"your {fname} does not depend on u[{k}] (actuator {system.actuators[k]})"
+            out += [_error_row("actuation", engine, why) for engine in ("mujoco", "pinocchio")]
+    return out
+
+
+def acceleration_rows(
+    system: Any, states: States, terms: EngineTerms, *, tolerances: Tolerances = TOLERANCES
+) -> list[dict[str, Any]]:
+    """Explicit accelerations with inputs u, judged as a printed explicit form is (judge.py): each
+    force's acceleration M^-1 (G, C v, friction, B u) against the engines', and the accelerations."""
+    qacc = system.equations.ORIGINAL.qacc
+    variant = Explicit(
+        name="your derivation",
+        notes_equations=(),
+        acceleration=lambda p, q, v, tau: qacc(p, q, v, _controls(system, tau)),
+    )
+    try:
+        with np.errstate(all="ignore"):
+            rows = list(
+                judge_variant(system, variant, terms, states, tolerances=tolerances, printed_parameters=False)["terms"]
+            )
+            zero = np.zeros_like(states.q)
+            a0 = np.asarray(qacc(system.params, states.q, zero, _controls(system, zero)), dtype=float)
+            response = [
+                np.asarray(qacc(system.params, states.q, zero, u), dtype=float) - a0
+                for u in _unit_controls(system, states.q)
+            ]
+    except Exception as exc:  # noqa: BLE001 - the user's code: its failure is the finding
+        why = f"qacc() raised {type(exc).__name__}: {exc}".strip()
+        return [_error_row("acceleration", engine, why) for engine in terms.engines]
+    for row in rows:
+        row["pair"] = f"hand~{row['engine']}"
+    return rows + _ignored_inputs(system, response, "qacc")
+
+
+def actuation_rows(
+    system: Any, states: States, terms: EngineTerms, *, tolerances: Tolerances = TOLERANCES
+) -> list[dict[str, Any]]:
+    """An implicit residual with inputs u: -(r(q, 0, 0, u) - r(q, 0, 0, 0)) is the person's B u, against tau."""
+    r, p, q = system.equations.ORIGINAL.residual, system.params, states.q
+    zero = np.zeros_like(q)
+    try:
+        with np.errstate(all="ignore"):
+            r0 = np.asarray(r(p, q, zero, zero, _controls(system, zero)), dtype=float)
+            mine = r0 - np.asarray(r(p, q, zero, zero, _controls(system, states.tau)), dtype=float)
+            response = [r0 - np.asarray(r(p, q, zero, zero, u), dtype=float) for u in _unit_controls(system, q)]
+    except Exception as exc:  # noqa: BLE001 - the user's code: its failure is the finding
+        why = f"residual() raised {type(exc).__name__}: {exc}".strip()
+        return [_error_row("actuation", engine, why) for engine in terms.engines]
+    refs = {k: terms.by_engine[k]["tau"] for k in terms.engines}
+    rows = term_rows("actuation", mine, refs, states, tier="algebraic", tolerances=tolerances, who="hand")
+    return rows + _ignored_inputs(system, response, "residual")
 
 
 def _error_row(term: str, engine: str, why: str) -> dict[str, Any]:

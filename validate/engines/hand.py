@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from ..systems.forms import not_provided_in, written_form
+from ..systems.forms import accelerations_only, not_provided_in, written_form
 
 
 def solve_or_nan(M: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -46,6 +46,15 @@ class HandSource:
         generated from the equations (engines/fastpath.py), no batch overhead."""
         from .fastpath import scalar_rhs  # sympy: loaded when first asked for
 
+        if self.accelerations_only:  # the generated code is the motion at zero input: use the module itself
+            tau_row = np.asarray(tau, dtype=float)[None]
+            n = self.system.nv
+
+            def rhs(t: float, y: Any) -> list[float]:
+                x = np.asarray(y, dtype=float)[None]
+                return [*x[0, n:], *self.forward(x[:, :n], x[:, n:], tau_row)[0]]
+
+            return rhs
         fast, tau_list = scalar_rhs(self.system), [float(x) for x in tau]
         return lambda t, y: fast(t, y, tau_list)
 
@@ -70,9 +79,22 @@ class HandSource:
     def passive(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         return np.asarray(self.eq.passive(self.p, q, v), dtype=float)
 
+    @property
+    def accelerations_only(self) -> bool:
+        """Explicit accelerations with inputs u: no M, bias or passive force to compare (forms.py)."""
+        return accelerations_only(self.eq)
+
+    def controls(self, tau: np.ndarray) -> np.ndarray:
+        """u with B u = tau (tau in the inputs' range: validate/checks/pointwise.py draws it so)."""
+        return np.asarray(tau) @ np.linalg.pinv(self.system.input_matrix).T
+
     def forward(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
         """q'' = M^-1 (tau + passive - bias), one batched solve; NaN at states where M(q) is singular
-        or not finite (a wrong derivation's finding, not an exception)."""
+        or not finite (a wrong derivation's finding, not an exception). Explicit accelerations with
+        inputs u: the person's qacc at the controls giving tau."""
+        if self.accelerations_only:
+            with np.errstate(all="ignore"):
+                return np.asarray(self.eq.ORIGINAL.qacc(self.p, q, v, self.controls(tau)), dtype=float)
         rhs = tau + self.passive(q, v) - self.bias(q, v)
         return solve_or_nan(self.mass_matrix(q), rhs)
 
@@ -101,7 +123,7 @@ class HandSource:
         the inverse dynamics is taken at the source's own accelerations."""
         M, bias, passive = self.mass_matrix(q), self.bias(q, v), self.passive(q, v)
         kin, pot = self.energies(q, v)
-        qacc = solve_or_nan(M, tau + passive - bias)  # NaN where M(q) is singular
+        qacc = self.forward(q, v, tau) if self.accelerations_only else solve_or_nan(M, tau + passive - bias)
         out = {
             "M": M,
             "bias": bias,
@@ -119,6 +141,9 @@ class HandSource:
                 out.pop(key)
         if "body_rotations" in missing:
             out.pop("body_rotations")
+        if self.accelerations_only:  # M, the forces and the inverse dynamics are not the person's
+            for key in ("M", "bias", "passive", "tau_inverse"):
+                out.pop(key)
         return out
 
     def body_positions(self, q: np.ndarray) -> np.ndarray:

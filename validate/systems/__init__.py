@@ -20,7 +20,7 @@ from typing import Any
 from ..errors import HarnessError, unknown_name
 from ..inputs import regular_file
 from . import urdf
-from .forms import normalize
+from .forms import input_name, normalize
 from .modelview import ModelView, from_mujoco
 from .overrides import apply_overrides, parse
 
@@ -311,6 +311,32 @@ class System:
         return frozenset(k for k, on in found.items() if on)
 
     @property
+    def inputs(self) -> str:
+        """ "u" where the derivation takes the actuators' controls, "tau" where a generalized force on
+        every coordinate (validate/systems/forms.py `input_name`)."""
+        return "tau" if self.equations is None else input_name(self.equations)
+
+    @property
+    def actuators(self) -> tuple[str, ...]:
+        """The model's actuators, in the model's order."""
+        return tuple(k.split("/")[1] for k in self.view if k.startswith("actuator/") and k.endswith("/joint"))
+
+    @property
+    def input_matrix(self) -> Any:
+        """B (nv, nu): the generalized force on each coordinate per unit control of each actuator (its gear
+        on the coordinate of its joint), so tau = B u."""
+        import numpy as np
+
+        if self.joint_map is not None and self.actuators:
+            raise HarnessError(f"{self.name}: inputs u with a JOINT_MAP are not supported; take tau instead.")
+        B = np.zeros((self.nv, len(self.actuators)))
+        for k, name in enumerate(self.actuators):
+            joint = self.view[f"actuator/{name}/joint"]
+            if joint in self.joints:
+                B[self.joints.index(joint), k] = float(self.view[f"actuator/{name}/gear"])
+        return B
+
+    @property
     def nv(self) -> int:
         return len(self.coordinates)
 
@@ -391,9 +417,13 @@ class System:
 def _check_contract(module: ModuleType, where: str) -> ModuleType:
     """The module, brought to form (a) (validate/forms.py) once it is known to meet the contract."""
 
-    missing = [a for a in REQUIRED_ATTRIBUTES if not hasattr(module, a)]
+    missing = [a for a in REQUIRED_ATTRIBUTES if not callable(getattr(module, a, None))]
     if missing:
-        raise HarnessError(f"{where} lacks {', '.join(missing)} (see equations/__init__.py for the contract).")
+        raise HarnessError(
+            f"{where} lacks {', '.join(f'{a}(model)' for a in missing)}: a derivation is parameters(model), returning "
+            "a dataclass of the numbers it reads from the model, and its dynamics in one form (see the README's "
+            "'Your own system')."
+        )
     try:
         return normalize(module)
     except HarnessError as exc:

@@ -58,6 +58,31 @@ def form_of(module: Any) -> str:
     )
 
 
+def input_name(module: Any) -> str:
+    """What the dynamics take as inputs: "u" where the written function's last parameter is named `u`
+    (the model's actuator controls, in the model's actuator order), else "tau" (a generalized force on
+    every coordinate; forms a, d and e take none: "tau" too)."""
+    import inspect
+
+    form = written_form(module)
+    fn = {"b": "residual", "c": "qacc"}.get(form)
+    original = getattr(module, "ORIGINAL", module)
+    if fn is None:
+        return "tau"
+    try:
+        names = list(inspect.signature(getattr(original, fn)).parameters)
+    except (TypeError, ValueError):
+        return "tau"
+    return "u" if names and names[-1] == "u" else "tau"
+
+
+def accelerations_only(module: Any) -> bool:
+    """Explicit accelerations with inputs `u` on the actuated coordinates only: they give M^-1 B, not M,
+    so the derivation is judged in accelerations (gravity, velocity, friction, actuation: M^-1 times
+    each force) and M and the forces themselves are not checked."""
+    return written_form(module) == "c" and input_name(module) == "u"
+
+
 def provided(fn: Any) -> bool:
     """A function the module really defines: callable and not a `not_provided` stub."""
     return callable(fn) and not getattr(fn, "not_provided", False)
@@ -211,6 +236,8 @@ def _facade(module: Any, form: str) -> Any:
         if not callable(getattr(module, "passive", None)):
             facade.passive = lambda p, q, v: parts_b(p, q, v)[2]  # type: ignore[attr-defined]
         return facade
+    if form == "c" and input_name(module) == "u":
+        return _accelerations_facade(facade, module)
     if form == "c":
         f = module.qacc
 
@@ -249,6 +276,31 @@ def _facade(module: Any, form: str) -> Any:
     facade.bias = bias_d  # type: ignore[attr-defined]
     if not callable(getattr(module, "passive", None)):
         facade.passive = _no_friction  # type: ignore[attr-defined]
+    return facade
+
+
+def _accelerations_facade(facade: Any, module: Any) -> Any:
+    """Explicit accelerations with inputs `u` as form (a) at zero input: M = I, bias = -(the part of
+    qacc(q, v, 0) even in v), passive = the odd part; so I a + bias - passive = 0 is the person's motion
+    without inputs (what the trajectories integrate). M^-1 B, the response to the inputs, is judged
+    apart (validate/checks/verdict.py); the mass matrix is not checked."""
+    f = module.qacc
+
+    def parts(p: Any, q: Any, v: Any) -> tuple[Any, Any]:
+        z = _zeros(q)
+        a0, at_v, at_minus_v = _rows_of(f, p, [(q, z, z), (q, v, z), (q, -np.asarray(v), z)])
+        return a0 + ((at_v - a0) + (at_minus_v - a0)) / 2, ((at_v - a0) - (at_minus_v - a0)) / 2
+
+    def mass_matrix_u(p: Any, q: Any) -> np.ndarray:
+        n = np.shape(q)[-1]
+        eye = np.zeros(np.shape(q)[:-1] + (n, n))
+        for i in range(n):
+            eye[..., i, i] = 1.0
+        return eye
+
+    facade.mass_matrix = mass_matrix_u
+    facade.bias = lambda p, q, v: -parts(p, q, v)[0]
+    facade.passive = lambda p, q, v: parts(p, q, v)[1]  # in accelerations, like the rest: M = I
     return facade
 
 
