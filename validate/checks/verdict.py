@@ -32,6 +32,7 @@ from ..errors import HarnessError
 from ..results.schema import Derivation, Explanation, TermRow
 from ..systems.forms import accelerations_only, not_provided_in, written_form
 from . import probes as probing
+from . import words
 from .explain import explain
 from .judge import EngineTerms, engines_of, judge_variant, term_rows
 from .modelsync import equations_vs_model
@@ -475,7 +476,7 @@ def judge_derivation(
     }
     explained = _explanations(system, [p.system for p in probe_list], result["failing_terms"], seed)
     if explained:
-        result["explanations"] = explained
+        result["explanations"] = _in_your_words(system, explained)
     at_model = any(not r["passed"] for r in rows if r.get("probe") == 0)
     result["hidden_by_model_values"] = not at_model
     if result["hidden_by_model_values"] and misread is None:
@@ -488,6 +489,10 @@ def judge_derivation(
             f"hidden by the model's values ({described})"
             + (f"; it shows when {' or '.join(exposed)} alone changes" if exposed else "")
         )
+        unstated = _unstated(system, first)
+        if unstated:
+            result["unstated_assumptions"] = unstated
+            result["statement"] += "; " + words.assumption_hint(unstated, first)
     elif misread is not None:
         result["statement"] = misread["message"]
     else:
@@ -505,6 +510,32 @@ def judge_derivation(
             f"(smallest eigenvalue {spd['smallest_eigenvalue']:.3g}, {spd['states']} of {spd['of']} states)"
         )
     return result
+
+
+def _in_your_words(system: Any, explained: list[Explanation]) -> list[Explanation]:
+    """The explanations with the model's symbols replaced by the person's names for them (the model's
+    statement kept as `statement_model`)."""
+    try:
+        names, where = words.person_names(system), words.model_symbol_keys(system)
+    except Exception:  # noqa: BLE001 - no names to give: the model's symbols stay
+        return explained
+    out = []
+    for e in explained:
+        said = str(e.get("statement", ""))
+        mine = words.in_person_words(said, names, where)
+        out.append(cast(Explanation, {**e, "statement": mine, "statement_model": said}) if mine != said else e)
+    return out
+
+
+def _unstated(system: Any, term: str) -> list[str]:
+    """What the failing term depends on that the derivation's parameters() does not read (only for a
+    derivation whose probes move what it reads)."""
+    if not probing.reads_model(system) or system.nv > SYMBOLIC_MAX_DOF:
+        return []
+    try:
+        return words.unread_numbers(system, term)
+    except Exception:  # noqa: BLE001 - a hint, never a failed run
+        return []
 
 
 def exposing_fields(system: Any, term: str, *, tolerances: Tolerances = TOLERANCES, seed: int = 0) -> list[str]:

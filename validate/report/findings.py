@@ -208,6 +208,24 @@ def derivation_reason(d: dict[str, Any]) -> str:
     return ""
 
 
+def _hidden_note(d: dict[str, Any]) -> str:
+    """What the console line and the headline add where the model's own values hide the mistake, and
+    where it may be an unstated assumption."""
+    out = ""
+    if d.get("hidden_by_model_values"):
+        exposed = d.get("exposed_by") or []
+        out += " [hidden by the model's values; a probe shows it" + (
+            f": it shows when {' or '.join(exposed)} alone changes]" if exposed else "]"
+        )
+    unstated = d.get("unstated_assumptions") or []
+    if unstated:
+        out += (
+            f"; may be an unstated assumption: parameters() does not read {', '.join(unstated[:3])}"
+            " (state it in assumptions())"
+        )
+    return out
+
+
 def system_headline(s: dict[str, Any]) -> tuple[bool | None, str]:
     """(passed, one line) of a system: for a failing one the failing term and pair first, and why;
     for a passing one what was judged."""
@@ -216,13 +234,15 @@ def system_headline(s: dict[str, Any]) -> tuple[bool | None, str]:
     if d.get("verdict") == "disagrees":
         term = d.get("first_disagreeing_term") or "a term"
         where = where_worst(d, prefix="hand")
-        reason = derivation_reason(d)
+        # where the term depends on a number parameters() does not read, no slip of yours explains it
+        reason = "" if d.get("unstated_assumptions") else derivation_reason(d)
         text = f"{who}: {term} disagrees" + (f" ({where})" if where else "")
-        if reason:
-            text += f"; {reason}"
+        error = (d.get("worst_term") or {}).get("error")
+        if reason or error:
+            text += f"; {reason or shorten(str(error))}"
         elif d.get("statement") and term == "parameters":
             text = f"{who}: {shorten(d['statement'])}"
-        return False, text
+        return False, text + _hidden_note(d)
     failed = list(s.get("failed") or [])
     if s.get("passed") is False:
         if failed:

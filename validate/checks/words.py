@@ -1,0 +1,119 @@
+"""The diagnosis in the person's words, and the model numbers a derivation assumes without saying so.
+
+The model's own equations (engines/derivation.py) name each model number by where it is
+(`c_pole` for body/pole/com[2], `m_link2`); a person names it as their `parameters()` reads it (`l`
+with l = 2 * com[2], `m2`). `person_names` maps the first to the second through the numbers that
+`parameters()` reads (validate/systems/reads.py), and `in_person_words` rewrites a statement with it,
+the model's name beside each.
+
+`unread_numbers` finds what a failing term depends on (the symbols of its part of the model's own
+equations) that `parameters()` does not read: a probe
+moves only the numbers a derivation reads, so a formula that bakes one in (a uniform rod's
+m l^2 / 12) fails at a probe and agrees at the model's own values. That is then said as a possible
+unstated assumption, with how to state it.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+import numpy as np
+
+from ..engines.symbolic import derivation_of
+from ..systems.reads import knobs
+
+# The parts of the model's own equations a term of a derivation is made of (explicit accelerations
+# carry M^-1 in each term).
+TERM_PARTS = {
+    "mass matrix": ("M",),
+    "gravity": ("G", "M"),
+    "velocity": ("Cv", "M"),
+    "friction": ("passive", "M"),
+    "actuation": ("M",),
+    "acceleration": ("M", "G", "Cv", "passive"),
+    "kinetic energy": ("T",),
+    "potential energy": ("V",),
+}
+
+
+def _label(key: str, entry: Any) -> str:
+    if entry is None:
+        return key
+    if isinstance(entry, tuple):
+        i, j = sorted(entry)
+        return f"{key}[{i}][{j}]"
+    return f"{key}[{entry}]"
+
+
+def person_names(system: Any) -> dict[str, str]:
+    """{symbol of the model's equations: the person's expression for it}, e.g. {"c_pole": "l/2"}, for
+    every symbol whose number one field of the person's Params follows."""
+    knob_list = knobs(system.equations.parameters, system.view)
+    by_label = {k.label: k for k in knob_list if len(k.fields) == 1}
+    derivation = derivation_of(system)
+    out = {}
+    for sym, (key, entry) in derivation.source.items():
+        knob = by_label.get(_label(key, entry))
+        if knob is None:
+            continue
+        gain = knob.gains[0]
+        sign = "" if np.sign(knob.value) * np.sign(gain) > 0 else "-"
+        size = abs(gain)
+        out[str(sym)] = sign + knob.fields[0] + ("" if abs(size - 1.0) < 1e-9 else f"/{size:.6g}")
+    return out
+
+
+def in_person_words(text: str, names: dict[str, str], model_names: dict[str, str] | None = None) -> str:
+    """`text` with each model symbol replaced by the person's name for it, and the model's names beside
+    (" [l/2 = c_pole: body/pole/com[2]]")."""
+    used = []
+
+    def swap(match: re.Match[str]) -> str:
+        sym = match.group(0)
+        if sym not in names:
+            return sym
+        used.append(sym)
+        mine = names[sym]
+        return f"({mine})" if not re.fullmatch(r"\w+", mine) else mine
+
+    out = re.sub(r"\b[A-Za-z_]\w*\b", swap, text)
+    if not used:
+        return text
+    where = model_names or {}
+    legend = ", ".join(f"{names[s]} = {s}" + (f" ({where[s]})" if s in where else "") for s in dict.fromkeys(used))
+    return f"{out} [your names: {legend}]"
+
+
+def model_symbol_keys(system: Any) -> dict[str, str]:
+    """{symbol of the model's equations: the model number it stands for}."""
+    return {str(s): _label(k, e) for s, (k, e) in derivation_of(system).source.items()}
+
+
+def unread_numbers(system: Any, term: str) -> list[str]:
+    """The model numbers `term` depends on (the free symbols of its part of the model's own equations)
+    that parameters() does not read, as labels like body/pole/inertia[1][1]."""
+    parts = TERM_PARTS.get(term)
+    if parts is None:
+        return []
+    derivation = derivation_of(system)
+    used: set[Any] = set()
+    for part in parts:
+        used |= getattr(derivation, part).free_symbols
+    read = {k.label for k in knobs(system.equations.parameters, system.view)}
+    labels = [_label(*derivation.source[sym]) for sym in derivation.source if sym in used]
+    return sorted(label for label in labels if label not in read and not label.startswith("gravity"))
+
+
+def assumption_hint(labels: list[str], term: str) -> str:
+    """The sentence that says what may be an unstated assumption and how to state it."""
+    if not labels:
+        return ""
+    shown = ", ".join(labels[:4]) + (f" and {len(labels) - 4} more" if len(labels) > 4 else "")
+    key = labels[0].split("[")[0]
+    return (
+        f"this may be an unstated assumption: parameters() does not read {shown}, which the {term} depends on "
+        f"(a probe moves only what parameters() reads); if your formulas assume it (a uniform rod's m l^2/12, "
+        f'a centre of mass at l/2), state it in assumptions(p), e.g. {{"{key}": ...}} with NaN for the '
+        "entries they do not fix"
+    )
