@@ -305,7 +305,7 @@ class System:
         view = self.view
         found = {
             "gravity": any(float(x) != 0.0 for x in view["gravity"]),
-            "damping": any(view[f"joint/{j}/damping"] > 0 for j in self.joints),
+            "damping": any(view[f"joint/{j}/damping"] > 0 for j in self.model_joints),
             "actuation": any(k.startswith("actuator/") for k in view),
         }
         return frozenset(k for k, on in found.items() if on)

@@ -1,0 +1,247 @@
+"""A derivation written the way people write it (issue 24): only `parameters(model)` and the dynamics,
+no DESCRIPTION, BODIES, USES or assumptions(); inputs on the actuated coordinates only (`u`); the
+model's numbers that the derivation does not read named as possible unstated assumptions.
+
+Every module here is written into a temporary folder, outside the checkout, with a copy of a model.
+"""
+
+from __future__ import annotations
+
+import shutil
+import textwrap
+from pathlib import Path
+
+import lagrange_xval as lx
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+STATES, PROBES = 80, 2
+
+CART_POLE = '''
+"""Cart-pole, as I derived it (theta from the upright, tipping the top towards +x)."""
+from dataclasses import dataclass
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Params:
+    mc: float
+    mp: float
+    l: float  # hinge to centre of mass
+    I: float  # pole's inertia about its centre of mass
+    kx: float
+    g: float
+
+
+def parameters(model):
+    return Params(model["body/cart/mass"], model["body/pole/mass"], model["body/pole/com"][2],
+                  model["body/pole/inertia"][1, 1], model["joint/x/damping"], -model["gravity"][2])
+
+
+def mass_matrix(p, q):
+    c = np.cos(q[..., 1])
+    one = np.ones_like(c)
+    row1 = np.stack([(p.mc + p.mp) * one, p.mp * p.l * c], -1)
+    row2 = np.stack([p.mp * p.l * c, (p.mp * p.l**2 + p.I) * one], -1)
+    return np.stack([row1, row2], -2)
+
+
+def bias(p, q, v):
+    s = np.sin(q[..., 1])
+    return np.stack([-p.mp * p.l * s * v[..., 1] ** 2, -p.mp * p.g * p.l * s], -1)
+
+
+def passive(p, q, v):
+    return np.stack([-p.kx * v[..., 0], 0.0 * v[..., 1]], -1)
+'''
+
+# gym's CartPole-v1 (classic_control/cartpole.py), transcribed literally: a force on the cart only, gym's
+# "length" the pole's HALF length, a uniform rod (inertia m (2 l)^2 / 12 about its centre, baked in).
+GYM_CART_POLE = '''
+"""gym's cart-pole: xacc and thetaacc as gym's step() computes them."""
+from dataclasses import dataclass
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Params:
+    masscart: float
+    masspole: float
+    length: float
+    gravity: float
+
+
+def parameters(model):
+    return Params(model["body/cart/mass"], model["body/pole/mass"], model["body/pole/com"][2], -model["gravity"][2])
+
+
+def qacc(p, q, v, u):
+    theta, theta_dot = q[..., 1], v[..., 1]
+    force = u[..., 0]
+    costheta, sintheta = np.cos(theta), np.sin(theta)
+    total_mass = p.masspole + p.masscart
+    polemass_length = p.masspole * p.length
+    temp = (force + polemass_length * theta_dot**2 * sintheta) / total_mass
+    thetaacc = (p.gravity * sintheta - costheta * temp) / (
+        p.length * (4.0 / 3.0 - p.masspole * costheta**2 / total_mass)
+    )
+    xacc = temp - polemass_length * thetaacc * costheta / total_mass
+    return np.stack([xacc, thetaacc], -1)
+'''
+
+GYM_ROD = '''
+
+def assumptions(p):
+    """gym's pole is a uniform rod of length 2 l: inertia m (2 l)^2 / 12 about its centre, across it."""
+    nan = float("nan")
+    return {"body/pole/inertia": np.array([[nan, nan, nan], [nan, p.masspole * (2 * p.length) ** 2 / 12, nan],
+                                           [nan, nan, nan]])}
+'''
+
+# gym's Acrobot-v1 "book" dynamics (classic_control/acrobot.py _dsdt), a torque at the elbow only, with the
+# model's joint damping added to each row (gym has none).
+GYM_ACROBOT = '''
+"""gym's acrobot, book dynamics, torque at the elbow only."""
+from dataclasses import dataclass
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Params:
+    m1: float
+    m2: float
+    l1: float
+    lc1: float
+    lc2: float
+    I1: float
+    I2: float
+    b1: float
+    b2: float
+    g: float
+
+
+def parameters(model):
+    return Params(model["body/link1/mass"], model["body/link2/mass"], -model["body/link2/pos"][2],
+                  -model["body/link1/com"][2], -model["body/link2/com"][2], model["body/link1/inertia"][1, 1],
+                  model["body/link2/inertia"][1, 1], model["joint/shoulder/damping"],
+                  model["joint/elbow/damping"], -model["gravity"][2])
+
+
+def qacc(p, q, v, u):
+    m1, m2, l1, lc1, lc2, I1, I2, g = p.m1, p.m2, p.l1, p.lc1, p.lc2, p.I1, p.I2, p.g
+    theta1, theta2 = q[..., 0], q[..., 1]
+    dtheta1, dtheta2 = v[..., 0], v[..., 1]
+    a = u[..., 0] - p.b2 * dtheta2
+    d1 = m1 * lc1**2 + m2 * (l1**2 + lc2**2 + 2 * l1 * lc2 * np.cos(theta2)) + I1 + I2
+    d2 = m2 * (lc2**2 + l1 * lc2 * np.cos(theta2)) + I2
+    phi2 = m2 * lc2 * g * np.cos(theta1 + theta2 - np.pi / 2.0)
+    phi1 = (-m2 * l1 * lc2 * dtheta2**2 * np.sin(theta2) - 2 * m2 * l1 * lc2 * dtheta2 * dtheta1 * np.sin(theta2)
+            + (m1 * lc1 + m2 * l1) * g * np.cos(theta1 - np.pi / 2) + phi2 + p.b1 * dtheta1)
+    ddtheta2 = (a + d2 / d1 * phi1 - m2 * l1 * lc2 * dtheta1**2 * np.sin(theta2) - phi2) / (
+        m2 * lc2**2 + I2 - d2**2 / d1)
+    ddtheta1 = -(d2 * ddtheta2 + phi1) / d1
+    return np.stack([ddtheta1, ddtheta2], -1)
+'''
+
+
+def _system(tmp_path: Path, model: str, source: str, name: str = "mine") -> lx.System:
+    shutil.copy(ROOT / "examples" / f"{model}.xml", tmp_path / f"{name}.xml")
+    (tmp_path / f"{name}.py").write_text(textwrap.dedent(source))
+    return lx.System.from_files(tmp_path / f"{name}.xml", tmp_path / f"{name}.py")
+
+
+def _gym_system(tmp_path: Path, source: str) -> lx.System:
+    system = _system(tmp_path, "cart_pole", source)
+    # gym's cart has no friction
+    return system.with_overrides(joint__x__damping=0.0)
+
+
+def _check(system: lx.System) -> lx.Result:
+    return lx.check(system, n_states=STATES, seed=0, probes=PROBES)
+
+
+def test_a_minimal_module_is_accepted_with_the_model_defaults(tmp_path):
+    """No DESCRIPTION, COORDINATES, JOINTS, BODIES, USES or assumptions(): the model's joints are the
+    coordinates, the docstring the description, the physics read from the model."""
+    system = _system(tmp_path, "cart_pole", CART_POLE)
+    assert system.coordinates == ("x", "theta") and system.joints == ("x", "theta")
+    assert system.bodies == ()
+    assert system.description.startswith("Cart-pole, as I derived it")
+    assert system.uses == frozenset({"gravity", "damping", "actuation"})
+
+
+def test_a_right_minimal_module_passes_without_assumptions(tmp_path):
+    result = _check(_system(tmp_path, "cart_pole", CART_POLE))
+    assert result.passed, result.statement
+    assert not any("parameters()" in str(r) for r in result.failures)
+
+
+@pytest.mark.parametrize(
+    ("slip", "term"),
+    [
+        ("-p.mp * p.g * p.l * s], -1)", "gravity"),
+        ("-p.mp * p.l * s * v[..., 1] ** 2, ", "velocity"),
+        ("(p.mp * p.l**2 + p.I) * one", "mass matrix"),
+    ],
+)
+def test_a_wrong_minimal_module_fails_naming_the_term(tmp_path, slip, term):
+    wrong = {
+        "gravity": "-p.mp * p.g * s], -1)",
+        "velocity": "-p.mp * s * v[..., 1] ** 2, ",
+        "mass matrix": "(p.mp * p.l**2 + 2 * p.I) * one",
+    }[term]
+    assert slip in CART_POLE
+    result = _check(_system(tmp_path, "cart_pole", CART_POLE.replace(slip, wrong)))
+    assert not result.passed
+    assert result.failures[0].check == term or term in result.statement, result.statement
+
+
+def test_a_formula_that_bakes_in_a_number_it_does_not_read_is_named_as_an_unstated_assumption(tmp_path):
+    """gym's cart-pole without assumptions(): its thetaacc assumes a uniform rod's inertia; the probes move
+    the masses and lengths it reads but not the inertia it does not, so it is named."""
+    result = _check(_gym_system(tmp_path, GYM_CART_POLE))
+    assert not result.passed
+    assert "unstated assumption" in result.statement and "body/pole/inertia[1][1]" in result.statement
+    assert "hidden by the model's values" in result.statement
+
+
+def test_gym_cart_pole_with_a_force_on_the_cart_only_passes(tmp_path):
+    """Published explicit equations transcribed literally, `u` the cart's force, with the rod they assume."""
+    result = _check(_gym_system(tmp_path, GYM_CART_POLE + GYM_ROD))
+    assert result.passed, result.statement
+
+
+def test_gym_cart_pole_with_a_wrong_sign_fails_naming_the_term(tmp_path):
+    wrong = GYM_CART_POLE.replace(
+        "(p.gravity * sintheta - costheta * temp)", "(-p.gravity * sintheta - costheta * temp)"
+    )
+    result = _check(_gym_system(tmp_path, wrong + GYM_ROD))
+    assert not result.passed
+    assert "gravity" in result.statement, result.statement
+
+
+def test_an_input_the_module_ignores_is_named(tmp_path):
+    ignored = GYM_CART_POLE.replace("force = u[..., 0]", "force = 0.0 * u[..., 0]")
+    result = _check(_gym_system(tmp_path, ignored + GYM_ROD))
+    assert not result.passed
+    assert "does not depend on u[0] (actuator motor_x)" in result.statement, result.statement
+
+
+def test_gym_acrobot_with_a_torque_at_the_elbow_only_passes(tmp_path):
+    result = _check(_system(tmp_path, "acrobot", GYM_ACROBOT))
+    assert result.passed, result.statement
+
+
+def test_gym_acrobot_wrong_coriolis_factor_fails_naming_velocity(tmp_path):
+    wrong = GYM_ACROBOT.replace("- 2 * m2 * l1 * lc2 * dtheta2 * dtheta1", "- m2 * l1 * lc2 * dtheta2 * dtheta1")
+    result = _check(_system(tmp_path, "acrobot", wrong))
+    assert not result.passed
+    assert "velocity" in result.statement, result.statement
+
+
+def test_a_copied_repository_module_runs_from_any_folder(tmp_path):
+    """A repository module and its model copied out of the checkout load and pass."""
+    shutil.copy(ROOT / "models" / "simple_pendulum.xml", tmp_path / "pend.xml")
+    shutil.copy(ROOT / "equations" / "simple_pendulum.py", tmp_path / "pend.py")
+    result = lx.check(lx.System.from_files(tmp_path / "pend.xml", tmp_path / "pend.py"), n_states=50, probes=1)
+    assert result.passed, result.statement
