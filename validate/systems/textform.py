@@ -9,7 +9,7 @@ own symbols, and binds each symbol to a key of the compiled model (validate/syst
     velocities = ["dx", "dtheta"]                     # optional: default "d" + coordinate
     joints = ["x", "theta"]                           # optional: default the coordinates (joint names)
     T = "(mc + mp)/2*dx^2 + mp*lc*cos(theta)*dx*dtheta + (mp*lc^2 + I)/2*dtheta^2"
-    V = "mp*g*lc*cos(theta)"
+    V = "mc*g*(h + ccz) + mp*g*(h + pz + lc*cos(theta))"   # from the world origin's height, as the engines
     friction = ["-kx*dx", "0"]                        # optional: one generalized force per coordinate
     [symbols]                                         # symbol = [-][factor*]key[i][j]
     mc = "body/cart/mass"
@@ -18,6 +18,9 @@ own symbols, and binds each symbol to a key of the compiled model (validate/syst
     I = "body/pole/inertia[1][1]"
     kx = "joint/x/damping"
     g = "-gravity[2]"
+    h = "body/cart/pos[2]"
+    ccz = "body/cart/com[2]"
+    pz = "body/pole/pos[2]"
 
 Nothing is evaluated: each expression is parsed with `ast` (`^` read as `**`) and only numbers, the
 declared names, + - * / ** (or ^), unary -, pi and the functions in FUNCTIONS are turned into sympy;
