@@ -14,13 +14,18 @@ Every module provides (shapes: `q`, `v`, `tau` are `(..., n)`; functions broadca
     parameters(model) -> Params        read them from the compiled MJCF (a Mapping, see validate/modelview.py)
     assumptions(p) -> dict             what the derivation assumes of the compiled model, key -> value
                                        (NaN entries: a component the derivation does not depend on)
-    the dynamics, in ONE of four forms (validate/forms.py derives the rest from it):
+    the dynamics, in ONE of five forms (validate/systems/forms.py derives the rest from it; the first
+    of a, b, c, d, e a module defines is the one it is written in):
       (a) mass_matrix(p, q) -> (..., n, n) and bias(p, q, v) -> (..., n), C(q, v) v + G(q)
       (b) residual(p, q, v, a, tau) -> (..., n)  M a + bias - passive - tau, the implicit equations
       (c) qacc(p, q, v, tau) -> (..., n)          the explicit accelerations M^-1 (tau + passive - bias)
       (d) kinetic_energy and potential_energy only (below): M, G and C v are differentiated from them
+      (e) hamiltonian(p, q, pm) -> (...)  H = pm^T M^-1(q) pm / 2 + V(q), pm = M v the generalized
+                                       momenta (..., n): M^-1 = d2H/dpm2 and V = H(q, 0), traced with
+                                       sympy, give the energies and so form (d) (validate/systems/
+                                       hamiltonian.py); H not quadratic in pm is an error
     passive(p, q, v) -> (..., n)       generalized joint friction forces (viscous damping); optional in
-                                       forms (a) and (d) (zero if absent), found from (b) and (c) as the
+                                       forms (a), (d), (e) (zero if absent), found from (b) and (c) as the
                                        part of the equations odd in v
     kinetic_energy(p, q, v) -> (...)   optional (except in form d): what a module leaves out of these
     potential_energy(p, q) -> (...)    four is listed as "not checked (not provided)", never failed;
@@ -39,6 +44,12 @@ Every module provides (shapes: `q`, `v`, `tau` are `(..., n)`; functions broadca
     NOTES_SEPARATION: float            optional: when the notes say the two starts stop resembling each other (s)
     SAME_SYSTEM_AS: str                optional: another system that is the same physical chain in other
                                        coordinates (the harness checks that the two map onto each other)
+
+(f) Equations as text, with no Python: a TOML file `<name>.toml` of T, V and optional friction
+forces as expressions in the person's own symbols, each symbol bound to a model key
+(`mc = "body/cart/mass"`, `g = "-gravity[2]"`, `lc = "body/pole/com[2]"`), read against its model
+by `System.from_files(model, "x.toml")` or `run --model X --equations x.toml` and checked as form
+(d); the coordinates are the model's joints unless named (validate/systems/textform.py).
 
 The equations of motion are M(q) a + bias(q, v) = tau + passive(q, v), with tau the generalized
 force of the inputs (motors where the MJCF has actuators, otherwise an applied joint torque); forms

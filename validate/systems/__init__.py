@@ -19,7 +19,7 @@ from typing import Any
 
 from ..errors import HarnessError, unknown_name
 from ..inputs import regular_file
-from . import urdf
+from . import textform, urdf
 from .forms import input_name, normalize
 from .modelview import ModelView, from_mujoco
 from .overrides import apply_overrides, parse
@@ -191,7 +191,7 @@ class System:
         model, equations = Path(model), Path(equations)
         if not model.is_file():
             raise HarnessError(f"model file not found: {model} (give an MJCF .xml or a URDF .urdf file).")
-        module = load_module(equations)
+        module = load_module(equations, model=model)
         system = cls(name=name or equations.stem, mjcf=model, equations=module, locked=tuple(locked))
         system.mujoco_model()  # a model MuJoCo refuses fails here, in one line
         return system
@@ -441,17 +441,22 @@ def _equations_module(name: str) -> ModuleType:
     return _check_contract(module, f"equations/{name}.py")
 
 
-def load_module(path: Path) -> ModuleType:
+def load_module(path: Path, *, model: Path | None = None) -> ModuleType:
     """An equations module from any file, executed under a name of its own (so two files with the
     same stem never share a module); a missing file, a syntax error or an exception while importing
-    it, and a module that lacks part of the contract, are one-line HarnessErrors."""
+    it, and a module that lacks part of the contract, are one-line HarnessErrors. A `.toml` file is
+    equations as text, read against `model` (validate/systems/textform.py)."""
     import hashlib
     import importlib.util
     import sys
 
     path = Path(path)
     if not path.is_file():
-        raise HarnessError(f"equations file not found: {path} (give a Python module, .py).")
+        raise HarnessError(f"equations file not found: {path} (give a Python module, .py, or a .toml file).")
+    if path.suffix == ".toml":
+        if model is None:
+            raise HarnessError(f"{path}: equations as text are read against their model; give the model file too.")
+        return _check_contract(textform.module_from_file(path, model_view(model)), str(path))
     digest = hashlib.sha256(str(path.resolve()).encode()).hexdigest()[:12]
     name = f"lagrange_xval_user_{path.stem}_{digest}"
     spec = importlib.util.spec_from_file_location(name, path)

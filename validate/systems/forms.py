@@ -9,6 +9,7 @@ reference) reads one interface:
     (b) residual(p, q, v, a, tau) = M a + bias - passive - tau        implicit, like eqs (33)-(34)
     (c) qacc(p, q, v, tau) = M^-1 (tau + passive - bias)              explicit, like eqs (35)-(36)
     (d) kinetic_energy(p, q, v), potential_energy(p, q) [, passive]   energies only, like eqs (19), (22)
+    (e) hamiltonian(p, q, pm) [, passive]                              H(q, pm), to its energies (hamiltonian.py)
 
 (b) and (c) are linear in a and tau, so M comes from unit accelerations (inputs); at v = 0 what is
 left is gravity; the rest splits by parity in v: the Coriolis and centrifugal forces are even in v
@@ -30,31 +31,33 @@ import numpy as np
 
 from ...equations._forms import not_provided, stack_matrix, stack_vector
 from ..errors import HarnessError
-from . import tracing
+from . import hamiltonian, tracing
 
 FORMS = {
     "a": ("mass_matrix", "bias"),
     "b": ("residual",),
     "c": ("qacc",),
     "d": ("kinetic_energy", "potential_energy"),
+    "e": ("hamiltonian",),
 }
 FORM_NAMES = {
     "a": "mass matrix and bias forces",
     "b": "implicit residual",
     "c": "explicit accelerations",
     "d": "kinetic and potential energy",
+    "e": "Hamiltonian",
 }
 
 
 def form_of(module: Any) -> str:
-    """Which form a module is written in: the first of a, b, c, d whose functions it defines."""
+    """Which form a module is written in: the first of a, b, c, d, e whose functions it defines."""
     for form, names in FORMS.items():
         if all(provided(getattr(module, n, None)) for n in names):
             return form
     raise HarnessError(
         f"{getattr(module, '__file__', module)}: the dynamics are not provided (yet); write one of: mass_matrix + "
         "bias (form a), residual(p, q, v, a, tau) (b), qacc(p, q, v, tau) (c), or kinetic_energy + "
-        "potential_energy (d)."
+        "potential_energy (d), or hamiltonian(p, q, pm) (e)."
     )
 
 
@@ -189,7 +192,7 @@ def normalize(module: Any) -> Any:
     if form == "a" and callable(getattr(module, "passive", None)) and not missing and complete:
         return module
     facade = _facade(module, form)
-    for name in missing:
+    for name in [n for n in missing if not callable(getattr(facade, n, None))]:  # form e derives the energies
         setattr(facade, name, _stub(name))
     if not hasattr(module, "VARIANTS"):
         facade.VARIANTS = ()  # type: ignore[attr-defined]
@@ -263,6 +266,9 @@ def _facade(module: Any, form: str) -> Any:
         if not callable(getattr(module, "passive", None)):
             facade.passive = lambda p, q, v: parts_c(p, q, v)[2]  # type: ignore[attr-defined]
         return facade
+    if form == "e":  # the Hamiltonian, as its energies (validate/systems/hamiltonian.py), then as form d
+        module = hamiltonian.energies(module)
+        facade.kinetic_energy, facade.potential_energy = module.kinetic_energy, module.potential_energy  # type: ignore[attr-defined]
     # form d: energies only
 
     def mass_matrix_d(p: Any, q: Any) -> np.ndarray:

@@ -1,0 +1,382 @@
+"""Equations as text: the energies from paper in a TOML file, checked without writing Python.
+
+A student writes T and V (and, optionally, the generalized friction forces) as expressions in their
+own symbols, and binds each symbol to a key of the compiled model (validate/systems/modelview.py):
+
+    # cart_pole.toml: a cart-pole, energies from paper
+    description = "Cart-pole from my notes"          # optional
+    coordinates = ["x", "theta"]                      # optional: default the model's joints in order
+    velocities = ["dx", "dtheta"]                     # optional: default "d" + coordinate
+    joints = ["x", "theta"]                           # optional: default the coordinates (joint names)
+    T = "(mc + mp)/2*dx^2 + mp*lc*cos(theta)*dx*dtheta + (mp*lc^2 + I)/2*dtheta^2"
+    V = "mc*g*(h + ccz) + mp*g*(h + pz + lc*cos(theta))"   # from the world origin's height, as the engines
+    friction = ["-kx*dx", "0"]                        # optional: one generalized force per coordinate
+    [symbols]                                         # symbol = [-][factor*]key[i][j]
+    mc = "body/cart/mass"
+    mp = "body/pole/mass"
+    lc = "body/pole/com[2]"
+    I = "body/pole/inertia[1][1]"
+    kx = "joint/x/damping"
+    g = "-gravity[2]"
+    h = "body/cart/pos[2]"
+    ccz = "body/cart/com[2]"
+    pz = "body/pole/pos[2]"
+
+Nothing is evaluated: each expression is parsed with `ast` (`^` read as `**`) and only numbers, the
+declared names, + - * / ** (or ^), unary -, pi and the functions in FUNCTIONS are turned into sympy;
+anything else is a one-line HarnessError naming the expression, the offending part and what is
+valid. The file is read against its model (`System.from_files`): the coordinates must be joints of
+the model (or `joints` names them), and every key must exist. It becomes an equations module in
+form (d) (validate/systems/forms.py differentiates T and V): `Params` of the symbols, `parameters`
+reading the bound keys, and `assumptions` stating the bound numbers (so that the probes move them)
+and every other number of the model as not depended on (NaN: a text file cannot state the geometry
+its T and V assume; the model's other numbers are taken as they are).
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import keyword
+import operator
+import re
+import tomllib
+import types
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import HarnessError
+from ..inputs import regular_file
+from . import tracing
+
+MAX_BYTES = 2**20
+FUNCTIONS = {  # the name in the file -> sympy's
+    "sin": "sin",
+    "cos": "cos",
+    "tan": "tan",
+    "sqrt": "sqrt",
+    "exp": "exp",
+    "log": "log",
+    "asin": "asin",
+    "acos": "acos",
+    "atan": "atan",
+    "atan2": "atan2",
+    "sinh": "sinh",
+    "cosh": "cosh",
+    "tanh": "tanh",
+    "abs": "Abs",
+}
+CONSTANTS = ("pi",)
+KEYS = ("description", "coordinates", "velocities", "joints", "T", "V", "friction", "symbols")
+_OPERATORS: dict[type, Callable[[Any, Any], Any]] = {
+    ast.Add: operator.add,
+    ast.Sub: operator.sub,
+    ast.Mult: operator.mul,
+    ast.Div: operator.truediv,
+    ast.Pow: operator.pow,
+}
+_BINDING = re.compile(r"^\s*(-)?\s*(?:(\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)\s*\*\s*)?([^\s\[\]*]+)((?:\[\s*\d+\s*\])*)\s*$")
+
+
+@dataclass(frozen=True)
+class Binding:
+    """symbol = scale * model[key][index]."""
+
+    symbol: str
+    key: str
+    index: tuple[int, ...]
+    scale: float
+
+    def read(self, model: Mapping[str, Any]) -> float:
+        value = np.asarray(model[self.key])
+        try:
+            entry = value[self.index] if self.index else value
+        except IndexError:
+            shape = value.shape
+            raise HarnessError(f"symbol {self.symbol}: {self.key} has shape {shape}; no entry {self.index}.") from None
+        if entry.shape != () or entry.dtype.kind not in "fiu":
+            raise HarnessError(
+                f"symbol {self.symbol}: {self.key}{_index_text(self.index)} is not a number (shape {entry.shape}); "
+                "give an index, [i] or [i][j]."
+            )
+        return self.scale * float(entry)
+
+
+def _index_text(index: tuple[int, ...]) -> str:
+    return "".join(f"[{i}]" for i in index)
+
+
+def parse_binding(symbol: str, text: Any, where: str) -> Binding:
+    """A [symbols] entry: `[-][factor*]key[i][j]`."""
+    match = _BINDING.match(text) if isinstance(text, str) else None
+    if match is None:
+        raise HarnessError(
+            f"{where}: symbols.{symbol} = {text!r} is not a model key; write [-][factor*]key[i][j], "
+            'e.g. "body/pole/mass", "-gravity[2]", "2*body/pole/com[2]".'
+        )
+    sign, factor, key, index = match.groups()
+    scale = (-1.0 if sign else 1.0) * (float(factor) if factor else 1.0)
+    return Binding(symbol, key, tuple(int(i) for i in re.findall(r"\d+", index)), scale)
+
+
+@dataclass(frozen=True)
+class Spec:
+    """What the file says, checked: names, expressions (text) and bindings."""
+
+    description: str
+    coordinates: tuple[str, ...]
+    velocities: tuple[str, ...]
+    joints: tuple[str, ...]
+    T: str
+    V: str
+    friction: tuple[str, ...] | None
+    bindings: tuple[Binding, ...]
+
+
+def _read(path: Path) -> dict[str, Any]:
+    try:
+        data = tomllib.loads(regular_file(path, "equations file", max_bytes=MAX_BYTES).decode())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise HarnessError(f"{path}: not a valid TOML file ({exc}).") from None
+    unknown = sorted(set(data) - set(KEYS))
+    if unknown:
+        raise HarnessError(f"{path}: unknown key {unknown[0]!r}; valid: {', '.join(KEYS)}.")
+    for key in ("T", "V"):
+        if key not in data:
+            raise HarnessError(f'{path}: no {key}; write {key} = "..." (an expression in your symbols).')
+    return data
+
+
+def _names(data: dict[str, Any], key: str, default: list[str], where: str) -> tuple[str, ...]:
+    value = data.get(key, default)
+    if not isinstance(value, list) or not all(isinstance(x, str) for x in value):
+        raise HarnessError(f"{where}: {key} must be a list of names, e.g. {key} = {default!r}.")
+    return tuple(value)
+
+
+def _expression_text(value: Any, what: str, where: str) -> str:
+    if isinstance(value, bool) or not isinstance(value, (str, int, float)):
+        raise HarnessError(f'{where}: {what} must be an expression in a string, e.g. "m*g*l*cos(theta)".')
+    return str(value)
+
+
+def read_spec(path: Path, joints_of_model: tuple[str, ...]) -> Spec:
+    """The file's content, with every name and binding checked (not yet the expressions)."""
+    where = str(path)
+    data = _read(path)
+    coordinates = _names(data, "coordinates", list(joints_of_model), where)
+    velocities = _names(data, "velocities", [f"d{c}" for c in coordinates], where)
+    joints = _names(data, "joints", list(coordinates), where)
+    symbols = data.get("symbols", {})
+    if not isinstance(symbols, dict):
+        raise HarnessError(f'{where}: [symbols] must be a table of symbol = "model key".')
+    friction = data.get("friction")
+    if friction is not None and (not isinstance(friction, list) or len(friction) != len(coordinates)):
+        raise HarnessError(f"{where}: friction must be a list of {len(coordinates)} expressions, one per coordinate.")
+    for what, names in (("velocities", velocities), ("joints", joints)):
+        if len(names) != len(coordinates):
+            raise HarnessError(f"{where}: {len(names)} {what} for {len(coordinates)} coordinates.")
+    _check_names(where, [*coordinates, *velocities, *symbols])
+    missing = [j for j in joints if j not in joints_of_model]
+    if missing:
+        hint = "" if "joints" in data else " (the coordinates are joint names unless joints = [...] says which)"
+        raise HarnessError(
+            f"{where}: {missing[0]!r} is not a joint of the model{hint}; its joints: {', '.join(joints_of_model)}."
+        )
+    description = data.get("description", f"{path.name}: T and V from paper")
+    return Spec(
+        str(description),
+        coordinates,
+        velocities,
+        joints,
+        _expression_text(data["T"], "T", where),
+        _expression_text(data["V"], "V", where),
+        None if friction is None else tuple(_expression_text(f, "friction", where) for f in friction),
+        tuple(parse_binding(s, t, where) for s, t in symbols.items()),
+    )
+
+
+def _check_names(where: str, names: list[str]) -> None:
+    reserved = set(FUNCTIONS) | set(CONSTANTS)
+    for name in names:
+        if not name.isidentifier() or keyword.iskeyword(name) or name.startswith("_") or name in reserved:
+            raise HarnessError(
+                f"{where}: {name!r} cannot be a symbol (a name of letters, digits and _, not starting with _, "
+                f"not a Python keyword, not {', '.join(sorted(reserved))}); name the coordinates yourself."
+            )
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise HarnessError(f"{where}: {twice[0]!r} is declared twice (coordinates, velocities, symbols are distinct).")
+
+
+def to_sympy(text: str, names: Mapping[str, Any], what: str) -> Any:
+    """The sympy expression of `text`, walking its syntax tree with a whitelist (nothing is evaluated)."""
+    try:
+        tree = ast.parse(text.replace("^", "**"), mode="eval")
+    except SyntaxError as exc:
+        raise HarnessError(f'{what} = "{text}": not an expression ({exc.msg}).') from None
+    return _node(tree.body, names, what, text)
+
+
+def _refuse(node: ast.AST, why: str, names: Mapping[str, Any], what: str, text: str) -> HarnessError:
+    valid = (
+        f"numbers, {', '.join(names) or '(no names)'}, + - * / ^, unary -, {', '.join(CONSTANTS)}, "
+        f"and {', '.join(FUNCTIONS)}"
+    )
+    return HarnessError(f'{what} = "{text}": {ast.unparse(node)!r} {why}; valid: {valid}.')
+
+
+def _node(node: ast.AST, names: Mapping[str, Any], what: str, text: str) -> Any:
+    import sympy as sp
+
+    if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)) and not isinstance(node.value, bool):
+        return sp.Integer(node.value) if isinstance(node.value, int) else sp.Float(node.value)
+    if isinstance(node, ast.Name):
+        if node.id in names:
+            return names[node.id]
+        if node.id in CONSTANTS:
+            return sp.pi
+        raise _refuse(node, "is not a declared symbol, coordinate or velocity", names, what, text)
+    if isinstance(node, ast.BinOp) and type(node.op) in _OPERATORS:
+        left, right = _node(node.left, names, what, text), _node(node.right, names, what, text)
+        return _OPERATORS[type(node.op)](left, right)
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+        inner = _node(node.operand, names, what, text)
+        return -inner if isinstance(node.op, ast.USub) else inner
+    if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in FUNCTIONS:
+        arity = 2 if node.func.id == "atan2" else 1
+        if node.keywords or len(node.args) != arity:
+            raise _refuse(node, f"must have {arity} argument(s), no keywords", names, what, text)
+        args = [_node(a, names, what, text) for a in node.args]
+        return getattr(sp, FUNCTIONS[node.func.id])(*args)
+    raise _refuse(node, "is not allowed", names, what, text)
+
+
+@dataclass(frozen=True)
+class Compiled:
+    """sympy expressions in (params, q, v) and their numpy code: numbers through the numpy code,
+    sympy-traced values by substitution (form d traces the energies again)."""
+
+    exprs: tuple[Any, ...]
+    args: tuple[Any, ...]
+    fn: Callable[..., Any]
+
+    @classmethod
+    def of(cls, exprs: list[Any], args: list[Any]) -> Compiled:
+        import sympy as sp
+
+        return cls(tuple(exprs), tuple(args), sp.lambdify(args, exprs, modules="numpy", dummify=True))
+
+    def __call__(self, values: list[Any]) -> list[Any]:
+        traced = [x for x in values if isinstance(x, tracing.Traced)]
+        if traced and traced[0].backend.name == "sympy":
+            backend = traced[0].backend
+            sub = {a: tracing.unwrap(x, backend) for a, x in zip(self.args, values, strict=True)}
+            return [tracing.Traced(e.xreplace(sub), backend) for e in self.exprs]
+        return list(self.fn(*values))
+
+
+def _uses(view: Mapping[str, Any], joints: tuple[str, ...]) -> frozenset[str]:
+    found = {
+        "gravity": any(float(x) != 0.0 for x in view["gravity"]),
+        "damping": any(view[f"joint/{j}/damping"] > 0 for j in joints),
+        "actuation": any(k.startswith("actuator/") for k in view),
+    }
+    return frozenset(k for k, on in found.items() if on)
+
+
+def _bodies(view: Mapping[str, Any], joints: tuple[str, ...]) -> tuple[str, ...]:
+    """The bodies the joints move, in the model's order (what the engines are compared on)."""
+    moved = {view[f"joint/{j}/body"] for j in joints}
+    bodies = [k.split("/")[1] for k in view if k.startswith("body/") and k.endswith("/mass")]
+    return tuple(b for b in bodies if b in moved)
+
+
+def _assumptions(view: Mapping[str, Any], bindings: tuple[Binding, ...]) -> Callable[[Any], dict[str, Any]]:
+    """assumptions(p): the bound numbers from p, every other number NaN, structure as the model's."""
+    base = {k: v if isinstance(v, str) else np.full(np.shape(v), np.nan) for k, v in view.items()}
+
+    def assumptions(p: Any) -> dict[str, Any]:
+        numbers = {k: np.array(v, dtype=float) for k, v in base.items() if not isinstance(v, str)}
+        for b in bindings:
+            numbers[b.key][b.index] = getattr(p, b.symbol) / b.scale  # index (): the whole 0-d array
+        return {**base, **numbers}
+
+    return assumptions
+
+
+def _columns(x: Any, n: int) -> list[Any]:
+    x = np.asarray(x)
+    return [x[..., i] for i in range(n)]
+
+
+def module_from_file(path: Path, view: Mapping[str, Any]) -> types.ModuleType:
+    """The equations module (form d) a TOML file describes, read against the model `view`."""
+    import sympy as sp
+
+    path = Path(path)
+    joints_of_model = tuple(k.split("/")[1] for k in view if k.startswith("joint/") and k.endswith("/type"))
+    spec = read_spec(path, joints_of_model)
+    for b in spec.bindings:  # every key and index must exist now, not at the first parameters() call
+        try:
+            b.read(view)
+        except HarnessError as exc:
+            raise HarnessError(f"{path}: symbols.{b.symbol}: {exc}") from None
+    n = len(spec.coordinates)
+    params = [sp.Symbol(b.symbol, real=True) for b in spec.bindings]
+    qs = [sp.Symbol(c, real=True) for c in spec.coordinates]
+    vs = [sp.Symbol(c, real=True) for c in spec.velocities]
+    names = {str(s): s for s in [*params, *qs, *vs]}
+    T = to_sympy(spec.T, names, f"{path.name}: T")
+    V = to_sympy(spec.V, {str(s): s for s in [*params, *qs]}, f"{path.name}: V")
+    friction = (
+        None
+        if spec.friction is None
+        else [to_sympy(f, names, f"{path.name}: friction[{i}]") for i, f in enumerate(spec.friction)]
+    )
+    fields = [b.symbol for b in spec.bindings]
+    Params = dataclasses.make_dataclass("Params", [(f, float) for f in fields], frozen=True)
+    kinetic = Compiled.of([T], [*params, *qs, *vs])
+    potential = Compiled.of([V], [*params, *qs])
+
+    def kinetic_energy(p: Any, q: Any, v: Any) -> Any:
+        """T of the file."""
+        zero = np.zeros(np.broadcast_shapes(np.shape(q), np.shape(v))[:-1])
+        return kinetic([*(getattr(p, f) for f in fields), *_columns(q, n), *_columns(v, n)])[0] + zero
+
+    def potential_energy(p: Any, q: Any) -> Any:
+        """V of the file."""
+        return potential([*(getattr(p, f) for f in fields), *_columns(q, n)])[0] + np.zeros(np.shape(q)[:-1])
+
+    module = types.ModuleType(f"lagrange_xval_text_{path.stem}")
+    module.__file__ = str(path)
+    module.__doc__ = f"{spec.description} (equations as text: {path.name})"
+    attributes: dict[str, Any] = {
+        "DESCRIPTION": spec.description,
+        "COORDINATES": spec.coordinates,
+        "JOINTS": spec.joints,
+        "BODIES": _bodies(view, spec.joints),
+        "USES": _uses(view, spec.joints),
+        "Params": Params,
+        "parameters": lambda model: Params(**{b.symbol: b.read(model) for b in spec.bindings}),
+        "assumptions": _assumptions(view, spec.bindings),
+        "kinetic_energy": kinetic_energy,
+        "potential_energy": potential_energy,
+        "EXPRESSIONS": {"T": T, "V": V, **({} if friction is None else {"friction": tuple(friction)})},
+    }
+    if friction is not None:
+        forces = Compiled.of(friction, [*params, *qs, *vs])
+
+        def passive(p: Any, q: Any, v: Any) -> Any:
+            """The file's friction forces, one per coordinate."""
+            zero = np.zeros(np.broadcast_shapes(np.shape(q), np.shape(v))[:-1])
+            rows = forces([*(getattr(p, f) for f in fields), *_columns(q, n), *_columns(v, n)])
+            return np.stack([np.asarray(r + zero) for r in rows], axis=-1)
+
+        attributes["passive"] = passive
+    module.__dict__.update(attributes)
+    return module
