@@ -51,6 +51,8 @@ def parameter_keys(system: Any) -> dict[str, dict[str, Any]]:
         base = eq.assumptions(params)
     except Exception:  # noqa: BLE001 - the derivation's own failure is reported elsewhere
         return {}
+    if not set(system.view) <= set(base):  # the derivation reads the model: the keys it reads say it
+        return _read_keys(system)
     out: dict[str, dict[str, Any]] = {}
     for f in dataclasses.fields(params):
         value = getattr(params, f.name)
@@ -82,3 +84,23 @@ PRIORITY = ("mass", "com", "pos", "gravity", "damping", "armature", "stiffness",
 
 def _kind(key: str) -> str:
     return "gravity" if key == "gravity" else key.rsplit("/", 1)[-1]
+
+
+def _read_keys(system: Any) -> dict[str, dict[str, Any]]:
+    """{Params field: {"keys": the model numbers parameters() reads for it, "unit": theirs}} (a field
+    that one number alone moves in proportion has that number's unit; else unknown)."""
+    from .reads import knobs
+
+    try:
+        found = knobs(system.equations.parameters, system.view)
+    except Exception:  # noqa: BLE001 - the derivation's own failure is reported elsewhere
+        return {}
+    out: dict[str, dict[str, Any]] = {}
+    for knob in found:
+        for field in knob.fields:
+            entry = out.setdefault(field, {"keys": [], "unit": ""})
+            entry["keys"].append(knob.label)
+    for field, entry in out.items():
+        alone = [k for k in found if k.fields == (field,)]
+        entry["unit"] = key_unit(alone[0].key, system.view) if len(alone) == 1 else ""
+    return out
