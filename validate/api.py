@@ -132,7 +132,7 @@ def check(
     try:
         system.params  # noqa: B018 - the user's parameters() may raise: that is the verdict
     except Exception as exc:  # noqa: BLE001
-        why = f"parameters() raised {type(exc).__name__}: {exc}"
+        why = str(exc) if isinstance(exc, HarnessError) else f"parameters() raised {type(exc).__name__}: {exc}"
         row = Row("derivation", "parameters", "hand~mjcf", np.inf, np.inf, 0.0, False, detail=why)
         return Result(system.name, (row,), f"parameters disagrees: {why}", {})
     sources = make_sources(system)

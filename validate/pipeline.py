@@ -409,7 +409,7 @@ def _identity(system: Any) -> SystemResult:
 def _unreadable(system: Any, exc: Exception) -> SystemResult:
     """The result of a system whose parameters() or assumptions() raises: nothing else can be checked."""
     where = "parameters()" if "params" not in system._cache else "assumptions()"
-    why = f"{where} raised {type(exc).__name__}: {exc}".strip()
+    why = str(exc) if isinstance(exc, HarnessError) else f"{where} raised {type(exc).__name__}: {exc}".strip()
     return {
         **_identity(system),
         "parameters": {},

@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import importlib
+import math
 import os
 import pkgutil
 from dataclasses import dataclass, field
@@ -406,7 +407,16 @@ class System:
     @property
     def params(self) -> Any:
         if "params" not in self._cache:
-            self._cache["params"] = self.equations.parameters(self.view)
+            from .reads import numeric_fields
+
+            params = self.equations.parameters(self.view)
+            bad = [k for k, x in numeric_fields(params).items() if not math.isfinite(x)]
+            if bad:
+                raise HarnessError(
+                    f"parameters() returned a non-finite value for {', '.join(bad)}; every parameter must be a "
+                    "finite number read from the model."
+                )
+            self._cache["params"] = params
         return self._cache["params"]
 
     @property
