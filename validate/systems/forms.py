@@ -198,7 +198,7 @@ def _facade(module: Any, form: str) -> Any:
 
         def parts_b(p: Any, q: Any, v: Any) -> tuple[Any, Any, Any]:
             z = _zeros(q)
-            g, at_v, at_minus_v = _rows_of(r, p, [(q, z, z, z), (q, v, z, z), (q, -np.asarray(v), z, z)])
+            g, at_v, at_minus_v = _rows_of(r, p, [(q, z, z, z), (q, v, z, z), (q, -np.asanyarray(v), z, z)])
             plus, minus = at_v - g, at_minus_v - g
             return g, (plus + minus) / 2, -(plus - minus) / 2
 
@@ -222,7 +222,7 @@ def _facade(module: Any, form: str) -> Any:
 
         def parts_c(p: Any, q: Any, v: Any) -> tuple[Any, Any, Any]:
             z = _zeros(q)
-            a0, minv, (at_v, at_minus_v) = calls_c(p, q, [(q, v, z), (q, -np.asarray(v), z)])
+            a0, minv, (at_v, at_minus_v) = calls_c(p, q, [(q, v, z), (q, -np.asanyarray(v), z)])
             M = inverse(minv)
             plus, minus = at_v - a0, at_minus_v - a0
             return -_matvec(M, a0), -_matvec(M, (plus + minus) / 2), _matvec(M, (plus - minus) / 2)
@@ -277,8 +277,8 @@ def _derive(module: Any, numeric_params: tuple[tuple[str, float], ...] | None) -
     else:
         names, psyms = (), []
         p = module.Params(**dict(numeric_params))
-    T = _integer_powers(tracing.unwrap(np.asarray(module.kinetic_energy(p, q, v), dtype=object), backend))
-    V = _integer_powers(tracing.unwrap(np.asarray(module.potential_energy(p, q), dtype=object), backend))
+    T = _integer_powers(_traced_scalar(backend, "kinetic_energy", module.kinetic_energy, p, q, v))
+    V = _integer_powers(_traced_scalar(backend, "potential_energy", module.potential_energy, p, q))
     dT_dv = [sp.diff(T, x) for x in vs]
     M = [[sp.diff(dT_dv[i], vs[j]) for j in range(n)] for i in range(n)]
     G = [sp.diff(V, x) for x in qs]
@@ -286,6 +286,10 @@ def _derive(module: Any, numeric_params: tuple[tuple[str, float], ...] | None) -
     flat = [M[i][j] for i in range(n) for j in range(n)] + G + Cv
     fn = sp.lambdify([*psyms, *qs, *vs], flat, modules="numpy", cse=True)
     return _Derived(tuple(names), fn, n)
+
+
+def _traced_scalar(backend: Any, name: str, fn: Any, *args: Any) -> Any:
+    return tracing.unwrap(np.asarray(tracing.traced_call(backend, name, fn, *args), dtype=object), backend)
 
 
 def _integer_powers(expr: Any) -> Any:
@@ -310,6 +314,8 @@ def _energy_terms(module: Any, p: Any, q: Any, v: Any) -> tuple[np.ndarray, np.n
         values = tuple((f.name, float(getattr(p, f.name))) for f in dataclasses.fields(p))
         try:
             derived = _derive(module, values)
+        except HarnessError:
+            raise
         except Exception as exc:
             raise HarnessError(
                 f"cannot differentiate kinetic_energy/potential_energy symbolically ({type(exc).__name__}: {exc}); "
