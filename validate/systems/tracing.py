@@ -347,8 +347,8 @@ def _plain(x: Any) -> Any:
         out = np.empty((), dtype=object)
         out[()] = x
         return out
-    if isinstance(x, tuple):
-        return tuple(_plain(e) for e in x)
+    if isinstance(x, tuple | list):
+        return type(x)(_plain(e) for e in x)
     return x
 
 
@@ -403,13 +403,13 @@ def _where(condition: Any, *xy: Any) -> Any:
 
 def apply_function(func: Any, args: tuple[Any, ...], kwargs: dict[str, Any]) -> Any:
     """A numpy function on traced arguments: np.where and np.clip as conditional expressions, any
-    other by numpy's own implementation (object arrays in, traced arrays out)."""
+    other by numpy itself on plain object arrays (traced arrays out)."""
     if func is np.where:
         return _where(*args, **kwargs)
     if func is np.clip:
         x, low, high = (*args, *kwargs.values())[:3]
         return _rewrap(np.frompyfunc(_clip, 3, 1)(_plain(x), _plain(low), _plain(high)))
-    return _rewrap(func._implementation(*args, **kwargs))
+    return _rewrap(func(*_plain(tuple(args)), **{k: _plain(v) for k, v in kwargs.items()}))
 
 
 def unwrap(x: Any, backend: Backend) -> Any:
