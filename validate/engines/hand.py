@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 
 from ..systems.forms import not_provided_in, written_form
+from ..systems.values import real_array
 
 
 def solve_or_nan(M: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -62,13 +63,14 @@ class HandSource:
         return lambda t, y: fast(t, y, tau_list)
 
     def mass_matrix(self, q: np.ndarray) -> np.ndarray:
-        return np.asarray(self.eq.mass_matrix(self.p, q), dtype=float)
+        n = self.system.nv
+        return real_array("mass_matrix()", self.eq.mass_matrix(self.p, q), (*np.shape(q)[:-1], n, n))
 
     def bias(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        return np.asarray(self.eq.bias(self.p, q, v), dtype=float)
+        return real_array("bias()", self.eq.bias(self.p, q, v), np.broadcast_shapes(np.shape(q), np.shape(v)))
 
     def passive(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        return np.asarray(self.eq.passive(self.p, q, v), dtype=float)
+        return real_array("passive()", self.eq.passive(self.p, q, v), np.broadcast_shapes(np.shape(q), np.shape(v)))
 
     def forward(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
         """q'' = M^-1 (tau + passive - bias), one batched solve; NaN at states where M(q) is singular
@@ -88,10 +90,15 @@ class HandSource:
     def energies(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """T and V; NaN where the derivation does not provide them (never compared then)."""
         missing = self.not_provided
-        nan = np.full(np.shape(q)[:-1], np.nan)
+        shape = np.broadcast_shapes(np.shape(q), np.shape(v))[:-1]
+        nan = np.full(shape, np.nan)
         return (
-            nan if "kinetic_energy" in missing else np.asarray(self.eq.kinetic_energy(self.p, q, v), dtype=float),
-            nan if "potential_energy" in missing else np.asarray(self.eq.potential_energy(self.p, q), dtype=float),
+            nan
+            if "kinetic_energy" in missing
+            else real_array("kinetic_energy()", self.eq.kinetic_energy(self.p, q, v), shape),
+            nan
+            if "potential_energy" in missing
+            else real_array("potential_energy()", self.eq.potential_energy(self.p, q), shape),
         )
 
     def evaluate(
@@ -125,10 +132,12 @@ class HandSource:
         if "body_positions" in self.not_provided:
             return np.full((*np.shape(q)[:-1], len(self.system.bodies), 3), np.nan)
         pos = self.eq.body_positions(self.p, q)
-        return np.stack([pos[b] for b in self.system.bodies], axis=-2)
+        shape = (*np.shape(q)[:-1], 3)
+        return np.stack([real_array(f"body_positions()[{b!r}]", pos[b], shape) for b in self.system.bodies], axis=-2)
 
     def body_rotations(self, q: np.ndarray) -> np.ndarray:
         if "body_rotations" in self.not_provided:
             return np.full((*np.shape(q)[:-1], len(self.system.bodies), 3, 3), np.nan)
         rot = self.eq.body_rotations(self.p, q)
-        return np.stack([rot[b] for b in self.system.bodies], axis=-3)
+        shape = (*np.shape(q)[:-1], 3, 3)
+        return np.stack([real_array(f"body_rotations()[{b!r}]", rot[b], shape) for b in self.system.bodies], axis=-3)

@@ -31,6 +31,7 @@ import numpy as np
 from ...equations._forms import not_provided, stack_matrix, stack_vector
 from ..errors import HarnessError
 from . import tracing
+from .values import real_array
 
 FORMS = {
     "a": ("mass_matrix", "bias"),
@@ -93,11 +94,18 @@ def _rows_of(fn: Any, p: Any, calls: list[tuple[Any, ...]]) -> list[np.ndarray]:
     if len(calls) > 1 and shape and all(a.dtype.kind == "f" and a.shape == shape for a in arrays):
         k, width = len(calls), len(calls[0])
         flat = [np.concatenate([np.reshape(args[i], (-1, shape[-1])) for args in calls]) for i in range(width)]
-        out = np.asarray(fn(p, *flat))
+        out = real_array(f"{fn.__name__}()", fn(p, *flat))
         rows = int(np.prod(shape[:-1], dtype=int))
         if out.shape == (k * rows, shape[-1]):
             return [x.reshape(shape) for x in np.split(out, k)]
-    return [np.asarray(fn(p, *args)) for args in calls]
+    return [_answer(fn, p, args) for args in calls]
+
+
+def _answer(fn: Any, p: Any, args: tuple[Any, ...]) -> np.ndarray:
+    """fn(p, *args): real floats (values.real_array) where the arguments are numbers, as it is where traced."""
+    out = fn(p, *args)
+    numeric = all(np.asarray(x).dtype.kind in "biuf" for x in args)
+    return real_array(f"{fn.__name__}()", out) if numeric else np.asarray(out)
 
 
 def _stack_columns(cols: list[Any]) -> np.ndarray:
