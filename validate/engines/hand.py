@@ -6,6 +6,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import HarnessError
 from ..systems.forms import not_provided_in, written_form
 from ..systems.values import real_array
 
@@ -36,6 +37,7 @@ def solve_or_nan(M: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 class HandSource:
     name = "hand"
+    traced_rhs = ""  # why the generated one-state code stands aside (the module cannot be traced), if it does
 
     def __init__(self, system: Any) -> None:
         self.system = system
@@ -44,11 +46,25 @@ class HandSource:
 
     def rhs(self, tau: np.ndarray) -> Any:
         """The one-state right-hand side f(t, y) -> [v..., a...] for constant `tau`: the scalar code
-        generated from the equations (engines/fastpath.py), no batch overhead."""
+        generated from the equations (engines/fastpath.py), no batch overhead; the batched numpy
+        equations one state at a time where the module cannot be traced (`traced_rhs` says why)."""
         from .fastpath import scalar_rhs  # sympy: loaded when first asked for
 
-        fast, tau_list = scalar_rhs(self.system), [float(x) for x in tau]
+        try:
+            fast, tau_list = scalar_rhs(self.system), [float(x) for x in tau]
+        except HarnessError as exc:
+            self.traced_rhs = str(exc)
+            return self._numeric_rhs(np.asarray(tau, dtype=float))
         return lambda t, y: fast(t, y, tau_list)
+
+    def _numeric_rhs(self, tau: np.ndarray) -> Any:
+        n = len(tau)
+
+        def rhs(t: float, y: np.ndarray) -> np.ndarray:
+            a = self.forward(np.asarray(y)[None, :n], np.asarray(y)[None, n:], tau[None])[0]
+            return np.concatenate([y[n:], a])
+
+        return rhs
 
     def damped_rhs(self, tau: np.ndarray, h: float) -> Any:
         """As `rhs`, for MuJoCo's Euler step with implicit joint damping: a = (M + h D)^-1 f; None for
@@ -58,8 +74,11 @@ class HandSource:
 
         if written_form(self.system.equations) == "c":
             return None
-
-        fast, tau_list = scalar_rhs(self.system, damped_step=h), [float(x) for x in tau]
+        try:
+            fast, tau_list = scalar_rhs(self.system, damped_step=h), [float(x) for x in tau]
+        except HarnessError as exc:
+            self.traced_rhs = str(exc)
+            return None
         return lambda t, y: fast(t, y, tau_list)
 
     def mass_matrix(self, q: np.ndarray) -> np.ndarray:

@@ -336,7 +336,8 @@ SCALAR_UFUNCS: dict[str, Callable[..., Any]] = {
     "logical_not": lambda a: logical("not", a),
     **{name: functools.partial(compare, op) for name, op in COMPARISONS.items()},
 }
-_BRANCHING_NAMES = frozenset(SCALAR_UFUNCS) | {"abs", "where", "clip", "amin", "amax", "min", "max", "select"}
+# what may have asked for a truth value (np.abs calls the element's __abs__: it never does)
+_BRANCHING_NAMES = (frozenset(SCALAR_UFUNCS) - {"absolute", "fabs"}) | {"where", "amin", "amax", "min", "max", "select"}
 
 
 def _plain(x: Any) -> Any:
