@@ -92,9 +92,10 @@ def common(symbol: str, **values: float) -> float:
 
 
 def _array(x: Any) -> np.ndarray:
-    # Floats stay floats; symbolic entries (object arrays, for code generation) stay objects.
+    # Numbers become floats; anything else (symbolic entries for code generation, and complex values or
+    # strings the harness must see to refuse by name: validate/systems/values.py) stays as it is.
     arr = np.asarray(x)
-    return arr if arr.dtype == object else arr.astype(float)
+    return arr.astype(float) if arr.dtype.kind in "biuf" else arr
 
 
 def stack_matrix(rows: list[list[Any]]) -> np.ndarray:

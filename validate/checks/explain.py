@@ -40,6 +40,7 @@ from ..dynamics import cache
 from ..engines.derivation import axis_rotation, parameter_values
 from ..engines.readable import in_coordinates, tidy, transformed
 from ..engines.symbolic import derivation_of
+from ..systems.values import real_array
 from .pointwise import random_states
 
 PARTS = {
@@ -296,6 +297,16 @@ def _keep(key: str, record: dict[str, Any] | None) -> None:
         cache.store(where / f"{key[:32]}.npz", key, {}, {"record": record})
 
 
+_FUNCTION_OF_PART = {
+    "M": "mass_matrix",
+    "G": "bias",
+    "Cv": "bias",
+    "passive": "passive",
+    "T": "kinetic_energy",
+    "V": "potential_energy",
+}
+
+
 def _user_part(part: str, index: tuple[int, ...]) -> Any:
     """user(system, q, v) for one entry of one part of a derivation (mass_matrix, bias, ...)."""
 
@@ -307,14 +318,14 @@ def _user_part(part: str, index: tuple[int, ...]) -> Any:
         elif part == "G":
             x = eq.bias(p, q, zero)
         elif part == "Cv":
-            x = np.asarray(eq.bias(p, q, v), dtype=float) - np.asarray(eq.bias(p, q, zero), dtype=float)
+            x = real_array("bias()", eq.bias(p, q, v)) - real_array("bias()", eq.bias(p, q, zero))
         elif part == "passive":
             x = eq.passive(p, q, v)
         elif part == "T":
             x = eq.kinetic_energy(p, q, v)
         else:
             x = eq.potential_energy(p, q)
-        arr: np.ndarray = np.broadcast_to(np.asarray(x, dtype=float), (len(q), *(len(q[0]),) * len(index)))
+        arr = real_array(f"{_FUNCTION_OF_PART[part]}()", x, (len(q), *(len(q[0]),) * len(index)))
         where: tuple[Any, ...] = (slice(None), *index)
         return np.asarray(arr[where])
 

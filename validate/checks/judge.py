@@ -32,6 +32,7 @@ from ...equations._forms import DerivationStep, Implicit, NotApplicable
 from ..engines import make_source, make_sources
 from ..errors import HarnessError
 from ..systems.modelview import ModelView
+from ..systems.values import real_array
 from . import probes as probing
 from .explain import explain_entries, step_expression
 from .pointwise import States, error_row, random_states
@@ -247,13 +248,13 @@ def judge_variant(
         p0 = frictionless_params(system)
         rows = _printed_parameter_rows(system, variant) if printed_parameters else []
         if isinstance(variant, DerivationStep):
-            printed = np.asarray(variant.evaluate(p, q, v), dtype=float)
+            printed = real_array(f"{variant.name} evaluate()", variant.evaluate(p, q, v))
             refs = {n: engine_quantity(system, terms, variant.quantity, n, states, variant.angle_index) for n in e}
             printed = np.broadcast_to(printed, refs["mujoco"].shape)
             rows += term_rows("value", printed, refs, states, tier="algebraic", tolerances=tolerances)
         elif isinstance(variant, Implicit):
-            r = lambda pp, qq, vv, aa, tt: np.asarray(variant.residual(pp, qq, vv, aa, tt), dtype=float)  # noqa: E731
-            s = np.asarray(variant.row_scale(p), dtype=float)
+            r = lambda *args: real_array(f"{variant.name} residual()", variant.residual(*args))  # noqa: E731
+            s = real_array(f"{variant.name} row_scale()", variant.row_scale(p))
             r00 = r(p, q, zero, zero, zero)
             n = system.nv
             cols = [r(p, q, zero, np.broadcast_to(np.eye(n)[j], q.shape), zero) - r00 for j in range(n)]
@@ -302,7 +303,7 @@ def judge_variant(
                     min_scale={k: scale},
                 )
         else:  # explicit and Matlab state-space forms
-            f = lambda pp, qq, vv, tt: np.asarray(variant.acceleration(pp, qq, vv, tt), dtype=float)  # noqa: E731
+            f = lambda *args: real_array(f"{variant.name} acceleration()", variant.acceleration(*args))  # noqa: E731
             f00 = f(p, q, zero, zero)
             if "gravity" in uses:
                 rows += term_rows(
@@ -483,7 +484,7 @@ def explain_variant(
                 entry = expr[index] if len(index) == 2 else expr[index[0]] if index else expr
 
                 def user(s: Any, q: np.ndarray, v: np.ndarray, index: tuple[int, ...] = index) -> np.ndarray:
-                    out = np.broadcast_to(np.asarray(variant.evaluate(s.params, q, v), dtype=float), (len(q), *shape))
+                    out = real_array(f"{variant.name} evaluate()", variant.evaluate(s.params, q, v), (len(q), *shape))
                     where: tuple[Any, ...] = (slice(None), *index)
                     return np.asarray(out[where])
 
@@ -516,7 +517,7 @@ def explain_variant(
                         "friction": lambda: np.asarray(f(p, q, v, zero)) - np.asarray(f(p0, q, v, zero)),
                     }[term]()
                     det = np.linalg.det(symbolic_of(s).mass_matrix(q))
-                    return det * np.asarray(a, dtype=float)[:, i]
+                    return det * real_array(f"{variant.name} acceleration()", a)[:, i]
 
                 return user
 

@@ -134,21 +134,22 @@ def error_row(
     (results.schema.SCALED_DEFINITION: the max absolute error divided by the largest magnitude either
     source gives the quantity over the states, or `min_scale` if larger; what the tier judges), and the
     worst state."""
-    n = len(states)
-    diff = np.abs(a - b).reshape(n, -1)
-    mag = np.maximum(np.abs(a), np.abs(b)).reshape(n, -1)
-    per_state = diff.max(axis=1)
-    scale = max(float(mag.max()) if mag.size else 0.0, min_scale)
-    scale = scale if scale > 0 else 1.0
-    rel = per_state / np.maximum(mag.max(axis=1), np.finfo(float).tiny)
-    worst = int(np.argmax(per_state))
-    t = getattr(tolerances, tier)
-    # Per-state tolerances where the tier scales with the mass matrix's conditioning.
-    tol = np.full(n, t.rtol) if cond is None or t.cond_factor is None else np.array([t.at(c) for c in cond])
-    rtol = float(tol.max())
-    scaled = float(per_state.max() / scale)
-    finite = bool(np.all(np.isfinite(diff)))
-    passed = finite and bool(np.all(per_state / scale <= tol))
+    with np.errstate(all="ignore"):  # inf and NaN from a wrong derivation are judged, never warned about
+        n = len(states)
+        diff = np.abs(a - b).reshape(n, -1)
+        mag = np.maximum(np.abs(a), np.abs(b)).reshape(n, -1)
+        per_state = diff.max(axis=1)
+        scale = max(float(mag.max()) if mag.size else 0.0, min_scale)
+        scale = scale if scale > 0 else 1.0
+        rel = per_state / np.maximum(mag.max(axis=1), np.finfo(float).tiny)
+        worst = int(np.argmax(per_state))
+        t = getattr(tolerances, tier)
+        # Per-state tolerances where the tier scales with the mass matrix's conditioning.
+        tol = np.full(n, t.rtol) if cond is None or t.cond_factor is None else np.array([t.at(c) for c in cond])
+        rtol = float(tol.max())
+        scaled = float(per_state.max() / scale)
+        finite = bool(np.all(np.isfinite(diff)))
+        passed = finite and bool(np.all(per_state / scale <= tol))
     return {
         "quantity": quantity,
         "pair": pair,

@@ -31,6 +31,7 @@ from ..engines import SYMBOLIC_MAX_DOF, make_sources
 from ..errors import HarnessError
 from ..results.schema import Derivation, Explanation, TermRow
 from ..systems.forms import accelerations_only, not_provided_in, written_form
+from ..systems.values import real_array
 from . import probes as probing
 from . import words
 from .explain import explain
@@ -63,11 +64,7 @@ PROBE_STATES = 200  # states per probe (the model's own parameters use the point
 
 
 def _shaped(name: str, value: Any, shape: tuple[int, ...]) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
-    try:
-        return np.broadcast_to(arr, shape).copy()
-    except ValueError:
-        raise HarnessError(f"{name} returned shape {arr.shape}; expected {shape}") from None
+    return real_array(name, value, shape)
 
 
 def hand_terms(system: Any, states: States) -> tuple[dict[str, np.ndarray], dict[str, str]]:
@@ -88,13 +85,17 @@ def hand_terms(system: Any, states: States) -> tuple[dict[str, np.ndarray], dict
             with np.errstate(all="ignore"):
                 arr = _shaped(f"{fname}()", fn(), shape)
         except Exception as exc:  # noqa: BLE001 - the user's code: its failure is the finding
-            errors[term] = f"{fname}() raised {type(exc).__name__}: {exc}".strip()
+            said = str(exc) if isinstance(exc, HarnessError) else f"{fname}() raised {type(exc).__name__}: {exc}"
+            errors[term] = said.strip()
             return None
         if not np.all(np.isfinite(arr)):
             bad = int(np.argwhere(~np.isfinite(arr.reshape(N, -1)))[0][0])
             errors[term] = f"{fname}() is not finite at q = {np.round(q[bad], 6).tolist()}"
         out[term] = arr
         return arr
+
+    def _of(per_body: Any) -> list[tuple[str, Any]]:
+        return [(b, per_body[b]) for b in system.bodies]
 
     M = call("mass matrix", "mass_matrix", (N, n, n), lambda: eq.mass_matrix(p, q))
     G = call("gravity", "bias", (N, n), lambda: eq.bias(p, q, zero))
@@ -108,13 +109,13 @@ def hand_terms(system: Any, states: States) -> tuple[dict[str, np.ndarray], dict
         "body positions",
         "body_positions",
         (N, nb, 3),
-        lambda: np.stack([np.asarray(eq.body_positions(p, q)[b], dtype=float) for b in system.bodies], axis=-2),
+        lambda: np.stack([real_array(f"body_positions()[{b!r}]", x) for b, x in _of(eq.body_positions(p, q))], -2),
     )
     call(
         "body rotations",
         "body_rotations",
         (N, nb, 3, 3),
-        lambda: np.stack([np.asarray(eq.body_rotations(p, q)[b], dtype=float) for b in system.bodies], axis=-3),
+        lambda: np.stack([real_array(f"body_rotations()[{b!r}]", x) for b, x in _of(eq.body_rotations(p, q))], -3),
     )
     if M is not None and B is not None and "friction" in out:
         rhs = tau + out["friction"] - B

@@ -135,7 +135,8 @@ def accurate_trajectory(
         try:
             taylor_integrator(system, FAST_TOLERANCE, source=source.name, compact=system.nv > UNROLLED_MAX_DOF)
         except Exception as exc:  # noqa: BLE001 - any failure to trace or compile: the scipy path, said
-            why = f"not available ({type(exc).__name__}: {exc})".strip()
+            said = str(exc) if isinstance(exc, HarnessError) else f"{type(exc).__name__}: {exc}"
+            why = f"not available ({said.strip()})"
         else:
             return taylor_trajectory(system, source.name, q0, v0, tau, t, budget=budget)
     traj = scipy_trajectory(system, source, q0, v0, tau, t, **(fallback or SCIPY_DEFAULT), budget=budget)

@@ -89,6 +89,8 @@ def _symbolic(name: str, module: types.ModuleType, p: Any, n: int) -> SymbolicDy
         m, bias, passive = tracing.dynamics(system, qs, vs, tracing.heyoka_backend())
         f = [hy.par[i] + passive[i] - bias[i] for i in range(n)]
         a = tracing.solve_spd(m, f)
+    except HarnessError:
+        raise  # already one line naming the module's function and line (tracing.traced_call)
     except Exception as exc:
         raise HarnessError(
             f"equations/{name}.py: cannot trace mass_matrix/bias/passive symbolically for the Taylor "

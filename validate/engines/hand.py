@@ -6,7 +6,9 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import HarnessError
 from ..systems.forms import accelerations_only, not_provided_in, written_form
+from ..systems.values import real_array
 
 
 def solve_or_nan(M: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -35,6 +37,7 @@ def solve_or_nan(M: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 class HandSource:
     name = "hand"
+    traced_rhs = ""  # why the generated one-state code stands aside (the module cannot be traced), if it does
 
     def __init__(self, system: Any) -> None:
         self.system = system
@@ -43,20 +46,27 @@ class HandSource:
 
     def rhs(self, tau: np.ndarray) -> Any:
         """The one-state right-hand side f(t, y) -> [v..., a...] for constant `tau`: the scalar code
-        generated from the equations (engines/fastpath.py), no batch overhead."""
+        generated from the equations (engines/fastpath.py), no batch overhead; the batched numpy
+        equations one state at a time where the module cannot be traced (`traced_rhs` says why)."""
         from .fastpath import scalar_rhs  # sympy: loaded when first asked for
 
         if self.accelerations_only:  # the generated code is the motion at zero input: use the module itself
-            tau_row = np.asarray(tau, dtype=float)[None]
-            n = self.system.nv
-
-            def rhs(t: float, y: Any) -> list[float]:
-                x = np.asarray(y, dtype=float)[None]
-                return [*x[0, n:], *self.forward(x[:, :n], x[:, n:], tau_row)[0]]
-
-            return rhs
-        fast, tau_list = scalar_rhs(self.system), [float(x) for x in tau]
+            return self._numeric_rhs(np.asarray(tau, dtype=float))
+        try:
+            fast, tau_list = scalar_rhs(self.system), [float(x) for x in tau]
+        except HarnessError as exc:
+            self.traced_rhs = str(exc)
+            return self._numeric_rhs(np.asarray(tau, dtype=float))
         return lambda t, y: fast(t, y, tau_list)
+
+    def _numeric_rhs(self, tau: np.ndarray) -> Any:
+        n = len(tau)
+
+        def rhs(t: float, y: np.ndarray) -> np.ndarray:
+            a = self.forward(np.asarray(y)[None, :n], np.asarray(y)[None, n:], tau[None])[0]
+            return np.concatenate([y[n:], a])
+
+        return rhs
 
     def damped_rhs(self, tau: np.ndarray, h: float) -> Any:
         """As `rhs`, for MuJoCo's Euler step with implicit joint damping: a = (M + h D)^-1 f; None for
@@ -66,18 +76,22 @@ class HandSource:
 
         if written_form(self.system.equations) == "c":
             return None
-
-        fast, tau_list = scalar_rhs(self.system, damped_step=h), [float(x) for x in tau]
+        try:
+            fast, tau_list = scalar_rhs(self.system, damped_step=h), [float(x) for x in tau]
+        except HarnessError as exc:
+            self.traced_rhs = str(exc)
+            return None
         return lambda t, y: fast(t, y, tau_list)
 
     def mass_matrix(self, q: np.ndarray) -> np.ndarray:
-        return np.asarray(self.eq.mass_matrix(self.p, q), dtype=float)
+        n = self.system.nv
+        return real_array("mass_matrix()", self.eq.mass_matrix(self.p, q), (*np.shape(q)[:-1], n, n))
 
     def bias(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        return np.asarray(self.eq.bias(self.p, q, v), dtype=float)
+        return real_array("bias()", self.eq.bias(self.p, q, v), np.broadcast_shapes(np.shape(q), np.shape(v)))
 
     def passive(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        return np.asarray(self.eq.passive(self.p, q, v), dtype=float)
+        return real_array("passive()", self.eq.passive(self.p, q, v), np.broadcast_shapes(np.shape(q), np.shape(v)))
 
     @property
     def accelerations_only(self) -> bool:
@@ -110,10 +124,15 @@ class HandSource:
     def energies(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """T and V; NaN where the derivation does not provide them (never compared then)."""
         missing = self.not_provided
-        nan = np.full(np.shape(q)[:-1], np.nan)
+        shape = np.broadcast_shapes(np.shape(q), np.shape(v))[:-1]
+        nan = np.full(shape, np.nan)
         return (
-            nan if "kinetic_energy" in missing else np.asarray(self.eq.kinetic_energy(self.p, q, v), dtype=float),
-            nan if "potential_energy" in missing else np.asarray(self.eq.potential_energy(self.p, q), dtype=float),
+            nan
+            if "kinetic_energy" in missing
+            else real_array("kinetic_energy()", self.eq.kinetic_energy(self.p, q, v), shape),
+            nan
+            if "potential_energy" in missing
+            else real_array("potential_energy()", self.eq.potential_energy(self.p, q), shape),
         )
 
     def evaluate(
@@ -150,10 +169,12 @@ class HandSource:
         if "body_positions" in self.not_provided:
             return np.full((*np.shape(q)[:-1], len(self.system.bodies), 3), np.nan)
         pos = self.eq.body_positions(self.p, q)
-        return np.stack([pos[b] for b in self.system.bodies], axis=-2)
+        shape = (*np.shape(q)[:-1], 3)
+        return np.stack([real_array(f"body_positions()[{b!r}]", pos[b], shape) for b in self.system.bodies], axis=-2)
 
     def body_rotations(self, q: np.ndarray) -> np.ndarray:
         if "body_rotations" in self.not_provided:
             return np.full((*np.shape(q)[:-1], len(self.system.bodies), 3, 3), np.nan)
         rot = self.eq.body_rotations(self.p, q)
-        return np.stack([rot[b] for b in self.system.bodies], axis=-3)
+        shape = (*np.shape(q)[:-1], 3, 3)
+        return np.stack([real_array(f"body_rotations()[{b!r}]", rot[b], shape) for b in self.system.bodies], axis=-3)

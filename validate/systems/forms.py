@@ -32,6 +32,7 @@ import numpy as np
 from ...equations._forms import not_provided, stack_matrix, stack_vector
 from ..errors import HarnessError
 from . import hamiltonian, tracing
+from .values import real_array
 
 FORMS = {
     "a": ("mass_matrix", "bias"),
@@ -117,11 +118,18 @@ def _rows_of(fn: Any, p: Any, calls: list[tuple[Any, ...]]) -> list[np.ndarray]:
     if len(calls) > 1 and shape and all(a.dtype.kind == "f" and a.shape == shape for a in arrays):
         k, width = len(calls), len(calls[0])
         flat = [np.concatenate([np.reshape(args[i], (-1, shape[-1])) for args in calls]) for i in range(width)]
-        out = np.asarray(fn(p, *flat))
+        out = real_array(f"{fn.__name__}()", fn(p, *flat))
         rows = int(np.prod(shape[:-1], dtype=int))
         if out.shape == (k * rows, shape[-1]):
             return [x.reshape(shape) for x in np.split(out, k)]
-    return [np.asarray(fn(p, *args)) for args in calls]
+    return [_answer(fn, p, args) for args in calls]
+
+
+def _answer(fn: Any, p: Any, args: tuple[Any, ...]) -> np.ndarray:
+    """fn(p, *args): real floats (values.real_array) where the arguments are numbers, as it is where traced."""
+    out = fn(p, *args)
+    numeric = all(np.asarray(x).dtype.kind in "biuf" for x in args)
+    return real_array(f"{fn.__name__}()", out) if numeric else np.asarray(out)
 
 
 def _stack_columns(cols: list[Any]) -> np.ndarray:
@@ -230,7 +238,7 @@ def _facade(module: Any, form: str) -> Any:
 
         def parts_b(p: Any, q: Any, v: Any) -> tuple[Any, Any, Any]:
             z = _zeros(q)
-            g, at_v, at_minus_v = _rows_of(r, p, [(q, z, z, z), (q, v, z, z), (q, -np.asarray(v), z, z)])
+            g, at_v, at_minus_v = _rows_of(r, p, [(q, z, z, z), (q, v, z, z), (q, -np.asanyarray(v), z, z)])
             plus, minus = at_v - g, at_minus_v - g
             return g, (plus + minus) / 2, -(plus - minus) / 2
 
@@ -256,7 +264,7 @@ def _facade(module: Any, form: str) -> Any:
 
         def parts_c(p: Any, q: Any, v: Any) -> tuple[Any, Any, Any]:
             z = _zeros(q)
-            a0, minv, (at_v, at_minus_v) = calls_c(p, q, [(q, v, z), (q, -np.asarray(v), z)])
+            a0, minv, (at_v, at_minus_v) = calls_c(p, q, [(q, v, z), (q, -np.asanyarray(v), z)])
             M = inverse(minv)
             plus, minus = at_v - a0, at_minus_v - a0
             return -_matvec(M, a0), -_matvec(M, (plus + minus) / 2), _matvec(M, (plus - minus) / 2)
@@ -338,8 +346,8 @@ def _derive(module: Any, params_type: type, n: int, numeric_params: tuple[tuple[
     else:
         names, psyms = (), []
         p = params_type(**dict(numeric_params))
-    T = _integer_powers(tracing.unwrap(np.asarray(module.kinetic_energy(p, q, v), dtype=object), backend))
-    V = _integer_powers(tracing.unwrap(np.asarray(module.potential_energy(p, q), dtype=object), backend))
+    T = _integer_powers(_traced_scalar(backend, "kinetic_energy", module.kinetic_energy, p, q, v))
+    V = _integer_powers(_traced_scalar(backend, "potential_energy", module.potential_energy, p, q))
     dT_dv = [sp.diff(T, x) for x in vs]
     M = [[sp.diff(dT_dv[i], vs[j]) for j in range(n)] for i in range(n)]
     G = [sp.diff(V, x) for x in qs]
@@ -347,6 +355,10 @@ def _derive(module: Any, params_type: type, n: int, numeric_params: tuple[tuple[
     flat = [M[i][j] for i in range(n) for j in range(n)] + G + Cv
     fn = sp.lambdify([*psyms, *qs, *vs], flat, modules="numpy", cse=True)
     return _Derived(tuple(names), fn, n)
+
+
+def _traced_scalar(backend: Any, name: str, fn: Any, *args: Any) -> Any:
+    return tracing.unwrap(np.asarray(tracing.traced_call(backend, name, fn, *args), dtype=object), backend)
 
 
 def _integer_powers(expr: Any) -> Any:
@@ -372,6 +384,8 @@ def _energy_terms(module: Any, p: Any, q: Any, v: Any) -> tuple[np.ndarray, np.n
         values = tuple((f.name, float(getattr(p, f.name))) for f in dataclasses.fields(p))
         try:
             derived = _derive(module, type(p), n, values)
+        except HarnessError:
+            raise
         except Exception as exc:
             raise HarnessError(
                 f"cannot differentiate kinetic_energy/potential_energy symbolically ({type(exc).__name__}: {exc}); "
