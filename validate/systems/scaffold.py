@@ -143,7 +143,7 @@ def module_text(name: str, model: Path) -> str:
     t.append("from typing import Any")
     t.append("")
     t.append("import numpy as np")
-    t.append("from lagrange_xval.equations._forms import not_provided")
+    t.append("from lagrange_xval.forms import not_provided")
     t.append("")
     t.append(f"DESCRIPTION = {f'{name}: the model {model.name}, derived by hand.'!r}")
     t.append(f"COORDINATES = {coords!r}")
