@@ -465,12 +465,13 @@ def key_of(system: System) -> str:
     if repository and system.mjcf.resolve() == (MODELS_DIR / f"{system.name}.xml").resolve():
         return system.name
     equations = Path(getattr(system.equations, "__file__", "") or "")
-    return FILES_KEY + os.pathsep.join([str(system.mjcf.resolve()), str(equations.resolve()), system.name])
+    locked = [",".join(system.locked)] if system.locked else []  # URDF joints made fixed, when any
+    return FILES_KEY + os.pathsep.join([str(system.mjcf.resolve()), str(equations.resolve()), system.name, *locked])
 
 
 def from_key(key: str) -> System:
     """The system `key_of` gave the key of."""
     if key.startswith(FILES_KEY):
-        model, equations, name = key[len(FILES_KEY) :].split(os.pathsep)
-        return System.from_files(model, equations, name=name)
+        model, equations, name, *locked = key[len(FILES_KEY) :].split(os.pathsep)
+        return System.from_files(model, equations, name=name, locked=tuple(locked[0].split(",")) if locked else ())
     return load(key)
