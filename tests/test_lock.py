@@ -92,3 +92,17 @@ def test_a_locked_urdf_takes_overrides_so_probes_can_move_it():
     heavier = system.with_overrides(**{"body/link2/mass": 3.5})
     assert heavier.mujoco_model().nv == system.mujoco_model().nv == 2
     assert heavier.view["body/link2/mass"] == 3.5
+
+
+def test_replay_locks_what_run_recorded(tmp_path, monkeypatch, capsys):
+    """`run --lock` records the locked joints in results.json; `replay` reads the model with them
+    locked again (without them the recorded trajectories would not fit the model's joints)."""
+    import json
+
+    monkeypatch.chdir(tmp_path)
+    args = ["run", "--model", str(ARM), "--lock", "elbow", "--states", "50", "--probes", "0", "--out", "out"]
+    assert main(args) == 0, capsys.readouterr().out[-2000:]
+    results = json.loads((tmp_path / "out" / "results.json").read_text())
+    assert results["systems"]["spatial_arm"]["locked"] == ["elbow"]
+    assert main(["replay", "spatial_arm", "--results", "out/results.json", "--save", "again.rrd"]) == 0
+    assert (tmp_path / "again.rrd").stat().st_size > 0
