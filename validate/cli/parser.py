@@ -185,8 +185,8 @@ def build_parser() -> argparse.ArgumentParser:
             type=joints_arg,
             default=(),
             metavar="JOINTS",
-            help="comma-separated joints of the --model URDF to make fixed at zero (a gripper's fingers), a step the "
-            "report lists",
+            help="comma-separated joints of the --model URDF to make fixed at zero before it is read (a gripper's "
+            "fingers; a <mimic> joint must be), a step the report lists",
         )
 
     def cache_options(parser: argparse.ArgumentParser) -> None:
