@@ -33,7 +33,8 @@ Every module provides (shapes: `q`, `v`, `tau` are `(..., n)`; functions broadca
                                        MuJoCo and Pinocchio count it
     body_positions(p, q) -> {body: (..., 3)}   optional: centres of mass in the world frame
     body_rotations(p, q) -> {body: (..., 3, 3)} optional: body frames in the world frame
-    VARIANTS: tuple[variant, ...]      optional (default none): every printed form of the notes (_forms.py)
+    VARIANTS: tuple[variant, ...]      optional (default none): every printed form of the notes
+                                       (Implicit, Explicit, DerivationStep of lagrange_xval.forms)
     PRINTED_FORMS_ASSUME: (...)        optional: equalities the printed forms assume, each a mapping
                                        {Params field: k} with k * field equal across it (one m for
                                        m1 and m2: {"m1": 1, "m2": 1}); their probes keep them

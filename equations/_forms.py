@@ -1,5 +1,8 @@
 """The kinds of printed forms a system module can transcribe, and small helpers (numpy only).
 
+Equations modules import these by their public name, `lagrange_xval.forms` (validate/public/forms.py
+documents each); this file is their implementation, numpy only, imported by the harness itself.
+
 A variant is one printed form of the notes, transcribed as printed. The harness judges each by
 comparing it with MuJoCo and Pinocchio; nothing here says which forms are right.
 """
@@ -108,6 +111,12 @@ def stack_matrix(rows: list[list[Any]]) -> np.ndarray:
 def stack_vector(items: list[Any]) -> np.ndarray:
     """Stacks broadcastable scalars or arrays into an array of shape (..., len(items))."""
     return np.stack(np.broadcast_arrays(*[_array(x) for x in items]), axis=-1)
+
+
+def rot_x(angle: Any) -> np.ndarray:
+    """Rotation by `angle` about x, (..., 3, 3)."""
+    c, s = np.cos(angle), np.sin(angle)
+    return stack_matrix([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
 
 
 def rot_z(angle: Any) -> np.ndarray:

@@ -25,8 +25,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-
-from ._forms import Implicit, body, hinge, planar_inertia, rot_z, stack_matrix, stack_vector
+from lagrange_xval.forms import Implicit, body, hinge, planar_inertia, rot_z, stack_matrix, stack_vector
 
 DESCRIPTION = (
     "Two bobs on massless rods, both angles measured from the downward vertical "

@@ -48,8 +48,17 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-
-from ._forms import DerivationStep, Implicit, body, common, hinge, planar_inertia, rot_z, stack_matrix, stack_vector
+from lagrange_xval.forms import (
+    DerivationStep,
+    Implicit,
+    body,
+    common,
+    hinge,
+    planar_inertia,
+    rot_z,
+    stack_matrix,
+    stack_vector,
+)
 
 DESCRIPTION = (
     "Two uniform rigid bars, the second angle measured relative to the first bar "

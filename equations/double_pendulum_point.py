@@ -21,8 +21,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-
-from ._forms import (
+from lagrange_xval.forms import (
     DerivationStep,
     Explicit,
     Implicit,

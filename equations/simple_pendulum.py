@@ -24,8 +24,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-
-from ._forms import body, hinge, planar_inertia, rot_z, stack_matrix, stack_vector
+from lagrange_xval.forms import body, hinge, planar_inertia, rot_z, stack_matrix, stack_vector
 
 DESCRIPTION = (
     "One bob on a massless rod, the angle measured from the downward vertical "

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from lagrange_xval.equations._forms import NAN, body, hinge, rot_y, stack_vector
+from lagrange_xval.forms import NAN, body, hinge, rot_y, stack_vector
 
 DESCRIPTION = (
     "Spong's acrobot with Drake's benchmark parameters (m1 = m2 = 1, l1 = 1, lc1 = 0.5, lc2 = 1, "

@@ -48,7 +48,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from lagrange_xval.equations._forms import NAN, body, hinge, rot_y, stack_vector
+from lagrange_xval.forms import NAN, body, hinge, rot_y, stack_vector
 
 DESCRIPTION = (
     "Cart-pole: a cart on a horizontal rail (slide x, force-driven, viscous friction) carrying a uniform "

@@ -49,7 +49,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from lagrange_xval.equations._forms import NAN, body, hinge, rot_z, stack_matrix, stack_vector
+from lagrange_xval.forms import NAN, body, hinge, rot_z, stack_matrix, stack_vector
 
 DESCRIPTION = (
     "Rotary inverted (Furuta) pendulum: an arm turning about the vertical (theta, motor-driven) and a "

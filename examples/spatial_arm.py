@@ -50,7 +50,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from lagrange_xval.equations._forms import NAN, body, hinge, rot_y, rot_z, stack_matrix, stack_vector
+from lagrange_xval.forms import NAN, body, hinge, rot_y, rot_z, stack_matrix, stack_vector
 
 DESCRIPTION = (
     "A 3-DOF spatial arm (base yaw about z, shoulder and elbow pitch about y) with full, non-diagonal "

@@ -16,11 +16,10 @@ from .mutations import MUTATIONS, mutated_source
 
 
 def _user_copy(folder: Path, name: str, source: str | None = None) -> tuple[Path, Path]:
-    """A repository system copied into a user's folder: its MJCF and its equations module, which
-    imports the helpers by their installed name instead of relatively."""
+    """A repository system copied into a user's folder: its MJCF and its equations module (which
+    imports the helpers by their public name, lagrange_xval.forms, so it works as it is)."""
     system = systems.load(name)
     text = source if source is not None else Path(system.equations.__file__).read_text()
-    text = text.replace("from ._forms import", "from lagrange_xval.equations._forms import")
     model = folder / f"{name}.xml"
     model.write_text(system.mjcf.read_text())
     module = folder / f"{name}.py"

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import pathlib
 import re
+import runpy
 import shutil
 import subprocess
 import sys
@@ -172,20 +173,25 @@ def test_derive_prints_every_repository_system(name):
 
 
 def test_derive_python_output_computes_the_engines_mass_matrix(tmp_path):
-    """`derive --model X --python` is code: run with the model's numbers, it gives MuJoCo's M and bias."""
+    """`derive --model X --python` is importable code: the dynamics and energies of the module `new`
+    writes for X, in its Params; with the model's numbers it gives MuJoCo's M, bias and energies."""
+    from lagrange_xval.validate.systems.scaffold import module_text
+
     model = EXAMPLES / "acrobot.xml"
     done = _cli("derive", "--model", str(model), "--python")
     assert done.returncode == 0, done.stderr
+    (tmp_path / "derived.py").write_text(done.stdout)
+    runpy.run_path(str(tmp_path / "derived.py"))  # importable as it is: no bare sin or cos
+    (tmp_path / "mine.py").write_text(module_text("mine", model) + "\n\n" + done.stdout)
+    derived = runpy.run_path(str(tmp_path / "mine.py"))  # new's module with derive's dynamics written in
     system = System.from_files(model, EXAMPLES / "acrobot.py")
-    src = SymbolicSource(system)
-    values = dict(zip(map(str, src.derivation.source), src.params, strict=True))
-    q, v = np.array([0.3, -1.1]), np.array([0.7, 0.2])
-    names = dict(zip(system.joints, q, strict=True)) | {f"d{j}": x for j, x in zip(system.joints, v, strict=True)}
-    scope: dict = {"np": np, **values, **names, "sin": np.sin, "cos": np.cos}
-    exec(done.stdout, scope)  # noqa: S102 - the command's own output, run as the user would
+    p = derived["parameters"](system.view)
+    q, v = np.array([[0.3, -1.1], [2.0, 0.4]]), np.array([[0.7, 0.2], [-0.5, 1.5]])
     mj = make_source(system, "mujoco")
-    np.testing.assert_allclose(scope["M"], mj.mass_matrix(q[None])[0], rtol=1e-12, atol=1e-14)
-    np.testing.assert_allclose(scope["Cv"] + scope["G"], mj.bias(q[None], v[None])[0], rtol=1e-12, atol=1e-13)
+    np.testing.assert_allclose(derived["mass_matrix"](p, q), mj.mass_matrix(q), rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(derived["bias"](p, q, v), mj.bias(q, v), rtol=1e-12, atol=1e-13)
+    assert derived["passive"](p, q, v).shape == q.shape
+    assert derived["kinetic_energy"](p, q, v).shape == derived["potential_energy"](p, q).shape == (2,)
 
 
 def test_derive_urdf_arm_latex_and_bad_input(tmp_path):
@@ -334,6 +340,8 @@ def test_the_notes_errata_are_explained_as_the_errata_table_says():
             assert any(want in s for s in statements), (v["name"], statements, v.get("note"))
 
 
+# `new` writes the minimal contract (no USES, no DESCRIPTION); loading its module needs the harness's
+# side of it (issue 24 items 1-2, main abdb09b): skipped until that is merged into this branch.
 def test_long_chains_leave_the_symbolic_source_out(tmp_path):
     """Beyond SYMBOLIC_MAX_DOF joints the derivation would take minutes: the source is left out and
     the others still compare (a 7-link planar chain written here, its module from `new`)."""

@@ -106,11 +106,7 @@ def test_run_systems_folder(tmp_path):
     source = systems.load("simple_pendulum")
     (tmp_path / "mine").mkdir()
     shutil.copy(source.mjcf, tmp_path / "mine" / "pendulum.xml")
-    (tmp_path / "mine" / "pendulum.py").write_text(
-        Path(source.equations.__file__)
-        .read_text()
-        .replace("from ._forms import", "from lagrange_xval.equations._forms import")
-    )
+    shutil.copy(source.equations.__file__, tmp_path / "mine" / "pendulum.py")  # imports lagrange_xval.forms
     command = [sys.executable, "-m", "lagrange_xval.validate.cli", "run", "--systems", "mine", "--out", "out"]
     ok = subprocess.run(
         command + ["--states", "50", "--probes", "1", "--no-replay"],
@@ -253,3 +249,43 @@ def test_optional_functions_left_out_are_not_checked_never_failed(tmp_path):
     assert {"T", "V"} <= {r["quantity"] for r in result["pointwise"]["rows"]}  # the engines still agree on them
     assert (out / "acrobot.rrd").is_file()
     assert "Not checked (the derivation does not provide them" in (out / "report.md").read_text()
+
+
+def _repository_modules() -> list[tuple[Path, Path]]:
+    """(model, equations module) of every repository system and every example, discovered."""
+    pairs = [
+        (systems.MODELS_DIR / f"{n}.xml", systems.PACKAGE_ROOT / "equations" / f"{n}.py")
+        for n in systems.system_names()
+    ]
+    return pairs + [(m, e) for m, e in systems.pairs_in(FOLDER)]
+
+
+@pytest.mark.parametrize(("model", "module"), _repository_modules(), ids=lambda p: Path(p).stem)
+def test_a_copy_of_every_repository_module_loads_from_any_folder(tmp_path, model, module):
+    """Every repository module imports its helpers by their public name (lagrange_xval.forms), never
+    relatively: copied with its model into a folder of a person's own, it loads as it is."""
+    text = module.read_text()
+    assert "from lagrange_xval.forms import" in text and "_forms" not in text, f"{module.name}: imports"
+    shutil.copy(model, tmp_path / model.name)
+    shutil.copy(module, tmp_path / module.name)
+    system = lx.System.from_files(tmp_path / model.name, tmp_path / module.name)
+    assert system.nv == len(system.coordinates) >= 1
+
+
+def test_a_copied_repository_module_is_checked_from_any_folder(tmp_path, monkeypatch):
+    """One copy checked end to end through the public API, from a folder outside the repository."""
+    monkeypatch.chdir(tmp_path)
+    for f in ("cart_pole.xml", "cart_pole.py"):
+        shutil.copy(FOLDER / f, tmp_path / f)
+    lx.check(lx.System.from_files("cart_pole.xml", "cart_pole.py"), n_states=50, probes=1).assert_ok()
+
+
+def test_the_public_forms_module_documents_every_helper_it_exports():
+    """lagrange_xval.forms re-exports the implementation (no second copy) and its docstring names each helper."""
+    import lagrange_xval.forms as forms
+    from lagrange_xval.equations import _forms
+
+    assert forms.__all__ and forms.__doc__
+    for name in forms.__all__:
+        assert getattr(forms, name) is getattr(_forms, name), name
+        assert name in forms.__doc__, f"lagrange_xval.forms's docstring does not document {name}"

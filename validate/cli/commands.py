@@ -193,9 +193,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     check_out(args.out)  # before hours of work, not after
     rendered: dict[str, Any] = {}
     files = user_files(args)
-    locked = tuple(j.strip() for j in (args.lock or "").split(",") if j.strip())
-    if locked and args.model is None:
-        raise HarnessError("--lock takes joints of the --model URDF; give --model PATH.")
+    locked = locked_joints(args)
     # the executor inside the cache setting: a LocalCluster's workers inherit the environment
     with use_cache(args), named_executor(args.executor) as executor, reporter() as progress:
         results = run(
@@ -229,15 +227,27 @@ def replay_hint(out: Path, *, written: bool = True) -> ReplayHint:
     return ReplayHint(out=shown_path(out), viewer=viewer_command(), written=written)
 
 
+def locked_joints(args: argparse.Namespace) -> tuple[str, ...]:
+    """--lock's joints (none without it); they are joints of a --model URDF, so --lock needs --model."""
+    locked = tuple(getattr(args, "lock", None) or ())
+    if locked and getattr(args, "model", None) is None:
+        raise HarnessError("--lock takes joints of the --model URDF; give --model PATH.")
+    return locked
+
+
 def one_system(args: argparse.Namespace) -> Any:
-    """The SYSTEM named, or the one given by --model and --equations (exactly one of the two)."""
+    """The SYSTEM named, or the one given by --model and --equations (exactly one of the two), with
+    the --lock joints made fixed."""
 
     files = user_files(args)
     if files and args.system:
         raise HarnessError("give a SYSTEM name or --model and --equations, not both.")
+    locked = locked_joints(args)
     if files:
         model, equations = files[0]
-        return System.from_files(model, equations) if equations is not None else System.model_only(model)
+        if equations is None:
+            return System.model_only(model, locked=locked)
+        return System.from_files(model, equations, locked=locked)
     if not args.system:
         raise HarnessError("name a SYSTEM (see `lagrange-xval list`) or give --model PATH --equations PATH.")
     return load(args.system)
@@ -276,10 +286,12 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def cmd_new(args: argparse.Namespace) -> int:
-    path = write_module(args.name, args.model, args.dir)
+    locked = locked_joints(args)
+    path = write_module(args.name, args.model, args.dir, locked=locked)
+    lock = f" --lock {','.join(locked)}" if locked else ""
     print(
         f"wrote {path}: write the dynamics in one of the four forms it lists, then "
-        f"`lagrange-xval check --model {args.model} --equations {path}`"
+        f"`lagrange-xval check --model {args.model} --equations {path}{lock}`"
     )
     return 0
 
@@ -289,19 +301,13 @@ def cmd_derive(args: argparse.Namespace) -> int:
     text is kept in the cache (`derive` kind), keyed by the model's structure, the names, the format
     and the harness's code."""
     from ..checks.derived import derived_text
-    from ..systems import model_view
 
-    if args.system or args.equations is not None:
-        if args.equations is not None and args.model is None:
-            raise HarnessError("--equations needs --model: the model whose equations are derived.")
-        system = one_system(args)
-        view, joints, coordinates, joint_map = system.view, system.joints, system.coordinates, system.joint_map
-    elif args.model is not None:
-        view = model_view(args.model)
-        joints = tuple(k.split("/")[1] for k in view if k.startswith("joint/") and k.endswith("/type"))
-        coordinates, joint_map = joints, None
-    else:
+    if args.equations is not None and args.model is None:
+        raise HarnessError("--equations needs --model: the model whose equations are derived.")
+    if not args.system and args.model is None:
         raise HarnessError("name a SYSTEM (see `lagrange-xval list`) or give --model PATH.")
+    system = one_system(args)  # --model alone: the model's joints, in order, as the coordinates
+    view, joints, coordinates, joint_map = system.view, system.joints, system.coordinates, system.joint_map
     if args.coordinates:
         names = tuple(x.strip() for x in args.coordinates.split(","))
         if len(names) != len(joints) or not all(n.isidentifier() for n in names) or len(set(names)) != len(names):
@@ -328,12 +334,14 @@ def cmd_bench(args: argparse.Namespace) -> int:
         with named_executor(args.executor) as executor:  # local: in this process, each chain timed alone
             return chains_command(args, executor)
     args.files = user_files(args)  # a person's own systems, beside or instead of SYSTEM names
+    args.locked = locked_joints(args)
     with use_cache(args), named_executor(args.executor) as executor:
         return bench_command(args, executor=executor)
 
 
 def cmd_stress(args: argparse.Namespace) -> int:
     args.files = user_files(args)
+    args.locked = locked_joints(args)
     with use_cache(args), named_executor(args.executor) as executor:
         return stress_command(args, executor=executor)
 

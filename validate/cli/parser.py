@@ -120,6 +120,17 @@ def vector_arg(text: str) -> list[float]:
         raise argparse.ArgumentTypeError(f"'{text}' is not a comma-separated list of numbers") from None
 
 
+def joints_arg(text: str) -> tuple[str, ...]:
+    """`--lock a,b`: joint names, each once; an empty name (a stray comma) is refused."""
+    names = tuple(x.strip() for x in text.split(","))
+    if not all(names):
+        raise argparse.ArgumentTypeError(f"'{text}' is not a comma-separated list of joint names")
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise argparse.ArgumentTypeError(f"joint '{twice[0]}' is named twice")
+    return names
+
+
 def system_help(what: str) -> str:
     """Help for a SYSTEM argument, naming the valid names (discovered, never listed by hand)."""
     try:
@@ -165,6 +176,17 @@ def build_parser() -> argparse.ArgumentParser:
         )
         parser.add_argument(
             "--equations", type=path_arg, metavar="PATH", help="your own equations module, .py (with --model)"
+        )
+        lock_option(parser)
+
+    def lock_option(parser: argparse.ArgumentParser) -> None:
+        parser.add_argument(
+            "--lock",
+            type=joints_arg,
+            default=(),
+            metavar="JOINTS",
+            help="comma-separated joints of the --model URDF to make fixed at zero before it is read (a gripper's "
+            "fingers; a <mimic> joint must be), a step the report lists",
         )
 
     def cache_options(parser: argparse.ArgumentParser) -> None:
@@ -235,12 +257,6 @@ def build_parser() -> argparse.ArgumentParser:
         help="probe parameter sets per derivation, every parameter moved, 0 to 100 (default 4; 0: the model's only)",
     )
     model_options(run)
-    run.add_argument(
-        "--lock",
-        metavar="JOINTS",
-        help="comma-separated joints of the --model URDF to make fixed at zero (a gripper's fingers), a step the "
-        "report lists",
-    )
     run.add_argument(
         "--systems",
         dest="systems_dir",
@@ -384,6 +400,7 @@ def build_parser() -> argparse.ArgumentParser:
     new.add_argument(
         "--dir", type=path_arg, default=None, metavar="DIR", help="where to write NAME.py (default: the model's folder)"
     )
+    lock_option(new)
     derive = command(
         "derive",
         help="the model's own equations of motion, derived symbolically (rotation-matrix method of the notes)",
@@ -401,6 +418,7 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="NAMES",
         help="comma-separated names for the joints' coordinates, in the model's joint order",
     )
+    lock_option(derive)
     form = derive.add_mutually_exclusive_group()
     form.add_argument("--latex", action="store_true", help="print LaTeX instead of plain text")
     form.add_argument("--python", action="store_true", help="print numpy code instead of plain text")
@@ -413,7 +431,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=path_arg,
         default=Path("reports") / "results.json",
         metavar="FILE",
-        help="the results `run` wrote (default: reports/results.json); nothing is recomputed",
+        help="the results `run` wrote (default: reports/results.json); nothing is recomputed, and the joints "
+        "`run --lock` locked are locked again as the results record them",
     )
     return p
 

@@ -109,6 +109,7 @@ def csv_pieces(meta: dict[str, Any], columns: list[str], table: np.ndarray) -> I
     lines = [
         f"# lagrange-xval {meta['harness_version']} simulate",
         f"# system: {meta['system']} (model {meta['model']}, equations {meta['equations']})",
+        *([f"# locked: {', '.join(meta['locked'])} (made fixed at zero)"] if meta["locked"] else []),
         f"# source: {meta['source']}",
         f"# method: {meta['method']}",
         f"# q0: {numbers(meta['q0'], u['q0'])}",
@@ -174,6 +175,7 @@ def cmd_simulate(args: argparse.Namespace, one_system: Callable[[argparse.Namesp
     meta = {
         "system": system.name,
         **files_of(system),
+        "locked": list(system.locked),  # URDF joints made fixed (--lock)
         "source": args.source,
         "method": traj.method,
         "coordinates": list(system.coordinates),

@@ -64,6 +64,7 @@ class Derivation:
     V_body: dict[str, Any]
     parameters: dict[Any, str] = field(default_factory=dict)  # symbol -> what it is (model key and unit)
     source: dict[Any, tuple[str, Any]] = field(default_factory=dict)  # symbol -> (model key, entry)
+    signs: dict[Any, int] = field(default_factory=dict)  # symbol -> sign of the model's number (symbols are > 0)
 
 
 def _clean(name: str) -> str:
@@ -99,6 +100,7 @@ class _Params:
         self.view = view
         self.source: dict[Any, tuple[str, Any]] = {}  # symbol -> (model key, entry index or None)
         self.meaning: dict[Any, str] = {}
+        self.sign: dict[Any, int] = {}
         self.structure: list[Any] = []
 
     def read(self, key: str, entry: Any = None) -> float:
@@ -122,6 +124,7 @@ class _Params:
             return sp.Integer(0)
         sym = sp.Symbol(name, positive=True)
         self.source[sym] = (key, entry)
+        self.sign[sym] = 1 if value > 0 else -1
         where = (
             key
             if entry in (None, "norm")
@@ -311,5 +314,6 @@ def derive(view: Any, joints: tuple[str, ...]) -> Derivation:
         V_body=V_body,
         parameters=P.meaning,
         source=P.source,
+        signs=P.sign,
         **out,
     )

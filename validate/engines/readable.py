@@ -12,11 +12,12 @@ from __future__ import annotations
 
 import functools
 from collections import defaultdict
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from ..systems.scaffold import field_of
 from .derivation import Derivation
 
 
@@ -36,6 +37,7 @@ class Equations:
     G: Any
     passive: Any
     parameters: dict[str, str]  # symbol name -> model key and unit
+    reads: dict[str, tuple[str, Any, int]] = field(default_factory=dict)  # symbol name -> (key, entry, sign)
 
 
 def tidy(expr: Any, q: list[Any]) -> Any:
@@ -131,6 +133,7 @@ def equations(d: Derivation, coordinates: tuple[str, ...] | None = None, joint_m
         G=part("G"),
         passive=part("passive"),
         parameters={str(s): meaning for s, meaning in d.parameters.items()},
+        reads={str(s): (key, entry, d.signs.get(s, 1)) for s, (key, entry) in d.source.items()},
     )
     return out
 
@@ -163,16 +166,7 @@ def as_text(e: Equations, fmt: str = "text") -> str:
     n = len(e.q)
     lines: list[str] = []
     if fmt == "python":
-        printer = sp.printing.numpy.NumPyPrinter({"fully_qualified_modules": False})
-        lines.append(f"# coordinates q = ({', '.join(e.coordinates)}), velocities d<name>; numpy as np")
-        lines.append(f"T = {printer.doprint(e.T)}")
-        lines.append(f"V = {printer.doprint(e.V)}")
-        rows = ", ".join("[" + ", ".join(printer.doprint(e.M[i, j]) for j in range(n)) + "]" for i in range(n))
-        lines.append(f"M = np.array([{rows}])")
-        for name in ("Cv", "G", "passive"):
-            vec = getattr(e, name)
-            lines.append(f"{name} = np.array([{', '.join(printer.doprint(vec[i]) for i in range(n))}])")
-        return "\n".join(lines) + "\n"
+        return as_python(e)
     if fmt == "latex":
         dots = _dots(e)
 
@@ -221,3 +215,90 @@ def as_data(e: Equations) -> dict[str, Any]:
         "passive": [both(e.passive[i]) for i in range(n)],
         "parameters": dict(sorted(e.parameters.items())),
     }
+
+
+PYTHON_HEADER = """\
+# The model's equations of motion, derived symbolically by `lagrange-xval derive --python`: the
+# dynamics (form a) and the energies of the equations module `lagrange-xval new` writes for the same
+# model (and the same --lock). Each parameter is a field of that module's Params, p (the derivation's
+# symbols are positive: a negative number's sign is written where it is bound); q and v are
+# (..., {n}) arrays of the coordinates ({coordinates}) and their rates.
+import numpy as np
+from lagrange_xval.forms import stack_matrix, stack_vector
+"""
+
+# (function, arguments, docstring, the Equations terms it returns, shape after the batch axes)
+_FUNCTIONS = (
+    ("mass_matrix", "p, q", "M(q), (..., n, n).", ("M",), "(n, n)"),
+    ("bias", "p, q, v", "C(q, v) v + G(q), (..., n).", ("Cv", "G"), "(n,)"),
+    ("passive", "p, q, v", "The joints' damping and spring forces, (..., n).", ("passive",), "(n,)"),
+    ("kinetic_energy", "p, q, v", "T(q, v), (...).", ("T",), "()"),
+    ("potential_energy", "p, q", "V(q), (...).", ("V",), "()"),
+)
+
+
+def _local_names(e: Equations) -> dict[Any, Any]:
+    """Python-safe local names for the coordinates and rates: a joint's name may not be an identifier,
+    and must not shadow an argument, the imports or a parameter."""
+    import re
+
+    import sympy as sp
+
+    taken = {"p", "q", "v", "np", "stack_matrix", "stack_vector", *e.reads}
+    out: dict[Any, Any] = {}
+    for sym in (*e.q, *e.v):
+        name = re.sub(r"\W", "_", str(sym))
+        name = name if name.isidentifier() else f"_{name}"
+        while name in taken:
+            name += "_"
+        taken.add(name)
+        out[sym] = sp.Symbol(name, real=True)
+    return out
+
+
+def _function(e: Equations, spec: tuple[str, str, str, tuple[str, ...], str], names: dict[Any, Any]) -> list[str]:
+    """One function of the generated module: bind what its expression uses, return the expression."""
+    import sympy as sp
+
+    fn, args, doc, terms, shape = spec
+    n = len(e.q)
+    value = getattr(e, terms[0])
+    for extra in terms[1:]:
+        value = value + getattr(e, extra)
+    exprs = [value] if shape == "()" else list(value)
+    exprs = [sp.sympify(x).xreplace(names) for x in exprs]
+    used = set().union(*(x.free_symbols for x in exprs))
+    printer = sp.printing.numpy.NumPyPrinter({"fully_qualified_modules": True})
+
+    def code(x: Any) -> str:
+        return str(printer.doprint(x)).replace("numpy.", "np.")
+
+    out = ["", "", f"def {fn}({args}):", f'    """{doc}"""']
+    for i, sym in enumerate(e.q):
+        out += [f"    {names[sym]} = q[..., {i}]"] if names[sym] in used else []
+    for i, sym in enumerate(e.v):
+        out += [f"    {names[sym]} = v[..., {i}]"] if names[sym] in used and "v" in args else []
+    for name in sorted(str(s) for s in used if str(s) in e.reads):
+        key, entry, sign = e.reads[name]
+        out.append(f"    {name} = {'-' if sign < 0 else ''}p.{field_of(key, entry)}")
+    if shape == "(n, n)":
+        rows = ("[" + ", ".join(code(exprs[i * n + j]) for j in range(n)) + "]" for i in range(n))
+        body = "stack_matrix([" + ", ".join(rows) + "])"
+    else:
+        body = "stack_vector([" + ", ".join(map(code, exprs)) + "])" if shape == "(n,)" else code(exprs[0])
+    batch = {"(n, n)": f"q.shape[:-1] + ({n}, {n})", "(n,)": "q.shape", "()": "q.shape[:-1]"}[shape]
+    moving = {names[s] for s in (*e.q, *e.v)} & used  # else a constant: given the batch's shape
+    return [*out, f"    return {body}" + ("" if moving else f" + np.zeros({batch})")]
+
+
+def as_python(e: Equations) -> str:
+    """The equations as importable Python: form (a) (mass_matrix, bias, passive) and the energies, in
+    the Params fields of the module `lagrange-xval new` writes (systems/scaffold.field_of)."""
+    n = len(e.q)
+    lines = [PYTHON_HEADER.format(n=n, coordinates=", ".join(e.coordinates)).rstrip("\n")]
+    names = _local_names(e)
+    for spec in _FUNCTIONS:
+        lines += _function(e, spec, names)
+    lines += ["", "", "# parameters (the derivation's symbols, where each is read):"]
+    lines += [f"#   {name}: {meaning}" for name, meaning in sorted(e.parameters.items())]
+    return "\n".join(lines) + "\n"

@@ -9,7 +9,8 @@ itself is `lagrange_xval.validate`, the repository's systems `lagrange_xval.equa
     result = lx.check(lx.System.from_files("my_pendulum.xml", "my_pendulum.py"))
     result.assert_ok()
 
-`lagrange_xval.testing` has the helpers for a pytest suite of your own.
+`lagrange_xval.testing` has the helpers for a pytest suite of your own, `lagrange_xval.forms` those an
+equations module imports (stack_vector, body, hinge, not_provided, the printed-form classes).
 """
 
 from lagrange_xval.validate.api import Result, Row, System, check, load

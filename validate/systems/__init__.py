@@ -381,12 +381,12 @@ class System:
         if "model" not in self._cache:
             from .scope import refusals  # reads the compiled model with mujoco: loaded when first needed
 
-            if self.locked and not self.reads_urdf:
-                raise HarnessError(f"{self.mjcf.name}: joints can be locked in a URDF read as it is (no overrides).")
+            if self.locked and self.text is None and self.model_format != "urdf":
+                raise HarnessError(f"{self.mjcf.name}: --lock takes joints of a URDF model (an MJCF states its own).")
             if self.reads_urdf:
                 model = urdf.compile_urdf(self.urdf_text(), self.mjcf.name)
             else:
-                model = compile_mjcf(self.mjcf, self.overrides, self.text)
+                model = compile_mjcf(self.mjcf, self.overrides, self.text or self._locked_mjcf())
             refused = refusals(model)  # before any dynamics: what no source could compare
             if refused:
                 more = f" (and {len(refused) - 1} more: {'; '.join(refused[1:])})" if len(refused) > 1 else ""
@@ -396,7 +396,13 @@ class System:
 
     def mjcf_xml(self) -> str:
         """The MJCF text both engines parse, with overrides applied."""
-        return mjcf_text(self.mjcf, self.overrides, self.text)
+        return mjcf_text(self.mjcf, self.overrides, self.text or self._locked_mjcf())
+
+    def _locked_mjcf(self) -> str | None:
+        """A locked URDF's MJCF form, its joints locked (what overrides and probes edit); else None."""
+        if not self.locked or self.model_format != "urdf":
+            return None
+        return urdf.as_mjcf(self.urdf_text(), self.mjcf.name)
 
     @property
     def view(self) -> ModelView:
@@ -535,12 +541,13 @@ def key_of(system: System) -> str:
     if repository and system.mjcf.resolve() == (MODELS_DIR / f"{system.name}.xml").resolve():
         return system.name
     equations = Path(getattr(system.equations, "__file__", "") or "")
-    return FILES_KEY + os.pathsep.join([str(system.mjcf.resolve()), str(equations.resolve()), system.name])
+    locked = [",".join(system.locked)] if system.locked else []  # URDF joints made fixed, when any
+    return FILES_KEY + os.pathsep.join([str(system.mjcf.resolve()), str(equations.resolve()), system.name, *locked])
 
 
 def from_key(key: str) -> System:
     """The system `key_of` gave the key of."""
     if key.startswith(FILES_KEY):
-        model, equations, name = key[len(FILES_KEY) :].split(os.pathsep)
-        return System.from_files(model, equations, name=name)
+        model, equations, name, *locked = key[len(FILES_KEY) :].split(os.pathsep)
+        return System.from_files(model, equations, name=name, locked=tuple(locked[0].split(",")) if locked else ())
     return load(key)

@@ -81,13 +81,15 @@ def refusals(model: Any) -> list[str]:
             )
     for e in range(model.neq if constraints else 0):
         what = f"equality constraint '{_name(model, mujoco.mjtObj.mjOBJ_EQUALITY, e, 'equality')}'"
+        fix = ""
         if int(model.eq_type[e]) == int(mujoco.mjtEq.mjEQ_JOINT):  # a URDF <mimic> becomes one, unnamed
             joints = [
                 _name(model, mujoco.mjtObj.mjOBJ_JOINT, int(i), "joint")
                 for i in (model.eq_obj1id[e], model.eq_obj2id[e])
             ]
             what += f" coupling joint '{joints[0]}' to joint '{joints[1]}' (a URDF <mimic> is read as one)"
-        out.append(f"{what}: constraint forces cannot be compared (the hand equations of a chain have none)")
+            fix = f"; lock it with --lock {joints[0]} (or both: --lock {joints[1]},{joints[0]}; locked= in Python)"
+        out.append(f"{what}: constraint forces cannot be compared (the hand equations of a chain have none){fix}")
     if constraints and not _disabled(model, mujoco.mjtDisableBit.mjDSBL_LIMIT):
         for limited in np.nonzero(model.jnt_limited)[0]:
             out.append(

@@ -90,7 +90,7 @@ def lock(text: str, joints: tuple[str, ...], source: str) -> str:
     """The URDF with `joints` made fixed at their zero angle (a gripper's fingers, say): the named,
     listed step that takes a joint out of the chain both engines read. An unknown name is an error."""
     root = _root(text, source)
-    found = {j.get("name"): j for j in root.iter("joint")}
+    found = {j.get("name"): j for j in root.findall("joint")}  # the robot's; not a <transmission>'s <joint>
     unknown = [j for j in joints if j not in found]
     if unknown:
         raise HarnessError(f"{source}: no joint '{unknown[0]}' to lock (joints: {', '.join(sorted(map(str, found)))}).")

@@ -58,6 +58,7 @@ def run_bench(
     progress: Callable[[str], None] | None = None,
     time_run: bool | None = None,
     files: list[tuple[Path, Path]] | None = None,
+    locked: tuple[str, ...] = (),
 ) -> dict[str, Any]:
     """The work-precision sweep and the ratios, as JSON-able data.
 
@@ -68,11 +69,12 @@ def run_bench(
         executor: where the worker tasks run (default: a process pool on every core).
         time_run: time `lagrange-xval run` (default: not quick).
         files: (model, equations) pairs of a person's own systems, benched beside (or instead of) names.
+        locked: URDF joints of the `files` systems made fixed (a gripper's fingers; `--lock`).
     """
     start = time.perf_counter()
     chosen = list(names) if names else ([] if files else list(QUICK_SYSTEMS if quick else system_names()))
     systems = load_all(chosen) if chosen else []  # unknown names and unreadable files fail here, before any work
-    systems += [System.from_files(m, e) for m, e in (files or [])]
+    systems += [System.from_files(m, e, locked=locked) for m, e in (files or [])]
     chosen = [key_of(s) for s in systems]  # what the workers find each system by
     named = {key_of(s): s.name for s in systems}
     repeats = repeats if repeats is not None else (QUICK_REPEATS if quick else DEFAULT_REPEATS)
@@ -471,6 +473,7 @@ def bench_command(args: Any, executor: Executor | None = None) -> int:
         repeats=getattr(args, "repeats", None),
         progress=progress,
         files=getattr(args, "files", None),
+        locked=tuple(getattr(args, "locked", None) or ()),
         executor=executor,
     )
     results["config"]["executor"] = getattr(args, "executor", None) or "local"

@@ -63,9 +63,11 @@ def run_stress(
     progress: Callable[[str], None] | None = None,
     files: list[tuple[Path, Path]] | None = None,
     executor: Executor | None = None,
+    locked: tuple[str, ...] = (),
 ) -> dict[str, Any]:
     """The four stress experiments on the systems named (all when none) and on a person's own
-    (`files`: (model, equations) pairs), with `overrides` on each; in this process, or with `executor`
+    (`files`: (model, equations) pairs, their URDF joints `locked` made fixed), with `overrides` on
+    each; in this process, or with `executor`
     (any `concurrent.futures.Executor`, a dask cluster's included) one task per system and section.
 
     Every system is loaded and compiled with the overrides first, so an unknown system, an unknown key
@@ -74,7 +76,7 @@ def run_stress(
     settings = settings or (QUICK if quick else FULL)
     say = progress or (lambda msg: None)
     systems_ = [load(n, overrides=tuple(overrides)) for n in (names or ([] if files else system_names()))]
-    systems_ += [System.from_files(m, e).derive(overrides=tuple(overrides)) for m, e in (files or [])]
+    systems_ += [System.from_files(m, e, locked=locked).derive(overrides=tuple(overrides)) for m, e in (files or [])]
     for s in systems_:
         try:
             s.mujoco_model()
@@ -364,6 +366,7 @@ def stress_command(args: Any, executor: Executor | None = None) -> int:
         progress=lambda msg: err.print(msg, highlight=False),
         files=getattr(args, "files", None),
         executor=executor,
+        locked=tuple(getattr(args, "locked", None) or ()),
     )
     path = write_stress(results, Path(getattr(args, "out", None) or "reports"))
     print_summary(results, Console(width=None if sys.stdout.isatty() else 160))
