@@ -245,3 +245,15 @@ def test_a_copied_repository_module_runs_from_any_folder(tmp_path):
     shutil.copy(ROOT / "equations" / "simple_pendulum.py", tmp_path / "pend.py")
     result = lx.check(lx.System.from_files(tmp_path / "pend.xml", tmp_path / "pend.py"), n_states=50, probes=1)
     assert result.passed, result.statement
+
+
+def test_published_equations_taking_tau_but_ignoring_an_unactuated_one_name_the_cause(tmp_path):
+    """gym's equations with the last parameter named tau: the pole's torque is ignored, and the verdict says
+    so and how to write it (u), not that a mass_matrix() the person never wrote is not finite."""
+    as_tau = GYM_CART_POLE.replace("def qacc(p, q, v, u):", "def qacc(p, q, v, tau):").replace(
+        "force = u[..., 0]", "force = tau[..., 0]"
+    )
+    result = _check(_gym_system(tmp_path, as_tau + GYM_ROD))
+    assert not result.passed
+    assert "does not depend on tau[1] (theta)" in result.statement and "name its last parameter u" in result.statement
+    assert "not finite" not in result.statement

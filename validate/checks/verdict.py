@@ -178,6 +178,11 @@ def term_rows_at(
     terms = EngineTerms(system, sources, states, ev)
     e = terms.by_engine
     mine, errors = hand_terms(system, states)
+    ignored = _ignored_torques(system, states)
+    if ignored:  # M^-1 has a zero column: every term built from M names the cause, not a function never written
+        for term in ("mass matrix", "gravity", "velocity", "friction", "acceleration"):
+            mine.pop(term, None)
+            errors[term] = ignored
     force = max(
         float(np.abs(np.concatenate([e[k][x].ravel() for x in ("G", "Cv", "passive", "tau")])).max(initial=0.0))
         for k in ev
@@ -238,6 +243,32 @@ def term_rows_at(
         if spd:
             notes["mass_matrix_not_spd"] = spd
     return rows, notes
+
+
+def _ignored_torques(system: Any, states: States) -> str:
+    """For explicit accelerations taking tau: the coordinates whose tau the person's qacc ignores (a
+    published form with inputs on the actuated coordinates only, transcribed with tau), said plainly."""
+    if written_form(system.equations) != "c" or system.inputs != "tau":
+        return ""
+    qacc, q = system.equations.ORIGINAL.qacc, states.q[:16]
+    zero = np.zeros_like(q)
+    try:
+        with np.errstate(all="ignore"):
+            a0 = np.asarray(qacc(system.params, q, zero, zero), dtype=float)
+            cols = [
+                np.asarray(qacc(system.params, q, zero, np.broadcast_to(e, q.shape)), dtype=float) - a0
+                for e in np.eye(system.nv)
+            ]
+    except Exception:  # noqa: BLE001 - the call's own failure is reported by hand_terms
+        return ""
+    lost = [j for j, c in enumerate(cols) if np.all(np.isfinite(c)) and not np.any(c)]
+    if not lost:
+        return ""
+    which = ", ".join(f"tau[{j}] ({system.coordinates[j]})" for j in lost)
+    return (
+        f"your qacc does not depend on {which}: qacc(p, q, v, tau) takes a generalized force on every coordinate; "
+        "for inputs on the actuated coordinates only, name its last parameter u (the actuators' controls)"
+    )
 
 
 def _controls(system: Any, tau: np.ndarray) -> np.ndarray:
