@@ -257,3 +257,83 @@ def test_published_equations_taking_tau_but_ignoring_an_unactuated_one_name_the_
     assert not result.passed
     assert "does not depend on tau[1] (theta)" in result.statement and "name its last parameter u" in result.statement
     assert "not finite" not in result.statement
+
+
+# The same cart-pole, minimal, in each of the other forms (b residual, c explicit, d energies, e Hamiltonian).
+MINIMAL_HEAD = '''
+"""Cart-pole."""
+from dataclasses import dataclass
+import numpy as np
+
+@dataclass(frozen=True)
+class Params:
+    mc: float; mp: float; l: float; I: float; kx: float; g: float; h: float; pz: float; ccz: float
+
+def parameters(model):
+    return Params(model["body/cart/mass"], model["body/pole/mass"], model["body/pole/com"][2],
+                  model["body/pole/inertia"][1, 1], model["joint/x/damping"], -model["gravity"][2],
+                  model["body/cart/pos"][2], model["body/pole/pos"][2], model["body/cart/com"][2])
+
+def _M(p, q):
+    c = np.cos(q[..., 1])
+    return (p.mc + p.mp) + 0 * c, p.mp * p.l * c, p.mp * p.l**2 + p.I + 0 * c
+'''
+MINIMAL_FORMS = {
+    "b": """
+def residual(p, q, v, a, tau):
+    m11, m12, m22 = _M(p, q)
+    s = np.sin(q[..., 1])
+    r1 = m11 * a[..., 0] + m12 * a[..., 1] - p.mp * p.l * s * v[..., 1]**2 + p.kx * v[..., 0] - tau[..., 0]
+    r2 = m12 * a[..., 0] + m22 * a[..., 1] - p.mp * p.g * p.l * s - tau[..., 1]
+    return np.stack([r1, r2], -1)
+""",
+    "c": """
+def qacc(p, q, v, tau):
+    m11, m12, m22 = _M(p, q)
+    s = np.sin(q[..., 1])
+    f1 = tau[..., 0] + p.mp * p.l * s * v[..., 1]**2 - p.kx * v[..., 0]
+    f2 = tau[..., 1] + p.mp * p.g * p.l * s
+    det = m11 * m22 - m12**2
+    return np.stack([(m22 * f1 - m12 * f2) / det, (m11 * f2 - m12 * f1) / det], -1)
+""",
+    "d": """
+def kinetic_energy(p, q, v):
+    m11, m12, m22 = _M(p, q)
+    return 0.5 * m11 * v[..., 0]**2 + m12 * v[..., 0] * v[..., 1] + 0.5 * m22 * v[..., 1]**2
+
+def potential_energy(p, q):
+    return p.mc * p.g * (p.h + p.ccz) + p.mp * p.g * (p.h + p.pz + p.l * np.cos(q[..., 1]))
+
+def passive(p, q, v):
+    return np.stack([-p.kx * v[..., 0], 0 * v[..., 1]], -1)
+""",
+    "e": """
+def hamiltonian(p, q, pm):
+    m11, m12, m22 = _M(p, q)
+    det = m11 * m22 - m12**2
+    T = 0.5 * (m22 * pm[..., 0]**2 - 2 * m12 * pm[..., 0] * pm[..., 1] + m11 * pm[..., 1]**2) / det
+    return T + p.mc * p.g * (p.h + p.ccz) + p.mp * p.g * (p.h + p.pz + p.l * np.cos(q[..., 1]))
+
+def passive(p, q, v):
+    return np.stack([-p.kx * v[..., 0], 0 * v[..., 1]], -1)
+""",
+}
+# one slip per form, each in the gravity term (g for g l in b and c, the height of the pole in d and e)
+GRAVITY_SLIPS = {
+    "b": ("- p.mp * p.g * p.l * s - tau", "- p.mp * p.g * s - tau"),
+    "c": ("p.mp * p.g * p.l * s\n", "p.mp * p.g * s\n"),
+    "d": ("p.mp * p.g * (p.h + p.pz + p.l * np.cos", "p.mp * p.g * (p.h + p.pz + 2 * p.l * np.cos"),
+    "e": ("p.mp * p.g * (p.h + p.pz + p.l * np.cos", "p.mp * p.g * (p.h + p.pz + 2 * p.l * np.cos"),
+}
+
+
+@pytest.mark.parametrize("form", sorted(MINIMAL_FORMS))
+def test_a_minimal_module_in_every_form_passes_when_right_and_names_gravity_when_wrong(tmp_path, form):
+    right = MINIMAL_HEAD + MINIMAL_FORMS[form]
+    result = _check(_system(tmp_path, "cart_pole", right, name=f"right_{form}"))
+    assert result.passed, result.statement
+    old, new = GRAVITY_SLIPS[form]
+    assert old in right
+    wrong = _check(_system(tmp_path, "cart_pole", right.replace(old, new), name=f"wrong_{form}"))
+    assert not wrong.passed
+    assert wrong.statement.startswith("gravity disagrees"), wrong.statement

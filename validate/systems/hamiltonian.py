@@ -51,21 +51,20 @@ def _integer_powers(expr: Any) -> Any:
 
 
 @functools.cache
-def _terms(module: Any, numeric_params: tuple[tuple[str, float], ...] | None) -> _Terms:
+def _terms(module: Any, params_type: type, n: int, numeric_params: tuple[tuple[str, float], ...] | None) -> _Terms:
     """M^-1, V and Hamilton's equations of `module`, from its H traced with sympy and generated as
     numpy code; parameters are symbols unless `numeric_params` are given."""
     import sympy as sp
 
     backend = tracing.sympy_backend()
-    n = len(module.COORDINATES)
     qs, ps = list(sp.symbols(f"q0:{n}")), list(sp.symbols(f"pm0:{n}"))
     if numeric_params is None:
-        names = tuple(f.name for f in dataclasses.fields(module.Params))
+        names = tuple(f.name for f in dataclasses.fields(params_type))
         psyms = [sp.Symbol(k) for k in names]
-        p = module.Params(**{k: tracing.Traced(s, backend) for k, s in zip(names, psyms, strict=True)})
+        p = params_type(**{k: tracing.Traced(s, backend) for k, s in zip(names, psyms, strict=True)})
     else:
         names, psyms = (), []
-        p = module.Params(**dict(numeric_params))
+        p = params_type(**dict(numeric_params))
     traced = module.hamiltonian(p, tracing.wrap(qs, backend), tracing.wrap(ps, backend))
     H = _integer_powers(sp.sympify(tracing.unwrap(np.asarray(traced, dtype=object), backend)))
     dH_dpm = [sp.diff(H, x) for x in ps]
@@ -106,24 +105,24 @@ def _check_quadratic(inverse_mass: list[list[Any]], dH_dpm: list[Any], ps: list[
 
 
 @functools.cache
-def _symbolic(module: Any) -> _Terms | None:
+def _symbolic(module: Any, params_type: type, n: int) -> _Terms | None:
     """The terms with symbolic parameters, or None where the module's code needs numbers for them
     (a shape error of H, such as a term linear in pm, is raised here, once)."""
     try:
-        return _terms(module, None)
+        return _terms(module, params_type, n, None)
     except HarnessError:
         raise
     except Exception:  # noqa: BLE001 - code that needs numbers for its parameters: traced per parameter set
         return None
 
 
-def _terms_at(module: Any, p: Any) -> _Terms:
-    found = _symbolic(module)
+def _terms_at(module: Any, p: Any, n: int) -> _Terms:
+    found = _symbolic(module, type(p), n)
     if found is not None:
         return found
     values = tuple((f.name, float(getattr(p, f.name))) for f in dataclasses.fields(p))
     try:
-        return _terms(module, values)
+        return _terms(module, type(p), n, values)
     except HarnessError:
         raise
     except Exception as exc:
@@ -140,7 +139,7 @@ def _columns(x: Any, n: int) -> list[Any]:
 
 def inverse_mass_and_potential(module: Any, p: Any, q: Any) -> tuple[list[list[Any]], Any]:
     """(M^-1 as n rows of n entries, V), each entry broadcast over q's leading axes."""
-    terms = _terms_at(module, p)
+    terms = _terms_at(module, p, np.shape(q)[-1])
     n = terms.n
     out = terms.inverse_mass(*[getattr(p, k) for k in terms.fields], *_columns(q, n))
     zero = np.zeros(np.shape(q)[:-1])
@@ -151,7 +150,7 @@ def hamilton_equations(module: Any, p: Any, q: Any, pm: Any) -> tuple[np.ndarray
     """Hamilton's equations of a form-(e) module (or its facade) at (q, pm): (dH/dpm, -dH/dq), each
     (..., n); with friction and inputs, pdot = -dH/dq + passive + tau."""
     module = getattr(module, "ORIGINAL", module)
-    terms = _terms_at(module, p)
+    terms = _terms_at(module, p, np.shape(q)[-1])
     n = terms.n
     out = terms.rates(*[getattr(p, k) for k in terms.fields], *_columns(q, n), *_columns(pm, n))
     shape = np.broadcast_shapes(np.shape(q), np.shape(pm))
@@ -165,7 +164,8 @@ def energies(module: Any) -> types.ModuleType:
     """`module` as form (d): its own attributes, with kinetic_energy(p, q, v) and
     potential_energy(p, q) derived from its Hamiltonian. A Hamiltonian of the wrong shape is a
     HarnessError here (where its parameters can be symbols)."""
-    _symbolic(module)
+    if hasattr(module, "Params") and hasattr(module, "COORDINATES"):  # else checked at the first use
+        _symbolic(module, module.Params, len(module.COORDINATES))
     out = types.ModuleType(f"{getattr(module, '__name__', 'equations')}.energies")
     out.__dict__.update({k: v for k, v in vars(module).items() if not k.startswith("__")})
     out.__file__ = getattr(module, "__file__", None)  # type: ignore[assignment]
