@@ -1,24 +1,38 @@
 """Hand-derived equations of motion, one module per system, numpy only (no engine imports).
 
 A system is `models/<name>.xml` + `equations/<name>.py`; the harness pairs them by file stem.
-Every module provides (shapes: `q`, `v`, `tau` are `(..., n)`; functions broadcast over leading axes):
+A module needs only `parameters(model)` and its dynamics in one form; everything else has a default
+(shapes: `q`, `v`, `tau` are `(..., n)`; functions broadcast over leading axes):
 
-    DESCRIPTION: str                   one paragraph: the system and where it is in the notes
-    COORDINATES: tuple[str, ...]       the notes' generalized coordinates, in order
-    JOINTS: tuple[str, ...]            the MJCF joint that measures each coordinate (same sign, same zero)
+    parameters(model) -> Params        REQUIRED: a dataclass of the numbers the derivation uses, read
+                                       from the compiled model (a Mapping: validate/systems/modelview.py);
+                                       the probes move each number it reads (validate/systems/reads.py)
+    DESCRIPTION: str                   optional: one paragraph (default: the docstring's first paragraph)
+    COORDINATES: tuple[str, ...]       optional: the generalized coordinates, in order (default: the
+                                       model's joints, in the model's order)
+    JOINTS: tuple[str, ...]            optional: the model joint that measures each coordinate, same sign
+                                       and zero (default: COORDINATES where they name joints, else the
+                                       model's joints)
     JOINT_MAP: (n, n) matrix           optional: q = JOINT_MAP @ (joint angles) where a coordinate is not
                                        one joint's angle (absolute angles of a chain of relative hinges)
-    BODIES: tuple[str, ...]            MJCF bodies whose positions and orientations are compared
-    USES: frozenset[str]               physics the scene needs: "gravity", "damping", "actuation"
-    Params                             frozen dataclass of the parameters the derivation uses
-    parameters(model) -> Params        read them from the compiled MJCF (a Mapping, see validate/modelview.py)
-    assumptions(p) -> dict             what the derivation assumes of the compiled model, key -> value
-                                       (NaN entries: a component the derivation does not depend on)
+    BODIES: tuple[str, ...]            optional: model bodies whose positions and orientations are compared
+                                       (default: those body_positions() names; none: poses not checked)
+    assumptions(p) -> dict             optional: what the derivation assumes of the compiled model, key ->
+                                       value (NaN entries: a component it does not depend on). Stating
+                                       every key makes the probes move the Params fields and build the
+                                       model from them; stating some (the relations its formulas bake in:
+                                       a uniform rod's inertia m l^2 / 12) keeps those while the numbers
+                                       parameters() reads move; stating none, they move alone
+    The physics a scene uses (gravity, joint damping, actuators) is read from the model.
     the dynamics, in ONE of five forms (validate/systems/forms.py derives the rest from it; the first
     of a, b, c, d, e a module defines is the one it is written in):
       (a) mass_matrix(p, q) -> (..., n, n) and bias(p, q, v) -> (..., n), C(q, v) v + G(q)
       (b) residual(p, q, v, a, tau) -> (..., n)  M a + bias - passive - tau, the implicit equations
       (c) qacc(p, q, v, tau) -> (..., n)          the explicit accelerations M^-1 (tau + passive - bias)
+          In (b) and (c), a last parameter named `u` instead of `tau` takes the actuators' controls, in
+          the model's actuator order (tau = B u through each actuator's gear on its joint): inputs on
+          the actuated coordinates only, as published equations have them. Explicit accelerations with
+          u give M^-1 B, not M: they are judged in accelerations (validate/checks/verdict.py)
       (d) kinetic_energy and potential_energy only (below): M, G and C v are differentiated from them
       (e) hamiltonian(p, q, pm) -> (...)  H = pm^T M^-1(q) pm / 2 + V(q), pm = M v the generalized
                                        momenta (..., n): M^-1 = d2H/dpm2 and V = H(q, 0), traced with
@@ -54,8 +68,9 @@ by `System.from_files(model, "x.toml")` or `run --model X --equations x.toml` an
 
 The equations of motion are M(q) a + bias(q, v) = tau + passive(q, v), with tau the generalized
 force of the inputs (motors where the MJCF has actuators, otherwise an applied joint torque); forms
-(b) and (c) take tau on every coordinate, actuated or not. The dynamics are traced with symbolic
-values for the fast path, the Taylor reference and form (d): write them with numpy arithmetic and
-elementary functions (np.sin, np.cos, np.sqrt, ...; `@`, np.einsum and np.cross work), not
+(b) and (c) named with `tau` take it on every coordinate, actuated or not, and with `u` the actuators'
+controls. The dynamics are traced with symbolic values for the fast path, the Taylor reference and
+form (d): write them with numpy arithmetic and elementary functions (np.sin, np.cos, np.sqrt, ...;
+np.abs, np.sign, np.where, np.minimum, np.maximum; `@`, np.einsum and np.cross work), not
 np.linalg.
 """

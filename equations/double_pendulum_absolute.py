@@ -41,7 +41,6 @@ SAME_SYSTEM_AS = "double_pendulum_point"
 INITIAL_STATE = ((0.0, 3.0), (0.0, 0.0))
 NOTES_EXPERIMENT = "section 1's start, theta = 0, phi = 3, in absolute angles"
 BODIES = ("link1", "link2")
-USES = frozenset({"gravity"})
 
 
 @dataclass(frozen=True)

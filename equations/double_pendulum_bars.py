@@ -67,7 +67,6 @@ DESCRIPTION = (
 COORDINATES = ("theta", "phi")
 JOINTS = ("theta", "phi")
 BODIES = ("link1", "link2")
-USES = frozenset({"gravity"})
 # The notes' Modelica experiment: theta(start = 0), phi(start = 3), at rest, 10 s.
 INITIAL_STATE = ((0.0, 3.0), (0.0, 0.0))
 NOTES_EXPERIMENT = "the Modelica simulation's start, theta = 0, phi = 3, at rest"

@@ -41,7 +41,6 @@ DESCRIPTION = (
 COORDINATES = ("theta", "phi")
 JOINTS = ("theta", "phi")
 BODIES = ("link1", "link2")
-USES = frozenset({"gravity"})
 # The notes' experiment: ode45 from theta = 0, phi = 3, at rest ([0, 3, 0, 0]).
 INITIAL_STATE = ((0.0, 3.0), (0.0, 0.0))
 NOTES_EXPERIMENT = "section 1: ode45 from theta = 0, phi = 3 and from phi = 3.01, Figs 3-4"

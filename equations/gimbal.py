@@ -54,7 +54,6 @@ DESCRIPTION = (
 COORDINATES = ("psi", "theta")
 JOINTS = ("psi", "theta")
 BODIES = ("outer", "inner")
-USES = frozenset({"damping", "actuation"})
 # The notes' experiment: ode45 from [0, -0.9*pi/2, 2*pi, 0] (camera nearly down, azimuth turning).
 INITIAL_STATE = ((0.0, -0.9 * np.pi / 2), (2 * np.pi, 0.0))
 NOTES_EXPERIMENT = "the ode45 simulation's start, [0, -0.9*pi/2, 2*pi, 0]"

@@ -33,7 +33,6 @@ DESCRIPTION = (
 COORDINATES = ("theta",)
 JOINTS = ("theta",)
 BODIES = ("link",)
-USES = frozenset({"gravity"})
 # A large swing (no experiment in the notes for the single bob): 2 rad, at rest.
 INITIAL_STATE = ((2.0,), (0.0,))
 

@@ -46,7 +46,6 @@ DESCRIPTION = (
 COORDINATES = ("theta1", "theta2")
 JOINTS = ("shoulder", "elbow")
 BODIES = ("link1", "link2")
-USES = frozenset({"gravity", "damping", "actuation"})
 # Not from the notes (they have no acrobot): released at rest from a bent pose, both links raised.
 INITIAL_STATE = ((1.0, 1.0), (0.0, 0.0))
 VARIANTS = ()

@@ -58,7 +58,6 @@ DESCRIPTION = (
 COORDINATES = ("x", "theta")
 JOINTS = ("x", "theta")
 BODIES = ("cart", "pole")
-USES = frozenset({"gravity", "damping", "actuation"})
 # Near upright with a push on the cart: the pole falls and swings under the rail.
 INITIAL_STATE = ((0.0, 0.1), (0.5, 0.0))
 

@@ -60,7 +60,6 @@ DESCRIPTION = (
 COORDINATES = ("theta", "alpha")
 JOINTS = ("theta", "alpha")
 BODIES = ("arm", "pendulum")
-USES = frozenset({"gravity", "damping", "actuation"})
 # Near upright, the arm swinging and the pendulum pushed: a fall, caught and swung by the arm.
 INITIAL_STATE = ((0.0, 0.15), (2.0, -0.5))
 

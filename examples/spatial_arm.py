@@ -60,7 +60,6 @@ DESCRIPTION = (
 COORDINATES = ("yaw", "shoulder", "elbow")
 JOINTS = ("yaw", "shoulder", "elbow")
 BODIES = ("link1", "link2", "link3")
-USES = frozenset({"gravity", "damping", "actuation"})
 # Not from the notes: turning in yaw while the arm, raised above the horizontal, falls and folds.
 INITIAL_STATE = ((0.3, -0.6, 1.1), (0.5, 0.0, -0.4))
 VARIANTS = ()

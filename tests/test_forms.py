@@ -26,7 +26,6 @@ SHARED = (
     "JOINTS",
     "JOINT_MAP",
     "BODIES",
-    "USES",
     "Params",
     "parameters",
     "assumptions",

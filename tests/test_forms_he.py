@@ -29,7 +29,6 @@ DESCRIPTION = "Double pendulum as its Hamiltonian."
 COORDINATES = ("theta", "phi")
 JOINTS = ("theta", "phi")
 BODIES = ("link1", "link2")
-USES = frozenset({"gravity"})
 
 
 @dataclass(frozen=True)

@@ -223,7 +223,7 @@ def test_singular_or_indefinite_mass_matrix_really_is(m):
 
 
 def test_the_catalogue_has_a_friction_sign_mutation_for_each_damped_system():
-    damped = {s for s in _systems_on_disk() if "damping" in mu.original(s).USES}
+    damped = {s for s in _systems_on_disk() if "damping" in load(s).uses}
     assert damped == {m.system for m in mu.MUTATIONS if "friction sign" in m.kinds}
 
 

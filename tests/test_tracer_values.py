@@ -37,8 +37,6 @@ def _write(folder: Path, *, mass: str = MASS, passive: str = BRANCHY_PASSIVE) ->
     xml = xml.replace('<joint name="theta" type="hinge"', '<joint name="theta" type="hinge" damping="0.3"')
     (folder / "branchy.xml").write_text(xml)
     edits = {
-        "from ._forms import": "from lagrange_xval.equations._forms import",
-        'USES = frozenset({"gravity"})': 'USES = frozenset({"gravity", "damping"})',
         "    I: float  # kg m^2  # noqa: E741 - the notes' symbol\n": (
             "    I: float  # kg m^2  # noqa: E741 - the notes' symbol\n    k: float  # N m s/rad\n"
         ),
