@@ -10,7 +10,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import importlib
-import os
+import json
 import pkgutil
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -427,7 +427,7 @@ def pairs_in(folder: Path) -> list[tuple[Path, Path]]:
     if twice:
         raise HarnessError(f"{folder}: {', '.join(twice)} has both an .xml and a .urdf model; keep one.")
     models = {p.stem: p for p in found}
-    modules = {p.stem: p for p in folder.glob("*.py") if not p.stem.startswith("_")}
+    modules = {p.stem: p for p in folder.glob("*.py") if p.stem != "__init__"}  # `_arm` is a system too
     lonely = sorted(models.keys() ^ modules.keys())
     if lonely:
         raise HarnessError(
@@ -455,7 +455,7 @@ def load_all(names: list[str] | None = None) -> list[System]:
     return [load(n) for n in (names or system_names())]
 
 
-FILES_KEY = "file:"  # the key of a system from a person's own files: paths and name, os.pathsep-separated
+FILES_KEY = "file:"  # the key of a system from a person's own files: paths and name as a JSON list (any path)
 
 
 def key_of(system: System) -> str:
@@ -465,12 +465,12 @@ def key_of(system: System) -> str:
     if repository and system.mjcf.resolve() == (MODELS_DIR / f"{system.name}.xml").resolve():
         return system.name
     equations = Path(getattr(system.equations, "__file__", "") or "")
-    return FILES_KEY + os.pathsep.join([str(system.mjcf.resolve()), str(equations.resolve()), system.name])
+    return FILES_KEY + json.dumps([str(system.mjcf.resolve()), str(equations.resolve()), system.name])
 
 
 def from_key(key: str) -> System:
     """The system `key_of` gave the key of."""
     if key.startswith(FILES_KEY):
-        model, equations, name = key[len(FILES_KEY) :].split(os.pathsep)
+        model, equations, name = json.loads(key[len(FILES_KEY) :])
         return System.from_files(model, equations, name=name)
     return load(key)
