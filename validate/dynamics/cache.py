@@ -131,7 +131,16 @@ def signing_key() -> bytes:
     if key is None:
         key = os.urandom(KEY_BYTES)
         os.environ[PROCESS_KEY_ENV] = key.hex()
+        warn(
+            "no private cache key (HOME unset, or its cache folder not writable): entries are signed with a key "
+            "of this run only; entries of earlier runs are not trusted and are recomputed."
+        )
     return key
+
+
+def _ephemeral() -> bool:
+    """Whether entries are signed with a key of this run only (then every earlier entry fails, said once)."""
+    return len(os.environ.get(PROCESS_KEY_ENV, "")) == 2 * KEY_BYTES
 
 
 def warn(message: str) -> None:
@@ -159,8 +168,9 @@ def load(path: Path, key: str) -> tuple[dict[str, np.ndarray], dict[str, Any]] |
         str(header.get("hmac")), _signature(key, header["info"], arrays)
     ):
         problem = "signature mismatch: changed after it was written, or not written by this user's harness"
-    if problem:
+    if problem and not (problem.startswith("signature") and _ephemeral()):  # else: said once, by signing_key
         warn(f"cache entry {path} is not valid ({problem}); recomputing.")
+    if problem:
         return None
     return arrays, header["info"]
 
