@@ -91,10 +91,9 @@ def _only_own_output() -> Iterator[None]:
 def _plain_logs() -> None:
     """No colour codes in libraries' logs on a stderr that is not a terminal (rerun's viewer logs
     through Rust's tracing, which honours NO_COLOR; env_logger reads RUST_LOG_STYLE)."""
-    with contextlib.suppress(OSError, ValueError, AttributeError):
-        if not os.isatty(sys.stderr.fileno()):
-            os.environ.setdefault("NO_COLOR", "1")
-            os.environ.setdefault("RUST_LOG_STYLE", "never")
+    if sys.stderr is None or not sys.stderr.isatty():
+        os.environ.setdefault("NO_COLOR", "1")
+        os.environ.setdefault("RUST_LOG_STYLE", "never")
 
 
 def _error(message: str) -> int:

@@ -203,15 +203,29 @@ def _unwritable(where: Path, message: str) -> None:
 
 def usable(base: Path) -> str:
     """`base` as the cache setting (CACHE_ENV) if entries can be written there, else "" (no cache)
-    after one warning line; also fixes the signing key before any worker starts, so they share it."""
+    after one warning line; nothing is created here (a command refused later leaves nothing behind).
+    Also fixes the signing key before any worker starts, so that they share it."""
     signing_key()
     try:
-        with open_folder(base) as fd:
-            os.unlink(stage("probe", b"", dir_fd=fd), dir_fd=fd)
+        _check_writable(Path(base))
     except OSError as exc:
         warn(f"cannot write the cache in {base} ({exc.strerror or exc}); running without a cache.")
         return ""
     return str(base)
+
+
+def _check_writable(base: Path) -> None:
+    """Raises the OSError writing an entry under `base` would meet: a file on the way, or a folder
+    that cannot be written (a temporary file is made and removed where `base` exists)."""
+    if base.is_dir():
+        with open_folder(base) as fd:
+            os.unlink(stage("probe", b"", dir_fd=fd), dir_fd=fd)
+        return
+    existing = next(p for p in base.parents if os.path.lexists(p))
+    if not existing.is_dir():
+        raise OSError(errno.ENOTDIR, "not a folder", str(existing))
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise OSError(errno.EACCES, "permission denied", str(existing))
 
 
 def invalid(path: Path, why: str) -> None:
