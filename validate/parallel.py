@@ -91,6 +91,8 @@ _ADDRESS = re.compile(r"(?:([a-z]+)://)?(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9._-]+):([0
 
 def _valid_address(address: str) -> bool:
     """Whether `address` is a dask scheduler address, checked before any connection is tried."""
+    if address.startswith("inproc://") and len(address) > len("inproc://"):  # a cluster in this process
+        return True
     match = _ADDRESS.fullmatch(address)
     return match is not None and match[1] in (None, *PROTOCOLS) and 1 <= int(match[3]) <= 65535
 

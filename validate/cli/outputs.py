@@ -68,9 +68,6 @@ def check_out(out: Path) -> None:
     for where in (out, out.absolute().parent) if out.is_dir() else ():
         if not os.access(where, os.W_OK | os.X_OK):
             raise HarnessError(f"--out {shown}: {where} is not writable; give a folder you can write.")
-    for name in RUN_FILES:
-        if name != "img" and (out / name).is_dir() and not (out / name).is_symlink():
-            raise HarnessError(f"--out {shown} has a folder {name} where the file {name} goes; remove it.")
     cache = out / CACHE_FOLDER
     if cache.is_symlink() and not cache.resolve().is_relative_to(out.resolve()):
         raise HarnessError(
