@@ -16,7 +16,7 @@ from lagrange_xval.validate import cli, systems
 from lagrange_xval.validate.cli import main
 from lagrange_xval.validate.dynamics import cache
 
-from tests.test_errors import CLI, _one_error_line
+from tests.test_errors import CLI, _one_error_line, _simulate
 
 EXAMPLES = systems.PACKAGE_ROOT / "examples"
 FAST = ["--states", "50", "--probes", "0", "--no-replay"]  # simple_pendulum: a few seconds
@@ -70,6 +70,15 @@ def test_a_linked_out_is_written_into_and_stays_a_link(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "real"]
     report = (real / "report.md").read_text()
     assert "probe parameter sets" not in report.replace("no probe parameter sets", ""), "--probes 0 claims probes"
+
+
+def test_simulate_replaces_a_link_at_its_out_never_its_target(tmp_path, capsys):
+    victim, out = tmp_path / "victim", tmp_path / "run.csv"
+    victim.write_text("keep")
+    out.symlink_to(victim)
+    assert main(_simulate(tmp_path, out)) == 0
+    assert victim.read_text() == "keep" and not out.is_symlink() and out.read_text().startswith("#")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.csv", "victim"], "a temporary file left behind"
 
 
 def test_entries_are_never_written_through_a_link(tmp_path):
