@@ -15,6 +15,9 @@ import pytest
 from lagrange_xval.validate import cli, systems
 from lagrange_xval.validate.cli import main
 from lagrange_xval.validate.dynamics import cache
+from lagrange_xval.validate.errors import HarnessError
+from lagrange_xval.validate.files import replace_files
+from lagrange_xval.validate.results import atomic_write_many
 
 from tests.test_errors import CLI, _one_error_line, _simulate
 
@@ -274,3 +277,17 @@ def test_libraries_are_told_not_to_colour_a_non_terminal_stderr(capsys, monkeypa
     monkeypatch.setitem(cli.COMMANDS, "list", lambda args: seen.update(os.environ) or 0)
     assert main(["list"]) == 0  # pytest's capture: stderr is no terminal
     assert seen.get("NO_COLOR") == "1" and seen.get("RUST_LOG_STYLE") == "never"
+
+
+def test_a_set_of_files_that_fails_midway_leaves_no_temporary_file(tmp_path):
+    """`results.atomic_write_many`: a writer failing on the second file replaces nothing, leaves nothing."""
+    (tmp_path / "a.json").write_text("OLD")
+
+    def full(f):
+        raise OSError(28, "No space left on device")
+
+    with pytest.raises(OSError, match="No space"):
+        replace_files({tmp_path / "a.json": "new", tmp_path / "b.json": full})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.json"] and (tmp_path / "a.json").read_text() == "OLD"
+    with pytest.raises(HarnessError, match="b.json"):
+        atomic_write_many({tmp_path / "a.json": "new", tmp_path / "b.json": full})

@@ -76,18 +76,19 @@ def replace_file(path: Path, data: Data) -> None:
 def replace_files(files: Mapping[Path, Data]) -> None:
     """Several files replaced all or none: each is staged first (a full disk fails here, with
     nothing replaced), then each is renamed into place."""
-    with contextlib.ExitStack() as stack:
+    with contextlib.ExitStack() as stack:  # the folders' descriptors, closed last
         staged: list[tuple[int, str, str]] = []
-        stack.callback(_unlink_all, staged)
-        for path, data in files.items():
-            try:
-                fd = stack.enter_context(folder(Path(path).parent))
-                staged.append((fd, stage(Path(path).name, data, dir_fd=fd), Path(path).name))
-            except OSError as exc:  # named after the file asked for, not its temporary name
-                raise OSError(exc.errno, exc.strerror, str(path)) from None
-        for fd, tmp, name in staged:
-            os.replace(tmp, name, src_dir_fd=fd, dst_dir_fd=fd)
-        staged.clear()
+        try:
+            for path, data in files.items():
+                try:
+                    fd = stack.enter_context(folder(Path(path).parent))
+                    staged.append((fd, stage(Path(path).name, data, dir_fd=fd), Path(path).name))
+                except OSError as exc:  # named after the file asked for, not its temporary name
+                    raise OSError(exc.errno, exc.strerror, str(path)) from None
+            for fd, tmp, name in staged:
+                os.replace(tmp, name, src_dir_fd=fd, dst_dir_fd=fd)
+        finally:
+            _unlink_all(staged)  # what was not renamed (a failure): no temporary file is left
 
 
 def _unlink_all(staged: list[tuple[int, str, str]]) -> None:
