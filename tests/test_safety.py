@@ -92,6 +92,16 @@ def test_entries_are_never_written_through_a_link(tmp_path):
     assert victim.read_text() == "keep" and not (tmp_path / "x.npz").is_symlink()
 
 
+def test_a_link_planted_for_an_entry_folder_is_not_followed(tmp_path, capsys):
+    """In a shared cache, `reference -> somewhere` would send entries elsewhere: not written, one warning."""
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    (tmp_path / "cache").mkdir()
+    (tmp_path / "cache" / "reference").symlink_to(elsewhere)
+    assert not cache.store(tmp_path / "cache" / "reference" / "x.npz", "k", {"a": np.arange(3.0)}, {})
+    assert list(elsewhere.iterdir()) == [] and "a link, not a folder" in capsys.readouterr().err
+
+
 # --- cache entries the harness can trust ---------------------------------------------------------
 
 
