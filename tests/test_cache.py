@@ -39,14 +39,14 @@ def _entry(path):
 
 
 def _rewrite(path, **changes):
-    """The entry with some arrays changed and the header left as it was (its checksum now stale)."""
+    """The entry with some arrays changed and the header left as it was (its signature now stale)."""
     arrays = {**_entry(path), **changes}
     with open(path, "wb") as f:
         np.savez(f, **arrays)
 
 
 def _forge(path, **changes):
-    """The entry with some arrays changed and a header recomputed to match: what a careful forger writes."""
+    """The entry changed and signed again with this user's key: only the content checks can tell."""
     arrays = _entry(path)
     header = json.loads(str(arrays.pop(cache.HEADER)))
     arrays.update(changes)
@@ -123,14 +123,14 @@ DAMAGE = {
     "truncated": (_truncate, "unreadable"),
     "random bytes": (_garbage, "unreadable"),
     "a folder in its place": (_folder, "unreadable"),
-    "NaN written in": (_nan, "checksum mismatch"),
-    "shifted by 0.3 rad": (_shift, "checksum mismatch"),
+    "NaN written in": (_nan, "signature mismatch"),
+    "shifted by 0.3 rad": (_shift, "signature mismatch"),
     "old schema": (_old_schema, "schema"),
     "no header (previous layout)": (_legacy, "unreadable"),
     "another entry's key": (_other_key, "another key"),
-    "forged shift, valid checksum": (_forged_shift, "windows disagree"),
-    "forged NaN, valid checksum": (_forged_nan, "non-finite"),
-    "forged splice, valid checksum": (_forged_splice, "windows disagree"),
+    "forged shift, valid signature": (_forged_shift, "windows disagree"),
+    "forged NaN, valid signature": (_forged_nan, "non-finite"),
+    "forged splice, valid signature": (_forged_splice, "windows disagree"),
 }
 
 
@@ -234,14 +234,14 @@ def test_a_chaos_summary_is_verified_on_read(summary, capsys):
     assert second["cache"] == "hit" and {**second, "cache": "miss"} == first
     original = path.read_bytes()
     try:
-        # an edited exponent: the checksum no longer matches
+        # an edited exponent: the signature no longer matches
         arrays = _entry(path)
         header = json.loads(str(arrays[cache.HEADER]))
         header["info"]["lyapunov"]["lambda"] += 1.0
         _rewrite(path, **{cache.HEADER: np.array(json.dumps(header))})
         assert chaos.chaos_summary(*args, cache_dir=folder)["cache"] == "miss"
-        assert "checksum mismatch" in capsys.readouterr().err
-        # a forged exponent with a valid checksum: the summary no longer ties together
+        assert "signature mismatch" in capsys.readouterr().err
+        # a forged exponent with a valid signature (the key is this user's): the summary no longer ties together
         forged = json.loads(json.dumps(first))
         del forged["cache"]
         forged["lyapunov"]["lambda"] = 0.123

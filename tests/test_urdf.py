@@ -109,7 +109,7 @@ def test_a_mujoco_only_extension_is_named_as_a_parity_difference(tmp_path):
             '<dynamics damping="0.23" friction="0.4"/>',
             "joint 'shoulder' has frictionloss",
         ),
-        ('type="continuous"', 'type="floating"', "joint 'yaw' is a free joint"),
+        ('type="continuous"', 'type="floating"', "joint 'yaw' is a floating joint"),
         ('<mass value="1.7"/>', '<mass value="-1.7"/>', "MuJoCo cannot"),
         ("</robot>", "", "not well-formed XML"),
         (

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 from collections.abc import Iterator
 from concurrent.futures import Executor, ProcessPoolExecutor, ThreadPoolExecutor
 
@@ -75,7 +76,25 @@ def parse_executor(text: str) -> tuple[str, str | None]:
             f"unknown executor '{text}'; valid: local, dask (a LocalCluster on this machine) or "
             "dask:ADDRESS (a running scheduler, e.g. dask:tcp://10.0.0.5:8786)."
         )
-    return kind, address.strip() or None
+    address = address.strip()
+    if address and not _valid_address(address):
+        raise HarnessError(
+            f"'{address}' is not a dask scheduler address; valid: [PROTOCOL://]HOST:PORT with "
+            f"PROTOCOL one of {', '.join(PROTOCOLS)} and PORT from 1 to 65535 (e.g. dask:tcp://10.0.0.5:8786)."
+        )
+    return kind, address or None
+
+
+PROTOCOLS = ("tcp", "tls", "ws", "wss", "ucx")
+_ADDRESS = re.compile(r"(?:([a-z]+)://)?(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9._-]+):([0-9]{1,5})")
+
+
+def _valid_address(address: str) -> bool:
+    """Whether `address` is a dask scheduler address, checked before any connection is tried."""
+    if address.startswith("inproc://") and len(address) > len("inproc://"):  # a cluster in this process
+        return True
+    match = _ADDRESS.fullmatch(address)
+    return match is not None and match[1] in (None, *PROTOCOLS) and 1 <= int(match[3]) <= 65535
 
 
 @contextlib.contextmanager

@@ -492,8 +492,9 @@ def judge_derivation(
     if not failing:
         result["verdict"] = "agrees"
         result["statement"] = (
-            f"agrees with MuJoCo and Pinocchio in every term at the model's parameters and at "
-            f"{len(probe_list)} probe parameter sets ({result['checked']['evaluations']} states)"
+            "agrees with MuJoCo and Pinocchio in every term at the model's parameters"
+            + (f" and at {len(probe_list)} probe parameter sets" if probe_list else " (no probes)")
+            + f" ({result['checked']['evaluations']} states)"
         )
         if problems:
             result["statement"] += f"; {len(problems)} probe(s) could not be built"

@@ -88,6 +88,14 @@ def _only_own_output() -> Iterator[None]:
         os.close(saved)
 
 
+def _plain_logs() -> None:
+    """No colour codes in libraries' logs on a stderr that is not a terminal (rerun's viewer logs
+    through Rust's tracing, which honours NO_COLOR; env_logger reads RUST_LOG_STYLE)."""
+    if sys.stderr is None or not sys.stderr.isatty():
+        os.environ.setdefault("NO_COLOR", "1")
+        os.environ.setdefault("RUST_LOG_STYLE", "never")
+
+
 def _error(message: str) -> int:
     print(f"lagrange-xval: error: {message}", file=sys.stderr)
     return 2
@@ -97,6 +105,7 @@ def main(argv: list[str] | None = None) -> int:
     """The command's exit status. The one error boundary: every failure is one line on stderr
     (`--debug` adds the traceback) and status 2; Ctrl-C is 130, SIGTERM 143."""
     args = build_parser().parse_args(argv)
+    _plain_logs()
     try:
         with _stop_on_signals(), _only_own_output():
             return COMMANDS[args.command](args)

@@ -14,7 +14,7 @@ from typing import Any
 from ..checks import modelsync
 from ..checks import pointwise as compare
 from ..checks.pointwise import validate_states
-from ..dynamics.cache import CACHE_ENV
+from ..dynamics.cache import CACHE_ENV, usable
 from ..engines import make_sources
 from ..errors import HarnessError
 from ..inputs import parse_json, regular_file
@@ -30,7 +30,7 @@ from ..studies.stress import stress_command
 from ..systems import System, load, pairs_in, system_names, unpaired
 from ..systems.scaffold import write_module
 from . import simulate
-from .outputs import check_out, render_system, write_all, write_reports
+from .outputs import check_cache_dir, check_out, render_system, write_all, write_reports
 from .parser import MAX_STATES_FILE_BYTES, one_line
 from .progress import reporter
 
@@ -178,7 +178,7 @@ def use_cache(args: argparse.Namespace) -> Iterator[None]:
     through the environment so that pool workers see the same setting; restored afterwards."""
 
     before = os.environ.get(CACHE_ENV)
-    os.environ[CACHE_ENV] = "" if args.no_cache else str((args.cache_dir or args.out / ".cache").absolute())
+    os.environ[CACHE_ENV] = "" if args.no_cache else usable((args.cache_dir or args.out / ".cache").absolute())
     try:
         yield
     finally:
@@ -191,6 +191,7 @@ def use_cache(args: argparse.Namespace) -> Iterator[None]:
 def cmd_run(args: argparse.Namespace) -> int:
 
     check_out(args.out)  # before hours of work, not after
+    check_cache_dir(None if args.no_cache else args.cache_dir, args.out)
     rendered: dict[str, Any] = {}
     files = user_files(args)
     locked = locked_joints(args)

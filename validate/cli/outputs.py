@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import HarnessError
+from ..files import folder, new_file
 from ..replay import render_system as render_rrd
 from ..report import ReplayHint, render, system_section
 from ..results import dumps
@@ -45,12 +46,34 @@ def _ours(name: str) -> bool:
     return _from_run(name) or name in KEPT
 
 
+def real_out(out: Path) -> Path:
+    """The folder `out` names: itself, or the folder a link there points to (written into, the link
+    kept); a link to nothing or to a file is refused."""
+    out = Path(out)
+    if not out.is_symlink():
+        return out
+    target = out.resolve()
+    if not target.is_dir():
+        raise HarnessError(f"--out {out} is a link to {target}, which is not a folder; give a folder.")
+    return target
+
+
 def check_out(out: Path) -> None:
     """Refuses a reports folder that is a file, or a folder holding anything the harness did not write
-    (the folder is replaced as a whole: `--out .` must not replace a checkout)."""
-    out = Path(out)
+    (the folder is replaced as a whole: `--out .` must not replace a checkout), or whose cache folder
+    is a link out of it (the cache would be written elsewhere)."""
+    shown, out = Path(out), real_out(out)
     if out.exists() and not out.is_dir():
-        raise HarnessError(f"--out {out} is a file, not a folder.")
+        raise HarnessError(f"--out {shown} is a file, not a folder.")
+    for where in (out, out.absolute().parent) if out.is_dir() else ():
+        if not os.access(where, os.W_OK | os.X_OK):
+            raise HarnessError(f"--out {shown}: {where} is not writable; give a folder you can write.")
+    cache = out / CACHE_FOLDER
+    if cache.is_symlink() and not cache.resolve().is_relative_to(out.resolve()):
+        raise HarnessError(
+            f"{shown / CACHE_FOLDER} is a link to {cache.resolve()}, outside --out: the cache is written only "
+            "inside --out; remove the link, or give that folder as --cache-dir."
+        )
     if out.is_dir():
         try:
             foreign = sorted(p.name for p in out.iterdir() if not _ours(p.name))
@@ -62,6 +85,19 @@ def check_out(out: Path) -> None:
                 f"--out {out} holds files the harness does not write ({', '.join(foreign[:3])}{more}); "
                 "give an empty folder or a reports folder."
             )
+
+
+def check_cache_dir(cache_dir: Path | None, out: Path) -> None:
+    """Refuses a --cache-dir inside --out other than OUT/.cache (the default): the rest of OUT is
+    replaced as a whole by each run, a cache there would be thrown away or refused at the end."""
+    if cache_dir is None:
+        return
+    cache, real = Path(cache_dir).resolve(), real_out(out).resolve()
+    if cache.is_relative_to(real) and not cache.is_relative_to(real / CACHE_FOLDER):
+        raise HarnessError(
+            f"--cache-dir {cache_dir} is inside --out {out}, which each run replaces as a whole; "
+            f"give {Path(out) / CACHE_FOLDER} (the default) or a folder outside --out."
+        )
 
 
 def with_optional_results(results: Mapping[str, Any], out: Path) -> dict[str, Any]:
@@ -137,8 +173,8 @@ def write_all(
 def replace_set(out: Path, files: dict[str, bytes], *, replaces: Callable[[str], bool]) -> None:
     """Makes `out` hold `files` (names relative to it) and whatever it held that `replaces` says is
     not replaced, in one switch; on any failure the previous folder is left as it was."""
-    out = Path(out)
     check_out(out)
+    out = real_out(out)  # a link to the reports folder stays a link: its target is exchanged
     staging: Path | None = None
     try:
         out.absolute().parent.mkdir(parents=True, exist_ok=True)
@@ -159,11 +195,9 @@ def replace_set(out: Path, files: dict[str, bytes], *, replaces: Callable[[str],
 
 
 def _write_new(path: Path, data: bytes | str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
-    with os.fdopen(fd, "wb") as f:
-        f.write(data.encode() if isinstance(data, str) else data)
-    os.chmod(path, 0o644)  # whatever the umask: a report is for reading
+    """A new file (O_EXCL | O_NOFOLLOW) in the staging folder, 0644 whatever the umask: a report is for reading."""
+    with folder(path.parent) as fd:
+        new_file(path.name, data, dir_fd=fd)
 
 
 def _carry(src: Path, dst: Path) -> None:
@@ -175,7 +209,9 @@ def _carry(src: Path, dst: Path) -> None:
         except OSError:  # a file system without hard links
             shutil.copy2(a, b)
 
-    if src.is_dir() and not src.is_symlink():
+    if src.is_symlink():  # carried as the link it is, never as what it points to
+        os.symlink(os.readlink(src), dst)
+    elif src.is_dir():
         shutil.copytree(src, dst, copy_function=link, symlinks=True)
     else:
         link(str(src), str(dst))

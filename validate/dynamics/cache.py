@@ -1,11 +1,17 @@
-"""The on-disk cache of reference solutions and chaos summaries, verified on every read.
+"""The on-disk cache of reference solutions, chaos summaries, derivations and explanations, verified
+on every read.
 
 An entry is one `.npz` file: the arrays, and a JSON header with the schema version, the entry's key
-(a hash of everything the result depends on, the harness's own source included) and a SHA-256
-checksum over the key, the info and every array's dtype, shape and bytes. A read that finds a
-truncated, edited, mismatched or foreign file says so on one stderr line and returns None: the caller
-recomputes and the entry is rewritten. Files are readable by everyone (0644), so a checkout shared by
-several users shares its cache; a cache that cannot be written costs time, never the run.
+(a hash of everything the result depends on, the harness's own source included) and an HMAC-SHA256
+signature over the key, the info and every array's dtype, shape and bytes. The signing key is a
+secret of the user's (`$XDG_CACHE_HOME/lagrange-xval/key`, else `~/.cache/lagrange-xval/key`: 32
+random bytes, created 0600 on first use); where that cannot be had (no HOME, a folder that cannot be
+written), a random key of this process and its workers, so that nothing cached is kept but nothing
+written by anyone else is trusted. A checksum anyone can recompute would let an edited entry pass:
+a signature only the key's owner can make does not. A read that finds a truncated, edited, forged,
+mismatched or foreign file says so on one stderr line and returns None: the caller recomputes and
+the entry is rewritten. Files are readable by everyone (0644); an entry another user wrote (another
+key) is recomputed like a forged one. A cache that cannot be written costs time, never the run.
 
 Where: `$LAGRANGE_XVAL_CACHE` (the CLI sets it from `--cache-dir`, default `OUT/.cache`, and to the
 empty string for `--no-cache`; pool workers inherit it), else `reports/.cache` in the checkout.
@@ -13,21 +19,28 @@ empty string for `--no-cache`; pool workers inherit it), else `reports/.cache` i
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import functools
 import hashlib
+import hmac
 import json
 import os
+import stat
 import sys
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ..files import create_file, replace_file, stage
+from ..files import folder as open_folder
 from ..systems import PACKAGE_ROOT
 
-SCHEMA = 2  # bump when an entry's layout or meaning changes
+SCHEMA = 3  # bump when an entry's layout or meaning changes (3: signed, no longer checksummed)
 CACHE_ENV = "LAGRANGE_XVAL_CACHE"
+PROCESS_KEY_ENV = "LAGRANGE_XVAL_PROCESS_KEY"  # a key of this process, handed to its workers (no user key)
+KEY_BYTES = 32
 DEFAULT = "default"  # the `cache_dir` argument meaning "the configured cache"
 HEADER = "__cache__"
 
@@ -62,13 +75,72 @@ def harness_hash() -> str:
     return h.hexdigest()
 
 
-def _checksum(key: str, info: dict[str, Any], arrays: dict[str, np.ndarray]) -> str:
-    h = hashlib.sha256()
+def _signature(key: str, info: dict[str, Any], arrays: dict[str, np.ndarray]) -> str:
+    h = hmac.new(signing_key(), digestmod=hashlib.sha256)
     h.update(key.encode() + b"\0" + json.dumps(info, sort_keys=True).encode() + b"\0")
     for name in sorted(arrays):
         a = np.ascontiguousarray(arrays[name])
         h.update(f"{name} {a.dtype.str} {a.shape}".encode() + b"\0" + a.tobytes() + b"\0")
     return h.hexdigest()
+
+
+def key_file() -> Path | None:
+    """Where the user's signing key is kept, or None (neither XDG_CACHE_HOME nor HOME is set)."""
+    base = os.environ.get("XDG_CACHE_HOME") or (
+        os.path.join(os.environ["HOME"], ".cache") if os.environ.get("HOME") else ""
+    )
+    return Path(base) / "lagrange-xval" / "key" if os.path.isabs(base) else None
+
+
+def _read_key(path: Path) -> bytes | None:
+    """The key at `path` if it is the user's own private regular file of KEY_BYTES bytes, else None."""
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | os.O_NONBLOCK)
+    with os.fdopen(fd, "rb") as f:
+        st = os.fstat(f.fileno())
+        private = st.st_uid == os.getuid() and not st.st_mode & 0o077
+        data = f.read(KEY_BYTES + 1) if stat.S_ISREG(st.st_mode) and private else b""
+    return data if len(data) == KEY_BYTES else None
+
+
+def _user_key() -> bytes | None:
+    """The user's key, created on first use (0600, never through a link); None if it cannot be had."""
+    path = key_file()
+    if path is None:
+        return None
+    try:
+        path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+        with contextlib.suppress(FileExistsError):  # another process made it first: read theirs
+            create_file(path, os.urandom(KEY_BYTES), mode=0o600)
+        found = _read_key(path)
+    except OSError:
+        return None
+    if found is None:
+        warn(f"the cache key {path} is not a private file of {KEY_BYTES} bytes; nothing cached is kept after this run.")
+    return found
+
+
+@functools.cache
+def signing_key() -> bytes:
+    """The key entries are signed with: the user's, or one of this process (set in the environment
+    for the workers it starts, so that they share it)."""
+    handed = os.environ.get(PROCESS_KEY_ENV, "")
+    if len(handed) == 2 * KEY_BYTES:
+        with contextlib.suppress(ValueError):
+            return bytes.fromhex(handed)
+    key = _user_key()
+    if key is None:
+        key = os.urandom(KEY_BYTES)
+        os.environ[PROCESS_KEY_ENV] = key.hex()
+        warn(
+            "no private cache key (HOME unset, or its cache folder not writable): entries are signed with a key "
+            "of this run only; entries of earlier runs are not trusted and are recomputed."
+        )
+    return key
+
+
+def _ephemeral() -> bool:
+    """Whether entries are signed with a key of this run only (then every earlier entry fails, said once)."""
+    return len(os.environ.get(PROCESS_KEY_ENV, "")) == 2 * KEY_BYTES
 
 
 def warn(message: str) -> None:
@@ -77,10 +149,11 @@ def warn(message: str) -> None:
 
 def load(path: Path, key: str) -> tuple[dict[str, np.ndarray], dict[str, Any]] | None:
     """The arrays and info stored under `key` at `path`, or None (missing, or bad: then one warning)."""
-    if not path.exists():
+    if not os.path.lexists(path):
         return None
     try:
-        with np.load(path, allow_pickle=False) as z:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | os.O_NONBLOCK)  # a link or FIFO: no
+        with os.fdopen(fd, "rb") as f, np.load(f, allow_pickle=False) as z:
             header = json.loads(str(z[HEADER]))
             arrays = {name: z[name] for name in z.files if name != HEADER}
     except Exception as exc:  # noqa: BLE001 - any unreadable entry (truncated zip, a folder, ...) is recomputed
@@ -91,39 +164,68 @@ def load(path: Path, key: str) -> tuple[dict[str, np.ndarray], dict[str, Any]] |
         problem = f"schema {header.get('schema') if isinstance(header, dict) else '?'}, expected {SCHEMA}"
     elif header.get("key") != key:
         problem = "stored under another key"
-    elif not isinstance(header.get("info"), dict) or header.get("sha256") != _checksum(key, header["info"], arrays):
-        problem = "checksum mismatch: the file was changed after it was written"
-    if problem:
+    elif not isinstance(header.get("info"), dict) or not hmac.compare_digest(
+        str(header.get("hmac")), _signature(key, header["info"], arrays)
+    ):
+        problem = "signature mismatch: changed after it was written, or not written by this user's harness"
+    if problem and not (problem.startswith("signature") and _ephemeral()):  # else: said once, by signing_key
         warn(f"cache entry {path} is not valid ({problem}); recomputing.")
+    if problem:
         return None
     return arrays, header["info"]
 
 
 def store(path: Path, key: str, arrays: dict[str, np.ndarray], info: dict[str, Any]) -> bool:
-    """Writes an entry atomically (temporary file and rename), mode 0644; False (and one warning)
-    if the cache cannot be written."""
-    header = {"schema": SCHEMA, "key": key, "info": info, "sha256": _checksum(key, info, arrays)}
-    tmp = None
+    """Writes an entry atomically (`files.replace_file`: never through a link), mode 0644; False (and
+    one warning per folder) if the cache cannot be written."""
+    header = {"schema": SCHEMA, "key": key, "info": info, "hmac": _signature(key, info, arrays)}
+    payload: dict[str, Any] = {**arrays, HEADER: np.array(json.dumps(header))}
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
+        if path.parent.is_symlink():  # planted in a shared cache, it would send entries elsewhere
+            raise OSError(errno.ELOOP, "a link, not a folder", str(path.parent))
         if path.is_dir() and not path.is_symlink():  # a folder where the entry goes: not the harness's
             import shutil
 
             shutil.rmtree(path)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-        with os.fdopen(fd, "wb") as f:
-            payload: dict[str, Any] = {**arrays, HEADER: np.array(json.dumps(header))}
-            np.savez(f, **payload)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)  # a concurrent reader sees the old entry or the new one
-        tmp = None
+        replace_file(path, lambda f: np.savez(f, **payload))  # a concurrent reader sees the old entry or the new
         return True
     except OSError as exc:
-        warn(f"cannot write the cache entry {path} ({exc.strerror or exc}); continuing without it.")
+        _unwritable(path.parent, f"cannot write the cache entry {path} ({exc.strerror or exc}); continuing without it.")
         return False
-    finally:
-        if tmp is not None:
-            Path(tmp).unlink(missing_ok=True)
+
+
+@functools.cache
+def _unwritable(where: Path, message: str) -> None:
+    """`message`, once per folder: a cache that cannot be written is one line, not one per entry."""
+    warn(message)
+
+
+def usable(base: Path) -> str:
+    """`base` as the cache setting (CACHE_ENV) if entries can be written there, else "" (no cache)
+    after one warning line; nothing is created here (a command refused later leaves nothing behind).
+    Also fixes the signing key before any worker starts, so that they share it."""
+    signing_key()
+    try:
+        _check_writable(Path(base))
+    except OSError as exc:
+        warn(f"cannot write the cache in {base} ({exc.strerror or exc}); running without a cache.")
+        return ""
+    return str(base)
+
+
+def _check_writable(base: Path) -> None:
+    """Raises the OSError writing an entry under `base` would meet: a file on the way, or a folder
+    that cannot be written (a temporary file is made and removed where `base` exists)."""
+    if base.is_dir():
+        with open_folder(base) as fd:
+            os.unlink(stage("probe", b"", dir_fd=fd), dir_fd=fd)
+        return
+    existing = next(p for p in base.parents if os.path.lexists(p))
+    if not existing.is_dir():
+        raise OSError(errno.ENOTDIR, "not a folder", str(existing))
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise OSError(errno.EACCES, "permission denied", str(existing))
 
 
 def invalid(path: Path, why: str) -> None:

@@ -71,13 +71,17 @@ def system_derivation(doc: Document, name: str, s: dict[str, Any]) -> None:
         f"{'✓' if ok else '✗'} The hand derivation: {d.get('statement', d.get('verdict'))}.", "pass" if ok else "fail"
     )
     checked = d.get("checked", {})
+    at_probes = (
+        f" and at {checked.get('states_per_probe')} states with each of {checked.get('probes')} probe parameter sets, "
+        "in which every parameter of the derivation moves by its own factor in [0.5, 0.8] or [1.25, 2], so that a "
+        "mistake the model's values hide (l1 l2 for l2², m2 for m1, a lost factor l) shows"
+        if checked.get("probes")
+        else " only (no probe parameter sets: a mistake the model's values hide would not show)"
+    )
     doc.p(
         f"Each term of `{s.get('equations', '?')}` is compared with both engines at {checked.get('states_at_model')} "
-        f"random states with the model's own parameters and at {checked.get('states_per_probe')} states with each of "
-        f"{checked.get('probes')} probe parameter sets, in which every parameter of the derivation moves by its own "
-        "factor in [0.5, 0.8] or [1.25, 2], so that a mistake the model's values hide (l1 l2 for l2², m2 for m1, a "
-        "lost factor l) shows. `tolerance` is the smallest change of the term, relative to its largest value over "
-        "the states (`scale`), that the check could have seen."
+        f"random states with the model's own parameters{at_probes}. `tolerance` is the smallest change of the term, "
+        "relative to its largest value over the states (`scale`), that the check could have seen."
     )
     doc.table(
         f"Terms of {name}'s hand derivation against MuJoCo and Pinocchio, at the model's parameters and every probe",

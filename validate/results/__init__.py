@@ -8,7 +8,6 @@ import os
 import platform
 import subprocess
 import sys
-import tempfile
 from collections.abc import Iterable, Mapping
 from importlib import metadata
 from pathlib import Path
@@ -17,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import HarnessError
+from ..files import replace_files
 from ..inputs import parse_json, regular_file
 from ..systems import PACKAGE_ROOT
 from .schema import Provenance
@@ -100,39 +100,21 @@ def to_jsonable(x: Any) -> Any:
 
 def atomic_write(path: Path, data: bytes | str | Iterable[str]) -> None:
     """Writes `path` through a temporary file in the same folder and a rename: a reader sees the
-    old file or the new one, never half of one. `data` may be text produced in pieces (an iterable
-    of strings), so that a long file is never held in memory whole."""
+    old file or the new one, never half of one; a link at `path` is replaced, never written through
+    (`files.replace_file`). `data` may be text produced in pieces (an iterable of strings), so that a
+    long file is never held in memory whole."""
     atomic_write_many({Path(path): data})
 
 
 def atomic_write_many(files: Mapping[Path, bytes | str | Iterable[str]]) -> None:
     """Writes several files so that either all are replaced or none: every file is staged as a
     temporary file first (a full disk fails here, with nothing replaced), then each is renamed."""
-    staged: list[tuple[str, Path]] = []
     try:
-        for path, data in files.items():
-            path = Path(path)
-            try:
-                path.parent.mkdir(parents=True, exist_ok=True)
-                fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-                staged.append((tmp, path))
-                with os.fdopen(fd, "wb") as f:
-                    if isinstance(data, (bytes, str)):
-                        f.write(data.encode() if isinstance(data, str) else data)
-                    else:
-                        for piece in data:
-                            f.write(piece.encode())
-                os.chmod(tmp, 0o644)
-            except OSError as exc:
-                raise HarnessError(
-                    f"cannot write {path}: {exc.strerror or exc}; previous files left as they were."
-                ) from None
-        for tmp, path in staged:
-            os.replace(tmp, path)
-        staged.clear()
-    finally:
-        for tmp, _ in staged:
-            Path(tmp).unlink(missing_ok=True)
+        replace_files({Path(path): data for path, data in files.items()})
+    except OSError as exc:
+        raise HarnessError(
+            f"cannot write {exc.filename}: {exc.strerror or exc}; previous files left as they were."
+        ) from None
 
 
 def dumps(results: Mapping[str, Any]) -> str:

@@ -10,8 +10,8 @@ from __future__ import annotations
 import dataclasses
 import functools
 import importlib
+import json
 import math
-import os
 import pkgutil
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -503,7 +503,7 @@ def pairs_in(folder: Path) -> list[tuple[Path, Path]]:
     if twice:
         raise HarnessError(f"{folder}: {', '.join(twice)} has both an .xml and a .urdf model; keep one.")
     models = {p.stem: p for p in found}
-    modules = {p.stem: p for p in folder.glob("*.py") if not p.stem.startswith("_")}
+    modules = {p.stem: p for p in folder.glob("*.py") if p.stem != "__init__"}  # `_arm` is a system too
     lonely = sorted(models.keys() ^ modules.keys())
     if lonely:
         raise HarnessError(
@@ -531,7 +531,7 @@ def load_all(names: list[str] | None = None) -> list[System]:
     return [load(n) for n in (names or system_names())]
 
 
-FILES_KEY = "file:"  # the key of a system from a person's own files: paths and name, os.pathsep-separated
+FILES_KEY = "file:"  # the key of a system from a person's own files: paths and name as a JSON list (any path)
 
 
 def key_of(system: System) -> str:
@@ -541,13 +541,14 @@ def key_of(system: System) -> str:
     if repository and system.mjcf.resolve() == (MODELS_DIR / f"{system.name}.xml").resolve():
         return system.name
     equations = Path(getattr(system.equations, "__file__", "") or "")
-    locked = [",".join(system.locked)] if system.locked else []  # URDF joints made fixed, when any
-    return FILES_KEY + os.pathsep.join([str(system.mjcf.resolve()), str(equations.resolve()), system.name, *locked])
+    return FILES_KEY + json.dumps(
+        [str(system.mjcf.resolve()), str(equations.resolve()), system.name, list(system.locked)]
+    )
 
 
 def from_key(key: str) -> System:
     """The system `key_of` gave the key of."""
     if key.startswith(FILES_KEY):
-        model, equations, name, *locked = key[len(FILES_KEY) :].split(os.pathsep)
-        return System.from_files(model, equations, name=name, locked=tuple(locked[0].split(",")) if locked else ())
+        model, equations, name, locked = json.loads(key[len(FILES_KEY) :])
+        return System.from_files(model, equations, name=name, locked=tuple(locked))
     return load(key)

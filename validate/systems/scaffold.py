@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import HarnessError
+from ..files import create_file
 from . import System
 from .modelview import ModelView
 
@@ -280,11 +281,12 @@ def write_module(name: str, model: Path, folder: Path | None = None, *, locked: 
     path = Path(folder or model.parent) / f"{name}.py"
     if path.parent.exists() and not path.parent.is_dir():
         raise HarnessError(f"--dir {path.parent} is a file, not a folder.")
-    if path.exists():
-        raise HarnessError(f"{path} exists already; choose another NAME or --dir (nothing is overwritten).")
+    exists = f"{path} exists already; choose another NAME or --dir (nothing is overwritten)."
+    if os.path.lexists(path):  # a link, even a dangling one, is something there
+        raise HarnessError(exists)
     text = module_text(name, model, locked=locked)  # everything checked before anything is written
-    path.parent.mkdir(parents=True, exist_ok=True)
-    staged = path.with_name(f".{path.name}.tmp")
-    staged.write_text(text)
-    os.replace(staged, path)
+    try:
+        create_file(path, text)  # never through a link, never over a file
+    except FileExistsError:
+        raise HarnessError(exists) from None
     return path

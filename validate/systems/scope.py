@@ -14,7 +14,10 @@ and motors. Anything that adds forces or coordinates outside that is refused by 
     friction loss             dry friction: a constraint force, not a function of q and v
     tendons                   forces along paths the equations do not describe
 
-`refusals(model)` lists every such element (empty when the model is in scope).
+`refusals(model)` lists every such element (empty when the model is in scope). A URDF is read first
+by `urdf_refusals`: its planar and floating joints (and any other type than revolute, continuous,
+prismatic and fixed) are refused by type and name before either engine reads the file, since the two
+readers would split or drop them differently.
 """
 
 from __future__ import annotations
@@ -25,6 +28,20 @@ import mujoco
 import numpy as np
 
 DOF_OF = {"free": 6, "ball": 3}
+URDF_JOINTS = ("revolute", "continuous", "prismatic", "fixed")  # one coordinate each, or none
+URDF_DOF = {"planar": 3, "floating": 6}
+
+
+def urdf_refusals(joints: list[tuple[str, str]]) -> list[str]:
+    """One line per URDF joint (name, type) of a type the harness cannot compare."""
+    return [
+        f"joint '{name}' is a {kind} joint"
+        + (f" ({URDF_DOF[kind]} degrees of freedom)" if kind in URDF_DOF else "")
+        + f": only {', '.join(URDF_JOINTS[:3])} joints (one coordinate each) can be compared; make it fixed "
+        f"or lock it (--lock {name})"
+        for name, kind in joints
+        if kind not in URDF_JOINTS
+    ]
 
 
 def _name(model: Any, obj: Any, i: int, kind: str) -> str:
@@ -51,7 +68,7 @@ def _collide(model: Any, a: int, b: int) -> bool:
 
 def refusals(model: Any) -> list[str]:
     """One line per element the harness cannot compare, naming it and why (empty: in scope)."""
-    out = []
+    out = [] if model.nv else ["no joint moves (every body is fixed): there are no equations of motion to compare"]
     for j in range(model.njnt):
         kind = {int(mujoco.mjtJoint.mjJNT_FREE): "free", int(mujoco.mjtJoint.mjJNT_BALL): "ball"}.get(
             int(model.jnt_type[j])

@@ -94,6 +94,11 @@ def lock(text: str, joints: tuple[str, ...], source: str) -> str:
     unknown = [j for j in joints if j not in found]
     if unknown:
         raise HarnessError(f"{source}: no joint '{unknown[0]}' to lock (joints: {', '.join(sorted(map(str, found)))}).")
+    moving = sorted(str(n) for n, j in found.items() if j.get("type") != "fixed")
+    if moving and set(moving) <= set(joints):
+        raise HarnessError(
+            f"{source}: every joint locked ({', '.join(moving)}): nothing moves; lock fewer joints (--lock)."
+        )
     for name in joints:
         joint = found[name]
         joint.set("type", "fixed")
@@ -122,6 +127,12 @@ def _spec(text: str, source: str) -> Any:
     """MuJoCo's MjSpec of the URDF `text`, with the alignments of the module docstring."""
     import mujoco
 
+    from .scope import urdf_refusals
+
+    joints = [(j.get("name") or "?", j.get("type") or "?") for j in _root(text, source).findall("joint")]
+    refused = urdf_refusals(joints)  # before either engine reads the file
+    if refused:
+        raise HarnessError(f"{source}: {refused[0]}" + (f" (and {len(refused) - 1} more)" if len(refused) > 1 else ""))
     mujoco.set_mju_user_warning(_no_log)  # MuJoCo would append to MUJOCO_LOG.TXT in the working directory
     try:
         spec = mujoco.MjSpec.from_string(without_geometry(text))
