@@ -330,7 +330,7 @@ class _Derived:
 
 
 @functools.cache
-def _derive(module: Any, params_type: type, n: int, numeric_params: tuple[tuple[str, float], ...] | None) -> _Derived:
+def _derive(module: Any, params_type: Any, n: int, numeric_params: tuple[tuple[str, float], ...] | None) -> _Derived:
     """M, G and C v of an energies-only module, differentiated symbolically and generated as numpy
     code. Parameters are symbols where the module's code allows it (one derivation for every probe),
     else the numbers given."""
@@ -377,13 +377,13 @@ def _integer_powers(expr: Any) -> Any:
 def _energy_terms(module: Any, p: Any, q: Any, v: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(M, G, C v) of an energies-only module at (q, v) (v None: zero)."""
 
-    n = np.shape(q)[-1]
+    n, kind = np.shape(q)[-1], _params_type(p)
     try:
-        derived = _derive(module, type(p), n, None)
+        derived = _derive(module, kind, n, None)
     except Exception:  # noqa: BLE001 - code that needs numbers for its parameters: derive per parameter set
         values = tuple((f.name, float(getattr(p, f.name))) for f in dataclasses.fields(p))
         try:
-            derived = _derive(module, type(p), n, values)
+            derived = _derive(module, kind, n, values)
         except HarnessError:
             raise
         except Exception as exc:
@@ -405,3 +405,8 @@ def _energy_terms(module: Any, p: Any, q: Any, v: Any) -> tuple[np.ndarray, np.n
         np.broadcast_to(G, shape),
         np.broadcast_to(Cv, shape),
     )
+
+
+def _params_type(p: Any) -> Any:
+    """The class of what parameters() returned (a key of the derivation caches)."""
+    return type(p)

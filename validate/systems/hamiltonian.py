@@ -51,7 +51,7 @@ def _integer_powers(expr: Any) -> Any:
 
 
 @functools.cache
-def _terms(module: Any, params_type: type, n: int, numeric_params: tuple[tuple[str, float], ...] | None) -> _Terms:
+def _terms(module: Any, params_type: Any, n: int, numeric_params: tuple[tuple[str, float], ...] | None) -> _Terms:
     """M^-1, V and Hamilton's equations of `module`, from its H traced with sympy and generated as
     numpy code; parameters are symbols unless `numeric_params` are given."""
     import sympy as sp
@@ -105,7 +105,7 @@ def _check_quadratic(inverse_mass: list[list[Any]], dH_dpm: list[Any], ps: list[
 
 
 @functools.cache
-def _symbolic(module: Any, params_type: type, n: int) -> _Terms | None:
+def _symbolic(module: Any, params_type: Any, n: int) -> _Terms | None:
     """The terms with symbolic parameters, or None where the module's code needs numbers for them
     (a shape error of H, such as a term linear in pm, is raised here, once)."""
     try:
@@ -117,12 +117,13 @@ def _symbolic(module: Any, params_type: type, n: int) -> _Terms | None:
 
 
 def _terms_at(module: Any, p: Any, n: int) -> _Terms:
-    found = _symbolic(module, type(p), n)
+    kind = _params_type(p)
+    found = _symbolic(module, kind, n)
     if found is not None:
         return found
     values = tuple((f.name, float(getattr(p, f.name))) for f in dataclasses.fields(p))
     try:
-        return _terms(module, type(p), n, values)
+        return _terms(module, kind, n, values)
     except HarnessError:
         raise
     except Exception as exc:
@@ -184,3 +185,8 @@ def energies(module: Any) -> types.ModuleType:
     out.kinetic_energy = kinetic_energy  # type: ignore[attr-defined]
     out.potential_energy = potential_energy  # type: ignore[attr-defined]
     return out
+
+
+def _params_type(p: Any) -> Any:
+    """The class of what parameters() returned (a key of the derivation caches)."""
+    return type(p)
