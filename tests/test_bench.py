@@ -263,11 +263,11 @@ def test_bench_json_is_valid_json_and_written_atomically(tmp_path, monkeypatch):
     assert json.loads(path.read_text()) == {"rows": [{"cpu_s": 0.5, "error_2s": "inf"}], "ratios": {}, "n": 3}
     before = path.read_text()
 
-    def fail(src, dst):
+    def fail(src, dst, **kwargs):
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(os, "replace", fail)
-    with pytest.raises(OSError):
+    with pytest.raises(HarnessError, match="bench.json: No space left on device"):
         bench.write_bench({"rows": [1, 2, 3]}, tmp_path)
     monkeypatch.undo()
     assert path.read_text() == before

@@ -26,7 +26,6 @@ from typing import Any, cast
 
 import numpy as np
 
-from ...equations._forms import Explicit
 from ..engines import SYMBOLIC_MAX_DOF, make_sources
 from ..errors import HarnessError
 from ..results.schema import Derivation, Explanation, TermRow
@@ -35,7 +34,8 @@ from ..systems.values import real_array
 from . import probes as probing
 from . import words
 from .explain import explain
-from .judge import EngineTerms, engines_of, judge_variant, term_rows
+from .inputs import acceleration_rows, actuation_rows, ignored_torques
+from .judge import EngineTerms, engines_of, term_rows
 from .modelsync import equations_vs_model
 from .pointwise import States, random_states
 from .tolerances import TOLERANCES, Tolerances
@@ -178,7 +178,7 @@ def term_rows_at(
     terms = EngineTerms(system, sources, states, ev)
     e = terms.by_engine
     mine, errors = hand_terms(system, states)
-    ignored = _ignored_torques(system, states)
+    ignored = ignored_torques(system, states)
     if ignored:  # M^-1 has a zero column: every term built from M names the cause, not a function never written
         for term in ("mass matrix", "gravity", "velocity", "friction", "acceleration"):
             mine.pop(term, None)
@@ -210,9 +210,9 @@ def term_rows_at(
     absent = {TERM_OF_FUNCTION[fn] for fn in not_provided_in(system.equations)}
     if accelerations_only(system.equations):  # judged in accelerations: M and the forces are not the person's
         absent |= {"mass matrix", "gravity", "velocity", "friction", "acceleration"}
-        rows += acceleration_rows(system, states, terms, tolerances=tolerances)
+        rows += acceleration_rows(system, states, terms, error_row=_error_row, tolerances=tolerances)
     elif system.inputs == "u":
-        rows += actuation_rows(system, states, terms, tolerances=tolerances)
+        rows += actuation_rows(system, states, terms, error_row=_error_row, tolerances=tolerances)
     for term, (refs, floor) in theirs.items():
         if term in absent:
             continue  # not provided: listed as not checked by judge_derivation
@@ -243,101 +243,6 @@ def term_rows_at(
         if spd:
             notes["mass_matrix_not_spd"] = spd
     return rows, notes
-
-
-def _ignored_torques(system: Any, states: States) -> str:
-    """For explicit accelerations taking tau: the coordinates whose tau the person's qacc ignores (a
-    published form with inputs on the actuated coordinates only, transcribed with tau), said plainly."""
-    if written_form(system.equations) != "c" or system.inputs != "tau":
-        return ""
-    qacc, q = system.equations.ORIGINAL.qacc, states.q[:16]
-    zero = np.zeros_like(q)
-    try:
-        with np.errstate(all="ignore"):
-            a0 = np.asarray(qacc(system.params, q, zero, zero), dtype=float)
-            cols = [
-                np.asarray(qacc(system.params, q, zero, np.broadcast_to(e, q.shape)), dtype=float) - a0
-                for e in np.eye(system.nv)
-            ]
-    except Exception:  # noqa: BLE001 - the call's own failure is reported by hand_terms
-        return ""
-    lost = [j for j, c in enumerate(cols) if np.all(np.isfinite(c)) and not np.any(c)]
-    if not lost:
-        return ""
-    which = ", ".join(f"tau[{j}] ({system.coordinates[j]})" for j in lost)
-    return (
-        f"your qacc does not depend on {which}: qacc(p, q, v, tau) takes a generalized force on every coordinate; "
-        "for inputs on the actuated coordinates only, name its last parameter u (the actuators' controls)"
-    )
-
-
-def _controls(system: Any, tau: np.ndarray) -> np.ndarray:
-    """u with B u = tau (the states' tau is drawn in the inputs' range)."""
-    return np.asarray(tau) @ np.linalg.pinv(system.input_matrix).T
-
-
-def _unit_controls(system: Any, q: np.ndarray) -> list[np.ndarray]:
-    nu = system.input_matrix.shape[1]
-    return [np.broadcast_to(np.eye(nu)[k], (len(q), nu)) for k in range(nu)]
-
-
-def _ignored_inputs(system: Any, response: list[np.ndarray], fname: str) -> list[dict[str, Any]]:
-    """A failing actuation row for each input the person's function ignores (its response is zero)."""
-    out = []
-    for k, col in enumerate(response):
-        if np.all(np.isfinite(col)) and not np.any(col):
-            why = f"your {fname} does not depend on u[{k}] (actuator {system.actuators[k]})"
-            out += [_error_row("actuation", engine, why) for engine in ("mujoco", "pinocchio")]
-    return out
-
-
-def acceleration_rows(
-    system: Any, states: States, terms: EngineTerms, *, tolerances: Tolerances = TOLERANCES
-) -> list[dict[str, Any]]:
-    """Explicit accelerations with inputs u, judged as a printed explicit form is (judge.py): each
-    force's acceleration M^-1 (G, C v, friction, B u) against the engines', and the accelerations."""
-    qacc = system.equations.ORIGINAL.qacc
-    variant = Explicit(
-        name="your derivation",
-        notes_equations=(),
-        acceleration=lambda p, q, v, tau: qacc(p, q, v, _controls(system, tau)),
-    )
-    try:
-        with np.errstate(all="ignore"):
-            rows = list(
-                judge_variant(system, variant, terms, states, tolerances=tolerances, printed_parameters=False)["terms"]
-            )
-            zero = np.zeros_like(states.q)
-            a0 = np.asarray(qacc(system.params, states.q, zero, _controls(system, zero)), dtype=float)
-            response = [
-                np.asarray(qacc(system.params, states.q, zero, u), dtype=float) - a0
-                for u in _unit_controls(system, states.q)
-            ]
-    except Exception as exc:  # noqa: BLE001 - the user's code: its failure is the finding
-        why = f"qacc() raised {type(exc).__name__}: {exc}".strip()
-        return [_error_row("acceleration", engine, why) for engine in terms.engines]
-    for row in rows:
-        row["pair"] = f"hand~{row['engine']}"
-    return rows + _ignored_inputs(system, response, "qacc")
-
-
-def actuation_rows(
-    system: Any, states: States, terms: EngineTerms, *, tolerances: Tolerances = TOLERANCES
-) -> list[dict[str, Any]]:
-    """An implicit residual with inputs u: -(r(q, 0, 0, u) - r(q, 0, 0, 0)) is the person's B u, against tau."""
-    r, p, q = system.equations.ORIGINAL.residual, system.params, states.q
-    zero = np.zeros_like(q)
-    try:
-        with np.errstate(all="ignore"):
-            r0 = np.asarray(r(p, q, zero, zero, _controls(system, zero)), dtype=float)
-            mine = r0 - np.asarray(r(p, q, zero, zero, _controls(system, states.tau)), dtype=float)
-            response = [r0 - np.asarray(r(p, q, zero, zero, u), dtype=float) for u in _unit_controls(system, q)]
-    except Exception as exc:  # noqa: BLE001 - the user's code: its failure is the finding
-        why = f"residual() raised {type(exc).__name__}: {exc}".strip()
-        return [_error_row("actuation", engine, why) for engine in terms.engines]
-    refs = {k: terms.by_engine[k]["tau"] for k in terms.engines}
-    rows = term_rows("actuation", mine, refs, states, tier="algebraic", tolerances=tolerances, who="hand")
-    return rows + _ignored_inputs(system, response, "residual")
 
 
 def _error_row(term: str, engine: str, why: str) -> dict[str, Any]:

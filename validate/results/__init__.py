@@ -112,9 +112,8 @@ def atomic_write_many(files: Mapping[Path, bytes | str | Iterable[str]]) -> None
     try:
         replace_files({Path(path): data for path, data in files.items()})
     except OSError as exc:
-        raise HarnessError(
-            f"cannot write {exc.filename}: {exc.strerror or exc}; previous files left as they were."
-        ) from None
+        where = exc.filename or ", ".join(str(p) for p in files)
+        raise HarnessError(f"cannot write {where}: {exc.strerror or exc}; previous files left as they were.") from None
 
 
 def dumps(results: Mapping[str, Any]) -> str:
