@@ -7,8 +7,10 @@ truncated, edited, mismatched or foreign file says so on one stderr line and ret
 recomputes and the entry is rewritten. Files are readable by everyone (0644), so a checkout shared by
 several users shares its cache; a cache that cannot be written costs time, never the run.
 
-Where: `$LAGRANGE_XVAL_CACHE` (the CLI sets it from `--cache-dir`, default `OUT/.cache`, and to the
-empty string for `--no-cache`; pool workers inherit it), else `reports/.cache` in the checkout.
+Where: the folder of the `Cache` value a caller passes down (dynamics/cachedir.py: `run` and `check`);
+for `cache_dir=DEFAULT`, `$LAGRANGE_XVAL_CACHE` (`bench` sets it from `--cache-dir`, default
+`OUT/.cache`, and to the empty string for `--no-cache`; pool workers inherit it), else the user's cache
+folder, never a folder inside the installed package.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from ..systems import PACKAGE_ROOT
+from .cachedir import user_folder
 
 SCHEMA = 2  # bump when an entry's layout or meaning changes
 CACHE_ENV = "LAGRANGE_XVAL_CACHE"
@@ -36,7 +39,7 @@ def root() -> Path | None:
     """The cache folder in use, or None when caching is off."""
     value = os.environ.get(CACHE_ENV)
     if value is None:
-        return PACKAGE_ROOT / "reports" / ".cache"
+        return user_folder()
     return Path(value) if value else None
 
 
