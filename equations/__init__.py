@@ -11,7 +11,7 @@ Every module provides (shapes: `q`, `v`, `tau` are `(..., n)`; functions broadca
     BODIES: tuple[str, ...]            MJCF bodies whose positions and orientations are compared
     USES: frozenset[str]               physics the scene needs: "gravity", "damping", "actuation"
     Params                             frozen dataclass of the parameters the derivation uses
-    parameters(model) -> Params        read them from the compiled MJCF (a Mapping, see validate/modelview.py)
+    parameters(model) -> Params        read them from the compiled MJCF (a Mapping, see validate/systems/modelview.py)
     assumptions(p) -> dict             what the derivation assumes of the compiled model, key -> value
                                        (NaN entries: a component the derivation does not depend on)
     the dynamics, in ONE of five forms (validate/systems/forms.py derives the rest from it; the first

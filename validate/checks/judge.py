@@ -16,7 +16,7 @@ joint friction), so a disagreeing form is reported with the first term that disa
     derivation step: the printed expression vs the engines' kinematics or energies.
 
 Every form is judged with the MJCF's parameters (the notes' values) and at DEFAULT_PROBES probe
-parameter sets (validate/probes.py: every parameter moved by its own factor, keeping only the
+parameter sets (validate/checks/probes.py: every parameter moved by its own factor, keeping only the
 equalities the printed forms assume), because a slip such as a missing factor l cannot show where
 l = 1.
 """

@@ -1,5 +1,5 @@
 """The verdict on a derivation: every term, against both engines, at the model's parameters and at
-every probe (validate/probes.py), with the term that holds a mistake named.
+every probe (validate/checks/probes.py), with the term that holds a mistake named.
 
 The terms of a derivation in the form M(q) a + bias(q, v) = tau + passive(q, v):
 

@@ -5,7 +5,7 @@
     from lagrange_xval.testing import assert_equations_match, systems_in
 
     def test_my_pendulum():
-        assert_equations_match("models/my_pendulum.xml", "equations/my_pendulum.py")
+        assert_equations_match("mine/my_pendulum.xml", "mine/my_pendulum.py")
 
     @pytest.mark.parametrize("system", systems_in("my_systems"))
     def test_every_system(system):
