@@ -69,7 +69,7 @@ def cmd_list(args: argparse.Namespace) -> int:
     return 0 if all(ok for ok, _ in listed) else 1
 
 
-def numbers(path: Path, i: int, name: str, x: Any, system: Any) -> list[float]:
+def numbers(path: Path, i: int, name: str, x: Any, system: System) -> list[float]:
     """`x` as a list of nv floats; JSON types are checked, never coerced ("0.5" and true are not numbers)."""
     if not isinstance(x, list) or len(x) != system.nv:
         raise HarnessError(
@@ -89,8 +89,8 @@ def numbers(path: Path, i: int, name: str, x: Any, system: Any) -> list[float]:
     return out
 
 
-def states_from_file(system: Any, path: Path) -> Any:
-
+def states_from_file(system: System, path: Path) -> States:
+    """The states of a --states-file, checked (types, shapes, finite values), never coerced."""
     items = parse_json(regular_file(path, "states file", max_bytes=MAX_STATES_FILE_BYTES), path)
     if not isinstance(items, list) or not items:
         raise HarnessError(f'{path} must hold a non-empty JSON list of {{"q": [...], "v": [...], "tau": [...]}}.')
@@ -107,7 +107,7 @@ def states_from_file(system: Any, path: Path) -> Any:
     return validate_states(system, qs, vs, taus)
 
 
-def require_same_model(system: Any, sources: dict[str, Any]) -> None:
+def require_same_model(system: System, sources: dict[str, Any]) -> None:
     """Dynamics are compared only between sources that describe the same model."""
 
     bad = modelsync.check(system, sources["pinocchio"])["mismatches"]
@@ -233,7 +233,7 @@ def locked_joints(args: argparse.Namespace) -> tuple[str, ...]:
     return locked
 
 
-def one_system(args: argparse.Namespace) -> Any:
+def one_system(args: argparse.Namespace) -> System:
     """The SYSTEM named, or the one given by --model and --equations (exactly one of the two), with
     the --lock joints made fixed."""
 
