@@ -3,11 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import contextlib
 import functools
 import json
 import os
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +19,7 @@ from ..engines import make_sources
 from ..errors import HarnessError
 from ..inputs import parse_json, regular_file
 from ..parallel import named_executor
-from ..pipeline import run
+from ..pipeline import reference_dir, run
 from ..replay import replay_command, shown_path, viewer_command
 from ..report import ReplayHint
 from ..report.findings import console_lines
@@ -165,23 +163,6 @@ def cache_of(args: argparse.Namespace) -> Cache:
     """The cache --cache-dir (default OUT/.cache) or --no-cache asks for, as the value every worker
     and stage is handed."""
     return Cache.off() if args.no_cache else Cache.at(args.cache_dir or args.out / ".cache")
-
-
-@contextlib.contextmanager
-def use_cache(args: argparse.Namespace) -> Iterator[None]:
-    """`bench`'s reference and chaos caches at --cache-dir (default OUT/.cache) or off, through the
-    environment so that pool workers see the same setting; restored afterwards. (`run` and `check`
-    pass a `Cache` value instead; the benchmark's workers still read the configured one.)"""
-
-    before = os.environ.get(CACHE_ENV)
-    os.environ[CACHE_ENV] = "" if args.no_cache else str((args.cache_dir or args.out / ".cache").absolute())
-    try:
-        yield
-    finally:
-        if before is None:
-            os.environ.pop(CACHE_ENV, None)
-        else:
-            os.environ[CACHE_ENV] = before
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -343,7 +324,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
             return chains_command(args, executor)
     args.files = user_files(args)  # a person's own systems, beside or instead of SYSTEM names
     args.locked = locked_joints(args)
-    with use_cache(args), named_executor(args.executor) as executor:
+    args.reference_cache = reference_dir(cache_of(args))  # handed to the workers as a value
+    with named_executor(args.executor) as executor:
         return bench_command(args, executor=executor)
 
 
