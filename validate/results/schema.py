@@ -132,6 +132,7 @@ class Derivation(TypedDict, total=False):
     notes: dict[str, Any]  # per probe: what the terms could not check there
     worst_term: dict[str, Any]
     exposed_by: list[str]  # the parameters that alone expose a mistake hidden by the model's values
+    unstated_assumptions: list[str]  # model numbers parameters() does not read that the term depends on
     mass_matrix_not_spd: dict[str, Any]
     disagrees_at: str
     disagrees_where: str

@@ -293,7 +293,7 @@ class System:
 
         for name in ("body_positions", "body_rotations"):
             fn = getattr(self.equations, name, None)
-            if provided(fn):
+            if fn is not None and provided(fn):
                 try:
                     return tuple(fn(self.params, np.zeros(self.nv)))
                 except Exception:  # noqa: BLE001 - the user's function: its failure is judged where it is called

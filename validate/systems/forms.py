@@ -378,12 +378,13 @@ def _energy_terms(module: Any, p: Any, q: Any, v: Any) -> tuple[np.ndarray, np.n
     """(M, G, C v) of an energies-only module at (q, v) (v None: zero)."""
 
     n = np.shape(q)[-1]
+    kind: Any = type(p)  # a dataclass type, hashable (mypy does not see type[Any] as Hashable)
     try:
-        derived = _derive(module, type(p), n, None)
+        derived = _derive(module, kind, n, None)
     except Exception:  # noqa: BLE001 - code that needs numbers for its parameters: derive per parameter set
         values = tuple((f.name, float(getattr(p, f.name))) for f in dataclasses.fields(p))
         try:
-            derived = _derive(module, type(p), n, values)
+            derived = _derive(module, kind, n, values)
         except HarnessError:
             raise
         except Exception as exc:

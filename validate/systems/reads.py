@@ -69,10 +69,10 @@ class Overlay(Mapping[str, Any]):
     """A model view with some keys replaced (what `parameters()` would read from an edited model)."""
 
     def __init__(self, view: Mapping[str, Any], values: Mapping[str, Any]) -> None:
-        self.view, self.values = view, values
+        self.view, self.replaced = view, values  # not `values`: that is Mapping's method
 
     def __getitem__(self, key: str) -> Any:
-        return self.values[key] if key in self.values else self.view[key]
+        return self.replaced[key] if key in self.replaced else self.view[key]
 
     def __iter__(self) -> Iterator[str]:
         return iter(self.view)
