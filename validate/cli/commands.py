@@ -324,9 +324,12 @@ def cmd_bench(args: argparse.Namespace) -> int:
             return chains_command(args, executor)
     args.files = user_files(args)  # a person's own systems, beside or instead of SYSTEM names
     args.locked = locked_joints(args)
-    args.reference_cache = reference_dir(cache_of(args))  # handed to the workers as a value
+    cache = cache_of(args)
+    args.reference_cache = reference_dir(cache)  # handed to the workers as a value
     with named_executor(args.executor) as executor:
-        return bench_command(args, executor=executor)
+        status = bench_command(args, executor=executor)
+    cache.trim()
+    return status
 
 
 def cmd_stress(args: argparse.Namespace) -> int:
