@@ -1,15 +1,50 @@
-"""Shared fixtures: systems are discovered, never listed by hand."""
+"""Shared fixtures: systems are discovered, never listed by hand; every cache is a temporary one."""
 
 from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 from lagrange_xval.validate import systems
 from lagrange_xval.validate.checks import pointwise as compare
+from lagrange_xval.validate.dynamics.cache import CACHE_ENV
+from lagrange_xval.validate.dynamics.cachedir import Cache
 from lagrange_xval.validate.engines import make_sources
 
 SYSTEMS = systems.system_names()
 N_STATES = 1000
 SEED = 0
+
+
+@pytest.fixture(scope="session", autouse=True)
+def session_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Cache]:
+    """One temporary cache for the session: what a test passes on (the `cache` fixture), and the
+    configured cache of code that reads `$LAGRANGE_XVAL_CACHE` (the benchmark's workers, `derive`),
+    so that no test writes into the checkout or the user's cache folder."""
+    folder = tmp_path_factory.mktemp("cache")
+    before = os.environ.get(CACHE_ENV)
+    os.environ[CACHE_ENV] = str(folder)  # inherited by the subprocesses and pool workers tests start
+    try:
+        yield Cache.at(folder)
+    finally:
+        if before is None:
+            os.environ.pop(CACHE_ENV, None)
+        else:
+            os.environ[CACHE_ENV] = before
+
+
+@pytest.fixture
+def cache(session_cache: Cache) -> Cache:
+    """The session's temporary cache, for a test that passes one down (lx.check(..., cache=cache))."""
+    return session_cache
+
+
+@pytest.fixture
+def own_cache(tmp_path: Path) -> Cache:
+    """A cache of the test's own, empty at its start."""
+    return Cache.at(tmp_path / "cache")
 
 
 @pytest.fixture(scope="session", params=SYSTEMS)

@@ -280,15 +280,16 @@ def test_run_uses_the_cache_dir_and_the_report_says_what_came_from_it(tmp_path, 
 
 
 def test_no_cache_turns_reading_and_writing_off(tmp_path):
+    """--no-cache is a Cache value that is off (no environment variable is set); --cache-dir's
+    default is OUT/.cache."""
     import argparse
 
-    from lagrange_xval.validate.cli.commands import use_cache
+    from lagrange_xval.validate.cli.commands import cache_of
 
-    args = argparse.Namespace(no_cache=True, cache_dir=None, out=tmp_path)
-    with use_cache(args):
-        assert cache.folder(cache.DEFAULT, "reference") is None
-        _, info = _reference(cache.DEFAULT)
+    before = os.environ.get(cache.CACHE_ENV)
+    off = cache_of(argparse.Namespace(no_cache=True, cache_dir=None, out=tmp_path))
+    assert off.folder("reference") is None and os.environ.get(cache.CACHE_ENV) == before
+    _, info = _reference(off.folder("reference"))
     assert info["cache"] == "off" and not list(tmp_path.iterdir())
-    args = argparse.Namespace(no_cache=False, cache_dir=None, out=tmp_path / "r")
-    with use_cache(args):
-        assert cache.folder(cache.DEFAULT, "chaos") == (tmp_path / "r" / ".cache" / "chaos").absolute()
+    default = cache_of(argparse.Namespace(no_cache=False, cache_dir=None, out=tmp_path / "r"))
+    assert default.folder("chaos") == (tmp_path / "r" / ".cache" / "chaos").absolute()

@@ -1,5 +1,6 @@
-"""Explanations of wrong expressions are kept in the cache (kind "explain"), keyed by what they are
-computed from: the user's numbers included, so a changed module never reads another's explanation."""
+"""Explanations of wrong expressions are kept in the cache they are given (kind "explain"), keyed by
+what they are computed from: the user's numbers included, so a changed module never reads another's
+explanation; without a cache nothing is written."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import shutil
 import pytest
 from lagrange_xval.validate.checks import explain as explaining
 from lagrange_xval.validate.checks.verdict import derivation_probes
-from lagrange_xval.validate.dynamics import cache
+from lagrange_xval.validate.dynamics.cachedir import Cache
 from lagrange_xval.validate.systems import System
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -27,14 +28,14 @@ def _system(folder: pathlib.Path, new: str) -> System:
     return System.from_files(folder / "bars.xml", folder / "bars.py")
 
 
-def _explain(system: System) -> list[dict]:
+def _explain(system: System, cache: Cache | None) -> list[dict]:
     probes = derivation_probes(system, n_probes=2)
-    return explaining.explain(system, [p.system for p in probes.probes], ["mass matrix"])
+    return explaining.explain(system, [p.system for p in probes.probes], ["mass matrix"], cache=cache)
 
 
 def test_a_second_explanation_is_read_back_and_a_changed_module_is_not(tmp_path, monkeypatch):
-    monkeypatch.setenv(cache.CACHE_ENV, str(tmp_path / "cache"))
-    first = _explain(_system(tmp_path / "user", "m22 = p.m2 * p.c2**2"))
+    kept = Cache.at(tmp_path / "cache")
+    first = _explain(_system(tmp_path / "user", "m22 = p.m2 * p.c2**2"), kept)
     assert any("lacks the term I_link2_zz" in e["statement"] for e in first), first
     assert len(list((tmp_path / "cache" / "explain").glob("*.npz"))) >= 1
 
@@ -43,15 +44,14 @@ def test_a_second_explanation_is_read_back_and_a_changed_module_is_not(tmp_path,
 
     with monkeypatch.context() as m:
         m.setattr(explaining, "_explain_entry", never)
-        assert _explain(_system(tmp_path / "user", "m22 = p.m2 * p.c2**2")) == first
+        assert _explain(_system(tmp_path / "user", "m22 = p.m2 * p.c2**2"), kept) == first
     # the same file, another mistake: other numbers, another key, its own explanation
-    second = _explain(_system(tmp_path / "user", "m22 = p.m2 * p.c2**2 + 2 * p.I2"))
+    second = _explain(_system(tmp_path / "user", "m22 = p.m2 * p.c2**2 + 2 * p.I2"), kept)
     assert second != first and any("twice" in e["statement"] for e in second), second
 
 
-def test_no_cache_writes_nothing_and_explains_the_same(tmp_path, monkeypatch):
-    monkeypatch.setenv(cache.CACHE_ENV, "")
-    found = _explain(_system(tmp_path / "user", "m22 = p.m2 * p.c2**2"))
+def test_no_cache_writes_nothing_and_explains_the_same(tmp_path):
+    found = _explain(_system(tmp_path / "user", "m22 = p.m2 * p.c2**2"), None)
     assert any("lacks the term I_link2_zz" in e["statement"] for e in found), found
     assert not list(tmp_path.rglob("*.npz"))
 

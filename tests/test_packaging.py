@@ -10,11 +10,19 @@ from __future__ import annotations
 
 import ast
 import functools
+import importlib.util
 import re
+import shutil
+import subprocess
 import sys
+import sysconfig
 import tomllib
+import zipfile
 from importlib import metadata
 from pathlib import Path
+from typing import Any
+
+from lagrange_xval.validate.cli.commands import COMMANDS
 
 ROOT = Path(__file__).resolve().parents[1]
 SCANNED = ("validate", "equations")
@@ -124,3 +132,126 @@ def test_the_check_catches_a_missing_dependency():
     assert undeclared(imports, {"pin"}, set()) == [
         "yaml (imported at validate/y.py:7) is in no dependency list of pyproject.toml"
     ]
+
+
+def _setuptools() -> dict[str, Any]:
+    return dict(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"])
+
+
+def packages_on_disk() -> set[str]:
+    """Every installed package name the folders give: each folder of a package-dir mapping, and its
+    sub-folders with an `__init__.py` (but those mapped under a name of their own), under the mapped name."""
+    mapping = _setuptools()["package-dir"]
+    mapped = {(ROOT / folder).resolve() for folder in mapping.values()}
+    found = set()
+    for name, folder in mapping.items():
+        base = ROOT / folder
+        found.add(name)
+        for init in base.rglob("__init__.py"):
+            parts = init.parent.relative_to(base).parts
+            if parts and init.parent.resolve() not in mapped:  # validate/public is `lagrange_xval` itself
+                found.add(".".join([name, *parts]))
+    return found
+
+
+def test_the_package_list_is_the_tree():
+    """pyproject's explicit list (setuptools cannot find packages under a new name) names every
+    package folder, so `pip install .` installs `studies.bench` and `studies.stress` too."""
+    listed = set(_setuptools()["packages"])
+    on_disk = packages_on_disk()
+    assert listed == on_disk, (
+        f"missing from pyproject: {sorted(on_disk - listed)}; not on disk: {sorted(listed - on_disk)}"
+    )
+
+
+COPIED = ("pyproject.toml", "README.md", "validate", "equations", "models")
+
+
+def _build_wheel(tmp: Path) -> Path:
+    """The wheel of a copy of the sources (a build writes build/ and *.egg-info where it runs, so
+    never in the checkout). Without build isolation where this venv's setuptools can write a wheel;
+    else pip sets up pyproject's build requirements from its configured index."""
+    src = tmp / "src"
+    src.mkdir()
+    for name in COPIED:
+        path = ROOT / name
+        if path.is_dir():
+            shutil.copytree(path, src / name, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        else:
+            shutil.copy2(path, src / name)
+    isolation = ["--no-build-isolation"] if _can_build_in_place() else []
+    dist = tmp / "dist"
+    cmd = [sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", *isolation, str(src), "-w", str(dist)]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=tmp)
+    assert done.returncode == 0, done.stdout + done.stderr
+    (wheel,) = dist.glob("lagrange_xval-*.whl")
+    return wheel
+
+
+def _can_build_in_place() -> bool:
+    """This venv's setuptools writes wheels itself (70.1 and later), or with the `wheel` package."""
+    try:
+        version = metadata.version("setuptools")
+    except metadata.PackageNotFoundError:
+        return False
+    major_minor = tuple(int(x) for x in re.findall(r"\d+", version)[:2])
+    return major_minor >= (70, 1) or importlib.util.find_spec("wheel") is not None
+
+
+def _venv_with_wheel(tmp: Path, wheel: Path) -> Path:
+    """A fresh venv holding the wheel (not editable), which reads every other package from this
+    venv's site-packages (a .pth runs site.addsitedir on it, so its own .pth files apply: pinocchio's
+    cmeel path); nothing is downloaded. Its python."""
+    venv = tmp / "venv"
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True, timeout=120)
+    python = venv / "bin" / "python"
+    purelib = Path(sysconfig.get_paths()["purelib"])
+    target = Path(
+        subprocess.run(
+            [str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.strip()
+    )
+    cmd = [sys.executable, "-m", "pip", "--python", str(python), "install", "-q", "--no-deps", "--no-index", str(wheel)]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr
+    (target / "zz_harness_dependencies.pth").write_text(f"import site; site.addsitedir({str(purelib)!r})\n")
+    return python
+
+
+def test_the_built_wheel_installs_whole_and_every_command_runs(tmp_path):
+    """`pip wheel .`, installed without -e into a fresh venv: the package resolves there (not to the
+    checkout), every module imports, the data files are in, every command's --help works and a short
+    `check` gives its verdict."""
+    wheel = _build_wheel(tmp_path)
+    with zipfile.ZipFile(wheel) as z:
+        names = set(z.namelist())
+    for needed in ("lagrange_xval/py.typed", "lagrange_xval/models/simple_pendulum.xml"):
+        assert needed in names, f"{needed} is not in {wheel.name}"
+    assert any(n.startswith("lagrange_xval/validate/report/templates/") for n in names)
+    python = _venv_with_wheel(tmp_path, wheel)
+    venv = python.parent.parent
+    work = tmp_path / "work"
+    work.mkdir()
+    imports = (
+        "import importlib, pkgutil, lagrange_xval, lagrange_xval.validate as v\n"
+        "for m in pkgutil.walk_packages(v.__path__, 'lagrange_xval.validate.'):\n"
+        "    if not m.name.endswith('__main__'): importlib.import_module(m.name)\n"
+        "import lagrange_xval.testing, lagrange_xval.forms, lagrange_xval.equations\n"
+        "print(lagrange_xval.__file__)\n"
+    )
+    done = subprocess.run([str(python), "-c", imports], cwd=work, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert Path(done.stdout.strip()).resolve().is_relative_to(venv.resolve()), done.stdout
+    cli = str(venv / "bin" / "lagrange-xval")
+    for command in [[], *([c] for c in COMMANDS)]:
+        done = subprocess.run([cli, *command, "--help"], cwd=work, capture_output=True, text=True, timeout=120)
+        assert done.returncode == 0 and "usage:" in done.stdout, (command, done.stderr)
+    done = subprocess.run(
+        [cli, "check", "simple_pendulum", "--states", "20"], cwd=work, capture_output=True, text=True, timeout=300
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert done.stdout.splitlines()[-1].startswith("verdict: simple_pendulum: pass"), done.stdout
+    assert list(work.iterdir()) == []

@@ -103,13 +103,16 @@ def test_run_on_a_robot_urdf_alone_end_to_end(tmp_path):
     assert "made a MuJoCo motor" in report
     assert (tmp_path / "out" / "ur5_robot.rrd").stat().st_size > 0
     bad = subprocess.run(
-        [sys.executable, "-m", "lagrange_xval.validate.cli", "check", "--model", str(ROBOTS / ARMS[0][0])],
+        [
+            *(sys.executable, "-m", "lagrange_xval.validate.cli", "simulate", "--model", str(ROBOTS / ARMS[0][0])),
+            *("--source", "mujoco", "--q0", "0", "--v0", "0", "--t-end", "1", "--dt-out", "0.1", "--out", "x.csv"),
+        ],
         cwd=tmp_path,
         capture_output=True,
         text=True,
         timeout=120,
     )
-    assert bad.returncode != 0 and "only `run` takes a model alone" in bad.stderr
+    assert bad.returncode != 0 and "take a model alone" in bad.stderr, bad.stderr
 
 
 @needs_robots

@@ -6,9 +6,10 @@
     result = lx.check(system, n_states=500, seed=0, probes=4)
     result.assert_ok()          # AssertionError naming the term, the pair, the worst state and probe
 
-`check` runs what `lagrange-xval run` decides a verdict with, short of trajectories: the model
-checks, every quantity of the three sources pointwise, and every term of the derivation at the
-model's parameters and at the probe parameter sets (validate/verdict.py).
+`check` gives the verdict `lagrange-xval check` and `lagrange-xval run` give, from the same function
+(`decide`, validate/checks/decide.py), short of trajectories: the model checks, every quantity of
+the sources pointwise, and every term of the derivation at the model's parameters and at the probe
+parameter sets (validate/checks/verdict.py).
 """
 
 from __future__ import annotations
@@ -19,15 +20,15 @@ from typing import Any
 
 import numpy as np
 
-from .checks import modelsync, verdict
-from .checks import pointwise as compare
+from .checks.decide import Decision, decide
+from .checks.probes import DEFAULT_PROBES
 from .checks.tolerances import TOLERANCES, Tolerances
-from .engines import make_sources
+from .dynamics.cachedir import Cache
 from .errors import HarnessError
 from .results.schema import CheckData
 from .systems import System, load
 
-__all__ = ["Result", "Row", "System", "check", "load"]
+__all__ = ["Cache", "Result", "Row", "System", "check", "load", "result_of"]
 
 
 @dataclass(frozen=True)
@@ -115,12 +116,15 @@ def check(
     *,
     n_states: int = 1000,
     seed: int = 0,
-    probes: int = 4,
+    probes: int = DEFAULT_PROBES,
     tolerances: Tolerances = TOLERANCES,
+    cache: Cache | None = None,
 ) -> Result:
     """The verdict on `system`'s derivation (a System, or the name of a repository system): model
-    checks, pointwise agreement of the three sources at `n_states` seeded states, and every term of
-    the derivation at the model's parameters and at `probes` probe parameter sets. Writes nothing."""
+    checks, pointwise agreement of the sources at `n_states` seeded states, and every term of the
+    derivation at the model's parameters and at `probes` probe parameter sets (checks/decide.py, the
+    verdict `lagrange-xval check` and `run` give). Writes nothing unless given a `cache`
+    (`Cache.at(folder)` or `Cache.user()`), where explanations of wrong entries are then kept."""
 
     if isinstance(system, str):
         system = load(system)
@@ -128,30 +132,26 @@ def check(
         raise HarnessError(f"n_states must be a positive integer; got {n_states!r}.")
     if not isinstance(probes, int) or probes < 0:
         raise HarnessError(f"probes must be a non-negative integer; got {probes!r}.")
-    rows: list[Row] = []
-    try:
-        system.params  # noqa: B018 - the user's parameters() may raise: that is the verdict
-    except Exception as exc:  # noqa: BLE001
-        why = str(exc) if isinstance(exc, HarnessError) else f"parameters() raised {type(exc).__name__}: {exc}"
-        row = Row("derivation", "parameters", "hand~mjcf", np.inf, np.inf, 0.0, False, detail=why)
-        return Result(system.name, (row,), f"parameters disagrees: {why}", {})
-    sources = make_sources(system)
-    model = modelsync.check(system, sources["pinocchio"])
-    for m in model["mismatches"]:
-        rows.append(Row("model", m["key"], m["check"], np.inf, np.inf, 0.0, False, detail=m["why"]))
-    states = compare.random_states(system, n=n_states, seed=seed)
-    values = compare.evaluate(sources, states)
-    point = compare.pointwise_result(values, states, seed=seed, tolerances=tolerances)
+    decision = decide(system, n_states=n_states, seed=seed, probes=probes, cache=cache, tolerances=tolerances)
+    if cache is not None:
+        cache.trim()
+    return result_of(decision)
+
+
+def result_of(decision: Decision) -> Result:
+    """A Decision as the API's Result: typed rows, failing ones first (model, derivation, pointwise)."""
+    model, point, derivation = decision.model_checks, decision.pointwise, decision.derivation
+    name = decision.system.name
+    if model is None or point is None:
+        row = Row("derivation", "parameters", "hand~mjcf", np.inf, np.inf, 0.0, False, detail=decision.unreadable)
+        return Result(name, (row,), decision.statement, {"derivation": derivation})
+    rows = [
+        Row("model", m["key"], m["check"], np.inf, np.inf, 0.0, False, detail=m["why"]) for m in model["mismatches"]
+    ]
     rows += [_row("pointwise", r, r["quantity"]) for r in point["rows"]]
-    derivation = verdict.judge_derivation(
-        system, states, sources, values=values, n_probes=probes, seed=seed, tolerances=tolerances
-    )
-    rows += [_row("derivation", r, r["term"]) for r in derivation["terms"]]
+    rows += [_row("derivation", r, r["term"]) for r in derivation.get("terms", [])]
     # Derivation rows first among the failures: they name the term, the pointwise rows the quantity.
     order = {"model": 0, "derivation": 1, "pointwise": 2}
     rows.sort(key=lambda r: (r.passed, order[r.check]))
-    statement = derivation["statement"]
-    if model["mismatches"]:
-        statement = f"the model differs from what the derivation assumes ({model['mismatches'][0]['key']}); {statement}"
     data: CheckData = {"model_checks": model, "pointwise": point, "derivation": derivation}
-    return Result(system.name, tuple(rows), statement, data)
+    return Result(name, tuple(rows), decision.statement, data)

@@ -11,15 +11,15 @@ from typing import Any
 
 import numpy as np
 
-from .checks import equivalence, judge, modelsync, verdict
-from .checks import pointwise as compare
+from .checks import equivalence, judge
 from .checks import probes as probing
+from .checks.decide import Decision, decide
 from .checks.derived import derived_data
 from .checks.probes import DEFAULT_PROBES
 from .checks.tolerances import TOLERANCES
 from .dynamics import chaos, experiments, fast, integrate
+from .dynamics.cachedir import Cache
 from .dynamics.reference import reference_trajectory
-from .engines import make_sources
 from .errors import HarnessError
 from .parallel import executor_for
 from .results import provenance
@@ -42,14 +42,16 @@ JUDGE_AMPLIFICATION = 1e3
 READABLE_MAX_DOF = 3  # the report's derived equations: a 3-joint arm simplifies in about 20 s (cached)
 
 
-def trajectory_results(system: Any, sources: dict[str, Any], *, t_end: float, dt_out: float) -> dict[str, Any]:
+def trajectory_results(
+    system: Any, sources: dict[str, Any], *, t_end: float, dt_out: float, cache: Cache | None = None
+) -> dict[str, Any]:
     """The three sources' free runs against the reference solution of the hand equations (heyoka's
-    Taylor method in long double, cached), plus the notes' perturbed start for the divergence."""
+    Taylor method in long double, kept in `cache`), plus the notes' perturbed start for the divergence."""
 
     q0, v0 = integrate.initial_state(system)
     tau = np.zeros(system.nv)
     t = integrate.time_grid(t_end, dt_out)
-    ref, ref_info = reference_trajectory(system, q0, v0, tau, t)
+    ref, ref_info = reference_trajectory(system, q0, v0, tau, t, cache_dir=reference_dir(cache))
     trajs = fast.run_trajectories(system, sources, t_end=t_end, dt_out=dt_out)
     q0b = q0.copy()
     q0b[-1] += experiments.PERTURBATION
@@ -121,31 +123,28 @@ def judge_trajectories(traj: dict[str, Any], amplification: Any) -> None:
         run["passed"] = bool(np.all(np.isfinite(err)) and err.max(initial=0.0) <= traj["threshold"])
 
 
-def model_only_result(system: Any, *, n_states: int, seed: int, t_end: float, dt_out: float) -> SystemResult:
-    """The model alone (no derivation given, e.g. a robot's URDF): the two engines' readings of it
-    compared, then MuJoCo, Pinocchio and the model's equations derived symbolically (up to
-    SYMBOLIC_MAX_DOF joints) pointwise and along free runs from 0.5 rad at rest, against MuJoCo's."""
-    sources = make_sources(system)
-    model = modelsync.check(system, sources["pinocchio"])
-    states = compare.random_states(system, n=n_states, seed=seed)
-    point = compare.pointwise_result(compare.evaluate(sources, states), states, seed=seed)
+def reference_dir(cache: Cache | None) -> Path | None:
+    """The `cache_dir` of the reference and chaos functions for `cache` (None: no cache)."""
+    return None if cache is None else cache.folder("reference")
+
+
+def model_only_result(decision: Decision, *, t_end: float, dt_out: float, cache: Cache | None = None) -> SystemResult:
+    """The model alone (no derivation given, e.g. a robot's URDF), after `decide` compared the two
+    engines' readings of it and MuJoCo, Pinocchio and the model's equations derived symbolically (up
+    to SYMBOLIC_MAX_DOF joints) pointwise: their free runs from 0.5 rad at rest, against MuJoCo's."""
+    system, sources = decision.system, decision.sources
+    model, point, derivation = decision.model_checks, decision.pointwise, decision.derivation
+    assert sources is not None and model is not None and point is not None  # decide reached the model
     why = "no derivation given: the engines' and the derived equations' free runs, against MuJoCo's (information only)"
     stages: dict[str, Any] = {}
     traj = _stage(
         stages, "trajectories", lambda: divergence_results(system, sources, t_end=t_end, dt_out=dt_out, why=why)
     )
     if system.nv <= READABLE_MAX_DOF and "symbolic" in sources:
-        derived = _stage(stages, "derived equations", lambda: derived_data(system))
+        derived = _stage(stages, "derived equations", lambda: derived_data(system, cache=cache))
     else:
         derived = None
         stages["derived equations"] = f"not run: {system.nv} joints (`lagrange-xval derive --model` prints them)"
-    derivation: Derivation = {
-        "name": "no derivation",
-        "kind": "none",
-        "verdict": "not applicable",
-        "statement": "no equations module given: the engines and the model's derived equations are compared",
-        "reason": "no equations module given",
-    }
     failed_stages = [k for k, v in stages.items() if str(v).startswith("failed")]
     failed = _what_failed(model, point, derivation, None, None, None, failed_stages)
     return {
@@ -232,53 +231,57 @@ def _stage(stages: dict[str, Any], name: str, fn: Any) -> Any:
 
 
 def run_system(
-    system: Any,
+    system: System,
     *,
     n_states: int,
     seed: int,
     t_end: float = integrate.DEFAULT_T_END,
     dt_out: float = integrate.DEFAULT_DT_OUT,
     n_probes: int = DEFAULT_PROBES,
+    cache: Cache | None = None,
 ) -> SystemResult:
-    """Everything the harness knows about one system, as plain data. The verdicts on the derivation
-    (model checks, pointwise, every term at the model's parameters and at the probes) come first;
-    the trajectory stages run only for a derivation that agrees (else a bounded divergence run)."""
-    if system.equations is None:
-        return model_only_result(system, n_states=n_states, seed=seed, t_end=t_end, dt_out=dt_out)
-    try:
-        system.params  # noqa: B018 - the user's parameters(), read before anything depends on it
-        system.equations.assumptions(system.params)
-    except Exception as exc:  # noqa: BLE001 - a derivation that cannot read its model is the finding
-        return _unreadable(system, exc)
-    sources = make_sources(system)
-    model = modelsync.check(system, sources["pinocchio"])
-    states = compare.random_states(system, n=n_states, seed=seed)
-    values = compare.evaluate(sources, states)  # evaluated once: the judges reuse the engines' values
-    point = compare.pointwise_result(values, states, seed=seed)
-    probe_set = verdict.derivation_probes(system, n_probes=n_probes, seed=seed)
-    derivation = verdict.judge_derivation(system, states, sources, probe_set, values=values, seed=seed)
+    """Everything the harness knows about one system, as plain data. The verdict comes first, from
+    `decide` (checks/decide.py: the same function `check` and the API call); the stages after it
+    (printed forms, trajectories, chaos, ...) add to the results and never judge the derivation
+    again; they run only for a derivation that agrees (else a bounded divergence run). `cache`: where
+    references, chaos summaries, derived equations and explanations are kept (None: nowhere)."""
+    decision = decide(system, n_states=n_states, seed=seed, probes=n_probes, cache=cache)
+    if decision.unreadable:
+        return _unreadable(decision)
+    if decision.model_only:
+        return model_only_result(decision, t_end=t_end, dt_out=dt_out, cache=cache)
+    sources, states, values, probe_set = decision.sources, decision.states, decision.values, decision.probe_set
+    model, point, derivation = decision.model_checks, decision.pointwise, decision.derivation
+    assert sources is not None and states is not None and probe_set is not None  # decide judged the derivation
+    assert model is not None and point is not None
     stages: dict[str, Any] = {}
     variants = (
         _stage(
             stages,
             "printed forms",
-            lambda: judge.judge_system(system, states, sources, values=values, n_probes=n_probes, seed=seed),
+            lambda: judge.judge_system(
+                system, states, sources, values=values, n_probes=n_probes, seed=seed, cache=cache
+            ),
         )
         or []
     )
     same = _stage(stages, "equivalence", lambda: equivalence.check_equivalence(system, probe_set.systems()))
     if system.nv <= READABLE_MAX_DOF:
-        derived = _stage(stages, "derived equations", lambda: derived_data(system))
+        derived = _stage(stages, "derived equations", lambda: derived_data(system, cache=cache))
     else:
         derived = None
         stages["derived equations"] = (
             f"not run: {system.nv} joints; simplifying the equations of more than {READABLE_MAX_DOF} takes minutes "
             "(`lagrange-xval derive` prints them on request)"
         )
-    agrees = model["passed"] and point["passed"] and derivation["verdict"] == "agrees"
+    agrees = decision.passed
     traj = notes_experiments = cross = None
     if agrees:
-        traj = _stage(stages, "trajectories", lambda: trajectory_results(system, sources, t_end=t_end, dt_out=dt_out))
+        traj = _stage(
+            stages,
+            "trajectories",
+            lambda: trajectory_results(system, sources, t_end=t_end, dt_out=dt_out, cache=cache),
+        )
         notes_experiments = _stage(stages, "experiments", lambda: experiments.run_experiments(system))
         cross = _stage(
             stages,
@@ -290,6 +293,7 @@ def run_system(
                 dt_out=dt_out,
                 integrators=RUN_INTEGRATORS,
                 mirror_engines=("hand", "pinocchio"),
+                cache_dir=reference_dir(cache),
             ),
         )
         if traj is not None:
@@ -406,40 +410,37 @@ def _identity(system: Any) -> SystemResult:
     }
 
 
-def _unreadable(system: Any, exc: Exception) -> SystemResult:
+def _unreadable(decision: Decision) -> SystemResult:
     """The result of a system whose parameters() or assumptions() raises: nothing else can be checked."""
-    where = "parameters()" if "params" not in system._cache else "assumptions()"
-    why = str(exc) if isinstance(exc, HarnessError) else f"{where} raised {type(exc).__name__}: {exc}".strip()
+    why = decision.unreadable
     return {
-        **_identity(system),
+        **_identity(decision.system),
         "parameters": {},
-        "derivation": {
-            "name": "hand derivation",
-            "kind": "hand",
-            "verdict": "disagrees",
-            "first_disagreeing_term": "parameters",
-            "failing_terms": ["parameters"],
-            "statement": f"parameters disagrees: {why}",
-            "hidden_by_model_values": False,
-            "terms": [],
-            "summary": [],
-        },
+        "derivation": decision.derivation,
         "variants": [],
         "stages": {"everything after reading the parameters": f"not run: {why}"},
-        "failed": [f"hand derivation: parameters disagrees: {why}"],
+        "failed": [f"hand derivation: {decision.statement}"],
         "skipped": [],
         "passed": False,
     }
 
 
-def _run_one(name: str, n_states: int, seed: int, n_probes: int = DEFAULT_PROBES) -> SystemResult:
+def _run_one(
+    name: str, n_states: int, seed: int, n_probes: int = DEFAULT_PROBES, cache: Cache | None = None
+) -> SystemResult:
     """One system, by name (picklable, for process pools)."""
 
-    return run_system(load(name), n_states=n_states, seed=seed, n_probes=n_probes)
+    return run_system(load(name), n_states=n_states, seed=seed, n_probes=n_probes, cache=cache)
 
 
 def _run_files(
-    model: str, equations: str, n_states: int, seed: int, n_probes: int, locked: tuple[str, ...] = ()
+    model: str,
+    equations: str,
+    n_states: int,
+    seed: int,
+    n_probes: int,
+    locked: tuple[str, ...] = (),
+    cache: Cache | None = None,
 ) -> SystemResult:
     """One system from a model file and an equations file (picklable, for process pools)."""
 
@@ -447,7 +448,7 @@ def _run_files(
         system = System.from_files(model, equations, locked=locked)
     else:
         system = System.model_only(model, locked=locked)
-    return run_system(system, n_states=n_states, seed=seed, n_probes=n_probes)
+    return run_system(system, n_states=n_states, seed=seed, n_probes=n_probes, cache=cache)
 
 
 def _task(fn: Any, args: tuple[Any, ...], after: Any, meta: Provenance) -> tuple[dict[str, Any], Any]:
@@ -469,6 +470,7 @@ def run(
     after: Any = None,
     rendered: dict[str, Any] | None = None,
     locked: tuple[str, ...] = (),
+    cache: Cache | None = None,
 ) -> RunResults:
     """Every system (or those named), each in a worker of `executor` (default: a process pool on
     every core; any `concurrent.futures.Executor` will do, a distributed one included). `files`:
@@ -476,7 +478,9 @@ def run(
     (equations None: the model alone, engines and derived equations only, `model_only_result`).
     `after(name, results, meta)`: a picklable function run in the worker on each system's results
     (e.g. rendering its report section); what it returns goes into `rendered[name]`. `locked`: URDF
-    joints made fixed in the `files` systems (a gripper's fingers), a named step listed in their report."""
+    joints made fixed in the `files` systems (a gripper's fingers), a named step listed in their report.
+    `cache`: the cache every worker keeps its references, summaries and explanations in (None: none),
+    handed to them as a value."""
 
     # Unknown names and unreadable files fail here, before any work starts.
     systems = load_all(names) if names or not files else []
@@ -495,9 +499,11 @@ def run(
         # mirrors step the numpy equations), then more coordinates, then more printed forms.
         order = sorted(systems, key=lambda s: ("damping" not in s.uses, -s.nv, -len(s.variants), s.name))
         meta = out["meta"]
-        futures = {pool.submit(_task, _run_one, (s.name, n_states, seed, n_probes), after, meta): s.name for s in order}
+        futures = {
+            pool.submit(_task, _run_one, (s.name, n_states, seed, n_probes, cache), after, meta): s.name for s in order
+        }
         for (model, equations), user in zip(files or [], users, strict=True):
-            args = (str(model), "" if equations is None else str(equations), n_states, seed, n_probes, locked)
+            args = (str(model), "" if equations is None else str(equations), n_states, seed, n_probes, locked, cache)
             futures[pool.submit(_task, _run_files, args, after, meta)] = user.name
         for name in futures.values():
             if progress:

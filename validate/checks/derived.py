@@ -12,15 +12,17 @@ import json
 from typing import Any
 
 from ..dynamics import cache
+from ..dynamics.cachedir import Cache
 from ..engines.derivation import derive, structure_key
 from ..engines.readable import as_data, as_text, equations
 from ..engines.symbolic import derivation_of
+from ..systems import System
 
 
-def _cached(what: str, compute: Any) -> Any:
-    """`compute()` (JSON-able), or what the cache holds for `what`."""
+def _cached(what: str, compute: Any, store: Cache | None) -> Any:
+    """`compute()` (JSON-able), or what `store` (None: no cache) holds for `what`."""
     key = hashlib.sha256((cache.harness_hash() + what).encode()).hexdigest()
-    where = cache.folder(cache.DEFAULT, "derive")
+    where = None if store is None else store.folder("derive")
     path = None if where is None else where / f"{key[:32]}.npz"
     found = None if path is None else cache.load(path, key)
     if found is not None and "value" in found[1]:
@@ -36,22 +38,34 @@ def _what(view: Any, joints: tuple[str, ...], coordinates: tuple[str, ...], join
     return repr((structure_key(view, joints), tuple(coordinates), json.dumps(mapping), fmt))
 
 
-def derived_text(view: Any, joints: tuple[str, ...], coordinates: tuple[str, ...], joint_map: Any, fmt: str) -> str:
-    """The equations of motion of the model `view` as text, LaTeX or Python (engines/readable.as_text)."""
+def derived_text(
+    view: Any,
+    joints: tuple[str, ...],
+    coordinates: tuple[str, ...],
+    joint_map: Any,
+    fmt: str,
+    *,
+    cache: Cache | None = None,
+) -> str:
+    """The equations of motion of the model `view` as text, LaTeX or Python (engines/readable.as_text),
+    kept in `cache` (None: not kept)."""
     return str(
         _cached(
             _what(view, joints, coordinates, joint_map, fmt),
             lambda: as_text(equations(derive(view, joints), tuple(coordinates), joint_map), fmt),
+            cache,
         )
     )
 
 
-def derived_data(system: Any) -> dict[str, Any]:
-    """The system's derived equations for the results: each term as text and LaTeX (readable.as_data)."""
+def derived_data(system: System, *, cache: Cache | None = None) -> dict[str, Any]:
+    """The system's derived equations for the results: each term as text and LaTeX (readable.as_data),
+    kept in `cache` (None: not kept)."""
     view, joints = system.view, system.joints
     return dict(
         _cached(
             _what(view, joints, system.coordinates, system.joint_map, "data"),
             lambda: as_data(equations(derivation_of(system), tuple(system.coordinates), system.joint_map)),
+            cache,
         )
     )

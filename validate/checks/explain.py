@@ -18,7 +18,7 @@ fit (another half of the samples); it is then stated symbolically, in the model'
 reproduces the numbers, the statement says so rather than guess.
 
 Simplifying and fitting cost seconds per entry (2.2 s per printed form of the double pendulum, most
-of a warm `run`); each entry's record is kept in the cache (kind "explain") under a hash of everything
+of a warm `run`); each entry's record is kept in the cache it is given (kind "explain") under a hash of everything
 it is computed from: the harness's code, the expected expression and its arguments, the sample states
 and parameter values, and the user's numbers at those states (what the printed form computes, not
 where it came from: an equations module changed in memory never shares an entry).
@@ -32,11 +32,13 @@ import json
 import re
 from dataclasses import dataclass
 from fractions import Fraction
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..dynamics import cache
+from ..dynamics.cachedir import Cache
 from ..engines.derivation import axis_rotation, parameter_values
 from ..engines.readable import in_coordinates, tidy, transformed
 from ..engines.symbolic import derivation_of
@@ -222,12 +224,18 @@ def _symbols(coordinates: tuple[str, ...]) -> dict[str, list[Any]]:
 
 
 def explain_entries(
-    system: Any, probe_systems: list[Any], items: list[tuple[str, str, Any, Any]], *, seed: int = 0
+    system: Any,
+    probe_systems: list[Any],
+    items: list[tuple[str, str, Any, Any]],
+    *,
+    seed: int = 0,
+    cache: Cache | None = None,
 ) -> list[dict[str, Any]]:
     """One record per disagreeing item (term, entry label, expected sympy expression in the named
     coordinates, user(system, q, v) -> one value per state): the expected expression and the symbolic
     difference the user's numbers fit (verified at held-back states), or that none fits; each record
-    read from the cache where it was computed before."""
+    read from `cache` (None: no cache) where it was computed before."""
+    where = None if cache is None else cache.folder("explain")
     d = derivation_of(system)
     symbols = _symbols(tuple(system.coordinates))
     samples = _Samples([system, *probe_systems], d, symbols, seed)
@@ -239,10 +247,10 @@ def explain_entries(
         except Exception:  # noqa: BLE001 - the user's code; an entry it cannot give is not explained
             continue
         key = _entry_key(d, samples, term, label, entry, mine)
-        found = _cached(key)
+        found = _cached(key, where)
         record = found["record"] if found is not None else _explain_entry(d, samples, symbols, term, label, entry, mine)
         if found is None:
-            _keep(key, record)
+            _keep(key, record, where)
         if record is not None:
             out.append(record)
     return out
@@ -284,15 +292,13 @@ def _entry_key(d: Any, samples: _Samples, term: str, label: str, entry: Any, min
     return h.hexdigest()
 
 
-def _cached(key: str) -> dict[str, Any] | None:
-    """{"record": ...} as kept for `key`, or None (not kept, or no cache)."""
-    where = cache.folder(cache.DEFAULT, "explain")
+def _cached(key: str, where: Path | None) -> dict[str, Any] | None:
+    """{"record": ...} as kept for `key` in the folder `where`, or None (not kept, or no cache)."""
     found = None if where is None else cache.load(where / f"{key[:32]}.npz", key)
     return found[1] if found is not None and "record" in found[1] else None
 
 
-def _keep(key: str, record: dict[str, Any] | None) -> None:
-    where = cache.folder(cache.DEFAULT, "explain")
+def _keep(key: str, record: dict[str, Any] | None, where: Path | None) -> None:
     if where is not None:
         cache.store(where / f"{key[:32]}.npz", key, {}, {"record": record})
 
@@ -366,8 +372,11 @@ def step_expression(system: Any, quantity: tuple[Any, ...], angle_index: int = 0
     return in_coordinates(d, tuple(system.coordinates), system.joint_map, expr)[0]
 
 
-def explain(system: Any, probe_systems: list[Any], terms: list[str], *, seed: int = 0) -> list[dict[str, Any]]:
-    """The disagreeing entries of a derivation's `terms` (mass matrix, gravity, ...), explained."""
+def explain(
+    system: Any, probe_systems: list[Any], terms: list[str], *, seed: int = 0, cache: Cache | None = None
+) -> list[dict[str, Any]]:
+    """The disagreeing entries of a derivation's `terms` (mass matrix, gravity, ...), explained
+    (`cache`: where records are kept, None for nowhere)."""
     d = derivation_of(system)
     coordinates = tuple(system.coordinates)
     items = []
@@ -379,7 +388,7 @@ def explain(system: Any, probe_systems: list[Any], terms: list[str], *, seed: in
         for index, label in _entries(part, system.nv, coordinates):
             entry = expr[index] if len(index) == 2 else expr[index[0]] if index else expr
             items.append((term, label, entry, _user_part(part, index)))
-    return explain_entries(system, probe_systems, items, seed=seed)
+    return explain_entries(system, probe_systems, items, seed=seed, cache=cache)
 
 
 def _fit(

@@ -16,7 +16,7 @@ joint friction), so a disagreeing form is reported with the first term that disa
     derivation step: the printed expression vs the engines' kinematics or energies.
 
 Every form is judged with the MJCF's parameters (the notes' values) and at DEFAULT_PROBES probe
-parameter sets (validate/probes.py: every parameter moved by its own factor, keeping only the
+parameter sets (validate/checks/probes.py: every parameter moved by its own factor, keeping only the
 equalities the printed forms assume), because a slip such as a missing factor l cannot show where
 l = 1.
 """
@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from ...equations._forms import DerivationStep, Implicit, NotApplicable
+from ..dynamics.cachedir import Cache
 from ..engines import make_source, make_sources
 from ..errors import HarnessError
 from ..systems.modelview import ModelView
@@ -410,11 +411,13 @@ def judge_system(
     n_probes: int = DEFAULT_PROBES,
     probe_states: int = 100,
     seed: int = 0,
+    cache: Cache | None = None,
 ) -> list[dict[str, Any]]:
     """Verdicts for every printed form of one system, at the model's parameters and at `n_probes`
-    probe parameter sets (validate/probes.py).
+    probe parameter sets (checks/probes.py).
 
-    `values`: the engines' quantities `compare.evaluate` already computed at `states`, if any."""
+    `values`: the engines' quantities `compare.evaluate` already computed at `states`, if any;
+    `cache`: where the explanations of wrong forms are kept (None: nowhere)."""
     if not system.variants:
         return []
 
@@ -448,7 +451,9 @@ def judge_system(
         v["probe_problems"] = problems
         if v["verdict"] == "disagrees":
             failing = sorted({r["term"] for r in v["terms"] if not r["passed"]})
-            v["explanations"] = explain_variant(system, var, [p.system for p in probe_list[1:]], failing, seed=seed)
+            v["explanations"] = explain_variant(
+                system, var, [p.system for p in probe_list[1:]], failing, seed=seed, cache=cache
+            )
     return verdicts
 
 
@@ -461,7 +466,13 @@ def _entry_label(name: str, shape: tuple[int, ...], index: tuple[int, ...]) -> s
 
 
 def explain_variant(
-    system: Any, variant: Any, probe_systems: list[Any], failing: list[str], *, seed: int = 0
+    system: Any,
+    variant: Any,
+    probe_systems: list[Any],
+    failing: list[str],
+    *,
+    seed: int = 0,
+    cache: Cache | None = None,
 ) -> list[dict[str, Any]]:
     """A wrong printed form's disagreeing entries as symbolic differences from the model's own
     equations (checks/explain.py), at the probes that keep the printed form's equalities: a derivation
@@ -525,7 +536,7 @@ def explain_variant(
                 if term in numerators:
                     for i, c in enumerate(names):
                         items.append((term, f"det(M) * {term} acceleration[{c}]", numerators[term][i], accel(term, i)))
-        return explain_entries(system, probe_systems, items, seed=seed)
+        return explain_entries(system, probe_systems, items, seed=seed, cache=cache)
     except Exception as exc:  # noqa: BLE001 - a printed form the symbolic basis cannot hold
         return [
             {

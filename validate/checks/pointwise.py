@@ -107,7 +107,7 @@ def evaluate(sources: dict[str, Any], states: States) -> dict[str, dict[str, np.
         hand = None
         error = f"{type(exc).__name__}: {exc}"
     if hand is None:
-        # Every quantity NaN, so each pointwise row fails; validate/verdict.py names the function.
+        # Every quantity NaN, so each pointwise row fails; validate/checks/verdict.py names the function.
         shapes = {k: np.shape(x) for k, x in next(iter(engines.values())).evaluate(q, v, tau, q * 0).items()}
         hand = {k: np.full(shape, np.nan) for k, shape in shapes.items()}
         hand["error"] = error  # type: ignore[assignment]

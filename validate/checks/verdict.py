@@ -1,5 +1,5 @@
 """The verdict on a derivation: every term, against both engines, at the model's parameters and at
-every probe (validate/probes.py), with the term that holds a mistake named.
+every probe (validate/checks/probes.py), with the term that holds a mistake named.
 
 The terms of a derivation in the form M(q) a + bias(q, v) = tau + passive(q, v):
 
@@ -26,6 +26,7 @@ from typing import Any, cast
 
 import numpy as np
 
+from ..dynamics.cachedir import Cache
 from ..engines import SYMBOLIC_MAX_DOF, make_sources
 from ..errors import HarnessError
 from ..results.schema import Derivation, Explanation, TermRow
@@ -307,7 +308,9 @@ def derivation_probes(system: Any, *, n_probes: int = probing.DEFAULT_PROBES, se
     return ProbeSet(found[1:], problems)
 
 
-def _explanations(system: Any, probe_systems: list[Any], terms: list[str], seed: int) -> list[Explanation]:
+def _explanations(
+    system: Any, probe_systems: list[Any], terms: list[str], seed: int, cache: Cache | None = None
+) -> list[Explanation]:
     """The failing terms' entries as symbolic differences; an explanation that cannot be computed is
     one line saying why, never a failed run."""
     if system.nv > SYMBOLIC_MAX_DOF:
@@ -321,7 +324,7 @@ def _explanations(system: Any, probe_systems: list[Any], terms: list[str], seed:
             }
         ]
     try:
-        return cast(list[Explanation], explain(system, probe_systems, terms, seed=seed))
+        return cast(list[Explanation], explain(system, probe_systems, terms, seed=seed, cache=cache))
     except Exception as exc:  # noqa: BLE001 - the user's code or a model the derivation cannot read
         return [
             {
@@ -344,11 +347,12 @@ def judge_derivation(
     probe_states: int = PROBE_STATES,
     seed: int = 0,
     tolerances: Tolerances = TOLERANCES,
+    cache: Cache | None = None,
 ) -> Derivation:
     """The hand derivation's verdict: every term at the model's parameters (the pointwise states and
     `values`) and at the probe parameter sets (`probe_set`, else `n_probes` drawn here), with the first
     disagreeing term named, where it is worst, whether the model's own values hide it, and which
-    parameter alone exposes it."""
+    parameter alone exposes it. `cache`: where the explanations of wrong entries are kept (None: nowhere)."""
 
     result: Derivation = {"name": "hand derivation", "kind": "hand", "equations": system.equations.__name__}
     rows, notes = term_rows_at(system, states, sources, values=values, tolerances=tolerances)
@@ -412,7 +416,7 @@ def judge_derivation(
     result["worst_term"] = {
         k: worst.get(k) for k in ("term", "engine", "probe", "max_abs", "scaled", "tolerance", "worst_state", "error")
     }
-    explained = _explanations(system, [p.system for p in probe_list], result["failing_terms"], seed)
+    explained = _explanations(system, [p.system for p in probe_list], result["failing_terms"], seed, cache)
     if explained:
         result["explanations"] = _in_your_words(system, explained)
     at_model = any(not r["passed"] for r in rows if r.get("probe") == 0)

@@ -3,32 +3,32 @@
 from __future__ import annotations
 
 import argparse
-import contextlib
 import functools
 import json
 import os
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 from ..checks import modelsync
 from ..checks import pointwise as compare
-from ..checks.pointwise import validate_states
+from ..checks.decide import decide
+from ..checks.pointwise import States, validate_states
 from ..dynamics.cache import CACHE_ENV, usable
+from ..dynamics.cachedir import Cache
 from ..engines import make_sources
 from ..errors import HarnessError
 from ..inputs import parse_json, regular_file
 from ..parallel import named_executor
-from ..pipeline import run
+from ..pipeline import reference_dir, run
 from ..replay import replay_command, shown_path, viewer_command
 from ..report import ReplayHint
 from ..report.findings import console_lines
 from ..results import load as load_results
-from ..results import to_jsonable
 from ..studies.bench import bench_command
 from ..studies.stress import stress_command
 from ..systems import System, load, pairs_in, system_names, unpaired
 from ..systems.scaffold import write_module
+from . import check as checking
 from . import simulate
 from .outputs import check_cache_dir, check_out, render_system, write_all, write_reports
 from .parser import MAX_STATES_FILE_BYTES, one_line
@@ -67,7 +67,7 @@ def cmd_list(args: argparse.Namespace) -> int:
     return 0 if all(ok for ok, _ in listed) else 1
 
 
-def numbers(path: Path, i: int, name: str, x: Any, system: Any) -> list[float]:
+def numbers(path: Path, i: int, name: str, x: Any, system: System) -> list[float]:
     """`x` as a list of nv floats; JSON types are checked, never coerced ("0.5" and true are not numbers)."""
     if not isinstance(x, list) or len(x) != system.nv:
         raise HarnessError(
@@ -87,8 +87,8 @@ def numbers(path: Path, i: int, name: str, x: Any, system: Any) -> list[float]:
     return out
 
 
-def states_from_file(system: Any, path: Path) -> Any:
-
+def states_from_file(system: System, path: Path) -> States:
+    """The states of a --states-file, checked (types, shapes, finite values), never coerced."""
     items = parse_json(regular_file(path, "states file", max_bytes=MAX_STATES_FILE_BYTES), path)
     if not isinstance(items, list) or not items:
         raise HarnessError(f'{path} must hold a non-empty JSON list of {{"q": [...], "v": [...], "tau": [...]}}.')
@@ -105,7 +105,7 @@ def states_from_file(system: Any, path: Path) -> Any:
     return validate_states(system, qs, vs, taus)
 
 
-def require_same_model(system: Any, sources: dict[str, Any]) -> None:
+def require_same_model(system: System, sources: dict[str, Any]) -> None:
     """Dynamics are compared only between sources that describe the same model."""
 
     bad = modelsync.check(system, sources["pinocchio"])["mismatches"]
@@ -118,74 +118,54 @@ def require_same_model(system: Any, sources: dict[str, Any]) -> None:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
+    """The verdict `lagrange_xval.check` and `run` give (checks/decide.py): the pointwise table, the
+    terms and the verdict line last, or one JSON object; status 0 when the verdict passes.
+    `--pointwise-only`: the sources compared at the states alone, no verdict on the derivation."""
+    system = one_system(args)
+    states = states_from_file(system, args.states_file) if args.states_file else None
+    if args.pointwise_only:
+        return pointwise_only(args, system, states)
+    cache = Cache.at(args.cache_dir) if args.cache_dir else None
+    decision = decide(system, n_states=args.states, seed=args.seed, probes=args.probes, cache=cache, states=states)
+    if cache is not None:
+        cache.trim()
+    if args.json:
+        print(json.dumps(checking.decision_json(decision), allow_nan=False))
+    else:
+        print("\n".join(checking.text_lines(decision)))
+    return 0 if decision.passed else 1
+
+
+def pointwise_only(args: argparse.Namespace, system: System, states: States | None) -> int:
+    """`check --pointwise-only`: every pair of sources at the states, at the model's own numbers only
+    (a mistake the model's values hide passes here; the verdict's probes find it)."""
     import numpy as np
 
-    system = one_system(args)
-    states = (
-        states_from_file(system, args.states_file)
-        if args.states_file
-        else compare.random_states(system, n=args.states, seed=args.seed)
-    )
+    states = states if states is not None else compare.random_states(system, n=args.states, seed=args.seed)
     sources = make_sources(system)
     require_same_model(system, sources)
     values = compare.evaluate(sources, states)
     rows = compare.compare(values, states)
+    passed = all(r["passed"] for r in rows) and bool(np.isfinite([r["max_abs"] for r in rows]).all())
     if args.json:
-        keys = ("M", "bias", "qacc", "tau_inverse", "T", "V")
-        out = {
-            "system": system.name,
-            "coordinates": list(system.coordinates),
-            "states": [
-                {
-                    "q": states.q[i],
-                    "v": states.v[i],
-                    "tau": states.tau[i],
-                    "sources": {s: {k: values[s][k][i] for k in keys} for s in values},
-                }
-                for i in range(len(states))
-            ],
-            "max_disagreement": {r["quantity"]: {} for r in rows},  # filled below
-            "passed": all(r["passed"] for r in rows),
-        }
-        disagreement: dict[str, dict[str, Any]] = out["max_disagreement"]  # type: ignore[assignment]
-        for r in rows:
-            disagreement[r["quantity"]][r["pair"]] = {
-                "max_abs": r["max_abs"],
-                "scaled": r["scaled"],
-                "tolerance": r["tolerance"],
-                "passed": r["passed"],
-            }
-
-        print(json.dumps(to_jsonable(out), allow_nan=False))
+        print(json.dumps(checking.json_document(system, states, values, rows, passed), allow_nan=False))
     else:
-        print(f"{system.name}: {len(states)} states, coordinates ({', '.join(system.coordinates)})")
-        print(f"{'quantity':15s} {'pair':20s} {'max abs':>10s} {'scaled':>10s} {'tolerance':>10s}  verdict")
-        for r in rows:
-            print(
-                f"{r['quantity']:15s} {r['pair']:20s} {r['max_abs']:10.2e} {r['scaled']:10.2e} "
-                f"{r['tolerance']:10.0e}  {'pass' if r['passed'] else 'FAIL'}"
-            )
-    return 0 if all(r["passed"] for r in rows) and np.isfinite([r["max_abs"] for r in rows]).all() else 1
+        title = f"{system.name}: {len(states)} states, coordinates ({', '.join(system.coordinates)}); pointwise only"
+        print("\n".join(checking.table_lines(rows, title)))
+    return 0 if passed else 1
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     return simulate.cmd_simulate(args, one_system)
 
 
-@contextlib.contextmanager
-def use_cache(args: argparse.Namespace) -> Iterator[None]:
-    """Points the reference and chaos caches at --cache-dir (default OUT/.cache) or turns them off,
-    through the environment so that pool workers see the same setting; restored afterwards."""
-
-    before = os.environ.get(CACHE_ENV)
-    os.environ[CACHE_ENV] = "" if args.no_cache else usable((args.cache_dir or args.out / ".cache").absolute())
-    try:
-        yield
-    finally:
-        if before is None:
-            os.environ.pop(CACHE_ENV, None)
-        else:
-            os.environ[CACHE_ENV] = before
+def cache_of(args: argparse.Namespace) -> Cache:
+    """The cache --cache-dir (default OUT/.cache) or --no-cache asks for, as the value every worker
+    and stage is handed: off where it cannot be written (one warning line, `cache.usable`)."""
+    if args.no_cache:
+        return Cache.off()
+    folder = usable((args.cache_dir or args.out / ".cache").absolute())
+    return Cache.at(folder) if folder else Cache.off()
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -195,8 +175,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     rendered: dict[str, Any] = {}
     files = user_files(args)
     locked = locked_joints(args)
-    # the executor inside the cache setting: a LocalCluster's workers inherit the environment
-    with use_cache(args), named_executor(args.executor) as executor, reporter() as progress:
+    cache = cache_of(args)
+    with named_executor(args.executor) as executor, reporter() as progress:
         results = run(
             args.systems or None,
             n_states=args.states,
@@ -208,7 +188,9 @@ def cmd_run(args: argparse.Namespace) -> int:
             after=functools.partial(render_system, replay=not args.no_replay),  # in the workers, overlapped
             rendered=rendered,
             locked=locked,
+            cache=cache,
         )
+    cache.trim()
     hint = replay_hint(args.out, written=not args.no_replay)
     write_all(results, args.out, replay=not args.no_replay, rendered=rendered, hint=hint)
     if args.systems or not files:  # the repository's systems were run: say which files were not
@@ -236,7 +218,7 @@ def locked_joints(args: argparse.Namespace) -> tuple[str, ...]:
     return locked
 
 
-def one_system(args: argparse.Namespace) -> Any:
+def one_system(args: argparse.Namespace) -> System:
     """The SYSTEM named, or the one given by --model and --equations (exactly one of the two), with
     the --lock joints made fixed."""
 
@@ -260,9 +242,10 @@ def user_files(args: argparse.Namespace) -> list[tuple[Path, Path | None]] | Non
     model, equations = getattr(args, "model", None), getattr(args, "equations", None)
     if equations is not None and model is None:
         raise HarnessError("--equations needs --model: give your model (MJCF or URDF) and your equations module.")
-    if model is not None and equations is None and getattr(args, "command", "") not in ("run", "derive"):
+    if model is not None and equations is None and getattr(args, "command", "") not in ("run", "check", "derive"):
         raise HarnessError(
-            "--model and --equations go together here (only `run` takes a model alone): give your equations module."
+            "--model and --equations go together here (only `run`, `check` and `derive` take a model alone): "
+            "give your equations module."
         )
     files: list[Any] = [(model, equations)] if model is not None else []
     folder = getattr(args, "systems_dir", None)
@@ -318,9 +301,18 @@ def cmd_derive(args: argparse.Namespace) -> int:
             )
         coordinates = names
     fmt = "latex" if args.latex else "python" if args.python else "text"
-    text = derived_text(view, tuple(joints), tuple(coordinates), joint_map, fmt)
+    text = derived_text(view, tuple(joints), tuple(coordinates), joint_map, fmt, cache=configured_cache())
     print(text, end="")
     return 0
+
+
+def configured_cache() -> Cache:
+    """`derive`'s cache: $LAGRANGE_XVAL_CACHE (empty: none), else the user's cache folder; never a
+    folder inside the installed package."""
+    value = os.environ.get(CACHE_ENV)
+    if value is None:
+        return Cache.user()
+    return Cache.at(value) if value else Cache.off()
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
@@ -336,14 +328,18 @@ def cmd_bench(args: argparse.Namespace) -> int:
             return chains_command(args, executor)
     args.files = user_files(args)  # a person's own systems, beside or instead of SYSTEM names
     args.locked = locked_joints(args)
-    with use_cache(args), named_executor(args.executor) as executor:
-        return bench_command(args, executor=executor)
+    cache = cache_of(args)
+    args.reference_cache = reference_dir(cache)  # handed to the workers as a value
+    with named_executor(args.executor) as executor:
+        status = bench_command(args, executor=executor)
+    cache.trim()
+    return status
 
 
 def cmd_stress(args: argparse.Namespace) -> int:
     args.files = user_files(args)
     args.locked = locked_joints(args)
-    with use_cache(args), named_executor(args.executor) as executor:
+    with named_executor(args.executor) as executor:  # stress keeps no cache: each section computes what it needs
         return stress_command(args, executor=executor)
 
 

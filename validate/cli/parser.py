@@ -189,6 +189,16 @@ def build_parser() -> argparse.ArgumentParser:
             "fingers; a <mimic> joint must be), a step the report lists",
         )
 
+    def probes_option(parser: argparse.ArgumentParser) -> None:
+        parser.add_argument(
+            "--probes",
+            type=probe_count,
+            default=4,
+            metavar="K",
+            help="probe parameter sets per derivation, every parameter moved, 0 to 100 "
+            "(default 4; 0: the model's only)",
+        )
+
     def cache_options(parser: argparse.ArgumentParser) -> None:
         parser.add_argument(
             "--cache-dir", type=path_arg, metavar="DIR", help="reference and chaos cache (default: OUT/.cache)"
@@ -249,13 +259,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="reports folder: report.html, report.md, results.json, <system>.rrd (default: reports)",
     )
     run.add_argument("--no-replay", action="store_true", help="skip the rerun .rrd recordings")
-    run.add_argument(
-        "--probes",
-        type=probe_count,
-        default=4,
-        metavar="K",
-        help="probe parameter sets per derivation, every parameter moved, 0 to 100 (default 4; 0: the model's only)",
-    )
+    probes_option(run)
     model_options(run)
     run.add_argument(
         "--systems",
@@ -267,7 +271,11 @@ def build_parser() -> argparse.ArgumentParser:
     cache_options(run)
     executor_option(run, "the systems")
 
-    check = command("check", help="pointwise comparison of the three sources")
+    check = command(
+        "check",
+        help="the verdict on one derivation, as `run` and lagrange_xval.check give it, without trajectories; "
+        "writes nothing",
+    )
     one_system_argument(check)
     model_options(check)
     given = check.add_mutually_exclusive_group()
@@ -290,6 +298,19 @@ def build_parser() -> argparse.ArgumentParser:
     )
     seed_option(check, "states (not used with --states-file)")
     check.add_argument("--json", action="store_true", help="print one JSON object (schema in the README)")
+    probes_option(check)
+    check.add_argument(
+        "--pointwise-only",
+        action="store_true",
+        help="only compare the sources at the states, at the model's own numbers: no probes, no term verdict "
+        "(a mistake the model's values hide passes)",
+    )
+    check.add_argument(
+        "--cache-dir",
+        type=path_arg,
+        metavar="DIR",
+        help="keep the explanations of wrong entries in DIR (default: none; check writes nothing)",
+    )
 
     sim = command(
         "simulate", help="one trajectory of one source, sampled every --dt-out seconds, written as CSV or JSON"

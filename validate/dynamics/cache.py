@@ -13,8 +13,10 @@ mismatched or foreign file says so on one stderr line and returns None: the call
 the entry is rewritten. Files are readable by everyone (0644); an entry another user wrote (another
 key) is recomputed like a forged one. A cache that cannot be written costs time, never the run.
 
-Where: `$LAGRANGE_XVAL_CACHE` (the CLI sets it from `--cache-dir`, default `OUT/.cache`, and to the
-empty string for `--no-cache`; pool workers inherit it), else `reports/.cache` in the checkout.
+Where: the folder of the `Cache` value a caller passes down (dynamics/cachedir.py: `run` and `check`);
+for `cache_dir=DEFAULT`, `$LAGRANGE_XVAL_CACHE` (`bench` sets it from `--cache-dir`, default
+`OUT/.cache`, and to the empty string for `--no-cache`; pool workers inherit it), else the user's cache
+folder, never a folder inside the installed package.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ import numpy as np
 from ..files import create_file, replace_file, stage
 from ..files import folder as open_folder
 from ..systems import PACKAGE_ROOT
+from .cachedir import user_folder
 
 SCHEMA = 3  # bump when an entry's layout or meaning changes (3: signed, no longer checksummed)
 CACHE_ENV = "LAGRANGE_XVAL_CACHE"
@@ -49,7 +52,7 @@ def root() -> Path | None:
     """The cache folder in use, or None when caching is off."""
     value = os.environ.get(CACHE_ENV)
     if value is None:
-        return PACKAGE_ROOT / "reports" / ".cache"
+        return user_folder()
     return Path(value) if value else None
 
 

@@ -7,7 +7,7 @@ says more about the horizon than about the equations. This module measures the g
 into an expectation:
 
   amplification   A(t) = ||P_q Phi(t)||_2, Phi(t) = dx(t)/dx(0) from the variational equations
-                  (heyoka, on the symbolic hand equations of validate/reference.py), P_q the q rows:
+                  (heyoka, on the symbolic hand equations of validate/dynamics/reference.py), P_q the q rows:
                   the largest q error (rad) per unit initial state error.
   Lyapunov        largest exponent lambda, by Benettin's method: tangent vectors renormalised by QR
                   every `interval` (variational), and, as a simple independent path, two nearby

@@ -11,7 +11,7 @@ ode45) at both tolerances, and two times are reported:
                  of the hand equations (heyoka Taylor in double, dynamics/fast.py): how long the loose
                  solver is right.
 
-Some printed forms are wrong, so every integration is bounded (validate/integrate.py `Budget`): a
+Some printed forms are wrong, so every integration is bounded (validate/dynamics/integrate.py `Budget`): a
 form that blows up or spends its budget is recorded with the reason ("diverged at t = ...",
 "stopped: budget: ...") as its status, and its run is kept up to there (NaN after).
 """
@@ -53,7 +53,7 @@ def _integrate(
     budget: Budget = DEFAULT_BUDGET,
 ) -> tuple[np.ndarray, dict[str, Any]]:
     """q (K, n) of the compiled right-hand side `rhs` (NaN after a stop) and {"status", "stopped_at",
-    "reason", "nfev"} (validate/integrate.py `outcome`); never raises for what `rhs` computes."""
+    "reason", "nfev"} (validate/dynamics/integrate.py `outcome`); never raises for what `rhs` computes."""
     n = len(q0)
     run = integrate_rhs(
         rhs,

@@ -1,6 +1,6 @@
 """A scalar fast path for the hand equations, generated from the equations module itself.
 
-The module's numpy functions are traced with sympy symbols (validate/tracing.py), giving M(q),
+The module's numpy functions are traced with sympy symbols (validate/systems/tracing.py), giving M(q),
 bias(q, v) and passive(q, v) as sympy expressions with the compiled MJCF's parameters as numbers.
 The right-hand side a = M^-1 (tau + passive - bias) is then solved symbolically (n <= 3), reduced
 by common-subexpression elimination and printed as plain Python with `math`: one call costs what a
@@ -120,7 +120,7 @@ def scalar_rhs(system: Any, variant: Any = None, *, damped_step: float | None = 
 
     The code is plain `math`: on a wrong derivation it can raise ZeroDivisionError (a singular M),
     OverflowError or ValueError (a math domain error); the integrators turn these into a finding
-    (validate/integrate.py EQUATION_ERRORS)."""
+    (validate/dynamics/integrate.py EQUATION_ERRORS)."""
     key = _key(system, variant, damped_step)
     cache = system._cache
     if key not in cache:

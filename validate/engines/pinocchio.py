@@ -162,7 +162,7 @@ class PinocchioSource:
 
     def damped_rhs(self, tau: np.ndarray, h: float):
         """The right-hand side of MuJoCo's Euler step with implicit joint damping on CRBA and RNEA:
-        a = (M + h D)^-1 (tau - D v - nle(q, v)), one state per call (see validate/mirror.py)."""
+        a = (M + h D)^-1 (tau - D v - nle(q, v)), one state per call (see validate/dynamics/mirror.py)."""
         n, model, data = len(tau), self.model, self.data
         qfull, vfull, zero = pin.neutral(model), np.zeros(model.nv), np.zeros(model.nv)
         qidx, vidx, damping = self.qidx, self.vidx, self.damping

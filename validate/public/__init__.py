@@ -9,11 +9,14 @@ itself is `lagrange_xval.validate`, the repository's systems `lagrange_xval.equa
     result = lx.check(lx.System.from_files("my_pendulum.xml", "my_pendulum.py"))
     result.assert_ok()
 
+`check` writes nothing; `check(..., cache=lx.Cache.user())` keeps the explanations of wrong entries in
+the user's cache folder (`lx.Cache.at(folder)` elsewhere), so a second check of the same mistake is fast.
+
 `lagrange_xval.testing` has the helpers for a pytest suite of your own, `lagrange_xval.forms` those an
 equations module imports (stack_vector, body, hinge, not_provided, the printed-form classes).
 """
 
-from lagrange_xval.validate.api import Result, Row, System, check, load
+from lagrange_xval.validate.api import Cache, Result, Row, System, check, load
 from lagrange_xval.validate.errors import HarnessError
 
-__all__ = ["HarnessError", "Result", "Row", "System", "check", "load"]
+__all__ = ["Cache", "HarnessError", "Result", "Row", "System", "check", "load"]

@@ -5,7 +5,7 @@
     from lagrange_xval.testing import assert_equations_match, systems_in
 
     def test_my_pendulum():
-        assert_equations_match("models/my_pendulum.xml", "equations/my_pendulum.py")
+        assert_equations_match("mine/my_pendulum.xml", "mine/my_pendulum.py")
 
     @pytest.mark.parametrize("system", systems_in("my_systems"))
     def test_every_system(system):
@@ -28,8 +28,9 @@ __all__ = ["assert_equations_match", "systems_in"]
 
 
 def assert_equations_match(model: str | Path | System, equations: str | Path | None = None, **options: Any) -> Result:
-    """Checks a derivation against MuJoCo and Pinocchio (`check`'s keyword options: n_states, seed,
-    probes, tolerances) and raises AssertionError if any comparison fails; returns the Result."""
+    """Checks a derivation against MuJoCo and Pinocchio, with the verdict `lagrange_xval.check` gives
+    (its keyword options: n_states, seed, probes, tolerances, cache), and raises AssertionError if
+    any comparison fails; returns the Result."""
     if isinstance(model, System):
         if equations is not None:
             raise TypeError("give either a System or a model and an equations file, not both")

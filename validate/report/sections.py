@@ -172,7 +172,7 @@ def header(results: dict[str, Any]) -> Header:
 
 
 def cached_line(results: dict[str, Any]) -> str:
-    """Which results were loaded from the cache (validate/cache.py) rather than computed in this run."""
+    """Which results were loaded from the cache (validate/dynamics/cache.py) rather than computed in this run."""
     hits = []
     for name, s in sorted(results.get("systems", {}).items()):
         chaos = s.get("chaos") or {}

@@ -139,7 +139,7 @@ def compile_mjcf(path: Path, overrides: tuple[tuple[str, float], ...] = (), text
     import mujoco
 
     # MuJoCo's default warning handler appends to MUJOCO_LOG.TXT in the working directory; the
-    # harness reads the warning counters of MjData instead (validate/integrate.py).
+    # harness reads the warning counters of MjData instead (validate/dynamics/integrate.py).
     mujoco.set_mju_user_warning(_ignore_warning)
     text = mjcf_text(path, overrides, text)
     try:
@@ -199,7 +199,7 @@ class System:
 
     def with_overrides(self, **values: float) -> System:
         """A copy with parameter overrides, by key (`"body/link1/mass"`) or as keyword arguments with
-        `__` for `/` (`body__link1__mass=1.5`); see validate/overrides.py for the keys."""
+        `__` for `/` (`body__link1__mass=1.5`); see validate/systems/overrides.py for the keys."""
 
         items = [f"{k.replace('__', '/')}={v!r}" for k, v in values.items()]
         return self.derive(overrides=self.overrides + parse(items))
@@ -431,7 +431,7 @@ class System:
 
 
 def _check_contract(module: ModuleType, where: str) -> ModuleType:
-    """The module, brought to form (a) (validate/forms.py) once it is known to meet the contract."""
+    """The module, brought to form (a) (validate/systems/forms.py) once it is known to meet the contract."""
 
     missing = [a for a in REQUIRED_ATTRIBUTES if not callable(getattr(module, a, None))]
     if missing:

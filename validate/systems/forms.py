@@ -14,7 +14,7 @@ reference) reads one interface:
 (b) and (c) are linear in a and tau, so M comes from unit accelerations (inputs); at v = 0 what is
 left is gravity; the rest splits by parity in v: the Coriolis and centrifugal forces are even in v
 (quadratic), viscous friction odd (linear). (d) is differentiated symbolically: the module's own
-numpy code is traced with sympy symbols for the parameters, q and v (validate/tracing.py), and
+numpy code is traced with sympy symbols for the parameters, q and v (validate/systems/tracing.py), and
 M = d2T/dv2, G = dV/dq, C v = (d/dq dT/dv) v - dT/dq are exact, then generated as numpy code.
 Every derived function uses only arithmetic on the module's outputs (or generated numpy code), so
 it can itself be traced for the fast path and the Taylor reference.

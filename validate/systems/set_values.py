@@ -343,7 +343,7 @@ def set_values(
 
     Args:
         text: an MJCF document.
-        values: ModelView keys (see validate/modelview.py) to their new values, at full precision. NaN
+        values: ModelView keys (see validate/systems/modelview.py) to their new values, at full precision. NaN
             entries (or a NaN scalar) mean "leave as is"; an inertia's NaN entries may be chosen: the current
             ones are kept where the tensor stays a body's, else values are chosen that make it one, with
             principal moments satisfying A + B >= 1.05 C. Structure keys (parent, type, body, joint) must

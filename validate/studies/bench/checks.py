@@ -40,10 +40,10 @@ import numpy as np
 from ...dynamics.fast import accurate_trajectory
 from ...dynamics.integrate import SCIPY_DEFAULT, scipy_trajectory, time_grid
 from ...dynamics.mirror import mirror_steps, mirror_trajectory, mujoco_steps
-from ...dynamics.reference import reference_trajectory
+from ...dynamics.reference import DEFAULT_CACHE_DIR, reference_trajectory
 from .plan import CHECKS_TARGET, GRID_DRIVERS, MAX_EXECUTIONS, MIN_TIMED
 from .ratios import interleaved_medians
-from .runners import case_for, execute, resources
+from .runners import CacheDir, case_for, execute, resources
 
 SAME_EQUATIONS = {"hand": ("hand", "hand-cfunc"), "symbolic": ("symbolic",), "pinocchio": ("pinocchio",)}
 
@@ -108,7 +108,7 @@ def check_jobs(name: str) -> dict[str, tuple[str, str, Callable[[], Any]]]:
     return jobs
 
 
-def measure_checks(name: str, *, reps: int) -> dict[str, Any]:
+def measure_checks(name: str, *, reps: int, cache_dir: CacheDir = DEFAULT_CACHE_DIR) -> dict[str, Any]:
     """Each of the harness's own trajectory checks on one system (a worker task): CPU time (median of
     `reps` interleaved repeats of back-to-back executions lasting MIN_TIMED, per execution, after
     untimed calls that compile what they need), error at t = 2 s
@@ -117,7 +117,7 @@ def measure_checks(name: str, *, reps: int) -> dict[str, Any]:
     case = case_for(system)
     t = time_grid(case["t_end"], case["dt_out"])
     q0, v0, tau = (np.asarray(case[k], dtype=float) for k in ("q0", "v0", "tau"))
-    ref, _ = reference_trajectory(system, q0, v0, tau, t)
+    ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=cache_dir)
     dt = float(sources["mujoco"].m.opt.timestep)
     steps = round(float(t[1] - t[0]) / dt)
     hand = sources["hand"]

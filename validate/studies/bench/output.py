@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import statistics
 import sys
 import time
@@ -10,6 +11,7 @@ from concurrent.futures import Executor
 from pathlib import Path
 from typing import Any
 
+from ...dynamics.reference import DEFAULT_CACHE_DIR
 from ...errors import HarnessError
 from ...parallel import executor_for
 from ...results import atomic_write, dumps, provenance
@@ -46,7 +48,7 @@ from .ratios import (
     rhs_ratio,
     run_wall_times,
 )
-from .runners import prepare
+from .runners import CacheDir, prepare
 
 
 def run_bench(
@@ -59,6 +61,7 @@ def run_bench(
     time_run: bool | None = None,
     files: list[tuple[Path, Path]] | None = None,
     locked: tuple[str, ...] = (),
+    cache_dir: CacheDir = DEFAULT_CACHE_DIR,
 ) -> dict[str, Any]:
     """The work-precision sweep and the ratios, as JSON-able data.
 
@@ -70,6 +73,8 @@ def run_bench(
         time_run: time `lagrange-xval run` (default: not quick).
         files: (model, equations) pairs of a person's own systems, benched beside (or instead of) names.
         locked: URDF joints of the `files` systems made fixed (a gripper's fingers; `--lock`).
+        cache_dir: where the references and chaos summaries are kept, handed to every worker (a
+            folder, None for no cache; default the configured cache).
     """
     start = time.perf_counter()
     chosen = list(names) if names else ([] if files else list(QUICK_SYSTEMS if quick else system_names()))
@@ -86,14 +91,14 @@ def run_bench(
     with executor_for(executor) as pool:
         if progress:
             progress(f"preparing references for {', '.join(named[k] for k in chosen)}")
-        prepared = dict(zip(chosen, pool.map(prepare, chosen), strict=True))
+        prepared = dict(zip(chosen, pool.map(functools.partial(prepare, cache_dir=cache_dir), chosen), strict=True))
         extra: dict[str, tuple[Callable[..., Any], tuple[Any, ...]]] = {}
         if RHS_SYSTEM in system_names():
             extra["rhs"] = (rhs_task, (15 if not quick else 7,))
         for name in chosen:
             extra[f"pointwise {name}"] = (pointwise_task, (name, 5 if not quick else 3))
             extra[f"flags {name}"] = (flags_task, (name, 20_000 if not quick else 5_000, reps_small))
-            extra[f"checks {name}"] = (checks_task, (name, reps_small))
+            extra[f"checks {name}"] = (checks_task, (name, reps_small, cache_dir))
         rows, extras = sweep(
             prepared, specs, repeats=repeats, executor=pool, budget=budget, progress=progress, extra=extra
         )
@@ -209,8 +214,8 @@ def flags_task(name: str, steps: int, reps: int) -> list[dict[str, Any]]:
     return flags_ratio(name, steps=steps, reps=reps)
 
 
-def checks_task(name: str, reps: int) -> dict[str, Any]:
-    return measure_checks(name, reps=reps)
+def checks_task(name: str, reps: int, cache_dir: CacheDir = DEFAULT_CACHE_DIR) -> dict[str, Any]:
+    return measure_checks(name, reps=reps, cache_dir=cache_dir)
 
 
 def write_bench(results: dict[str, Any], out: Path) -> Path:
@@ -475,6 +480,7 @@ def bench_command(args: Any, executor: Executor | None = None) -> int:
         files=getattr(args, "files", None),
         locked=tuple(getattr(args, "locked", None) or ()),
         executor=executor,
+        cache_dir=getattr(args, "reference_cache", DEFAULT_CACHE_DIR),
     )
     results["config"]["executor"] = getattr(args, "executor", None) or "local"
     path = write_bench(results, Path(getattr(args, "out", None) or "reports"))

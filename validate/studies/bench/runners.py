@@ -11,6 +11,7 @@ import threading
 import time
 import warnings
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -19,7 +20,7 @@ from ...dynamics.chaos import chaos_summary
 from ...dynamics.compiled import compiled_rhs, compiled_rk4, rk4_grid, rk4_plan, taylor_grid, taylor_integrator
 from ...dynamics.integrate import SCIPY_DEFAULT, initial_state, scipy_trajectory, time_grid
 from ...dynamics.mirror import mirror_trajectory
-from ...dynamics.reference import reference_trajectory
+from ...dynamics.reference import DEFAULT_CACHE_DIR, reference_trajectory
 from ...engines import make_sources
 from ...engines.fastpath import scalar_rhs
 from ...errors import HarnessError
@@ -36,6 +37,8 @@ from .plan import (
     T_END,
     TAYLOR_MAX_STEPS,
 )
+
+CacheDir = Path | str | None  # reference_trajectory's cache_dir: a folder, None (no cache) or cache.DEFAULT
 
 
 class Stop(Exception):
@@ -67,13 +70,16 @@ def case_for(system: Any) -> dict[str, Any]:
     }
 
 
-def prepare(name: str) -> dict[str, Any]:
-    """Reference trajectory and predictability horizon of one system (cached on disk; a worker task)."""
+def prepare(name: str, cache_dir: CacheDir = DEFAULT_CACHE_DIR) -> dict[str, Any]:
+    """Reference trajectory and predictability horizon of one system (a worker task), kept in
+    `cache_dir` (reference_trajectory's: a folder, None for none, or the configured cache)."""
     system, _ = resources(name)
     case = case_for(system)
     t = time_grid(case["t_end"], case["dt_out"])
-    ref, info = reference_trajectory(system, case["q0"], case["v0"], case["tau"], t)
-    summary = chaos_summary(system, case["q0"], case["v0"], case["tau"], t=t, tolerance=HORIZON_TOLERANCE)
+    ref, info = reference_trajectory(system, case["q0"], case["v0"], case["tau"], t, cache_dir=cache_dir)
+    summary = chaos_summary(
+        system, case["q0"], case["v0"], case["tau"], t=t, tolerance=HORIZON_TOLERANCE, cache_dir=cache_dir
+    )
     horizon = summary["horizon_from_rounding"]["horizon"]
     return {
         "case": case,

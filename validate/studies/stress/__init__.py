@@ -6,7 +6,7 @@ to at most SERIES_POINTS points, so the report can plot them without the raw run
   drift           Energy E = T + V (by the hand equations) along free runs of `drift_horizons` from the
                   notes' initial state, on the conservative systems (USES without "damping" and
                   "actuation"): MuJoCo's Euler (semi-implicit), RK4, implicit and implicitfast at the
-                  MJCF timestep, and the mirrors (validate/mirror.py) of RK4 and Euler on the hand
+                  MJCF timestep, and the mirrors (validate/dynamics/mirror.py) of RK4 and Euler on the hand
                   equations. One run of the longest horizon gives every shorter one (its first part).
   stability       The largest timestep at which each MuJoCo integrator and each fixed-step mirror stays
                   stable for `stability_t_end` from the notes' q0 with every speed (in the notes'

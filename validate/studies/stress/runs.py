@@ -38,7 +38,7 @@ def simulate(
     """A free run sampled every `sample_steps` steps, stopped at the first sign of instability.
 
     Args:
-        engine: "mujoco" (mj_step) or "mirror" (MuJoCo's scheme on the hand equations, validate/mirror.py).
+        engine: "mujoco" (mj_step) or "mirror" (MuJoCo's scheme on the hand equations, validate/dynamics/mirror.py).
         q0, v0, tau: (n,) initial state and constant input.
         timestep: s; the run takes ceil(t_end / timestep) steps (a whole number of samples).
         eulerdamp: False disables MuJoCo's implicit treatment of joint damping in Euler (mujoco only).

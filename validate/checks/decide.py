@@ -1,0 +1,162 @@
+"""The verdict on one system, decided in one place: `decide`.
+
+Every way of asking for a verdict calls it: `lagrange_xval.check`, `lagrange_xval.testing`, the
+`check` command and `run` (pipeline.run_system, which adds its trajectory stages after it and never
+judges a second time). In order:
+
+    1. parameters() and assumptions(): a derivation that cannot read its model is the verdict
+       (nothing else can be checked), said with the function that raised;
+    2. a model alone (no equations module): the engines' readings of the model compared, then the
+       sources pointwise; there is no derivation to judge;
+    3. model checks: what the equations assume of the compiled model, Pinocchio against MuJoCo;
+    4. every source at the states (seeded random ones, or those given), every pair pointwise;
+    5. the derivation term by term at the model's parameters and at the probe parameter sets
+       (checks/verdict.py), the first disagreeing term named.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..dynamics.cachedir import Cache
+from ..engines import make_sources
+from ..errors import HarnessError
+from ..results.schema import Derivation, ModelChecks, Pointwise
+from ..systems import System
+from . import modelsync, verdict
+from . import pointwise as compare
+from .pointwise import States
+from .probes import DEFAULT_PROBES
+from .tolerances import TOLERANCES, Tolerances
+
+NO_DERIVATION = "no equations module given: the engines and the model's derived equations are compared"
+
+
+@dataclass(frozen=True)
+class Decision:
+    """What `decide` found: the derivation's verdict and the checks it rests on, with the states,
+    sources and values they were computed from (for the stages `run` adds after the verdict).
+
+    `model_checks` and `pointwise` are None when parameters() or assumptions() raised (`unreadable`
+    says why); `probe_set` is None for a model alone."""
+
+    system: System
+    derivation: Derivation
+    model_checks: ModelChecks | None = None
+    pointwise: Pointwise | None = None
+    states: States | None = None
+    sources: dict[str, Any] | None = None
+    values: dict[str, dict[str, np.ndarray]] | None = None
+    probe_set: verdict.ProbeSet | None = None
+    unreadable: str = ""
+
+    @property
+    def model_only(self) -> bool:
+        return self.system.equations is None
+
+    @property
+    def passed(self) -> bool:
+        """Model checks, every pointwise pair and (given a derivation) every term agree."""
+        if self.model_checks is None or self.pointwise is None:
+            return False
+        checks = bool(self.model_checks["passed"] and self.pointwise["passed"])
+        return checks if self.model_only else checks and self.derivation.get("verdict") == "agrees"
+
+    @property
+    def statement(self) -> str:
+        """The verdict in one sentence: the derivation's statement, with what else failed."""
+        text = str(self.derivation.get("statement", ""))
+        if self.model_checks is None or self.pointwise is None:
+            return text
+        if self.model_checks["mismatches"]:
+            key = self.model_checks["mismatches"][0]["key"]
+            text = f"the model differs from what the derivation assumes ({key}); {text}"
+        bad = [r for r in self.pointwise["rows"] if not r["passed"]]
+        if bad and (self.model_only or self.derivation.get("verdict") == "agrees"):
+            more = f" (and {len(bad) - 1} more)" if len(bad) > 1 else ""
+            text += f"; but pointwise {bad[0]['quantity']} {bad[0]['pair']} disagrees{more}"
+        return text
+
+
+def decide(
+    system: System,
+    *,
+    n_states: int,
+    seed: int,
+    probes: int = DEFAULT_PROBES,
+    cache: Cache | None = None,
+    states: States | None = None,
+    tolerances: Tolerances = TOLERANCES,
+) -> Decision:
+    """The verdict on `system` (module docstring).
+
+    Args:
+        system: the model and its equations module (or the model alone).
+        n_states: how many seeded random states the sources are compared at (ignored with `states`).
+        seed: the seed of the states and of the probe parameter sets.
+        probes: how many probe parameter sets the derivation's terms are judged at.
+        cache: where the explanations of wrong entries are kept (None: nowhere).
+        states: the states to compare at instead of random ones.
+        tolerances: the tiers every comparison is judged against.
+
+    Returns:
+        The Decision. Nothing a derivation computes raises out of here: its exceptions are findings.
+    """
+    why = _unreadable(system)
+    if why:
+        return Decision(system, unreadable_derivation(why), unreadable=why)
+    sources = make_sources(system)
+    model = modelsync.check(system, sources["pinocchio"])
+    states = states if states is not None else compare.random_states(system, n=n_states, seed=seed)
+    values = compare.evaluate(sources, states)  # evaluated once: the judges reuse the engines' values
+    point = compare.pointwise_result(values, states, seed=seed, tolerances=tolerances)
+    if system.equations is None:
+        return Decision(system, no_derivation(), model, point, states, sources, values)
+    probe_set = verdict.derivation_probes(system, n_probes=probes, seed=seed)
+    derivation = verdict.judge_derivation(
+        system, states, sources, probe_set, values=values, seed=seed, tolerances=tolerances, cache=cache
+    )
+    return Decision(system, derivation, model, point, states, sources, values, probe_set)
+
+
+def _unreadable(system: System) -> str:
+    """Why the derivation cannot read its model (parameters() or assumptions() raised), or ""."""
+    if system.equations is None:
+        return ""
+    where = "parameters()"
+    try:
+        params = system.params
+        where = "assumptions()"
+        system.equations.assumptions(params)
+    except Exception as exc:  # noqa: BLE001 - a derivation that cannot read its model is the finding
+        return str(exc) if isinstance(exc, HarnessError) else f"{where} raised {type(exc).__name__}: {exc}".strip()
+    return ""
+
+
+def unreadable_derivation(why: str) -> Derivation:
+    """The verdict on a derivation whose parameters() or assumptions() raised."""
+    return {
+        "name": "hand derivation",
+        "kind": "hand",
+        "verdict": "disagrees",
+        "first_disagreeing_term": "parameters",
+        "failing_terms": ["parameters"],
+        "statement": f"{why}; nothing else could be checked",
+        "hidden_by_model_values": False,
+        "terms": [],
+        "summary": [],
+    }
+
+
+def no_derivation() -> Derivation:
+    """The derivation part of a model checked alone."""
+    return {
+        "name": "no derivation",
+        "kind": "none",
+        "verdict": "not applicable",
+        "statement": NO_DERIVATION,
+        "reason": "no equations module given",
+    }

@@ -1,0 +1,124 @@
+"""What `lagrange-xval check` prints: the pointwise table, the terms, and the verdict line last; or
+one JSON object (README, "check --json schema")."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..checks.decide import Decision
+from ..checks.pointwise import States
+from ..results import to_jsonable
+from ..results.schema import ComparisonRow, Mismatch
+from ..systems import System
+
+QUANTITIES = ("M", "bias", "qacc", "tau_inverse", "T", "V")  # each state's quantities in the JSON
+
+
+def mismatches(decision: Decision) -> list[Mismatch]:
+    """The model checks' mismatches (none when the derivation could not read its model)."""
+    return [] if decision.model_checks is None else decision.model_checks["mismatches"]
+
+
+def verdict_line(decision: Decision) -> str:
+    """The last line of `check`: the system, pass or FAIL, and the statement."""
+    return f"verdict: {decision.system.name}: {'pass' if decision.passed else 'FAIL'}: {decision.statement}"
+
+
+def verdict_data(decision: Decision) -> dict[str, Any]:
+    """The verdict in the JSON object: what `lagrange_xval.check` and `run` decide, term by term."""
+    d = decision.derivation
+    return {
+        "passed": decision.passed,
+        "statement": decision.statement,
+        "derivation": d.get("verdict", ""),
+        "first_disagreeing_term": d.get("first_disagreeing_term"),
+        "hidden_by_model_values": d.get("hidden_by_model_values", False),
+        "model_mismatches": [m["key"] for m in mismatches(decision)],
+        "terms": [
+            {k: t.get(k) for k in ("term", "passed", "worst_scaled", "tolerance", "engine", "probe")}
+            for t in d.get("summary", [])
+        ],
+    }
+
+
+def json_document(
+    system: System,
+    states: States | None,
+    values: dict[str, dict[str, np.ndarray]],
+    rows: list[ComparisonRow],
+    passed: bool,
+    verdict: dict[str, Any] | None = None,
+) -> dict[str, Any]:
+    """`check --json`: the states, every source's quantities at each, the largest disagreement of
+    each quantity and pair, `passed`, and the `verdict` (absent with --pointwise-only)."""
+    disagreement: dict[str, dict[str, Any]] = {}
+    for r in rows:
+        disagreement.setdefault(r["quantity"], {})[r["pair"]] = {
+            k: r[k] for k in ("max_abs", "scaled", "tolerance", "passed")
+        }
+    out: dict[str, Any] = {
+        "system": system.name,
+        "coordinates": list(system.coordinates),
+        "states": [
+            {
+                **states.state(i),
+                "sources": {s: {k: values[s][k][i] for k in QUANTITIES if k in values[s]} for s in values},
+            }
+            for i in range(len(states))
+        ]
+        if states is not None
+        else [],
+        "max_disagreement": disagreement,
+        "passed": passed,
+    }
+    if verdict is not None:
+        out["verdict"] = verdict
+    return dict(to_jsonable(out))
+
+
+def decision_json(decision: Decision) -> dict[str, Any]:
+    """`check --json` of a verdict: `passed` is the verdict's."""
+    rows = decision.pointwise["rows"] if decision.pointwise is not None else []
+    values = decision.values or {}
+    return json_document(decision.system, decision.states, values, rows, decision.passed, verdict_data(decision))
+
+
+def table_lines(rows: list[ComparisonRow], title: str) -> list[str]:
+    """The pointwise rows as a table under a one-line title."""
+    lines = [title, f"{'quantity':15s} {'pair':20s} {'max abs':>10s} {'scaled':>10s} {'tolerance':>10s}  verdict"]
+    lines += [
+        f"{r['quantity']:15s} {r['pair']:20s} {r['max_abs']:10.2e} {r['scaled']:10.2e} "
+        f"{r['tolerance']:10.0e}  {'pass' if r['passed'] else 'FAIL'}"
+        for r in rows
+    ]
+    return lines
+
+
+def term_lines(decision: Decision) -> list[str]:
+    """The derivation's terms, each with its worst scaled error, where (engine, probe) and its tier."""
+    summary = decision.derivation.get("summary", [])
+    if not summary:
+        return []
+    lines = ["terms of the derivation, at the model's parameters (probe 0) and at the probe parameter sets:"]
+    lines.append(f"{'term':17s} {'worst scaled':>12s} {'tolerance':>10s}  {'engine':10s} {'probe':>5s}  verdict")
+    for t in summary:
+        lines.append(
+            f"{t['term']:17s} {t['worst_scaled']:12.2e} {t['tolerance']:10.0e}  {t['engine']:10s} "
+            f"{t['probe'] if t['probe'] is not None else '-':>5}  {'pass' if t['passed'] else 'FAIL'}"
+        )
+    return lines
+
+
+def text_lines(decision: Decision) -> list[str]:
+    """`check`'s table: the pointwise rows, the terms, the model mismatches, and the verdict line last."""
+    lines = []
+    if decision.states is not None and decision.pointwise is not None:
+        coordinates = ", ".join(decision.system.coordinates)
+        title = f"{decision.system.name}: {len(decision.states)} states, coordinates ({coordinates})"
+        lines += table_lines(decision.pointwise["rows"], title)
+    for m in mismatches(decision):
+        lines.append(f"model: {m['key']} ({m['check']}): {m['why']}")
+    lines += term_lines(decision)
+    return [*lines, verdict_line(decision)]
