@@ -139,14 +139,16 @@ def test_the_same_elements_switched_off_by_the_model_are_in_scope(tmp_path):
     assert systems.System(name=POINT.name, mjcf=path, equations=POINT.equations).mujoco_model().njnt == 2
 
 
-def test_check_refuses_models_that_differ_before_comparing_dynamics(tmp_path, monkeypatch, capsys):
+def test_check_fails_a_model_that_differs_from_what_the_derivation_assumes(tmp_path, monkeypatch, capsys):
+    """The model checks come first: a model the derivation does not describe is the verdict (exit 1, the
+    key named on the verdict line), as in run and the API."""
     s = _variant(tmp_path, 'pos="0 -1 0" mass="1"', 'pos="0.1 -1 0" mass="1"')  # bob off the rod
     from lagrange_xval.validate import cli
 
     monkeypatch.setattr(cli.commands, "load", lambda name, overrides=(): s)  # the name the CLI resolves systems by
-    assert main(["check", "double_pendulum_point", "--states", "5"]) == 2
-    err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "body/link1/com" in err
+    assert main(["check", "double_pendulum_point", "--states", "5"]) == 1
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert last.startswith("verdict: double_pendulum_point: FAIL") and "body/link1/com" in last, last
 
 
 @pytest.mark.parametrize(
