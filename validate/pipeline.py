@@ -17,7 +17,7 @@ from .checks import probes as probing
 from .checks.derived import derived_data
 from .checks.probes import DEFAULT_PROBES
 from .checks.tolerances import TOLERANCES
-from .dynamics import chaos, experiments, fast, integrate
+from .dynamics import chaos, estimate, experiments, fast, integrate
 from .dynamics.reference import reference_trajectory
 from .engines import make_sources
 from .errors import HarnessError
@@ -27,7 +27,7 @@ from .results.schema import Derivation, ModelChecks, Pointwise, Provenance, RunR
 from .systems import MODELS_DIR, System, load, load_all
 from .systems.units import parameter_keys
 
-TRAJECTORY_THRESHOLD = TOLERANCES.trajectory.rtol  # rad
+TRAJECTORY_THRESHOLD = estimate.FLOOR  # rad: the floor under each run's own threshold (dynamics/estimate.py)
 # The integrators `run` cross-validates (mirrors, convergence order, energy, free runs judged inside
 # the predictability horizon); implicit and implicitfast are in `chaos.INTEGRATORS` for the benchmark.
 RUN_INTEGRATORS = ("RK4", "Euler")
@@ -55,7 +55,10 @@ def trajectory_results(system: Any, sources: dict[str, Any], *, t_end: float, dt
     q0b[-1] += experiments.PERTURBATION
     perturbed = fast.accurate_trajectory(system, sources["hand"], q0b, v0, tau, t)
     perturbed.stats["label"] = f"{system.coordinates[-1]}0 + {experiments.PERTURBATION:g}"
-    runs = [_run_entry(system, sources, tr, ref) for tr in [*trajs, perturbed]]
+    runs = [
+        _run_entry(system, sources, tr, ref, estimate.run_estimate(system, sources, tr, q0, v0, tau)) for tr in trajs
+    ]
+    runs.append(_run_entry(system, sources, perturbed, ref))
     runs[-1]["counts"] = False
     runs[-1]["why_not_counted"] = (
         f"information only: a different start ({runs[-1]['label']}), compared with the reference from the "
@@ -72,12 +75,19 @@ def trajectory_results(system: Any, sources: dict[str, Any], *, t_end: float, dt
         f"agrees with a second method to {ref_info.get('agreement_q', float('nan')):.1e} rad",
         "reference_info": {k: v for k, v in ref_info.items() if np.isscalar(v) or isinstance(v, str)},
         "threshold": TRAJECTORY_THRESHOLD,
+        "threshold_rule": estimate.rule(),
+        "safety": estimate.SAFETY,
         "runs": runs,
     }
 
 
-def _run_entry(system: Any, sources: dict[str, Any], tr: Any, ref: Any) -> dict[str, Any]:
+def _run_entry(
+    system: Any, sources: dict[str, Any], tr: Any, ref: Any, est: tuple[np.ndarray, str] | None = None
+) -> dict[str, Any]:
+    """One run against `ref`; `est`: its own error estimate (K,) and how it was made, which sets its
+    threshold (dynamics/estimate.py); without one (runs not judged), the floor."""
     err = integrate.error_against(tr, ref)
+    thr = estimate.threshold(est[0] if est is not None else np.zeros(len(tr.t)))
     e = integrate.energy(system, sources.get("hand") or sources.get("symbolic") or sources["mujoco"], tr)
     run = {
         "source": tr.source,
@@ -88,12 +98,13 @@ def _run_entry(system: Any, sources: dict[str, Any], tr: Any, ref: Any) -> dict[
         "energy": e,
         "error_vs_hand": err,
         "max_error_vs_hand": float(np.nanmax(err)) if np.isfinite(err).any() else float("inf"),
-        "first_exceeds_threshold": integrate.first_exceeding(
-            tr.t, np.nan_to_num(err, nan=np.inf), TRAJECTORY_THRESHOLD
-        ),
+        "threshold": thr,
+        "first_exceeds_threshold": integrate.first_exceeding(tr.t, np.nan_to_num(err, nan=np.inf), thr),
         "energy_drift": float(np.nanmax(np.abs(e - e[0]))) if np.isfinite(e).any() else float("inf"),
         "counts": True,
     }
+    if est is not None:
+        run["error_estimate"], run["estimate_how"] = est[0], est[1]
     if "label" in tr.stats:
         run["label"] = tr.stats["label"]
     return run
@@ -116,9 +127,12 @@ def judge_trajectories(traj: dict[str, Any], amplification: Any) -> None:
     for run in traj["runs"]:
         if not run.get("counts", True):
             continue
-        err = np.asarray(run["error_vs_hand"], dtype=float)[t <= until + 1e-12]
+        inside = t <= until + 1e-12
+        err = np.asarray(run["error_vs_hand"], dtype=float)[inside]
+        thr = np.broadcast_to(np.asarray(run.get("threshold", traj["threshold"]), dtype=float), t.shape)[inside]
         run["judged_until"] = until
-        run["passed"] = bool(np.all(np.isfinite(err)) and err.max(initial=0.0) <= traj["threshold"])
+        run["threshold_at_judged_end"] = float(thr[-1]) if len(thr) else float(traj["threshold"])
+        run["passed"] = bool(np.all(np.isfinite(err)) and np.all(err <= thr))
 
 
 def model_only_result(system: Any, *, n_states: int, seed: int, t_end: float, dt_out: float) -> SystemResult:
