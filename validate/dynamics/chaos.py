@@ -41,6 +41,7 @@ All public functions return JSON-able dicts (floats, lists, None) unless documen
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -71,6 +72,16 @@ CONVERGENCE_TIMESTEPS = {
     "implicitfast": (0.002, 0.001, 0.0005, 0.00025),
 }
 EXPECTED_ORDER = {"RK4": 4, "Euler": 1, "implicit": 1, "implicitfast": 1}
+# The sweep starts at the largest of CONVERGENCE_TIMESTEPS[0] / 2^k within STABLE_FRACTION of the
+# model's own stable step, h_stable = STABILITY_LIMIT / max |lambda| (the largest eigenvalue of the
+# equations' Jacobian along the reference over the sweep's interval): the boundary of the scheme's
+# stability region, |h lambda| = 2.78 for RK4 (2.83 on the imaginary axis) and 2 for MuJoCo's
+# semi-implicit Euler on an oscillator. At a 1:50 mass ratio (double_pendulum_point, m1 = m2/50)
+# max |lambda| = 440 /s: RK4 at 0.02 s diverges (h_stable 6.3 ms), so the sweep starts at 2.5 ms;
+# on the notes' models (max |lambda| ~ 9 /s) the sweep is the constant one.
+STABILITY_LIMIT = {"RK4": 2.78, "Euler": 2.0, "implicit": 2.0, "implicitfast": 2.0}
+STABLE_FRACTION = 0.5  # well inside the region, where the error is in its asymptotic regime
+JACOBIAN_STEP = 1e-6  # central differences of the accelerations, relative to max(|x|, 1)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -251,6 +262,33 @@ def rounding_floor(ref: Trajectory) -> np.ndarray:
 # Convergence order and energy drift
 
 
+def largest_rate(source: Any, ref: Trajectory, tau: np.ndarray) -> float:
+    """max |lambda| (1/s) of the Jacobian of (v, a(q, v, tau)) at the reference's samples, by central
+    differences of the source's batched forward dynamics."""
+    q, v = ref.q, ref.v
+    k, n = q.shape
+    taus = np.broadcast_to(tau, q.shape)
+    jac = np.zeros((k, 2 * n, 2 * n))
+    jac[:, :n, n:] = np.eye(n)
+    for j in range(2 * n):
+        x = q if j < n else v
+        h = JACOBIAN_STEP * max(float(np.abs(x[:, j % n]).max()), 1.0)
+        d = np.zeros_like(q)
+        d[:, j % n] = h
+        up = source.forward(q + d, v, taus) if j < n else source.forward(q, v + d, taus)
+        down = source.forward(q - d, v, taus) if j < n else source.forward(q, v - d, taus)
+        jac[:, n:, j] = (up - down) / (2 * h)
+    return float(np.abs(np.linalg.eigvals(jac)).max())
+
+
+def sweep_timesteps(integrator: str, rate: float) -> tuple[tuple[float, ...], float]:
+    """The convergence sweep's timesteps inside the model's stable step, and that step (s)."""
+    stable = STABILITY_LIMIT[integrator] / max(rate, np.finfo(float).tiny)
+    base = CONVERGENCE_TIMESTEPS[integrator]
+    k = max(0, math.ceil(math.log2(base[0] / (STABLE_FRACTION * stable)) - 1e-12))
+    return tuple(dt / 2**k for dt in base), stable
+
+
 def convergence_order(
     system: Any,
     sources: dict[str, Any],
@@ -272,8 +310,13 @@ def convergence_order(
     """
     if integrator not in INTEGRATORS:
         raise unknown_name("MuJoCo integrator", integrator, INTEGRATORS)
-    dts = tuple(timesteps or CONVERGENCE_TIMESTEPS[integrator])
     q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
+    stable = None
+    if timesteps is None:
+        coarse = time_grid(t_end, CONVERGENCE_TIMESTEPS[integrator][0])
+        around, _ = reference_trajectory(system, q0, v0, tau, coarse, cache_dir=cache_dir, check=check)
+        timesteps, stable = sweep_timesteps(integrator, largest_rate(sources["hand"], around, tau))
+    dts = tuple(timesteps)
     t = time_grid(t_end, max(dts))
     ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=cache_dir, check=check)
     errors = []
@@ -292,6 +335,11 @@ def convergence_order(
         "integrator": integrator,
         "t_end": t_end,
         "timesteps": list(dts),
+        "stable_timestep": stable,
+        "timesteps_from": "given"
+        if stable is None
+        else f"the largest of {CONVERGENCE_TIMESTEPS[integrator][0]:g} s / 2^k within {STABLE_FRACTION:g} x the "
+        f"model's stable step {stable:.3g} s ({STABILITY_LIMIT[integrator]:g} / max |lambda| along the reference)",
         "errors": errors,
         "order": order,
         "pairwise_orders": local,
