@@ -64,6 +64,13 @@ from .mirror import INTEGRATORS, lockstep, mirror_steps, mirror_trajectory, mujo
 from .reference import CHECK, DEFAULT_CACHE_DIR, reference_trajectory
 
 ROUND_OFF_ULPS = 16  # window differences of two sources under one scheme (measured <= 3 ulps of max |x|)
+# ... on the notes' models, 10 steps per window. The limit grows with what rounding does (`round_off_limit`):
+#   limit = ROUND_OFF_ULPS (steps / ROUND_OFF_STEPS) (1 + cond(M) h max|a| / max|x|)
+# steps per window (each rounds the state), and the solve's rounding of a (~cond(M) eps |a|) carried into
+# the state in units of its spacing (x h / max|x|). Measured against it (windows of 10 steps at 1 ms):
+# notes' double pendulum 2 ulps of 19; m1 = m2/50 105 of 4,270; bars at 1:20 lengths 55 of 775;
+# point at l2 = l1/20 3 of 4,300: never above 0.17 of the limit; a wrong term makes millions of ulps.
+ROUND_OFF_STEPS = 10
 CONVERGENCE_T_END = 1.0  # s: short enough that chaos does not bend the error curves (RK4 at 2 s does)
 CONVERGENCE_TIMESTEPS = {
     "RK4": (0.02, 0.01, 0.005, 0.0025),
@@ -227,24 +234,46 @@ def pair_check(
         "timestep": dt,
         "max_difference": float(err.max()),
         "difference_at": sample_at(t, err),
-        **_mirror_verdict(t, err, w, env, ref, tolerance),
+        **_mirror_verdict(
+            t, err, w, env, ref, tolerance, round_off_limit(sources["hand"], ref, tau, timestep=dt)["limit"]
+        ),
+    }
+
+
+def round_off_limit(hand: Any, ref: Trajectory, tau: np.ndarray, *, timestep: float) -> dict[str, Any]:
+    """The window ulps two sources under one scheme may differ by on this model and run (see ROUND_OFF_ULPS)."""
+    cond = float(np.linalg.cond(hand.mass_matrix(ref.q)).max())
+    a = float(np.abs(hand.forward(ref.q, ref.v, np.broadcast_to(tau, ref.q.shape))).max())
+    x = float(np.abs(np.concatenate([ref.q, ref.v], axis=1)).max())
+    steps = round(float(ref.t[1] - ref.t[0]) / timestep)
+    limit = ROUND_OFF_ULPS * (steps / ROUND_OFF_STEPS) * (1.0 + cond * timestep * a / max(x, 1.0))
+    return {
+        "limit": limit,
+        "formula": f"{ROUND_OFF_ULPS} (steps / {ROUND_OFF_STEPS}) (1 + cond(M) h max|a| / max|x|)",
+        "cond_max": cond,
+        "max_acceleration": a,
+        "max_state": x,
+        "steps": steps,
+        "timestep": timestep,
     }
 
 
 def _mirror_verdict(
-    t: np.ndarray, diff: np.ndarray, w: np.ndarray, env: np.ndarray, ref: Trajectory, tolerance: float
+    t: np.ndarray, diff: np.ndarray, w: np.ndarray, env: np.ndarray, ref: Trajectory, tolerance: float, limit: float
 ) -> dict[str, Any]:
-    """Round-off windows and a free-run difference inside the envelope: the two halves of a mirror's verdict."""
+    """Round-off windows (within `limit` ulps, `round_off_limit`) and a free-run difference inside the
+    envelope: the two halves of a mirror's verdict."""
     ulp = float(np.spacing(np.abs(np.concatenate([ref.q, ref.v], axis=1)).max()))
     window_ulps = float(np.linalg.norm(w, axis=1).max() / ulp)
     judge = judge_free_run(t, diff, env, tolerance=tolerance)
     return {
         "max_window_difference": float(np.linalg.norm(w, axis=1).max()),
         "window_ulps": window_ulps,
-        "round_off": window_ulps <= ROUND_OFF_ULPS,
+        "window_ulps_limit": limit,
+        "round_off": window_ulps <= limit,
         "envelope_at": sample_at(t, env),
         "judge": judge,
-        "passed": window_ulps <= ROUND_OFF_ULPS and judge["passed"],
+        "passed": window_ulps <= limit and judge["passed"],
     }
 
 
@@ -313,7 +342,7 @@ def convergence_order(
     q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
     stable = None
     if timesteps is None:
-        coarse = time_grid(t_end, CONVERGENCE_TIMESTEPS[integrator][0])
+        coarse = time_grid(t_end, DEFAULT_DT_OUT)  # samples 10 ms apart: a 0.02 s grid missed the fastest
         around, _ = reference_trajectory(system, q0, v0, tau, coarse, cache_dir=cache_dir, check=check)
         timesteps, stable = sweep_timesteps(integrator, largest_rate(sources["hand"], around, tau))
     dts = tuple(timesteps)
@@ -437,6 +466,7 @@ def crossvalidate(
         "reference": ref_info,
         "chaos": chaos_summary(system, q0, v0, tau, t=t, tolerance=tolerance, cache_dir=cache_dir),
         "amplification": amplification(fl),  # (K,) on the grid t: how much the dynamics amplify an error
+        "round_off": round_off_limit(sources["hand"], ref, tau, timestep=dt),
         "integrators": {},
     }
     lock_states = (ref.q[::lockstep_every], ref.v[::lockstep_every])
@@ -468,7 +498,7 @@ def crossvalidate(
             entry["mirrors"][f"mujoco~{engine}"] = {
                 "max_difference": float(diff.max()),
                 "difference_at": sample_at(t, diff),
-                **_mirror_verdict(t, diff, w, env_m, ref, tolerance),
+                **_mirror_verdict(t, diff, w, env_m, ref, tolerance, out["round_off"]["limit"]),
             }
             status = runs[engine].stats.get("status", "ok")  # a mirror that diverged or stopped fails, with its reason
             if status != "ok":

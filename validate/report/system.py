@@ -245,6 +245,9 @@ def section_trajectories(doc: Document, name: str, s: dict[str, Any], tr: dict[s
                 for r in estimated
             ],
         )
+    for r in runs:
+        if r.get("judged_because"):
+            doc.p(f"{run_label(r)} is judged until {fmt_g(r.get('judged_until'))} s: {r['judged_because']}.")
     for why in sorted({r["why_not_counted"] for r in runs if r.get("why_not_counted")}):
         doc.p(f"Not part of the verdict: {why}.", "note")
     doc.figure(
