@@ -111,7 +111,7 @@ def test_batch_threads_scale_with_the_batch():
 
 
 def test_pinocchio_c_loops_are_the_per_state_calls_bit_for_bit(system):
-    """forward, bias and inverse (Pinocchio's C++ loops) equal aba (world convention) and rnea called
+    """forward, bias and inverse (Pinocchio's C++ loops) equal aba (local convention) and rnea called
     per state; evaluate's M, energies and poses equal crba, the energies and oMi read per state."""
     inner = engine(system, "pinocchio")
     states, a = _states(system)
@@ -122,7 +122,7 @@ def test_pinocchio_c_loops_are_the_per_state_calls_bit_for_bit(system):
     passive = -inner.damping * v
     for i in range(len(q)):
         qi, vi = inner._q(q[i]), inner._v(v[i])
-        qacc.append(pin.aba(model, data, qi, vi, inner._v(tau[i] + passive[i]), convention=pin.Convention.WORLD))
+        qacc.append(pin.aba(model, data, qi, vi, inner._v(tau[i] + passive[i]), convention=pin.Convention.LOCAL))
         bias.append(pin.rnea(model, data, qi, vi, np.zeros(model.nv)).copy())
         tau_inv.append(pin.rnea(model, data, qi, vi, inner._v(a[i])).copy() - inner._v(passive[i]))
         full = pin.crba(model, data, qi).copy()

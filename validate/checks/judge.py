@@ -36,7 +36,7 @@ from ..systems.modelview import ModelView
 from ..systems.values import real_array
 from . import probes as probing
 from .explain import explain_entries, step_expression
-from .pointwise import States, error_row, random_states
+from .pointwise import States, error_row, force_scale, random_states
 from .probes import describe_ties
 from .tolerances import TOLERANCES, Tolerances
 
@@ -274,7 +274,13 @@ def judge_variant(
                 )
             vel = r(p0, q, v, zero, zero) - r(p0, q, zero, zero, zero)
             rows += term_rows(
-                "velocity", vel, {k: s * e[k]["Cv"] for k in e}, states, tier="algebraic", tolerances=tolerances
+                "velocity",
+                vel,
+                {k: s * e[k]["Cv"] for k in e},
+                states,
+                tier="algebraic",
+                tolerances=tolerances,
+                min_scale={k: float(np.abs(s).max()) * force_scale(e[k]["M"], v) for k in e},
             )
             if "damping" in uses:
                 fr = r(p, q, v, zero, zero) - r(p0, q, v, zero, zero)

@@ -38,7 +38,7 @@ from .explain import explain
 from .inputs import acceleration_rows, actuation_rows, ignored_torques
 from .judge import EngineTerms, engines_of, term_rows
 from .modelsync import equations_vs_model
-from .pointwise import States, random_states
+from .pointwise import States, force_scale, random_states
 from .tolerances import TOLERANCES, Tolerances
 
 HAND_TERMS = (
@@ -188,6 +188,7 @@ def term_rows_at(
         float(np.abs(np.concatenate([e[k][x].ravel() for x in ("G", "Cv", "passive", "tau")])).max(initial=0.0))
         for k in ev
     )
+    force = max(force, force_scale(e["mujoco"]["M"], states.v))  # where the velocity terms vanish (gimbal lock)
     energy = max(float(np.abs(np.concatenate([ev[k]["T"], ev[k]["V"]])).max(initial=0.0)) for k in ev)
     length = max(float(np.abs(ev[k]["body_positions"]).max(initial=0.0)) for k in ev)
     theirs = {

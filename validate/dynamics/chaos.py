@@ -41,6 +41,7 @@ All public functions return JSON-able dicts (floats, lists, None) unless documen
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -63,6 +64,13 @@ from .mirror import INTEGRATORS, lockstep, mirror_steps, mirror_trajectory, mujo
 from .reference import CHECK, DEFAULT_CACHE_DIR, reference_trajectory
 
 ROUND_OFF_ULPS = 16  # window differences of two sources under one scheme (measured <= 3 ulps of max |x|)
+# ... on the notes' models, 10 steps per window. The limit grows with what rounding does (`round_off_limit`):
+#   limit = ROUND_OFF_ULPS (steps / ROUND_OFF_STEPS) (1 + cond(M) h max|a| / max|x|)
+# steps per window (each rounds the state), and the solve's rounding of a (~cond(M) eps |a|) carried into
+# the state in units of its spacing (x h / max|x|). Measured against it (windows of 10 steps at 1 ms):
+# notes' double pendulum 2 ulps of 19; m1 = m2/50 105 of 4,270; bars at 1:20 lengths 55 of 775;
+# point at l2 = l1/20 3 of 4,300: never above 0.17 of the limit; a wrong term makes millions of ulps.
+ROUND_OFF_STEPS = 10
 CONVERGENCE_T_END = 1.0  # s: short enough that chaos does not bend the error curves (RK4 at 2 s does)
 CONVERGENCE_TIMESTEPS = {
     "RK4": (0.02, 0.01, 0.005, 0.0025),
@@ -71,6 +79,16 @@ CONVERGENCE_TIMESTEPS = {
     "implicitfast": (0.002, 0.001, 0.0005, 0.00025),
 }
 EXPECTED_ORDER = {"RK4": 4, "Euler": 1, "implicit": 1, "implicitfast": 1}
+# The sweep starts at the largest of CONVERGENCE_TIMESTEPS[0] / 2^k within STABLE_FRACTION of the
+# model's own stable step, h_stable = STABILITY_LIMIT / max |lambda| (the largest eigenvalue of the
+# equations' Jacobian along the reference over the sweep's interval): the boundary of the scheme's
+# stability region, |h lambda| = 2.78 for RK4 (2.83 on the imaginary axis) and 2 for MuJoCo's
+# semi-implicit Euler on an oscillator. At a 1:50 mass ratio (double_pendulum_point, m1 = m2/50)
+# max |lambda| = 440 /s: RK4 at 0.02 s diverges (h_stable 6.3 ms), so the sweep starts at 2.5 ms;
+# on the notes' models (max |lambda| ~ 9 /s) the sweep is the constant one.
+STABILITY_LIMIT = {"RK4": 2.78, "Euler": 2.0, "implicit": 2.0, "implicitfast": 2.0}
+STABLE_FRACTION = 0.5  # well inside the region, where the error is in its asymptotic regime
+JACOBIAN_STEP = 1e-6  # central differences of the accelerations, relative to max(|x|, 1)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -216,24 +234,46 @@ def pair_check(
         "timestep": dt,
         "max_difference": float(err.max()),
         "difference_at": sample_at(t, err),
-        **_mirror_verdict(t, err, w, env, ref, tolerance),
+        **_mirror_verdict(
+            t, err, w, env, ref, tolerance, round_off_limit(sources["hand"], ref, tau, timestep=dt)["limit"]
+        ),
+    }
+
+
+def round_off_limit(hand: Any, ref: Trajectory, tau: np.ndarray, *, timestep: float) -> dict[str, Any]:
+    """The window ulps two sources under one scheme may differ by on this model and run (see ROUND_OFF_ULPS)."""
+    cond = float(np.linalg.cond(hand.mass_matrix(ref.q)).max())
+    a = float(np.abs(hand.forward(ref.q, ref.v, np.broadcast_to(tau, ref.q.shape))).max())
+    x = float(np.abs(np.concatenate([ref.q, ref.v], axis=1)).max())
+    steps = round(float(ref.t[1] - ref.t[0]) / timestep)
+    limit = ROUND_OFF_ULPS * (steps / ROUND_OFF_STEPS) * (1.0 + cond * timestep * a / max(x, 1.0))
+    return {
+        "limit": limit,
+        "formula": f"{ROUND_OFF_ULPS} (steps / {ROUND_OFF_STEPS}) (1 + cond(M) h max|a| / max|x|)",
+        "cond_max": cond,
+        "max_acceleration": a,
+        "max_state": x,
+        "steps": steps,
+        "timestep": timestep,
     }
 
 
 def _mirror_verdict(
-    t: np.ndarray, diff: np.ndarray, w: np.ndarray, env: np.ndarray, ref: Trajectory, tolerance: float
+    t: np.ndarray, diff: np.ndarray, w: np.ndarray, env: np.ndarray, ref: Trajectory, tolerance: float, limit: float
 ) -> dict[str, Any]:
-    """Round-off windows and a free-run difference inside the envelope: the two halves of a mirror's verdict."""
+    """Round-off windows (within `limit` ulps, `round_off_limit`) and a free-run difference inside the
+    envelope: the two halves of a mirror's verdict."""
     ulp = float(np.spacing(np.abs(np.concatenate([ref.q, ref.v], axis=1)).max()))
     window_ulps = float(np.linalg.norm(w, axis=1).max() / ulp)
     judge = judge_free_run(t, diff, env, tolerance=tolerance)
     return {
         "max_window_difference": float(np.linalg.norm(w, axis=1).max()),
         "window_ulps": window_ulps,
-        "round_off": window_ulps <= ROUND_OFF_ULPS,
+        "window_ulps_limit": limit,
+        "round_off": window_ulps <= limit,
         "envelope_at": sample_at(t, env),
         "judge": judge,
-        "passed": window_ulps <= ROUND_OFF_ULPS and judge["passed"],
+        "passed": window_ulps <= limit and judge["passed"],
     }
 
 
@@ -249,6 +289,33 @@ def rounding_floor(ref: Trajectory) -> np.ndarray:
 
 # ----------------------------------------------------------------------------------------------
 # Convergence order and energy drift
+
+
+def largest_rate(source: Any, ref: Trajectory, tau: np.ndarray) -> float:
+    """max |lambda| (1/s) of the Jacobian of (v, a(q, v, tau)) at the reference's samples, by central
+    differences of the source's batched forward dynamics."""
+    q, v = ref.q, ref.v
+    k, n = q.shape
+    taus = np.broadcast_to(tau, q.shape)
+    jac = np.zeros((k, 2 * n, 2 * n))
+    jac[:, :n, n:] = np.eye(n)
+    for j in range(2 * n):
+        x = q if j < n else v
+        h = JACOBIAN_STEP * max(float(np.abs(x[:, j % n]).max()), 1.0)
+        d = np.zeros_like(q)
+        d[:, j % n] = h
+        up = source.forward(q + d, v, taus) if j < n else source.forward(q, v + d, taus)
+        down = source.forward(q - d, v, taus) if j < n else source.forward(q, v - d, taus)
+        jac[:, n:, j] = (up - down) / (2 * h)
+    return float(np.abs(np.linalg.eigvals(jac)).max())
+
+
+def sweep_timesteps(integrator: str, rate: float) -> tuple[tuple[float, ...], float]:
+    """The convergence sweep's timesteps inside the model's stable step, and that step (s)."""
+    stable = STABILITY_LIMIT[integrator] / max(rate, np.finfo(float).tiny)
+    base = CONVERGENCE_TIMESTEPS[integrator]
+    k = max(0, math.ceil(math.log2(base[0] / (STABLE_FRACTION * stable)) - 1e-12))
+    return tuple(dt / 2**k for dt in base), stable
 
 
 def convergence_order(
@@ -272,8 +339,13 @@ def convergence_order(
     """
     if integrator not in INTEGRATORS:
         raise unknown_name("MuJoCo integrator", integrator, INTEGRATORS)
-    dts = tuple(timesteps or CONVERGENCE_TIMESTEPS[integrator])
     q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
+    stable = None
+    if timesteps is None:
+        coarse = time_grid(t_end, DEFAULT_DT_OUT)  # samples 10 ms apart: a 0.02 s grid missed the fastest
+        around, _ = reference_trajectory(system, q0, v0, tau, coarse, cache_dir=cache_dir, check=check)
+        timesteps, stable = sweep_timesteps(integrator, largest_rate(sources["hand"], around, tau))
+    dts = tuple(timesteps)
     t = time_grid(t_end, max(dts))
     ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=cache_dir, check=check)
     errors = []
@@ -292,6 +364,11 @@ def convergence_order(
         "integrator": integrator,
         "t_end": t_end,
         "timesteps": list(dts),
+        "stable_timestep": stable,
+        "timesteps_from": "given"
+        if stable is None
+        else f"the largest of {CONVERGENCE_TIMESTEPS[integrator][0]:g} s / 2^k within {STABLE_FRACTION:g} x the "
+        f"model's stable step {stable:.3g} s ({STABILITY_LIMIT[integrator]:g} / max |lambda| along the reference)",
         "errors": errors,
         "order": order,
         "pairwise_orders": local,
@@ -389,6 +466,7 @@ def crossvalidate(
         "reference": ref_info,
         "chaos": chaos_summary(system, q0, v0, tau, t=t, tolerance=tolerance, cache_dir=cache_dir),
         "amplification": amplification(fl),  # (K,) on the grid t: how much the dynamics amplify an error
+        "round_off": round_off_limit(sources["hand"], ref, tau, timestep=dt),
         "integrators": {},
     }
     lock_states = (ref.q[::lockstep_every], ref.v[::lockstep_every])
@@ -420,7 +498,7 @@ def crossvalidate(
             entry["mirrors"][f"mujoco~{engine}"] = {
                 "max_difference": float(diff.max()),
                 "difference_at": sample_at(t, diff),
-                **_mirror_verdict(t, diff, w, env_m, ref, tolerance),
+                **_mirror_verdict(t, diff, w, env_m, ref, tolerance, out["round_off"]["limit"]),
             }
             status = runs[engine].stats.get("status", "ok")  # a mirror that diverged or stopped fails, with its reason
             if status != "ok":

@@ -563,7 +563,7 @@ def error_against(traj: Trajectory, ref: Trajectory) -> np.ndarray:
     return np.abs(traj.q - ref.q).max(axis=1)
 
 
-def first_exceeding(t: np.ndarray, err: np.ndarray, threshold: float) -> float | None:
-    """The first sample time where err > threshold, or None if it never does."""
+def first_exceeding(t: np.ndarray, err: np.ndarray, threshold: float | np.ndarray) -> float | None:
+    """The first sample time where err > threshold (a number, or one per sample), or None if it never does."""
     above = np.nonzero(err > threshold)[0]
     return float(t[above[0]]) if len(above) else None

@@ -99,7 +99,7 @@ def raw_pinocchio(system: Any, source: Any, states: Any, a_ref: np.ndarray) -> d
     ix = np.ix_(vi, vi)
     passive = -pn.damping * vj
     zero = np.zeros(model.nv)
-    world = pin.Convention.WORLD  # as the harness's batched ABA
+    local = pin.Convention.LOCAL  # as the harness's ABA (engines/pinocchio.py LOCAL)
     joints = pn.joint_of_body
     levers = [model.inertias[j].lever for j in joints]
     frame_rot = [model.frames[f].placement.rotation for f in pn.frames]
@@ -121,7 +121,7 @@ def raw_pinocchio(system: Any, source: Any, states: Any, a_ref: np.ndarray) -> d
         full = crba(model, data, qfull)
         M[i] = (np.triu(full) + np.triu(full, 1).T)[ix]
         bias[i] = rnea(model, data, qfull, vfull, zero)[vi]  # the non-linear effects: RNEA at a = 0
-        qacc[i] = aba(model, data, qfull, vfull, ffull, convention=world)[vi]
+        qacc[i] = aba(model, data, qfull, vfull, ffull, convention=local)[vi]
         tau_inv[i] = rnea(model, data, qfull, vfull, afull)[vi]
         kin[i] = kinetic(model, data, qfull, vfull)
         pot[i] = potential(model, data, qfull)

@@ -19,7 +19,12 @@ from ..errors import HarnessError
 from ..systems.urdf import for_pinocchio
 from .base import Kinematics
 
-WORLD = pin.Convention.WORLD  # ABA's convention in the batched algorithms, used per state too
+# ABA in Pinocchio's local convention, per state. Its C++ batch (`abaInParallel`) runs the world
+# convention only, whose spatial inertias about the world origin lose accuracy with the lever arms:
+# on double_pendulum_point with m2/50 and l2 = l1/20 (cond(M) 2e4) qacc differs from the symbolic
+# equations by 1.3e-13 of its scale in the world convention against 1.4e-15 in the local one
+# (tests/test_no_false_alarm.py), so the batch's ~1 ms per 1,000 states does not pay.
+LOCAL = pin.Convention.LOCAL
 
 
 def build_model(system: Any) -> Any:
@@ -109,14 +114,22 @@ class PinocchioSource:
         return self._columns(v, self.vidx, np.zeros(self.model.nv))
 
     def _in_c(self, algorithm: Any, qs: np.ndarray, vs: np.ndarray, x: np.ndarray) -> np.ndarray:
-        """ABA or RNEA at N states in one call: Pinocchio's C++ loop over the columns (`abaInParallel`,
-        `rneaInParallel` on one thread, so no OpenMP thread outlives the call; equal bit for bit to
-        `aba(..., convention=WORLD)` and `rnea` called per state, tests/test_batch.py). `qs`, `vs`: the
-        states as `_qs`, `_vs` give them (built once per batch); x (N, n). Returns (N, n)."""
+        """RNEA at N states in one call: Pinocchio's C++ loop over the columns (`rneaInParallel` on one
+        thread, so no OpenMP thread outlives the call; equal bit for bit to `rnea` called per state,
+        tests/test_batch.py). `qs`, `vs`: the states as `_qs`, `_vs` give them (built once per batch);
+        x (N, n). Returns (N, n)."""
         if self._pool is None:
             self._pool = pin.ModelPool(self.model, 1)
         out = np.empty((qs.shape[1], self.model.nv))
         algorithm(1, self._pool, qs, vs, self._vs(x), out.T)
+        return out[:, self.vidx]
+
+    def _aba(self, qs: np.ndarray, vs: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """ABA at N states, one call per state in the local convention (see LOCAL). Returns (N, n)."""
+        model, data, aba = self.model, self.data, pin.aba
+        out = np.empty((qs.shape[1], model.nv))
+        for i, (qi, vi, ti) in enumerate(zip(qs.T, vs.T, self._vs(tau).T, strict=True)):
+            out[i] = aba(model, data, qi, vi, ti, convention=LOCAL)
         return out[:, self.vidx]
 
     def joint_frames(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
@@ -144,7 +157,7 @@ class PinocchioSource:
 
     def rhs(self, tau: np.ndarray):
         """scipy's right-hand side on ABA, with no per-call work beyond the call and the damping; ABA in
-        the world convention, as the batched `forward` runs it, so a run and its windows round alike."""
+        the local convention, as `forward` runs it, so a run and its windows round alike."""
         n, model, data = len(tau), self.model, self.data
         qfull, vfull, tfull = pin.neutral(model), np.zeros(model.nv), np.zeros(model.nv)
         qidx, vidx, damping = self.qidx, self.vidx, self.damping
@@ -155,7 +168,7 @@ class PinocchioSource:
             tfull[vidx] = tau - damping * y[n:]
             out = np.empty(2 * n)
             out[:n] = y[n:]
-            out[n:] = pin.aba(model, data, qfull, vfull, tfull, convention=WORLD)[vidx]
+            out[n:] = pin.aba(model, data, qfull, vfull, tfull, convention=LOCAL)[vidx]
             return out
 
         return f
@@ -200,7 +213,7 @@ class PinocchioSource:
         return self._in_c(pin.rneaInParallel, self._qs(q), self._vs(v), np.zeros_like(v))
 
     def forward(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
-        return self._in_c(pin.abaInParallel, self._qs(q), self._vs(v), tau + self.passive(q, v))
+        return self._aba(self._qs(q), self._vs(v), tau + self.passive(q, v))
 
     def inverse(self, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
         return self._in_c(pin.rneaInParallel, self._qs(q), self._vs(v), a) - self.passive(q, v)
@@ -242,8 +255,8 @@ class PinocchioSource:
         return out
 
     def evaluate(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray) -> dict[str, np.ndarray]:
-        """Every pointwise quantity: ABA, RNEA (bias: at zero acceleration) in Pinocchio's C++ loops over
-        the states; CRBA, forward kinematics and the energies per state (`_per_state`)."""
+        """Every pointwise quantity: RNEA (bias: at zero acceleration) in Pinocchio's C++ loop over the
+        states; ABA (`_aba`), CRBA, forward kinematics and the energies per state (`_per_state`)."""
         passive = self.passive(q, v)
         qs, vs = self._qs(q), self._vs(v)  # the states as Pinocchio's full vectors, once for every call
         out = self._per_state(qs, vs, poses=True, mass=True)
@@ -251,7 +264,7 @@ class PinocchioSource:
             "M": out["M"],
             "bias": self._in_c(pin.rneaInParallel, qs, vs, np.zeros_like(v)),
             "passive": passive,
-            "qacc": self._in_c(pin.abaInParallel, qs, vs, tau + passive),
+            "qacc": self._aba(qs, vs, tau + passive),
             "tau_inverse": self._in_c(pin.rneaInParallel, qs, vs, a_ref) - passive,
             "T": out["T"],
             "V": out["V"],

@@ -205,7 +205,11 @@ def section_trajectories(doc: Document, name: str, s: dict[str, Any], tr: dict[s
         f"tau = {vec(tr.get('tau', []))}, sampled every {fmt_g(tr.get('dt_out'))} s "
         f"up to {fmt_g(tr.get('t_end'))} s. "
         f"The reference is {tr.get('reference')}; the error is the largest coordinate's distance to it, "
-        f"judged against the trajectory threshold {sci(thr)} rad."
+        + (
+            f"judged against {tr['threshold_rule']}."
+            if tr.get("threshold_rule")
+            else f"judged against the trajectory threshold {sci(thr)} rad."
+        )
     )
     energy_column = "energy change (friction)" if damped else "energy drift"
     doc.table(
@@ -226,6 +230,24 @@ def section_trajectories(doc: Document, name: str, s: dict[str, Any], tr: dict[s
     )
     if tr.get("judged_until") is not None:
         doc.p(f"Runs are judged until {fmt_g(tr['judged_until'])} s, not beyond: {tr.get('judged_because')}.")
+    estimated = [r for r in runs if r.get("estimate_how")]
+    if estimated:
+        doc.table(
+            f"Each run's own error estimate and threshold, {name}",
+            ("source", "estimate from", "largest estimate judged", "threshold at the judged end"),
+            [
+                (
+                    run_label(r),
+                    r["estimate_how"],
+                    Num(judged_max(r.get("error_estimate"), t, r.get("judged_until")), unit="rad"),
+                    Num(r.get("threshold_at_judged_end"), unit="rad"),
+                )
+                for r in estimated
+            ],
+        )
+    for r in runs:
+        if r.get("judged_because"):
+            doc.p(f"{run_label(r)} is judged until {fmt_g(r.get('judged_until'))} s: {r['judged_because']}.")
     for why in sorted({r["why_not_counted"] for r in runs if r.get("why_not_counted")}):
         doc.p(f"Not part of the verdict: {why}.", "note")
     doc.figure(
@@ -259,6 +281,14 @@ def section_trajectories(doc: Document, name: str, s: dict[str, Any], tr: dict[s
         f"Total energy T + V by the hand equations along each source's trajectory, relative to "
         f"E(0) = {sci(series(runs[0]['energy'])[0], 6)} J; {energy_text}",
     )
+
+
+def judged_max(values: Any, t: Any, until: Any) -> float | None:
+    """The largest of a run's per-sample values up to the judged end (all, without one)."""
+    x = series(values if values is not None else [])
+    if until is not None and len(x) == len(series(t)):
+        x = x[series(t) <= as_float(until) + 1e-12]
+    return float(x.max()) if len(x) else None
 
 
 def first_above(run: dict[str, Any], tr: dict[str, Any]) -> str:

@@ -12,7 +12,9 @@ from typing import Any, NotRequired, TypedDict
 # it; the README and the report say it in these words).
 SCALED_DEFINITION = (
     "`scaled` is the largest `|a - b|` over the states divided by the largest magnitude the quantity takes "
-    "over the states (the larger of `|a|` and `|b|`, over every entry and every state)"
+    "over the states (the larger of `|a|` and `|b|`, over every entry and every state); forces (`bias`, "
+    "passive forces, `tau_inverse`) by at least max ||M|| max |v|^2, a physical scale that does not vanish "
+    "where the velocity terms do (gimbal lock)"
 )
 
 

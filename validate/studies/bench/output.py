@@ -119,8 +119,8 @@ def run_bench(
         f"{', '.join(str(n) for n in POINTWISE_SIZES)} states; per source, its evaluate over its raw calls "
         "(the equations module's functions on the batch and one solve; MuJoCo's and Pinocchio's calls state "
         "by state in a bare loop; the derived equations' generated code alone), in CPU microseconds per state. "
-        "The harness's MuJoCo batch runs mj_forward in mujoco.batch on a thread pool and Pinocchio's ABA and "
-        "RNEA in its C++ loops: CPU time counts every thread; value = worst system and size",
+        "The harness's MuJoCo batch runs mj_forward in mujoco.batch on a thread pool and Pinocchio's "
+        "RNEA in its C++ loop (ABA per state): CPU time counts every thread; value = worst system and size",
     }
     ratios["default_scipy_vs_fastest_scipy"] = (
         default_ratio(rows)
