@@ -48,7 +48,7 @@ class Tolerances:
         "(dynamics/estimate.py: MuJoCo's step halved, scipy's tolerances divided by 10): the smallest "
         "disagreement the trajectory stage resolves. Wrong equations or a wrong engine setting part from "
         "the reference at 1e-3 to 1e-1 rad within a second; an integrator's own error, which grows with the "
-        "model's frequencies (RK4 at 1 ms: 1e-8 rad on the notes' models, 3e-6 on a held-out one), is "
+        "model's frequencies (RK4 at 1 ms: 1e-8 rad on the repository's double pendulums, 3e-6 on a held-out one), is "
         "measured per run and never judged as a disagreement.",
     )
 
