@@ -7,7 +7,9 @@ the local pool), `named_executor("dask:tcp://HOST:8786")` a running scheduler's 
 `Client.get_executor(pure=False)` (pure=False: a repeat of the same run is run again, not served
 from dask's cache of results). The command line's `--executor local|dask[:ADDRESS]` names them.
 
-A pool the harness makes itself is stopped cleanly on Ctrl-C and SIGTERM:
+The pool the harness makes itself runs each task in a process of its own (`OnePerTask`): a task that
+ends its process (an equations module calling os._exit) fails its own future alone, where in one
+shared pool every task still running would fail with it. It is stopped cleanly on Ctrl-C and SIGTERM:
 its workers ignore SIGINT and take SIGTERM's default action (the parent reports one line and
 terminates them), and on Linux they are killed when the parent dies (PR_SET_PDEATHSIG), so a parent
 killed outright leaves no worker waiting for work that never comes.
@@ -16,10 +18,14 @@ killed outright leaves no worker waiting for work that never comes.
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import re
-from collections.abc import Iterator
-from concurrent.futures import Executor, ProcessPoolExecutor, ThreadPoolExecutor
+import threading
+from collections import deque
+from collections.abc import Callable, Iterator
+from concurrent.futures import Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor
+from typing import Any
 
 from .errors import HarnessError
 
@@ -43,24 +49,88 @@ def _worker_init(parent: int) -> None:
         os._exit(1)
 
 
+class OnePerTask(Executor):
+    """Each task in a one-worker process pool of its own, at most `workers` at once: a task whose
+    process dies (os._exit, a crash) breaks only its own pool, so its future alone fails
+    (BrokenProcessPool) and the others' results are kept. The next task starts as one finishes."""
+
+    def __init__(self, workers: int) -> None:
+        self._workers = workers
+        self._lock = threading.RLock()  # a task already done runs its callback inside _start_next
+        self._pending: deque[tuple[Future[Any], Callable[..., Any], tuple[Any, ...], dict[str, Any]]] = deque()
+        self._pools: set[ProcessPoolExecutor] = set()
+        self._closed = False
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
+        outer: Future[Any] = Future()
+        with self._lock:
+            if self._closed:
+                raise RuntimeError("cannot schedule new futures after shutdown")
+            self._pending.append((outer, fn, args, kwargs))
+        self._start_next()
+        return outer
+
+    def _start_next(self) -> None:
+        with self._lock:
+            while self._pending and len(self._pools) < self._workers and not self._closed:
+                outer, fn, args, kwargs = self._pending.popleft()
+                if not outer.set_running_or_notify_cancel():
+                    continue
+                pool = ProcessPoolExecutor(max_workers=1, initializer=_worker_init, initargs=(os.getpid(),))
+                self._pools.add(pool)
+                inner = pool.submit(fn, *args, **kwargs)
+                inner.add_done_callback(functools.partial(self._finished, outer, pool))
+
+    def _finished(self, outer: Future[Any], pool: ProcessPoolExecutor, inner: Future[Any]) -> None:
+        if inner.cancelled():
+            outer.cancel()  # a running outer future cannot be cancelled: report it as broken
+            if not outer.done():
+                outer.set_exception(RuntimeError("cancelled"))
+        elif inner.exception() is not None:
+            outer.set_exception(inner.exception())
+        else:
+            outer.set_result(inner.result())
+        pool.shutdown(wait=False)
+        with self._lock:
+            self._pools.discard(pool)
+        self._start_next()
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        with self._lock:
+            self._closed = True
+            pending = list(self._pending) if cancel_futures else []
+            if cancel_futures:
+                self._pending.clear()
+            pools = list(self._pools)
+        for outer, *_ in pending:
+            outer.cancel()
+        for pool in pools:
+            pool.shutdown(wait=wait, cancel_futures=cancel_futures)
+
+
 @contextlib.contextmanager
-def executor_for(executor: Executor | None, *, tasks: int | None = None) -> Iterator[Executor]:
-    """`executor` as given, or (if None) a process pool with a worker per core (at most `tasks`),
-    shut down on exit and terminated on Ctrl-C."""
+def executor_for(executor: Executor | None, *, tasks: int | None = None, isolated: bool = False) -> Iterator[Executor]:
+    """`executor` as given, or (if None) a process pool with a worker per core (at most `tasks`; one
+    task: a thread), shut down on exit and terminated on Ctrl-C. `isolated`: a process per task
+    (`OnePerTask`), one task included, so that a task ending its process fails alone and the main
+    thread only waits (Ctrl-C and SIGTERM stop it whatever the task is doing)."""
     if executor is not None:
         yield executor
         return
     workers = min(tasks or os.cpu_count() or 1, os.cpu_count() or 1)
-    pool: Executor = (
-        ProcessPoolExecutor(max_workers=workers, initializer=_worker_init, initargs=(os.getpid(),))
-        if workers > 1
-        else ThreadPoolExecutor(max_workers=1)
-    )
+    pool: Executor
+    if isolated:
+        pool = OnePerTask(workers)
+    elif workers > 1:
+        pool = ProcessPoolExecutor(max_workers=workers, initializer=_worker_init, initargs=(os.getpid(),))
+    else:
+        pool = ThreadPoolExecutor(max_workers=1)
     try:
         yield pool
     except KeyboardInterrupt:
         import multiprocessing
 
+        pool.shutdown(wait=False, cancel_futures=True)  # no task starts from here on
         for child in multiprocessing.active_children():
             child.terminate()
         raise
