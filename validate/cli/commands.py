@@ -7,6 +7,7 @@ import contextlib
 import functools
 import json
 import os
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -17,6 +18,7 @@ from ..checks.pointwise import validate_states
 from ..dynamics.cache import CACHE_ENV, usable
 from ..engines import make_sources
 from ..errors import HarnessError
+from ..guard import DEFAULT_TIME_LIMIT
 from ..inputs import parse_json, regular_file
 from ..parallel import named_executor
 from ..pipeline import run
@@ -140,7 +142,7 @@ def cmd_check(args: argparse.Namespace) -> int:
                     "q": states.q[i],
                     "v": states.v[i],
                     "tau": states.tau[i],
-                    "sources": {s: {k: values[s][k][i] for k in keys} for s in values},
+                    "sources": {s: {k: values[s][k][i] for k in keys if k in values[s]} for s in values},
                 }
                 for i in range(len(states))
             ],
@@ -165,6 +167,9 @@ def cmd_check(args: argparse.Namespace) -> int:
                 f"{r['quantity']:15s} {r['pair']:20s} {r['max_abs']:10.2e} {r['scaled']:10.2e} "
                 f"{r['tolerance']:10.0e}  {'pass' if r['passed'] else 'FAIL'}"
             )
+    if "error" in values.get("hand", {}):  # the hand equations raised: every hand row is NaN; say why
+        why = f"{system.name}: the hand equations could not be evaluated: {values['hand']['error']}"
+        print(why, file=sys.stderr if args.json else sys.stdout)  # stdout: the JSON alone
     return 0 if all(r["passed"] for r in rows) and np.isfinite([r["max_abs"] for r in rows]).all() else 1
 
 
@@ -208,6 +213,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             after=functools.partial(render_system, replay=not args.no_replay),  # in the workers, overlapped
             rendered=rendered,
             locked=locked,
+            time_limit=args.time_limit,
         )
     hint = replay_hint(args.out, written=not args.no_replay)
     write_all(results, args.out, replay=not args.no_replay, rendered=rendered, hint=hint)
@@ -244,14 +250,15 @@ def one_system(args: argparse.Namespace) -> Any:
     if files and args.system:
         raise HarnessError("give a SYSTEM name or --model and --equations, not both.")
     locked = locked_joints(args)
+    limit = getattr(args, "time_limit", DEFAULT_TIME_LIMIT)
     if files:
         model, equations = files[0]
         if equations is None:
             return System.model_only(model, locked=locked)
-        return System.from_files(model, equations, locked=locked)
+        return System.from_files(model, equations, locked=locked, time_limit=limit)
     if not args.system:
         raise HarnessError("name a SYSTEM (see `lagrange-xval list`) or give --model PATH --equations PATH.")
-    return load(args.system)
+    return load(args.system, time_limit=limit)
 
 
 def user_files(args: argparse.Namespace) -> list[tuple[Path, Path | None]] | None:
@@ -309,6 +316,8 @@ def cmd_derive(args: argparse.Namespace) -> int:
         raise HarnessError("name a SYSTEM (see `lagrange-xval list`) or give --model PATH.")
     system = one_system(args)  # --model alone: the model's joints, in order, as the coordinates
     view, joints, coordinates, joint_map = system.view, system.joints, system.coordinates, system.joint_map
+    if not args.force:
+        affordable(len(joints))
     if args.coordinates:
         names = tuple(x.strip() for x in args.coordinates.split(","))
         if len(names) != len(joints) or not all(n.isidentifier() for n in names) or len(set(names)) != len(names):
@@ -321,6 +330,20 @@ def cmd_derive(args: argparse.Namespace) -> int:
     text = derived_text(view, tuple(joints), tuple(coordinates), joint_map, fmt)
     print(text, end="")
     return 0
+
+
+def affordable(n: int) -> None:
+    """Refuses a derivation predicted to exceed the budget (validate/studies/chains.py's cost model),
+    before it starts: a symbolic derivation cannot be interrupted midway."""
+    from ..studies.chains import DERIVE_BUDGET, GROWTH, MEASURED, predicted_derive_s
+
+    predicted = predicted_derive_s(n)
+    if predicted > DERIVE_BUDGET:
+        raise HarnessError(
+            f"{n} joints: the symbolic derivation is predicted to take about {predicted:.3g} s (it grows about as "
+            f"n^{GROWTH}; {MEASURED[0]} joints took {MEASURED[1]:g} s), over the {DERIVE_BUDGET:g} s budget; "
+            "--force derives it anyway."
+        )
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
