@@ -13,7 +13,8 @@ model's parameters and at the probe parameter sets (validate/verdict.py).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import functools
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -24,6 +25,7 @@ from .checks import pointwise as compare
 from .checks.tolerances import TOLERANCES, Tolerances
 from .engines import make_sources
 from .errors import HarnessError
+from .guard import Stopped
 from .results.schema import CheckData
 from .systems import System, load
 
@@ -110,6 +112,23 @@ def _row(check: str, r: Mapping[str, Any], quantity: str) -> Row:
     )
 
 
+def _stop_is_a_verdict(fn: Callable[..., Result]) -> Callable[..., Result]:
+    """`check`, where an equations module stopped (it hung or tried to exit: validate/guard.py) is a
+    failing result naming the function, not an exception."""
+
+    @functools.wraps(fn)
+    def guarded(system: System | str, **options: Any) -> Result:
+        try:
+            return fn(system, **options)
+        except Stopped as stop:
+            name = system if isinstance(system, str) else system.name
+            row = Row("derivation", "equations module", "hand~mjcf", np.inf, np.inf, 0.0, False, detail=stop.why)
+            return Result(name, (row,), stop.why, {})
+
+    return guarded
+
+
+@_stop_is_a_verdict
 def check(
     system: System | str,
     *,

@@ -7,7 +7,8 @@ functions and the printed forms' functions) goes through `call`, which
 - enforces a time limit per call (`DEFAULT_TIME_LIMIT`, `--time-limit SECONDS`, `time_limit=` of
   `System.from_files` and `load`): SIGALRM, armed with `signal.setitimer`, raises `Stopped` inside
   the person's Python (a `time.sleep` is interrupted too), repeating every `REPEAT` s while the call
-  goes on, so that a bare `except:` in the module cannot keep it running;
+  goes on; a module that swallows even these (a bare `except:` in a loop) past `GRACE` more seconds
+  has the process ended with one line on stderr (status 2; in `run`, its own worker: its system fails);
 - turns `sys.exit` (SystemExit) and `os._exit` (replaced while the person's code runs) into `Stopped`,
   naming the function: "mass_matrix called sys.exit(0)";
 - sends what the person's code prints to stderr (`sys.stdout` is stderr while it runs; the command
@@ -22,7 +23,7 @@ so a module that sleeps in every function costs one time limit, not one per call
 Why in-process and not a child process per call: the harness calls the dynamics thousands of times
 per system (batched states, probes, traced code, per-step mirrors); a process boundary per call would
 cost more than the calls. What a guard in the process cannot catch (a process ended from C, a signal
-sent to itself, `os._exit` reached by a name bound before the import) `run` catches one level up:
+sent to itself, `posix._exit`) `run` catches one level up:
 each system runs in a worker process of its own (validate/parallel.py `executor_for`), so a worker
 that dies fails its own system alone (pipeline.run). The alarm works in a process's main thread,
 where the command line, the API and the local pool's workers call the module; in another thread
@@ -44,6 +45,7 @@ from typing import Any, NoReturn
 
 DEFAULT_TIME_LIMIT = 30.0  # s per call into a person's module (and for its import)
 REPEAT = 0.5  # s between further alarms while a stopped call has not returned
+GRACE = 5.0  # s of further alarms a stopped call may swallow before the process is ended
 HINT = "the time limit per call into an equations module; --time-limit SECONDS sets it"
 
 
@@ -117,6 +119,10 @@ def _alarm(guard: Guard, name: str) -> Iterator[None]:
     limit = guard.time_limit
 
     def expired(signum: int, frame: Any) -> None:
+        if time.monotonic() - start > limit + GRACE:  # every Stopped swallowed: nothing else stops it
+            sys.stderr.write(f"lagrange-xval: error: {guard.where}: {guard.stopped}, and would not stop.\n")
+            sys.stderr.flush()
+            _REAL_EXIT(2)
         guard.stop(f"{name} did not return within {limit:g} s ({HINT})")
 
     previous = signal.signal(signal.SIGALRM, expired)
