@@ -143,7 +143,7 @@ def test_check_refuses_models_that_differ_before_comparing_dynamics(tmp_path, mo
     s = _variant(tmp_path, 'pos="0 -1 0" mass="1"', 'pos="0.1 -1 0" mass="1"')  # bob off the rod
     from lagrange_xval.validate import cli
 
-    monkeypatch.setattr(cli.commands, "load", lambda name, overrides=(): s)  # the name the CLI resolves systems by
+    monkeypatch.setattr(cli.commands, "load", lambda name, overrides=(), **_: s)  # the name the CLI resolves systems by
     assert main(["check", "double_pendulum_point", "--states", "5"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "body/link1/com" in err
