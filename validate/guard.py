@@ -32,6 +32,7 @@ where the command line, the API and the local pool's workers call the module; in
 
 from __future__ import annotations
 
+import _signal
 import contextlib
 import functools
 import os
@@ -39,8 +40,8 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any, NoReturn
 
 DEFAULT_TIME_LIMIT = 30.0  # s per call into a person's module (and for its import)
@@ -66,40 +67,40 @@ class Guard:
     where: str
     time_limit: float = DEFAULT_TIME_LIMIT
     stopped: str | None = None
-    _local: threading.local = field(default_factory=threading.local, repr=False)
 
     def call(self, name: str, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
         """fn(*args, **kwargs), the person's code called `name`, under the guard; an exception coming
-        out of it is marked with `name` (`describe`)."""
+        out of it is marked with `name` (`describe`). Plain try/finally, no context managers: the
+        mirrors call the dynamics once per step."""
         if self.stopped is not None:
             raise Stopped(self.where, self.stopped)
         if _ACTIVE.current is not None:  # the person's code calling its own functions: the outer call guards it
             return fn(*args, **kwargs)
+        _ACTIVE.current = (self, name)
+        _refuse_exit(True)
+        stdout, sys.stdout = sys.stdout, sys.stderr
+        timer = _arm(self, name) if self.time_limit and threading.current_thread() is _MAIN else None
         try:
-            with self._running(name):
-                return fn(*args, **kwargs)
+            out = fn(*args, **kwargs)
+        except SystemExit as exc:
+            self.stop(f"{name} called sys.exit({'' if exc.code is None else repr(exc.code)})")
         except Exception as exc:
             _note_function(exc, name)
             raise
+        finally:
+            if timer is not None:
+                _disarm(timer)
+            sys.stdout = stdout
+            _refuse_exit(False)
+            _ACTIVE.current = None
+        if self.stopped is not None:  # stopped, but the module caught it and returned
+            raise Stopped(self.where, self.stopped)
+        return out
 
     def stop(self, why: str) -> NoReturn:
         if self.stopped is None:
             self.stopped = why
         raise Stopped(self.where, self.stopped)
-
-    @contextlib.contextmanager
-    def _running(self, name: str) -> Iterator[None]:
-        _ACTIVE.current = (self, name)
-        try:
-            with _alarm(self, name), _no_exit(), contextlib.redirect_stdout(sys.stderr):
-                try:
-                    yield
-                except SystemExit as exc:
-                    self.stop(f"{name} called sys.exit({'' if exc.code is None else repr(exc.code)})")
-            if self.stopped is not None:  # stopped, but the module caught it and returned
-                raise Stopped(self.where, self.stopped)
-        finally:
-            _ACTIVE.current = None
 
 
 class _Active(threading.local):
@@ -107,34 +108,56 @@ class _Active(threading.local):
 
 
 _ACTIVE = _Active()
+_MAIN = threading.main_thread()
 
 
-@contextlib.contextmanager
-def _alarm(guard: Guard, name: str) -> Iterator[None]:
-    """SIGALRM after `guard.time_limit` seconds, then every REPEAT s, raising Stopped in the main
-    thread; the previous handler and timer (pytest-timeout's, say) restored afterwards."""
-    if threading.current_thread() is not threading.main_thread() or not guard.time_limit:
-        yield
-        return
-    limit = guard.time_limit
+@dataclass(frozen=True)
+class _Timer:
+    guard: Guard
+    name: str
+    start: float
+    previous: Any  # the SIGALRM handler before
+    delay: float  # someone else's timer (pytest-timeout's, say): its remaining seconds and interval
+    interval: float
 
-    def expired(signum: int, frame: Any) -> None:
-        if time.monotonic() - start > limit + GRACE:  # every Stopped swallowed: nothing else stops it
-            sys.stderr.write(f"lagrange-xval: error: {guard.where}: {guard.stopped}, and would not stop.\n")
-            sys.stderr.flush()
-            _REAL_EXIT(2)
-        guard.stop(f"{name} did not return within {limit:g} s ({HINT})")
 
-    previous = signal.signal(signal.SIGALRM, expired)
+_timer: _Timer | None = None  # the main thread's armed call
+
+
+def _arm(guard: Guard, name: str) -> _Timer:
+    """SIGALRM after `guard.time_limit` seconds, then every REPEAT s, raising Stopped in the main thread."""
+    global _timer
+    previous = _signal.getsignal(signal.SIGALRM)  # signal.getsignal's enum conversion costs 5 us
+    if previous is not _expired:  # installed once (6 us a call), unless another handler is to be restored
+        signal.signal(signal.SIGALRM, _expired)
     start = time.monotonic()
-    delay, interval = signal.setitimer(signal.ITIMER_REAL, limit, REPEAT)
-    try:
-        yield
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
-        if delay > 0:  # someone else's timer, less the time spent here (at least a moment)
-            signal.setitimer(signal.ITIMER_REAL, max(delay - (time.monotonic() - start), 1e-3), interval)
+    delay, interval = signal.setitimer(signal.ITIMER_REAL, guard.time_limit, REPEAT)
+    _timer = _Timer(guard, name, start, previous, delay, interval)
+    return _timer
+
+
+def _disarm(timer: _Timer) -> None:
+    """The alarm off; the previous handler and timer restored, less the time spent here."""
+    global _timer
+    signal.setitimer(signal.ITIMER_REAL, 0)
+    _timer = None
+    if timer.previous not in (_expired, signal.SIG_DFL, None):  # someone else's handler (with no timer of ours
+        signal.signal(signal.SIGALRM, timer.previous)  # left, ours is inert: it stays where there was none)
+    if timer.delay > 0:
+        left = max(timer.delay - (time.monotonic() - timer.start), 1e-3)
+        signal.setitimer(signal.ITIMER_REAL, left, timer.interval)
+
+
+def _expired(signum: int, frame: Any) -> None:
+    timer = _timer
+    if timer is None:  # disarmed as it fired
+        return
+    guard, limit = timer.guard, timer.guard.time_limit
+    if time.monotonic() - timer.start > limit + GRACE:  # every Stopped swallowed: nothing else stops it
+        sys.stderr.write(f"lagrange-xval: error: {guard.where}: {guard.stopped}, and would not stop.\n")
+        sys.stderr.flush()
+        _REAL_EXIT(2)
+    guard.stop(f"{timer.name} did not return within {limit:g} s ({HINT})")
 
 
 _REAL_EXIT = os._exit
@@ -153,20 +176,12 @@ def _refused(code: int) -> None:
     guard.stop(f"{name} called os._exit({code!r})")
 
 
-@contextlib.contextmanager
-def _no_exit() -> Iterator[None]:
-    """os._exit raising Stopped while the person's code runs (restored after the last such call)."""
+def _refuse_exit(on: bool) -> None:
+    """os._exit raising Stopped while a person's code runs (restored after the last such call)."""
     global _patched
     with _EXIT_LOCK:
-        _patched += 1
-        os._exit = _refused  # type: ignore[assignment]
-    try:
-        yield
-    finally:
-        with _EXIT_LOCK:
-            _patched -= 1
-            if not _patched:
-                os._exit = _REAL_EXIT
+        _patched += 1 if on else -1
+        os._exit = _refused if _patched else _REAL_EXIT  # type: ignore[assignment]
 
 
 def guarded(guard: Guard, name: str, fn: Callable[..., Any]) -> Callable[..., Any]:
