@@ -7,9 +7,10 @@ the local pool), `named_executor("dask:tcp://HOST:8786")` a running scheduler's 
 `Client.get_executor(pure=False)` (pure=False: a repeat of the same run is run again, not served
 from dask's cache of results). The command line's `--executor local|dask[:ADDRESS]` names them.
 
-The pool the harness makes itself runs each task in a process of its own (`OnePerTask`): a task that
-ends its process (an equations module calling os._exit) fails its own future alone, where in one
-shared pool every task still running would fail with it. It is stopped cleanly on Ctrl-C and SIGTERM:
+`run`'s pool (`executor_for(..., isolated=True)`) runs each task in a process of its own
+(`OnePerTask`): a task that ends its process (an equations module calling os._exit) fails its own
+future alone, where in one shared pool every task still running would fail with it. A pool the
+harness makes itself is stopped cleanly on Ctrl-C and SIGTERM:
 its workers ignore SIGINT and take SIGTERM's default action (the parent reports one line and
 terminates them), and on Linux they are killed when the parent dies (PR_SET_PDEATHSIG), so a parent
 killed outright leaves no worker waiting for work that never comes.
@@ -24,7 +25,7 @@ import re
 import threading
 from collections import deque
 from collections.abc import Callable, Iterator
-from concurrent.futures import Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor
+from concurrent.futures import CancelledError, Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor
 from typing import Any
 
 from .errors import HarnessError
@@ -82,10 +83,8 @@ class OnePerTask(Executor):
                 inner.add_done_callback(functools.partial(self._finished, outer, pool))
 
     def _finished(self, outer: Future[Any], pool: ProcessPoolExecutor, inner: Future[Any]) -> None:
-        if inner.cancelled():
-            outer.cancel()  # a running outer future cannot be cancelled: report it as broken
-            if not outer.done():
-                outer.set_exception(RuntimeError("cancelled"))
+        if inner.cancelled():  # at shutdown; the outer future is running, so it cannot be cancelled itself
+            outer.set_exception(CancelledError())
         elif inner.exception() is not None:
             outer.set_exception(inner.exception())
         else:
