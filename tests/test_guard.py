@@ -219,3 +219,35 @@ def test_a_module_that_swallows_every_stop_is_ended(tmp_path: Path) -> None:
     proc = _check(*_system(tmp_path, "stubborn", body))
     assert proc.returncode == 2, proc.stderr
     assert "mass_matrix did not return within 2 s" in proc.stderr and "would not stop" in proc.stderr
+
+
+def test_the_guard_restores_someone_elses_alarm() -> None:
+    """A handler and timer of SIGALRM set before a guarded call (pytest-timeout's) are there after it."""
+    from lagrange_xval.validate.guard import Guard, guarded
+
+    def theirs(signum: int, frame: object) -> None:
+        raise AssertionError("their alarm fired during the test")
+
+    before = signal.signal(signal.SIGALRM, theirs)
+    signal.setitimer(signal.ITIMER_REAL, 100.0)
+    try:
+        assert guarded(Guard("mine.py", 5.0), "mass_matrix", lambda x: 2 * x)(3) == 6
+        assert signal.getsignal(signal.SIGALRM) is theirs
+        assert 90.0 < signal.getitimer(signal.ITIMER_REAL)[0] <= 100.0
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, before)
+
+
+def test_a_stop_survives_pickling() -> None:
+    """A Stopped raised in a worker reaches the parent with its file and reason."""
+    import pickle
+
+    from lagrange_xval.validate.guard import Stopped
+
+    stop = pickle.loads(pickle.dumps(Stopped("mine.py", "bias called sys.exit(1)")))
+    assert (stop.where, stop.why, str(stop)) == (
+        "mine.py",
+        "bias called sys.exit(1)",
+        "mine.py: bias called sys.exit(1)",
+    )

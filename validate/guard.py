@@ -57,7 +57,10 @@ class Stopped(BaseException):  # noqa: N818 - a stop, like KeyboardInterrupt, no
 
     def __init__(self, where: str, why: str) -> None:
         self.where, self.why = where, why
-        super().__init__(f"{where}: {why}" if where else why)
+        super().__init__(where, why)  # both, so that it crosses a process boundary (pickled by its args)
+
+    def __str__(self) -> str:
+        return f"{self.where}: {self.why}" if self.where else self.why
 
 
 @dataclass

@@ -505,6 +505,8 @@ def _outcome(future: Any, system: Any) -> tuple[SystemResult, Any]:
     called os._exit or crashed the interpreter) is that system's failure, not the run's."""
     try:
         return future.result()  # type: ignore[no-any-return]
+    except Stopped as stop:  # stopped before run_system (a Hamiltonian traced as the module was read)
+        why = stop.why
     except BrokenExecutor:
         why = "its worker process ended without an answer: the equations module ended it (os._exit, a signal, a crash)"
     except Exception as exc:  # dask's KilledWorker: the worker died, as above
