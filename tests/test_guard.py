@@ -251,3 +251,36 @@ def test_a_stop_survives_pickling() -> None:
         "bias called sys.exit(1)",
         "mine.py: bias called sys.exit(1)",
     )
+
+
+def _pid(x: int) -> tuple[int, int]:
+    import os
+
+    time.sleep(0.3)  # long enough to outlive the pool thread that reported the previous task
+    return x, os.getpid()
+
+
+def _ends(code: int) -> None:
+    import os
+
+    os._exit(code)
+
+
+def test_one_process_per_task_and_a_dying_task_fails_alone() -> None:
+    """OnePerTask: more tasks than workers each run in a process of their own (those forked after the
+    first survive the pool thread that reported the previous result); one that ends its process fails
+    alone with BrokenProcessPool."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    from lagrange_xval.validate.parallel import executor_for
+
+    with executor_for(None, tasks=1, isolated=True) as pool:
+        futures = [pool.submit(_pid, i) for i in range(3)]
+        dying = pool.submit(_ends, 3)
+        after = pool.submit(_pid, 3)
+        results = [f.result(timeout=60) for f in futures]
+        with pytest.raises(BrokenProcessPool):
+            dying.result(timeout=60)
+        assert after.result(timeout=60)[0] == 3
+    assert [x for x, _ in results] == [0, 1, 2]
+    assert len({pid for _, pid in results} | {after.result()[1]}) == 4

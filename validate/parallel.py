@@ -53,34 +53,44 @@ def _worker_init(parent: int) -> None:
 class OnePerTask(Executor):
     """Each task in a one-worker process pool of its own, at most `workers` at once: a task whose
     process dies (os._exit, a crash) breaks only its own pool, so its future alone fails
-    (BrokenProcessPool) and the others' results are kept. The next task starts as one finishes."""
+    (BrokenProcessPool) and the others' results are kept. The next task starts as one finishes.
+
+    Every pool is made, and so every worker forked, by one launcher thread that lives as long as the
+    executor: PR_SET_PDEATHSIG kills a worker when the *thread* that forked it ends, so a worker
+    forked by the finished pool's thread (where its result arrives) would die with it."""
 
     def __init__(self, workers: int) -> None:
         self._workers = workers
-        self._lock = threading.RLock()  # a task already done runs its callback inside _start_next
+        self._ready = threading.Condition()
         self._pending: deque[tuple[Future[Any], Callable[..., Any], tuple[Any, ...], dict[str, Any]]] = deque()
         self._pools: set[ProcessPoolExecutor] = set()
         self._closed = False
+        self._launcher = threading.Thread(target=self._launch, name="OnePerTask launcher", daemon=True)
+        self._launcher.start()
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
         outer: Future[Any] = Future()
-        with self._lock:
+        with self._ready:
             if self._closed:
                 raise RuntimeError("cannot schedule new futures after shutdown")
             self._pending.append((outer, fn, args, kwargs))
-        self._start_next()
+            self._ready.notify()
         return outer
 
-    def _start_next(self) -> None:
-        with self._lock:
-            while self._pending and len(self._pools) < self._workers and not self._closed:
+    def _launch(self) -> None:
+        """The launcher: a pool for the next pending task whenever one is free, until shutdown."""
+        while True:
+            with self._ready:
+                self._ready.wait_for(lambda: self._closed or (self._pending and len(self._pools) < self._workers))
+                if self._closed:
+                    return
                 outer, fn, args, kwargs = self._pending.popleft()
                 if not outer.set_running_or_notify_cancel():
                     continue
                 pool = ProcessPoolExecutor(max_workers=1, initializer=_worker_init, initargs=(os.getpid(),))
                 self._pools.add(pool)
-                inner = pool.submit(fn, *args, **kwargs)
-                inner.add_done_callback(functools.partial(self._finished, outer, pool))
+                inner = pool.submit(fn, *args, **kwargs)  # forks here, in this thread
+            inner.add_done_callback(functools.partial(self._finished, outer, pool))
 
     def _finished(self, outer: Future[Any], pool: ProcessPoolExecutor, inner: Future[Any]) -> None:
         if inner.cancelled():  # at shutdown; the outer future is running, so it cannot be cancelled itself
@@ -90,21 +100,28 @@ class OnePerTask(Executor):
         else:
             outer.set_result(inner.result())
         pool.shutdown(wait=False)
-        with self._lock:
+        with self._ready:
             self._pools.discard(pool)
-        self._start_next()
+            self._ready.notify()
 
     def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
-        with self._lock:
+        """Pending tasks cancelled (`cancel_futures`) or left to run; the pools shut down, then the
+        launcher stopped (its workers die with it)."""
+        if wait and not cancel_futures:
+            with self._ready:
+                self._ready.wait_for(lambda: not self._pending and not self._pools)
+        with self._ready:
+            pending = list(self._pending)
+            self._pending.clear()
             self._closed = True
-            pending = list(self._pending) if cancel_futures else []
-            if cancel_futures:
-                self._pending.clear()
             pools = list(self._pools)
+            self._ready.notify()
         for outer, *_ in pending:
             outer.cancel()
         for pool in pools:
             pool.shutdown(wait=wait, cancel_futures=cancel_futures)
+        if wait:
+            self._launcher.join()
 
 
 @contextlib.contextmanager
