@@ -80,8 +80,7 @@ class Guard:
         if _ACTIVE.current is not None:  # the person's code calling its own functions: the outer call guards it
             return fn(*args, **kwargs)
         _ACTIVE.current = (self, name)
-        _refuse_exit(True)
-        stdout, sys.stdout = sys.stdout, sys.stderr
+        _isolate(True)
         timer = _arm(self, name) if self.time_limit and threading.current_thread() is _MAIN else None
         try:
             out = fn(*args, **kwargs)
@@ -93,8 +92,7 @@ class Guard:
         finally:
             if timer is not None:
                 _disarm(timer)
-            sys.stdout = stdout
-            _refuse_exit(False)
+            _isolate(False)
             _ACTIVE.current = None
         if self.stopped is not None:  # stopped, but the module caught it and returned
             raise Stopped(self.where, self.stopped)
@@ -164,8 +162,9 @@ def _expired(signum: int, frame: Any) -> None:
 
 
 _REAL_EXIT = os._exit
-_EXIT_LOCK = threading.Lock()
-_patched = 0  # guarded calls running, in every thread: os._exit is replaced while there is one
+_LOCK = threading.Lock()
+_running = 0  # guarded calls running, in every thread: os._exit replaced and stdout on stderr while any
+_stdout: Any = None  # sys.stdout before the first of them
 
 
 def _refused(code: int) -> None:
@@ -179,12 +178,19 @@ def _refused(code: int) -> None:
     guard.stop(f"{name} called os._exit({code!r})")
 
 
-def _refuse_exit(on: bool) -> None:
-    """os._exit raising Stopped while a person's code runs (restored after the last such call)."""
-    global _patched
-    with _EXIT_LOCK:
-        _patched += 1 if on else -1
-        os._exit = _refused if _patched else _REAL_EXIT  # type: ignore[assignment]
+def _isolate(on: bool) -> None:
+    """While a person's code runs (in any thread): os._exit raises Stopped, and sys.stdout is stderr;
+    both restored after the last such call (counted, so that two threads' calls never restore the
+    other's replacement)."""
+    global _running, _stdout
+    with _LOCK:
+        if on and not _running:
+            _stdout, sys.stdout = sys.stdout, sys.stderr
+            os._exit = _refused  # type: ignore[assignment]
+        _running += 1 if on else -1
+        if not on and not _running:
+            sys.stdout, _stdout = _stdout, None
+            os._exit = _REAL_EXIT
 
 
 def guarded(guard: Guard, name: str, fn: Callable[..., Any]) -> Callable[..., Any]:

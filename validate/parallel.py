@@ -74,7 +74,11 @@ class OnePerTask(Executor):
             if self._closed:
                 raise RuntimeError("cannot schedule new futures after shutdown")
             self._pending.append((outer, fn, args, kwargs))
-            self._ready.notify()
+            self._ready.notify_all()
+            # Where a worker is free, return once its process exists (as a pool's submit does).
+            self._ready.wait_for(
+                lambda: self._closed or outer.running() or outer.done() or len(self._pools) >= self._workers
+            )
         return outer
 
     def _launch(self) -> None:
@@ -90,6 +94,7 @@ class OnePerTask(Executor):
                 pool = ProcessPoolExecutor(max_workers=1, initializer=_worker_init, initargs=(os.getpid(),))
                 self._pools.add(pool)
                 inner = pool.submit(fn, *args, **kwargs)  # forks here, in this thread
+                self._ready.notify_all()
             inner.add_done_callback(functools.partial(self._finished, outer, pool))
 
     def _finished(self, outer: Future[Any], pool: ProcessPoolExecutor, inner: Future[Any]) -> None:
@@ -102,7 +107,7 @@ class OnePerTask(Executor):
         pool.shutdown(wait=False)
         with self._ready:
             self._pools.discard(pool)
-            self._ready.notify()
+            self._ready.notify_all()
 
     def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
         """Pending tasks cancelled (`cancel_futures`) or left to run; the pools shut down, then the
@@ -115,7 +120,7 @@ class OnePerTask(Executor):
             self._pending.clear()
             self._closed = True
             pools = list(self._pools)
-            self._ready.notify()
+            self._ready.notify_all()
         for outer, *_ in pending:
             outer.cancel()
         for pool in pools:
