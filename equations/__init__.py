@@ -72,5 +72,6 @@ force of the inputs (motors where the MJCF has actuators, otherwise an applied j
 controls. The dynamics are traced with symbolic values for the fast path, the Taylor reference and
 form (d): write them with numpy arithmetic and elementary functions (np.sin, np.cos, np.sqrt, ...;
 np.abs, np.sign, np.where, np.minimum, np.maximum; `@`, np.einsum and np.cross work), not
-np.linalg.
+np.linalg. Every call into a module (its import included) has a time limit, 30 s by default, and may
+not end the process (sys.exit, os._exit) nor print to stdout (validate/guard.py).
 """

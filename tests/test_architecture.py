@@ -12,8 +12,9 @@ from pathlib import Path
 import pytest
 
 VALIDATE = Path(__file__).resolve().parents[1] / "validate"
-# Modules every layer may use: errors, input checks, safe file creation, the executor, and the tolerance numbers.
-FOUNDATION = {"errors", "inputs", "files", "parallel", "checks.tolerances"}
+# Modules every layer may use: errors, input checks, safe file creation, the executor, the guard around a
+# person's code, and the tolerance numbers.
+FOUNDATION = {"errors", "inputs", "files", "parallel", "guard", "checks.tolerances"}
 # A module may import its own package and the layers below its own (the data flows one way:
 # systems -> engines -> dynamics -> checks -> pipeline and studies -> cli).
 LAYER = {

@@ -145,7 +145,7 @@ def test_check_fails_a_model_that_differs_from_what_the_derivation_assumes(tmp_p
     s = _variant(tmp_path, 'pos="0 -1 0" mass="1"', 'pos="0.1 -1 0" mass="1"')  # bob off the rod
     from lagrange_xval.validate import cli
 
-    monkeypatch.setattr(cli.commands, "load", lambda name, overrides=(): s)  # the name the CLI resolves systems by
+    monkeypatch.setattr(cli.commands, "load", lambda name, overrides=(), **_: s)  # the name the CLI resolves systems by
     assert main(["check", "double_pendulum_point", "--states", "5"]) == 1
     last = capsys.readouterr().out.strip().splitlines()[-1]
     assert last.startswith("verdict: double_pendulum_point: FAIL") and "body/link1/com" in last, last

@@ -14,7 +14,8 @@ parameter sets (validate/checks/verdict.py).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import functools
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -25,6 +26,7 @@ from .checks.probes import DEFAULT_PROBES
 from .checks.tolerances import TOLERANCES, Tolerances
 from .dynamics.cachedir import Cache
 from .errors import HarnessError
+from .guard import Stopped
 from .results.schema import CheckData
 from .systems import System, load
 
@@ -111,6 +113,23 @@ def _row(check: str, r: Mapping[str, Any], quantity: str) -> Row:
     )
 
 
+def _stop_is_a_verdict(fn: Callable[..., Result]) -> Callable[..., Result]:
+    """`check`, where an equations module stopped (it hung or tried to exit: validate/guard.py) is a
+    failing result naming the function, not an exception."""
+
+    @functools.wraps(fn)
+    def guarded(system: System | str, **options: Any) -> Result:
+        try:
+            return fn(system, **options)
+        except Stopped as stop:
+            name = system if isinstance(system, str) else system.name
+            row = Row("derivation", "equations module", "hand~mjcf", np.inf, np.inf, 0.0, False, detail=stop.why)
+            return Result(name, (row,), stop.why, {})
+
+    return guarded
+
+
+@_stop_is_a_verdict
 def check(
     system: System | str,
     *,

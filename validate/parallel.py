@@ -7,7 +7,10 @@ the local pool), `named_executor("dask:tcp://HOST:8786")` a running scheduler's 
 `Client.get_executor(pure=False)` (pure=False: a repeat of the same run is run again, not served
 from dask's cache of results). The command line's `--executor local|dask[:ADDRESS]` names them.
 
-A pool the harness makes itself is stopped cleanly on Ctrl-C and SIGTERM:
+`run`'s pool (`executor_for(..., isolated=True)`) runs each task in a process of its own
+(`OnePerTask`): a task that ends its process (an equations module calling os._exit) fails its own
+future alone, where in one shared pool every task still running would fail with it. A pool the
+harness makes itself is stopped cleanly on Ctrl-C and SIGTERM:
 its workers ignore SIGINT and take SIGTERM's default action (the parent reports one line and
 terminates them), and on Linux they are killed when the parent dies (PR_SET_PDEATHSIG), so a parent
 killed outright leaves no worker waiting for work that never comes.
@@ -16,10 +19,14 @@ killed outright leaves no worker waiting for work that never comes.
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import re
-from collections.abc import Iterator
-from concurrent.futures import Executor, ProcessPoolExecutor, ThreadPoolExecutor
+import threading
+from collections import deque
+from collections.abc import Callable, Iterator
+from concurrent.futures import CancelledError, Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor
+from typing import Any
 
 from .errors import HarnessError
 
@@ -43,24 +50,108 @@ def _worker_init(parent: int) -> None:
         os._exit(1)
 
 
+class OnePerTask(Executor):
+    """Each task in a one-worker process pool of its own, at most `workers` at once: a task whose
+    process dies (os._exit, a crash) breaks only its own pool, so its future alone fails
+    (BrokenProcessPool) and the others' results are kept. The next task starts as one finishes.
+
+    Every pool is made, and so every worker forked, by one launcher thread that lives as long as the
+    executor: PR_SET_PDEATHSIG kills a worker when the *thread* that forked it ends, so a worker
+    forked by the finished pool's thread (where its result arrives) would die with it."""
+
+    def __init__(self, workers: int) -> None:
+        self._workers = workers
+        self._ready = threading.Condition()
+        self._pending: deque[tuple[Future[Any], Callable[..., Any], tuple[Any, ...], dict[str, Any]]] = deque()
+        self._pools: set[ProcessPoolExecutor] = set()
+        self._closed = False
+        self._launcher = threading.Thread(target=self._launch, name="OnePerTask launcher", daemon=True)
+        self._launcher.start()
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
+        outer: Future[Any] = Future()
+        with self._ready:
+            if self._closed:
+                raise RuntimeError("cannot schedule new futures after shutdown")
+            self._pending.append((outer, fn, args, kwargs))
+            self._ready.notify_all()
+            # Where a worker is free, return once its process exists (as a pool's submit does).
+            self._ready.wait_for(
+                lambda: self._closed or outer.running() or outer.done() or len(self._pools) >= self._workers
+            )
+        return outer
+
+    def _launch(self) -> None:
+        """The launcher: a pool for the next pending task whenever one is free, until shutdown."""
+        while True:
+            with self._ready:
+                self._ready.wait_for(lambda: self._closed or (self._pending and len(self._pools) < self._workers))
+                if self._closed:
+                    return
+                outer, fn, args, kwargs = self._pending.popleft()
+                if not outer.set_running_or_notify_cancel():
+                    continue
+                pool = ProcessPoolExecutor(max_workers=1, initializer=_worker_init, initargs=(os.getpid(),))
+                self._pools.add(pool)
+                inner = pool.submit(fn, *args, **kwargs)  # forks here, in this thread
+                self._ready.notify_all()
+            inner.add_done_callback(functools.partial(self._finished, outer, pool))
+
+    def _finished(self, outer: Future[Any], pool: ProcessPoolExecutor, inner: Future[Any]) -> None:
+        if inner.cancelled():  # at shutdown; the outer future is running, so it cannot be cancelled itself
+            outer.set_exception(CancelledError())
+        elif inner.exception() is not None:
+            outer.set_exception(inner.exception())
+        else:
+            outer.set_result(inner.result())
+        pool.shutdown(wait=False)
+        with self._ready:
+            self._pools.discard(pool)
+            self._ready.notify_all()
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        """Pending tasks cancelled (`cancel_futures`) or left to run; the pools shut down, then the
+        launcher stopped (its workers die with it)."""
+        if wait and not cancel_futures:
+            with self._ready:
+                self._ready.wait_for(lambda: not self._pending and not self._pools)
+        with self._ready:
+            pending = list(self._pending)
+            self._pending.clear()
+            self._closed = True
+            pools = list(self._pools)
+            self._ready.notify_all()
+        for outer, *_ in pending:
+            outer.cancel()
+        for pool in pools:
+            pool.shutdown(wait=wait, cancel_futures=cancel_futures)
+        if wait:
+            self._launcher.join()
+
+
 @contextlib.contextmanager
-def executor_for(executor: Executor | None, *, tasks: int | None = None) -> Iterator[Executor]:
-    """`executor` as given, or (if None) a process pool with a worker per core (at most `tasks`),
-    shut down on exit and terminated on Ctrl-C."""
+def executor_for(executor: Executor | None, *, tasks: int | None = None, isolated: bool = False) -> Iterator[Executor]:
+    """`executor` as given, or (if None) a process pool with a worker per core (at most `tasks`; one
+    task: a thread), shut down on exit and terminated on Ctrl-C. `isolated`: a process per task
+    (`OnePerTask`), one task included, so that a task ending its process fails alone and the main
+    thread only waits (Ctrl-C and SIGTERM stop it whatever the task is doing)."""
     if executor is not None:
         yield executor
         return
     workers = min(tasks or os.cpu_count() or 1, os.cpu_count() or 1)
-    pool: Executor = (
-        ProcessPoolExecutor(max_workers=workers, initializer=_worker_init, initargs=(os.getpid(),))
-        if workers > 1
-        else ThreadPoolExecutor(max_workers=1)
-    )
+    pool: Executor
+    if isolated:
+        pool = OnePerTask(workers)
+    elif workers > 1:
+        pool = ProcessPoolExecutor(max_workers=workers, initializer=_worker_init, initargs=(os.getpid(),))
+    else:
+        pool = ThreadPoolExecutor(max_workers=1)
     try:
         yield pool
     except KeyboardInterrupt:
         import multiprocessing
 
+        pool.shutdown(wait=False, cancel_futures=True)  # no task starts from here on
         for child in multiprocessing.active_children():
             child.terminate()
         raise

@@ -5,7 +5,7 @@ Each step returns plain data; `run` assembles `results.json` and the reports ren
 
 from __future__ import annotations
 
-from concurrent.futures import Executor, as_completed
+from concurrent.futures import BrokenExecutor, Executor, as_completed
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +21,7 @@ from .dynamics import chaos, estimate, experiments, fast, integrate
 from .dynamics.cachedir import Cache
 from .dynamics.reference import reference_trajectory
 from .errors import HarnessError
+from .guard import DEFAULT_TIME_LIMIT, Stopped
 from .parallel import executor_for
 from .results import provenance
 from .results.schema import Derivation, ModelChecks, Pointwise, Provenance, RunResults, SystemResult
@@ -443,8 +444,9 @@ def _from_notes(system: Any) -> bool:
     return bool(system.mjcf.resolve().parent == MODELS_DIR.resolve())
 
 
-def _identity(system: Any) -> SystemResult:
-    """What a system is: names, files, coordinates, joints, bodies and the physics it uses."""
+def _identity(system: Any, bodies: list[str] | None = None) -> SystemResult:
+    """What a system is: names, files, coordinates, joints, bodies (`bodies`: given, not asked of the
+    module) and the physics it uses."""
 
     inside = _from_notes(system)
     return {
@@ -463,7 +465,7 @@ def _identity(system: Any) -> SystemResult:
         ),
         "coordinates": list(system.coordinates),
         "joints": list(system.joints),
-        "bodies": list(system.bodies),
+        "bodies": list(system.bodies) if bodies is None else bodies,
         "uses": sorted(system.uses),
     }
 
@@ -484,11 +486,16 @@ def _unreadable(decision: Decision) -> SystemResult:
 
 
 def _run_one(
-    name: str, n_states: int, seed: int, n_probes: int = DEFAULT_PROBES, cache: Cache | None = None
+    name: str,
+    n_states: int,
+    seed: int,
+    n_probes: int = DEFAULT_PROBES,
+    cache: Cache | None = None,
+    time_limit: float = DEFAULT_TIME_LIMIT,
 ) -> SystemResult:
     """One system, by name (picklable, for process pools)."""
 
-    return run_system(load(name), n_states=n_states, seed=seed, n_probes=n_probes, cache=cache)
+    return guarded_run(load(name, time_limit=time_limit), n_states=n_states, seed=seed, n_probes=n_probes, cache=cache)
 
 
 def _run_files(
@@ -499,14 +506,48 @@ def _run_files(
     n_probes: int,
     locked: tuple[str, ...] = (),
     cache: Cache | None = None,
+    time_limit: float = DEFAULT_TIME_LIMIT,
 ) -> SystemResult:
     """One system from a model file and an equations file (picklable, for process pools)."""
 
     if equations:
-        system = System.from_files(model, equations, locked=locked)
+        system = System.from_files(model, equations, locked=locked, time_limit=time_limit)
     else:
         system = System.model_only(model, locked=locked)
-    return run_system(system, n_states=n_states, seed=seed, n_probes=n_probes, cache=cache)
+    return guarded_run(system, n_states=n_states, seed=seed, n_probes=n_probes, cache=cache)
+
+
+def guarded_run(system: Any, **options: Any) -> SystemResult:
+    """`run_system`, with a module that hung or tried to exit (validate/guard.py) as its one finding."""
+    try:
+        return run_system(system, **options)
+    except Stopped as stop:
+        return stopped_result(system, stop.why)
+
+
+def stopped_result(system: Any, why: str) -> SystemResult:
+    """The result of a system whose equations module was stopped (`why`: "mass_matrix did not return
+    within 30 s") or whose worker process ended: nothing after it can be checked."""
+    return {
+        **_identity(system, bodies=[]),
+        "parameters": {},
+        "derivation": {
+            "name": "hand derivation",
+            "kind": "hand",
+            "verdict": "disagrees",
+            "first_disagreeing_term": "parameters",
+            "failing_terms": [],
+            "statement": why,
+            "hidden_by_model_values": False,
+            "terms": [],
+            "summary": [],
+        },
+        "variants": [],
+        "stages": {"everything after the stop": f"not run: {why}"},
+        "failed": [why],
+        "skipped": [],
+        "passed": False,
+    }
 
 
 def _task(fn: Any, args: tuple[Any, ...], after: Any, meta: Provenance) -> tuple[dict[str, Any], Any]:
@@ -514,6 +555,22 @@ def _task(fn: Any, args: tuple[Any, ...], after: Any, meta: Provenance) -> tuple
     without `after`)."""
     result = fn(*args)
     return result, (after(result["name"], result, meta) if after is not None else None)
+
+
+def _outcome(future: Any, system: Any) -> tuple[SystemResult, Any]:
+    """A finished system's (results, rendered); a worker that ended without an answer (its module
+    called os._exit or crashed the interpreter) is that system's failure, not the run's."""
+    try:
+        return future.result()  # type: ignore[no-any-return]
+    except Stopped as stop:  # stopped before run_system (a Hamiltonian traced as the module was read)
+        why = stop.why
+    except BrokenExecutor:
+        why = "its worker process ended without an answer: the equations module ended it (os._exit, a signal, a crash)"
+    except Exception as exc:  # dask's KilledWorker: the worker died, as above
+        if type(exc).__name__ != "KilledWorker":
+            raise
+        why = "its worker process died: the equations module ended it (os._exit, a signal, a crash)"
+    return stopped_result(system, why), None
 
 
 def run(
@@ -529,6 +586,7 @@ def run(
     rendered: dict[str, Any] | None = None,
     locked: tuple[str, ...] = (),
     cache: Cache | None = None,
+    time_limit: float = DEFAULT_TIME_LIMIT,
 ) -> RunResults:
     """Every system (or those named), each in a worker of `executor` (default: a process pool on
     every core; any `concurrent.futures.Executor` will do, a distributed one included). `files`:
@@ -538,12 +596,16 @@ def run(
     (e.g. rendering its report section); what it returns goes into `rendered[name]`. `locked`: URDF
     joints made fixed in the `files` systems (a gripper's fingers), a named step listed in their report.
     `cache`: the cache every worker keeps its references, summaries and explanations in (None: none),
-    handed to them as a value."""
+    handed to them as a value.
+    `time_limit`: seconds each call into an equations module may take (validate/guard.py); a module
+    stopped, or a worker process that ends (`os._exit` in a module), fails its own system alone."""
 
     # Unknown names and unreadable files fail here, before any work starts.
-    systems = load_all(names) if names or not files else []
+    systems = load_all(names, time_limit=time_limit) if names or not files else []
     users = [
-        System.from_files(m, e, locked=locked) if e is not None else System.model_only(m, locked=locked)
+        System.from_files(m, e, locked=locked, time_limit=time_limit)
+        if e is not None
+        else System.model_only(m, locked=locked)
         for m, e in (files or [])
     ]
     taken = [s.name for s in systems + users]
@@ -552,24 +614,26 @@ def run(
         raise HarnessError(f"two systems are called {', '.join(clash)}: rename one equations file.")
     out: RunResults = {"meta": provenance(seed), "tolerances": TOLERANCES.as_dict(), "systems": {}, "passed": False}
 
-    with executor_for(executor, tasks=len(systems) + len(users)) as pool:
+    with executor_for(executor, tasks=len(systems) + len(users), isolated=True) as pool:
         # Longest first, so that two workers finish together: damped scenes (implicit-damping
         # mirrors step the numpy equations), then more coordinates, then more printed forms.
         order = sorted(systems, key=lambda s: ("damping" not in s.uses, -s.nv, -len(s.variants), s.name))
         meta = out["meta"]
         futures = {
-            pool.submit(_task, _run_one, (s.name, n_states, seed, n_probes, cache), after, meta): s.name for s in order
+            pool.submit(_task, _run_one, (s.name, n_states, seed, n_probes, cache, time_limit), after, meta): s
+            for s in order
         }
         for (model, equations), user in zip(files or [], users, strict=True):
-            args = (str(model), "" if equations is None else str(equations), n_states, seed, n_probes, locked, cache)
-            futures[pool.submit(_task, _run_files, args, after, meta)] = user.name
-        for name in futures.values():
+            equations_file = "" if equations is None else str(equations)
+            args = (str(model), equations_file, n_states, seed, n_probes, locked, cache, time_limit)
+            futures[pool.submit(_task, _run_files, args, after, meta)] = user
+        for system in futures.values():
             if progress:
-                progress(name, "start")
+                progress(system.name, "start")
         done: dict[str, Any] = {}
         for future in as_completed(futures):
-            name = futures[future]
-            done[name], extra = future.result()
+            name = futures[future].name
+            done[name], extra = _outcome(future, futures[future])
             if rendered is not None and after is not None:
                 rendered[name] = extra
             if progress:

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..engines import make_sources
 from ..errors import HarnessError
+from ..guard import describe
 from ..results.schema import ComparisonRow, Pointwise
 from .tolerances import QUANTITY_TIER, SCALE_ALSO_BY, TOLERANCES, Tolerances
 
@@ -105,7 +106,7 @@ def evaluate(sources: dict[str, Any], states: States) -> dict[str, dict[str, np.
             hand = sources["hand"].evaluate(q, v, tau)  # its inverse dynamics at its own accelerations
     except Exception as exc:  # noqa: BLE001 - a derivation that raises is judged term by term (verdict.py)
         hand = None
-        error = f"{type(exc).__name__}: {exc}"
+        error = describe(exc)  # "mass_matrix raised ZeroDivisionError: division by zero"
     if hand is None:
         # Every quantity NaN, so each pointwise row fails; validate/checks/verdict.py names the function.
         shapes = {k: np.shape(x) for k, x in next(iter(engines.values())).evaluate(q, v, tau, q * 0).items()}

@@ -17,6 +17,7 @@ from collections.abc import Iterator
 from typing import Any
 
 from ..errors import HarnessError, Terminated
+from ..guard import Stopped
 from .commands import COMMANDS
 from .parser import MAX_STATES_FILE_BYTES, build_parser, one_line
 
@@ -112,6 +113,8 @@ def main(argv: list[str] | None = None) -> int:
     except HarnessError as exc:
         print(f"lagrange-xval: error: {exc}", file=sys.stderr)
         return exc.exit_code
+    except Stopped as stop:  # a person's module that hung or tried to exit (validate/guard.py)
+        return _error(str(stop))
     except Terminated:
         print("lagrange-xval: terminated; nothing half-written (previous reports are intact).", file=sys.stderr)
         return 143

@@ -17,6 +17,7 @@ from ..dynamics.cache import CACHE_ENV, usable
 from ..dynamics.cachedir import Cache
 from ..engines import make_sources
 from ..errors import HarnessError
+from ..guard import DEFAULT_TIME_LIMIT
 from ..inputs import parse_json, regular_file
 from ..parallel import named_executor
 from ..pipeline import reference_dir, run
@@ -189,6 +190,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             rendered=rendered,
             locked=locked,
             cache=cache,
+            time_limit=args.time_limit,
         )
     cache.trim()
     hint = replay_hint(args.out, written=not args.no_replay)
@@ -226,14 +228,15 @@ def one_system(args: argparse.Namespace) -> System:
     if files and args.system:
         raise HarnessError("give a SYSTEM name or --model and --equations, not both.")
     locked = locked_joints(args)
+    limit = getattr(args, "time_limit", DEFAULT_TIME_LIMIT)
     if files:
         model, equations = files[0]
         if equations is None:
             return System.model_only(model, locked=locked)
-        return System.from_files(model, equations, locked=locked)
+        return System.from_files(model, equations, locked=locked, time_limit=limit)
     if not args.system:
         raise HarnessError("name a SYSTEM (see `lagrange-xval list`) or give --model PATH --equations PATH.")
-    return load(args.system)
+    return load(args.system, time_limit=limit)
 
 
 def user_files(args: argparse.Namespace) -> list[tuple[Path, Path | None]] | None:
@@ -292,6 +295,8 @@ def cmd_derive(args: argparse.Namespace) -> int:
         raise HarnessError("name a SYSTEM (see `lagrange-xval list`) or give --model PATH.")
     system = one_system(args)  # --model alone: the model's joints, in order, as the coordinates
     view, joints, coordinates, joint_map = system.view, system.joints, system.coordinates, system.joint_map
+    if not args.force:
+        affordable(len(joints))
     if args.coordinates:
         names = tuple(x.strip() for x in args.coordinates.split(","))
         if len(names) != len(joints) or not all(n.isidentifier() for n in names) or len(set(names)) != len(names):
@@ -313,6 +318,20 @@ def configured_cache() -> Cache:
     if value is None:
         return Cache.user()
     return Cache.at(value) if value else Cache.off()
+
+
+def affordable(n: int) -> None:
+    """Refuses a derivation predicted to exceed the budget (validate/studies/chains.py's cost model),
+    before it starts: a symbolic derivation cannot be interrupted midway."""
+    from ..studies.chains import DERIVE_BUDGET, GROWTH, MEASURED, predicted_derive_s
+
+    predicted = predicted_derive_s(n)
+    if predicted > DERIVE_BUDGET:
+        raise HarnessError(
+            f"{n} joints: the symbolic derivation is predicted to take about {predicted:.3g} s (it grows about as "
+            f"n^{GROWTH}; {MEASURED[0]} joints took {MEASURED[1]:g} s), over the {DERIVE_BUDGET:g} s budget; "
+            "--force derives it anyway."
+        )
 
 
 def cmd_replay(args: argparse.Namespace) -> int:

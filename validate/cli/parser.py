@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import HarnessError
+from ..guard import DEFAULT_TIME_LIMIT
 from ..parallel import parse_executor
 from ..results import harness_version
 from ..systems import system_names
@@ -199,6 +200,16 @@ def build_parser() -> argparse.ArgumentParser:
             "(default 4; 0: the model's only)",
         )
 
+    def time_limit_option(parser: argparse.ArgumentParser) -> None:
+        parser.add_argument(
+            "--time-limit",
+            type=positive_float,
+            default=DEFAULT_TIME_LIMIT,
+            metavar="SECONDS",
+            help=f"how long each call into an equations module (and its import) may take, s (default "
+            f"{DEFAULT_TIME_LIMIT:g}); a call that does not return in time is that system's finding",
+        )
+
     def cache_options(parser: argparse.ArgumentParser) -> None:
         parser.add_argument(
             "--cache-dir", type=path_arg, metavar="DIR", help="reference and chaos cache (default: OUT/.cache)"
@@ -268,6 +279,7 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="DIR",
         help="a folder of your own systems: each <name>.xml or <name>.urdf with its <name>.py",
     )
+    time_limit_option(run)
     cache_options(run)
     executor_option(run, "the systems")
 
@@ -311,6 +323,7 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="DIR",
         help="keep the explanations of wrong entries in DIR (default: none; check writes nothing)",
     )
+    time_limit_option(check)
 
     sim = command(
         "simulate", help="one trajectory of one source, sampled every --dt-out seconds, written as CSV or JSON"
@@ -349,6 +362,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--t-end", type=positive_float, required=True, metavar="T", help="duration (s), a whole multiple of --dt-out"
     )
     sim.add_argument("--dt-out", type=positive_float, required=True, metavar="DT", help="output sampling interval (s)")
+    time_limit_option(sim)
     sim.add_argument(
         "--out",
         type=path_arg,
@@ -440,6 +454,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="comma-separated names for the joints' coordinates, in the model's joint order",
     )
     lock_option(derive)
+    time_limit_option(derive)
+    derive.add_argument(
+        "--force",
+        action="store_true",
+        help="derive a model however long it is predicted to take (without it, a model whose derivation is "
+        "predicted to exceed the budget is refused)",
+    )
     form = derive.add_mutually_exclusive_group()
     form.add_argument("--latex", action="store_true", help="print LaTeX instead of plain text")
     form.add_argument("--python", action="store_true", help="print numpy code instead of plain text")

@@ -32,6 +32,15 @@ QUICK_NS = (2, 3, 4, 6, 10, 20, 30)
 SYMBOLIC_BUDGET = {"full": 60.0, "quick": 10.0}  # s for one chain's derivation and code; beyond, it stops
 OPS = ("M", "bias", "forward", "inverse")
 GROWTH = 6  # measured: planar chains' derivation and code took 0.17, 0.22, 0.68, 6.8 s at n = 2, 3, 4, 6
+MEASURED = (6, 6.8)  # (n, s): the largest of those measurements, the base of the prediction
+DERIVE_BUDGET = 120.0  # s: `derive` refuses a model predicted to take longer (unless --force)
+
+
+def predicted_derive_s(n: int) -> float:
+    """The predicted time of the symbolic derivation of an n-joint chain and its code (s): the
+    measured n = 6, grown as n^GROWTH."""
+    n0, seconds = MEASURED
+    return seconds * (n / n0) ** GROWTH
 
 
 def chain_mjcf(n: int, kind: str, seed: int = 0) -> str:

@@ -19,6 +19,7 @@ from types import ModuleType
 from typing import Any
 
 from ..errors import HarnessError, unknown_name
+from ..guard import DEFAULT_TIME_LIMIT, Guard, Stopped, guard_module
 from ..inputs import regular_file
 from . import textform, urdf
 from .forms import input_name, normalize
@@ -184,15 +185,22 @@ class System:
 
     @classmethod
     def from_files(
-        cls, model: str | Path, equations: str | Path, *, name: str | None = None, locked: tuple[str, ...] = ()
+        cls,
+        model: str | Path,
+        equations: str | Path,
+        *,
+        name: str | None = None,
+        locked: tuple[str, ...] = (),
+        time_limit: float = DEFAULT_TIME_LIMIT,
     ) -> System:
         """A system from any model file (MJCF or URDF) and any equations module file (named after the
         module's file stem unless `name` is given); both are checked before anything is computed.
-        `locked`: URDF joints made fixed, a named step listed in the alignments."""
+        `locked`: URDF joints made fixed, a named step listed in the alignments. `time_limit`: seconds
+        each call into the module (and its import) may take (validate/guard.py)."""
         model, equations = Path(model), Path(equations)
         if not model.is_file():
             raise HarnessError(f"model file not found: {model} (give an MJCF .xml or a URDF .urdf file).")
-        module = load_module(equations, model=model)
+        module = load_module(equations, model=model, time_limit=time_limit)
         system = cls(name=name or equations.stem, mjcf=model, equations=module, locked=tuple(locked))
         system.mujoco_model()  # a model MuJoCo refuses fails here, in one line
         return system
@@ -296,7 +304,7 @@ class System:
             if fn is not None and provided(fn):
                 try:
                     return tuple(fn(self.params, np.zeros(self.nv)))
-                except Exception:  # noqa: BLE001 - the user's function: its failure is judged where it is called
+                except (Exception, Stopped):  # noqa: BLE001 - the user's function: judged where it is called
                     return ()
         return ()
 
@@ -447,21 +455,26 @@ def _check_contract(module: ModuleType, where: str) -> ModuleType:
 
 
 @functools.cache
-def _equations_module(name: str) -> ModuleType:
+def _equations_module(name: str, time_limit: float = DEFAULT_TIME_LIMIT) -> ModuleType:
+    where = f"equations/{name}.py"
+    guard = Guard(where, time_limit)
     try:
-        module = importlib.import_module(f"{EQUATIONS_PACKAGE}.{name}")
+        module = guard.call("importing it", importlib.import_module, f"{EQUATIONS_PACKAGE}.{name}")
     except SyntaxError as exc:
-        raise HarnessError(f"equations/{name}.py: syntax error at line {exc.lineno}: {exc.msg}.") from None
+        raise HarnessError(f"{where}: syntax error at line {exc.lineno}: {exc.msg}.") from None
+    except Stopped as stop:
+        raise HarnessError(str(stop)) from None
     except Exception as exc:  # noqa: BLE001 - a module that fails to import is that system's error alone
-        raise HarnessError(f"equations/{name}.py cannot be imported ({type(exc).__name__}: {exc}).") from None
-    return _check_contract(module, f"equations/{name}.py")
+        raise HarnessError(f"{where} cannot be imported ({type(exc).__name__}: {exc}).") from None
+    return _check_contract(guard_module(module, guard), where)
 
 
-def load_module(path: Path, *, model: Path | None = None) -> ModuleType:
+def load_module(path: Path, *, model: Path | None = None, time_limit: float = DEFAULT_TIME_LIMIT) -> ModuleType:
     """An equations module from any file, executed under a name of its own (so two files with the
     same stem never share a module); a missing file, a syntax error or an exception while importing
     it, and a module that lacks part of the contract, are one-line HarnessErrors. A `.toml` file is
-    equations as text, read against `model` (validate/systems/textform.py)."""
+    equations as text, read against `model` (validate/systems/textform.py). The import and every call
+    into the module are guarded (validate/guard.py): `time_limit` seconds each, no exit, no stdout."""
     import hashlib
     import importlib.util
     import sys
@@ -480,15 +493,19 @@ def load_module(path: Path, *, model: Path | None = None) -> ModuleType:
         raise HarnessError(f"{path}: not a Python module (give a .py file).")
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
+    guard = Guard(str(path), time_limit)
     try:
-        spec.loader.exec_module(module)
+        guard.call("importing it", spec.loader.exec_module, module)
     except SyntaxError as exc:
         sys.modules.pop(name, None)
         raise HarnessError(f"{path}:{exc.lineno}: syntax error: {exc.msg}.") from None
+    except Stopped as stop:
+        sys.modules.pop(name, None)
+        raise HarnessError(str(stop)) from None
     except Exception as exc:  # noqa: BLE001 - the user's module failing on import is reported in one line
         sys.modules.pop(name, None)
         raise HarnessError(f"{path}: importing it raised {type(exc).__name__}: {exc}") from None
-    return _check_contract(module, str(path))
+    return _check_contract(guard_module(module, guard), str(path))
 
 
 def pairs_in(folder: Path) -> list[tuple[Path, Path]]:
@@ -514,8 +531,9 @@ def pairs_in(folder: Path) -> list[tuple[Path, Path]]:
     return [(models[n], modules[n]) for n in sorted(models)]
 
 
-def load(name: str, overrides: tuple[tuple[str, float], ...] = ()) -> System:
-    """The system called `name`; an unknown name lists the valid ones and the closest."""
+def load(name: str, overrides: tuple[tuple[str, float], ...] = (), *, time_limit: float = DEFAULT_TIME_LIMIT) -> System:
+    """The system called `name`; an unknown name lists the valid ones and the closest. `time_limit`:
+    seconds each call into its equations module may take (validate/guard.py)."""
     names = system_names()
     if name not in names:
         lonely = unpaired()
@@ -524,11 +542,12 @@ def load(name: str, overrides: tuple[tuple[str, float], ...] = ()) -> System:
         if name in lonely["equations without model"]:
             raise HarnessError(f"equations/{name}.py has no models/{name}.xml, so '{name}' is not a system yet.")
         raise unknown_name("system", name, names)
-    return System(name=name, mjcf=MODELS_DIR / f"{name}.xml", equations=_equations_module(name), overrides=overrides)
+    module = _equations_module(name, float(time_limit))
+    return System(name=name, mjcf=MODELS_DIR / f"{name}.xml", equations=module, overrides=overrides)
 
 
-def load_all(names: list[str] | None = None) -> list[System]:
-    return [load(n) for n in (names or system_names())]
+def load_all(names: list[str] | None = None, *, time_limit: float = DEFAULT_TIME_LIMIT) -> list[System]:
+    return [load(n, time_limit=time_limit) for n in (names or system_names())]
 
 
 FILES_KEY = "file:"  # the key of a system from a person's own files: paths and name as a JSON list (any path)
