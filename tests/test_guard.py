@@ -146,11 +146,11 @@ def test_what_a_module_prints_never_reaches_stdout(tmp_path: Path) -> None:
 
 
 def test_check_names_the_function_that_raises(tmp_path: Path) -> None:
-    """`check` on a mass_matrix that raises ends with a line naming the function and the exception."""
+    """`check` on a mass_matrix that raises ends with its verdict line naming the function and the exception."""
     proc = _check(*_system(tmp_path, "raises", "1 / 0"))
     assert proc.returncode == 1, proc.stderr
     last = proc.stdout.strip().splitlines()[-1]
-    assert "mass_matrix raised ZeroDivisionError" in last, proc.stdout
+    assert "mass_matrix() raised ZeroDivisionError" in last and last.startswith("verdict: raises: FAIL"), proc.stdout
 
 
 @pytest.mark.parametrize(
