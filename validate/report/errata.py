@@ -8,7 +8,7 @@ from __future__ import annotations
 from typing import Any
 
 from .document import ERRATA, Document, Num, verdict_mark
-from .findings import form_anchor, form_reason, form_term, where_worst
+from .findings import form_anchor, form_reason, form_term, where_worst, whose
 
 
 def variant_row(name: str, v: dict[str, Any]) -> tuple[Any, ...]:
@@ -74,6 +74,7 @@ def form_details(doc: Document, name: str, v: dict[str, Any]) -> None:
     """One wrong printed form: its term, where it is worst, its reason, the transcription note and
     every symbolic difference."""
     form = str(v.get("name"))
+    owner = "the notes' form"
     doc.h(3, f"{name}: {form}", form_anchor(name, form))
     eqs = ", ".join(v.get("notes_equations", []))
     where = where_worst(v)
@@ -100,7 +101,7 @@ def form_details(doc: Document, name: str, v: dict[str, Any]) -> None:
             [
                 (
                     e.get("entry"),
-                    e.get("statement") if e.get("explained") else f"(not explained) {e.get('statement')}",
+                    whose(e.get("statement") if e.get("explained") else f"(not explained) {e.get('statement')}", owner),
                     e.get("expected", ""),
                 )
                 for e in explained

@@ -64,7 +64,7 @@ def and_join(items: list[str]) -> str:
     return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1] if items else ""
 
 
-def whose(text: str, owner: str) -> str:
+def whose(text: Any, owner: str) -> str:
     """A statement of the judge ("yours lacks ...") with "yours" named: "the notes' form lacks ..."."""
     return re.sub(r"\byours\b", owner, str(text))
 

@@ -24,7 +24,16 @@ from .document import (
     verdict_mark,
 )
 from .figures import LEGEND_W, legend_right, new_figure, png, rc, series
-from .findings import CHAOS_LAMBDA, chaos_facts, derivation_label, has_derivation, is_chaotic, is_damped, is_user
+from .findings import (
+    CHAOS_LAMBDA,
+    chaos_facts,
+    derivation_label,
+    has_derivation,
+    is_chaotic,
+    is_damped,
+    is_user,
+    whose,
+)
 from .runs import judged_verdict, run_verdict
 
 
@@ -90,6 +99,7 @@ def system_derivation(doc: Document, name: str, s: dict[str, Any]) -> None:
         return
     ok = d.get("verdict") == "agrees"
     label = derivation_label(s)
+    owner = "yours" if is_user(s) else label
     doc.p(
         f"{'✓' if ok else '✗'} {label[:1].upper()}{label[1:]}: {d.get('statement', d.get('verdict'))}.",
         "pass" if ok else "fail",
@@ -128,7 +138,7 @@ def system_derivation(doc: Document, name: str, s: dict[str, Any]) -> None:
     if explanations and not explained:
         entries = ", ".join(str(e.get("entry")) for e in explanations)
         inner = Document()
-        differences_table(inner, name, explanations)
+        differences_table(inner, name, explanations, owner)
         doc.p(
             f"No single slip reproduces the differences of {len(explanations)} "
             f"entr{'y' if len(explanations) == 1 else 'ies'} ({entries}): more than one mistake, or one the "
@@ -143,7 +153,7 @@ def system_derivation(doc: Document, name: str, s: dict[str, Any]) -> None:
             "term, a flipped sign, a swapped parameter, a lost factor, sin for cos), kept only where it reproduces "
             "your numbers at states held back from the fit."
         )
-        differences_table(doc, name, explanations)
+        differences_table(doc, name, explanations, owner)
     failing = [r for r in d.get("terms", []) if not r.get("passed")]
     if failing:
         doc.table(
@@ -191,14 +201,14 @@ def system_derivation(doc: Document, name: str, s: dict[str, Any]) -> None:
         doc.p(f"Probe not built: {problem}", "missing")
 
 
-def differences_table(doc: Document, name: str, explanations: list[dict[str, Any]]) -> None:
+def differences_table(doc: Document, name: str, explanations: list[dict[str, Any]], owner: str = "yours") -> None:
     doc.table(
         f"Symbolic differences of {name}'s derivation",
-        ("entry", "yours against the model's equations", "expected", "parameters"),
+        ("entry", "difference from the model's equations", "expected", "parameters"),
         [
             (
                 e.get("entry"),
-                e.get("statement") if e.get("explained") else f"(not explained) {e.get('statement')}",
+                whose(e.get("statement") if e.get("explained") else f"(not explained) {e.get('statement')}", owner),
                 e.get("expected", ""),
                 "; ".join(f"{k} = {v}" for k, v in sorted(e.get("symbols", {}).items())),
             )
