@@ -109,4 +109,10 @@ def form_details(doc: Document, name: str, v: dict[str, Any]) -> None:
         )
         symbols = sorted({(k, d) for e in explained for k, d in (e.get("symbols") or {}).items()})
         if symbols:
-            doc.p("Symbols: " + "; ".join(f"`{k}` {d}" for k, d in symbols) + ".", "note")
+            doc.p("Symbols: " + "; ".join(symbol_text(k, d) for k, d in symbols) + ".", "note")
+
+
+def symbol_text(symbol: str, meaning: str) -> str:
+    """"`c_link1 = -body/link1/com[1]` (m)" from the results' "-body/link1/com[1], m"."""
+    reading, _, unit = str(meaning).rpartition(", ")
+    return f"`{symbol} = {reading}` ({unit})" if reading else f"`{symbol}` {meaning}"

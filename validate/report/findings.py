@@ -66,7 +66,9 @@ def and_join(items: list[str]) -> str:
 
 def whose(text: Any, owner: str) -> str:
     """A statement of the judge ("yours lacks ...") with "yours" named: "the notes' form lacks ..."."""
-    return re.sub(r"\byours\b", owner, str(text))
+    if owner == "yours":
+        return str(text)
+    return re.sub(r"\byours\b", owner, str(text)).replace("your numbers", "its numbers")
 
 
 def form_owner(s: dict[str, Any] | None = None) -> str:

@@ -243,7 +243,7 @@ def column_style(col: str, longest: dict[str, int] | None = None) -> dict[str, A
     """Names are never cut ("double_pendulum..."): a name column is as wide as its longest name and
     does not wrap; the other columns wrap instead."""
     if col not in NAME_COLUMNS:
-        return {}
+        return {"overflow": "fold"}
     return {"no_wrap": True, "min_width": (longest or {}).get(col, len(col))}
 
 
