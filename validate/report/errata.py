@@ -113,6 +113,6 @@ def form_details(doc: Document, name: str, v: dict[str, Any]) -> None:
 
 
 def symbol_text(symbol: str, meaning: str) -> str:
-    """"`c_link1 = -body/link1/com[1]` (m)" from the results' "-body/link1/com[1], m"."""
+    """The errata's "`c_link1 = -body/link1/com[1]` (m)" from the results' "-body/link1/com[1], m"."""
     reading, _, unit = str(meaning).rpartition(", ")
     return f"`{symbol} = {reading}` ({unit})" if reading else f"`{symbol}` {meaning}"
