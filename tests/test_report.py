@@ -498,3 +498,20 @@ def test_the_default_report_reads_in_a_few_minutes(default_files: dict[str, byte
         browser.close()
     assert height < HEIGHT_BUDGET, f"the default report is {height} px tall at 1280 px wide (budget {HEIGHT_BUDGET})"
     assert overflow == 0, f"{overflow} code blocks overflow their box"
+
+
+def test_the_trajectory_tiers_reason_is_made_of_the_numbers_used(results: dict[str, Any]) -> None:
+    """Issue 26: the stated reason names the runs' own integrators, threshold and largest error, read
+    from the results (another threshold or integrator in the results, another sentence)."""
+    from lagrange_xval.validate.report.document import to_plain
+
+    changed = copy.deepcopy(to_plain(results))
+    tr = changed["systems"][SYSTEM]["trajectories"]
+    tr["threshold"] = 3e-6
+    for r in tr["runs"]:
+        if r.get("method", "").startswith("scipy odeint"):
+            r["method"] = "scipy odeint rtol 1e-9"
+    md = report.render(changed)["report.md"].decode()
+    row = next(line for line in md.splitlines() if line.startswith("| trajectory |"))
+    assert "scipy odeint rtol 1e-9" in row and "3e-6 rad" in row, row
+    assert "rtol 1e-12" not in row and "1e-4 s" not in row, row

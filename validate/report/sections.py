@@ -373,7 +373,11 @@ def trajectory_reason(results: dict[str, Any]) -> str:
     thr = sorted({sci(tr.get("threshold")) for tr in trs.values()})
     ends = sorted({fmt_g(tr.get("t_end")) for tr in trs.values()})
     methods = sorted({str(r.get("method")) for r in runs})
-    judged = [f"{n} until {fmt_g(tr['judged_until'])} s" for n, tr in trs.items() if tr.get("judged_until") is not None]
+    judged = [
+        f"{n} until {fmt_g(tr['judged_until'])} s"
+        for n, tr in trs.items()
+        if tr.get("judged_until") is not None and as_float(tr["judged_until"]) < as_float(tr.get("t_end"))
+    ] or ["here every run is judged over its whole length"]
     worst = max(runs, key=lambda r: as_float(r.get("max_error_vs_hand")))
     error, limit = as_float(worst.get("max_error_vs_hand")), max(as_float(tr.get("threshold")) for tr in trs.values())
     margin = (
