@@ -382,7 +382,8 @@ def system_chaos(doc: Document, name: str, s: dict[str, Any]) -> None:
         "Pinocchio's ABA: a stepped MuJoCo trajectory and its mirror differ by rounding only"
         + (", amplified by the chaos" if chaotic else "")
         + ". The free run is judged against an error envelope that grows with the measured "
-        "amplification, up to where the envelope reaches the tolerance; the order is measured from a timestep sweep."
+        "amplification, up to where the envelope reaches the tolerance (a free run that is the trajectory table's "
+        "MuJoCo run carries that table's verdict, stated once); the order is measured from a timestep sweep."
     )
     if short:
         doc.items(short)
