@@ -74,7 +74,6 @@ def form_details(doc: Document, name: str, v: dict[str, Any]) -> None:
     """One wrong printed form: its term, where it is worst, its reason, the transcription note and
     every symbolic difference."""
     form = str(v.get("name"))
-    owner = "the notes' form"
     doc.h(3, f"{name}: {form}", form_anchor(name, form))
     eqs = ", ".join(v.get("notes_equations", []))
     where = where_worst(v)
@@ -95,21 +94,29 @@ def form_details(doc: Document, name: str, v: dict[str, Any]) -> None:
         doc.p(f"Transcription note: {v['note']}", "note")
     explained = v.get("explanations") or []
     if explained:
-        doc.table(
-            f"Symbolic differences of {name}'s {form} from the model's own equations",
-            ("entry", "difference", "expected (the model's equations)"),
-            [
-                (
-                    e.get("entry"),
-                    whose(e.get("statement") if e.get("explained") else f"(not explained) {e.get('statement')}", owner),
-                    e.get("expected", ""),
-                )
-                for e in explained
-            ],
-        )
-        symbols = sorted({(k, d) for e in explained for k, d in (e.get("symbols") or {}).items()})
-        if symbols:
-            doc.p("Symbols: " + "; ".join(symbol_text(k, d) for k, d in symbols) + ".", "note")
+        inner = Document()
+        differences(inner, name, form, explained)
+        doc.fold(f"Symbolic differences from the model's own equations ({len(explained)} entries)", inner)
+
+
+def differences(doc: Document, name: str, form: str, explained: list[dict[str, Any]]) -> None:
+    """The symbolic differences of a wrong printed form and the symbols they use."""
+    owner = "the notes' form"
+    doc.table(
+        f"Symbolic differences of {name}'s {form} from the model's own equations",
+        ("entry", "difference", "expected (the model's equations)"),
+        [
+            (
+                e.get("entry"),
+                whose(e.get("statement") if e.get("explained") else f"(not explained) {e.get('statement')}", owner),
+                e.get("expected", ""),
+            )
+            for e in explained
+        ],
+    )
+    symbols = sorted({(k, d) for e in explained for k, d in (e.get("symbols") or {}).items()})
+    if symbols:
+        doc.p("Symbols: " + "; ".join(symbol_text(k, d) for k, d in symbols) + ".", "note")
 
 
 def symbol_text(symbol: str, meaning: str) -> str:
