@@ -195,3 +195,78 @@ def test_the_readme_command_table_uses_the_options_that_exist():
         known = {o for a in commands[name]._actions for o in a.option_strings}
         wrong += [f"{name} {option}" for option in re.findall(r"--[a-z][a-z0-9-]*", usage) if option not in known]
     assert not wrong, f"README options no command has: {wrong}"
+
+
+# ----------------------------------------------------------------------------------------------
+# Issue 26: the command line's loose ends
+
+
+def _all_help() -> str:
+    top = parser.build_parser()
+    return " ".join([top.format_help(), *(c.format_help() for c in _commands().values())])
+
+
+def test_every_example_in_the_help_runs_as_written(capsys):
+    """Each command line the help shows is in the help verbatim and runs: `list` runs; `run` parses;
+    a `stress --set` example's overrides apply to every system it names (or to every system when it
+    names none), exactly as `stress` applies them before any work."""
+    from lagrange_xval.validate.systems.overrides import parse
+
+    text = " ".join(_all_help().split())
+    for example in parser.HELP_EXAMPLES:
+        assert example in text, f"{example!r} is not in the help"
+        args = parser.build_parser().parse_args(example.split()[1:])
+        if args.command == "list":
+            assert main(["list"]) == 0
+        elif args.command == "stress":
+            overrides = parse(args.set)
+            for name in args.systems or systems.system_names():
+                systems.load(name, overrides)  # an override the system lacks raises, naming it
+    capsys.readouterr()
+
+
+def test_the_help_and_the_readme_say_the_same_durations_and_sources():
+    from lagrange_xval.validate.systems import PACKAGE_ROOT
+
+    readme = (PACKAGE_ROOT / "README.md").read_text()
+    rows = {line.split("`")[1]: line for line in readme.splitlines() if line.startswith("| `lagrange-xval ")}
+    for command, duration in parser.QUICK_DURATION.items():
+        row = next(
+            r
+            for usage, r in rows.items()
+            if usage.startswith(f"lagrange-xval {command.split()[0]}")
+            and ("--chains" in usage) == ("--chains" in command)
+        )
+        assert duration in row, f"README's {command} row does not say {duration!r}: {row}"
+        assert duration in " ".join(_all_help().split()), f"the help does not say {duration!r}"
+    assert "three sources" not in _all_help() and "four sources" in readme
+
+
+def test_list_takes_a_folder_and_run_goes_on_past_an_unpaired_file(tmp_path, capsys):
+    """`list --systems DIR` lists a person's systems; `run --systems DIR` names a file without its
+    partner and validates the rest; the results name the files absolutely (replay from anywhere)."""
+    source = systems.load("simple_pendulum")
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    shutil.copy(source.mjcf, mine / "pendulum.xml")
+    shutil.copy(source.equations.__file__, mine / "pendulum.py")
+    (mine / "lonely.xml").write_text("<mujoco/>")
+    assert main(["list", "--systems", str(mine)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("pendulum: 1 dof, coordinates (theta)"), out
+    assert out[-1] == f"lonely: not checked: {mine / 'lonely.xml'} has no lonely.py beside it", out
+    args = ["run", "--systems", str(mine), "--states", "10", "--probes", "0", "--no-replay", "--no-cache"]
+    assert main([*args, "--out", str(tmp_path / "out")]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert f"lonely: not checked: {mine / 'lonely.xml'} has no lonely.py beside it" in lines, lines
+    held = json.loads((tmp_path / "out" / "results.json").read_text())["systems"]["pendulum"]
+    assert held["mjcf"] == str((mine / "pendulum.xml").absolute()) and held["equations"].startswith("/"), held
+
+
+def test_simulate_refuses_a_folder_that_does_not_exist(tmp_path, capsys):
+    out = tmp_path / "nope" / "x.csv"
+    args = ["simulate", "simple_pendulum", "--source", "hand", "--q0", "0.1", "--v0", "0"]
+    assert main([*args, "--t-end", "0.1", "--dt-out", "0.05", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"the folder {out.parent} does not exist" in err and len(err.strip().splitlines()) == 1, err
+    assert not out.parent.exists()

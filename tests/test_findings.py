@@ -81,10 +81,12 @@ def test_the_first_screen_lists_every_wrong_form_with_its_term_and_reason(result
         assert term not in findings.GENERIC_TERMS, f"{v['name']}: term {term!r}"
         explained = [e for e in v.get("explanations", []) if e.get("explained")]
         if explained:
-            said = findings.one_line_statement(explained[0]["statement"])
+            said = findings.whose(findings.one_line_statement(explained[0]["statement"]), "the notes' form")
             assert said.replace("'", "&#39;") in item or said in item.replace("&#39;", "'"), (said, item)
         else:
-            assert "transcription note" in item or "no single slip" in item, item
+            assert "no single slip reproduces it" in item, item
+        # issue 26: the transcription note is not the reason; nothing is cut; the notes' form is not "yours"
+        assert "transcription note" not in item and "…" not in item and "yours" not in item, item
         anchor = re.search(r'href="#([^"]+)"', item).group(1)
         assert f'id="{anchor}"' in html, f"the link {anchor} leads nowhere"
     # the verdict on each derivation comes before the wrong forms, and each derivation is named
@@ -98,10 +100,10 @@ def test_a_derivation_steps_term_is_the_quantity_and_entry_not_value(results):
     v = next(v for _, v in wrong_variants(results) if v["name"].startswith("bob 2 position"))
     assert v["first_disagreeing_term"] == "value"
     assert findings.form_term(v) == "bob 2 position[x]"
-    assert findings.form_reason(v) == "yours lacks the factor l_link2 in l_link2*sin(theta)"
+    assert findings.form_reason(v) == "the notes' form lacks the factor l_link2 in l_link2*sin(theta)"
 
 
-def test_the_reason_falls_back_to_the_transcription_note():
+def test_the_reason_is_kept_apart_from_the_transcription_note():
     v = {
         "name": "explicit (1)-(2)",
         "kind": "explicit",
@@ -111,7 +113,8 @@ def test_the_reason_falls_back_to_the_transcription_note():
         "explanations": [{"entry": "x", "explained": False, "statement": "no simple form reproduces your numbers"}],
     }
     assert findings.form_term(v) == "friction"
-    assert findings.form_reason(v).endswith("transcription note: Eq (2) prints k where k2 belongs.")
+    assert findings.form_reason(v) == "no single slip reproduces it"
+    assert findings.form_note(v) == "Eq (2) prints k where k2 belongs."
 
 
 def test_passing_forms_are_folded(results, files):
@@ -360,3 +363,165 @@ def test_long_and_developer_tables_stay_out_of_the_way():
     text = " ".join(getattr(b, "title", "") + getattr(b, "text", "") for b in doc.blocks)
     assert "ratio" not in " ".join(getattr(b, "title", "") for b in doc.blocks), "no ratio table in the report"
     assert "bench.json" in text
+
+
+# ----------------------------------------------------------------------------------------------
+# Issue 26: every sentence conditioned on what was checked, for robots and people's own systems too
+
+
+SENTENCE = re.compile(r"(?<=[.!?:])\s+(?=[A-Z✓✗])|\n+")
+
+
+def sentences(md: str) -> list[str]:
+    """The report's prose and table cells, a sentence (or a line) each; figures' file names left out."""
+    text = re.sub(r"!\[[^\]]*\]\([^)]*\)", "", md)
+    text = re.sub(r"```.*?```", "", text, flags=re.S)  # the derived equations and the viewer commands
+    return [x.strip() for x in SENTENCE.split(text) if x.strip()]
+
+
+def facts_of(s: dict[str, Any]) -> dict[str, bool]:
+    return {
+        "derivation": findings.has_derivation(s),
+        "forms": bool(s.get("variants")),
+        "damped": findings.is_damped(s),
+        "actuated": findings.has_actuators(s),
+        "driven": findings.is_driven(s),
+        "user": findings.is_user(s),
+        "chaotic": findings.is_chaotic(s),
+    }
+
+
+# (pattern, the fact that must hold for a sentence to say it)
+CLAIMS = [
+    (
+        r"\bhand (derivation|equations)\b|\byour derivation\b|\byours\b|derivation agrees|derivation's terms",
+        "derivation",
+    ),
+    (r"\bprinted forms?\b", "forms"),
+    (r"friction dissipates|energy change \(friction\)", "damped"),
+    (r"\bmotors?\b", "actuated"),
+    (r"inputs (also )?do work", "driven"),
+    (r"moves chaotically|amplified by the chaos", "chaotic"),
+]
+NEGATED = [
+    (r"\bconservative\b", "damped"),
+    (r"\bthe notes\b|\bnotes'", "user"),
+]
+
+
+def false_sentences(md: str, s: dict[str, Any]) -> list[str]:
+    """Sentences of `md` that state something the system's facts contradict."""
+    facts = facts_of(to_plain(s))
+    out = []
+    for line in sentences(md):
+        plain = line.lower()
+        if "no derivation given" in plain or "no derivation was given" in plain:
+            continue  # the one sentence that names the derivation is the one that says there is none
+        plain = re.sub(r"\bno printed forms? (was judged|of its own)", "", plain)  # says there is none
+        out += [f"[{fact}] {line}" for pattern, fact in CLAIMS if re.search(pattern, plain) and not facts[fact]]
+        out += [f"[not {fact}] {line}" for pattern, fact in NEGATED if re.search(pattern, plain) and facts[fact]]
+    return out
+
+
+def one_verdict_per_run(md: str) -> list[str]:
+    """A run judged until a time is said so wherever it appears (never "whole run" elsewhere), and no
+    run judged part-way whose whole-run error is past its tolerance carries a pass mark."""
+    out = []
+    for line in md.splitlines():
+        if "✓" in line and "not judged beyond" in line:
+            cells = [c.strip() for c in line.split("|")]
+            errors = [float(c.split()[0]) for c in cells if re.fullmatch(r"[\d.]+e[+-]\d+( rad)?", c)]
+            if errors and max(errors) > 1e-6:
+                out.append(line)
+    return out
+
+
+@pytest.fixture(scope="module")
+def model_alone() -> dict[str, Any]:
+    """A repository MJCF run as a model alone (no derivation), and the UR5 where it is installed."""
+    from lagrange_xval.validate.pipeline import run
+
+    files: list[tuple[Path, Path | None]] = [(PACKAGE_ROOT / "models" / "double_pendulum_point.xml", None)]
+    robots = robots_folder()
+    if robots is not None:
+        files.append((robots / "ur_description/urdf/ur5_robot.urdf", None))
+    return run(None, n_states=40, seed=0, files=files, n_probes=0)
+
+
+def robots_folder() -> Path | None:
+    import importlib.metadata
+
+    try:
+        dist = importlib.metadata.distribution("example-robot-data")
+    except importlib.metadata.PackageNotFoundError:
+        return None
+    return Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))
+
+
+def test_a_model_alone_says_so_and_never_speaks_of_a_derivation(model_alone):
+    files = report.render(model_alone)
+    md = md_of(files)
+    html = files["report.html"].decode()
+    head = md.split("## Summary")[0]
+    assert "No derivation given: the two engines' readings of the model and their dynamics compared" in head
+    assert "agrees with the engines" not in md and "hand" not in head.lower()
+    assert "your derivation ``" not in md and "| parameter | value |" not in md, "no empty parameter table"
+    assert "Derivations, each judged" not in html
+    for name, s in model_alone["systems"].items():
+        assert not findings.has_derivation(s)
+        wrong = false_sentences(system_part(md, name), s)
+        assert not wrong, "\n".join(wrong)
+    wrong = false_sentences(md[: md.index("## System")], next(iter(model_alone["systems"].values())))
+    assert not wrong, "\n".join(wrong)
+    lines = findings.console_lines(model_alone)
+    assert lines[0].startswith("models alone (no derivation given)")
+    assert all("derivation agrees" not in line for line in lines)
+
+
+def test_the_notes_and_a_users_systems_say_only_what_is_true_of_them(results, files):
+    md = md_of(files)
+    for name, s in results["systems"].items():
+        wrong = false_sentences(system_part(md, name), s)
+        assert not wrong, f"{name}:\n" + "\n".join(wrong)
+    assert not one_verdict_per_run(md), one_verdict_per_run(md)
+
+
+def test_a_wrong_user_module_gets_a_reason_and_no_notes_wording(tmp_path, user_folder):
+    """A user's module with a slip in gravity: the headline names the term and why; "yours" is the
+    person's; no sentence speaks of the notes or of printed forms."""
+    from lagrange_xval.validate.pipeline import run
+
+    source = (user_folder / "my_cart_pole.py").read_text()
+    old = "- p.mp * p.g * lc * s - tau[..., 1]"
+    (tmp_path / "slip.py").write_text(source.replace(old, "- p.mp * p.g * p.l * s - tau[..., 1]"))
+    shutil.copy(user_folder / "my_cart_pole.xml", tmp_path / "slip.xml")
+    results = run(None, n_states=40, seed=0, files=[(tmp_path / "slip.xml", tmp_path / "slip.py")], n_probes=2)
+    md = md_of(report.render(results))
+    s = results["systems"]["slip"]
+    assert "gravity disagrees" in md.split("## Summary")[0] and "yours has the term" in md.split("## Summary")[0]
+    wrong = false_sentences(system_part(md, "slip"), s)
+    assert not wrong, "\n".join(wrong)
+
+
+def test_differences_no_single_slip_reproduces_are_said_once():
+    """An energies-only module with a mistake: not "(not explained)" once per entry, one plain sentence."""
+    from lagrange_xval.validate.report.system_parts import system_derivation
+
+    s = {
+        "origin": "user",
+        "derivation": {
+            "kind": "energies",
+            "verdict": "disagrees",
+            "statement": "mass matrix disagrees",
+            "explanations": [
+                {"entry": f"M[{i}, {j}]", "explained": False, "statement": "no simple form reproduces your numbers"}
+                for i in range(2)
+                for j in range(2)
+            ],
+        },
+    }
+    doc = report.Document()
+    system_derivation(doc, "mine", s)
+    text = " ".join(getattr(b, "text", "") for b in doc.blocks)
+    assert "No single slip reproduces the differences of 4 entries" in text
+    assert "(not explained)" not in text, "the rows are folded, not the lead"

@@ -351,3 +351,28 @@ def test_wrong_printed_forms_run_beside_the_engines(results, rrd):
     batch = static(chunks, f"/{SYSTEM}/description")
     text = batch.column(batch.schema.get_field_index("TextDocument:text")).to_pylist()[0][0]
     assert "wrong printed forms of the notes from the same start" in " ".join(text.split())
+
+
+def test_replay_of_ones_own_system_works_from_another_folder(tmp_path, monkeypatch, capsys):
+    """Issue 26: `run --model --equations` with relative paths, then `replay` and `report` from
+    another folder: the results name the files absolutely."""
+    import shutil
+
+    from lagrange_xval.validate.cli import main
+    from lagrange_xval.validate.systems import load
+
+    source = load("simple_pendulum")
+    (tmp_path / "mine").mkdir()
+    shutil.copy(source.mjcf, tmp_path / "mine" / "pend.xml")
+    shutil.copy(source.equations.__file__, tmp_path / "mine" / "pend.py")
+    monkeypatch.chdir(tmp_path)
+    args = ["run", "--model", "mine/pend.xml", "--equations", "mine/pend.py", "--out", "out"]
+    assert main([*args, "--states", "10", "--probes", "0", "--no-replay", "--no-cache"]) == 0
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    saved = elsewhere / "pend.rrd"
+    assert replay.replay_command("pend", save=saved, results_path=tmp_path / "out" / "results.json") == 0
+    assert saved.stat().st_size > 0
+    assert main(["report", "--out", str(tmp_path / "out")]) == 0
+    capsys.readouterr()

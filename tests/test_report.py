@@ -460,3 +460,58 @@ def test_report_in_headless_chromium(results: dict[str, Any], files: dict[str, b
     assert layout["scroll_width"] <= layout["width"], f"the page scrolls sideways: {layout}"
     if os.environ.get("XVAL_SCREENSHOT"):  # a person wants to look at it
         shutil.copyfile(shot, os.environ["XVAL_SCREENSHOT"])
+
+
+HEIGHT_BUDGET = 15_000  # CSS px at 1280 px wide, every fold closed: a report one reads in a few minutes
+
+
+@pytest.fixture(scope="module")
+def default_files() -> dict[str, bytes]:
+    """The report of the default run (every system of the notes), at fewer states."""
+    from lagrange_xval.validate.pipeline import run
+
+    return report.render(run(None, n_states=50, seed=0))
+
+
+@pytest.mark.browser
+def test_the_default_report_reads_in_a_few_minutes(default_files: dict[str, bytes], tmp_path: Path) -> None:
+    """Issue 26: the default report, opened at 1280 px wide with every <details> closed, is under
+    HEIGHT_BUDGET px tall; each system's details are folded, and the derived equations wrap in their box."""
+    binary = chromium_binary()
+    if binary is None:
+        pytest.skip("no Chromium binary on PATH")
+    html = default_files["report.html"].decode()
+    assert "<details open" not in html
+    for name in re.findall(r'<h2 id="system-[^"]+">System ([^<]+)</h2>', html):
+        assert f"<summary>Details of {name}:" in html, f"{name}'s details are not folded"
+    page = tmp_path / "report.html"
+    page.write_bytes(default_files["report.html"])
+    browser = Chromium(binary)
+    try:
+        browser.open(page.as_uri())
+        height = browser.evaluate("document.documentElement.scrollHeight")
+        browser.evaluate("document.querySelectorAll('details').forEach(d => d.open = true)")
+        overflow = browser.evaluate(
+            "Array.from(document.querySelectorAll('pre')).filter(p => p.scrollWidth > p.clientWidth + 1).length"
+        )
+    finally:
+        browser.close()
+    assert height < HEIGHT_BUDGET, f"the default report is {height} px tall at 1280 px wide (budget {HEIGHT_BUDGET})"
+    assert overflow == 0, f"{overflow} code blocks overflow their box"
+
+
+def test_the_trajectory_tiers_reason_is_made_of_the_numbers_used(results: dict[str, Any]) -> None:
+    """Issue 26: the stated reason names the runs' own integrators, threshold and largest error, read
+    from the results (another threshold or integrator in the results, another sentence)."""
+    from lagrange_xval.validate.report.document import to_plain
+
+    changed = copy.deepcopy(to_plain(results))
+    tr = changed["systems"][SYSTEM]["trajectories"]
+    tr["threshold"] = 3e-6
+    for r in tr["runs"]:
+        if r.get("method", "").startswith("scipy odeint"):
+            r["method"] = "scipy odeint rtol 1e-9"
+    md = report.render(changed)["report.md"].decode()
+    row = next(line for line in md.splitlines() if line.startswith("| trajectory |"))
+    assert "scipy odeint rtol 1e-9" in row and "3e-6 rad" in row, row
+    assert "rtol 1e-12" not in row and "1e-4 s" not in row, row

@@ -308,3 +308,36 @@ def test_eulerdamp_keeps_stiff_friction_stable():
     E = stress.run_energy(sources["hand"], without)
     c = stress.classify_energy(without.t, E, V_min=0.0, failure=without.failure, t_fail=without.t_fail)
     assert c["class"] == "unstable", c
+
+
+def test_the_summary_tables_keep_whole_system_names():
+    """Issue 26: at 100 columns the console tables name double_pendulum_absolute in full, never
+    "double_pendulum..."."""
+    import io
+
+    from lagrange_xval.validate.studies.stress.output import print_summary
+    from rich.console import Console
+
+    names = ("double_pendulum_absolute", "double_pendulum_bars", "double_pendulum_point")
+    drift = [
+        {
+            "system": n,
+            "engine": "mujoco",
+            "integrator": i,
+            "horizon": 1000.0,
+            "class": "bounded",
+            "direction": "-",
+            "relative_max": 1e-3,
+            "rate": 1e-6,
+        }
+        for n in names
+        for i in ("Euler", "implicitfast", "RK4")
+    ]
+    results = {"drift": drift, "stability": [], "conditioning": [], "conditioning_summary": [], "stiff_friction": []}
+    results |= {"skipped": [], "solve_tier_proposal": None, "timing": {"total": 1.0}}
+    out = io.StringIO()
+    print_summary(results, Console(file=out, width=100))
+    text = out.getvalue()
+    assert "…" not in text and "..." not in text, text
+    for n in names:
+        assert n in text, f"{n} cut: {text}"

@@ -370,3 +370,49 @@ def test_long_chains_leave_the_symbolic_source_out(tmp_path):
     states = pointwise.random_states(system, n=20, seed=0)
     rows = pointwise.compare(pointwise.evaluate(sources, states), states)
     assert all(r["passed"] for r in rows if r["pair"] == "mujoco~pinocchio")
+
+
+def _read(view, reading: str) -> float:
+    """The number a symbol-table line names: "-body/link1/com[2]", "|gravity|", "body/b/inertia[0,1]"."""
+    sign = -1.0 if reading.startswith("-") else 1.0
+    m = re.fullmatch(r"-?(\|)?([^\[|]+)\|?(?:\[([\d,]+)\])?", reading)
+    assert m, reading
+    x = np.asarray(view[m.group(2)], dtype=float)
+    if m.group(1):
+        return sign * float(np.linalg.norm(x))
+    if m.group(3) is None:
+        return sign * float(x)
+    index = tuple(int(i) for i in m.group(3).split(","))
+    return sign * float(0.5 * (x[index] + x[index[::-1]])) if len(index) == 2 else sign * float(x[index])
+
+
+@pytest.mark.parametrize("model", ["models/double_pendulum_point.xml", "examples/urdf/spatial_arm.urdf"])
+def test_the_symbol_table_substituted_back_gives_the_engines_m_and_bias(model):
+    """Issue 26: each symbol of the derived equations' table is the model's number read as the table
+    says, sign included (`c_link1 = -body/link1/com[2]`); substituted so into M and C v + G the
+    results' text gives MuJoCo's mass matrix and bias."""
+    from lagrange_xval.validate.engines.readable import as_data
+
+    system = System.model_only(ROOT / model)
+    data = as_data(equations(derivation_of(system), system.coordinates, system.joint_map))
+    readings = {k: v.rsplit(", ", 1)[0] for k, v in data["parameters"].items()}
+    assert any(r.startswith("-") for r in readings.values()), f"{model}: no negative reading to test: {readings}"
+    values = {sp.Symbol(k, positive=True): _read(system.view, r) for k, r in readings.items()}
+    assert all(v > 0 for v in values.values()), f"a symbol is positive by construction: {values}"
+    names = {str(s): s for s in values}
+    rng = np.random.default_rng(0)
+    n = len(system.coordinates)
+    q, v = rng.uniform(-2, 2, (3, n)), rng.uniform(-2, 2, (3, n))
+    mj = make_source(system, "mujoco")
+    for qi, vi, M_mj, b_mj in zip(q, v, mj.mass_matrix(q), mj.bias(q, v), strict=True):
+        at = {**values, **{sp.Symbol(c, real=True): x for c, x in zip(system.coordinates, qi, strict=True)}}
+        at |= {sp.Symbol(f"d{c}", real=True): x for c, x in zip(system.coordinates, vi, strict=True)}
+
+        def ev(text: str, at=at) -> float:
+            expr = sp.sympify(text, locals={**names, **{str(s): s for s in at}})
+            return float(expr.xreplace(at))
+
+        M = np.array([[ev(data["M"][i][j]["text"]) for j in range(n)] for i in range(n)])
+        bias = np.array([ev(data["Cv"][i]["text"]) + ev(data["G"][i]["text"]) for i in range(n)])
+        np.testing.assert_allclose(M, M_mj, rtol=1e-10, atol=1e-12)
+        np.testing.assert_allclose(bias, b_mj, rtol=1e-10, atol=1e-10)

@@ -266,14 +266,14 @@ def skipped_work(system: Any) -> list[str]:
     out = [f"MuJoCo: {', '.join(NEVER_USED)} disabled (no contacts, limits, dry friction or springs {where})"]
     for use, flag in OPTIONAL.items():
         if use not in uses:
-            out.append(
-                f"MuJoCo: {flag} disabled; printed forms' {'friction' if use == 'damping' else use} term not checked"
-                " (the scene has none)"
+            term = "friction" if use == "damping" else use
+            checked = (
+                f"; printed forms' {term} term not checked" if system.equations is not None and system.variants else ""
             )
+            out.append(f"MuJoCo: {flag} disabled{checked} (the scene has no {term})")
     if uses & {"damping", "actuation"}:
-        out.append(
-            "energy conservation not judged (friction or motors change the energy); energy balance is tested instead"
-        )
+        why = " and ".join(w for u, w in (("damping", "friction"), ("actuation", "motors")) if u in uses)
+        out.append(f"energy conservation not judged (the model has {why}, which can change the energy)")
     return out
 
 

@@ -27,7 +27,7 @@ from ..report.findings import console_lines
 from ..results import load as load_results
 from ..studies.bench import bench_command
 from ..studies.stress import stress_command
-from ..systems import System, load, pairs_in, system_names, unpaired
+from ..systems import System, load, pairs_and_lonely, pairs_in, system_names, unpaired
 from ..systems.scaffold import write_module
 from . import check as checking
 from . import simulate
@@ -49,23 +49,43 @@ def describe(name: str) -> tuple[bool, list[str]]:
     """Whether the system loads, and the lines `list` prints for it; a module that cannot be loaded or
     read is one line saying so and why (the others are listed all the same)."""
     try:
-        s = load(name)
-        lines = [f"{s.name}: {s.nv} dof, coordinates ({', '.join(s.coordinates)}); uses {', '.join(sorted(s.uses))}"]
-        lines += [f"    {v.kind:16s} {v.name}  [{', '.join(v.notes_equations)}]" for v in s.variants]
+        lines = system_lines(load(name))
     except Exception as exc:  # noqa: BLE001 - one broken equations module does not hide the others
         why = str(exc) if isinstance(exc, HarnessError) else f"equations/{name}.py: {type(exc).__name__}: {exc}"
         return False, [f"{name}: BROKEN: {' '.join(why.split())}"]
     return True, lines
 
 
+def system_lines(s: Any) -> list[str]:
+    lines = [f"{s.name}: {s.nv} dof, coordinates ({', '.join(s.coordinates)}); uses {', '.join(sorted(s.uses))}"]
+    return lines + [f"    {v.kind:16s} {v.name}  [{', '.join(v.notes_equations)}]" for v in s.variants]
+
+
 def cmd_list(args: argparse.Namespace) -> int:
-    """Every system, then the files without a partner; status 1 if a system cannot be loaded."""
-    listed = [describe(name) for name in system_names()]
+    """Every system (of the repository, or of a --systems folder), then the files without a partner;
+    status 1 if a system cannot be loaded."""
+    folder = getattr(args, "systems_dir", None)
+    if folder is None:
+        listed = [describe(name) for name in system_names()]
+        lonely = unpaired_lines()
+    else:
+        listed = [describe_files(m, e) for m, e in user_files(args) or []]
+        lonely = list(getattr(args, "lonely", None) or [])
     for _, lines in listed:
         print("\n".join(lines))
-    for line in unpaired_lines():
+    for line in lonely:
         print(line)
     return 0 if all(ok for ok, _ in listed) else 1
+
+
+def describe_files(model: Path, equations: Path | None) -> tuple[bool, list[str]]:
+    """`describe` for a user's pair of files."""
+    try:
+        s = System.from_files(model, equations) if equations is not None else System.model_only(model)
+    except Exception as exc:  # noqa: BLE001 - one broken module does not hide the others
+        why = str(exc) if isinstance(exc, HarnessError) else f"{equations}: {type(exc).__name__}: {exc}"
+        return False, [f"{model.stem}: BROKEN: {' '.join(why.split())}"]
+    return True, system_lines(s)
 
 
 def numbers(path: Path, i: int, name: str, x: Any, system: System) -> list[float]:
@@ -174,7 +194,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     check_out(args.out)  # before hours of work, not after
     check_cache_dir(None if args.no_cache else args.cache_dir, args.out)
     rendered: dict[str, Any] = {}
-    files = user_files(args)
+    files = absolute_files(user_files(args))
     locked = locked_joints(args)
     cache = cache_of(args)
     with named_executor(args.executor) as executor, reporter() as progress:
@@ -198,6 +218,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.systems or not files:  # the repository's systems were run: say which files were not
         for line in unpaired_lines():
             print(line)
+    for line in getattr(args, "lonely", None) or []:
+        print(line)
     verdict = "all systems pass" if results["passed"] else "some systems FAIL"
     print(f"{verdict}; reports in {hint.out}/ (report.html, report.md, results.json)")
     if hint.written and any(s.get("trajectories") for s in results["systems"].values()):
@@ -252,9 +274,29 @@ def user_files(args: argparse.Namespace) -> list[tuple[Path, Path | None]] | Non
         )
     files: list[Any] = [(model, equations)] if model is not None else []
     folder = getattr(args, "systems_dir", None)
-    if folder is not None:
+    if folder is not None and getattr(args, "command", "") in ("run", "list"):
+        pairs, lonely = pairs_and_lonely(folder)  # run and list name a file without its partner and go on
+        args.lonely = [lonely_line(p) for p in lonely]
+        if not pairs:
+            raise HarnessError(f"{folder}: no system found: " + "; ".join(args.lonely) + ".")
+        files += pairs
+    elif folder is not None:
         files += pairs_in(folder)
     return files or None
+
+
+def lonely_line(path: Path) -> str:
+    """A file of a --systems folder without its partner: not a system, so not checked."""
+    partner = f"{path.stem}.py" if path.suffix != ".py" else f"{path.stem}.xml or {path.stem}.urdf"
+    return f"{path.stem}: not checked: {path} has no {partner} beside it"
+
+
+def absolute_files(files: list[tuple[Path, Path | None]] | None) -> list[tuple[Path, Path | None]] | None:
+    """The user's files as absolute paths, so that the results name them from any folder (`replay`,
+    `report`)."""
+    if files is None:
+        return None
+    return [(m.absolute(), None if e is None else e.absolute()) for m, e in files]
 
 
 def cmd_report(args: argparse.Namespace) -> int:

@@ -23,7 +23,8 @@ from ..systems import system_names
 DESCRIPTION = (
     "Checks hand-derived Lagrangian equations of motion against MuJoCo and Pinocchio. For each system "
     "(a model file, MJCF or URDF, paired with an equations module) it compares the mass matrix, bias "
-    "forces, energies, body poses and trajectories of the three sources, says which term of the "
+    "forces, energies, body poses and trajectories of the four sources (the derivation, MuJoCo, Pinocchio and "
+    "the model's own equations derived symbolically), says which term of the "
     "derivation disagrees and where, and writes a report."
 )
 EPILOG = (
@@ -32,6 +33,20 @@ EPILOG = (
 )
 
 DEFAULT_STATES = 1000
+
+
+QUICK_DURATION = {  # as the README's command table says them (tests/test_cli_consistency.py checks both)
+    "bench --quick": "about 1.5 min on 2 cores",
+    "bench --chains --quick": "under a minute",
+}
+
+
+HELP_EXAMPLES = (  # every command line the help shows, run as written by tests/test_cli_consistency.py
+    "lagrange-xval run",
+    "lagrange-xval list",
+    "lagrange-xval stress --set scale/mass=2",
+    "lagrange-xval stress gimbal --set joint/psi/damping=1",
+)
 
 
 DEFAULT_SEED = 0
@@ -256,7 +271,15 @@ def build_parser() -> argparse.ArgumentParser:
             help=system_help("a repository system (or give --model and --equations)"),
         )
 
-    command("list", help="the systems, their coordinates, degrees of freedom and printed forms")
+    listing = command("list", help="the systems, their coordinates, degrees of freedom and printed forms")
+    listing.add_argument(
+        "--systems",
+        dest="systems_dir",
+        type=path_arg,
+        metavar="DIR",
+        help="list the systems of this folder of your own (each <name>.xml or <name>.urdf with its <name>.py) "
+        "instead of the repository's",
+    )
 
     run = command("run", help="validate every system (or those named) and write the reports")
     systems_argument(run, "the systems to validate (default: every one)")
@@ -277,7 +300,8 @@ def build_parser() -> argparse.ArgumentParser:
         dest="systems_dir",
         type=path_arg,
         metavar="DIR",
-        help="a folder of your own systems: each <name>.xml or <name>.urdf with its <name>.py",
+        help="a folder of your own systems: each <name>.xml or <name>.urdf with its <name>.py (a file without its "
+        "partner is named and skipped)",
     )
     time_limit_option(run)
     cache_options(run)
@@ -383,7 +407,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench = command("bench", help="run time against error: work-precision sweep and the fast-harness ratios")
     systems_argument(bench, "the systems to time (default: every one)")
     bench.add_argument(
-        "--quick", action="store_true", help="2 systems, small plan, 1 repeat (about 1.5 min on 2 cores)"
+        "--quick", action="store_true", help=f"2 systems, small plan, 1 repeat ({QUICK_DURATION['bench --quick']})"
     )
     bench.add_argument(
         "--out", type=path_arg, default=Path("reports"), metavar="DIR", help="folder for bench.json (default: reports)"
@@ -399,7 +423,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--chains",
         action="store_true",
         help="only the scaling study: generated n-link chains, n = 2..30, every source's cost and agreement "
-        "against n; writes OUT/chains.json (--quick: about a minute)",
+        f"against n; writes OUT/chains.json (--quick: {QUICK_DURATION['bench --chains --quick']})",
     )
     bench.add_argument(
         "--run-time",
@@ -416,8 +440,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--set",
         action="append",
         metavar="KEY=VALUE",
-        help="parameter override applied to every system, in the model's units (e.g. scale/mass=2, "
-        "joint/psi/damping=1); repeat for several",
+        help="parameter override applied to every system named (default: every one), in the model's units; "
+        f"repeat for several. E.g. `{HELP_EXAMPLES[2]}`, or `{HELP_EXAMPLES[3]}` (psi is a joint of the "
+        "gimbal only, so name the system)",
     )
     stress.add_argument("--quick", action="store_true", help="100 s horizons and fewer sweep points (~30 s)")
     stress.add_argument(

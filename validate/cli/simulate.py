@@ -149,6 +149,9 @@ def cmd_simulate(args: argparse.Namespace, one_system: Callable[[argparse.Namesp
         raise HarnessError(f"--out must end in .csv or .json; got '{args.out.name}'.")
     if args.out.is_dir():
         raise HarnessError(f"--out {args.out} is a directory; give a file name ending in {suffix}.")
+    folder = args.out.parent
+    if not folder.is_dir():  # a mistyped folder is refused, never created behind the user's back
+        raise HarnessError(f"--out {args.out}: the folder {folder} does not exist; create it first.")
     system = one_system(args)
     columns = ["t", *system.coordinates, *[f"d{c}" for c in system.coordinates]]
     refuse_if_too_large(args.t_end, args.dt_out, len(columns))

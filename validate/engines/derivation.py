@@ -125,12 +125,7 @@ class _Params:
         sym = sp.Symbol(name, positive=True)
         self.source[sym] = (key, entry)
         self.sign[sym] = 1 if value > 0 else -1
-        where = (
-            key
-            if entry in (None, "norm")
-            else f"{key}[{entry if not isinstance(entry, tuple) else ','.join(map(str, entry))}]"
-        )
-        self.meaning[sym] = f"{where}, {unit}"
+        self.meaning[sym] = f"{read_as(key, entry, self.sign[sym])}, {unit}"
         self.structure.append((name, int(np.sign(value))))
         return sym if value > 0 else -sym
 
@@ -164,6 +159,15 @@ class _Params:
         exacts = [exact(float(x)) for x in np.ravel(values)]
         self.structure.append((name, tuple(str(e) for e in exacts)))
         return exacts
+
+
+def read_as(key: str, entry: Any, sign: int) -> str:
+    """How a symbol is read from the model, as the symbol table prints it: the symbols are positive,
+    so a negative number's symbol is minus its entry ("-body/link1/com[2]"), a norm |key|."""
+    if entry == "norm":
+        return f"|{key}|"
+    where = key if entry is None else f"{key}[{entry if not isinstance(entry, tuple) else ','.join(map(str, entry))}]"
+    return ("-" if sign < 0 else "") + where
 
 
 def parameter_values(derivation: Derivation, view: Any) -> dict[Any, float]:

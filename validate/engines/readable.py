@@ -189,8 +189,8 @@ def as_text(e: Equations, fmt: str = "text") -> str:
             lines.append(f"passive[{c}] = {show(e.passive[i])}")
     lines.append("Lagrange's equations, M q'' + C q' + G - passive = tau:")
     lines.extend(f"  {show(row)}" for row in _rows(e))
-    lines.append("parameters:")
-    lines.extend(f"  {name}: {meaning}" for name, meaning in sorted(e.parameters.items()))
+    lines.append("parameters: (each symbol is the model's number read as shown; the symbols are positive)")
+    lines.extend(f"  {name} = {meaning}" for name, meaning in sorted(e.parameters.items()))
     return "\n".join(lines) + "\n"
 
 
@@ -300,5 +300,5 @@ def as_python(e: Equations) -> str:
     for spec in _FUNCTIONS:
         lines += _function(e, spec, names)
     lines += ["", "", "# parameters (the derivation's symbols, where each is read):"]
-    lines += [f"#   {name}: {meaning}" for name, meaning in sorted(e.parameters.items())]
+    lines += [f"#   {name} = {meaning}" for name, meaning in sorted(e.parameters.items())]
     return "\n".join(lines) + "\n"

@@ -15,6 +15,9 @@ TITLE = "lagrange-xval validation report"
 SUBTITLE = "Hand-derived Lagrangian equations of motion, held against MuJoCo and Pinocchio"
 
 
+SUBTITLE_MODELS = "Models read by MuJoCo and by Pinocchio, each engine's reading and dynamics held against the other's"
+
+
 PROVENANCE = "Provenance"
 
 

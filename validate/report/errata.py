@@ -8,7 +8,7 @@ from __future__ import annotations
 from typing import Any
 
 from .document import ERRATA, Document, Num, verdict_mark
-from .findings import form_anchor, form_reason, form_term, where_worst
+from .findings import form_anchor, form_reason, form_term, where_worst, whose
 
 
 def variant_row(name: str, v: dict[str, Any]) -> tuple[Any, ...]:
@@ -94,18 +94,32 @@ def form_details(doc: Document, name: str, v: dict[str, Any]) -> None:
         doc.p(f"Transcription note: {v['note']}", "note")
     explained = v.get("explanations") or []
     if explained:
-        doc.table(
-            f"Symbolic differences of {name}'s {form} from the model's own equations",
-            ("entry", "difference", "expected (the model's equations)"),
-            [
-                (
-                    e.get("entry"),
-                    e.get("statement") if e.get("explained") else f"(not explained) {e.get('statement')}",
-                    e.get("expected", ""),
-                )
-                for e in explained
-            ],
-        )
-        symbols = sorted({(k, d) for e in explained for k, d in (e.get("symbols") or {}).items()})
-        if symbols:
-            doc.p("Symbols: " + "; ".join(f"`{k}` {d}" for k, d in symbols) + ".", "note")
+        inner = Document()
+        differences(inner, name, form, explained)
+        doc.fold(f"Symbolic differences from the model's own equations ({len(explained)} entries)", inner)
+
+
+def differences(doc: Document, name: str, form: str, explained: list[dict[str, Any]]) -> None:
+    """The symbolic differences of a wrong printed form and the symbols they use."""
+    owner = "the notes' form"
+    doc.table(
+        f"Symbolic differences of {name}'s {form} from the model's own equations",
+        ("entry", "difference", "expected (the model's equations)"),
+        [
+            (
+                e.get("entry"),
+                whose(e.get("statement") if e.get("explained") else f"(not explained) {e.get('statement')}", owner),
+                e.get("expected", ""),
+            )
+            for e in explained
+        ],
+    )
+    symbols = sorted({(k, d) for e in explained for k, d in (e.get("symbols") or {}).items()})
+    if symbols:
+        doc.p("Symbols: " + "; ".join(symbol_text(k, d) for k, d in symbols) + ".", "note")
+
+
+def symbol_text(symbol: str, meaning: str) -> str:
+    """The errata's "`c_link1 = -body/link1/com[1]` (m)" from the results' "-body/link1/com[1], m"."""
+    reading, _, unit = str(meaning).rpartition(", ")
+    return f"`{symbol} = {reading}` ({unit})" if reading else f"`{symbol}` {meaning}"

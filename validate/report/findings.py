@@ -28,8 +28,52 @@ def is_user(s: dict[str, Any]) -> bool:
     return not str(s.get("mjcf", "")).startswith("models/")
 
 
+def has_derivation(s: dict[str, Any]) -> bool:
+    """An equations module was given (a run of the model alone has none)."""
+    d = s.get("derivation") or {}
+    return bool(d) and d.get("kind") != "none"
+
+
 def derivation_label(s: dict[str, Any]) -> str:
+    if not has_derivation(s):
+        return "no derivation"
     return "your derivation" if is_user(s) else "the hand derivation"
+
+
+def has_actuators(s: dict[str, Any]) -> bool:
+    return "actuation" in (s.get("uses") or [])
+
+
+SOURCE_NAMES = {"mujoco": "MuJoCo", "pinocchio": "Pinocchio", "symbolic": "the derived equations", "hand": "hand"}
+
+
+def compared_sources(s: dict[str, Any]) -> list[str]:
+    """The sources the pointwise comparison holds, in the order hand, MuJoCo, Pinocchio, symbolic."""
+    names = {x for r in (s.get("pointwise") or {}).get("rows", []) for x in str(r.get("pair", "")).split("~")}
+    return [n for n in ("hand", "mujoco", "pinocchio", "symbolic") if n in names]
+
+
+def sources_text(s: dict[str, Any]) -> str:
+    """ "MuJoCo, Pinocchio and the derived equations": the sources compared, the derivation by its label."""
+    label = derivation_label(s)
+    names = [label if n == "hand" else SOURCE_NAMES[n] for n in compared_sources(s)]
+    return and_join(names) or "no source"
+
+
+def and_join(items: list[str]) -> str:
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1] if items else ""
+
+
+def whose(text: Any, owner: str) -> str:
+    """A statement of the judge ("yours lacks ...") with "yours" named: "the notes' form lacks ..."."""
+    if owner == "yours":
+        return str(text)
+    return re.sub(r"\byours\b", owner, str(text)).replace("your numbers", "its numbers")
+
+
+def form_owner(s: dict[str, Any] | None = None) -> str:
+    """Who printed a form: the notes for the repository's systems."""
+    return "the printed form" if s is not None and is_user(s) else "the notes' form"
 
 
 def is_damped(s: dict[str, Any]) -> bool:
@@ -106,33 +150,48 @@ def form_term(v: dict[str, Any]) -> str:
 
 
 def shorten(text: str, n: int = REASON_CHARS) -> str:
+    """`text` on one line; longer than `n`, cut at the last clause or word boundary before it, with
+    "(continued in the details)" so that nothing reads as cut mid-sentence."""
     text = " ".join(str(text).split())
-    return text if len(text) <= n else text[: n - 1].rstrip() + "…"
+    if len(text) <= n:
+        return text
+    cut = text[:n]
+    for mark in ("; ", ", ", " "):
+        at = cut.rfind(mark)
+        if at > n // 2:
+            return cut[:at].rstrip(",;") + " (continued in the details)"
+    return cut + " (continued in the details)"
 
 
 def one_line_statement(statement: str) -> str:
     """The first slip of a statement, without the algebra that follows it: "yours lacks ... (yours =
-    expected - ...); ..." -> "yours lacks ..."."""
+    expected - ...); ..." -> "yours lacks ..."; whole (never cut)."""
     first = str(statement).split("; ")[0]
     first = re.sub(r"\s*\(yours = [^()]*(\([^()]*\)[^()]*)*\)$", "", first)
-    return shorten(first)
+    return " ".join(first.split())
 
 
-def form_reason(v: dict[str, Any]) -> str:
+NO_SLIP = "no single slip reproduces it"
+
+
+def form_reason(v: dict[str, Any], owner: str = "the notes' form") -> str:
     """The one-line reason of a wrong printed form: its first explained symbolic difference (with the
-    entry, where the term does not already name it), else its transcription note."""
+    entry, where the term does not already name it), "yours" named as `owner`; else the plain statement
+    that no single slip reproduces it. The transcription note is apart (`form_note`)."""
     for e in v.get("explanations") or []:
         if e.get("explained") and e.get("statement"):
             entry = str(e.get("entry") or "")
-            said = one_line_statement(e["statement"])
+            said = whose(one_line_statement(e["statement"]), owner)
             if entry and not entry.startswith(str(v.get("name", ""))):
                 entry = entry.replace("det(M) * ", "det(M) ")
-                return shorten(f"{entry}: {said}")
+                return f"{entry}: {said}"
             return said
-    note = str(v.get("note") or "").strip()
-    if note:
-        return shorten(f"no single slip reproduces it; transcription note: {note}")
-    return "no single slip reproduces it (the symbolic differences are in the details)"
+    return NO_SLIP
+
+
+def form_note(v: dict[str, Any]) -> str:
+    """The transcription note of a printed form (how it was read from the notes), not a reason."""
+    return " ".join(str(v.get("note") or "").split())
 
 
 def where_worst(v: dict[str, Any], prefix: str = "printed") -> str:
@@ -165,6 +224,7 @@ class Finding:
     where: str
     hidden: bool  # the model's own parameter values hide it; a probe shows it
     anchor: str
+    note: str = ""  # the transcription note, apart from the reason
 
 
 def form_anchor(system: str, form: str) -> str:
@@ -182,10 +242,11 @@ def wrong_forms(results: dict[str, Any]) -> list[Finding]:
                     name,
                     str(v.get("name")),
                     form_term(v),
-                    form_reason(v),
+                    form_reason(v, form_owner(s)),
                     where_worst(v),
                     bool(v.get("hidden_by_model_values")),
                     form_anchor(name, str(v.get("name"))),
+                    form_note(v),
                 )
             )
     return out
@@ -201,11 +262,14 @@ def agreeing_forms(results: dict[str, Any]) -> list[tuple[str, str, str]]:
     ]
 
 
-def derivation_reason(d: dict[str, Any]) -> str:
-    for e in d.get("explanations") or []:
+def derivation_reason(d: dict[str, Any], owner: str = "yours") -> str:
+    """The first explained difference of a wrong derivation, or that no single slip reproduces its
+    differences (where it has some)."""
+    explanations = d.get("explanations") or []
+    for e in explanations:
         if e.get("explained") and e.get("statement"):
-            return shorten(f"{e.get('entry')}: {one_line_statement(e['statement'])}")
-    return ""
+            return f"{e.get('entry')}: {whose(one_line_statement(e['statement']), owner)}"
+    return f"{NO_SLIP} ({len(explanations)} entries differ)" if explanations else ""
 
 
 def _hidden_note(d: dict[str, Any]) -> str:
@@ -235,7 +299,7 @@ def system_headline(s: dict[str, Any]) -> tuple[bool | None, str]:
         term = d.get("first_disagreeing_term") or "a term"
         where = where_worst(d, prefix="hand")
         # where the term depends on a number parameters() does not read, no slip of yours explains it
-        reason = "" if d.get("unstated_assumptions") else derivation_reason(d)
+        reason = "" if d.get("unstated_assumptions") else derivation_reason(d, "yours" if is_user(s) else who)
         text = f"{who}: {term} disagrees" + (f" ({where})" if where else "")
         error = (d.get("worst_term") or {}).get("error")
         if reason or error:
@@ -260,17 +324,13 @@ def system_headline(s: dict[str, Any]) -> tuple[bool | None, str]:
         probes = checked.get("probes")
         at = f"the model's parameters and {probes} probe sets" if probes else "the model's parameters"
         return (s.get("passed") is True or None), f"{who} agrees with the engines in every term, at {at}"
-    if d.get("kind") == "none":  # the model alone
-        pairs = {r.get("pair") for r in (s.get("pointwise") or {}).get("rows", [])}
-        sources = (
-            "MuJoCo, Pinocchio and the derived equations" if "mujoco~symbolic" in pairs else "MuJoCo and Pinocchio"
-        )
-        return s.get("passed"), (
-            f"no derivation given; the engines' readings, and {sources}, agree"
-            if s.get("passed")
-            else "no derivation given"
-        )
+    if not has_derivation(s):  # the model alone
+        verb = "agree" if s.get("passed") else "disagree"
+        return s.get("passed"), f"no derivation given; {sources_text(s)} {verb} on the model and its dynamics"
     return s.get("passed"), f"{who}: {d.get('verdict') or 'not judged'}"
+
+
+MODEL_ONLY = "no derivation given: the two engines' readings of the model and their dynamics compared"
 
 
 def forms_tally(results: dict[str, Any]) -> tuple[int, int, int]:
@@ -285,7 +345,12 @@ def console_lines(results: dict[str, Any], report: str = "report.html") -> list[
     """The last lines of `run`: the verdict on each derivation, then every wrong printed form with
     its term and reason (plain text, one line each)."""
     systems = results.get("systems", {})
-    lines = ["derivations, each judged term by term against the engines:"]
+    given = any(has_derivation(s) for s in systems.values())
+    lines = [
+        "derivations, each judged term by term against the engines:"
+        if given
+        else "models alone (no derivation given), the engines compared:"
+    ]
     for name, s in sorted(systems.items()):
         ok, text = system_headline(s)
         lines.append(f"  {'pass' if ok else 'FAIL' if ok is False else '-   '} {name}: {text}")
@@ -298,5 +363,6 @@ def console_lines(results: dict[str, Any], report: str = "report.html") -> list[
         )
         for f in found:
             hidden = " [hidden by the model's values; a probe shows it]" if f.hidden else ""
-            lines.append(f"  wrong {f.system}, {f.form}: {f.term}: {f.reason}{hidden}")
+            note = f" (transcription note: {f.note})" if f.note and f.reason == NO_SLIP else ""
+            lines.append(f"  wrong {f.system}, {f.form}: {f.term}: {f.reason}{hidden}{note}")
     return lines

@@ -12,6 +12,7 @@ from typing import Any
 from .document import (
     MARK_SIGN,
     SUBTITLE,
+    SUBTITLE_MODELS,
     TITLE,
     Code,
     Document,
@@ -26,7 +27,14 @@ from .document import (
     cell_text,
     to_plain,
 )
+from .findings import has_derivation
 from .sections import HIDDEN, ReplayHint, build, header
+
+
+def subtitle(results: dict[str, Any]) -> str:
+    """The report's subtitle: the models' when no system of these results has a derivation."""
+    systems = results.get("systems", {}).values()
+    return SUBTITLE if not systems or any(has_derivation(s) for s in systems) else SUBTITLE_MODELS
 
 
 def _md_cell(c: Any) -> str:
@@ -65,7 +73,7 @@ def render_markdown(doc: Document, results: dict[str, Any]) -> str:
     out = [
         f"# {TITLE}",
         "",
-        f"{SUBTITLE}.",
+        f"{subtitle(results)}.",
         "",
         f"**{MARK_SIGN[head.state if head.state != 'warn' else 'ok']} {head.headline}.** {head.detail}",
         "",
@@ -138,7 +146,7 @@ def render_html(doc: Document, results: dict[str, Any]) -> str:
         .get_template("report.html.j2")
         .render(
             title=TITLE,
-            subtitle=SUBTITLE,
+            subtitle=subtitle(results),
             head=head,
             hidden=HIDDEN,
             toc=toc,

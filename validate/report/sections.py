@@ -28,22 +28,29 @@ from .document import (
     is_number,
     pass_mark,
     ratio,
+    sci,
     slug,
     to_plain,
     verdict_mark,
 )
 from .errata import section_errata
 from .findings import (
+    MODEL_ONLY,
+    SOURCE_NAMES,
     Finding,
     agreeing_forms,
+    and_join,
+    compared_sources,
     derivation_label,
     form_term,
     forms_tally,
+    has_derivation,
     is_chaotic,
     is_user,
     system_headline,
     wrong_forms,
 )
+from .runs import fmt_g
 from .studies import section_bench, section_stress
 from .system import section_system, shorten
 
@@ -90,16 +97,22 @@ def verdict_line(results: dict[str, Any]) -> tuple[bool, str, str]:
     c = counts(results)
     systems = results.get("systems", {})
     passed = results.get("passed") is True and c["failed"] == 0
-    users = [n for n, s in systems.items() if is_user(s)]
+    given = [n for n, s in systems.items() if has_derivation(s)]
+    users = [n for n in given if is_user(systems[n])]
+    alone = c["systems"] - len(given)
     if c["systems"] == 0:
         return False, "no system was run", ""
     if passed:
-        if c["systems"] == 1:
-            head = f"{derivation_label(next(iter(systems.values())))} agrees with the engines"
-        elif len(users) == c["systems"]:
-            head = f"all {c['systems']} of your derivations agree with the engines"
+        if not given:
+            head = f"{MODEL_ONLY}; they agree"
+        elif len(given) == 1:
+            head = f"{derivation_label(systems[given[0]])} agrees with the engines"
+        elif len(users) == len(given):
+            head = f"all {len(given)} of your derivations agree with the engines"
         else:
-            head = f"all {c['systems']} derivations agree with the engines"
+            head = f"all {len(given)} derivations agree with the engines"
+        if given and alone:
+            head += f"; {alone} model{'s' if alone > 1 else ''} without a derivation: the engines agree"
     else:
         failing = sorted(n for n, s in systems.items() if s.get("passed") is not True)
         first = failing[0]
@@ -117,6 +130,11 @@ def verdict_line(results: dict[str, Any]) -> tuple[bool, str, str]:
         )
         if c["not_applicable"]:
             detail += f"; {c['not_applicable']} could not be judged"
+    elif not given:
+        names = sorted({x for s in systems.values() for x in compared_sources(s)})
+        detail = "Compared quantity by quantity at random states: " + and_join(
+            [SOURCE_NAMES[n] for n in names if n in SOURCE_NAMES]
+        )
     else:
         probed = any((s.get("derivation") or {}).get("checked", {}).get("probes") for s in systems.values())
         detail = "Judged term by term against MuJoCo and Pinocchio at the model's parameters" + (
@@ -151,6 +169,7 @@ class Header:
     wrong_title: str
     agreeing: list[tuple[str, str, str]]
     agreeing_title: str
+    statuses_title: str = "Derivations, each judged term by term against the engines"
 
 
 def header(results: dict[str, Any]) -> Header:
@@ -168,7 +187,18 @@ def header(results: dict[str, Any]) -> Header:
         agreeing=agreeing,
         agreeing_title=f"{agree} printed forms agree with the engines"
         + (f", {len(agreeing) - agree} not judged" if len(agreeing) > agree else ""),
+        statuses_title=statuses_title(results),
     )
+
+
+def statuses_title(results: dict[str, Any]) -> str:
+    systems = results.get("systems", {}).values()
+    given = sum(1 for s in systems if has_derivation(s))
+    if given == len(systems):
+        return "Derivations, each judged term by term against the engines"
+    if not given:
+        return "Models alone (no derivation given), each engine's reading and dynamics compared with the other's"
+    return "Systems: each derivation judged term by term against the engines; each model alone, its engines compared"
 
 
 def cached_line(results: dict[str, Any]) -> str:
@@ -219,7 +249,8 @@ def section_provenance(doc: Document, results: dict[str, Any]) -> None:
 def derivation_row(name: str, s: dict[str, Any]) -> tuple[Any, ...]:
     prow = s.get("pointwise", {}).get("rows", [])
     d = s.get("derivation") or {}
-    label = "your derivation" if is_user(s) else "hand derivation"
+    label = derivation_label(s).removeprefix("the ") if has_derivation(s) else "the model alone"
+    kind = "hand" if has_derivation(s) else "engines"
     term: Any
     pair: Any
     if d.get("summary"):
@@ -238,7 +269,7 @@ def derivation_row(name: str, s: dict[str, Any]) -> tuple[Any, ...]:
         term, pair, err, tol = w.get("quantity"), w.get("pair"), w.get("scaled"), w.get("tolerance")
     else:
         term = pair = err = tol = None
-    return (name, label, "hand", pass_mark(s.get("passed")), term, pair, Num(err), Num(tol, short=True))
+    return (name, label, kind, pass_mark(s.get("passed")), term, pair, Num(err), Num(tol, short=True))
 
 
 def form_row(name: str, v: dict[str, Any]) -> tuple[Any, ...]:
@@ -263,8 +294,23 @@ SUMMARY_COLUMNS = ("system", "form", "kind", "verdict", "term (worst)", "pair", 
 def section_summary(doc: Document, results: dict[str, Any]) -> None:
     doc.h(2, SUMMARY)
     forms = any(s.get("variants") for s in results.get("systems", {}).values())
+    systems = results.get("systems", {}).values()
+    alone = any(not has_derivation(s) for s in systems)
+    given = any(has_derivation(s) for s in systems)
+    if alone and given:
+        lead = (
+            "One row per system (a derivation judged on every term against the engines and on the model checks; "
+            "a model alone, its two engines compared quantity by quantity and on the model checks)"
+        )
+    elif alone:
+        lead = (
+            "One row per model (no derivation given: its two engines compared quantity by quantity and on the "
+            "model checks)"
+        )
+    else:
+        lead = "One row per derivation (judged on every term against the engines, and on the model checks)"
     doc.p(
-        "One row per derivation (judged on every term against the engines, and on the model checks)"
+        lead
         + (
             ", then one per wrong printed form of the notes; the printed forms that agree are folded below"
             if forms
@@ -278,7 +324,10 @@ def section_summary(doc: Document, results: dict[str, Any]) -> None:
         rows.append(derivation_row(name, s))
         for v in s.get("variants", []):
             (rows if v.get("verdict") == "disagrees" else passing).append(form_row(name, v))
-    doc.table("Verdict of every derivation and wrong printed form", SUMMARY_COLUMNS, rows, group=True)
+    what = "derivation" if given and not alone else "system"
+    doc.table(
+        f"Verdict of every {what}" + (" and wrong printed form" if forms else ""), SUMMARY_COLUMNS, rows, group=True
+    )
     if passing:
         inner = Document()
         inner.table("Printed forms that agree with the engines", SUMMARY_COLUMNS, passing, group=True)
@@ -292,7 +341,7 @@ def section_tolerances(doc: Document, results: dict[str, Any]) -> None:
     for s in results.get("systems", {}).values():
         for r in s.get("pointwise", {}).get("rows", []):
             used.setdefault(r.get("tier", "?"), set()).add(r.get("quantity", "?"))
-        if s.get("trajectories"):
+        if any(r.get("counts", True) for r in (s.get("trajectories") or {}).get("runs", [])):
             used.setdefault("trajectory", set()).add("trajectories")
     doc.p(
         "Every comparison is judged with one named tier: a bound on `scaled` (the largest `|a - b|` over the states "
@@ -303,9 +352,46 @@ def section_tolerances(doc: Document, results: dict[str, Any]) -> None:
         "Tolerance tiers, what each judges and why",
         ("tier", "rtol", "judges", "reason"),
         [
-            (k, Num(t.get("rtol"), short=True), ", ".join(sorted(used.get(k, []))) or "–", t.get("reason", ""))
+            (
+                k,
+                Num(t.get("rtol"), short=True),
+                ", ".join(sorted(used.get(k, []))) or "–",
+                trajectory_reason(results) if k == "trajectory" else t.get("reason", ""),
+            )
             for k, t in sorted(tiers.items())
         ],
+    )
+
+
+def trajectory_reason(results: dict[str, Any]) -> str:
+    """Why the trajectory threshold is what it is, from the runs these results hold: their integrators,
+    duration, judged interval and largest error (nothing hard-coded)."""
+    trs = {n: s["trajectories"] for n, s in sorted(results.get("systems", {}).items()) if s.get("trajectories")}
+    runs = [r for tr in trs.values() for r in tr.get("runs", []) if r.get("counts", True) and not r.get("label")]
+    if not runs:
+        return "Not used in these results: no trajectory run was judged."
+    thr = sorted({sci(tr.get("threshold")) for tr in trs.values()})
+    ends = sorted({fmt_g(tr.get("t_end")) for tr in trs.values()})
+    methods = sorted({str(r.get("method")) for r in runs})
+    judged = [
+        f"{n} until {fmt_g(tr['judged_until'])} s"
+        for n, tr in trs.items()
+        if tr.get("judged_until") is not None and as_float(tr["judged_until"]) < as_float(tr.get("t_end"))
+    ] or ["here every run is judged over its whole length"]
+    worst = max(runs, key=lambda r: as_float(r.get("max_error_vs_hand")))
+    error, limit = as_float(worst.get("max_error_vs_hand")), max(as_float(tr.get("threshold")) for tr in trs.values())
+    margin = (
+        f"{' or '.join(thr)} rad is {limit / error:.0f} times that"
+        if 0 < error <= limit
+        else f"{' or '.join(thr)} rad"
+        + (" is not passed" if error <= limit else " is passed after the judged interval")
+    )
+    return (
+        f"Free-running trajectories over {' or '.join(ends)} s, by {', '.join(methods)}. A run is judged only up to "
+        "where the dynamics amplify errors so much that the integrators' own error could pass the threshold"
+        + (f" ({'; '.join(judged)})" if judged else "")
+        + f". The largest whole-run error of a judged run here is {sci(error)} rad ({worst.get('method')}); "
+        f"the threshold {margin}."
     )
 
 
@@ -459,7 +545,7 @@ def build(
     findings first (summary, errata), then each system, then the reference sections."""
     doc = Document()
     section_summary(doc, results)
-    if any(s.get("variants") or not is_user(s) for s in results.get("systems", {}).values()):
+    if any(s.get("variants") or (not is_user(s) and has_derivation(s)) for s in results.get("systems", {}).values()):
         section_errata(doc, results)  # a run of the user's own systems alone has no errata of the notes
     for name, s in sorted(results.get("systems", {}).items()):
         done = (sections or {}).get(name)

@@ -4,6 +4,7 @@ printed forms, trajectories, chaos and experiments; a pure function of that syst
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 from ..results.schema import SCALED_DEFINITION
@@ -18,12 +19,25 @@ from .document import (
     fmt_time,
     is_number,
     pass_mark,
+    ratio,
     sci,
     slug,
     vec,
 )
 from .figures import energy_figure, error_figure, pointwise_figure, run_label, series, trajectory_figure
-from .findings import chaos_facts, derivation_label, is_damped, is_driven, system_headline
+from .findings import (
+    and_join,
+    chaos_facts,
+    compared_sources,
+    derivation_label,
+    has_actuators,
+    has_derivation,
+    is_damped,
+    is_driven,
+    sources_text,
+    system_headline,
+)
+from .runs import fmt_g, run_verdict
 from .system_parts import (
     system_chaos,
     system_derivation,
@@ -35,34 +49,80 @@ from .system_parts import (
 
 
 def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[str, Any]) -> None:
+    """The system's heading and verdict, then its details folded (closed by default)."""
     doc.h(2, f"System {name}", f"system-{slug(name)}")
-    doc.p(s.get("description", ""))
     mark = pass_mark(s.get("passed"))
-    doc.p(f"Verdict: {cell_text(mark)}: {system_headline(s)[1]}.", {"ok": "pass", "bad": "finding"}.get(mark.state, ""))
-
-    # Model
-    doc.h(3, "Model", f"{slug(name)}-model")
+    described = str(s.get("description") or "").rstrip(".")
     doc.p(
-        f"{str(s.get('model_format', 'mjcf')).upper()} `{s.get('mjcf', '?')}`; "
-        f"{derivation_label(s)} `{s.get('equations', '?')}`; the scene uses "
+        (f"{described[:1].upper()}{described[1:]}. " if described else "")
+        + f"Verdict: {cell_text(mark)}: {system_headline(s)[1]}.",
+        {"ok": "pass", "bad": "finding"}.get(mark.state, ""),
+    )
+    inner = Document()
+    system_details(inner, name, s)
+    doc.fold(f"Details of {name}: {', '.join(detail_parts(s))}", inner)
+
+
+def detail_parts(s: dict[str, Any]) -> list[str]:
+    parts = ["model", "model checks"]
+    parts += ["the derivation's terms"] if has_derivation(s) else []
+    parts += ["derived equations"] if s.get("derived") else []
+    parts += ["pointwise agreement", "trajectories"]
+    parts += ["error growth"] if s.get("chaos") else []
+    parts += ["experiments"] if s.get("experiments") else []
+    return parts
+
+
+def system_details(doc: Document, name: str, s: dict[str, Any]) -> None:
+    section_model(doc, name, s)
+    section_model_checks(doc, name, s)
+    system_derived(doc, name, s)
+    if has_derivation(s):
+        doc.h(3, "Derivation verdict", f"{slug(name)}-derivation")
+        system_derivation(doc, name, s)
+    section_pointwise(doc, name, s)
+    tr = s.get("trajectories")
+    doc.h(3, "Trajectories", f"{slug(name)}-trajectories")
+    if not tr or not tr.get("runs"):
+        doc.p(f"Trajectories: {NOT_RUN}.", "missing")
+    else:
+        section_trajectories(doc, name, s, tr)
+    system_equivalence(doc, name, s)
+    facts = chaos_facts(s)
+    chaotic = bool(facts and facts["chaotic"])
+    if s.get("chaos") or has_derivation(s):
+        doc.h(3, "Chaos" if chaotic or not facts else "Error growth", f"{slug(name)}-chaos")
+        system_chaos(doc, name, s)
+    if s.get("experiments") or has_derivation(s):
+        doc.h(3, "Experiments", f"{slug(name)}-experiments")
+        system_experiments(doc, name, s)
+    system_skipped(doc, name, s)
+
+
+def section_model(doc: Document, name: str, s: dict[str, Any]) -> None:
+    doc.h(3, "Model", f"{slug(name)}-model")
+    equations = f"{derivation_label(s)} `{s.get('equations')}`; " if has_derivation(s) and s.get("equations") else ""
+    doc.p(
+        f"{str(s.get('model_format', 'mjcf')).upper()} `{s.get('mjcf', '?')}`; {equations}the scene uses "
         f"{', '.join(s.get('uses', [])) or 'nothing beyond the chain'}; MuJoCo timestep "
-        f"{sci(s.get('timestep'))} s."
+        f"{sci(s.get('timestep'))} s." + ("" if has_derivation(s) else " No derivation was given.")
     )
     params = s.get("parameters", {})
     keys = s.get("parameter_keys") or {}
-    doc.table(
-        f"Parameters of {name}'s derivation, read from the compiled model",
-        ("parameter", "value", "unit", "model keys it sets"),
-        [
-            (
-                k,
-                Num(v, short=True),
-                (keys.get(k) or {}).get("unit") or "–",
-                ", ".join((keys.get(k) or {}).get("keys") or []) or "–",
-            )
-            for k, v in sorted(params.items(), key=lambda kv: (kv[0].lower(), kv[0]))
-        ],
-    )
+    if params:
+        doc.table(
+            f"Parameters of {name}'s derivation, read from the compiled model",
+            ("parameter", "value", "unit", "model keys it sets"),
+            [
+                (
+                    k,
+                    Num(v, short=True),
+                    (keys.get(k) or {}).get("unit") or "–",
+                    ", ".join((keys.get(k) or {}).get("keys") or []) or "–",
+                )
+                for k, v in sorted(params.items(), key=lambda kv: (kv[0].lower(), kv[0]))
+            ],
+        )
     coords, joints = s.get("coordinates", []), s.get("joints", [])
     bodies = s.get("bodies", [])
     doc.table(
@@ -74,125 +134,160 @@ def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[st
         ],
     )
 
-    # Model checks
+
+def section_model_checks(doc: Document, name: str, s: dict[str, Any]) -> None:
     mc = s.get("model_checks")
     doc.h(3, "Model checks", f"{slug(name)}-model-checks")
     if not mc:
         doc.p(f"Model checks: {NOT_RUN}.", "missing")
-    else:
-        mism = mc.get("mismatches", [])
-        by_check: dict[str, int] = {}
-        for m in mism:
-            by_check[m.get("check", "?")] = by_check.get(m.get("check", "?"), 0) + 1
-        doc.p(
-            "Before any dynamics: every key of the compiled model against what the hand equations state they "
-            "assume (equations~mjcf), and every compared body's mass, centre of mass and inertia, and every "
-            "compared joint's anchor and axis, as Pinocchio and MuJoCo read them (pinocchio~mujoco)."
+        return
+    mism = mc.get("mismatches", [])
+    by_check: dict[str, int] = {}
+    for m in mism:
+        by_check[m.get("check", "?")] = by_check.get(m.get("check", "?"), 0) + 1
+    given = has_derivation(s)
+    doc.p(
+        "Before any dynamics: "
+        + (
+            "every key of the compiled model against what the derivation states it assumes (equations~mjcf), and "
+            if given
+            else ""
         )
-        if mc.get("alignments"):
-            doc.p(
-                "The model is a URDF, which each engine reads with its own parser; what the harness aligned "
-                "between the two readings before comparing them:"
-            )
-            doc.blocks.append(Items(tuple(mc["alignments"])))
+        + "every compared body's mass, centre of mass and inertia, and every compared joint's anchor and axis, as "
+        "Pinocchio and MuJoCo read them (pinocchio~mujoco)."
+    )
+    if mc.get("alignments"):
+        doc.p(
+            "The model is a URDF, which each engine reads with its own parser; what the harness aligned "
+            "between the two readings before comparing them:"
+        )
+        doc.blocks.append(Items(tuple(mc["alignments"])))
+    doc.table(
+        f"Model checks of {name}",
+        ("check", "keys checked", "mismatches", "verdict"),
+        [
+            (
+                "equations~mjcf and pinocchio~mujoco" if given else "pinocchio~mujoco",
+                mc.get("n_checked"),
+                len(mism),
+                pass_mark(mc.get("passed")),
+            ),
+            *[(f"of which {k}", None, n, Mark("bad", "FAIL")) for k, n in sorted(by_check.items())],
+        ],
+    )
+    if mism:
         doc.table(
-            f"Model checks of {name}",
-            ("check", "keys checked", "mismatches", "verdict"),
+            f"Model check mismatches of {name}",
+            ("check", "key", "expected", "actual", "why"),
             [
-                ("equations~mjcf and pinocchio~mujoco", mc.get("n_checked"), len(mism), pass_mark(mc.get("passed"))),
-                *[(f"of which {k}", None, n, Mark("bad", "FAIL")) for k, n in sorted(by_check.items())],
+                (m.get("check"), m.get("key"), shorten(m.get("expected")), shorten(m.get("actual")), m.get("why"))
+                for m in mism
             ],
         )
-        if mism:
-            doc.table(
-                f"Model check mismatches of {name}",
-                ("check", "key", "expected", "actual", "why"),
-                [
-                    (m.get("check"), m.get("key"), shorten(m.get("expected")), shorten(m.get("actual")), m.get("why"))
-                    for m in mism
-                ],
+
+
+POINTWISE_COLUMNS = ("quantity", "pair", "tier", "max abs", "scale", "scaled", "tolerance", "verdict")
+
+
+def pointwise_row(r: dict[str, Any]) -> tuple[Any, ...]:
+    return (
+        r.get("quantity"),
+        r.get("pair"),
+        r.get("tier"),
+        Num(r.get("max_abs")),
+        Num(r.get("scale")),
+        Num(r.get("scaled")),
+        Num(r.get("tolerance"), short=True),
+        pass_mark(r.get("passed")),
+    )
+
+
+def worst_per_quantity(rows: list[dict[str, Any]]) -> list[tuple[Any, ...]]:
+    """One line per quantity: how many pairs agree, and the pair closest to (or furthest past) its tolerance."""
+    by: dict[str, list[dict[str, Any]]] = {}
+    for r in rows:
+        by.setdefault(str(r.get("quantity")), []).append(r)
+    out = []
+    for q, rs in by.items():
+        w = max(rs, key=ratio)
+        bad = sum(1 for r in rs if r.get("passed") is False)
+        out.append(
+            (
+                q,
+                f"{len(rs) - bad} of {len(rs)}",
+                w.get("pair"),
+                Num(w.get("scaled")),
+                Num(w.get("tolerance"), short=True),
+                pass_mark(not bad if all(r.get("passed") is not None for r in rs) else None),
             )
+        )
+    return out
 
-    system_derived(doc, name, s)
 
-    doc.h(3, "Derivation verdict", f"{slug(name)}-derivation")
-    system_derivation(doc, name, s)
-
-    # Pointwise
+def section_pointwise(doc: Document, name: str, s: dict[str, Any]) -> None:
     pw = s.get("pointwise")
     doc.h(3, "Pointwise agreement", f"{slug(name)}-pointwise")
     if not pw:
         doc.p(f"Pointwise agreement: {NOT_RUN}.", "missing")
-    else:
-        rows = pw.get("rows", [])
-        doc.p(
-            f"Every quantity of every pair of sources at {pw.get('n_states')} random states (seed "
-            f"{pw.get('seed')}): the hand derivation, MuJoCo, Pinocchio and the model's own equations derived "
-            f"symbolically (`symbolic`). `max abs` is the largest `|a - b|`, `scale` the largest magnitude; "
-            f"{SCALED_DEFINITION}; a row passes when scaled ≤ tolerance."
-        )
-        for bug in pw.get("harness_bugs", []):
-            doc.p(f"✗ Harness bug: {bug}.", "fail")
+        return
+    rows = pw.get("rows", [])
+    doc.p(
+        f"Every quantity of every pair of sources at {pw.get('n_states')} random states (seed {pw.get('seed')}): "
+        f"{sources_text(s)}"
+        + (" (`symbolic`: the model's own equations derived symbolically)" if "symbolic" in compared_sources(s) else "")
+        + f". {SCALED_DEFINITION}; a row passes when scaled ≤ tolerance."
+    )
+    for bug in pw.get("harness_bugs", []):
+        doc.p(f"✗ Harness bug: {bug}.", "fail")
+    doc.table(
+        f"Pointwise agreement of {name}, one line per quantity: its worst pair of sources",
+        ("quantity", "pairs that agree", "worst pair", "scaled", "tolerance", "verdict"),
+        worst_per_quantity(rows),
+    )
+    every = Document()
+    every.p("`max abs` is the largest `|a - b|`, `scale` the largest magnitude.")
+    every.table(
+        f"Pointwise agreement of {name} at {pw.get('n_states')} random states (seed {pw.get('seed')})",
+        POINTWISE_COLUMNS,
+        [pointwise_row(r) for r in rows],
+    )
+    doc.fold(f"All {len(rows)} rows (every quantity and pair of sources)", every)
+    failing = [r for r in rows if r.get("passed") is False and r.get("worst_state")]
+    if failing:
         doc.table(
-            f"Pointwise agreement of {name} at {pw.get('n_states')} random states (seed {pw.get('seed')})",
-            ("quantity", "pair", "tier", "max abs", "scale", "scaled", "tolerance", "verdict"),
+            f"States where {name}'s failing quantities disagree most",
+            ("quantity", "pair", "q", "v", "tau"),
             [
                 (
-                    r.get("quantity"),
-                    r.get("pair"),
-                    r.get("tier"),
-                    Num(r.get("max_abs")),
-                    Num(r.get("scale")),
-                    Num(r.get("scaled")),
-                    Num(r.get("tolerance"), short=True),
-                    pass_mark(r.get("passed")),
+                    r["quantity"],
+                    r["pair"],
+                    vec(r["worst_state"].get("q", [])),
+                    vec(r["worst_state"].get("v", [])),
+                    vec(r["worst_state"].get("tau", [])),
                 )
-                for r in rows
+                for r in failing
             ],
         )
-        failing = [r for r in rows if r.get("passed") is False and r.get("worst_state")]
-        if failing:
-            doc.table(
-                f"States where {name}'s failing quantities disagree most",
-                ("quantity", "pair", "q", "v", "tau"),
-                [
-                    (
-                        r["quantity"],
-                        r["pair"],
-                        vec(r["worst_state"].get("q", [])),
-                        vec(r["worst_state"].get("v", [])),
-                        vec(r["worst_state"].get("tau", [])),
-                    )
-                    for r in failing
-                ],
-            )
-        if rows:
-            doc.figure(
-                f"img/{name}_pointwise.png",
-                pointwise_figure(name, rows),
-                f"Bar chart of the scaled error of each quantity and source pair for {name}",
-                "Scaled error per quantity and source pair, log axis; the red bar over each group is its "
-                "tolerance. The results keep only the largest error over the random states, not each "
-                "state's, so this is a bar chart of those maxima rather than a histogram of the "
-                "per-state errors.",
-            )
+    if rows:
+        doc.figure(
+            f"img/{name}_pointwise.png",
+            pointwise_figure(name, rows),
+            f"Bar chart of the scaled error of each quantity and source pair for {name}",
+            "Scaled error per quantity and source pair, log axis; the red bar over each group is its "
+            "tolerance. The results keep only the largest error over the random states, not each "
+            "state's, so this is a bar chart of those maxima rather than a histogram of the "
+            "per-state errors.",
+        )
 
-    # Trajectories
-    tr = s.get("trajectories")
-    doc.h(3, "Trajectories", f"{slug(name)}-trajectories")
-    if not tr or not tr.get("runs"):
-        doc.p(f"Trajectories: {NOT_RUN}.", "missing")
-    else:
-        section_trajectories(doc, name, s, tr)
 
-    system_equivalence(doc, name, s)
-    facts = chaos_facts(s)
-    chaotic = bool(facts and facts["chaotic"])
-    doc.h(3, "Chaos" if chaotic or not facts else "Error growth", f"{slug(name)}-chaos")
-    system_chaos(doc, name, s)
-    doc.h(3, "Experiments", f"{slug(name)}-experiments")
-    system_experiments(doc, name, s)
-    system_skipped(doc, name, s)
+def reference_text(s: dict[str, Any], tr: dict[str, Any]) -> str:
+    """The reference of the trajectory runs and why it is that one, from the system's facts."""
+    ref = re.sub(r" \((the hand derivation|your derivation)[^()]*\)$", "", str(tr.get("reference")))
+    if not has_derivation(s):
+        return f"{ref} (no derivation given: MuJoCo's own run is the reference, and every run is information only)"
+    if (s.get("derivation") or {}).get("verdict") == "disagrees":
+        return f"{ref} ({derivation_label(s)} disagrees with the engines, so it is not the reference)"
+    return ref
 
 
 def section_trajectories(doc: Document, name: str, s: dict[str, Any], tr: dict[str, Any]) -> None:
@@ -204,11 +299,15 @@ def section_trajectories(doc: Document, name: str, s: dict[str, Any], tr: dict[s
         f"Free motion from q0 = {vec(tr.get('q0', []))} rad, v0 = {vec(tr.get('v0', []))} rad/s, "
         f"tau = {vec(tr.get('tau', []))}, sampled every {fmt_g(tr.get('dt_out'))} s "
         f"up to {fmt_g(tr.get('t_end'))} s. "
-        f"The reference is {tr.get('reference')}; the error is the largest coordinate's distance to it, "
+        f"The reference is {reference_text(s, tr)}; the error is the largest coordinate's distance to it, "
         + (
-            f"judged against {tr['threshold_rule']}."
-            if tr.get("threshold_rule")
-            else f"judged against the trajectory threshold {sci(thr)} rad."
+            (
+                f"judged against {tr['threshold_rule']}."
+                if tr.get("threshold_rule")
+                else f"judged against the trajectory threshold {sci(thr)} rad."
+            )
+            if any(r.get("counts", True) for r in runs)
+            else f"shown beside the trajectory threshold {sci(thr)} rad, not judged."
         )
     )
     energy_column = "energy change (friction)" if damped else "energy drift"
@@ -223,13 +322,18 @@ def section_trajectories(doc: Document, name: str, s: dict[str, Any], tr: dict[s
                 Num(r.get("max_error_vs_hand"), unit="rad"),
                 first_above(r, tr),
                 Num(r.get("energy_drift"), unit="J"),
-                run_verdict(r, tr.get("t_end")),
+                run_verdict(r, tr),
             )
             for r in runs
         ],
     )
     if tr.get("judged_until") is not None:
-        doc.p(f"Runs are judged until {fmt_g(tr['judged_until'])} s, not beyond: {tr.get('judged_because')}.")
+        whole = as_float(tr["judged_until"]) >= as_float(tr.get("t_end"))
+        doc.p(
+            f"Runs are judged over the whole run ({fmt_g(tr['judged_until'])} s): {tr.get('judged_because')}."
+            if whole
+            else f"Runs are judged until {fmt_g(tr['judged_until'])} s, not beyond: {tr.get('judged_because')}."
+        )
     estimated = [r for r in runs if r.get("estimate_how")]
     if estimated:
         doc.table(
@@ -248,8 +352,12 @@ def section_trajectories(doc: Document, name: str, s: dict[str, Any], tr: dict[s
     for r in runs:
         if r.get("judged_because"):
             doc.p(f"{run_label(r)} is judged until {fmt_g(r.get('judged_until'))} s: {r['judged_because']}.")
-    for why in sorted({r["why_not_counted"] for r in runs if r.get("why_not_counted")}):
-        doc.p(f"Not part of the verdict: {why}.", "note")
+    if not has_derivation(s):
+        shown = and_join(sorted({run_label(r) for r in runs if r.get("source") != "mujoco"}))
+        doc.p(f"Not part of the verdict: no derivation given; {shown or 'no run'} shown against MuJoCo's run.", "note")
+    else:
+        for why in sorted({r["why_not_counted"] for r in runs if r.get("why_not_counted")}):
+            doc.p(f"Not part of the verdict: {why}.", "note")
     doc.figure(
         f"img/{name}_trajectories.png",
         trajectory_figure(name, s.get("coordinates", []), t, runs),
@@ -264,22 +372,12 @@ def section_trajectories(doc: Document, name: str, s: dict[str, Any], tr: dict[s
         "vertical line marks where a source first passes it (a run from another start passes it at once). "
         "Sources identical to the reference are not drawn.",
     )
-    if damped:
-        energy_text = (
-            "the joints' viscous friction dissipates energy, so E falls; every source should fall along the same curve"
-            + (" (the inputs also do work)" if is_driven(s) else "")
-            + "."
-        )
-    elif is_driven(s):
-        energy_text = "the inputs do work, so E changes; every source should change along the same curve."
-    else:
-        energy_text = "the system is conservative, so each curve is that source's drift and should stay near 0."
     doc.figure(
         f"img/{name}_energy.png",
         energy_figure(name, t, runs),
         f"Energy of {name} against time for every source",
-        f"Total energy T + V by the hand equations along each source's trajectory, relative to "
-        f"E(0) = {sci(series(runs[0]['energy'])[0], 6)} J; {energy_text}",
+        f"Total energy T + V by {energy_source(s)} along each source's trajectory, relative to "
+        f"E(0) = {sci(series(runs[0]['energy'])[0], 6)} J; {energy_text(s)}",
     )
 
 
@@ -289,6 +387,26 @@ def judged_max(values: Any, t: Any, until: Any) -> float | None:
     if until is not None and len(x) == len(series(t)):
         x = x[series(t) <= as_float(until) + 1e-12]
     return float(x.max()) if len(x) else None
+
+
+def energy_source(s: dict[str, Any]) -> str:
+    """Whose T + V the runs' energies are (the pipeline's order: the derivation, the derived equations, MuJoCo)."""
+    if has_derivation(s):
+        return derivation_label(s)
+    return "the derived equations" if "symbolic" in compared_sources(s) else "MuJoCo"
+
+
+def energy_text(s: dict[str, Any]) -> str:
+    if is_damped(s):
+        return (
+            "the joints' viscous friction dissipates energy, so E falls; every source should fall along the same curve"
+            + (" (the inputs also do work)" if is_driven(s) else "")
+            + "."
+        )
+    if is_driven(s):
+        return "the inputs do work, so E changes; every source should change along the same curve."
+    inputs = "no friction, and the inputs are zero along these runs" if has_actuators(s) else "no friction, no inputs"
+    return f"the system is conservative ({inputs}), so each curve is that source's drift and should stay near 0."
 
 
 def first_above(run: dict[str, Any], tr: dict[str, Any]) -> str:
@@ -309,34 +427,12 @@ def first_above(run: dict[str, Any], tr: dict[str, Any]) -> str:
     return when
 
 
-def run_verdict(run: dict[str, Any], t_end: Any = None) -> Any:
-    """A trajectory run's verdict as the table shows it: what interval was judged, or information only."""
-    if not run.get("counts", True):
-        return "information only"
-    if "passed" not in run:
-        return "–"
-    judged = run.get("judged_until")
-    if run["passed"] is False:
-        first = run.get("first_exceeds_threshold")
-        return Mark("bad", "FAIL" + (f": above the threshold from {fmt_g(first)} s" if first is not None else ""))
-    if run["passed"] is True:
-        if judged is not None and t_end is not None and as_float(judged) < as_float(t_end):
-            return Mark("ok", f"pass until {fmt_g(judged)} s, not judged beyond")
-        return Mark("ok", f"pass over the whole run ({fmt_g(judged if judged is not None else t_end)} s)")
-    return pass_mark(run["passed"])
-
-
 def fmt_stats(stats: Any) -> str:
     """The cost of a run: its function evaluations and steps (the integrator's status is not a cost)."""
     if not isinstance(stats, dict) or not stats:
         return "–"
     names = {"nfev": "evaluations", "steps": "steps", "njev": "Jacobians"}
     return ", ".join(f"{v} {names[k]}" for k, v in sorted(stats.items()) if k in names and is_number(v)) or "–"
-
-
-def fmt_g(x: Any) -> str:
-    """A setting (a time step, a duration) as written: 0.01, 10."""
-    return f"{x:g}" if is_number(x) else sci(x)
 
 
 def shorten(x: Any, n: int = 60) -> str:

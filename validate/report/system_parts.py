@@ -8,9 +8,33 @@ from typing import Any
 
 import numpy as np
 
-from .document import ERRATA, NOT_RUN, Code, Document, Mark, Num, as_float, pass_mark, sci, slug, vec, verdict_mark
+from .document import (
+    ERRATA,
+    NOT_RUN,
+    Code,
+    Document,
+    Mark,
+    Num,
+    as_float,
+    pass_mark,
+    ratio,
+    sci,
+    slug,
+    vec,
+    verdict_mark,
+)
 from .figures import LEGEND_W, legend_right, new_figure, png, rc, series
-from .findings import CHAOS_LAMBDA, chaos_facts, is_chaotic, is_damped, is_user
+from .findings import (
+    CHAOS_LAMBDA,
+    chaos_facts,
+    derivation_label,
+    has_derivation,
+    is_chaotic,
+    is_damped,
+    is_user,
+    whose,
+)
+from .runs import judged_verdict, run_verdict
 
 
 def system_skipped(doc: Document, name: str, s: dict[str, Any]) -> None:
@@ -38,9 +62,10 @@ def system_derived(doc: Document, name: str, s: dict[str, Any]) -> None:
         "The model's own equations, derived from its compiled numbers by "
         + ("the notes' section-3 method" if not is_user(s) else "the rotation-matrix method")
         + " (rotation matrix per joint, centre-of-mass velocities, body-frame inertia, Lagrange's equations with the "
-        "Christoffel symbols of M), independently of both engines and of the hand derivation; the `symbolic` source "
-        "of the comparisons. Parameters are named after the model's elements; `d<name>` is a velocity. "
-        "`lagrange-xval derive` prints them (`--latex`, `--python`)."
+        "Christoffel symbols of M), independently of both engines"
+        + (f" and of {derivation_label(s)}" if has_derivation(s) else "")
+        + "; the `symbolic` source of the comparisons. Parameters are named after the model's elements; "
+        "`d<name>` is a velocity. `lagrange-xval derive` prints them (`--latex`, `--python`)."
     )
     n = len(names)
     lines = [f"T = {d['T']['text']}", f"V = {d['V']['text']}"]
@@ -51,10 +76,16 @@ def system_derived(doc: Document, name: str, s: dict[str, Any]) -> None:
         lines += [f"passive[{c}] = {d['passive'][i]['text']}" for i, c in enumerate(names)]
     doc.blocks.append(Code("\n".join(lines)))
     doc.table(
-        f"Parameters of {name}'s derived equations",
-        ("symbol", "model element, unit"),
-        sorted(d.get("parameters", {}).items()),
+        f"Symbols of {name}'s derived equations: each is the model's number read as shown (the symbols are positive)",
+        ("symbol", "unit"),
+        [symbol_row(k, v) for k, v in sorted(d.get("parameters", {}).items())],
     )
+
+
+def symbol_row(symbol: str, meaning: str) -> tuple[str, str]:
+    """("c_link1 = -body/link1/com[2]", "m") from the results' "-body/link1/com[2], m"."""
+    reading, _, unit = str(meaning).rpartition(", ")
+    return (f"`{symbol} = {reading or meaning}`", unit if reading else "–")
 
 
 def system_derivation(doc: Document, name: str, s: dict[str, Any]) -> None:
@@ -67,8 +98,11 @@ def system_derivation(doc: Document, name: str, s: dict[str, Any]) -> None:
         doc.p(f"No hand derivation was given: {d.get('statement')}.", "note")
         return
     ok = d.get("verdict") == "agrees"
+    label = derivation_label(s)
+    owner = "yours" if is_user(s) else label
     doc.p(
-        f"{'✓' if ok else '✗'} The hand derivation: {d.get('statement', d.get('verdict'))}.", "pass" if ok else "fail"
+        f"{'✓' if ok else '✗'} {label[:1].upper()}{label[1:]}: {d.get('statement', d.get('verdict'))}.",
+        "pass" if ok else "fail",
     )
     checked = d.get("checked", {})
     at_probes = (
@@ -84,7 +118,7 @@ def system_derivation(doc: Document, name: str, s: dict[str, Any]) -> None:
         "relative to its largest value over the states (`scale`), that the check could have seen."
     )
     doc.table(
-        f"Terms of {name}'s hand derivation against MuJoCo and Pinocchio, at the model's parameters and every probe",
+        f"Terms of {name}'s derivation against MuJoCo and Pinocchio, at the model's parameters and every probe",
         ("term", "verdict", "worst scaled error", "engine", "at", "tolerance", "scale"),
         [
             (
@@ -100,26 +134,26 @@ def system_derivation(doc: Document, name: str, s: dict[str, Any]) -> None:
         ],
     )
     explanations = d.get("explanations", [])
-    if explanations:
+    explained = [e for e in explanations if e.get("explained")]
+    if explanations and not explained:
+        entries = ", ".join(str(e.get("entry")) for e in explanations)
+        inner = Document()
+        differences_table(inner, name, explanations, owner)
+        doc.p(
+            f"No single slip reproduces the differences of {len(explanations)} "
+            f"entr{'y' if len(explanations) == 1 else 'ies'} ({entries}): more than one mistake, or one the "
+            "harness does not model (the differences are folded below).",
+            "note",
+        )
+        doc.fold(f"The {len(explanations)} differences against the model's equations", inner)
+    elif explanations:
         doc.p(
             "What the wrong expressions lack, against the model's own equations derived symbolically (`lagrange-xval "
             "derive`): each disagreeing entry's difference fitted onto the slips one mistake makes (a lost or doubled "
             "term, a flipped sign, a swapped parameter, a lost factor, sin for cos), kept only where it reproduces "
             "your numbers at states held back from the fit."
         )
-        doc.table(
-            f"Symbolic differences of {name}'s hand derivation",
-            ("entry", "yours against the model's equations", "expected", "parameters"),
-            [
-                (
-                    e.get("entry"),
-                    e.get("statement") if e.get("explained") else f"(not explained) {e.get('statement')}",
-                    e.get("expected", ""),
-                    "; ".join(f"{k} = {v}" for k, v in sorted(e.get("symbols", {}).items())),
-                )
-                for e in explanations
-            ],
-        )
+        differences_table(doc, name, explanations, owner)
     failing = [r for r in d.get("terms", []) if not r.get("passed")]
     if failing:
         doc.table(
@@ -141,7 +175,7 @@ def system_derivation(doc: Document, name: str, s: dict[str, Any]) -> None:
     probes = [p for p in d.get("probes", []) if p.get("index")]
     if probes:
         doc.table(
-            f"Probe parameter sets of {name}'s hand derivation",
+            f"Probe parameter sets of {name}'s derivation",
             ("probe", "parameters moved (model's value -> probe's)"),
             [
                 (
@@ -167,6 +201,22 @@ def system_derivation(doc: Document, name: str, s: dict[str, Any]) -> None:
         doc.p(f"Probe not built: {problem}", "missing")
 
 
+def differences_table(doc: Document, name: str, explanations: list[dict[str, Any]], owner: str = "yours") -> None:
+    doc.table(
+        f"Symbolic differences of {name}'s derivation",
+        ("entry", "difference from the model's equations", "expected", "parameters"),
+        [
+            (
+                e.get("entry"),
+                whose(e.get("statement") if e.get("explained") else f"(not explained) {e.get('statement')}", owner),
+                e.get("expected", ""),
+                "; ".join(f"{k} = {v}" for k, v in sorted(e.get("symbols", {}).items())),
+            )
+            for e in explanations
+        ],
+    )
+
+
 def system_equivalence(doc: Document, name: str, s: dict[str, Any]) -> None:
     eq = s.get("equivalence")
     if not eq:
@@ -175,14 +225,44 @@ def system_equivalence(doc: Document, name: str, s: dict[str, Any]) -> None:
         f"{name} and `{eq['other']}` are the same physical chain in other coordinates (q = B q_other, "
         f"B = {np.asarray(eq['map']).tolist()}): their hand equations must map onto each other."
     )
+    rows = eq["rows"]
+    worst: dict[str, dict[str, Any]] = {}
+    for r in rows:
+        if r["quantity"] not in worst or ratio(r) > ratio(worst[r["quantity"]]):
+            worst[r["quantity"]] = r
     doc.table(
-        f"{name} mapped onto {eq['other']} at {eq['n_states']} random states and along a trajectory",
-        ("quantity", "max abs", "scaled", "tolerance", "pass"),
+        f"{name} mapped onto {eq['other']}, one line per quantity: its worst parameter set",
+        ("quantity", "worst at", "max abs", "scaled", "tolerance", "verdict"),
         [
-            (r["quantity"], Num(r["max_abs"]), Num(r["scaled"]), Num(r["tolerance"]), pass_mark(r["passed"]))
-            for r in eq["rows"]
+            (
+                q,
+                r.get("parameters", "–"),
+                Num(r["max_abs"]),
+                Num(r["scaled"]),
+                Num(r["tolerance"], short=True),
+                pass_mark(all(x["passed"] for x in rows if x["quantity"] == q)),
+            )
+            for q, r in worst.items()
         ],
     )
+    every = Document()
+    every.table(
+        f"{name} mapped onto {eq['other']} at {eq['n_states']} random states, at each parameter set",
+        ("parameters", "quantity", "max abs", "scaled", "tolerance", "verdict"),
+        [
+            (
+                r.get("parameters", "–"),
+                r["quantity"],
+                Num(r["max_abs"]),
+                Num(r["scaled"]),
+                Num(r["tolerance"], short=True),
+                pass_mark(r["passed"]),
+            )
+            for r in rows
+        ],
+        group=True,
+    )
+    doc.fold(f"All {len(rows)} rows, by parameter set", every)
 
 
 def system_chaos(doc: Document, name: str, s: dict[str, Any]) -> None:
@@ -253,17 +333,23 @@ def system_chaos(doc: Document, name: str, s: dict[str, Any]) -> None:
         conv = r.get("convergence", {})
         energy = r.get("energy", {})
         until = judge.get("judged_until")
-        if judge.get("passed") is True and until is not None and not (as_float(until) >= t_end):
-            verdict = Mark("ok", f"inside until {as_float(until):g} s, not judged beyond")
-            short.append(
-                f"MuJoCo {iname}: its own error per output interval (up to {sci(fr.get('max_window_error'))} rad), "
-                f"propagated, reaches {sci(judge.get('tolerance'))} rad at {as_float(until):g} s, so its free run is "
-                f"judged only until then; its whole-run error {sci(fr.get('max_error'))} rad is shown, not judged."
-            )
-        elif judge.get("passed") is True:
-            verdict = Mark("ok", f"inside over the whole run ({as_float(until):g} s)")
+        same = same_run(s, iname, fr)
+        if same is not None:
+            verdict = run_verdict(same, s.get("trajectories") or {})
+            if isinstance(verdict, Mark):
+                verdict = Mark(verdict.state, f"{verdict.text} (the trajectory table's run)")
         else:
-            verdict = pass_mark(judge.get("passed"))
+            why = f"its own error, propagated, reaches {sci(judge.get('tolerance'))} rad there"
+            verdict = judged_verdict(
+                judge.get("passed"), until, t_end, why, fr.get("max_error"), judge.get("tolerance")
+            )
+            if judge.get("passed") is True and until is not None and not (as_float(until) >= t_end):
+                short.append(
+                    f"MuJoCo {iname}: its own error per output interval (up to {sci(fr.get('max_window_error'))} "
+                    f"rad), propagated, reaches {sci(judge.get('tolerance'))} rad at {as_float(until):g} s, so its "
+                    f"free run is judged only until then; its whole-run error {sci(fr.get('max_error'))} rad is "
+                    "shown, not judged."
+                )
         rows.append(
             (
                 iname,
@@ -282,7 +368,7 @@ def system_chaos(doc: Document, name: str, s: dict[str, Any]) -> None:
         (
             "integrator",
             "free-run max error, whole run (rad)",
-            "inside the error envelope",
+            "verdict of its free run",
             "mirror hand (rad)",
             "mirror Pinocchio (rad)",
             "order",
@@ -296,10 +382,29 @@ def system_chaos(doc: Document, name: str, s: dict[str, Any]) -> None:
         "Pinocchio's ABA: a stepped MuJoCo trajectory and its mirror differ by rounding only"
         + (", amplified by the chaos" if chaotic else "")
         + ". The free run is judged against an error envelope that grows with the measured "
-        "amplification, up to where the envelope reaches the tolerance; the order is measured from a timestep sweep."
+        "amplification, up to where the envelope reaches the tolerance (a free run that is the trajectory table's "
+        "MuJoCo run carries that table's verdict, stated once); the order is measured from a timestep sweep."
     )
     if short:
         doc.items(short)
+
+
+def same_run(s: dict[str, Any], integrator: str, free_run: dict[str, Any]) -> dict[str, Any] | None:
+    """The trajectory table's MuJoCo run when it is this integrator's free run (same integrator and
+    timestep, from the same start): its verdict is then stated once, in the trajectory table's words."""
+    tr = s.get("trajectories") or {}
+    step = free_run.get("timestep")
+    if step is None:
+        return None
+    method = f"MuJoCo {integrator} dt {as_float(step):g}"
+    return next(
+        (
+            r
+            for r in tr.get("runs", [])
+            if r.get("source") == "mujoco" and r.get("method") == method and not r.get("label")
+        ),
+        None,
+    )
 
 
 def system_experiments(doc: Document, name: str, s: dict[str, Any]) -> None:

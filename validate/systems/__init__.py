@@ -512,6 +512,18 @@ def pairs_in(folder: Path) -> list[tuple[Path, Path]]:
     """(model, equations) of every system in a user's folder: each <name>.xml (MJCF) or <name>.urdf
     with its <name>.py. A file without its partner is an error naming it: a derivation left unchecked
     is never silent."""
+    pairs, lonely = pairs_and_lonely(folder)
+    if lonely:
+        names = ", ".join(sorted(p.stem for p in lonely))
+        raise HarnessError(
+            f"{folder}: {names} has no partner (each system is <name>.xml or <name>.urdf, and <name>.py)."
+        )
+    return pairs
+
+
+def pairs_and_lonely(folder: Path) -> tuple[list[tuple[Path, Path]], list[Path]]:
+    """The systems of a user's folder (as `pairs_in`) and the files without a partner, each named by
+    the caller (`run --systems` reports them and goes on with the rest)."""
     folder = Path(folder)
     if not folder.is_dir():
         raise HarnessError(f"systems folder not found: {folder} (give a folder of <name>.xml and <name>.py).")
@@ -521,14 +533,11 @@ def pairs_in(folder: Path) -> list[tuple[Path, Path]]:
         raise HarnessError(f"{folder}: {', '.join(twice)} has both an .xml and a .urdf model; keep one.")
     models = {p.stem: p for p in found}
     modules = {p.stem: p for p in folder.glob("*.py") if p.stem != "__init__"}  # `_arm` is a system too
-    lonely = sorted(models.keys() ^ modules.keys())
-    if lonely:
-        raise HarnessError(
-            f"{folder}: {', '.join(lonely)} has no partner (each system is <name>.xml or <name>.urdf, and <name>.py)."
-        )
-    if not models:
+    lonely = sorted((models | modules)[n] for n in models.keys() ^ modules.keys())
+    paired = sorted(models.keys() & modules.keys())
+    if not paired and not lonely:
         raise HarnessError(f"{folder}: no system found (each system is <name>.xml or <name>.urdf, and <name>.py).")
-    return [(models[n], modules[n]) for n in sorted(models)]
+    return [(models[n], modules[n]) for n in paired], lonely
 
 
 def load(name: str, overrides: tuple[tuple[str, float], ...] = (), *, time_limit: float = DEFAULT_TIME_LIMIT) -> System:

@@ -195,9 +195,14 @@ def sweep(
             for label, (fn, args) in (extra or {}).items():
                 extra_futures[executor.submit(fn, *args)] = label
         done = 0
+        if progress:
+            more = f" and {len(extra_futures)} ratio measurements" if extra_futures else ""
+            progress(f"repeat {rep + 1}/{repeats}: timing {len(futures)} runs{more}")
         for fut in as_completed([*futures, *extra_futures]):
             if fut in extra_futures:
                 extras[extra_futures[fut]] = fut.result()
+                if progress:
+                    progress(f"measured {extra_futures[fut]} ({len(extras)}/{len(extra_futures)})")
                 continue
             if fut.cancelled():
                 continue

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import functools
 import statistics
 import sys
 import time
 from collections.abc import Callable
-from concurrent.futures import Executor
+from concurrent.futures import Executor, as_completed
 from pathlib import Path
 from typing import Any
 
@@ -91,7 +90,7 @@ def run_bench(
     with executor_for(executor) as pool:
         if progress:
             progress(f"preparing references for {', '.join(named[k] for k in chosen)}")
-        prepared = dict(zip(chosen, pool.map(functools.partial(prepare, cache_dir=cache_dir), chosen), strict=True))
+        prepared = prepare_all(pool, chosen, named, progress, cache_dir)
         extra: dict[str, tuple[Callable[..., Any], tuple[Any, ...]]] = {}
         if RHS_SYSTEM in system_names():
             extra["rhs"] = (rhs_task, (15 if not quick else 7,))
@@ -161,7 +160,11 @@ def run_bench(
             futures = {
                 n: pool.submit(paired_timings, key[n], p, reps=reps_small, budget=budget) for n, p in pairs.items()
             }
-            paired = {n: f.result() for n, f in futures.items()}
+            paired = {}
+            for n, f in futures.items():
+                paired[n] = f.result()
+                if progress:
+                    progress(f"checks of {n} timed beside their fastest runs")
     else:
         paired = {}
     ratios["harness_checks_vs_fastest"] = checks_ratios(measured, rows, paired)
@@ -200,6 +203,23 @@ def run_bench(
         "sweep_s": sweep_s,
         "quick_target_s": QUICK_TARGET_S if quick else None,
     }
+
+
+def prepare_all(
+    pool: Executor,
+    chosen: list[str],
+    named: dict[str, str],
+    progress: Callable[[str], None] | None,
+    cache_dir: CacheDir = DEFAULT_CACHE_DIR,
+) -> dict[str, Any]:
+    """`prepare` on every system in the pool, a progress line as each reference is ready."""
+    futures = {pool.submit(prepare, k, cache_dir=cache_dir): k for k in chosen}
+    out: dict[str, Any] = {}
+    for fut in as_completed(futures):
+        out[futures[fut]] = fut.result()
+        if progress:
+            progress(f"reference of {named[futures[fut]]} ready ({len(out)}/{len(chosen)})")
+    return {k: out[k] for k in chosen}
 
 
 def rhs_task(reps: int) -> dict[str, Any]:

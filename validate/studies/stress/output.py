@@ -227,12 +227,33 @@ def fmt(x: Any, spec: str = ".1e") -> str:
     return "-" if x is None else format(x, spec)
 
 
+NAME_COLUMNS = ("system", "method", "engine", "integrator")
+
+
+def longest_names(results: Any) -> dict[str, int]:
+    """The longest value of each name column in any table of `results` (rows are dicts)."""
+    out: dict[str, int] = {}
+    rows = [r for v in (results or {}).values() if isinstance(v, list) for r in v if isinstance(r, dict)]
+    for col in NAME_COLUMNS:
+        out[col] = max([len(col)] + [len(str(r[col])) for r in rows if col in r])
+    return out
+
+
+def column_style(col: str, longest: dict[str, int] | None = None) -> dict[str, Any]:
+    """Names are never cut ("double_pendulum..."): a name column is as wide as its longest name and
+    does not wrap; the other columns wrap instead."""
+    if col not in NAME_COLUMNS:
+        return {"overflow": "fold"}
+    return {"no_wrap": True, "min_width": (longest or {}).get(col, len(col))}
+
+
 def print_summary(results: dict[str, Any], console: Any = None) -> None:
     """Readable tables of the results (rich)."""
     from rich.console import Console
     from rich.table import Table
 
     console = console or Console()
+    longest = longest_names(results)
     if results["drift"]:
         table = Table(title="Energy over long horizons (MJCF timestep; dE = E - E0, E by the hand equations)")
         for col in (
@@ -245,7 +266,7 @@ def print_summary(results: dict[str, Any], console: Any = None) -> None:
             "max |dE| / (E0-Vmin)",
             "|dE| rate J/s",
         ):
-            table.add_column(col)
+            table.add_column(col, **column_style(col, longest))
         for r in results["drift"]:
             table.add_row(
                 r["system"],
@@ -267,7 +288,7 @@ def print_summary(results: dict[str, Any], console: Any = None) -> None:
             f"criteria: {' / '.join(criteria)}"
         )
         for col in ("system", "engine", "integrator", *[f"{s:g} rad/s" for s in speeds]):
-            table.add_column(col)
+            table.add_column(col, **column_style(col, longest))
         cells: dict[tuple[str, str, str], dict[float, dict[str, str]]] = {}
         for r in results["stability"]:
             text = (
@@ -305,7 +326,7 @@ def print_summary(results: dict[str, Any], console: Any = None) -> None:
             "base tier fails from cond",
             "current tier fails from cond",
         ):
-            table.add_column(col)
+            table.add_column(col, **column_style(col, longest))
         for s in results["conditioning_summary"]:
             table.add_row(
                 s["system"],
@@ -338,7 +359,7 @@ def print_summary(results: dict[str, Any], console: Any = None) -> None:
             "equations, per timestep (s)"
         )
         for col in ("system", "damping x", "engine", "integrator", *[f"{d:g}" for d in dts]):
-            table.add_column(col)
+            table.add_column(col, **column_style(col, longest))
         cells2: dict[tuple[Any, ...], dict[float, str]] = {}
         for r in results["stiff_friction"]:
             cells2.setdefault((r["system"], f"{r['damping_factor']:g}", r["engine"], r["integrator"]), {})[
