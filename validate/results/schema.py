@@ -87,7 +87,7 @@ class ModelChecks(TypedDict):
     passed: bool
     n_checked: int
     mismatches: list[Mismatch]
-    alignments: list[str]  # what the harness aligned between the engines' readings of a URDF (none for MJCF)
+    alignments: list[str]  # what the harness aligned between the engines' readings (a URDF; Drake's: "Drake: ...")
 
 
 class Pointwise(TypedDict):
