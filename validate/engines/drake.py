@@ -378,16 +378,17 @@ class DrakeSource:
         to it (each body's spatial inertia moved into k's frame and summed by Drake's own arithmetic)."""
         plant, ctx = self.plant, self.context
         X_WB = plant.EvalBodyPoseInWorld(ctx, self.bodies[k])
-        total = None
+        from pydrake.multibody.tree import SpatialInertia
+
+        total = SpatialInertia.Zero()
         for body in self.groups[k]:
             X_Bb = X_WB.inverse() @ plant.EvalBodyPoseInWorld(ctx, body)
             M = body.CalcSpatialInertiaInBodyFrame(ctx).ReExpress(X_Bb.rotation()).Shift(-X_Bb.translation())
-            total = M if total is None else total + M
-        assert total is not None
+            total += M
         mass = float(total.get_mass())
-        com = np.array(total.get_com(), dtype=float)
         if mass <= 0.0:
-            return 0.0, com, np.zeros((3, 3))
+            return 0.0, np.zeros(3), np.zeros((3, 3))
+        com = np.array(total.get_com(), dtype=float)
         inertia = total.Shift(com).CalcRotationalInertia().CopyToFullMatrix3()
         return mass, com, np.array(inertia, dtype=float)
 
