@@ -388,7 +388,7 @@ class DrakeSource:
         mass = float(total.get_mass())
         if mass <= 0.0:
             return 0.0, np.zeros(3), np.zeros((3, 3))
-        com = np.array(total.get_com(), dtype=float)
+        com: Any = np.array(total.get_com(), dtype=float)  # Any: pydrake's stubs name an unusual ndarray type
         inertia = total.Shift(com).CalcRotationalInertia().CopyToFullMatrix3()
         return mass, com, np.array(inertia, dtype=float)
 
