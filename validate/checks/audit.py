@@ -24,7 +24,7 @@ import numpy as np
 
 from ..engines import make_source
 from ..errors import HarnessError
-from .modelsync import _mujoco_joint_frames
+from .modelsync import mujoco_joint_frames
 from .pointwise import random_states
 
 READERS = ("mujoco", "pinocchio", "drake")
@@ -47,7 +47,7 @@ def mujoco_reading(system: Any, source: Any) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for b in system.bodies:
         out |= {f"body/{b}/{k}": view[f"body/{b}/{k}"] for k in ("mass", "com", "inertia")}
-    frames = _mujoco_joint_frames(system)
+    frames = mujoco_joint_frames(system)
     for j, qadr in zip(system.joints, source.qadr, strict=True):
         jid = int(np.nonzero(np.asarray(m.jnt_qposadr) == qadr)[0][0])
         limited = bool(m.jnt_limited[jid])
@@ -234,3 +234,11 @@ def lines(result: dict[str, Any]) -> list[str]:
     shown = ", ".join(f"{pair} {gap:.3g}" for pair, gap in gaps["max_abs"].items())
     out.append(f"  mass matrix, max |M_a - M_b| at {gaps['n_states']} seeded states: {shown}")
     return out
+
+
+def audit_of(system: Any, *, seed: int = 0) -> dict[str, Any]:
+    """The audit for `run`'s results, or why it could not be made ({"error": ...})."""
+    try:
+        return audit(system, seed=seed)
+    except HarnessError as exc:
+        return {"error": str(exc), "passed": False}

@@ -7,6 +7,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..results.schema import SCALED_DEFINITION
+from .audit import audit_section
 from .document import (
     NOT_RUN,
     Document,
@@ -91,8 +92,8 @@ def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[st
         )
         if mc.get("alignments"):
             doc.p(
-                "The model is a URDF, which each engine reads with its own parser; what the harness aligned "
-                "between the two readings before comparing them:"
+                "What the harness aligned between the engines' readings before comparing them (a URDF is read "
+                "by each engine's own parser; Drake's lines start 'Drake'):"
             )
             doc.blocks.append(Items(tuple(mc["alignments"])))
         doc.table(
@@ -112,6 +113,7 @@ def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[st
                     for m in mism
                 ],
             )
+    audit_section(doc, slug(name), s)
 
     system_derived(doc, name, s)
 

@@ -170,6 +170,7 @@ class SystemResult(TypedDict, total=False):
     chaos: dict[str, Any] | None
     stages: dict[str, str]  # a stage not run or failed, and why
     skipped: list[str]
+    audit: dict[str, Any]  # the model read by MuJoCo, Pinocchio and Drake side by side (checks/audit.py)
     passed: bool
 
 
