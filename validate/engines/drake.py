@@ -66,6 +66,8 @@ def parse(system: Any) -> tuple[Any, list[str]]:
 
     plant = MultibodyPlant(time_step=0.0)
     text, kind = (without_geometry(system.urdf_text()), "urdf") if system.reads_urdf else (system.mjcf_xml(), "xml")
+    named = [] if system.reads_urdf else _named(text, system.name)
+    text = named[0] if named else text
     log, handler = logging.getLogger("drake"), _Collect()
     log.addHandler(handler)
     propagate, log.propagate = log.propagate, False
@@ -73,11 +75,13 @@ def parse(system: Any) -> tuple[Any, list[str]]:
         Parser(plant).AddModelsFromString(text, kind)
     except Exception as exc:  # RuntimeError with Drake's diagnostic
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise HarnessError(f"{system.mjcf.name}: Drake's {kind.upper()} parser cannot read it: {first}") from None
+        fmt = "URDF" if system.reads_urdf else "MJCF"
+        raise HarnessError(f"{system.mjcf.name}: Drake's {fmt} parser cannot read it: {first}") from None
     finally:
         log.removeHandler(handler)
         log.propagate = propagate
-    return plant, [f"its {'URDF' if system.reads_urdf else 'MJCF'} parser: {w}" for w in handler.lines]
+    warnings = [f"its {'URDF' if system.reads_urdf else 'MJCF'} parser: {w}" for w in handler.lines]
+    return plant, named[1:] + warnings
 
 
 def _weld_root(system: Any, plant: Any) -> list[str]:
@@ -92,6 +96,19 @@ def _weld_root(system: Any, plant: Any) -> list[str]:
     for name in roots:
         plant.WeldFrames(plant.world_frame(), plant.GetBodyByName(name).body_frame())
     return [f"URDF root link '{name}' welded to the world (Drake's URDF parser would let it float)" for name in roots]
+
+
+def _named(mjcf: str, name: str) -> list[str]:
+    """[the MJCF with a model name, the alignment line] where its <mujoco> has none (Drake's parser
+    requires one; MuJoCo and Pinocchio do not), else []."""
+    import re
+
+    root = re.search(r"<mujoco\b[^>]*>", mjcf)
+    if root is None or re.search(r"\bmodel\s*=", root.group(0)):
+        return []
+    tag = root.group(0)[:-1].rstrip("/") + f' model="{name}"' + ("/>" if root.group(0).endswith("/>") else ">")
+    line = f"the MJCF's <mujoco> has no model name, which Drake's parser requires: given '{name}'"
+    return [mjcf[: root.start()] + tag + mjcf[root.end() :], line]
 
 
 def _align(system: Any, plant: Any) -> list[str]:
