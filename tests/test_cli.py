@@ -32,7 +32,7 @@ def test_check_json_schema(tmp_path, capsys, system):
     assert out["states"][3]["tau"] == [0.0] * n
     for state in out["states"]:
         assert set(state) == {"q", "v", "tau", "sources"}
-        assert set(state["sources"]) == {"hand", "mujoco", "pinocchio", "symbolic"}
+        assert set(state["sources"]) == {"hand", "mujoco", "pinocchio", "symbolic", "drake"}
         for src in state["sources"].values():
             assert set(src) == {"M", "bias", "qacc", "tau_inverse", "T", "V"}
             assert np.shape(src["M"]) == (n, n) and np.shape(src["qacc"]) == (n,)

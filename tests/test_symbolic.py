@@ -366,7 +366,7 @@ def test_long_chains_leave_the_symbolic_source_out(tmp_path):
     )
     system = System.from_files(model, module)
     sources = make_sources(system)
-    assert set(sources) == {"hand", "mujoco", "pinocchio"}
+    assert set(sources) == {"hand", "mujoco", "pinocchio", "drake"}
     states = pointwise.random_states(system, n=20, seed=0)
     rows = pointwise.compare(pointwise.evaluate(sources, states), states)
     assert all(r["passed"] for r in rows if r["pair"] == "mujoco~pinocchio")

@@ -289,7 +289,15 @@ def _stage(stages: dict[str, Any], name: str, fn: Any) -> Any:
         return None
 
 
-def run_system(
+def run_system(system: System, *, n_states: int, seed: int, **options: Any) -> SystemResult:
+    """`_run_stages` (below), and the model audit: the three readers of the model side by side
+    (checks/audit.py; an audit that cannot be made says why under "error")."""
+    from .checks.audit import audit_of
+
+    return {**_run_stages(system, n_states=n_states, seed=seed, **options), "audit": audit_of(system, seed=seed)}
+
+
+def _run_stages(
     system: System,
     *,
     n_states: int,

@@ -109,7 +109,7 @@ def decide(
     if why:
         return Decision(system, unreadable_derivation(why), unreadable=why)
     sources = make_sources(system)
-    model = modelsync.check(system, sources["pinocchio"])
+    model = with_drake(modelsync.check(system, sources["pinocchio"]), sources)
     states = states if states is not None else compare.random_states(system, n=n_states, seed=seed)
     values = compare.evaluate(sources, states)  # evaluated once: the judges reuse the engines' values
     point = compare.pointwise_result(values, states, seed=seed, tolerances=tolerances)
@@ -120,6 +120,14 @@ def decide(
         system, states, sources, probe_set, values=values, seed=seed, tolerances=tolerances, cache=cache
     )
     return Decision(system, derivation, model, point, states, sources, values, probe_set)
+
+
+def with_drake(model: ModelChecks, sources: Any) -> ModelChecks:
+    """The model checks with what was aligned for Drake's reading (engines/drake.py), or why Drake was
+    left out, listed beside the other alignments: never silent."""
+    lines = [f"Drake: {line}" for line in getattr(sources.get("drake"), "alignments", [])]
+    lines += [f"Drake left out: {why}" for why in getattr(sources, "skipped", {}).values()]
+    return {**model, "alignments": [*model["alignments"], *lines]} if lines else model
 
 
 def _unreadable(system: System) -> str:

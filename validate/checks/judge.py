@@ -40,7 +40,7 @@ from .pointwise import States, error_row, force_scale, random_states
 from .probes import describe_ties
 from .tolerances import TOLERANCES, Tolerances
 
-ENGINES = ("mujoco", "pinocchio", "symbolic")  # the references a derivation is judged against
+ENGINES = ("mujoco", "pinocchio", "symbolic", "drake")  # the references a derivation is judged against
 
 
 def engines_of(sources: Any) -> tuple[str, ...]:
@@ -152,6 +152,8 @@ def _axis_rotation(axis: np.ndarray, angle: np.ndarray, engine: str) -> np.ndarr
     axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
     if engine == "mujoco":
         from ..engines import mujoco as engine_module
+    elif engine == "drake":
+        from ..engines import drake as engine_module  # type: ignore[no-redef]
     else:
         from ..engines import pinocchio as engine_module  # type: ignore[no-redef]
     return engine_module.axis_rotation(axis, np.asarray(angle, dtype=float))

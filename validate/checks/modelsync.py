@@ -130,7 +130,7 @@ def _engine_row(key: str, mujoco_value: Any, pinocchio_value: Any, ok: bool, wha
     }
 
 
-def _mujoco_joint_frames(system: Any) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+def mujoco_joint_frames(system: Any) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """MuJoCo's reading of the same (`PinocchioSource.joint_frames`), from its compiled bodies and joints."""
     view = system.view
     poses: dict[str, tuple[np.ndarray, np.ndarray]] = {"world": (np.zeros(3), np.eye(3))}
@@ -156,7 +156,7 @@ def _mujoco_joint_frames(system: Any) -> dict[str, tuple[np.ndarray, np.ndarray]
 def joints_pinocchio_vs_mujoco(system: Any, pin_source: Any) -> list[Mismatch]:
     """Anchor (hinges) and motion axis of each compared joint at q = 0, and for a URDF the damping,
     as each engine read them."""
-    mj, pn = _mujoco_joint_frames(system), pin_source.joint_frames()
+    mj, pn = mujoco_joint_frames(system), pin_source.joint_frames()
     damping = pin_source.read_damping() if system.reads_urdf else None
     # anchors are compared relative to the chain's extent: one at the origin may be read as 1e-17 m
     extent = max([float(np.abs(f[0]).max()) for f in (*mj.values(), *pn.values())] + [1e-300])

@@ -31,6 +31,7 @@ from ..systems import System, load, pairs_and_lonely, pairs_in, system_names, un
 from ..systems.scaffold import write_module
 from . import check as checking
 from . import simulate
+from .audit import cmd_audit
 from .outputs import check_cache_dir, check_out, render_system, write_all, write_reports
 from .parser import MAX_STATES_FILE_BYTES, one_line
 from .progress import reporter
@@ -415,4 +416,5 @@ COMMANDS = {
     "replay": cmd_replay,
     "stress": cmd_stress,
     "bench": cmd_bench,
+    "audit": cmd_audit,
 }

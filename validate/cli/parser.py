@@ -490,6 +490,15 @@ def build_parser() -> argparse.ArgumentParser:
     form.add_argument("--latex", action="store_true", help="print LaTeX instead of plain text")
     form.add_argument("--python", action="store_true", help="print numpy code instead of plain text")
 
+    audit = command(
+        "audit",
+        help="the model read by MuJoCo, Pinocchio and Drake side by side: masses, centres of mass, inertias, "
+        "joint anchors, axes, limits, damping, armature; the reader in the minority named where they differ",
+    )
+    audit.add_argument("model", type=path_arg, metavar="MODEL", help="an MJCF .xml or URDF .urdf (or a system name)")
+    lock_option(audit)
+    audit.add_argument("--json", action="store_true", help="print the audit as one JSON object")
+
     replay = command("replay", help="a rerun recording of a system's trajectories")
     replay.add_argument("system", metavar="SYSTEM", help=system_help("a system in the results (or one of yours)"))
     replay.add_argument("--save", type=path_arg, metavar="FILE", help="write a .rrd file instead of spawning a viewer")

@@ -1,5 +1,7 @@
-"""The four sources of dynamics behind one interface: the hand equations, MuJoCo, Pinocchio, and the
-model's own equations derived symbolically (engines/derivation.py, engines/symbolic.py).
+"""The sources of dynamics behind one interface: the hand equations, MuJoCo, Pinocchio, the model's own
+equations derived symbolically (engines/derivation.py, engines/symbolic.py), and Drake (engines/drake.py,
+a third independent reader of the model file; left out, with the reason, where pydrake is missing or
+its parser refuses the model).
 
 Every source works on batches of states in the notes' coordinates: `q`, `v`, `tau`, `a` are
 (N, n) arrays, and each method returns arrays with a leading N axis. Engines are imported lazily.
@@ -11,13 +13,28 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import unknown_name
+from ..errors import HarnessError, unknown_name
 from .base import Kinematics, Source
 from .hand import HandSource
 
-__all__ = ["SOURCE_NAMES", "SYMBOLIC_MAX_DOF", "Kinematics", "MappedSource", "Source", "make_source", "make_sources"]
+__all__ = [
+    "SOURCE_NAMES",
+    "SYMBOLIC_MAX_DOF",
+    "Kinematics",
+    "MappedSource",
+    "Source",
+    "Sources",
+    "make_source",
+    "make_sources",
+]
 
-SOURCE_NAMES = ("hand", "mujoco", "pinocchio", "symbolic")
+SOURCE_NAMES = ("hand", "mujoco", "pinocchio", "symbolic", "drake")
+
+
+class Sources(dict[str, Any]):
+    """The sources of a system by name, and `skipped`: each source left out, with why."""
+
+    skipped: dict[str, str]
 
 
 class MappedSource:
@@ -98,7 +115,7 @@ class MappedSource:
 
 
 def make_source(system: Any, name: str) -> Any:
-    """The source called `name` for `system` ("hand", "mujoco", "pinocchio" or "symbolic").
+    """The source called `name` for `system` ("hand", "mujoco", "pinocchio", "symbolic" or "drake").
 
     Engines read joint coordinates; where the notes' coordinates are a linear map of them
     (`JOINT_MAP` in the equations module), the engine sources are wrapped in that map.
@@ -113,6 +130,12 @@ def make_source(system: Any, name: str) -> Any:
         from .pinocchio import PinocchioSource
 
         engine = PinocchioSource(system)
+    elif name == "drake":
+        from .drake import DrakeSource, unavailable
+
+        if unavailable():
+            raise HarnessError(f"the drake source: {unavailable()}")
+        engine = DrakeSource(system)
     elif name == "symbolic":
         from .symbolic import SymbolicSource  # sympy: loaded when first asked for
 
@@ -128,9 +151,16 @@ def make_source(system: Any, name: str) -> Any:
 SYMBOLIC_MAX_DOF = 4
 
 
-def make_sources(system: Any) -> dict[str, Any]:
-    """Every source for `system`; the symbolic one only for chains of at most SYMBOLIC_MAX_DOF joints."""
+def make_sources(system: Any) -> Sources:
+    """Every source for `system`; the symbolic one only for chains of at most SYMBOLIC_MAX_DOF joints;
+    Drake where pydrake is installed and its parser reads the model (else in `skipped`, with why)."""
     skip = {"symbolic"} if system.nv > SYMBOLIC_MAX_DOF else set()
     if system.equations is None:  # the model alone: no hand derivation
         skip.add("hand")
-    return {n: make_source(system, n) for n in SOURCE_NAMES if n not in skip}
+    out = Sources((n, make_source(system, n)) for n in SOURCE_NAMES if n not in skip | {"drake"})
+    out.skipped = {}
+    try:
+        out["drake"] = make_source(system, "drake")
+    except HarnessError as exc:  # a third reader is an addition: its absence is stated, never fatal
+        out.skipped["drake"] = str(exc)
+    return out

@@ -8,6 +8,7 @@ import re
 from typing import Any
 
 from ..results.schema import SCALED_DEFINITION
+from .audit import audit_section
 from .document import (
     NOT_RUN,
     Document,
@@ -158,8 +159,8 @@ def section_model_checks(doc: Document, name: str, s: dict[str, Any]) -> None:
     )
     if mc.get("alignments"):
         doc.p(
-            "The model is a URDF, which each engine reads with its own parser; what the harness aligned "
-            "between the two readings before comparing them:"
+            "What the harness aligned between the engines' readings before comparing them (a URDF is read "
+            "by each engine's own parser; Drake's lines start 'Drake'):"
         )
         doc.blocks.append(Items(tuple(mc["alignments"])))
     doc.table(
@@ -184,6 +185,7 @@ def section_model_checks(doc: Document, name: str, s: dict[str, Any]) -> None:
                 for m in mism
             ],
         )
+    audit_section(doc, slug(name), s)
 
 
 POINTWISE_COLUMNS = ("quantity", "pair", "tier", "max abs", "scale", "scaled", "tolerance", "verdict")

@@ -89,7 +89,7 @@ class ModelChecks(TypedDict):
     passed: bool
     n_checked: int
     mismatches: list[Mismatch]
-    alignments: list[str]  # what the harness aligned between the engines' readings of a URDF (none for MJCF)
+    alignments: list[str]  # what the harness aligned between the engines' readings (a URDF; Drake's: "Drake: ...")
 
 
 class Pointwise(TypedDict):
@@ -172,6 +172,7 @@ class SystemResult(TypedDict, total=False):
     chaos: dict[str, Any] | None
     stages: dict[str, str]  # a stage not run or failed, and why
     skipped: list[str]
+    audit: dict[str, Any]  # the model read by MuJoCo, Pinocchio and Drake side by side (checks/audit.py)
     passed: bool
 
 
