@@ -64,7 +64,7 @@ class WarpSource:
         with self.wp.ScopedDevice(self.device):
             self.model = self.mjw.put_model(self.m)
         self._data: dict[int, Any] = {}
-        self.compile_s: dict[str, float] = {}  # first call of each kernel set, s (compiled or loaded from cache)
+        self.first_call_s: dict[str, float] = {}  # first call of each kernel set, s (compiled or loaded from cache)
 
     @property
     def integrator(self) -> str:
@@ -104,12 +104,12 @@ class WarpSource:
         return d
 
     def _timed(self, label: str, call: Any, *args: Any) -> None:
-        """`call(*args)` on the device, waited for; its first call's time kept in `compile_s`."""
+        """`call(*args)` on the device, waited for; its first call's time kept in `first_call_s`."""
         start = time.perf_counter()
         with self.wp.ScopedDevice(self.device):
             call(*args)
             self.wp.synchronize_device(self.device)
-        self.compile_s.setdefault(label, time.perf_counter() - start)
+        self.first_call_s.setdefault(label, time.perf_counter() - start)
 
     def _dense_m(self, d: Any) -> np.ndarray:
         """(N, nv, nv) float64 from Warp's sparse rows (C MuJoCo's layout, as mj_fullM scatters it)."""

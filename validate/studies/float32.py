@@ -285,7 +285,7 @@ def system_result(
         "device": warp.device,
         "pointwise": rows,
         "trajectory": trajectory,
-        "first_call_s": {"put_model": made, **warp.compile_s},
+        "first_call_s": {"put_model": made, **warp.first_call_s},
     }
 
 
