@@ -123,3 +123,13 @@ def test_bench_float32_writes_into_bench_json_and_keeps_the_rest(tmp_path, capsy
     assert [r["term"] for r in bench["float32"]["table"]] == [*QUANTITIES, "q(0.2 s)"]
     out = capsys.readouterr().out
     assert "MuJoCo Warp 4.0.0 (float32, device" in out and "wrote" in out
+
+
+@needs_warp
+def test_bench_float32_measures_a_persons_own_system(tmp_path, capsys):
+    """`--model PATH --equations PATH` alone: that system only (no repository systems, chains or arms)."""
+    files = ["--model", str(EXAMPLES / "acrobot.xml"), "--equations", str(EXAMPLES / "acrobot.py")]
+    assert main(["bench", "--float32", *files, "--quick", "--out", str(tmp_path)]) == 0
+    table = json.loads((tmp_path / "bench.json").read_text())["float32"]["table"]
+    assert {r["system"] for r in table} == {"acrobot"}
+    assert {r["reference"] for r in table if r["term"] == "M"} == {"hand"}

@@ -254,12 +254,13 @@ def trajectory_row(system: System, warp: Any, *, horizon: float, cache_dir: Any 
 
 @contextmanager
 def float32_systems(
-    names: list[str] | None, *, chain_ns: tuple[int, ...], robots: bool
+    names: list[str] | None, *, chain_ns: tuple[int, ...], robots: bool, own: tuple[System, ...] = ()
 ) -> Iterator[list[tuple[str, System]]]:
-    """(label, system) of the repository systems `names` (default every one), spatial chains of
-    `chain_ns` links (MJCF in a temporary folder, removed after) and, with `robots`, UR5 and Panda
-    when example-robot-data is installed."""
-    chosen = [(s.name, s) for s in load_all(list(names) if names else system_names())]
+    """(label, system) of the repository systems `names` (default every one, none where `own` systems
+    are given), a person's `own` systems, spatial chains of `chain_ns` links (MJCF in a temporary
+    folder, removed after) and, with `robots`, UR5 and Panda when example-robot-data is installed."""
+    repository = list(names) if names else ([] if own else system_names())
+    chosen = [(s.name, s) for s in (load_all(repository) if repository else [])] + [(s.name, s) for s in own]
     folder = robots_folder() if robots else None
     if folder is not None:
         chosen += [(label, System.model_only(folder / path, locked=lock)) for label, path, lock in ROBOTS]
@@ -295,6 +296,7 @@ def run_float32(
     quick: bool = False,
     chain_ns: tuple[int, ...] | None = None,
     robots: bool = True,
+    own: tuple[System, ...] = (),
     n_states: int = N_STATES,
     horizon: float | None = None,
     cache_dir: Any = DEFAULT_CACHE_DIR,
@@ -307,17 +309,19 @@ def run_float32(
         quick: QUICK_SYSTEMS, chains of QUICK_CHAIN_NS links, UR5 only, QUICK_HORIZON.
         chain_ns: chain lengths (default CHAIN_NS; quick QUICK_CHAIN_NS; () for none).
         robots: UR5 and Panda where example-robot-data is installed.
+        own: a person's systems (`System.from_files`), measured beside (or, without names, instead of)
+            the repository's.
         n_states: pointwise states (Warp worlds) per system.
         horizon: trajectory length, s (default HORIZON; quick QUICK_HORIZON; 0 for none).
     """
     from ..engines.warp import default_device, versions
 
     start = time.perf_counter()
-    names = list(names) if names else (list(QUICK_SYSTEMS) if quick else None)
+    names = list(names) if names else (list(QUICK_SYSTEMS) if quick and not own else None)
     ns = chain_ns if chain_ns is not None else (QUICK_CHAIN_NS if quick else CHAIN_NS)
     horizon = horizon if horizon is not None else (QUICK_HORIZON if quick else HORIZON)
     out: dict[str, Any] = {}
-    with float32_systems(names, chain_ns=tuple(ns), robots=robots) as chosen:
+    with float32_systems(names, chain_ns=tuple(ns), robots=robots, own=own) as chosen:
         for label, system in chosen:
             if quick and label == "panda":
                 continue
@@ -442,11 +446,14 @@ def float32_command(args: Any) -> int:
         print(msg, file=sys.stderr, flush=True)
 
     names = list(getattr(args, "systems", None) or [])
+    locked = tuple(getattr(args, "locked", None) or ())
+    own = tuple(System.from_files(m, e, locked=locked) for m, e in (getattr(args, "files", None) or []))
     results = run_float32(
         names or None,
         quick=bool(getattr(args, "quick", False)),
-        chain_ns=() if names else None,
-        robots=not names,
+        chain_ns=() if names or own else None,
+        robots=not (names or own),
+        own=own,
         cache_dir=getattr(args, "reference_cache", DEFAULT_CACHE_DIR),
         progress=progress,
     )
