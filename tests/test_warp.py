@@ -133,3 +133,20 @@ def test_bench_float32_measures_a_persons_own_system(tmp_path, capsys):
     table = json.loads((tmp_path / "bench.json").read_text())["float32"]["table"]
     assert {r["system"] for r in table} == {"acrobot"}
     assert {r["reference"] for r in table if r["term"] == "M"} == {"hand"}
+
+
+@needs_warp
+def test_a_reused_batch_carries_nothing_from_the_last_call():
+    """Warp's Data of N worlds is kept per N: the same states after other states and after a run give the same bits."""
+    system = load("gimbal")  # damped and actuated
+    w = make_source(system, "warp")
+    a, b = (pointwise.random_states(system, n=4, seed=s) for s in (1, 2))
+    first = w.evaluate(a.q, a.v, a.tau, a.q)
+    w.evaluate(b.q, b.v, b.tau, b.q)
+    w.run(b.q, b.v, b.tau, 3, 2)
+    again = w.evaluate(a.q, a.v, a.tau, a.q)
+    assert all(np.array_equal(first[k], again[k]) for k in first), [
+        k for k in first if not np.array_equal(first[k], again[k])
+    ]
+    runs = [w.run(a.q, a.v, a.tau, 3, 2)["q"] for _ in range(2)]
+    assert np.array_equal(*runs)

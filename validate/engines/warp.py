@@ -95,7 +95,8 @@ class WarpSource:
         qvel[:, c.dadr] = v
         ctrl, applied = c._inputs(np.zeros((n, m.nv)) if tau is None else tau)  # the maps C MuJoCo uses
         d = self.data(n)
-        d.time.zero_()
+        with self.wp.ScopedDevice(self.device):  # every world as made (time, activations, warm starts)
+            self.mjw.reset_data(self.model, d)
         d.qpos.assign(qpos.astype(np.float32))
         d.qvel.assign(qvel.astype(np.float32))
         if m.nu:
