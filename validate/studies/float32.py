@@ -438,8 +438,9 @@ def write_into_bench(results: dict[str, Any], out: Path) -> Path:
 
 
 def float32_command(args: Any) -> int:
-    """`lagrange-xval bench --float32 [SYSTEM ...] [--quick] [--out DIR]`: prints the table, writes it
-    into DIR/bench.json. Exit status 0 when every Warp term is within its float32 tier, 1 otherwise."""
+    """`lagrange-xval bench --float32 [SYSTEM ...] [--model PATH --equations PATH] [--quick] [--out DIR]`:
+    prints the table, writes it into DIR/bench.json. Exit status 0 when every Warp term is within its
+    float32 tier, 1 otherwise."""
     import sys
 
     def progress(msg: str) -> None:
