@@ -34,7 +34,7 @@ LAYER = {
 # Readers of results: the report reads results only; the replay also reads the model (systems) to place
 # the bodies it draws at the recorded coordinates.
 READERS = {"report": {"results"}, "replay": {"results", "systems"}}
-ENGINE_LIBRARIES = {"mujoco", "pinocchio", "pydrake"}
+ENGINE_LIBRARIES = {"mujoco", "pinocchio", "pydrake", "warp", "mujoco_warp"}
 MAX_LINES = 600
 
 

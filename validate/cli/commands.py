@@ -392,6 +392,12 @@ def cmd_bench(args: argparse.Namespace) -> int:
     args.locked = locked_joints(args)
     cache = cache_of(args)
     args.reference_cache = reference_dir(cache)  # handed to the workers as a value
+    if getattr(args, "float32", False):  # MuJoCo Warp's float32 study: in this process (Warp compiles once)
+        from ..studies.float32 import float32_command
+
+        status = float32_command(args)
+        cache.trim()
+        return status
     with named_executor(args.executor) as executor:
         status = bench_command(args, executor=executor)
     cache.trim()

@@ -426,6 +426,13 @@ def build_parser() -> argparse.ArgumentParser:
         f"against n; writes OUT/chains.json (--quick: {QUICK_DURATION['bench --chains --quick']})",
     )
     bench.add_argument(
+        "--float32",
+        action="store_true",
+        help="only MuJoCo Warp's float32 error (M, bias, qacc, a 1 s run) beside C MuJoCo's float64 error and the "
+        "expected rounding, per system, chain (n = 2..30) and arm; written into OUT/bench.json under float32 "
+        "(needs the extra: pip install 'lagrange-xval[warp]')",
+    )
+    bench.add_argument(
         "--run-time",
         action="store_true",
         help="only time `lagrange-xval run`: fresh machine, cold and warm cache (--repeats, default 5); writes nothing",

@@ -140,6 +140,10 @@ def make_source(system: Any, name: str) -> Any:
         from .symbolic import SymbolicSource  # sympy: loaded when first asked for
 
         engine = SymbolicSource(system)
+    elif name == "warp":  # MuJoCo Warp, float32: asked for by name only (studies/float32.py), never a default
+        from .warp import WarpSource
+
+        engine = WarpSource(system)
     else:
         raise unknown_name("source", name, SOURCE_NAMES)
     A = system.joint_map
