@@ -17,7 +17,7 @@ from .checks.decide import Decision, decide
 from .checks.derived import derived_data
 from .checks.probes import DEFAULT_PROBES
 from .checks.tolerances import TOLERANCES
-from .dynamics import chaos, estimate, experiments, fast, integrate
+from .dynamics import chaos, estimate, experiments, fast, integrate, trust
 from .dynamics.cachedir import Cache
 from .dynamics.reference import reference_trajectory
 from .errors import HarnessError
@@ -233,14 +233,22 @@ def divergence_results(
     ref = next(tr for tr in trajs if tr.source == "mujoco")
     reference = f"{ref.label} (the hand derivation disagrees with the engines, so it is not the reference)"
     info: dict[str, Any] = {"method": ref.method}
+    trusted: dict[str, Any] | None = None
     if aba_reference:
-        ref, info = estimate.aba_reference(system, sources["pinocchio"], q0, v0, tau, t)
+        ref, check, info = estimate.aba_reference(system, sources["pinocchio"], q0, v0, tau, t)
         reference = f"{info['method']}; agrees with {info['check']} to {info['agreement_q']:.1e} rad"
-    runs = [_run_entry(system, sources, tr, ref) for tr in trajs]
+        runs = [
+            _run_entry(system, sources, tr, ref, estimate.run_estimate(system, sources, tr, q0, v0, tau))
+            for tr in trajs
+        ]
+        trusted = trust_of(sources["pinocchio"], runs, ref, check, q0, v0, tau)
+    else:
+        runs = [_run_entry(system, sources, tr, ref) for tr in trajs]
     for run in runs:
         run["counts"] = False
         run["why_not_counted"] = why
     return {
+        **({"trust": trusted} if trusted is not None else {}),
         "q0": q0,
         "v0": v0,
         "tau": tau,
@@ -252,6 +260,29 @@ def divergence_results(
         "threshold": TRAJECTORY_THRESHOLD,
         "information_only": why,
         "runs": runs,
+    }
+
+
+def trust_of(
+    pinocchio: Any, runs: list[dict[str, Any]], ref: Any, check: Any, q0: Any, v0: Any, tau: Any
+) -> dict[str, Any]:
+    """Which engine departs from the reference, from when, and whether it is expected
+    (dynamics/trust.py): the reference's own horizon, the Lyapunov exponent and predictability horizon,
+    and each run's trusted interval with one sentence."""
+    t = np.asarray(ref.t)
+    limit = trust.reference_until(ref, check)
+    rate = trust.lyapunov(pinocchio, np.asarray(q0, float), np.asarray(v0, float), np.asarray(tau, float), float(t[-1]))
+    for run in runs:
+        run["trust"] = trust.run_trust(run, t, limit)
+        run["trust_statement"] = trust.statement(run.get("label") or run["method"], run["trust"], float(t[-1]))
+    return {
+        "reference_until": limit,
+        "lyapunov_exponent": rate,
+        "predictability_horizon": trust.horizon(rate),
+        "trust_rule": f"until the first of: the run's distance to the reference passing its own threshold, its "
+        f"own error estimate passing {trust.TRUST:g} rad, the reference's own horizon",
+        "horizon_rule": f"t_p = ln({trust.TRUST:g} / {trust.ROUNDING:g}) / lambda, lambda by Benettin's method on "
+        f"Pinocchio's ABA (DOP853 rtol {trust.RTOL:g}, renormalised every {trust.INTERVAL:g} s)",
     }
 
 

@@ -97,9 +97,9 @@ ABA_METHOD, ABA_RTOL = "DOP853", 1e-12  # the reference of a chain with no symbo
 
 def aba_reference(
     system: Any, source: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray
-) -> tuple[Trajectory, dict[str, Any]]:
+) -> tuple[Trajectory, Trajectory, dict[str, Any]]:
     """The reference of a chain with no symbolic source (no equations the Taylor method can trace):
-    Pinocchio's ABA by scipy's ABA_METHOD at ABA_RTOL, checked by the same at half the tolerances;
+    Pinocchio's ABA by scipy's ABA_METHOD at ABA_RTOL, and its check, the same at half the tolerances;
     info["agreement_q"] (rad) is the two runs' largest difference, the reference's stated accuracy."""
     ref = scipy_trajectory(system, source, q0, v0, tau, t, method=ABA_METHOD, rtol=ABA_RTOL, atol=ABA_RTOL)
     half = ABA_RTOL / 2
@@ -111,4 +111,4 @@ def aba_reference(
         "agreement_q": agreement,
         "status": ref.stats.get("status", "ok"),
     }
-    return ref, info
+    return ref, check, info

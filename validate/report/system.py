@@ -47,6 +47,7 @@ from .system_parts import (
     system_experiments,
     system_skipped,
 )
+from .trust import trust_section
 
 
 def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[str, Any]) -> None:
@@ -354,9 +355,11 @@ def section_trajectories(doc: Document, name: str, s: dict[str, Any], tr: dict[s
     for r in runs:
         if r.get("judged_because"):
             doc.p(f"{run_label(r)} is judged until {fmt_g(r.get('judged_until'))} s: {r['judged_because']}.")
+    trust_section(doc, tr)
     if not has_derivation(s):
-        shown = and_join(sorted({run_label(r) for r in runs if r.get("source") != "mujoco"}))
-        doc.p(f"Not part of the verdict: no derivation given; {shown or 'no run'} shown against MuJoCo's run.", "note")
+        shown = and_join(sorted({run_label(r) for r in runs if r.get("source") != "mujoco" or tr.get("trust")}))
+        against = "the reference" if tr.get("trust") else "MuJoCo's run"
+        doc.p(f"Not part of the verdict: no derivation given; {shown or 'no run'} shown against {against}.", "note")
     else:
         for why in sorted({r["why_not_counted"] for r in runs if r.get("why_not_counted")}):
             doc.p(f"Not part of the verdict: {why}.", "note")
