@@ -16,7 +16,7 @@ from lagrange_xval.validate import pipeline, systems
 from lagrange_xval.validate.checks import pointwise as compare
 from lagrange_xval.validate.checks import probes as probing
 from lagrange_xval.validate.checks import verdict
-from lagrange_xval.validate.dynamics import chaos, estimate, integrate
+from lagrange_xval.validate.dynamics import chaos, estimate, freeruns, integrate
 from lagrange_xval.validate.dynamics.reference import WINDOW_CHECK_TOLERANCE, reference_trajectory, window_check
 from lagrange_xval.validate.engines import make_sources
 from lagrange_xval.validate.errors import HarnessError
@@ -142,10 +142,10 @@ def test_a_run_of_other_equations_is_beyond_its_own_threshold():
     system = systems.load("double_pendulum_point")
     sources = make_sources(system)
     sources["mujoco"] = make_sources(system.with_overrides(body__link2__mass=1.05))["mujoco"]
-    traj = pipeline.trajectory_results(system, sources, t_end=1.0, dt_out=0.01)
-    pipeline.judge_trajectories(traj, None, "failed: for the test")
+    traj = freeruns.trajectory_results(system, sources, t_end=1.0, dt_out=0.01)
+    freeruns.judge_trajectories(traj, None, "failed: for the test")
     runs = {r["source"]: r for r in traj["runs"] if r.get("counts")}
-    assert traj["judged_until"] == pytest.approx(pipeline.UNMEASURED_HORIZON)
+    assert traj["judged_until"] == pytest.approx(freeruns.UNMEASURED_HORIZON)
     assert "failed: for the test" in traj["judged_because"]
     assert runs["mujoco"]["passed"] is False
     assert all(r["passed"] for k, r in runs.items() if k != "mujoco"), {
@@ -155,9 +155,9 @@ def test_a_run_of_other_equations_is_beyond_its_own_threshold():
 
 def test_a_failed_chaos_stage_leaves_a_conservative_horizon():
     t = integrate.time_grid(10.0, 0.01)
-    until, why = pipeline.judged_interval(t, None, "failed: Diverged: ...")
-    assert until == pytest.approx(pipeline.UNMEASURED_HORIZON) and "unknown" in why
-    assert pipeline.judged_interval(t, np.ones_like(t))[0] == 10.0
+    until, why = freeruns.judged_interval(t, None, "failed: Diverged: ...")
+    assert until == pytest.approx(freeruns.UNMEASURED_HORIZON) and "unknown" in why
+    assert freeruns.judged_interval(t, np.ones_like(t))[0] == 10.0
 
 
 # ----------------------------------------------------------------------------------------------
@@ -245,7 +245,7 @@ def test_a_chain_with_no_symbolic_source_gets_an_aba_reference():
     the tolerance; MuJoCo's RK4 at 1 ms lies within 1e-6 rad of it over 1 s (information only)."""
     system = systems.System.model_only(systems.MODELS_DIR / "double_pendulum_point.xml")
     sources = {k: v for k, v in make_sources(system).items() if k != "symbolic"}
-    traj = pipeline.divergence_results(system, sources, t_end=1.0, dt_out=0.01, why="test", aba_reference=True)
+    traj = freeruns.divergence_results(system, sources, t_end=1.0, dt_out=0.01, why="test", aba_reference=True)
     assert "Pinocchio ABA" in traj["reference"] and traj["reference_info"]["agreement_q"] < 1e-9, traj["reference"]
     runs = {r["source"]: r for r in traj["runs"]}
     assert runs["mujoco"]["max_error_vs_hand"] < 1e-6 and runs["pinocchio"]["max_error_vs_hand"] < 1e-8

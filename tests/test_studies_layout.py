@@ -13,8 +13,8 @@ import pytest
 
 STUDIES = Path(__file__).resolve().parents[1] / "validate" / "studies"
 MODULES = sorted(STUDIES.rglob("*.py"))
-# engines/mujoco.py and engines/pinocchio.py import their engine at the top: they wait until used.
-LAZY_ENGINE_MODULES = {"mujoco", "pinocchio"}
+# engines/mujoco.py, pinocchio.py, warp.py and drake.py load their engine when imported: they wait until used.
+LAZY_ENGINE_MODULES = {"mujoco", "pinocchio", "warp", "drake"}
 # The engine libraries' own names: calling them is the adapters' job (engines/).
 ENGINE_LIBRARIES = {"mujoco", "pinocchio"}
 

@@ -5,8 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import pipeline
-from lagrange_xval.validate.dynamics import trust
+from lagrange_xval.validate.dynamics import freeruns, trust
 from lagrange_xval.validate.engines import make_sources
 from lagrange_xval.validate.systems import MODELS_DIR, System
 
@@ -45,7 +44,7 @@ def test_the_reference_horizon_bounds_every_run():
 def test_a_chain_with_no_symbolic_source_says_per_engine_until_when():
     system = System.model_only(MODELS_DIR / "double_pendulum_point.xml")
     sources = {k: v for k, v in make_sources(system).items() if k != "symbolic"}
-    traj = pipeline.divergence_results(system, sources, t_end=2.0, dt_out=0.01, why="test", aba_reference=True)
+    traj = freeruns.divergence_results(system, sources, t_end=2.0, dt_out=0.01, why="test", aba_reference=True)
     found = traj["trust"]
     assert found["reference_until"] == pytest.approx(2.0) and np.isfinite(found["lyapunov_exponent"])
     for run in traj["runs"]:
@@ -62,7 +61,7 @@ def test_the_panda_says_which_engine_departs_and_why():
         ROBOTS / "panda_description/urdf/panda.urdf", locked=("panda_finger_joint1", "panda_finger_joint2")
     )
     sources = make_sources(system)
-    traj = pipeline.divergence_results(system, sources, t_end=10.0, dt_out=0.01, why="test", aba_reference=True)
+    traj = freeruns.divergence_results(system, sources, t_end=10.0, dt_out=0.01, why="test", aba_reference=True)
     found = traj["trust"]
     assert found["lyapunov_exponent"] > 1.0 and found["predictability_horizon"] < 10.0, found
     mujoco = next(r for r in traj["runs"] if r["source"] == "mujoco")

@@ -9,17 +9,21 @@ from concurrent.futures import BrokenExecutor, Executor, as_completed
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from .checks import equivalence, judge
 from .checks import probes as probing
 from .checks.decide import Decision, decide
 from .checks.derived import derived_data
 from .checks.probes import DEFAULT_PROBES
 from .checks.tolerances import TOLERANCES
-from .dynamics import chaos, estimate, experiments, fast, integrate, trust
+from .dynamics import chaos, experiments, integrate
 from .dynamics.cachedir import Cache
-from .dynamics.reference import reference_trajectory
+from .dynamics.freeruns import (
+    RUN_INTEGRATORS,
+    divergence_results,
+    judge_trajectories,
+    reference_dir,
+    trajectory_results,
+)
 from .errors import HarnessError
 from .guard import DEFAULT_TIME_LIMIT, Stopped
 from .parallel import executor_for
@@ -28,149 +32,7 @@ from .results.schema import Derivation, ModelChecks, Pointwise, Provenance, RunR
 from .systems import MODELS_DIR, System, load, load_all
 from .systems.units import parameter_keys
 
-TRAJECTORY_THRESHOLD = estimate.FLOOR  # rad: the floor under each run's own threshold (dynamics/estimate.py)
-# The integrators `run` cross-validates (mirrors, convergence order, energy, free runs judged inside
-# the predictability horizon); implicit and implicitfast are in `chaos.INTEGRATORS` for the benchmark.
-RUN_INTEGRATORS = ("RK4", "Euler")
-
-
-# Runs are judged against the reference up to the time the chaos could lift the harness's own
-# integration error (about 1e-9 rad, scipy at rtol 1e-11 and MuJoCo RK4 at 1 ms, over the first
-# second) to the threshold: where the amplification ||dq(t)/dx(0)|| reaches JUDGE_AMPLIFICATION.
-JUDGE_AMPLIFICATION = 1e3
-# Where the chaos stage fails, the amplification is unknown: the runs are judged over the first
-# UNMEASURED_HORIZON only (on the notes' chaotic start the amplification is 20 at 1 s and reaches 1e3
-# at 5.1 s, measured), and the report says why.
-UNMEASURED_HORIZON = 1.0  # s
-# A run is judged only while its own threshold (dynamics/estimate.py) stays below this: beyond it the
-# run's own truncation error is as large as what wrong equations do within a second (1e-3 to 1e-1 rad),
-# so the run can no longer tell equations apart, and the report says from when.
-MAX_THRESHOLD = 1e-3  # rad
-
-
 READABLE_MAX_DOF = 3  # the report's derived equations: a 3-joint arm simplifies in about 20 s (cached)
-
-
-def trajectory_results(
-    system: Any, sources: dict[str, Any], *, t_end: float, dt_out: float, cache: Cache | None = None
-) -> dict[str, Any]:
-    """The three sources' free runs against the reference solution of the hand equations (heyoka's
-    Taylor method in long double, kept in `cache`), plus the notes' perturbed start for the divergence."""
-
-    q0, v0 = integrate.initial_state(system)
-    tau = np.zeros(system.nv)
-    t = integrate.time_grid(t_end, dt_out)
-    ref, ref_info = reference_trajectory(system, q0, v0, tau, t, cache_dir=reference_dir(cache))
-    trajs = fast.run_trajectories(system, sources, t_end=t_end, dt_out=dt_out)
-    q0b = q0.copy()
-    q0b[-1] += experiments.PERTURBATION
-    perturbed = fast.accurate_trajectory(system, sources["hand"], q0b, v0, tau, t)
-    perturbed.stats["label"] = f"{system.coordinates[-1]}0 + {experiments.PERTURBATION:g}"
-    runs = [
-        _run_entry(system, sources, tr, ref, estimate.run_estimate(system, sources, tr, q0, v0, tau)) for tr in trajs
-    ]
-    runs.append(_run_entry(system, sources, perturbed, ref))
-    runs[-1]["counts"] = False
-    runs[-1]["why_not_counted"] = (
-        f"information only: a different start ({runs[-1]['label']}), compared with the reference from the "
-        "unperturbed start to show how far the start alone moves the motion"
-    )
-    return {
-        "q0": q0,
-        "v0": v0,
-        "tau": tau,
-        "t_end": t_end,
-        "dt_out": dt_out,
-        "t": t,
-        "reference": f"hand equations, {ref_info.get('method', 'Taylor')} ({ref_info.get('precision', '')}); "
-        f"agrees with a second method to {ref_info.get('agreement_q', float('nan')):.1e} rad",
-        "reference_info": {k: v for k, v in ref_info.items() if np.isscalar(v) or isinstance(v, str)},
-        "threshold": TRAJECTORY_THRESHOLD,
-        "threshold_rule": estimate.rule(),
-        "safety": estimate.SAFETY,
-        "runs": runs,
-    }
-
-
-def _run_entry(
-    system: Any, sources: dict[str, Any], tr: Any, ref: Any, est: tuple[np.ndarray, str] | None = None
-) -> dict[str, Any]:
-    """One run against `ref`; `est`: its own error estimate (K,) and how it was made, which sets its
-    threshold (dynamics/estimate.py); without one (runs not judged), the floor."""
-    err = integrate.error_against(tr, ref)
-    thr = estimate.threshold(est[0] if est is not None else np.zeros(len(tr.t)))
-    e = integrate.energy(system, sources.get("hand") or sources.get("symbolic") or sources["mujoco"], tr)
-    run = {
-        "source": tr.source,
-        "method": tr.method,
-        "stats": tr.stats,
-        "q": tr.q,
-        "v": tr.v,
-        "energy": e,
-        "error_vs_hand": err,
-        "max_error_vs_hand": float(np.nanmax(err)) if np.isfinite(err).any() else float("inf"),
-        "threshold": thr,
-        "first_exceeds_threshold": integrate.first_exceeding(tr.t, np.nan_to_num(err, nan=np.inf), thr),
-        "energy_drift": float(np.nanmax(np.abs(e - e[0]))) if np.isfinite(e).any() else float("inf"),
-        "counts": True,
-    }
-    if est is not None:
-        run["error_estimate"], run["estimate_how"] = est[0], est[1]
-    if "label" in tr.stats:
-        run["label"] = tr.stats["label"]
-    return run
-
-
-def judged_interval(t: np.ndarray, amplification: Any, chaos_failed: str | None = None) -> tuple[float, str]:
-    """Until when the runs are judged, and why: where the amplification reaches JUDGE_AMPLIFICATION,
-    or UNMEASURED_HORIZON where the chaos stage that measures it failed (`chaos_failed`: its outcome)."""
-    if amplification is None:
-        until = float(t[t <= UNMEASURED_HORIZON + 1e-12][-1])
-        why = chaos_failed or "the amplification was not measured"
-        return until, (
-            f"the amplification of errors is unknown ({why}), so the runs are judged only over the first "
-            f"{until:g} s, a conservative horizon, and not beyond"
-        )
-    amp = np.asarray(amplification, dtype=float)
-    beyond = np.nonzero(amp > JUDGE_AMPLIFICATION)[0]
-    if not len(beyond):
-        return float(t[-1]), f"the amplification of errors stays below {JUDGE_AMPLIFICATION:g} over the whole run"
-    until = float(t[beyond[0] - 1]) if beyond[0] > 0 else float(t[0])
-    return until, (
-        f"the amplification of errors by the dynamics reaches {JUDGE_AMPLIFICATION:g} at {until:g} s: beyond it the "
-        "harness's own integration error alone could pass the threshold"
-    )
-
-
-def judge_trajectories(traj: dict[str, Any], amplification: Any, chaos_failed: str | None = None) -> None:
-    """Marks each counted run passed or not: its error against the reference stays within its own
-    threshold up to the judged interval's end (`judged_interval`), or earlier where that threshold
-    passes MAX_THRESHOLD (the run's own error too large to tell equations apart; said per run)."""
-    t = np.asarray(traj["t"], dtype=float)
-    until, because = judged_interval(t, amplification, chaos_failed)
-    traj["judged_until"], traj["judged_because"] = until, because
-    for run in traj["runs"]:
-        if not run.get("counts", True):
-            continue
-        thr = np.broadcast_to(np.asarray(run.get("threshold", traj["threshold"]), dtype=float), t.shape)
-        end = until
-        coarse = np.nonzero((thr > MAX_THRESHOLD) & (t <= until + 1e-12))[0]
-        if len(coarse):
-            end = float(t[coarse[0] - 1]) if coarse[0] > 0 else float(t[0])
-            run["judged_because"] = (
-                f"its own error estimate makes its threshold {thr[coarse[0]]:.2g} rad at {t[coarse[0]]:g} s, above "
-                f"{MAX_THRESHOLD:g} rad: beyond {end:g} s this run cannot tell equations apart"
-            )
-        inside = t <= end + 1e-12
-        err = np.asarray(run["error_vs_hand"], dtype=float)[inside]
-        run["judged_until"] = end
-        run["threshold_at_judged_end"] = float(thr[inside][-1])
-        run["passed"] = bool(np.all(np.isfinite(err)) and np.all(err <= thr[inside]))
-
-
-def reference_dir(cache: Cache | None) -> Path | None:
-    """The `cache_dir` of the reference and chaos functions for `cache` (None: no cache)."""
-    return None if cache is None else cache.folder("reference")
 
 
 def model_only_result(decision: Decision, *, t_end: float, dt_out: float, cache: Cache | None = None) -> SystemResult:
@@ -216,73 +78,6 @@ def model_only_result(decision: Decision, *, t_end: float, dt_out: float, cache:
         "stages": stages,
         "skipped": skipped_work(system),
         "passed": model["passed"] and point["passed"] and not failed_stages,
-    }
-
-
-def divergence_results(
-    system: Any, sources: dict[str, Any], *, t_end: float, dt_out: float, why: str, aba_reference: bool = False
-) -> dict[str, Any]:
-    """For a derivation that already disagrees: the three sources' free runs, bounded, against
-    MuJoCo's, as information (where the wrong equations part from the engines), never a verdict.
-    `aba_reference` (a chain with no symbolic source): against Pinocchio's ABA integrated by DOP853 at
-    rtol 1e-12 and checked at half the tolerance (dynamics/estimate.py `aba_reference`) instead."""
-    q0, v0 = integrate.initial_state(system)
-    tau = np.zeros(system.nv)
-    t = integrate.time_grid(t_end, dt_out)
-    trajs = fast.run_trajectories(system, sources, t_end=t_end, dt_out=dt_out)
-    ref = next(tr for tr in trajs if tr.source == "mujoco")
-    reference = f"{ref.label} (the hand derivation disagrees with the engines, so it is not the reference)"
-    info: dict[str, Any] = {"method": ref.method}
-    trusted: dict[str, Any] | None = None
-    if aba_reference:
-        ref, check, info = estimate.aba_reference(system, sources["pinocchio"], q0, v0, tau, t)
-        reference = f"{info['method']}; agrees with {info['check']} to {info['agreement_q']:.1e} rad"
-        runs = [
-            _run_entry(system, sources, tr, ref, estimate.run_estimate(system, sources, tr, q0, v0, tau))
-            for tr in trajs
-        ]
-        trusted = trust_of(sources["pinocchio"], runs, ref, check, q0, v0, tau)
-    else:
-        runs = [_run_entry(system, sources, tr, ref) for tr in trajs]
-    for run in runs:
-        run["counts"] = False
-        run["why_not_counted"] = why
-    return {
-        **({"trust": trusted} if trusted is not None else {}),
-        "q0": q0,
-        "v0": v0,
-        "tau": tau,
-        "t_end": t_end,
-        "dt_out": dt_out,
-        "t": t,
-        "reference": reference,
-        "reference_info": info,
-        "threshold": TRAJECTORY_THRESHOLD,
-        "information_only": why,
-        "runs": runs,
-    }
-
-
-def trust_of(
-    pinocchio: Any, runs: list[dict[str, Any]], ref: Any, check: Any, q0: Any, v0: Any, tau: Any
-) -> dict[str, Any]:
-    """Which engine departs from the reference, from when, and whether it is expected
-    (dynamics/trust.py): the reference's own horizon, the Lyapunov exponent and predictability horizon,
-    and each run's trusted interval with one sentence."""
-    t = np.asarray(ref.t)
-    limit = trust.reference_until(ref, check)
-    rate = trust.lyapunov(pinocchio, np.asarray(q0, float), np.asarray(v0, float), np.asarray(tau, float), float(t[-1]))
-    for run in runs:
-        run["trust"] = trust.run_trust(run, t, limit)
-        run["trust_statement"] = trust.statement(run.get("label") or run["method"], run["trust"], float(t[-1]))
-    return {
-        "reference_until": limit,
-        "lyapunov_exponent": rate,
-        "predictability_horizon": trust.horizon(rate),
-        "trust_rule": f"until the first of: the run's distance to the reference passing its own threshold, its "
-        f"own error estimate passing {trust.TRUST:g} rad, the reference's own horizon",
-        "horizon_rule": f"t_p = ln({trust.TRUST:g} / {trust.ROUNDING:g}) / lambda, lambda by Benettin's method on "
-        f"Pinocchio's ABA (DOP853 rtol {trust.RTOL:g}, renormalised every {trust.INTERVAL:g} s)",
     }
 
 

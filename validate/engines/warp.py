@@ -185,3 +185,18 @@ class WarpSource:
                 vs[:, k] = d.qvel.numpy().astype(float)[:, self.c.dadr]
         total = max(1, (samples - 1) * steps - 1)
         return {"q": qs, "v": vs, "step_s": (time.perf_counter() - start) / total}
+
+
+def run_in_coordinates(
+    system: Any, source: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, *, samples: int, steps: int
+) -> dict[str, Any]:
+    """Warp's own run in the system's coordinates: it steps in the joints' (`WarpSource.run`), so where
+    the coordinates map them (JOINT_MAP: q = A q_joints, tau_joints = A^T tau) the start goes in mapped
+    and the states come back mapped (`source` may be the mapped adapter around a WarpSource)."""
+    engine = getattr(source, "inner", source)
+    A = system.joint_map
+    if A is None:
+        return dict(engine.run(q0, v0, tau, samples, steps))
+    Ainv = np.linalg.inv(A)
+    run = engine.run(Ainv @ q0, Ainv @ v0, A.T @ tau, samples, steps)
+    return {**run, "q": run["q"] @ A.T, "v": run["v"] @ A.T}

@@ -47,6 +47,7 @@ from ..checks.tolerances import SCALE_ALSO_BY
 from ..dynamics.integrate import initial_state, time_grid
 from ..dynamics.reference import DEFAULT_CACHE_DIR, reference_trajectory
 from ..engines import make_source
+from ..results import atomic_write, dumps, provenance
 from ..systems import System, load_all, system_names
 from .chains import chain_mjcf
 
@@ -195,24 +196,10 @@ def _reference_run(system: System, q0: np.ndarray, v0: np.ndarray, t: np.ndarray
     return {"q": sol.y[: system.nv].T, "method": "scipy DOP853 rtol 1e-12 on Pinocchio's ABA"}
 
 
-def _warp_run(
-    system: System, warp: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, *, samples: int, steps: int
-) -> dict[str, Any]:
-    """Warp's own run in the notes' coordinates: it steps in the joints' (`WarpSource.run`), so where
-    the notes map them (JOINT_MAP: q = A q_joints, tau_joints = A^T tau) the start goes in mapped and
-    the states come back mapped."""
-    inner = getattr(warp, "inner", warp)  # a MappedSource's engine
-    A = system.joint_map
-    if A is None:
-        return inner.run(q0, v0, tau, samples, steps)
-    Ainv = np.linalg.inv(A)
-    run = inner.run(Ainv @ q0, Ainv @ v0, A.T @ tau, samples, steps)
-    return {**run, "q": run["q"] @ A.T, "v": run["v"] @ A.T}
-
-
 def trajectory_row(system: System, warp: Any, *, horizon: float, cache_dir: Any = DEFAULT_CACHE_DIR) -> dict[str, Any]:
     """Warp's own run against C MuJoCo's (same integrator and timestep) and the reference (module docstring)."""
-    from ..engines.mujoco import free_run
+    from ..engines import mujoco as engine_mujoco
+    from ..engines import warp as engine_warp
 
     q0, v0 = initial_state(system)
     tau = np.zeros(system.nv)
@@ -220,9 +207,9 @@ def trajectory_row(system: System, warp: Any, *, horizon: float, cache_dir: Any 
     steps = round(DT_OUT / warp.timestep)
     if steps < 1 or abs(steps * warp.timestep - DT_OUT) > 1e-12:
         return {"skipped": f"timestep {warp.timestep:g} s does not divide the {DT_OUT:g} s sampling interval"}
-    run = _warp_run(system, warp, q0, v0, tau, samples=len(t), steps=steps)
+    run = engine_warp.run_in_coordinates(system, warp, q0, v0, tau, samples=len(t), steps=steps)
     q_warp = run["q"][0]
-    q_c, _, _, raised = free_run(
+    q_c, _, _, raised = engine_mujoco.free_run(
         make_source(system, "mujoco"), q0, v0, tau, len(t), steps, integrator=warp.integrator, timestep=warp.timestep
     )
     ref = _reference_run(system, q0, v0, t, cache_dir)
@@ -314,7 +301,7 @@ def run_float32(
         n_states: pointwise states (Warp worlds) per system.
         horizon: trajectory length, s (default HORIZON; quick QUICK_HORIZON; 0 for none).
     """
-    from ..engines.warp import default_device, versions
+    from ..engines import warp as engine_warp
 
     start = time.perf_counter()
     names = list(names) if names else (list(QUICK_SYSTEMS) if quick and not own else None)
@@ -330,8 +317,8 @@ def run_float32(
                 progress(_progress_line(label, out[label]))
     return {
         "config": {
-            "device": default_device(),
-            "versions": versions(),
+            "device": engine_warp.default_device(),
+            "versions": engine_warp.versions(),
             "n_states": n_states,
             "horizon_s": horizon,
             "dt_out": DT_OUT,
@@ -421,8 +408,6 @@ def print_table(results: dict[str, Any]) -> None:
 def write_into_bench(results: dict[str, Any], out: Path) -> Path:
     """OUT/bench.json with `results` under "float32", the rest of an existing bench.json kept."""
     import json
-
-    from ..results import atomic_write, dumps, provenance
 
     path = Path(out) / "bench.json"
     try:
