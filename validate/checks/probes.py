@@ -27,7 +27,7 @@ never blames `parameters()` for reading what the model holds.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -220,15 +220,23 @@ def _draw_moved(knob_list: list[Knob], rng: np.random.Generator, only: Knob | No
 def _moved_probes(system: Any, k: int, seed: int, family: str) -> tuple[list[Probe], list[str]]:
     """Probes of a derivation that reads the model: its numbers moved, each independently."""
     knob_list = knobs(system.equations.parameters, system.view)
+    rng = np.random.default_rng([seed, k, len(family)])
+    return _drawn(system, k, lambda i: build_moved(system, _draw_moved(knob_list, rng), index=i, label=f"probe {i}"))
+
+
+def _drawn(system: Any, k: int, attempt: Callable[[int], Probe]) -> tuple[list[Probe], list[str]]:
+    """The model's own parameters (index 0) and probes 1..k, each the first of ATTEMPTS attempts that
+    builds (ParametersMisread propagates); the second item lists why any probe could not be built."""
     out = [Probe(0, "model", system, {})]
     problems: list[str] = []
-    rng = np.random.default_rng([seed, k, len(family)])
     for i in range(1, k + 1):
         last = ""
         for _ in range(ATTEMPTS):
             try:
-                out.append(build_moved(system, _draw_moved(knob_list, rng), index=i, label=f"probe {i}"))
+                out.append(attempt(i))
                 break
+            except ParametersMisread:
+                raise
             except HarnessError as exc:
                 last = str(exc)
         else:
@@ -250,23 +258,8 @@ def probes(
     if reads_model(system) and not ties:
         return _moved_probes(system, k, seed, family)
     nominal = param_fields(system.params)
-    out = [Probe(0, "model", system, {})]
-    problems: list[str] = []
     rng = np.random.default_rng([seed, k, len(family)])
-    for i in range(1, k + 1):
-        last = ""
-        for _ in range(ATTEMPTS):
-            values = draw(nominal, rng, ties=ties)
-            try:
-                out.append(build(system, values, index=i, label=f"probe {i}"))
-                break
-            except ParametersMisread:
-                raise
-            except HarnessError as exc:
-                last = str(exc)
-        else:
-            problems.append(f"probe {i}: no valid model in {ATTEMPTS} draws ({last})")
-    return out, problems
+    return _drawn(system, k, lambda i: build(system, draw(nominal, rng, ties=ties), index=i, label=f"probe {i}"))
 
 
 def single_field_probes(system: Any, *, seed: int = 0) -> list[Probe]:

@@ -339,13 +339,7 @@ def _derive(module: Any, params_type: Any, n: int, numeric_params: tuple[tuple[s
     backend = tracing.sympy_backend()
     qs, vs = list(sp.symbols(f"q0:{n}")), list(sp.symbols(f"v0:{n}"))
     q, v = tracing.wrap(qs, backend), tracing.wrap(vs, backend)
-    if numeric_params is None:
-        names = tuple(f.name for f in dataclasses.fields(params_type))
-        psyms = [sp.Symbol(k) for k in names]
-        p = params_type(**{k: tracing.Traced(s, backend) for k, s in zip(names, psyms, strict=True)})
-    else:
-        names, psyms = (), []
-        p = params_type(**dict(numeric_params))
+    names, psyms, p = tracing.sympy_params(params_type, numeric_params)
     T = _integer_powers(_traced_scalar(backend, "kinetic_energy", module.kinetic_energy, p, q, v))
     V = _integer_powers(_traced_scalar(backend, "potential_energy", module.potential_energy, p, q))
     dT_dv = [sp.diff(T, x) for x in vs]

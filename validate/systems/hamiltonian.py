@@ -58,13 +58,7 @@ def _terms(module: Any, params_type: Any, n: int, numeric_params: tuple[tuple[st
 
     backend = tracing.sympy_backend()
     qs, ps = list(sp.symbols(f"q0:{n}")), list(sp.symbols(f"pm0:{n}"))
-    if numeric_params is None:
-        names = tuple(f.name for f in dataclasses.fields(params_type))
-        psyms = [sp.Symbol(k) for k in names]
-        p = params_type(**{k: tracing.Traced(s, backend) for k, s in zip(names, psyms, strict=True)})
-    else:
-        names, psyms = (), []
-        p = params_type(**dict(numeric_params))
+    names, psyms, p = tracing.sympy_params(params_type, numeric_params)
     traced = module.hamiltonian(p, tracing.wrap(qs, backend), tracing.wrap(ps, backend))
     H = _integer_powers(sp.sympify(tracing.unwrap(np.asarray(traced, dtype=object), backend)))
     dH_dpm = [sp.diff(H, x) for x in ps]

@@ -512,3 +512,20 @@ def heyoka_backend() -> Backend:
         hy.select,
         lambda op, cs: logic[op](cs),
     )
+
+
+def sympy_params(
+    params_type: Any, numeric: tuple[tuple[str, float], ...] | None
+) -> tuple[tuple[str, ...], list[Any], Any]:
+    """(field names, their sympy symbols, a Params instance) for tracing a module with sympy: every
+    field a symbol, or the `numeric` values as given (names and symbols then empty)."""
+    import dataclasses
+
+    import sympy as sp
+
+    if numeric is not None:
+        return (), [], params_type(**dict(numeric))
+    backend = sympy_backend()
+    names = tuple(f.name for f in dataclasses.fields(params_type))
+    symbols = [sp.Symbol(k) for k in names]
+    return names, symbols, params_type(**{k: Traced(s, backend) for k, s in zip(names, symbols, strict=True)})
