@@ -12,7 +12,7 @@ from typing import Any
 from .checks import equivalence, judge
 from .checks import probes as probing
 from .checks.decide import Decision, decide
-from .checks.derived import derived_data
+from .checks.derived import SIMPLIFY_MAX_DOF, derived_data
 from .checks.probes import DEFAULT_PROBES
 from .checks.tolerances import TOLERANCES
 from .dynamics import chaos, experiments, integrate
@@ -32,7 +32,7 @@ from .results.schema import Derivation, ModelChecks, Pointwise, Provenance, RunR
 from .systems import MODELS_DIR, System, load, load_all
 from .systems.units import parameter_keys
 
-READABLE_MAX_DOF = 3  # the report's derived equations: a 3-joint arm simplifies in about 20 s (cached)
+READABLE_MAX_DOF = SIMPLIFY_MAX_DOF  # the report's derived equations: simplified (cached), up to this many joints
 
 
 def model_only_result(decision: Decision, *, t_end: float, dt_out: float, cache: Cache | None = None) -> SystemResult:

@@ -33,6 +33,9 @@ def _cached(what: str, compute: Any, store: Cache | None) -> Any:
     return value
 
 
+SIMPLIFY_MAX_DOF = 3  # a 3-joint arm's entries simplify in about 20 s; a 6-joint arm's take far longer
+
+
 def _what(view: Any, joints: tuple[str, ...], coordinates: tuple[str, ...], joint_map: Any, fmt: str) -> str:
     mapping = None if joint_map is None else [[float(x) for x in row] for row in joint_map]
     return repr((structure_key(view, joints), tuple(coordinates), json.dumps(mapping), fmt))
@@ -46,13 +49,14 @@ def derived_text(
     fmt: str,
     *,
     cache: Cache | None = None,
+    simplify: bool = True,
 ) -> str:
     """The equations of motion of the model `view` as text, LaTeX or Python (engines/readable.as_text),
-    kept in `cache` (None: not kept)."""
+    simplified unless `simplify` is False (exact, with common subexpressions), kept in `cache` (None: not kept)."""
     return str(
         _cached(
-            _what(view, joints, coordinates, joint_map, fmt),
-            lambda: as_text(equations(derive(view, joints), tuple(coordinates), joint_map), fmt),
+            _what(view, joints, coordinates, joint_map, fmt) + ("" if simplify else " exact"),
+            lambda: as_text(equations(derive(view, joints), tuple(coordinates), joint_map, simplify=simplify), fmt),
             cache,
         )
     )

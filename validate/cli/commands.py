@@ -6,6 +6,7 @@ import argparse
 import functools
 import json
 import os
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -330,7 +331,7 @@ def cmd_derive(args: argparse.Namespace) -> int:
     """Prints the model's equations of motion, derived symbolically, in the coordinates' names; the
     text is kept in the cache (`derive` kind), keyed by the model's structure, the names, the format
     and the harness's code."""
-    from ..checks.derived import derived_text
+    from ..checks.derived import SIMPLIFY_MAX_DOF, derived_text
 
     if args.equations is not None and args.model is None:
         raise HarnessError("--equations needs --model: the model whose equations are derived.")
@@ -349,7 +350,12 @@ def cmd_derive(args: argparse.Namespace) -> int:
             )
         coordinates = names
     fmt = "latex" if args.latex else "python" if args.python else "text"
-    text = derived_text(view, tuple(joints), tuple(coordinates), joint_map, fmt, cache=configured_cache())
+    simplify = args.simplify or len(joints) <= SIMPLIFY_MAX_DOF
+    how = "simplifying each entry" if simplify else "exact, not simplified (--simplify: minutes)"
+    print(f"lagrange-xval: deriving {system.name}'s {len(joints)} joints; {how}", file=sys.stderr, flush=True)
+    text = derived_text(
+        view, tuple(joints), tuple(coordinates), joint_map, fmt, cache=configured_cache(), simplify=simplify
+    )
     print(text, end="")
     return 0
 

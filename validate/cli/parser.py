@@ -493,6 +493,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="derive a model however long it is predicted to take (without it, a model whose derivation is "
         "predicted to exceed the budget is refused)",
     )
+    derive.add_argument(
+        "--simplify",
+        action="store_true",
+        help="simplify every entry beyond 3 joints too (minutes on a 6-joint arm; without it, a larger model's "
+        "equations are printed exact, with their common subexpressions)",
+    )
     form = derive.add_mutually_exclusive_group()
     form.add_argument("--latex", action="store_true", help="print LaTeX instead of plain text")
     form.add_argument("--python", action="store_true", help="print numpy code instead of plain text")

@@ -38,6 +38,7 @@ class Equations:
     passive: Any
     parameters: dict[str, str]  # symbol name -> model key and unit
     reads: dict[str, tuple[str, Any, int]] = field(default_factory=dict)  # symbol name -> (key, entry, sign)
+    simplified: bool = True  # False: exact as derived (printed with common subexpressions), not simplified
 
 
 def tidy(expr: Any, q: list[Any]) -> Any:
@@ -106,10 +107,13 @@ def transformed(d: Derivation, coordinates: tuple[str, ...], joint_map: Any, par
     return expr
 
 
-def equations(d: Derivation, coordinates: tuple[str, ...] | None = None, joint_map: Any = None) -> Equations:
+def equations(
+    d: Derivation, coordinates: tuple[str, ...] | None = None, joint_map: Any = None, *, simplify: bool = True
+) -> Equations:
     """The derivation in the coordinates `coordinates` (default: the joints' names), where
-    q = joint_map @ (joint coordinates) if a map is given; simplified (checks/derived.py keeps the
-    result in the cache)."""
+    q = joint_map @ (joint coordinates) if a map is given; simplified unless `simplify` is False (exact
+    as derived: simplifying a 6-joint arm's entries takes far longer than deriving them; checks/derived.py
+    keeps the result in the cache)."""
     import sympy as sp
 
     names = tuple(coordinates or d.joints)
@@ -118,6 +122,8 @@ def equations(d: Derivation, coordinates: tuple[str, ...] | None = None, joint_m
 
     def part(name: str) -> Any:
         expr = transformed(d, names, A, name)
+        if not simplify:
+            return expr
         return expr.applyfunc(lambda e: tidy(e, q)) if hasattr(expr, "applyfunc") else tidy(expr, q)
 
     out = Equations(
@@ -134,6 +140,7 @@ def equations(d: Derivation, coordinates: tuple[str, ...] | None = None, joint_m
         passive=part("passive"),
         parameters={str(s): meaning for s, meaning in d.parameters.items()},
         reads={str(s): (key, entry, d.signs.get(s, 1)) for s, (key, entry) in d.source.items()},
+        simplified=simplify,
     )
     return out
 
@@ -174,6 +181,8 @@ def as_text(e: Equations, fmt: str = "text") -> str:
             return str(sp.latex(x, symbol_names=dots))
     else:
         show = sp.sstr
+    if not e.simplified and fmt == "text":
+        return _exact_text(e)
     lines.append(f"coordinates: {', '.join(e.coordinates)} (velocities d<name>, accelerations dd<name>)")
     lines.append(f"T = {show(e.T)}")
     lines.append(f"V = {show(e.V)}")
@@ -189,6 +198,34 @@ def as_text(e: Equations, fmt: str = "text") -> str:
             lines.append(f"passive[{c}] = {show(e.passive[i])}")
     lines.append("Lagrange's equations, M q'' + C q' + G - passive = tau:")
     lines.extend(f"  {show(row)}" for row in _rows(e))
+    lines.append("parameters: (each symbol is the model's number read as shown; the symbols are positive)")
+    lines.extend(f"  {name} = {meaning}" for name, meaning in sorted(e.parameters.items()))
+    return "\n".join(lines) + "\n"
+
+
+def _named_terms(e: Equations) -> list[tuple[str, Any]]:
+    n = len(e.q)
+    out = [("T", e.T), ("V", e.V)]
+    out += [(f"M[{e.coordinates[i]}, {e.coordinates[j]}]", e.M[i, j]) for i in range(n) for j in range(i, n)]
+    out += [(f"(C v)[{c}]", e.Cv[i]) for i, c in enumerate(e.coordinates)]
+    out += [(f"G[{c}]", e.G[i]) for i, c in enumerate(e.coordinates)]
+    return out + [(f"passive[{c}]", e.passive[i]) for i, c in enumerate(e.coordinates) if e.passive[i] != 0]
+
+
+def _exact_text(e: Equations) -> str:
+    """Unsimplified equations as text: their common subexpressions first (x0, x1, ...), then each term
+    in them, so that a 6-joint arm's exact equations stay readable and short."""
+    import sympy as sp
+
+    named = _named_terms(e)
+    shared, reduced = sp.cse([x for _, x in named], symbols=sp.numbered_symbols("x"))
+    lines = [
+        f"coordinates: {', '.join(e.coordinates)} (velocities d<name>, accelerations dd<name>)",
+        "exact, not simplified: common subexpressions first, then the terms in them",
+    ]
+    lines += [f"{sym} = {sp.sstr(value)}" for sym, value in shared]
+    lines += [f"{name} = {sp.sstr(value)}" for (name, _), value in zip(named, reduced, strict=True)]
+    lines.append("Lagrange's equations: M q'' + C q' + G - passive = tau")
     lines.append("parameters: (each symbol is the model's number read as shown; the symbols are positive)")
     lines.extend(f"  {name} = {meaning}" for name, meaning in sorted(e.parameters.items()))
     return "\n".join(lines) + "\n"
