@@ -337,3 +337,53 @@ def test_a_minimal_module_in_every_form_passes_when_right_and_names_gravity_when
     wrong = _check(_system(tmp_path, "cart_pole", right.replace(old, new), name=f"wrong_{form}"))
     assert not wrong.passed
     assert wrong.statement.startswith("gravity disagrees"), wrong.statement
+
+
+# The notes' point-mass double pendulum (relative phi), energies only, read by a person: l1 from the second
+# joint's position, so "the first bob sits at the second joint" is a relation the formulas bake in.
+POINT_MASS = '''
+"""Double pendulum, point masses, theta absolute of rod 1, phi relative (my notes)."""
+from dataclasses import dataclass
+import numpy as np
+
+@dataclass(frozen=True)
+class Params:
+    m1: float; m2: float; l1: float; l2: float; g: float
+
+def parameters(model):
+    return Params(model["body/link1/mass"], model["body/link2/mass"], -model["body/link2/pos"][1],
+                  -model["body/link2/com"][1], -model["gravity"][1])
+
+def kinetic_energy(p, q, v):
+    th, ph = q[..., 0], q[..., 1]
+    dth, dph = v[..., 0], v[..., 1]
+    rot1 = 0.5 * (p.m1 + p.m2) * p.l1**2 * dth**2 + 0.5 * p.m2 * p.l2**2 * (dth + dph)**2
+    return rot1 + p.m2 * p.l1 * p.l2 * np.cos(ph) * dth * (dth + dph)
+
+def potential_energy(p, q):
+    th, ph = q[..., 0], q[..., 1]
+    return -(p.m1 + p.m2) * p.g * p.l1 * np.cos(th) - p.m2 * p.g * p.l2 * np.cos(th + ph)
+'''
+BOB_AT_THE_JOINT = '''
+
+def assumptions(p):
+    """The bob of rod 1 sits at the second joint: its centre of mass at (0, -l1, 0)."""
+    nan = float("nan")
+    return {"body/link1/com": np.array([nan, -p.l1, nan])}
+'''
+
+
+def _point_mass(tmp_path: Path, source: str) -> lx.System:
+    shutil.copy(ROOT / "models" / "double_pendulum_point.xml", tmp_path / "dp.xml")
+    (tmp_path / "dp.py").write_text(textwrap.dedent(source))
+    return lx.System.from_files(tmp_path / "dp.xml", tmp_path / "dp.py")
+
+
+def test_a_baked_in_centre_of_mass_is_named_alone_and_passes_once_stated(tmp_path):
+    """Only the number that matters is named (the first bob's centre of mass, not the bobs' 1e-14
+    inertias); stating just that relation in assumptions() makes the same derivation pass."""
+    result = _check(_point_mass(tmp_path, POINT_MASS))
+    assert not result.passed and "does not read body/link1/com[1], which" in result.statement, result.statement
+    assert "inertia" not in result.statement.split("unstated assumption")[1].split("(a uniform rod")[0]
+    result = _check(_point_mass(tmp_path, POINT_MASS + BOB_AT_THE_JOINT))
+    assert result.passed, result.statement

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from ..engines.derivation import parameter_values
 from ..engines.symbolic import derivation_of
 from ..systems.reads import knobs
 
@@ -92,17 +93,42 @@ def model_symbol_keys(system: Any) -> dict[str, str]:
 
 def unread_numbers(system: Any, term: str) -> list[str]:
     """The model numbers `term` depends on (the free symbols of its part of the model's own equations)
-    that parameters() does not read, as labels like body/pole/inertia[1][1]."""
+    that parameters() does not read, as labels like body/pole/inertia[1][1]; only those whose doubling
+    moves the term by more than MATTERS of its size at random states (a point mass's 1e-14 inertia does
+    not)."""
     parts = TERM_PARTS.get(term)
     if parts is None:
         return []
     derivation = derivation_of(system)
-    used: set[Any] = set()
-    for part in parts:
-        used |= getattr(derivation, part).free_symbols
+    exprs = [x for part in parts for x in _entries(getattr(derivation, part))]
+    used: set[Any] = set().union(*(x.free_symbols for x in exprs)) if exprs else set()
     read = {k.label for k in knobs(system.equations.parameters, system.view)}
-    labels = [_label(*derivation.source[sym]) for sym in derivation.source if sym in used]
-    return sorted(label for label in labels if label not in read and not label.startswith("gravity"))
+    unread = [s for s in derivation.source if s in used and _label(*derivation.source[s]) not in read]
+    values = parameter_values(derivation, system.view)
+    found = [s for s in unread if not _label(*derivation.source[s]).startswith("gravity")]
+    return sorted(_label(*derivation.source[s]) for s in found if _matters(derivation, exprs, values, s))
+
+
+MATTERS = 1e-9  # relative change of a term when one number doubles: below it, the number does not matter
+
+
+def _entries(x: Any) -> list[Any]:
+    return list(x) if hasattr(x, "shape") else [x]
+
+
+def _matters(derivation: Any, exprs: list[Any], values: dict[Any, float], sym: Any, n_states: int = 8) -> bool:
+    """Whether doubling the number `sym` stands for moves the expressions by more than MATTERS of their size."""
+    import sympy as sp
+
+    syms = list(values)
+    f = sp.lambdify([*derivation.q, *derivation.v, *syms], exprs, modules="numpy")
+    rng = np.random.default_rng(0)
+    x = rng.uniform(-np.pi, np.pi, (len(derivation.q) + len(derivation.v), n_states))
+    base = [values[s] for s in syms]
+    moved = [2.0 * values[s] if s == sym else values[s] for s in syms]
+    a = np.array([np.broadcast_to(e, (n_states,)) for e in f(*x, *base)], dtype=float)
+    b = np.array([np.broadcast_to(e, (n_states,)) for e in f(*x, *moved)], dtype=float)
+    return bool(np.abs(b - a).max() > MATTERS * max(float(np.abs(a).max()), 1e-300))
 
 
 def assumption_hint(labels: list[str], term: str) -> str:
