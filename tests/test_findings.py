@@ -463,7 +463,7 @@ def test_a_model_alone_says_so_and_never_speaks_of_a_derivation(model_alone):
     md = md_of(files)
     html = files["report.html"].decode()
     head = md.split("## Summary")[0]
-    assert "No derivation given: the two engines' readings of the model and their dynamics compared" in head
+    assert "No derivation given: the engines' readings of the model and their dynamics compared" in head
     assert "agrees with the engines" not in md and "hand" not in head.lower()
     assert "your derivation ``" not in md and "| parameter | value |" not in md, "no empty parameter table"
     assert "Derivations, each judged" not in html

@@ -99,9 +99,9 @@ def test_run_on_a_robot_urdf_alone_end_to_end(tmp_path):
     )
     assert done.returncode == 0, done.stdout + done.stderr
     report = (tmp_path / "out" / "report.md").read_text()
-    assert "No derivation given: the two engines' readings of the model and their dynamics compared" in report
+    assert "No derivation given: the engines' readings of the model and their dynamics compared" in report
     assert "URDF `" in report and "hand derivation" not in report  # issue 26: nothing of a derivation not given
-    assert "no derivation given; MuJoCo and Pinocchio agree on the model and its dynamics" in done.stdout
+    assert "no derivation given; MuJoCo, Pinocchio and Drake agree on the model and its dynamics" in done.stdout
     assert "made a MuJoCo motor" in report
     assert (tmp_path / "out" / "ur5_robot.rrd").stat().st_size > 0
     bad = subprocess.run(
@@ -139,7 +139,7 @@ def test_run_the_other_arms_end_to_end(tmp_path, path, lock):
     )
     assert done.returncode == 0, done.stdout + done.stderr
     assert re.search(
-        r"no derivation given; MuJoCo(, Pinocchio and the derived equations| and Pinocchio) agree", done.stdout
+        r"no derivation given; MuJoCo, Pinocchio(, Drake and the derived equations| and Drake) agree", done.stdout
     )
     report = (tmp_path / "out" / "report.md").read_text()
     if lock:

@@ -402,7 +402,7 @@ def judge_derivation(
     if not failing:
         result["verdict"] = "agrees"
         result["statement"] = (
-            "agrees with MuJoCo and Pinocchio in every term at the model's parameters"
+            f"agrees with {_engine_names(sources)} in every term at the model's parameters"
             + (f" and at {len(probe_list)} probe parameter sets" if probe_list else " (no probes)")
             + f" ({result['checked']['evaluations']} states)"
         )
@@ -479,6 +479,15 @@ def _unstated(system: Any, term: str) -> list[str]:
         return words.unread_numbers(system, term)
     except Exception:  # noqa: BLE001 - a hint, never a failed run
         return []
+
+
+ENGINE_NAMES = {"mujoco": "MuJoCo", "pinocchio": "Pinocchio", "drake": "Drake"}
+
+
+def _engine_names(sources: dict[str, Any]) -> str:
+    """ "MuJoCo, Pinocchio and Drake": the engines a derivation was judged against."""
+    names = [ENGINE_NAMES[n] for n in engines_of(sources) if n in ENGINE_NAMES]
+    return ", ".join(names[:-1]) + f" and {names[-1]}" if len(names) > 1 else "".join(names)
 
 
 def exposing_fields(system: Any, term: str, *, tolerances: Tolerances = TOLERANCES, seed: int = 0) -> list[str]:

@@ -15,7 +15,10 @@ TITLE = "lagrange-xval validation report"
 SUBTITLE = "Hand-derived Lagrangian equations of motion, held against MuJoCo and Pinocchio"
 
 
-SUBTITLE_MODELS = "Models read by MuJoCo and by Pinocchio, each engine's reading and dynamics held against the other's"
+SUBTITLE_MODELS = (
+    "Models read by each engine (MuJoCo, Pinocchio and, where installed, Drake), each engine's reading and "
+    "dynamics held against the others'"
+)
 
 
 PROVENANCE = "Provenance"

@@ -44,13 +44,19 @@ def has_actuators(s: dict[str, Any]) -> bool:
     return "actuation" in (s.get("uses") or [])
 
 
-SOURCE_NAMES = {"mujoco": "MuJoCo", "pinocchio": "Pinocchio", "symbolic": "the derived equations", "hand": "hand"}
+SOURCE_NAMES = {
+    "mujoco": "MuJoCo",
+    "pinocchio": "Pinocchio",
+    "drake": "Drake",
+    "symbolic": "the derived equations",
+    "hand": "hand",
+}
 
 
 def compared_sources(s: dict[str, Any]) -> list[str]:
-    """The sources the pointwise comparison holds, in the order hand, MuJoCo, Pinocchio, symbolic."""
+    """The sources the pointwise comparison holds, in the order hand, MuJoCo, Pinocchio, Drake, symbolic."""
     names = {x for r in (s.get("pointwise") or {}).get("rows", []) for x in str(r.get("pair", "")).split("~")}
-    return [n for n in ("hand", "mujoco", "pinocchio", "symbolic") if n in names]
+    return [n for n in ("hand", "mujoco", "pinocchio", "drake", "symbolic") if n in names]
 
 
 def sources_text(s: dict[str, Any]) -> str:
@@ -330,7 +336,7 @@ def system_headline(s: dict[str, Any]) -> tuple[bool | None, str]:
     return s.get("passed"), f"{who}: {d.get('verdict') or 'not judged'}"
 
 
-MODEL_ONLY = "no derivation given: the two engines' readings of the model and their dynamics compared"
+MODEL_ONLY = "no derivation given: the engines' readings of the model and their dynamics compared"
 
 
 def forms_tally(results: dict[str, Any]) -> tuple[int, int, int]:

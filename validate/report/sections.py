@@ -197,7 +197,7 @@ def statuses_title(results: dict[str, Any]) -> str:
     if given == len(systems):
         return "Derivations, each judged term by term against the engines"
     if not given:
-        return "Models alone (no derivation given), each engine's reading and dynamics compared with the other's"
+        return "Models alone (no derivation given), each engine's reading and dynamics compared with the others'"
     return "Systems: each derivation judged term by term against the engines; each model alone, its engines compared"
 
 
@@ -300,12 +300,11 @@ def section_summary(doc: Document, results: dict[str, Any]) -> None:
     if alone and given:
         lead = (
             "One row per system (a derivation judged on every term against the engines and on the model checks; "
-            "a model alone, its two engines compared quantity by quantity and on the model checks)"
+            "a model alone, its engines compared quantity by quantity and on the model checks)"
         )
     elif alone:
         lead = (
-            "One row per model (no derivation given: its two engines compared quantity by quantity and on the "
-            "model checks)"
+            "One row per model (no derivation given: its engines compared quantity by quantity and on the model checks)"
         )
     else:
         lead = "One row per derivation (judged on every term against the engines, and on the model checks)"
