@@ -12,7 +12,7 @@ from typing import Any
 TITLE = "lagrange-xval validation report"
 
 
-SUBTITLE = "Hand-derived Lagrangian equations of motion, held against MuJoCo and Pinocchio"
+SUBTITLE = "Hand-derived Lagrangian equations of motion, held against MuJoCo, Pinocchio and (where installed) Drake"
 
 
 SUBTITLE_MODELS = (

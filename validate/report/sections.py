@@ -137,8 +137,9 @@ def verdict_line(results: dict[str, Any]) -> tuple[bool, str, str]:
         )
     else:
         probed = any((s.get("derivation") or {}).get("checked", {}).get("probes") for s in systems.values())
-        detail = "Judged term by term against MuJoCo and Pinocchio at the model's parameters" + (
-            " and at probe parameter sets" if probed else " only (no probe parameter sets)"
+        detail = (
+            "Judged term by term against the engines (MuJoCo, Pinocchio, Drake where installed) at the model's "
+            "parameters" + (" and at probe parameter sets" if probed else " only (no probe parameter sets)")
         )
     return passed, (head if not passed else head[0].upper() + head[1:]), detail + "."
 

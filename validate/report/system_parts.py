@@ -118,7 +118,7 @@ def system_derivation(doc: Document, name: str, s: dict[str, Any]) -> None:
         "relative to its largest value over the states (`scale`), that the check could have seen."
     )
     doc.table(
-        f"Terms of {name}'s derivation against MuJoCo and Pinocchio, at the model's parameters and every probe",
+        f"Terms of {name}'s derivation against the engines, at the model's parameters and every probe",
         ("term", "verdict", "worst scaled error", "engine", "at", "tolerance", "scale"),
         [
             (
