@@ -105,7 +105,7 @@ def test_the_top_level_help_says_what_the_tool_does(capsys):
     with pytest.raises(SystemExit):
         main(["--help"])
     out = " ".join(capsys.readouterr().out.split())
-    assert "hand-derived Lagrangian equations of motion against MuJoCo and Pinocchio" in out, out
+    assert "hand-derived Lagrangian equations of motion against MuJoCo, Pinocchio and Drake" in out, out
     assert "Heavy imports" not in out and "subcommands" not in out
 
 
@@ -239,7 +239,7 @@ def test_the_help_and_the_readme_say_the_same_durations_and_sources():
         )
         assert duration in row, f"README's {command} row does not say {duration!r}: {row}"
         assert duration in " ".join(_all_help().split()), f"the help does not say {duration!r}"
-    assert "three sources" not in _all_help() and "four sources" in readme
+    assert "three sources" not in _all_help() and "five sources" in _all_help() and "five sources" in readme
 
 
 def test_list_takes_a_folder_and_run_goes_on_past_an_unpaired_file(tmp_path, capsys):

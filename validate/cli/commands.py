@@ -321,7 +321,7 @@ def cmd_new(args: argparse.Namespace) -> int:
     path = write_module(args.name, args.model, args.dir, locked=locked)
     lock = f" --lock {','.join(locked)}" if locked else ""
     print(
-        f"wrote {path}: write the dynamics in one of the four forms it lists, then "
+        f"wrote {path}: write the dynamics in one of the forms it lists, then "
         f"`lagrange-xval check --model {args.model} --equations {path}{lock}`"
     )
     return 0

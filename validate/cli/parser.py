@@ -21,10 +21,10 @@ from ..results import harness_version
 from ..systems import system_names
 
 DESCRIPTION = (
-    "Checks hand-derived Lagrangian equations of motion against MuJoCo and Pinocchio. For each system "
+    "Checks hand-derived Lagrangian equations of motion against MuJoCo, Pinocchio and Drake. For each system "
     "(a model file, MJCF or URDF, paired with an equations module) it compares the mass matrix, bias "
-    "forces, energies, body poses and trajectories of the four sources (the derivation, MuJoCo, Pinocchio and "
-    "the model's own equations derived symbolically), says which term of the "
+    "forces, energies, body poses and trajectories of the five sources (the derivation, MuJoCo, Pinocchio, "
+    "Drake where installed, and the model's own equations derived symbolically), says which term of the "
     "derivation disagrees and where, and writes a report."
 )
 EPILOG = (

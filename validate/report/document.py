@@ -65,7 +65,19 @@ SOURCE_STYLE = {  # colour, line style, width: the reference solid, the engines 
 }
 
 
-PAIR_COLOURS = ("#2563eb", "#d97706", "#059669", "#7c3aed", "#db2777", "#0891b2")  # one per pair of four sources
+# one per pair of five sources (ten pairs)
+PAIR_COLOURS = (
+    "#2563eb",
+    "#d97706",
+    "#059669",
+    "#7c3aed",
+    "#db2777",
+    "#0891b2",
+    "#65a30d",
+    "#dc2626",
+    "#4b5563",
+    "#ca8a04",
+)
 
 
 FIG_DPI = 110
