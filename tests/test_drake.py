@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from lagrange_xval.validate.checks import pointwise
 from lagrange_xval.validate.checks.decide import decide
-from lagrange_xval.validate.dynamics import estimate, fast, freeruns, integrate
+from lagrange_xval.validate.dynamics import drakerun, estimate, fast, freeruns, integrate
 from lagrange_xval.validate.dynamics.reference import reference_trajectory
 from lagrange_xval.validate.engines import drake as drake_engine
 from lagrange_xval.validate.engines import make_sources
@@ -135,7 +135,7 @@ def test_drakes_free_run_agrees_with_the_reference_within_its_own_threshold(name
     q0, v0 = integrate.initial_state(system)
     tau, t = np.zeros(system.nv), integrate.time_grid(10.0, 0.01)
     ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=None)
-    run = integrate.drake_trajectory(system, sources["drake"], q0, v0, tau, t)
+    run = drakerun.drake_trajectory(system, sources["drake"], q0, v0, tau, t)
     assert run.source == "drake" and run.method == "Drake runge_kutta3 accuracy 1e-08" and run.stats["status"] == "ok"
     est, how = estimate.run_estimate(system, sources, run, q0, v0, tau)
     assert "against 1e-09" in how

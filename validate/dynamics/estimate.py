@@ -29,8 +29,9 @@ from typing import Any
 import numpy as np
 
 from ..checks.tolerances import TOLERANCES
+from .drakerun import DRAKE_DEFAULT, drake_trajectory
 from .flow import SAFETY as FLOW_SAFETY
-from .integrate import DRAKE_DEFAULT, SCIPY_DEFAULT, Trajectory, drake_trajectory, mujoco_trajectory, scipy_trajectory
+from .integrate import SCIPY_DEFAULT, Trajectory, mujoco_trajectory, scipy_trajectory
 
 SAFETY = FLOW_SAFETY  # 10: see the module docstring
 FLOOR = TOLERANCES.trajectory.rtol  # rad

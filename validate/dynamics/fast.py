@@ -36,6 +36,7 @@ import numpy as np
 
 from ..errors import HarnessError
 from .compiled import UNROLLED_MAX_DOF, taylor_grid, taylor_integrator
+from .drakerun import drake_trajectory
 from .integrate import (
     DEFAULT_BUDGET,
     DEFAULT_DT_OUT,
@@ -44,7 +45,6 @@ from .integrate import (
     SCIPY_DEFAULT,
     Budget,
     Trajectory,
-    drake_trajectory,
     initial_state,
     mujoco_trajectory,
     scipy_trajectory,

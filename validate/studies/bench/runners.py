@@ -18,7 +18,8 @@ import numpy as np
 
 from ...dynamics.chaos import chaos_summary
 from ...dynamics.compiled import compiled_rhs, compiled_rk4, rk4_grid, rk4_plan, taylor_grid, taylor_integrator
-from ...dynamics.integrate import SCIPY_DEFAULT, drake_trajectory, initial_state, scipy_trajectory, time_grid
+from ...dynamics.drakerun import drake_trajectory
+from ...dynamics.integrate import SCIPY_DEFAULT, initial_state, scipy_trajectory, time_grid
 from ...dynamics.mirror import mirror_trajectory
 from ...dynamics.reference import DEFAULT_CACHE_DIR, reference_trajectory
 from ...engines import make_sources
