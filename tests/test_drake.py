@@ -11,11 +11,17 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 from lagrange_xval.validate.checks import pointwise
 from lagrange_xval.validate.checks.decide import decide
+from lagrange_xval.validate.dynamics import drakerun, estimate, fast, freeruns, integrate
+from lagrange_xval.validate.dynamics.reference import reference_trajectory
 from lagrange_xval.validate.engines import drake as drake_engine
 from lagrange_xval.validate.engines import make_sources
+from lagrange_xval.validate.studies.bench import runners
+from lagrange_xval.validate.studies.bench.plan import CONTENDER_DRIVERS, GRID_DRIVERS
+from lagrange_xval.validate.studies.bench.plan import plan as sweep_plan
 from lagrange_xval.validate.systems import System, load, system_names
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -117,3 +123,58 @@ def test_run_on_ur5_compares_three_readers(tmp_path):
     pairs = {r["pair"] for r in result["pointwise"]["rows"]}
     assert {"drake~mujoco", "drake~pinocchio"} <= pairs
     assert "Model audit: three readers" in (tmp_path / "out" / "report.md").read_text()
+
+
+@needs_drake
+@pytest.mark.parametrize("name", ["simple_pendulum", "double_pendulum_point"])
+def test_drakes_free_run_agrees_with_the_reference_within_its_own_threshold(name):
+    """Drake's own integrator (RK3 at DRAKE_DEFAULT's accuracy) on its continuous plant, 10 s, against the
+    long-double reference, within max(1e-6, 10 x its own estimate) at every sample."""
+    system = load(name)
+    sources = make_sources(system)
+    q0, v0 = integrate.initial_state(system)
+    tau, t = np.zeros(system.nv), integrate.time_grid(10.0, 0.01)
+    ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=None)
+    run = drakerun.drake_trajectory(system, sources["drake"], q0, v0, tau, t)
+    assert run.source == "drake" and run.method == "Drake runge_kutta3 accuracy 1e-08" and run.stats["status"] == "ok"
+    est, how = estimate.run_estimate(system, sources, run, q0, v0, tau)
+    assert "against 1e-09" in how
+    err = np.abs(run.q - ref.q).max(axis=1)
+    assert np.all(err <= estimate.threshold(est)), float(err.max())
+    assert 1e-12 < err.max() < 1e-6  # a real integration, and accurate
+
+
+@needs_drake
+def test_drakes_run_is_among_runs_free_runs():
+    """`run`'s free runs hold Drake's, judged and passing on a right derivation; none without pydrake."""
+    system = load("double_pendulum_point")
+    traj = freeruns.trajectory_results(system, make_sources(system), t_end=2.0, dt_out=0.01)
+    freeruns.judge_trajectories(traj, None)
+    drake = [r for r in traj["runs"] if r["source"] == "drake"]
+    assert len(drake) == 1 and drake[0]["counts"] and drake[0]["passed"]
+    assert drake[0]["estimate_how"].startswith("Drake runge_kutta3")
+
+
+def test_no_drake_run_without_the_drake_source(monkeypatch):
+    monkeypatch.setattr(drake_engine, "unavailable", lambda: "pydrake is not installed (test)")
+    system = load("simple_pendulum")
+    runs = fast.run_trajectories(system, make_sources(system), t_end=0.1, dt_out=0.01)
+    assert "drake" not in {r.source for r in runs}
+
+
+@needs_drake
+def test_bench_times_drakes_integrators():
+    """Drake's integrators are contenders of the quick sweep; one runs, timed, with its samples."""
+    specs = [s for s in sweep_plan(quick=True) if s["engine"] == "drake"]
+    assert {s["scheme"] for s in specs} == {"runge_kutta3", "runge_kutta2", "explicit_euler"}
+    assert "drake" in CONTENDER_DRIVERS and "drake" in GRID_DRIVERS
+    case = runners.case_for(load("simple_pendulum"))
+    spec = next(s for s in specs if s["scheme"] == "runge_kutta3" and s["value"] == 1e-8)
+    row = runners.execute(spec, case, budget=5.0, min_timed=0.0)
+    assert row["status"] == "ok" and row["cpu_s"] > 0 and row["steps"] > 1000
+    ref, _ = reference_trajectory(
+        load("simple_pendulum"), case["q0"], case["v0"], case["tau"], row["t"], cache_dir=None
+    )
+    assert np.abs(row["q"] - ref.q).max() < 1e-6
+    fixed = next(s for s in specs if s["scheme"] == "runge_kutta2" and s["value"] == 1e-3)
+    assert 10_000 <= runners.execute(fixed, case, budget=5.0, min_timed=0.0)["steps"] <= 11_000  # + end-of-sample steps

@@ -9,6 +9,7 @@ error estimate at its own step and tolerance, from the same scheme run once more
                                    e(t) ~ |q_h(t) - q_h/2(t)| 2^p / (2^p - 1).
   scipy (rtol, atol)               the same method at rtol/10, atol/10; with the error proportional
                                    to the tolerance, e(t) ~ |q - q_fine| 10 / 9.
+  Drake's RK3 (target accuracy)    the same at accuracy/10, e(t) ~ |q - q_fine| 10 / 9, as scipy's.
   heyoka's Taylor (tol 1e-15)      none: ~1e-14 rad after 10 s (bench), far below the floor.
 
 threshold(t) = max(FLOOR, SAFETY e(t)). SAFETY = 10 covers what the estimate neglects: the next order
@@ -28,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from ..checks.tolerances import TOLERANCES
+from .drakerun import DRAKE_DEFAULT, drake_trajectory
 from .flow import SAFETY as FLOW_SAFETY
 from .integrate import SCIPY_DEFAULT, Trajectory, mujoco_trajectory, scipy_trajectory
 
@@ -43,7 +45,8 @@ def rule() -> str:
         f"each run's own threshold, max({FLOOR:g} rad, {SAFETY:g} x its own error estimate) at every sample ("
         "MuJoCo's fixed-step run against the same integrator at half the step (Richardson, "
         f"|q_h - q_h/2| 2^p / (2^p - 1)), scipy's against the same method at rtol/{FINER:g} "
-        f"(|q - q_fine| {FINER:g} / {FINER - 1:g}), the Taylor runs none: ~1e-14 rad, below {FLOOR:g})"
+        f"(|q - q_fine| {FINER:g} / {FINER - 1:g}), Drake's the same at accuracy/{FINER:g}, "
+        f"the Taylor runs none: ~1e-14 rad, below {FLOOR:g})"
     )
 
 
@@ -76,12 +79,27 @@ def scipy_estimate(
     )
 
 
+def drake_estimate(system: Any, source: Any, tr: Trajectory, q0: Any, v0: Any, tau: Any) -> tuple[np.ndarray, str]:
+    """(K,) rad: a Drake error-controlled run's error estimated from the same scheme at a tenth of its
+    target accuracy (DRAKE_DEFAULT's), as scipy's; a check run that stops gives no estimate there."""
+    o = DRAKE_DEFAULT
+    fine = drake_trajectory(
+        system, source, q0, v0, tau, tr.t, scheme=o["scheme"], accuracy=o["accuracy"] / FINER, max_step=o["max_step"]
+    )
+    est = np.nan_to_num(np.abs(tr.q - fine.q).max(axis=1), nan=0.0) * FINER / (FINER - 1.0)
+    fine_acc, factor = o["accuracy"] / FINER, FINER / (FINER - 1)
+    how = f"Drake {o['scheme']} at accuracy {o['accuracy']:g} against {fine_acc:g}, x {factor:.4g}"
+    return est, how
+
+
 def run_estimate(
     system: Any, sources: dict[str, Any], tr: Trajectory, q0: Any, v0: Any, tau: Any
 ) -> tuple[np.ndarray, str]:
     """The error estimate of one of `fast.run_trajectories`' runs, by how it was made."""
     if tr.source == "mujoco":
         return mujoco_estimate(system, sources["mujoco"], tr, q0, v0, tau, integrator=tr.method.split()[1])
+    if tr.source == "drake":
+        return drake_estimate(system, sources["drake"], tr, q0, v0, tau)
     if tr.method.startswith("scipy"):
         return scipy_estimate(system, sources[tr.source], tr, q0, v0, tau)
     return np.zeros(len(tr.t)), f"none: {tr.method} is accurate to ~1e-14 rad over 10 s (bench), below the floor"

@@ -36,6 +36,7 @@ import numpy as np
 
 from ..errors import HarnessError
 from .compiled import UNROLLED_MAX_DOF, taylor_grid, taylor_integrator
+from .drakerun import drake_trajectory
 from .integrate import (
     DEFAULT_BUDGET,
     DEFAULT_DT_OUT,
@@ -151,7 +152,8 @@ def run_trajectories(
     """The sources' free runs from the system's initial state: scipy (SCIPY_DEFAULT) on the hand
     equations, the path a user of scipy takes, and on Pinocchio's ABA (an engine's right-hand side
     called from Python: odeint is its fastest driver, bench); MuJoCo's RK4 at the model's timestep; the
-    model's derived equations by the fast path (`accurate_trajectory`)."""
+    model's derived equations by the fast path (`accurate_trajectory`); Drake's own integrator
+    (DRAKE_DEFAULT) where the drake source exists."""
     q0, v0 = initial_state(system)
     tau = np.zeros(system.nv)
     t = time_grid(t_end, dt_out)
@@ -160,4 +162,5 @@ def run_trajectories(
         mujoco_trajectory(system, sources["mujoco"], q0, v0, tau, t, integrator="RK4"),
         scipy_trajectory(system, sources["pinocchio"], q0, v0, tau, t, **SCIPY_DEFAULT),
         *([accurate_trajectory(system, sources["symbolic"], q0, v0, tau, t)] if "symbolic" in sources else []),
+        *([drake_trajectory(system, sources["drake"], q0, v0, tau, t)] if "drake" in sources else []),
     ]

@@ -267,6 +267,67 @@ class DrakeSource:
         self.plant.CalcForceElementsContribution(self.context, self.forces)  # gravity and damping, applied
         return np.array(self.plant.CalcInverseDynamics(self.context, self._full(a), self.forces), dtype=float)
 
+    # -- free run -----------------------------------------------------------------------------
+    def free_run(
+        self,
+        q0: np.ndarray,
+        v0: np.ndarray,
+        tau: np.ndarray,
+        t: np.ndarray,
+        *,
+        scheme: str = "runge_kutta3",
+        accuracy: float | None = None,
+        max_step: float = 0.01,
+    ) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+        """Drake's own integration of the continuous plant (joint damping as its force elements apply
+        it) from (q0, v0) with constant `tau`, sampled by AdvanceTo at each time of `t` (t[0] the start):
+        q, v (K, n) in the system's joint coordinates (mapped by joint name) and stats. `scheme`: one of
+        pydrake's GetIntegrationSchemes(), set by ResetIntegratorFromFlags with `max_step`; `accuracy`:
+        the target accuracy of an error-controlled scheme (None: fixed steps of `max_step`). A Drake
+        error ends the run: the samples after it are NaN and stats["status"] says "failed"."""
+        from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
+
+        ctx = self._run_context(q0, v0, tau, float(t[0]))
+        sim = Simulator(self.plant, ctx)
+        integrator = ResetIntegratorFromFlags(sim, scheme, max_step)
+        if accuracy is not None:
+            integrator.set_target_accuracy(accuracy)
+        else:
+            integrator.set_fixed_step_mode(True)
+        n = len(self.qidx)
+        q, v = np.full((len(t), n), np.nan), np.full((len(t), n), np.nan)
+        status, reason = "ok", ""
+        try:
+            sim.Initialize()
+            for k, tk in enumerate(t):
+                if k:
+                    sim.AdvanceTo(float(tk))
+                x = np.asarray(self.plant.GetPositionsAndVelocities(ctx), dtype=float)
+                q[k], v[k] = x[self.qidx], x[self.plant.num_positions() + self.vidx]
+        except RuntimeError as exc:  # Drake's step-size or state errors
+            status, reason = "failed", f"Drake stopped at t = {ctx.get_time():.6g} s: {str(exc).splitlines()[0]}"
+        stats = {
+            "steps": int(integrator.get_num_steps_taken()),
+            "evaluations": int(integrator.get_num_derivative_evaluations()),
+            "status": status,
+            "reason": reason,
+        }
+        return q, v, stats
+
+    def _run_context(self, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t0: float) -> Any:
+        """A fresh context of the plant at (q0, v0), time t0, with `tau` on the applied-force port."""
+        plant = self.plant
+        ctx = plant.CreateDefaultContext()
+        if plant.num_actuated_dofs():
+            plant.get_actuation_input_port().FixValue(ctx, np.zeros(plant.num_actuated_dofs()))
+        plant.get_applied_generalized_force_input_port().FixValue(ctx, self._full(np.asarray(tau, dtype=float)))
+        full_q = self.q_default.copy()
+        full_q[self.qidx] = q0
+        plant.SetPositions(ctx, full_q)
+        plant.SetVelocities(ctx, self._full(np.asarray(v0, dtype=float)))
+        ctx.SetTime(t0)
+        return ctx
+
     # -- batches ------------------------------------------------------------------------------
     def _each(self, q: np.ndarray, v: np.ndarray, fn: Any) -> np.ndarray:
         rows = []

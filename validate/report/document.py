@@ -62,6 +62,7 @@ SOURCE_STYLE = {  # colour, line style, width: the reference solid, the engines 
     "mujoco": ("#2563eb", (0, (5, 3)), 1.4),
     "pinocchio": ("#d97706", (0, (1, 2)), 1.8),
     "symbolic": ("#059669", (0, (3, 1, 1, 1)), 1.4),
+    "drake": ("#7c3aed", (0, (2, 1, 2, 3)), 1.3),
 }
 
 

@@ -255,7 +255,7 @@ def fmt_ms(x: float | None) -> str:
 def fmt_setting(setting: str | None, value: float | None) -> str:
     if setting is None or value is None:
         return ""
-    return f"{ {'rtol': 'rtol', 'tol': 'tol'}.get(setting, 'dt') } {value:.0e}"
+    return f"{ {'rtol': 'rtol', 'tol': 'tol', 'accuracy': 'accuracy'}.get(setting, 'dt') } {value:.0e}"
 
 
 def summary(results: dict[str, Any], console: Any = None) -> None:

@@ -7,6 +7,7 @@ from __future__ import annotations
 from typing import Any
 
 from ...dynamics.integrate import SCIPY_DEFAULT
+from ...engines import drake as drake_engine  # imports no pydrake: `unavailable` looks it up
 from ...engines.base import MUJOCO_INTEGRATORS  # every one is swept
 
 T_END = 10.0  # s: the grid of `run` (the reference cache is keyed by it)
@@ -67,6 +68,23 @@ QUICK_ROLLOUT_TIMESTEPS = (1e-2, 1e-3)
 
 
 ROLLOUT_BATCH = 8  # copies of the start in one batched rollout (its row's time is per trajectory)
+
+
+# Drake's own integrators on its continuous plant (engines/drake.py `free_run`), where pydrake is installed:
+# its error-controlled RK3 at target accuracies, and fixed-step RK2 and explicit Euler.
+DRAKE_ACCURACIES = tuple(10.0**-k for k in range(4, 13))
+
+
+QUICK_DRAKE_ACCURACIES = (1e-4, 1e-6, 1e-8, 1e-10)
+
+
+DRAKE_FIXED = ("runge_kutta2", "explicit_euler")
+
+
+DRAKE_TIMESTEPS = (1e-2, 1e-3, 1e-4)  # s
+
+
+QUICK_DRAKE_TIMESTEPS = (1e-2, 1e-3)
 
 
 QUICK_SYSTEMS = ("double_pendulum_point", "gimbal")
@@ -134,11 +152,22 @@ SCIPY_DRIVERS = ("solve_ivp", "ode", "ode_endpoints", "odeint")
 
 # The drivers that give the whole 10 ms grid (as the harness's own trajectories must): all but
 # "ode_endpoints", which samples t = 2 s and 10 s only.
-GRID_DRIVERS = ("solve_ivp", "ode", "odeint", "mujoco", "mirror", "default", "taylor", "compiled_rk4", "rollout")
+GRID_DRIVERS = (
+    "solve_ivp",
+    "ode",
+    "odeint",
+    "mujoco",
+    "mirror",
+    "default",
+    "taylor",
+    "compiled_rk4",
+    "rollout",
+    "drake",
+)
 
 
 # Contenders: the methods a person who cares about run time against error would pick, beside scipy.
-CONTENDER_DRIVERS = ("taylor", "compiled_rk4", "rollout", "rollout_batch")
+CONTENDER_DRIVERS = ("taylor", "compiled_rk4", "rollout", "rollout_batch", "drake")
 
 
 STATUSES = ("ok", "diverged", "failed", "timeout", "skipped")  # a row's "status"
@@ -159,6 +188,7 @@ def method_name(spec: dict[str, Any]) -> str:
         "compiled_rk4": "compiled RK4 (heyoka cfunc)",
         "rollout": f"rollout {scheme}",
         "rollout_batch": f"rollout {scheme} (batch of {ROLLOUT_BATCH}, per trajectory)",
+        "drake": str(scheme),
     }[driver]
     return f"{engine} {label}"
 
@@ -188,6 +218,30 @@ def step_spec(engine: str, driver: str, scheme: str, timestep: float) -> dict[st
         "value": timestep,
         "atol": None,
     }
+
+
+def drake_specs(*, quick: bool) -> list[dict[str, Any]]:
+    """Drake's integrators as contenders: RK3 at each target accuracy, RK2 and explicit Euler at fixed
+    steps; none where pydrake is not importable."""
+    if drake_engine.unavailable():
+        return []
+    accuracies = QUICK_DRAKE_ACCURACIES if quick else DRAKE_ACCURACIES
+    specs = [
+        {
+            "engine": "drake",
+            "driver": "drake",
+            "scheme": "runge_kutta3",
+            "setting": "accuracy",
+            "value": a,
+            "atol": None,
+        }
+        for a in accuracies
+    ]
+    for scheme in DRAKE_FIXED:
+        specs += [
+            step_spec("drake", "drake", scheme, dt) for dt in (QUICK_DRAKE_TIMESTEPS if quick else DRAKE_TIMESTEPS)
+        ]
+    return specs
 
 
 def plan(*, quick: bool) -> list[dict[str, Any]]:
@@ -224,6 +278,7 @@ def plan(*, quick: bool) -> list[dict[str, Any]]:
         specs += [step_spec("hand", "compiled_rk4", "RK4", dt) for dt in TIMESTEPS]
         for driver in ("rollout", "rollout_batch"):
             specs += [step_spec("mujoco", driver, "RK4", dt) for dt in ROLLOUT_TIMESTEPS]
+    specs += drake_specs(quick=quick)
     specs.append(
         {
             "engine": "hand",

@@ -18,6 +18,7 @@ import numpy as np
 
 from ...dynamics.chaos import chaos_summary
 from ...dynamics.compiled import compiled_rhs, compiled_rk4, rk4_grid, rk4_plan, taylor_grid, taylor_integrator
+from ...dynamics.drakerun import drake_trajectory
 from ...dynamics.integrate import SCIPY_DEFAULT, initial_state, scipy_trajectory, time_grid
 from ...dynamics.mirror import mirror_trajectory
 from ...dynamics.reference import DEFAULT_CACHE_DIR, reference_trajectory
@@ -409,6 +410,26 @@ def run_rollout(
     return result_row("ok", "", cpu, wall, t=t, q=np.ascontiguousarray(q), steps=total)
 
 
+def run_drake(
+    system: Any, source: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, spec: dict[str, Any]
+) -> dict[str, Any]:
+    """Drake's own integrator on its continuous plant (dynamics/integrate.py `drake_trajectory`): at a
+    target accuracy (setting "accuracy", max step one output interval) or fixed steps ("timestep");
+    the whole run, context and Simulator setup included, is timed."""
+    fixed = spec["setting"] == "timestep"
+    dt_out = float(t[1] - t[0])
+    opts = {"scheme": spec["scheme"], "accuracy": None if fixed else spec["value"]}
+    opts["max_step"] = spec["value"] if fixed else dt_out
+    c0, w0 = time.process_time(), time.perf_counter()
+    traj = drake_trajectory(system, source, q0, v0, tau, t, **opts)
+    cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+    steps = int(traj.stats["steps"])
+    if traj.stats["status"] != "ok":
+        return result_row("failed", traj.stats["reason"], cpu, wall, steps=steps)
+    nfev = int(traj.stats["evaluations"])
+    return result_row("ok", "", cpu, wall, t=t, q=np.ascontiguousarray(traj.q), nfev=nfev, steps=steps)
+
+
 def run_default(system: Any, source: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray) -> dict[str, Any]:
     """The harness's default scipy integration, as `run` calls it (no budget: it has no hook)."""
     c0, w0 = time.process_time(), time.perf_counter()
@@ -477,6 +498,10 @@ def run_once(spec: dict[str, Any], case: dict[str, Any], *, budget: float) -> di
         return run_rollout(
             system, sources["mujoco"], q0, v0, tau, t, integrator=spec["scheme"], timestep=spec["value"], batch=batch
         )
+    if driver == "drake":
+        if "drake" not in sources:
+            return result_row("skipped", f"no drake source for {system.name}", 0.0, 0.0)
+        return run_drake(system, sources["drake"], q0, v0, tau, t, spec=spec)
     if driver == "default":
         scalar_rhs(system)
         return run_default(system, sources["hand"], q0, v0, tau, t)
