@@ -91,7 +91,7 @@ def test_bodies_of_every_run_follow_the_equations_kinematics(results, rrd):
     s = systems.load(SYSTEM)
     traj = results["systems"][SYSTEM]["trajectories"]
     chunks = read(rrd)
-    assert {r["source"] for r in traj["runs"]} == {"hand", "mujoco", "pinocchio", "symbolic"}
+    assert {r["source"] for r in traj["runs"]} == {"hand", "mujoco", "pinocchio", "drake", "symbolic"}
     for key, run_ in zip(replay.run_keys(traj["runs"]), traj["runs"], strict=True):
         run_ = {**run_, "source": key}  # the run's entity path
         expected = s.equations.body_positions(s.params, np.asarray(run_["q"]))
