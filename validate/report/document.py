@@ -66,7 +66,19 @@ SOURCE_STYLE = {  # colour, line style, width: the reference solid, the engines 
 }
 
 
-# one per pair of five sources (ten pairs)
+# one per pair of five sources (ten pairs); the work-precision charts add three more (studies.py)
+PAIR_COLOURS = (
+    "#2563eb",
+    "#d97706",
+    "#059669",
+    "#7c3aed",
+    "#db2777",
+    "#0891b2",
+    "#65a30d",
+    "#dc2626",
+    "#9333ea",
+    "#ea580c",
+)
 PAIR_COLOURS = (
     "#2563eb",
     "#d97706",

@@ -6,25 +6,12 @@ from typing import Any
 
 import numpy as np
 
-from .document import NOT_RUN, Document, Num, as_float, pass_mark, sci, slug
+from .document import NOT_RUN, PAIR_COLOURS, Document, Num, as_float, pass_mark, sci, slug
 from .figures import LEGEND_W, legend_right, new_figure, png, rc, series
 
 LINE_STYLES = ("-", (0, (5, 2)), (0, (1, 1.5)), (0, (6, 2, 1, 2)))
 
-WORK_PRECISION_COLOURS = (
-    "#1f2937",
-    "#2563eb",
-    "#d97706",
-    "#059669",
-    "#7c3aed",
-    "#db2777",
-    "#0891b2",
-    "#65a30d",
-    "#dc2626",
-    "#9333ea",
-    "#ea580c",
-    "#475569",
-)
+WORK_PRECISION_COLOURS = ("#1f2937", *PAIR_COLOURS, "#475569")
 
 
 def section_bench(doc: Document, bench: dict[str, Any] | None) -> None:
