@@ -64,6 +64,7 @@ class OnePerTask(Executor):
         self._ready = threading.Condition()
         self._pending: deque[tuple[Future[Any], Callable[..., Any], tuple[Any, ...], dict[str, Any]]] = deque()
         self._pools: set[ProcessPoolExecutor] = set()
+        self._managers: list[threading.Thread] = []  # every pool's manager thread, joined at shutdown
         self._closed = False
         self._launcher = threading.Thread(target=self._launch, name="OnePerTask launcher", daemon=True)
         self._launcher.start()
@@ -94,6 +95,7 @@ class OnePerTask(Executor):
                 pool = ProcessPoolExecutor(max_workers=1, initializer=_worker_init, initargs=(os.getpid(),))
                 self._pools.add(pool)
                 inner = pool.submit(fn, *args, **kwargs)  # forks here, in this thread
+                self._managers.append(pool._executor_manager_thread)  # type: ignore[attr-defined]
                 self._ready.notify_all()
             inner.add_done_callback(functools.partial(self._finished, outer, pool))
 
@@ -127,6 +129,18 @@ class OnePerTask(Executor):
             pool.shutdown(wait=wait, cancel_futures=cancel_futures)
         if wait:
             self._launcher.join()
+            self._join_managers()
+
+    def _join_managers(self) -> None:
+        """Waits for every pool's manager thread, finished pools' too: one still closing its wake-up
+        pipe when the interpreter exits races CPython 3.11's exit hook, which writes to that pipe
+        ("Exception ignored in threading ... Bad file descriptor" after the command's last line).
+        `shutdown(wait=False)` forgets the thread, so it is kept here from the pool's first submit."""
+        with self._ready:
+            managers, self._managers = self._managers, []
+        for manager in managers:
+            if manager is not None and manager is not threading.current_thread():
+                manager.join()
 
 
 @contextlib.contextmanager
