@@ -64,7 +64,7 @@ class OnePerTask(Executor):
         self._ready = threading.Condition()
         self._pending: deque[tuple[Future[Any], Callable[..., Any], tuple[Any, ...], dict[str, Any]]] = deque()
         self._pools: set[ProcessPoolExecutor] = set()
-        self._managers: list[threading.Thread] = []  # every pool's manager thread, joined at shutdown
+        self._managers: list[threading.Thread | None] = []  # every pool's manager thread, joined at shutdown
         self._closed = False
         self._launcher = threading.Thread(target=self._launch, name="OnePerTask launcher", daemon=True)
         self._launcher.start()
@@ -95,7 +95,7 @@ class OnePerTask(Executor):
                 pool = ProcessPoolExecutor(max_workers=1, initializer=_worker_init, initargs=(os.getpid(),))
                 self._pools.add(pool)
                 inner = pool.submit(fn, *args, **kwargs)  # forks here, in this thread
-                self._managers.append(pool._executor_manager_thread)  # type: ignore[attr-defined]
+                self._managers.append(getattr(pool, "_executor_manager_thread", None))
                 self._ready.notify_all()
             inner.add_done_callback(functools.partial(self._finished, outer, pool))
 
