@@ -41,7 +41,7 @@ import numpy as np
 from ...equations import _forms as forms
 from ..engines.hand import HandSource
 from ..errors import HarnessError, IntegrationStopped, unknown_name
-from ..systems import tracing
+from ..systems import System, tracing
 from ..systems.forms import accelerations_only
 from . import cache
 from .integrate import DEFAULT_BUDGET, Budget, Trajectory
@@ -75,7 +75,7 @@ class SymbolicDynamics:
         return list(zip(self.state, self.rhs, strict=True))
 
 
-def param_key(system: Any) -> tuple[tuple[str, str], ...]:
+def param_key(system: System) -> tuple[tuple[str, str], ...]:
     return tuple((k, float(v).hex()) for k, v in sorted(vars(system.params).items()))
 
 
@@ -86,7 +86,7 @@ def _symbolic(name: str, module: types.ModuleType, p: Any, n: int) -> SymbolicDy
     qs = [hy.expression(f"q{i}") for i in range(n)]
     vs = [hy.expression(f"v{i}") for i in range(n)]
     try:
-        system = types.SimpleNamespace(nv=n, equations=module, params=p)
+        system = tracing.SystemParts(nv=n, equations=module, params=p)
         m, bias, passive = tracing.dynamics(system, qs, vs, tracing.heyoka_backend())
         f = [hy.par[i] + passive[i] - bias[i] for i in range(n)]
         a = tracing.solve_spd(m, f)
@@ -101,12 +101,12 @@ def _symbolic(name: str, module: types.ModuleType, p: Any, n: int) -> SymbolicDy
     return SymbolicDynamics(n=n, state=tuple(qs + vs), rhs=tuple(vs + a))
 
 
-def symbolic_dynamics(system: Any) -> SymbolicDynamics:
+def symbolic_dynamics(system: System) -> SymbolicDynamics:
     """The system's hand equations as heyoka expressions (traced once per parameter set)."""
     return _symbolic(system.name, system.equations, system.params, system.nv)
 
 
-def rhs_check(system: Any, *, n_states: int = 64, seed: int = 0) -> float:
+def rhs_check(system: System, *, n_states: int = 64, seed: int = 0) -> float:
     """max |a_traced - a_numpy| / max |a_numpy| at random states: the trace reproduces the module."""
 
     dyn = symbolic_dynamics(system)
@@ -147,7 +147,7 @@ def _extended_available() -> bool:
 _INTEGRATORS: dict[tuple[Any, ...], Any] = {}
 
 
-def taylor_integrator(system: Any, precision: str, tol: float | None) -> Any:
+def taylor_integrator(system: System, precision: str, tol: float | None) -> Any:
     """A compiled heyoka integrator for the system (kept for the process; state reset per use)."""
     import heyoka as hy
 
@@ -228,7 +228,7 @@ class TaylorGuard:
 
 
 def taylor_solve(
-    system: Any,
+    system: System,
     q0: np.ndarray,
     v0: np.ndarray,
     tau: np.ndarray,
@@ -298,7 +298,9 @@ def source_hash(path: str | None) -> str:
     return hashlib.sha256(Path(path or "").read_bytes()).hexdigest() if path else ""
 
 
-def cache_key(system: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t: np.ndarray, *, check: str | None) -> str:
+def cache_key(
+    system: System, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t: np.ndarray, *, check: str | None
+) -> str:
     """Hash of everything the reference depends on."""
     import heyoka as hy
 
@@ -324,7 +326,7 @@ def cache_key(system: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t: n
     return hashlib.sha256(json.dumps(blob, sort_keys=True).encode()).hexdigest()[:24]
 
 
-def _check_inputs(system: Any, q0: Any, v0: Any, tau: Any, t: Any) -> tuple[np.ndarray, ...]:
+def _check_inputs(system: System, q0: Any, v0: Any, tau: Any, t: Any) -> tuple[np.ndarray, ...]:
     n = system.nv
     arrays = []
     for name, x in (("q0", q0), ("v0", v0), ("tau", tau)):
@@ -341,7 +343,7 @@ def _check_inputs(system: Any, q0: Any, v0: Any, tau: Any, t: Any) -> tuple[np.n
 
 
 def reference_trajectory(
-    system: Any,
+    system: System,
     q0: Any,
     v0: Any,
     tau: Any,
@@ -427,7 +429,7 @@ def reference_trajectory(
     return traj, info
 
 
-def _checked_rhs(system: Any) -> float:
+def _checked_rhs(system: System) -> float:
     """`rhs_check`, refusing a trace that does not reproduce the module."""
     error = rhs_check(system)
     if error > RHS_CHECK_TOLERANCE:
@@ -438,7 +440,7 @@ def _checked_rhs(system: Any) -> float:
     return error
 
 
-def window_check(system: Any, traj: Trajectory, tau: np.ndarray) -> float:
+def window_check(system: System, traj: Trajectory, tau: np.ndarray) -> float:
     """Largest difference (rad, rad/s) between stored samples k+1 and classic RK4 (all windows at
     once) restarted from stored sample k: a stored solution satisfies the hand equations in every
     window (a shifted, scaled or spliced one does not). The check's own step comes from the model:
@@ -479,7 +481,7 @@ def _rk4_windows(f: Any, x: np.ndarray, h: np.ndarray, steps: int) -> np.ndarray
 
 
 def _content_problem(
-    system: Any, traj: Trajectory, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t: np.ndarray
+    system: System, traj: Trajectory, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t: np.ndarray
 ) -> str | None:
     """Why a stored reference cannot be the solution asked for, or None."""
     n = system.nv

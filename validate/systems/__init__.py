@@ -13,6 +13,7 @@ import importlib
 import json
 import math
 import pkgutil
+from collections.abc import Hashable
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
@@ -161,7 +162,7 @@ class System:
     locked: tuple[str, ...] = ()  # URDF joints made fixed (urdf.lock), a named step listed in the alignments
     # The MJCF text to use instead of the file's (a probe's edited copy); `mjcf` still names the file.
     text: str | None = field(default=None, repr=False)
-    _cache: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
+    _cache: dict[Hashable, Any] = field(default_factory=dict, compare=False, repr=False)
 
     def __post_init__(self) -> None:
 

@@ -28,7 +28,7 @@ import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
 from types import FrameType
-from typing import Any
+from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 
@@ -438,8 +438,27 @@ def vector(x: Any, n: int, backend: Backend) -> list[Any]:
     return [unwrap(e, backend) for e in np.broadcast_to(np.asarray(x, dtype=object), (n,))]
 
 
+class Traceable(Protocol):
+    """What `dynamics` reads of a system: a `System`, or the `SystemParts` of one."""
+
+    @property
+    def nv(self) -> int: ...
+    @property
+    def equations(self) -> Any: ...
+    @property
+    def params(self) -> Any: ...
+
+
+class SystemParts(NamedTuple):
+    """The three parts of a system `dynamics` traces, where no `System` is at hand (a cached module)."""
+
+    nv: int
+    equations: Any
+    params: Any
+
+
 def dynamics(
-    system: Any, qs: list[Any], vs: list[Any], backend: Backend
+    system: Traceable, qs: list[Any], vs: list[Any], backend: Backend
 ) -> tuple[list[list[Any]], list[Any], list[Any]]:
     """The hand equations' M, bias and passive as backend expressions in the symbols qs, vs; a
     HarnessError naming the module's function and line where they cannot be traced."""

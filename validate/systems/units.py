@@ -5,9 +5,12 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:  # the package imports this module
+    from . import System
 
 KEY_UNITS = {  # the last part of a model key -> its unit (modelview.py's key list)
     "mass": "kg",
@@ -43,7 +46,7 @@ def _numeric(x: Any) -> np.ndarray | None:
         return None
 
 
-def parameter_keys(system: Any) -> dict[str, dict[str, Any]]:
+def parameter_keys(system: System) -> dict[str, dict[str, Any]]:
     """{Params field: {"keys": model keys it sets, "unit": their unit}}: each field doubled alone, the
     keys of `assumptions` that change with it. A field no key follows gets an empty unit (unknown)."""
     eq, params = system.equations, system.params
@@ -86,7 +89,7 @@ def _kind(key: str) -> str:
     return "gravity" if key == "gravity" else key.rsplit("/", 1)[-1]
 
 
-def _read_keys(system: Any) -> dict[str, dict[str, Any]]:
+def _read_keys(system: System) -> dict[str, dict[str, Any]]:
     """{Params field: {"keys": the model numbers parameters() reads for it, "unit": theirs}} (a field
     that one number alone moves in proportion has that number's unit; else unknown)."""
     from .reads import knobs
