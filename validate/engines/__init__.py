@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import HarnessError, unknown_name
+from ..systems import System
 from .base import Kinematics, Source
 from .hand import HandSource
 
@@ -114,7 +115,7 @@ class MappedSource:
         return self.A @ q, self.A @ v
 
 
-def make_source(system: Any, name: str) -> Any:
+def make_source(system: System, name: str) -> Any:
     """The source called `name` for `system` ("hand", "mujoco", "pinocchio", "symbolic" or "drake").
 
     Engines read joint coordinates; where the notes' coordinates are a linear map of them
@@ -155,7 +156,7 @@ def make_source(system: Any, name: str) -> Any:
 SYMBOLIC_MAX_DOF = 4
 
 
-def make_sources(system: Any) -> Sources:
+def make_sources(system: System) -> Sources:
     """Every source for `system`; the symbolic one only for chains of at most SYMBOLIC_MAX_DOF joints;
     Drake where pydrake is installed and its parser reads the model (else in `skipped`, with why)."""
     skip = {"symbolic"} if system.nv > SYMBOLIC_MAX_DOF else set()

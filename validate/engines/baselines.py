@@ -8,8 +8,10 @@ from typing import Any
 
 import numpy as np
 
+from ..systems import System
 
-def joint_coordinates(system: Any, states: Any, a: np.ndarray) -> tuple[np.ndarray, ...]:
+
+def joint_coordinates(system: System, states: Any, a: np.ndarray) -> tuple[np.ndarray, ...]:
     """q, v, a, tau in joint coordinates (engines see joints; JOINT_MAP maps them to the notes')."""
     A = system.joint_map
     if A is None:
@@ -18,7 +20,7 @@ def joint_coordinates(system: Any, states: Any, a: np.ndarray) -> tuple[np.ndarr
     return states.q @ Ainv.T, states.v @ Ainv.T, a @ Ainv.T, states.tau @ A
 
 
-def to_notes(system: Any, out: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+def to_notes(system: System, out: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     A = system.joint_map
     if A is None:
         return out
@@ -30,7 +32,7 @@ def to_notes(system: Any, out: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     return out
 
 
-def raw_mujoco(system: Any, source: Any, states: Any, a_ref: np.ndarray) -> dict[str, np.ndarray]:
+def raw_mujoco(system: System, source: Any, states: Any, a_ref: np.ndarray) -> dict[str, np.ndarray]:
     """Per state: write qpos/qvel/ctrl (or qfrc_applied), mj_forward, mj_fullM; write qacc = a_ref,
     mj_inverse. The same outputs as `MujocoSource.evaluate`, in the notes' coordinates."""
     import mujoco
@@ -84,7 +86,7 @@ def raw_mujoco(system: Any, source: Any, states: Any, a_ref: np.ndarray) -> dict
     return to_notes(system, out)
 
 
-def raw_pinocchio(system: Any, source: Any, states: Any, a_ref: np.ndarray) -> dict[str, np.ndarray]:
+def raw_pinocchio(system: System, source: Any, states: Any, a_ref: np.ndarray) -> dict[str, np.ndarray]:
     """Per state: crba, rnea at zero acceleration (the bias), aba, rnea, computeKineticEnergy,
     computePotentialEnergy (which also places the joints, read for the body poses). The same outputs as
     `PinocchioSource.evaluate`."""
@@ -143,7 +145,7 @@ def raw_pinocchio(system: Any, source: Any, states: Any, a_ref: np.ndarray) -> d
     return to_notes(system, out)
 
 
-def raw_symbolic(system: Any, source: Any, states: Any) -> list[Any]:
+def raw_symbolic(system: System, source: Any, states: Any) -> list[Any]:
     """The derived equations' generated numpy code (dynamics and the bodies' kinematics) called once on
     the batch, nothing unpacked or solved: the least the symbolic source can cost."""
     sym = getattr(source, "inner", source)

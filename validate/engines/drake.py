@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import HarnessError
+from ..systems import System
 from .base import Kinematics
 
 INSTALL = "pip install 'lagrange-xval[drake]' (requirements.lock pins drake)"
@@ -56,7 +57,7 @@ class _Collect(logging.Handler):
             self.lines.append(text)
 
 
-def parse(system: Any) -> tuple[Any, list[str]]:
+def parse(system: System) -> tuple[Any, list[str]]:
     """Drake's (unfinalized) plant of the system's model and the parser's warnings. Raises
     HarnessError naming the first line of Drake's error when its parser refuses the model."""
     from pydrake.multibody.parsing import Parser
@@ -84,7 +85,7 @@ def parse(system: Any) -> tuple[Any, list[str]]:
     return plant, named[1:] + warnings
 
 
-def _weld_root(system: Any, plant: Any) -> list[str]:
+def _weld_root(system: System, plant: Any) -> list[str]:
     """A URDF's root link welded to the world: Drake's URDF parser would make it a free body, where
     MuJoCo and Pinocchio fix it (the harness compares fixed-base chains)."""
     import xml.etree.ElementTree as ET
@@ -111,7 +112,7 @@ def _named(mjcf: str, name: str) -> list[str]:
     return [mjcf[: root.start()] + tag + mjcf[root.end() :], line]
 
 
-def _align(system: Any, plant: Any) -> list[str]:
+def _align(system: System, plant: Any) -> list[str]:
     """Sets what Drake read differently from the model the others see; one line per change."""
     out = _weld_root(system, plant) if system.reads_urdf else []
     gravity = np.array(system.view["gravity"], dtype=float)
@@ -146,7 +147,7 @@ def _align(system: Any, plant: Any) -> list[str]:
     return out
 
 
-def parsed_values(system: Any, plant: Any) -> dict[str, tuple[float, float]]:
+def parsed_values(system: System, plant: Any) -> dict[str, tuple[float, float]]:
     """Each compared joint's damping and armature (a motor's reflected inertia) as Drake's parser read them."""
     motors = {plant.get_joint_actuator(a).joint().name(): a for a in plant.GetJointActuatorIndices()}
     out = {}
@@ -159,7 +160,7 @@ def parsed_values(system: Any, plant: Any) -> dict[str, tuple[float, float]]:
     return out
 
 
-def build_plant(system: Any) -> tuple[Any, list[str], dict[str, tuple[float, float]]]:
+def build_plant(system: System) -> tuple[Any, list[str], dict[str, tuple[float, float]]]:
     """Drake's finalized plant of the system, what was aligned (parser warnings first), and each joint's
     damping and armature as read before the alignment."""
     plant, warnings = parse(system)
@@ -172,7 +173,7 @@ def build_plant(system: Any) -> tuple[Any, list[str], dict[str, tuple[float, flo
 class DrakeSource:
     name = "drake"
 
-    def __init__(self, system: Any) -> None:
+    def __init__(self, system: System) -> None:
         from pydrake.multibody.tree import MultibodyForces
 
         self.system = system
@@ -220,7 +221,7 @@ class DrakeSource:
     def _potential(self) -> float:
         return float(self.plant.CalcPotentialEnergy(self.context)) - self.fixed_potential
 
-    def _indices(self, system: Any) -> tuple[np.ndarray, np.ndarray]:
+    def _indices(self, system: System) -> tuple[np.ndarray, np.ndarray]:
         qidx, vidx = [], []
         for j in system.joints:
             if not self.plant.HasJointNamed(j):

@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import Any
 
 from ...equations._forms import Implicit
-from ..systems import tracing
+from ..systems import System, tracing
 
 
 def _symbols(n: int) -> tuple[list[Any], list[Any], list[Any], list[Any]]:
@@ -39,7 +39,7 @@ def _solve(A: Any, b: list[Any]) -> list[Any]:
 
 
 def hand_accelerations(
-    system: Any, damped_step: float | None = None
+    system: System, damped_step: float | None = None
 ) -> tuple[list[Any], list[Any], list[Any], list[Any]]:
     """a = M^-1 (tau + passive - bias) of the hand equations, symbolically; with `damped_step` h,
     MuJoCo's Euler with implicit joint damping instead: a = (M + h D)^-1 (tau + passive - bias),
@@ -57,7 +57,7 @@ def hand_accelerations(
     return _solve(M, [t + p - b for t, p, b in zip(taus, passive, bias, strict=True)]), qs, vs, taus
 
 
-def variant_accelerations(system: Any, variant: Any) -> tuple[list[Any], list[Any], list[Any], list[Any]]:
+def variant_accelerations(system: System, variant: Any) -> tuple[list[Any], list[Any], list[Any], list[Any]]:
     """The accelerations a printed dynamic form implies, symbolically (implicit forms solved for a)."""
     import sympy as sp
 
@@ -99,7 +99,7 @@ def _compile(source: str, label: str) -> Any:
     return namespace["rhs"]
 
 
-def _key(system: Any, variant: Any, damped_step: float | None = None) -> tuple[Any, ...]:
+def _key(system: System, variant: Any, damped_step: float | None = None) -> tuple[Any, ...]:
     """What the generated code depends on, by identity: the equations module and the functions traced
     (a mutated or reloaded module of the same name has other function objects), the parameter values
     and the variant's own function. Never the system's name alone: `dataclasses.replace(system,
@@ -112,7 +112,7 @@ def _key(system: Any, variant: Any, damped_step: float | None = None) -> tuple[A
     return ("scalar_rhs", eq, params, variant.name, own, id(variant))
 
 
-def scalar_rhs(system: Any, variant: Any = None, *, damped_step: float | None = None) -> Any:
+def scalar_rhs(system: System, variant: Any = None, *, damped_step: float | None = None) -> Any:
     """The compiled scalar right-hand side `rhs(t, y, tau) -> list` of the hand equations, or of a
     printed dynamic form; cached on the System, keyed by what it was generated from (`_key`).
     `damped_step` h (hand equations only): the accelerations of MuJoCo's Euler step with implicit

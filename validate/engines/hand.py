@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import HarnessError
+from ..systems import System
 from ..systems.forms import accelerations_only, not_provided_in, written_form
 from ..systems.values import real_array
 
@@ -39,7 +40,7 @@ class HandSource:
     name = "hand"
     traced_rhs = ""  # why the generated one-state code stands aside (the module cannot be traced), if it does
 
-    def __init__(self, system: Any) -> None:
+    def __init__(self, system: System) -> None:
         self.system = system
         self.eq = system.equations
         self.p = system.params

@@ -14,6 +14,7 @@ import mujoco
 import numpy as np
 
 from ..errors import HarnessError, unknown_name
+from ..systems import System
 from .base import INTEGRATOR_ENUMS, MUJOCO_INTEGRATORS, Kinematics, batch_threads
 
 # What a batch sets per state with one mj_setState call (in this order in a state row).
@@ -81,7 +82,7 @@ def _rows(
 class MujocoSource:
     name = "mujoco"
 
-    def __init__(self, system: Any) -> None:
+    def __init__(self, system: System) -> None:
         self.system = system
         self.m = system.mujoco_model()
         self.m.opt.enableflags |= int(mujoco.mjtEnableBit.mjENBL_ENERGY)

@@ -16,6 +16,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import HarnessError
+from ..systems import System
 from ..systems.urdf import for_pinocchio
 from .base import Kinematics
 
@@ -27,7 +28,7 @@ from .base import Kinematics
 LOCAL = pin.Convention.LOCAL
 
 
-def build_model(system: Any) -> Any:
+def build_model(system: System) -> Any:
     """Pinocchio's model of the system's MJCF (with any overrides) or URDF, gravity copied from MuJoCo."""
     if system.reads_urdf:
         try:
@@ -55,7 +56,7 @@ def build_model(system: Any) -> Any:
 class PinocchioSource:
     name = "pinocchio"
 
-    def __init__(self, system: Any) -> None:
+    def __init__(self, system: System) -> None:
         self.system = system
         self.model = build_model(system)
         self.data = self.model.createData()

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from ..systems import System
 from .base import Kinematics
 from .derivation import Derivation, derive, parameter_values, structure_key
 from .hand import solve_or_nan
@@ -23,7 +24,7 @@ _DERIVED: dict[Any, Derivation] = {}
 _CODE: dict[tuple[Any, str], Any] = {}
 
 
-def derivation_of(system: Any, key: Any = None) -> Derivation:
+def derivation_of(system: System, key: Any = None) -> Derivation:
     """The symbolic derivation of `system`'s model in its joints' coordinates (kept per structure;
     `key`: its structure_key, if already computed)."""
     key = structure_key(system.view, system.joints) if key is None else key
@@ -76,7 +77,7 @@ class SymbolicSource:
 
     name = "symbolic"
 
-    def __init__(self, system: Any) -> None:
+    def __init__(self, system: System) -> None:
         self.system = system
         self.key = structure_key(system.view, system.joints)
         self.derivation = derivation_of(system, self.key)

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import HarnessError
+from ..systems import System
 from .base import INTEGRATOR_ENUMS
 from .mujoco import MujocoSource
 
@@ -56,7 +57,7 @@ class WarpSource:
 
     name = "warp"
 
-    def __init__(self, system: Any, *, device: str | None = None) -> None:
+    def __init__(self, system: System, *, device: str | None = None) -> None:
         self.wp, self.mjw = warp_modules()
         self.device = device or str(self.wp.get_preferred_device())
         self.c = MujocoSource(system)  # C MuJoCo's model and coordinate maps, shared
@@ -188,7 +189,7 @@ class WarpSource:
 
 
 def run_in_coordinates(
-    system: Any, source: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, *, samples: int, steps: int
+    system: System, source: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, *, samples: int, steps: int
 ) -> dict[str, Any]:
     """Warp's own run in the system's coordinates: it steps in the joints' (`WarpSource.run`), so where
     the coordinates map them (JOINT_MAP: q = A q_joints, tau_joints = A^T tau) the start goes in mapped
