@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import unknown_name
+from ..systems import System
 from ..systems.forms import accelerations_only
 from .flow import DEFAULT_TOLERANCE as DEFAULT_TOLERANCE
 from .flow import SAFETY as SAFETY
@@ -97,7 +98,7 @@ JACOBIAN_STEP = 1e-6  # central differences of the accelerations, relative to ma
 
 
 def _run(
-    system: Any,
+    system: System,
     sources: dict[str, Any],
     engine: str,
     q0: np.ndarray,
@@ -115,7 +116,7 @@ def _run(
 
 
 def window_errors(
-    system: Any,
+    system: System,
     sources: dict[str, Any],
     engine: str,
     ref: Trajectory,
@@ -136,7 +137,7 @@ def window_errors(
 
 
 def free_run_check(
-    system: Any,
+    system: System,
     sources: dict[str, Any],
     q0: Any,
     v0: Any,
@@ -196,7 +197,7 @@ def _free_run_entry(
 
 
 def pair_check(
-    system: Any,
+    system: System,
     sources: dict[str, Any],
     a: str,
     b: str,
@@ -320,7 +321,7 @@ def sweep_timesteps(integrator: str, rate: float) -> tuple[tuple[float, ...], fl
 
 
 def convergence_order(
-    system: Any,
+    system: System,
     sources: dict[str, Any],
     q0: Any,
     v0: Any,
@@ -378,7 +379,7 @@ def convergence_order(
 
 
 def energy_drift(
-    system: Any,
+    system: System,
     sources: dict[str, Any],
     q0: Any,
     v0: Any,
@@ -422,7 +423,7 @@ def energy_drift(
 
 
 def crossvalidate(
-    system: Any,
+    system: System,
     sources: dict[str, Any],
     *,
     q0: Any = None,
@@ -540,7 +541,7 @@ NO_DAMPED_MIRROR = (
 )
 
 
-def _unmirrorable(system: Any, integrators: dict[str, Any]) -> None:
+def _unmirrorable(system: System, integrators: dict[str, Any]) -> None:
     """Marks the hand equations' mirror of MuJoCo's damped Euler as not judged where it cannot be built."""
     if not (accelerations_only(system.equations) and "damping" in system.uses):
         return

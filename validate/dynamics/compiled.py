@@ -34,7 +34,7 @@ import numpy as np
 from ..engines.derivation import parameter_values
 from ..engines.symbolic import derivation_of
 from ..errors import HarnessError
-from ..systems import tracing
+from ..systems import System, tracing
 from .reference import param_key, symbolic_dynamics
 
 # MuJoCo's RK4 tableau (`mj_RungeKutta(m, d, 4)`), used by the mirrors (mirror.py) and the compiled steps
@@ -48,12 +48,12 @@ UNROLLED_MAX_DOF = 2  # steps composed into one compiled call (compile time grow
 _CACHE: dict[tuple[Any, ...], Any] = {}
 
 
-def _key(system: Any, *what: Any) -> tuple[Any, ...]:
+def _key(system: System, *what: Any) -> tuple[Any, ...]:
     # the module itself, not its name: a mutated module of the same name gets its own code
     return (system.name, system.overrides, param_key(system), system.equations, *what)
 
 
-def derived_ode(system: Any) -> list[tuple[Any, Any]]:
+def derived_ode(system: System) -> list[tuple[Any, Any]]:
     """The model's equations derived symbolically (the "symbolic" source) as a heyoka ODE in the
     joints' coordinates: x = (q_joint, v_joint), a = M^-1 (tau - (C v + G - passive)), tau = par[0:n]."""
     import heyoka as hy
@@ -75,7 +75,7 @@ def derived_ode(system: Any) -> list[tuple[Any, Any]]:
     return list(zip(qs + vs, vs + a, strict=True))
 
 
-def taylor_integrator(system: Any, tol: float, *, compact: bool = False, source: str = "hand") -> Any:
+def taylor_integrator(system: System, tol: float, *, compact: bool = False, source: str = "hand") -> Any:
     """heyoka's adaptive Taylor integrator in double precision at `tol` of the hand equations (or,
     with source="symbolic", of the derived ones in joint coordinates); tau = par[0:n]. Built once per
     process and reused (its state is set by `taylor_grid`)."""
@@ -108,7 +108,7 @@ def taylor_grid(
     return ("ok" if word == "time_limit" else word), out, int(steps)
 
 
-def compiled_rhs(system: Any) -> Callable[[float, Any, Any], np.ndarray]:
+def compiled_rhs(system: System) -> Callable[[float, Any, Any], np.ndarray]:
     """f(t, y, tau) -> (2n,) [v, a] of the hand equations as one compiled call (a heyoka `cfunc`)."""
     import heyoka as hy
 
@@ -124,7 +124,7 @@ def compiled_rhs(system: Any) -> Callable[[float, Any, Any], np.ndarray]:
     return rhs
 
 
-def _rk4_expressions(system: Any, steps: int) -> tuple[list[Any], list[Any]]:
+def _rk4_expressions(system: System, steps: int) -> tuple[list[Any], list[Any]]:
     """`steps` RK4 steps of the hand equations as heyoka expressions of the state; tau = par[0:n],
     the timestep h = par[n]. MuJoCo's `mj_RungeKutta` operation for operation (mirror.py: the stage
     increments accumulated from 0 over the tableau's row, q_i = q + h dq, v_i = v + dv h, the final
@@ -160,7 +160,7 @@ def _rk4_expressions(system: Any, steps: int) -> tuple[list[Any], list[Any]]:
     return x, state
 
 
-def compiled_rk4(system: Any, steps: int) -> Any:
+def compiled_rk4(system: System, steps: int) -> Any:
     """A heyoka `cfunc` doing `steps` RK4 steps of the hand equations: cf(y, pars=[tau..., h]) -> y'."""
     import heyoka as hy
 

@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from ..systems import System
 from .integrate import Trajectory
 
 # Drake's free run in `run`: its error-controlled RK3. Measured over 10 s (max error against the
@@ -22,7 +23,7 @@ def drake_method(scheme: str, accuracy: float | None, max_step: float) -> str:
 
 
 def drake_trajectory(
-    system: Any,
+    system: System,
     source: Any,
     q0: Any,
     v0: Any,

@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from ..checks.tolerances import TOLERANCES
+from ..systems import System
 from .drakerun import DRAKE_DEFAULT, drake_trajectory
 from .flow import SAFETY as FLOW_SAFETY
 from .integrate import SCIPY_DEFAULT, Trajectory, mujoco_trajectory, scipy_trajectory
@@ -51,7 +52,7 @@ def rule() -> str:
 
 
 def mujoco_estimate(
-    system: Any, source: Any, tr: Trajectory, q0: Any, v0: Any, tau: Any, *, integrator: str = "RK4"
+    system: System, source: Any, tr: Trajectory, q0: Any, v0: Any, tau: Any, *, integrator: str = "RK4"
 ) -> tuple[np.ndarray, str]:
     """(K,) rad: the Richardson estimate of a MuJoCo run's error at its model timestep, and how."""
     dt = float(source.m.opt.timestep)
@@ -63,7 +64,7 @@ def mujoco_estimate(
 
 
 def scipy_estimate(
-    system: Any, source: Any, tr: Trajectory, q0: Any, v0: Any, tau: Any, *, opts: dict[str, Any] | None = None
+    system: System, source: Any, tr: Trajectory, q0: Any, v0: Any, tau: Any, *, opts: dict[str, Any] | None = None
 ) -> tuple[np.ndarray, str]:
     """(K,) rad: a scipy run's error estimated from the same method at a tenth of its tolerances.
     A check run that stops early (budget, blow-up) gives NaN samples: no estimate there (the floor)."""
@@ -79,7 +80,7 @@ def scipy_estimate(
     )
 
 
-def drake_estimate(system: Any, source: Any, tr: Trajectory, q0: Any, v0: Any, tau: Any) -> tuple[np.ndarray, str]:
+def drake_estimate(system: System, source: Any, tr: Trajectory, q0: Any, v0: Any, tau: Any) -> tuple[np.ndarray, str]:
     """(K,) rad: a Drake error-controlled run's error estimated from the same scheme at a tenth of its
     target accuracy (DRAKE_DEFAULT's), as scipy's; a check run that stops gives no estimate there."""
     o = DRAKE_DEFAULT
@@ -93,7 +94,7 @@ def drake_estimate(system: Any, source: Any, tr: Trajectory, q0: Any, v0: Any, t
 
 
 def run_estimate(
-    system: Any, sources: dict[str, Any], tr: Trajectory, q0: Any, v0: Any, tau: Any
+    system: System, sources: dict[str, Any], tr: Trajectory, q0: Any, v0: Any, tau: Any
 ) -> tuple[np.ndarray, str]:
     """The error estimate of one of `fast.run_trajectories`' runs, by how it was made."""
     if tr.source == "mujoco":
@@ -114,7 +115,7 @@ ABA_METHOD, ABA_RTOL = "DOP853", 1e-12  # the reference of a chain with no symbo
 
 
 def aba_reference(
-    system: Any, source: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray
+    system: System, source: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray
 ) -> tuple[Trajectory, Trajectory, dict[str, Any]]:
     """The reference of a chain with no symbolic source (no equations the Taylor method can trace):
     Pinocchio's ABA by scipy's ABA_METHOD at ABA_RTOL, and its check, the same at half the tolerances;

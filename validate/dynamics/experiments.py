@@ -25,6 +25,7 @@ import numpy as np
 from ...equations._forms import Explicit, Implicit, NotApplicable
 from ..engines.fastpath import scalar_rhs
 from ..engines.hand import HandSource
+from ..systems import System
 from .fast import accurate_trajectory
 from .integrate import DEFAULT_BUDGET, Budget, first_exceeding, initial_state, integrate_rhs, outcome, time_grid
 
@@ -35,7 +36,7 @@ T_END = 10.0  # s, the notes' [0, 10]
 DT_OUT = 0.02  # s
 
 
-def dynamic_forms(system: Any) -> list[tuple[str, Any]]:
+def dynamic_forms(system: System) -> list[tuple[str, Any]]:
     """(name, variant) for the hand derivation (variant None) and every printed form with dynamics."""
     return [("hand derivation", None)] + [(v.name, v) for v in system.variants if isinstance(v, (Explicit, Implicit))]
 
@@ -75,7 +76,7 @@ def _status(info: dict[str, Any]) -> str:
     return "ok" if info["status"] == "ok" else str(info["reason"])
 
 
-def run_experiments(system: Any) -> dict[str, Any]:
+def run_experiments(system: System) -> dict[str, Any]:
     """Both initial conditions, both tolerances, every dynamic form; plain data for the report."""
     q0, v0 = initial_state(system)
     tau = np.zeros(system.nv)

@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import HarnessError
+from ..systems import System
 from .compiled import UNROLLED_MAX_DOF, taylor_grid, taylor_integrator
 from .drakerun import drake_trajectory
 from .integrate import (
@@ -60,7 +61,7 @@ def taylor_method(tol: float = FAST_TOLERANCE) -> str:
 
 
 def taylor_trajectory(
-    system: Any,
+    system: System,
     source: str,
     q0: Any,
     v0: Any,
@@ -118,7 +119,7 @@ def taylor_trajectory(
 
 
 def accurate_trajectory(
-    system: Any,
+    system: System,
     source: Any,
     q0: Any,
     v0: Any,
@@ -147,7 +148,7 @@ def accurate_trajectory(
 
 
 def run_trajectories(
-    system: Any, sources: dict[str, Any], *, t_end: float = DEFAULT_T_END, dt_out: float = DEFAULT_DT_OUT
+    system: System, sources: dict[str, Any], *, t_end: float = DEFAULT_T_END, dt_out: float = DEFAULT_DT_OUT
 ) -> list[Trajectory]:
     """The sources' free runs from the system's initial state: scipy (SCIPY_DEFAULT) on the hand
     equations, the path a user of scipy takes, and on Pinocchio's ABA (an engine's right-hand side

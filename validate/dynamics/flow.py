@@ -10,6 +10,7 @@ import numpy as np
 
 from ..checks.tolerances import TOLERANCES
 from ..errors import HarnessError
+from ..systems import System
 from .integrate import DEFAULT_BUDGET, Budget, time_grid
 from .reference import TaylorGuard, param_key, symbolic_dynamics
 
@@ -34,7 +35,7 @@ class Flow:
 _VAR_INTEGRATORS: dict[tuple[Any, ...], Any] = {}
 
 
-def variational_integrator(system: Any, precision: str) -> Any:
+def variational_integrator(system: System, precision: str) -> Any:
     import heyoka as hy
 
     key = (system.name, system.overrides, param_key(system), system.equations, precision)  # the module, not its id
@@ -62,7 +63,7 @@ def reset_variational(ta: Any, n: int, x0: np.ndarray, tau: np.ndarray, t0: floa
 
 
 def flow(
-    system: Any,
+    system: System,
     q0: Any,
     v0: Any,
     tau: Any,
@@ -229,7 +230,7 @@ def sample_at(t: np.ndarray, y: np.ndarray, at: tuple[float, ...] = (1.0, 2.0, 5
 
 
 def horizon_from_rounding(
-    system: Any,
+    system: System,
     q0: Any,
     v0: Any,
     tau: Any,

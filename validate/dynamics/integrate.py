@@ -16,6 +16,7 @@ import numpy as np
 
 from ..engines.base import MUJOCO_INTEGRATORS as MUJOCO_INTEGRATORS  # re-exported: dynamics names them
 from ..errors import HarnessError, unknown_name
+from ..systems import System
 
 DEFAULT_T_END = 10.0  # s
 DEFAULT_DT_OUT = 0.01  # s
@@ -45,7 +46,7 @@ class Trajectory:
         return f"{self.source} ({self.method})"
 
 
-def initial_state(system: Any) -> tuple[np.ndarray, np.ndarray]:
+def initial_state(system: System) -> tuple[np.ndarray, np.ndarray]:
     """The module's INITIAL_STATE (the notes' experiment) or a generic 0.5 rad, at rest."""
     q0, v0 = getattr(system.equations, "INITIAL_STATE", (np.full(system.nv, 0.5), np.zeros(system.nv)))
     return np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)
@@ -460,7 +461,7 @@ def _mass_matrix_finding(
 
 
 def scipy_trajectory(
-    system: Any,
+    system: System,
     source: Any,
     q0: np.ndarray,
     v0: np.ndarray,
@@ -500,7 +501,7 @@ def scipy_trajectory(
 
 
 def mujoco_trajectory(
-    system: Any,
+    system: System,
     source: Any,
     q0: np.ndarray,
     v0: np.ndarray,
@@ -536,7 +537,7 @@ class Diverged(HarnessError):
 
 
 def _diverged(
-    system: Any, integrator: str, dt: float, t: np.ndarray, k: int, q: Any, v: Any, raised: list[tuple[str, int]]
+    system: System, integrator: str, dt: float, t: np.ndarray, k: int, q: Any, v: Any, raised: list[tuple[str, int]]
 ) -> None:
     """Refuses sample k of a MuJoCo run: one line naming the time and what went wrong."""
     names = [name for name, _ in raised]
@@ -552,7 +553,7 @@ def _diverged(
     )
 
 
-def energy(system: Any, hand: Any, traj: Trajectory) -> np.ndarray:
+def energy(system: System, hand: Any, traj: Trajectory) -> np.ndarray:
     """Total energy T + V along a trajectory, by the hand equations (J)."""
     kin, pot = hand.energies(traj.q, traj.v)
     return kin + pot

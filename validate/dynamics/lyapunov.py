@@ -12,6 +12,7 @@ import numpy as np
 
 from ..errors import HarnessError, unknown_name
 from ..results import dumps
+from ..systems import System
 from . import cache
 from .flow import (
     DEFAULT_TOLERANCE,
@@ -34,7 +35,7 @@ LYAPUNOV_INTERVAL = 0.5  # s between renormalisations (growth per interval e^0.1
 
 
 def lyapunov_exponent(
-    system: Any,
+    system: System,
     q0: Any,
     v0: Any,
     tau: Any = None,
@@ -113,13 +114,13 @@ def lyapunov_exponent(
 
 
 @functools.cache
-def _lyapunov_cached(system: Any, x0: tuple[float, ...], tau: tuple[float, ...], method: str) -> dict[str, Any]:
+def _lyapunov_cached(system: System, x0: tuple[float, ...], tau: tuple[float, ...], method: str) -> dict[str, Any]:
     n = system.nv
     return lyapunov_exponent(system, x0[:n], x0[n:], tau, method=method)
 
 
 def chaos_summary(
-    system: Any,
+    system: System,
     q0: Any,
     v0: Any,
     tau: Any,
@@ -177,7 +178,7 @@ def _summary_problem(summary: dict[str, Any], tolerance: float) -> str | None:
 
 
 def _chaos_summary(
-    system: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, *, t: np.ndarray, tolerance: float
+    system: System, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, *, t: np.ndarray, tolerance: float
 ) -> dict[str, Any]:
     x0 = tuple(float(x) for x in np.concatenate([q0, v0]))
     lyap = _lyapunov_cached(system, x0, tuple(float(x) for x in tau), "variational")

@@ -47,6 +47,7 @@ import numpy as np
 
 from ..engines.hand import HandSource, solve_or_nan
 from ..errors import HarnessError, unknown_name
+from ..systems import System
 from .compiled import RK4_A, RK4_B, RK4_STEPS_PER_CALL, UNROLLED_MAX_DOF, compiled_rk4, rk4_plan
 from .integrate import DEFAULT_BUDGET, EQUATION_ERRORS, MUJOCO_INTEGRATORS, Budget, Trajectory
 
@@ -86,7 +87,7 @@ def force_velocity_jacobian(
     return np.moveaxis((forces[:, 0] - forces[:, 1]) / (2 * step), 0, -1)
 
 
-def eulerdamp_active(system: Any) -> bool:
+def eulerdamp_active(system: System) -> bool:
     """Whether MuJoCo's Euler treats joint damping implicitly for this model (flags and damping)."""
     from ..engines import mujoco as engine
 
@@ -96,7 +97,7 @@ def eulerdamp_active(system: Any) -> bool:
 class Stepper:
     """One of MuJoCo's schemes on a source's dynamics, batched over N states."""
 
-    def __init__(self, system: Any, source: Any, *, integrator: str, timestep: float) -> None:
+    def __init__(self, system: System, source: Any, *, integrator: str, timestep: float) -> None:
         _check_integrator(integrator)
         if not timestep > 0:
             raise HarnessError(f"timestep must be positive; got {timestep}.")
@@ -322,7 +323,7 @@ def _steps_per_sample(t: np.ndarray, timestep: float) -> int:
 
 
 def mirror_trajectory(
-    system: Any,
+    system: System,
     source: Any,
     q0: Any,
     v0: Any,
@@ -402,7 +403,7 @@ def mirror_trajectory(
 
 
 def mirror_steps(
-    system: Any,
+    system: System,
     source: Any,
     q: np.ndarray,
     v: np.ndarray,
@@ -444,7 +445,7 @@ def mujoco_steps(
 
 
 def lockstep(
-    system: Any,
+    system: System,
     sources: dict[str, Any],
     states: Any,
     *,
