@@ -24,6 +24,7 @@ import numpy as np
 
 from ..engines import make_source
 from ..errors import HarnessError
+from ..systems import System
 from .modelsync import mujoco_joint_frames
 from .pointwise import random_states
 
@@ -41,7 +42,7 @@ FRAME = (
 )
 
 
-def mujoco_reading(system: Any, source: Any) -> dict[str, Any]:
+def mujoco_reading(system: System, source: Any) -> dict[str, Any]:
     """MuJoCo's compiled model, keyed as `DrakeSource.reading` keys Drake's."""
     view, m = system.view, source.m
     out: dict[str, Any] = {}
@@ -62,7 +63,7 @@ def mujoco_reading(system: Any, source: Any) -> dict[str, Any]:
     return out
 
 
-def pinocchio_reading(system: Any, source: Any) -> dict[str, Any]:
+def pinocchio_reading(system: System, source: Any) -> dict[str, Any]:
     """Pinocchio's model (a joint's inertia holds its body and the links welded to it)."""
     model = source.model
     out: dict[str, Any] = {}
@@ -154,7 +155,7 @@ def _row(key: str, values: dict[str, Any], floor: float) -> dict[str, Any]:
     return row
 
 
-def readers_of(system: Any, inputs: dict[str, Any]) -> tuple[dict[str, Any], dict[str, str]]:
+def readers_of(system: System, inputs: dict[str, Any]) -> tuple[dict[str, Any], dict[str, str]]:
     """Each reader's source (on `inputs[reader]` where given, else `system`) and why any is missing."""
     sources, skipped = {}, {}
     for name in READERS:
@@ -166,7 +167,7 @@ def readers_of(system: Any, inputs: dict[str, Any]) -> tuple[dict[str, Any], dic
 
 
 def audit(
-    system: Any, *, seed: int = 0, n_states: int = N_STATES, inputs: dict[str, Any] | None = None
+    system: System, *, seed: int = 0, n_states: int = N_STATES, inputs: dict[str, Any] | None = None
 ) -> dict[str, Any]:
     """Every reader's masses, centres of mass, inertias, joint frames, limits, damping and armature side
     by side; the minority named where they differ; the mass matrices' differences at `n_states` states.
@@ -205,7 +206,7 @@ def audit(
     }
 
 
-def mass_matrix_gaps(system: Any, sources: dict[str, Any], *, seed: int, n_states: int) -> dict[str, Any]:
+def mass_matrix_gaps(system: System, sources: dict[str, Any], *, seed: int, n_states: int) -> dict[str, Any]:
     """max |M_a - M_b| (kg m^2 or kg) for every pair of readers over `n_states` seeded states."""
     q = random_states(system, n=n_states, seed=seed).q
     M = {name: src.mass_matrix(q) for name, src in sources.items()}
@@ -236,7 +237,7 @@ def lines(result: dict[str, Any]) -> list[str]:
     return out
 
 
-def audit_of(system: Any, *, seed: int = 0) -> dict[str, Any]:
+def audit_of(system: System, *, seed: int = 0) -> dict[str, Any]:
     """The audit for `run`'s results, or why it could not be made ({"error": ...})."""
     try:
         return audit(system, seed=seed)

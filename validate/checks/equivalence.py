@@ -24,12 +24,12 @@ from ..dynamics.integrate import (
     time_grid,
 )
 from ..engines.hand import HandSource
-from ..systems import load
+from ..systems import System, load
 from .pointwise import random_states
 from .tolerances import TOLERANCES
 
 
-def _map(system: Any) -> np.ndarray:
+def _map(system: System) -> np.ndarray:
     A = system.joint_map
     return np.eye(system.nv) if A is None else A
 
@@ -61,7 +61,12 @@ def _rows_at(this_sys: Any, other_sys: Any, B: np.ndarray, *, n: int, seed: int,
 
 
 def check_equivalence(
-    system: Any, probe_systems: list[Any] | None = None, *, n: int = 200, seed: int = 0, t_end: float = DEFAULT_T_END
+    system: System,
+    probe_systems: list[System] | None = None,
+    *,
+    n: int = 200,
+    seed: int = 0,
+    t_end: float = DEFAULT_T_END,
 ) -> dict[str, Any] | None:
     """Rows of the mapped comparison, or None if the module names no other formulation.
 

@@ -42,6 +42,7 @@ from ..dynamics.cachedir import Cache
 from ..engines.derivation import axis_rotation, parameter_values
 from ..engines.readable import in_coordinates, tidy, transformed
 from ..engines.symbolic import derivation_of
+from ..systems import System
 from ..systems.values import real_array
 from .pointwise import random_states
 
@@ -182,7 +183,7 @@ def _describe(cand: Candidate, c: Fraction) -> str:
 class _Samples:
     """The entry's arguments at the fit and the held-back states: q, v and parameter values."""
 
-    def __init__(self, systems: list[Any], derivation: Any, symbols: dict[str, list[Any]], seed: int) -> None:
+    def __init__(self, systems: list[System], derivation: Any, symbols: dict[str, list[Any]], seed: int) -> None:
         qs, vs, ps, self.states = [], [], [], []
         for k, s in enumerate(systems):
             st = random_states(s, n=STATES_PER_MODEL, seed=seed + 1000 + k)
@@ -224,8 +225,8 @@ def _symbols(coordinates: tuple[str, ...]) -> dict[str, list[Any]]:
 
 
 def explain_entries(
-    system: Any,
-    probe_systems: list[Any],
+    system: System,
+    probe_systems: list[System],
     items: list[tuple[str, str, Any, Any]],
     *,
     seed: int = 0,
@@ -316,7 +317,7 @@ _FUNCTION_OF_PART = {
 def _user_part(part: str, index: tuple[int, ...]) -> Any:
     """user(system, q, v) for one entry of one part of a derivation (mass_matrix, bias, ...)."""
 
-    def user(system: Any, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    def user(system: System, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         eq, p = system.equations, system.params
         zero = np.zeros_like(q)
         if part == "M":
@@ -338,7 +339,7 @@ def _user_part(part: str, index: tuple[int, ...]) -> Any:
     return user
 
 
-def step_expression(system: Any, quantity: tuple[Any, ...], angle_index: int = 0) -> Any:
+def step_expression(system: System, quantity: tuple[Any, ...], angle_index: int = 0) -> Any:
     """The model's own expression of a derivation step's quantity (judge.engine_quantity's list), in
     the system's coordinates: a scalar, a 3-vector or a 3x3 matrix."""
     import sympy as sp
@@ -373,7 +374,7 @@ def step_expression(system: Any, quantity: tuple[Any, ...], angle_index: int = 0
 
 
 def explain(
-    system: Any, probe_systems: list[Any], terms: list[str], *, seed: int = 0, cache: Cache | None = None
+    system: System, probe_systems: list[System], terms: list[str], *, seed: int = 0, cache: Cache | None = None
 ) -> list[dict[str, Any]]:
     """The disagreeing entries of a derivation's `terms` (mass matrix, gravity, ...), explained
     (`cache`: where records are kept, None for nowhere)."""

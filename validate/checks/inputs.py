@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from ...equations._forms import Explicit
+from ..systems import System
 from ..systems.forms import written_form
 from .judge import EngineTerms, judge_variant, term_rows
 from .pointwise import States
@@ -23,7 +24,7 @@ from .tolerances import TOLERANCES, Tolerances
 ErrorRow = Callable[[str, str, str], dict[str, Any]]  # (term, engine, why) -> a failing row
 
 
-def ignored_torques(system: Any, states: States) -> str:
+def ignored_torques(system: System, states: States) -> str:
     """For explicit accelerations taking tau: the coordinates whose tau the person's qacc ignores (a
     published form with inputs on the actuated coordinates only, transcribed with tau), said plainly."""
     if written_form(system.equations) != "c" or system.inputs != "tau":
@@ -49,17 +50,19 @@ def ignored_torques(system: Any, states: States) -> str:
     )
 
 
-def _controls(system: Any, tau: np.ndarray) -> np.ndarray:
+def _controls(system: System, tau: np.ndarray) -> np.ndarray:
     """u with B u = tau (the states' tau is drawn in the inputs' range)."""
     return np.asarray(tau) @ np.linalg.pinv(system.input_matrix).T
 
 
-def _unit_controls(system: Any, q: np.ndarray) -> list[np.ndarray]:
+def _unit_controls(system: System, q: np.ndarray) -> list[np.ndarray]:
     nu = system.input_matrix.shape[1]
     return [np.broadcast_to(np.eye(nu)[k], (len(q), nu)) for k in range(nu)]
 
 
-def _ignored_inputs(system: Any, response: list[np.ndarray], fname: str, error_row: ErrorRow) -> list[dict[str, Any]]:
+def _ignored_inputs(
+    system: System, response: list[np.ndarray], fname: str, error_row: ErrorRow
+) -> list[dict[str, Any]]:
     """A failing actuation row for each input the person's function ignores (its response is zero)."""
     out = []
     for k, col in enumerate(response):
@@ -70,7 +73,7 @@ def _ignored_inputs(system: Any, response: list[np.ndarray], fname: str, error_r
 
 
 def acceleration_rows(
-    system: Any, states: States, terms: EngineTerms, *, error_row: ErrorRow, tolerances: Tolerances = TOLERANCES
+    system: System, states: States, terms: EngineTerms, *, error_row: ErrorRow, tolerances: Tolerances = TOLERANCES
 ) -> list[dict[str, Any]]:
     """Explicit accelerations with inputs u, judged as a printed explicit form is (judge.py): each
     force's acceleration M^-1 (G, C v, friction, B u) against the engines', and the accelerations."""
@@ -100,7 +103,7 @@ def acceleration_rows(
 
 
 def actuation_rows(
-    system: Any, states: States, terms: EngineTerms, *, error_row: ErrorRow, tolerances: Tolerances = TOLERANCES
+    system: System, states: States, terms: EngineTerms, *, error_row: ErrorRow, tolerances: Tolerances = TOLERANCES
 ) -> list[dict[str, Any]]:
     """An implicit residual with inputs u: -(r(q, 0, 0, u) - r(q, 0, 0, 0)) is the person's B u, against tau."""
     r, p, q = system.equations.ORIGINAL.residual, system.params, states.q

@@ -32,6 +32,7 @@ from ...equations._forms import DerivationStep, Implicit, NotApplicable
 from ..dynamics.cachedir import Cache
 from ..engines import make_source, make_sources
 from ..errors import HarnessError
+from ..systems import System
 from ..systems.modelview import ModelView
 from ..systems.values import real_array
 from . import probes as probing
@@ -62,7 +63,7 @@ TERM_ORDER = (
 )
 
 
-def frictionless_params(system: Any) -> Any:
+def frictionless_params(system: System) -> Any:
     """The equations' parameters read from the same model with every joint's damping set to zero."""
     values = {k: (0.0 if k.endswith("/damping") else system.view[k]) for k in system.view}
     return system.equations.parameters(ModelView(values, system.view.source + " (no friction)"))
@@ -73,7 +74,7 @@ class EngineTerms:
 
     def __init__(
         self,
-        system: Any,
+        system: System,
         sources: dict[str, Any],
         states: States,
         values: dict[str, dict[str, np.ndarray]] | None = None,
@@ -160,7 +161,7 @@ def _axis_rotation(axis: np.ndarray, angle: np.ndarray, engine: str) -> np.ndarr
 
 
 def engine_quantity(
-    system: Any, terms: EngineTerms, quantity: tuple[Any, ...], engine: str, states: States, angle_index: int
+    system: System, terms: EngineTerms, quantity: tuple[Any, ...], engine: str, states: States, angle_index: int
 ) -> np.ndarray:
     """What `engine` computes for a derivation step's quantity."""
     kind, which = quantity[0], quantity[1] if len(quantity) > 1 else None
@@ -202,7 +203,7 @@ def engine_quantity(
     raise ValueError(f"unknown derivation-step quantity {quantity}")
 
 
-def _printed_parameter_rows(system: Any, variant: Any) -> list[dict[str, Any]]:
+def _printed_parameter_rows(system: System, variant: Any) -> list[dict[str, Any]]:
     rows = []
     for field, printed in sorted(getattr(variant, "printed_parameters", {}).items()):
         compiled = float(getattr(system.params, field))
@@ -227,7 +228,7 @@ def _printed_parameter_rows(system: Any, variant: Any) -> list[dict[str, Any]]:
 
 
 def judge_variant(
-    system: Any,
+    system: System,
     variant: Any,
     terms: EngineTerms,
     states: States,
@@ -398,7 +399,7 @@ def _combine(judged: list[tuple[Any, dict[str, Any]]]) -> dict[str, Any]:
     return out
 
 
-def printed_probes(system: Any, *, n_probes: int, seed: int) -> tuple[list[Any], list[str]]:
+def printed_probes(system: System, *, n_probes: int, seed: int) -> tuple[list[Any], list[str]]:
     """The parameter sets the printed forms are judged at: the model's, and probes that keep the
     equalities the notes' printed forms assume (`PRINTED_FORMS_ASSUME` of the module)."""
 
@@ -410,7 +411,7 @@ def printed_probes(system: Any, *, n_probes: int, seed: int) -> tuple[list[Any],
 
 
 def judge_system(
-    system: Any,
+    system: System,
     states: States,
     sources: dict[str, Any],
     *,
@@ -474,9 +475,9 @@ def _entry_label(name: str, shape: tuple[int, ...], index: tuple[int, ...]) -> s
 
 
 def explain_variant(
-    system: Any,
+    system: System,
     variant: Any,
-    probe_systems: list[Any],
+    probe_systems: list[System],
     failing: list[str],
     *,
     seed: int = 0,

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..results.schema import Mismatch, ModelChecks
+from ..systems import System
 from ..systems.modelview import quat_to_mat
 
 RTOL = 1e-12  # both sides are the same compiled numbers, possibly through a few operations
@@ -44,7 +45,7 @@ def _fmt(x: Any) -> Any:
     return [None if np.isnan(y) else float(y) for y in arr.ravel()] if arr.ndim else float(arr)
 
 
-def states_every_key(system: Any) -> bool:
+def states_every_key(system: System) -> bool:
     """Whether the derivation's `assumptions()` state the whole model (every key of it): then every
     number it reads is one of its stated parameters, and a key it leaves out is a parameter it silently
     ignores. A module without `assumptions()`, or with only the relations its formulas bake in, reads
@@ -54,7 +55,7 @@ def states_every_key(system: Any) -> bool:
     return set(system.view) <= set(system.equations.assumptions(system.params))
 
 
-def equations_vs_model(system: Any) -> list[Mismatch]:
+def equations_vs_model(system: System) -> list[Mismatch]:
     """Rows for every key of the compiled model and every assumption; `passed` False where they differ.
     Where the assumptions are partial (or absent), a key they do not state is read from the model, not
     assumed: no row."""
@@ -102,7 +103,7 @@ def equations_vs_model(system: Any) -> list[Mismatch]:
     return rows
 
 
-def pinocchio_vs_mujoco(system: Any, pin_source: Any) -> list[Mismatch]:
+def pinocchio_vs_mujoco(system: System, pin_source: Any) -> list[Mismatch]:
     """Mass, centre of mass and inertia of each compared body, as each engine compiled it."""
     model, view = pin_source.model, system.view
     rows: list[Mismatch] = []
@@ -130,7 +131,7 @@ def _engine_row(key: str, mujoco_value: Any, pinocchio_value: Any, ok: bool, wha
     }
 
 
-def mujoco_joint_frames(system: Any) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+def mujoco_joint_frames(system: System) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """MuJoCo's reading of the same (`PinocchioSource.joint_frames`), from its compiled bodies and joints."""
     view = system.view
     poses: dict[str, tuple[np.ndarray, np.ndarray]] = {"world": (np.zeros(3), np.eye(3))}
@@ -153,7 +154,7 @@ def mujoco_joint_frames(system: Any) -> dict[str, tuple[np.ndarray, np.ndarray]]
     return out
 
 
-def joints_pinocchio_vs_mujoco(system: Any, pin_source: Any) -> list[Mismatch]:
+def joints_pinocchio_vs_mujoco(system: System, pin_source: Any) -> list[Mismatch]:
     """Anchor (hinges) and motion axis of each compared joint at q = 0, and for a URDF the damping,
     as each engine read them."""
     mj, pn = mujoco_joint_frames(system), pin_source.joint_frames()
@@ -173,7 +174,7 @@ def joints_pinocchio_vs_mujoco(system: Any, pin_source: Any) -> list[Mismatch]:
     return rows
 
 
-def check(system: Any, pin_source: Any) -> ModelChecks:
+def check(system: System, pin_source: Any) -> ModelChecks:
     rows = (
         (equations_vs_model(system) if system.equations is not None else [])
         + pinocchio_vs_mujoco(system, pin_source)

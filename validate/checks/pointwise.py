@@ -15,6 +15,7 @@ from ..engines import make_sources
 from ..errors import HarnessError
 from ..guard import describe
 from ..results.schema import ComparisonRow, Pointwise
+from ..systems import System
 from .tolerances import QUANTITY_TIER, SCALE_ALSO_BY, TOLERANCES, Tolerances
 
 Q_RANGE = np.pi  # rad: q uniform in [-pi, pi]
@@ -39,7 +40,7 @@ class States:
         return {"q": self.q[i].tolist(), "v": self.v[i].tolist(), "tau": self.tau[i].tolist()}
 
 
-def random_states(system: Any, *, n: int, seed: int) -> States:
+def random_states(system: System, *, n: int, seed: int) -> States:
     """N seeded states, inside the joints' stated limits; tau is random only where the scene is actuated."""
     rng = np.random.default_rng(seed)
     nv = system.nv
@@ -55,7 +56,7 @@ def random_states(system: Any, *, n: int, seed: int) -> States:
     return States(q, v, tau)
 
 
-def validate_states(system: Any, q: Any, v: Any, tau: Any | None = None) -> States:
+def validate_states(system: System, q: Any, v: Any, tau: Any | None = None) -> States:
     """Checks user-given states: shapes (N, n) and finite values; errors name the problem."""
     n = system.nv
     arrays: dict[str, np.ndarray] = {}
@@ -216,7 +217,7 @@ def compare(
 
 
 def pointwise(
-    system: Any, *, n: int, seed: int, sources: dict[str, Any] | None = None, tolerances: Tolerances = TOLERANCES
+    system: System, *, n: int, seed: int, sources: dict[str, Any] | None = None, tolerances: Tolerances = TOLERANCES
 ) -> Pointwise:
     """The pointwise check of one system at `n` seeded states."""
 

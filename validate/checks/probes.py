@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import HarnessError
+from ..systems import System
 from ..systems.reads import Knob, Overlay, knobs, numeric_fields
 from ..systems.set_values import set_values
 from . import modelsync
@@ -51,7 +52,7 @@ class Probe:
 
     index: int
     label: str
-    system: Any
+    system: System
     changed: dict[str, tuple[float, float]]  # Params field -> (model's value, probe's value)
 
     def describe(self) -> str:
@@ -130,7 +131,7 @@ def _assumed_values(assumed: Mapping[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in assumed.items() if not isinstance(v, str)}
 
 
-def build(system: Any, values: dict[str, float], *, index: int, label: str) -> Probe:
+def build(system: System, values: dict[str, float], *, index: int, label: str) -> Probe:
     """The probe model for `values` (Params fields): written, compiled and read back."""
 
     eq = system.equations
@@ -163,7 +164,7 @@ def build(system: Any, values: dict[str, float], *, index: int, label: str) -> P
     return Probe(index, label, probe_system, changed)
 
 
-def reads_model(system: Any) -> bool:
+def reads_model(system: System) -> bool:
     """Whether the derivation reads numbers from the model that its assumptions() do not state (the
     probes then move the model's numbers, not the Params fields)."""
     return not modelsync.states_every_key(system)
@@ -187,7 +188,7 @@ def _full(view: Any, key: str, partial: Any) -> Any:
     return np.where(np.isnan(partial), np.asarray(view[key], dtype=float), partial)
 
 
-def build_moved(system: Any, moved: dict[Knob, float], *, index: int, label: str) -> Probe:
+def build_moved(system: System, moved: dict[Knob, float], *, index: int, label: str) -> Probe:
     """The probe model with the model numbers `moved` (Knob -> new value) and the relations the
     derivation's assumptions() state at the parameters read from them: written, compiled, read."""
     view, eq = system.view, system.equations
@@ -217,14 +218,14 @@ def _draw_moved(knob_list: list[Knob], rng: np.random.Generator, only: Knob | No
     return {k: k.value * _factor(rng) for k in knob_list if only is None or k == only}
 
 
-def _moved_probes(system: Any, k: int, seed: int, family: str) -> tuple[list[Probe], list[str]]:
+def _moved_probes(system: System, k: int, seed: int, family: str) -> tuple[list[Probe], list[str]]:
     """Probes of a derivation that reads the model: its numbers moved, each independently."""
     knob_list = knobs(system.equations.parameters, system.view)
     rng = np.random.default_rng([seed, k, len(family)])
     return _drawn(system, k, lambda i: build_moved(system, _draw_moved(knob_list, rng), index=i, label=f"probe {i}"))
 
 
-def _drawn(system: Any, k: int, attempt: Callable[[int], Probe]) -> tuple[list[Probe], list[str]]:
+def _drawn(system: System, k: int, attempt: Callable[[int], Probe]) -> tuple[list[Probe], list[str]]:
     """The model's own parameters (index 0) and probes 1..k, each the first of ATTEMPTS attempts that
     builds (ParametersMisread propagates); the second item lists why any probe could not be built."""
     out = [Probe(0, "model", system, {})]
@@ -245,7 +246,7 @@ def _drawn(system: Any, k: int, attempt: Callable[[int], Probe]) -> tuple[list[P
 
 
 def probes(
-    system: Any,
+    system: System,
     *,
     k: int = DEFAULT_PROBES,
     seed: int = 0,
@@ -262,7 +263,7 @@ def probes(
     return _drawn(system, k, lambda i: build(system, draw(nominal, rng, ties=ties), index=i, label=f"probe {i}"))
 
 
-def single_field_probes(system: Any, *, seed: int = 0) -> list[Probe]:
+def single_field_probes(system: System, *, seed: int = 0) -> list[Probe]:
     """One probe per non-zero field, that field alone moved: which parameter exposes a mistake (for a
     derivation that reads the model: one per model number it reads)."""
     if reads_model(system):
@@ -280,7 +281,7 @@ def single_field_probes(system: Any, *, seed: int = 0) -> list[Probe]:
     return out
 
 
-def _single_moved(system: Any, seed: int) -> list[Probe]:
+def _single_moved(system: System, seed: int) -> list[Probe]:
     knob_list = knobs(system.equations.parameters, system.view)
     rng = np.random.default_rng([seed, 7])
     out = []

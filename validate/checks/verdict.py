@@ -30,6 +30,7 @@ from ..dynamics.cachedir import Cache
 from ..engines import SYMBOLIC_MAX_DOF, make_sources
 from ..errors import HarnessError
 from ..results.schema import Derivation, Explanation, TermRow
+from ..systems import System
 from ..systems.forms import accelerations_only, not_provided_in, written_form
 from ..systems.values import real_array
 from . import probes as probing
@@ -68,7 +69,7 @@ def _shaped(name: str, value: Any, shape: tuple[int, ...]) -> np.ndarray:
     return real_array(name, value, shape)
 
 
-def hand_terms(system: Any, states: States) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+def hand_terms(system: System, states: States) -> tuple[dict[str, np.ndarray], dict[str, str]]:
     """The derivation's terms at `states`, and for each term it could not give, why (one line)."""
     eq, p = system.equations, system.params
     q, v, tau = states.q, states.v, states.tau
@@ -166,7 +167,7 @@ def engine_values(sources: dict[str, Any], states: States, values: dict[str, Any
 
 
 def term_rows_at(
-    system: Any,
+    system: System,
     states: States,
     sources: dict[str, Any],
     *,
@@ -264,7 +265,7 @@ def _error_row(term: str, engine: str, why: str) -> dict[str, Any]:
     }
 
 
-def _model_rows(system: Any) -> list[dict[str, Any]]:
+def _model_rows(system: System) -> list[dict[str, Any]]:
     """A failing "parameters" row where the compiled model differs from what the derivation assumes
     of it (its parameters() or assumptions() read or state the wrong element)."""
 
@@ -294,11 +295,11 @@ class ProbeSet:
     problems: list[str]
     misread: dict[str, Any] | None = None
 
-    def systems(self) -> list[Any]:
+    def systems(self) -> list[System]:
         return [p.system for p in self.probes]
 
 
-def derivation_probes(system: Any, *, n_probes: int = probing.DEFAULT_PROBES, seed: int = 0) -> ProbeSet:
+def derivation_probes(system: System, *, n_probes: int = probing.DEFAULT_PROBES, seed: int = 0) -> ProbeSet:
     """Probe models in which every parameter of the derivation moves independently."""
     try:
         found, problems = probing.probes(system, k=n_probes, seed=seed)
@@ -310,7 +311,7 @@ def derivation_probes(system: Any, *, n_probes: int = probing.DEFAULT_PROBES, se
 
 
 def _explanations(
-    system: Any, probe_systems: list[Any], terms: list[str], seed: int, cache: Cache | None = None
+    system: System, probe_systems: list[System], terms: list[str], seed: int, cache: Cache | None = None
 ) -> list[Explanation]:
     """The failing terms' entries as symbolic differences; an explanation that cannot be computed is
     one line saying why, never a failed run."""
@@ -338,7 +339,7 @@ def _explanations(
 
 
 def judge_derivation(
-    system: Any,
+    system: System,
     states: States,
     sources: dict[str, Any],
     probe_set: ProbeSet | None = None,
@@ -455,7 +456,7 @@ def judge_derivation(
     return result
 
 
-def _in_your_words(system: Any, explained: list[Explanation]) -> list[Explanation]:
+def _in_your_words(system: System, explained: list[Explanation]) -> list[Explanation]:
     """The explanations with the model's symbols replaced by the person's names for them (the model's
     statement kept as `statement_model`)."""
     try:
@@ -470,7 +471,7 @@ def _in_your_words(system: Any, explained: list[Explanation]) -> list[Explanatio
     return out
 
 
-def _unstated(system: Any, term: str) -> list[str]:
+def _unstated(system: System, term: str) -> list[str]:
     """What the failing term depends on that the derivation's parameters() does not read (only for a
     derivation whose probes move what it reads)."""
     if not probing.reads_model(system) or system.nv > SYMBOLIC_MAX_DOF:
@@ -490,7 +491,7 @@ def _engine_names(sources: dict[str, Any]) -> str:
     return ", ".join(names[:-1]) + f" and {names[-1]}" if len(names) > 1 else "".join(names)
 
 
-def exposing_fields(system: Any, term: str, *, tolerances: Tolerances = TOLERANCES, seed: int = 0) -> list[str]:
+def exposing_fields(system: System, term: str, *, tolerances: Tolerances = TOLERANCES, seed: int = 0) -> list[str]:
     """The Params fields that, moved alone, make `term` disagree."""
 
     out = []

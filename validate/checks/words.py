@@ -22,6 +22,7 @@ import numpy as np
 
 from ..engines.derivation import parameter_values
 from ..engines.symbolic import derivation_of
+from ..systems import System
 from ..systems.reads import knobs
 
 # The parts of the model's own equations a term of a derivation is made of (explicit accelerations
@@ -47,7 +48,7 @@ def _label(key: str, entry: Any) -> str:
     return f"{key}[{entry}]"
 
 
-def person_names(system: Any) -> dict[str, str]:
+def person_names(system: System) -> dict[str, str]:
     """{symbol of the model's equations: the person's expression for it}, e.g. {"c_pole": "l/2"}, for
     every symbol whose number one field of the person's Params follows."""
     knob_list = knobs(system.equations.parameters, system.view)
@@ -86,12 +87,12 @@ def in_person_words(text: str, names: dict[str, str], model_names: dict[str, str
     return f"{out} [your names: {legend}]"
 
 
-def model_symbol_keys(system: Any) -> dict[str, str]:
+def model_symbol_keys(system: System) -> dict[str, str]:
     """{symbol of the model's equations: the model number it stands for}."""
     return {str(s): _label(k, e) for s, (k, e) in derivation_of(system).source.items()}
 
 
-def unread_numbers(system: Any, term: str) -> list[str]:
+def unread_numbers(system: System, term: str) -> list[str]:
     """The model numbers `term` depends on (the free symbols of its part of the model's own equations)
     that parameters() does not read, as labels like body/pole/inertia[1][1]; only those whose doubling
     moves the term by more than MATTERS of its size at random states (a point mass's 1e-14 inertia does
