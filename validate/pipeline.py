@@ -85,7 +85,7 @@ NEVER_USED = ("contact", "constraint", "limit", "frictionloss", "spring")  # no 
 OPTIONAL = {"gravity": "gravity", "damping": "damper", "actuation": "actuation"}  # USES name -> MuJoCo flag
 
 
-def skipped_work(system: Any) -> list[str]:
+def skipped_work(system: System) -> list[str]:
     """What the scene does not need, and so neither MuJoCo nor the harness computes."""
     uses = system.uses
     where = "in the notes" if _from_notes(system) else "that the harness checks"
@@ -273,12 +273,12 @@ def _what_failed(
     return out
 
 
-def _from_notes(system: Any) -> bool:
+def _from_notes(system: System) -> bool:
     """One of the repository's systems (models/ and equations/), not a user's files."""
     return bool(system.mjcf.resolve().parent == MODELS_DIR.resolve())
 
 
-def _identity(system: Any, bodies: list[str] | None = None) -> SystemResult:
+def _identity(system: System, bodies: list[str] | None = None) -> SystemResult:
     """What a system is: names, files, coordinates, joints, bodies (`bodies`: given, not asked of the
     module) and the physics it uses."""
 
@@ -351,7 +351,7 @@ def _run_files(
     return guarded_run(system, n_states=n_states, seed=seed, n_probes=n_probes, cache=cache)
 
 
-def guarded_run(system: Any, **options: Any) -> SystemResult:
+def guarded_run(system: System, **options: Any) -> SystemResult:
     """`run_system`, with a module that hung or tried to exit (validate/guard.py) as its one finding."""
     try:
         return run_system(system, **options)
@@ -359,7 +359,7 @@ def guarded_run(system: Any, **options: Any) -> SystemResult:
         return stopped_result(system, stop.why)
 
 
-def stopped_result(system: Any, why: str) -> SystemResult:
+def stopped_result(system: System, why: str) -> SystemResult:
     """The result of a system whose equations module was stopped (`why`: "mass_matrix did not return
     within 30 s") or whose worker process ended: nothing after it can be checked."""
     return {
@@ -391,7 +391,7 @@ def _task(fn: Any, args: tuple[Any, ...], after: Any, meta: Provenance) -> tuple
     return result, (after(result["name"], result, meta) if after is not None else None)
 
 
-def _outcome(future: Any, system: Any) -> tuple[SystemResult, Any]:
+def _outcome(future: Any, system: System) -> tuple[SystemResult, Any]:
     """A finished system's (results, rendered); a worker that ended without an answer (its module
     called os._exit or crashed the interpreter) is that system's failure, not the run's."""
     try:

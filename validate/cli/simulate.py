@@ -21,7 +21,7 @@ from ..dynamics import integrate
 from ..engines import make_source
 from ..errors import HarnessError
 from ..results import atomic_write, harness_version
-from ..systems import MODELS_DIR
+from ..systems import MODELS_DIR, System
 
 # What one number of the trajectory costs in memory while `simulate` runs: the integrator's output,
 # the trajectory's copies of q and v, and the table written from them (about three float64 arrays:
@@ -72,7 +72,7 @@ def mujoco_timestep(model_dt: float, dt_out: float) -> tuple[float, str | None]:
     )
 
 
-def files_of(system: Any) -> dict[str, str]:
+def files_of(system: System) -> dict[str, str]:
     """The model and equations files, as the results name them (relative for the repository's)."""
     inside = system.mjcf.resolve().parent == MODELS_DIR.resolve()
     return {
@@ -81,7 +81,7 @@ def files_of(system: Any) -> dict[str, str]:
     }
 
 
-def units(system: Any) -> dict[str, Any]:
+def units(system: System) -> dict[str, Any]:
     """The unit of every column and of every number of the request."""
     per = system.units  # "rad" or "m" per coordinate
     rate = [f"{u}/s" for u in per]

@@ -87,7 +87,7 @@ def joint_unit(view: Any, joint: str) -> str:
         return "rad"
 
 
-def recorded_params(system: Any, sys_results: Mapping[str, Any]) -> Any:
+def recorded_params(system: System, sys_results: Mapping[str, Any]) -> Any:
     """The parameters the results were computed with (the model's when they do not fit Params)."""
     recorded = sys_results.get("parameters")
     if recorded:

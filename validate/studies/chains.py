@@ -96,7 +96,7 @@ def _timings(source: Any, states: pointwise.States, repeats: int) -> dict[str, f
     return {op: _per_state(fn, len(q), repeats) for op, fn in calls.items()}
 
 
-def _symbolic(system: Any, budget: float) -> dict[str, Any]:
+def _symbolic(system: System, budget: float) -> dict[str, Any]:
     """Derivation and code generation of one chain, timed; the expression sizes."""
     import sympy as sp
 
