@@ -9,13 +9,13 @@ Every source works on batches of states in the notes' coordinates: `q`, `v`, `ta
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
 import numpy as np
 
 from ..errors import HarnessError, unknown_name
 from ..systems import System
-from .base import Kinematics, Source
+from .base import Kinematics, OneStateSource, PosedSource, RightHandSide, Source, SteppedSource
 from .hand import HandSource
 
 __all__ = [
@@ -32,13 +32,16 @@ __all__ = [
 SOURCE_NAMES = ("hand", "mujoco", "pinocchio", "symbolic", "drake")
 
 
-class Sources(dict[str, Any]):
+class Sources(dict[str, Source]):
     """The sources of a system by name, and `skipped`: each source left out, with why."""
 
     skipped: dict[str, str]
 
 
-class MappedSource:
+S = TypeVar("S", bound=Source, covariant=True)
+
+
+class MappedSource(Generic[S]):
     """An engine source seen through a linear coordinate map q_notes = A q_joints.
 
     Velocities and accelerations map like q; generalized forces map covariantly (the power
@@ -46,7 +49,7 @@ class MappedSource:
     M_notes = A^-T M_joints A^-1. Energies and body kinematics do not depend on coordinates.
     """
 
-    def __init__(self, inner: Any, A: np.ndarray) -> None:
+    def __init__(self, inner: S, A: np.ndarray) -> None:
         self.inner, self.A, self.Ainv = inner, A, np.linalg.inv(A)
         self.name = inner.name
 
@@ -80,13 +83,13 @@ class MappedSource:
     def body_positions(self, q: np.ndarray) -> np.ndarray:
         return self.inner.body_positions(self._j(q))
 
-    def body_rotations(self, q: np.ndarray) -> np.ndarray:
+    def body_rotations(self: MappedSource[PosedSource], q: np.ndarray) -> np.ndarray:
         return self.inner.body_rotations(self._j(q))
 
-    def kinematics(self, q: np.ndarray, v: np.ndarray) -> Kinematics:
+    def kinematics(self: MappedSource[PosedSource], q: np.ndarray, v: np.ndarray) -> Kinematics:
         return self.inner.kinematics(self._j(q), self._j(v))
 
-    def rhs(self, tau: np.ndarray):
+    def rhs(self: MappedSource[OneStateSource], tau: np.ndarray) -> RightHandSide:
         """The inner source's right-hand side, seen in the notes' coordinates."""
         inner = self.inner.rhs(self.A.T @ tau)
         n, A, Ainv = len(tau), self.A, self.Ainv
@@ -98,24 +101,27 @@ class MappedSource:
         return f
 
     def evaluate(
-        self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray, **options: Any
+        self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray | None = None, **options: Any
     ) -> dict[str, np.ndarray]:
-        out = self.inner.evaluate(self._j(q), self._j(v), tau @ self.A, self._j(a_ref), **options)
+        a = None if a_ref is None else self._j(a_ref)
+        out = self.inner.evaluate(self._j(q), self._j(v), tau @ self.A, a, **options)
         out["M"] = self.Ainv.T @ out["M"] @ self.Ainv
         for k in ("bias", "passive", "tau_inverse"):
             out[k] = self._force(out[k])
         out["qacc"] = out["qacc"] @ self.A.T
         return out
 
-    def set_state(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray | None = None) -> None:
+    def set_state(
+        self: MappedSource[SteppedSource], q: np.ndarray, v: np.ndarray, tau: np.ndarray | None = None
+    ) -> None:
         self.inner.set_state(self.Ainv @ q, self.Ainv @ v, None if tau is None else self.A.T @ tau)
 
-    def get_state(self) -> tuple[np.ndarray, np.ndarray]:
+    def get_state(self: MappedSource[SteppedSource]) -> tuple[np.ndarray, np.ndarray]:
         q, v = self.inner.get_state()
         return self.A @ q, self.A @ v
 
 
-def make_source(system: System, name: str) -> Any:
+def make_source(system: System, name: str) -> Source:
     """The source called `name` for `system` ("hand", "mujoco", "pinocchio", "symbolic" or "drake").
 
     Engines read joint coordinates; where the notes' coordinates are a linear map of them
@@ -126,7 +132,7 @@ def make_source(system: System, name: str) -> Any:
     if name == "mujoco":  # the engines are imported here, when first asked for: they are heavy
         from .mujoco import MujocoSource
 
-        engine: Any = MujocoSource(system)
+        engine: Source = MujocoSource(system)
     elif name == "pinocchio":
         from .pinocchio import PinocchioSource
 
@@ -169,3 +175,17 @@ def make_sources(system: System) -> Sources:
     except HarnessError as exc:  # a third reader is an addition: its absence is stated, never fatal
         out.skipped["drake"] = str(exc)
     return out
+
+
+if TYPE_CHECKING:  # mypy checks every engine against the protocols it answers (nothing runs here)
+    from .drake import DrakeSource
+    from .mujoco import MujocoSource
+    from .pinocchio import PinocchioSource
+    from .symbolic import SymbolicSource
+    from .warp import WarpSource
+
+    _SOURCES: tuple[type[Source], ...] = (HandSource, MujocoSource, PinocchioSource, SymbolicSource, DrakeSource)
+    _WITH_WARP: tuple[type[Source], ...] = (WarpSource, MappedSource)
+    _POSED: tuple[type[PosedSource], ...] = (MujocoSource, PinocchioSource, SymbolicSource, DrakeSource)
+    _ONE_STATE: tuple[type[OneStateSource], ...] = (HandSource, PinocchioSource, SymbolicSource)
+    _STEPPED: tuple[type[SteppedSource], ...] = (MujocoSource,)

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from ..systems import System
+from .base import Source, engine_of
 
 
 def joint_coordinates(system: System, states: Any, a: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -32,14 +33,16 @@ def to_notes(system: System, out: dict[str, np.ndarray]) -> dict[str, np.ndarray
     return out
 
 
-def raw_mujoco(system: System, source: Any, states: Any, a_ref: np.ndarray) -> dict[str, np.ndarray]:
+def raw_mujoco(system: System, source: Source, states: Any, a_ref: np.ndarray) -> dict[str, np.ndarray]:
     """Per state: write qpos/qvel/ctrl (or qfrc_applied), mj_forward, mj_fullM; write qacc = a_ref,
     mj_inverse. The same outputs as `MujocoSource.evaluate`, in the notes' coordinates."""
     import mujoco
 
+    from .mujoco import MujocoSource
+
     qj, vj, aj, tauj = joint_coordinates(system, states, a_ref)
     n_states, n = qj.shape
-    mj = getattr(source, "inner", source)
+    mj = engine_of(source, MujocoSource)
     m, d = mj.m, mj.d
     driven = mj.ctrl_of_coord >= 0
     ctrl = np.zeros((n_states, m.nu))
@@ -86,7 +89,7 @@ def raw_mujoco(system: System, source: Any, states: Any, a_ref: np.ndarray) -> d
     return to_notes(system, out)
 
 
-def raw_pinocchio(system: System, source: Any, states: Any, a_ref: np.ndarray) -> dict[str, np.ndarray]:
+def raw_pinocchio(system: System, source: Source, states: Any, a_ref: np.ndarray) -> dict[str, np.ndarray]:
     """Per state: crba, rnea at zero acceleration (the bias), aba, rnea, computeKineticEnergy,
     computePotentialEnergy (which also places the joints, read for the body poses). The same outputs as
     `PinocchioSource.evaluate`."""
@@ -94,7 +97,9 @@ def raw_pinocchio(system: System, source: Any, states: Any, a_ref: np.ndarray) -
 
     qj, vj, aj, tauj = joint_coordinates(system, states, a_ref)
     n_states, n = qj.shape
-    pn = getattr(source, "inner", source)
+    from .pinocchio import PinocchioSource
+
+    pn = engine_of(source, PinocchioSource)
     model, data = pn.model, pn.data
     qfull, vfull, ffull, afull = pin.neutral(model), np.zeros(model.nv), np.zeros(model.nv), np.zeros(model.nv)
     vi, qi = pn.vidx, pn.qidx
@@ -145,10 +150,12 @@ def raw_pinocchio(system: System, source: Any, states: Any, a_ref: np.ndarray) -
     return to_notes(system, out)
 
 
-def raw_symbolic(system: System, source: Any, states: Any) -> list[Any]:
+def raw_symbolic(system: System, source: Source, states: Any) -> list[Any]:
     """The derived equations' generated numpy code (dynamics and the bodies' kinematics) called once on
     the batch, nothing unpacked or solved: the least the symbolic source can cost."""
-    sym = getattr(source, "inner", source)
+    from .symbolic import SymbolicSource
+
+    sym = engine_of(source, SymbolicSource)
     q, v, _, _ = joint_coordinates(system, states, states.q)
     out = []
     for part in ("dynamics", "kinematics"):

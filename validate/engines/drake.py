@@ -361,8 +361,11 @@ class DrakeSource:
         out = self._each(q, v, lambda i: (plant.CalcKineticEnergy(ctx), self._potential()))
         return out[:, 0], out[:, 1]
 
-    def evaluate(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray) -> dict[str, np.ndarray]:
-        """Every pointwise quantity, one state at a time (Drake has no batched form in Python)."""
+    def evaluate(
+        self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray | None = None
+    ) -> dict[str, np.ndarray]:
+        """Every pointwise quantity, one state at a time (Drake has no batched form in Python); the
+        inverse dynamics at `a_ref`, or without it at its own accelerations."""
         plant, ctx, n, nb = self.plant, self.context, len(q), len(self.bodies)
         nv = plant.num_velocities()
         M, bias, passive = np.empty((n, nv, nv)), np.empty((n, nv)), np.empty((n, nv))
@@ -372,7 +375,8 @@ class DrakeSource:
             self._set(q[i], v[i])
             M[i] = plant.CalcMassMatrix(ctx)
             bias[i], passive[i] = self._bias(), self._passive()
-            qacc[i], inv[i] = self._forward(tau[i]), self._inverse(a_ref[i])
+            qacc[i] = self._forward(tau[i])
+            inv[i] = self._inverse(qacc[i][self.vidx] if a_ref is None else a_ref[i])
             energy[i] = plant.CalcKineticEnergy(ctx), self._potential()
             pos[i], rot[i] = self._poses()
         return {

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import HarnessError, unknown_name
 from ..systems import System
-from .base import INTEGRATOR_ENUMS, MUJOCO_INTEGRATORS, Kinematics, batch_threads
+from .base import INTEGRATOR_ENUMS, MUJOCO_INTEGRATORS, Kinematics, SteppedSource, batch_threads
 
 # What a batch sets per state with one mj_setState call (in this order in a state row).
 STATE_SPEC = int(
@@ -177,13 +177,21 @@ class MujocoSource:
         return out["T"], out["V"]
 
     def evaluate(
-        self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray, *, threads: int | None = None
+        self,
+        q: np.ndarray,
+        v: np.ndarray,
+        tau: np.ndarray,
+        a_ref: np.ndarray | None = None,
+        *,
+        threads: int | None = None,
     ) -> dict[str, np.ndarray]:
         """Every pointwise quantity in one pass: one mj_forward and one mj_inverse per state.
 
         `qacc` is the forward dynamics at tau; `tau_inverse` the inverse dynamics at `a_ref`. From
         BATCH_MIN_STATES states mj_forward runs in MuJoCo's batch on `threads` threads (default
-        `batch_threads`); the inverse dynamics one call per state."""
+        `batch_threads`); the inverse dynamics one call per state. Without `a_ref`, at its own `qacc`."""
+        if a_ref is None:
+            a_ref = self.forward(q, v, tau)
         return self._batch(q, v, tau, a_ref, OUTPUTS, threads=threads)
 
     def _batch(
@@ -341,7 +349,14 @@ def scheme(m: Any, integrator: str, timestep: float) -> Iterator[None]:
 
 
 def step_states(
-    source: Any, q: np.ndarray, v: np.ndarray, tau: np.ndarray, *, integrator: str, timestep: float, steps: int = 1
+    source: SteppedSource,
+    q: np.ndarray,
+    v: np.ndarray,
+    tau: np.ndarray,
+    *,
+    integrator: str,
+    timestep: float,
+    steps: int = 1,
 ) -> tuple[np.ndarray, np.ndarray]:
     """`steps` calls of `mj_step` from each of N states, (N, n). A state from which MuJoCo warns
     (and resets) gives NaN rows, never the reset state as data."""
@@ -360,7 +375,7 @@ def step_states(
 
 
 def free_run(
-    source: Any, q0: Any, v0: Any, tau: Any, samples: int, steps: int, *, integrator: str, timestep: float
+    source: SteppedSource, q0: Any, v0: Any, tau: Any, samples: int, steps: int, *, integrator: str, timestep: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[tuple[str, int]]]:
     """One run from (q0, v0): `samples` states (the first is the start) `steps` steps apart.
 
@@ -412,7 +427,7 @@ def disable_flag_names(flags: int) -> list[str]:
     )
 
 
-def steps_from(source: Any, q0: Any, v0: Any, tau: Any, steps: int) -> None:
+def steps_from(source: SteppedSource, q0: Any, v0: Any, tau: Any, steps: int) -> None:
     """`steps` calls of `mj_step` from (q0, v0) with the model's current options (for timing)."""
     mujoco.mj_resetData(source.m, source.d)
     source.set_state(np.asarray(q0, dtype=float), np.asarray(v0, dtype=float), np.asarray(tau, dtype=float))
@@ -423,7 +438,7 @@ BAD_STATE_WARNINGS = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")
 
 
 def timed_run(
-    source: Any,
+    source: SteppedSource,
     q0: Any,
     v0: Any,
     tau: Any,
@@ -470,7 +485,7 @@ def timed_run(
 
 
 def rollout_run(
-    source: Any,
+    source: SteppedSource,
     q0: Any,
     v0: Any,
     tau: Any,
@@ -542,7 +557,7 @@ def collected_warnings() -> Iterator[list[str]]:
 
 
 def sampled_run(
-    source: Any,
+    source: SteppedSource,
     q0: np.ndarray,
     v0: np.ndarray,
     tau: np.ndarray,

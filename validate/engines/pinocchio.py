@@ -255,18 +255,22 @@ class PinocchioSource:
             out["body_rotations"] = R @ frame_rot
         return out
 
-    def evaluate(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray) -> dict[str, np.ndarray]:
+    def evaluate(
+        self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray | None = None
+    ) -> dict[str, np.ndarray]:
         """Every pointwise quantity: RNEA (bias: at zero acceleration) in Pinocchio's C++ loop over the
-        states; ABA (`_aba`), CRBA, forward kinematics and the energies per state (`_per_state`)."""
+        states; ABA (`_aba`), CRBA, forward kinematics and the energies per state (`_per_state`). The
+        inverse dynamics at `a_ref`, or without it at its own `qacc`."""
         passive = self.passive(q, v)
         qs, vs = self._qs(q), self._vs(v)  # the states as Pinocchio's full vectors, once for every call
         out = self._per_state(qs, vs, poses=True, mass=True)
+        qacc = self._aba(qs, vs, tau + passive)
         return {
             "M": out["M"],
             "bias": self._in_c(pin.rneaInParallel, qs, vs, np.zeros_like(v)),
             "passive": passive,
-            "qacc": self._aba(qs, vs, tau + passive),
-            "tau_inverse": self._in_c(pin.rneaInParallel, qs, vs, a_ref) - passive,
+            "qacc": qacc,
+            "tau_inverse": self._in_c(pin.rneaInParallel, qs, vs, qacc if a_ref is None else a_ref) - passive,
             "T": out["T"],
             "V": out["V"],
             "body_positions": out["body_positions"],

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import HarnessError
 from ..systems import System
-from .base import INTEGRATOR_ENUMS
+from .base import INTEGRATOR_ENUMS, Source, engine_of
 from .mujoco import MujocoSource
 
 OUTPUTS = ("M", "bias", "passive", "qacc", "tau_inverse")
@@ -58,6 +58,7 @@ class WarpSource:
     name = "warp"
 
     def __init__(self, system: System, *, device: str | None = None) -> None:
+        self.system = system
         self.wp, self.mjw = warp_modules()
         self.device = device or str(self.wp.get_preferred_device())
         self.c = MujocoSource(system)  # C MuJoCo's model and coordinate maps, shared
@@ -189,12 +190,12 @@ class WarpSource:
 
 
 def run_in_coordinates(
-    system: System, source: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, *, samples: int, steps: int
+    system: System, source: Source, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, *, samples: int, steps: int
 ) -> dict[str, Any]:
     """Warp's own run in the system's coordinates: it steps in the joints' (`WarpSource.run`), so where
     the coordinates map them (JOINT_MAP: q = A q_joints, tau_joints = A^T tau) the start goes in mapped
     and the states come back mapped (`source` may be the mapped adapter around a WarpSource)."""
-    engine = getattr(source, "inner", source)
+    engine = engine_of(source, WarpSource)
     A = system.joint_map
     if A is None:
         return dict(engine.run(q0, v0, tau, samples, steps))
