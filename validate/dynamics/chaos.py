@@ -42,10 +42,12 @@ All public functions return JSON-able dicts (floats, lists, None) unless documen
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
+from ..engines.base import Source, stepped
 from ..errors import unknown_name
 from ..systems import System
 from ..systems.forms import accelerations_only
@@ -99,7 +101,7 @@ JACOBIAN_STEP = 1e-6  # central differences of the accelerations, relative to ma
 
 def _run(
     system: System,
-    sources: dict[str, Any],
+    sources: Mapping[str, Source],
     engine: str,
     q0: np.ndarray,
     v0: np.ndarray,
@@ -111,13 +113,15 @@ def _run(
 ) -> Trajectory:
     """A free run: MuJoCo stepping (engine "mujoco") or the mirror of its scheme on another source."""
     if engine == "mujoco":
-        return mujoco_trajectory(system, sources["mujoco"], q0, v0, tau, t, integrator=integrator, timestep=timestep)
+        return mujoco_trajectory(
+            system, stepped(sources["mujoco"]), q0, v0, tau, t, integrator=integrator, timestep=timestep
+        )
     return mirror_trajectory(system, sources[engine], q0, v0, tau, t, integrator=integrator, timestep=timestep)
 
 
 def window_errors(
     system: System,
-    sources: dict[str, Any],
+    sources: Mapping[str, Source],
     engine: str,
     ref: Trajectory,
     tau: np.ndarray,
@@ -130,7 +134,9 @@ def window_errors(
     steps = round(dt_out / timestep)
     q, v = ref.q[:-1], ref.v[:-1]
     if engine == "mujoco":
-        q1, v1 = mujoco_steps(sources["mujoco"], q, v, tau, integrator=integrator, timestep=timestep, steps=steps)
+        q1, v1 = mujoco_steps(
+            stepped(sources["mujoco"]), q, v, tau, integrator=integrator, timestep=timestep, steps=steps
+        )
     else:
         q1, v1 = mirror_steps(system, sources[engine], q, v, tau, integrator=integrator, timestep=timestep, steps=steps)
     return np.concatenate([q1 - ref.q[1:], v1 - ref.v[1:]], axis=1)
@@ -138,7 +144,7 @@ def window_errors(
 
 def free_run_check(
     system: System,
-    sources: dict[str, Any],
+    sources: Mapping[str, Source],
     q0: Any,
     v0: Any,
     tau: Any,
@@ -198,7 +204,7 @@ def _free_run_entry(
 
 def pair_check(
     system: System,
-    sources: dict[str, Any],
+    sources: Mapping[str, Source],
     a: str,
     b: str,
     q0: Any,
@@ -293,7 +299,7 @@ def rounding_floor(ref: Trajectory) -> np.ndarray:
 # Convergence order and energy drift
 
 
-def largest_rate(source: Any, ref: Trajectory, tau: np.ndarray) -> float:
+def largest_rate(source: Source, ref: Trajectory, tau: np.ndarray) -> float:
     """max |lambda| (1/s) of the Jacobian of (v, a(q, v, tau)) at the reference's samples, by central
     differences of the source's batched forward dynamics."""
     q, v = ref.q, ref.v
@@ -322,7 +328,7 @@ def sweep_timesteps(integrator: str, rate: float) -> tuple[tuple[float, ...], fl
 
 def convergence_order(
     system: System,
-    sources: dict[str, Any],
+    sources: Mapping[str, Source],
     q0: Any,
     v0: Any,
     tau: Any,
@@ -380,7 +386,7 @@ def convergence_order(
 
 def energy_drift(
     system: System,
-    sources: dict[str, Any],
+    sources: Mapping[str, Source],
     q0: Any,
     v0: Any,
     tau: Any,
@@ -424,7 +430,7 @@ def energy_drift(
 
 def crossvalidate(
     system: System,
-    sources: dict[str, Any],
+    sources: Mapping[str, Source],
     *,
     q0: Any = None,
     v0: Any = None,

@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from ..engines.base import Source, engine_of
 from ..systems import System
 from .integrate import Trajectory
 
@@ -24,7 +25,7 @@ def drake_method(scheme: str, accuracy: float | None, max_step: float) -> str:
 
 def drake_trajectory(
     system: System,
-    source: Any,
+    source: Source,
     q0: Any,
     v0: Any,
     tau: Any,
@@ -41,7 +42,9 @@ def drake_trajectory(
     A = system.joint_map
     if A is not None:  # q_notes = A q_joint; the inputs' work: tau_joint = A^T tau_notes
         q0, v0, tau = np.linalg.solve(A, q0), np.linalg.solve(A, v0), A.T @ tau
-    inner = getattr(source, "inner", source)  # a MappedSource's engine: the map is applied here
+    from ..engines.drake import DrakeSource
+
+    inner = engine_of(source, DrakeSource)  # a MappedSource's engine: the map is applied here
     q, v, stats = inner.free_run(q0, v0, tau, t, scheme=scheme, accuracy=accuracy, max_step=max_step)
     if A is not None:
         q, v = q @ A.T, v @ A.T

@@ -24,11 +24,13 @@ equations, never that its step is too coarse for the model: the estimate says th
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
 from ..checks.tolerances import TOLERANCES
+from ..engines.base import Source, SteppedSource, stepped
 from ..systems import System
 from .drakerun import DRAKE_DEFAULT, drake_trajectory
 from .flow import SAFETY as FLOW_SAFETY
@@ -52,7 +54,7 @@ def rule() -> str:
 
 
 def mujoco_estimate(
-    system: System, source: Any, tr: Trajectory, q0: Any, v0: Any, tau: Any, *, integrator: str = "RK4"
+    system: System, source: SteppedSource, tr: Trajectory, q0: Any, v0: Any, tau: Any, *, integrator: str = "RK4"
 ) -> tuple[np.ndarray, str]:
     """(K,) rad: the Richardson estimate of a MuJoCo run's error at its model timestep, and how."""
     dt = float(source.m.opt.timestep)
@@ -64,7 +66,7 @@ def mujoco_estimate(
 
 
 def scipy_estimate(
-    system: System, source: Any, tr: Trajectory, q0: Any, v0: Any, tau: Any, *, opts: dict[str, Any] | None = None
+    system: System, source: Source, tr: Trajectory, q0: Any, v0: Any, tau: Any, *, opts: dict[str, Any] | None = None
 ) -> tuple[np.ndarray, str]:
     """(K,) rad: a scipy run's error estimated from the same method at a tenth of its tolerances.
     A check run that stops early (budget, blow-up) gives NaN samples: no estimate there (the floor)."""
@@ -80,7 +82,9 @@ def scipy_estimate(
     )
 
 
-def drake_estimate(system: System, source: Any, tr: Trajectory, q0: Any, v0: Any, tau: Any) -> tuple[np.ndarray, str]:
+def drake_estimate(
+    system: System, source: Source, tr: Trajectory, q0: Any, v0: Any, tau: Any
+) -> tuple[np.ndarray, str]:
     """(K,) rad: a Drake error-controlled run's error estimated from the same scheme at a tenth of its
     target accuracy (DRAKE_DEFAULT's), as scipy's; a check run that stops gives no estimate there."""
     o = DRAKE_DEFAULT
@@ -94,11 +98,11 @@ def drake_estimate(system: System, source: Any, tr: Trajectory, q0: Any, v0: Any
 
 
 def run_estimate(
-    system: System, sources: dict[str, Any], tr: Trajectory, q0: Any, v0: Any, tau: Any
+    system: System, sources: Mapping[str, Source], tr: Trajectory, q0: Any, v0: Any, tau: Any
 ) -> tuple[np.ndarray, str]:
     """The error estimate of one of `fast.run_trajectories`' runs, by how it was made."""
     if tr.source == "mujoco":
-        return mujoco_estimate(system, sources["mujoco"], tr, q0, v0, tau, integrator=tr.method.split()[1])
+        return mujoco_estimate(system, stepped(sources["mujoco"]), tr, q0, v0, tau, integrator=tr.method.split()[1])
     if tr.source == "drake":
         return drake_estimate(system, sources["drake"], tr, q0, v0, tau)
     if tr.method.startswith("scipy"):
@@ -115,7 +119,7 @@ ABA_METHOD, ABA_RTOL = "DOP853", 1e-12  # the reference of a chain with no symbo
 
 
 def aba_reference(
-    system: System, source: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray
+    system: System, source: Source, q0: Any, v0: Any, tau: Any, t: np.ndarray
 ) -> tuple[Trajectory, Trajectory, dict[str, Any]]:
     """The reference of a chain with no symbolic source (no equations the Taylor method can trace):
     Pinocchio's ABA by scipy's ABA_METHOD at ABA_RTOL, and its check, the same at half the tolerances;

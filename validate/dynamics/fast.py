@@ -30,10 +30,12 @@ beside them as the path a user of scipy takes; the bench reports how far it is f
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
+from ..engines.base import Source, stepped
 from ..errors import HarnessError
 from ..systems import System
 from .compiled import UNROLLED_MAX_DOF, taylor_grid, taylor_integrator
@@ -120,7 +122,7 @@ def taylor_trajectory(
 
 def accurate_trajectory(
     system: System,
-    source: Any,
+    source: Source,
     q0: Any,
     v0: Any,
     tau: Any,
@@ -148,7 +150,7 @@ def accurate_trajectory(
 
 
 def run_trajectories(
-    system: System, sources: dict[str, Any], *, t_end: float = DEFAULT_T_END, dt_out: float = DEFAULT_DT_OUT
+    system: System, sources: Mapping[str, Source], *, t_end: float = DEFAULT_T_END, dt_out: float = DEFAULT_DT_OUT
 ) -> list[Trajectory]:
     """The sources' free runs from the system's initial state: scipy (SCIPY_DEFAULT) on the hand
     equations, the path a user of scipy takes, and on Pinocchio's ABA (an engine's right-hand side
@@ -160,7 +162,7 @@ def run_trajectories(
     t = time_grid(t_end, dt_out)
     return [
         *([scipy_trajectory(system, sources["hand"], q0, v0, tau, t, **SCIPY_DEFAULT)] if "hand" in sources else []),
-        mujoco_trajectory(system, sources["mujoco"], q0, v0, tau, t, integrator="RK4"),
+        mujoco_trajectory(system, stepped(sources["mujoco"]), q0, v0, tau, t, integrator="RK4"),
         scipy_trajectory(system, sources["pinocchio"], q0, v0, tau, t, **SCIPY_DEFAULT),
         *([accurate_trajectory(system, sources["symbolic"], q0, v0, tau, t)] if "symbolic" in sources else []),
         *([drake_trajectory(system, sources["drake"], q0, v0, tau, t)] if "drake" in sources else []),

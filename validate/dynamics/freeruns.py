@@ -5,11 +5,13 @@ is no symbolic source, which engine departs from the reference and whether that 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ..engines.base import Source
 from ..systems import System
 from . import estimate, experiments, fast, integrate, trust
 from .cachedir import Cache
@@ -50,7 +52,7 @@ MAX_THRESHOLD = 1e-3  # rad
 
 
 def trajectory_results(
-    system: System, sources: dict[str, Any], *, t_end: float, dt_out: float, cache: Cache | None = None
+    system: System, sources: Mapping[str, Source], *, t_end: float, dt_out: float, cache: Cache | None = None
 ) -> dict[str, Any]:
     """The three sources' free runs against the reference solution of the hand equations (heyoka's
     Taylor method in long double, kept in `cache`), plus the notes' perturbed start for the divergence."""
@@ -94,7 +96,7 @@ def trajectory_results(
 
 
 def _run_entry(
-    system: System, sources: dict[str, Any], tr: Any, ref: Any, est: tuple[np.ndarray, str] | None = None
+    system: System, sources: Mapping[str, Source], tr: Any, ref: Any, est: tuple[np.ndarray, str] | None = None
 ) -> dict[str, Any]:
     """One run against `ref`; `est`: its own error estimate (K,) and how it was made, which sets its
     threshold (dynamics/estimate.py); without one (runs not judged), the floor."""
@@ -170,7 +172,7 @@ def judge_trajectories(traj: dict[str, Any], amplification: Any, chaos_failed: s
 
 
 def divergence_results(
-    system: System, sources: dict[str, Any], *, t_end: float, dt_out: float, why: str, aba_reference: bool = False
+    system: System, sources: Mapping[str, Source], *, t_end: float, dt_out: float, why: str, aba_reference: bool = False
 ) -> dict[str, Any]:
     """For a derivation that already disagrees: the three sources' free runs, bounded, against
     MuJoCo's, as information (where the wrong equations part from the engines), never a verdict.

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..engines.base import MUJOCO_INTEGRATORS as MUJOCO_INTEGRATORS  # re-exported: dynamics names them
+from ..engines.base import Source, SteppedSource
 from ..errors import HarnessError, unknown_name
 from ..systems import System
 
@@ -213,7 +214,7 @@ def _fmt(x: Any) -> str:
     return "[" + ", ".join(f"{float(v):.6g}" for v in np.ravel(x)) + "]"
 
 
-def source_rhs(source: Any, tau: np.ndarray) -> Callable[..., Any]:
+def source_rhs(source: Source, tau: np.ndarray) -> Callable[..., Any]:
     """scipy's right-hand side f(t, y) for constant `tau`: the source's own one-state `rhs` where it
     has one (the hand equations' generated code, Pinocchio's ABA), else its batched forward dynamics."""
     if hasattr(source, "rhs"):
@@ -462,7 +463,7 @@ def _mass_matrix_finding(
 
 def scipy_trajectory(
     system: System,
-    source: Any,
+    source: Source,
     q0: np.ndarray,
     v0: np.ndarray,
     tau: np.ndarray,
@@ -502,7 +503,7 @@ def scipy_trajectory(
 
 def mujoco_trajectory(
     system: System,
-    source: Any,
+    source: SteppedSource,
     q0: np.ndarray,
     v0: np.ndarray,
     tau: np.ndarray,

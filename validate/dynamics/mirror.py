@@ -41,10 +41,12 @@ import functools
 import itertools
 import math
 import time
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
+from ..engines.base import Source, SteppedSource, stepped
 from ..engines.hand import HandSource, solve_or_nan
 from ..errors import HarnessError, unknown_name
 from ..systems import System
@@ -60,13 +62,13 @@ def _check_integrator(integrator: str) -> None:
         raise unknown_name("MuJoCo integrator", integrator, INTEGRATORS)
 
 
-def _force(source: Any, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
+def _force(source: Source, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
     """f = tau + passive - bias, (N, n)."""
     return tau + source.passive(q, v) - source.bias(q, v)
 
 
 def force_velocity_jacobian(
-    source: Any, q: np.ndarray, v: np.ndarray, *, bias: bool = True, step: float = DERIVATIVE_STEP
+    source: Source, q: np.ndarray, v: np.ndarray, *, bias: bool = True, step: float = DERIVATIVE_STEP
 ) -> np.ndarray:
     """d(passive - bias)/dv (bias=True) or d passive/dv (bias=False), (N, n, n), by central differences.
 
@@ -97,7 +99,7 @@ def eulerdamp_active(system: System) -> bool:
 class Stepper:
     """One of MuJoCo's schemes on a source's dynamics, batched over N states."""
 
-    def __init__(self, system: System, source: Any, *, integrator: str, timestep: float) -> None:
+    def __init__(self, system: System, source: Source, *, integrator: str, timestep: float) -> None:
         _check_integrator(integrator)
         if not timestep > 0:
             raise HarnessError(f"timestep must be positive; got {timestep}.")
@@ -265,7 +267,7 @@ def _scalar_run(
         qs[k], vs[k] = q, v
 
 
-def compiled_steps(source: Any, integrator: str, steps: int) -> tuple[Any, int] | None:
+def compiled_steps(source: Source, integrator: str, steps: int) -> tuple[Any, int] | None:
     """(cf, calls): MuJoCo's RK4 compiled (compiled.py `compiled_rk4`, cf(y, pars=[tau..., h]) does
     `steps / calls` steps, on one state (2n,) or a batch (2n, N)) for the hand equations of the
     source's system (a HandSource itself: a subclass may compute other dynamics than the module it
@@ -324,7 +326,7 @@ def _steps_per_sample(t: np.ndarray, timestep: float) -> int:
 
 def mirror_trajectory(
     system: System,
-    source: Any,
+    source: Source,
     q0: Any,
     v0: Any,
     tau: Any,
@@ -404,7 +406,7 @@ def mirror_trajectory(
 
 def mirror_steps(
     system: System,
-    source: Any,
+    source: Source,
     q: np.ndarray,
     v: np.ndarray,
     tau: np.ndarray,
@@ -434,7 +436,14 @@ def mirror_steps(
 
 
 def mujoco_steps(
-    source: Any, q: np.ndarray, v: np.ndarray, tau: np.ndarray, *, integrator: str, timestep: float, steps: int = 1
+    source: SteppedSource,
+    q: np.ndarray,
+    v: np.ndarray,
+    tau: np.ndarray,
+    *,
+    integrator: str,
+    timestep: float,
+    steps: int = 1,
 ) -> tuple[np.ndarray, np.ndarray]:
     """`steps` calls of `mj_step` from each of N states (the MuJoCo side of a lockstep), (N, n). A
     state from which MuJoCo warns (and resets) gives NaN rows, never the reset state as data."""
@@ -446,7 +455,7 @@ def mujoco_steps(
 
 def lockstep(
     system: System,
-    sources: dict[str, Any],
+    sources: Mapping[str, Source],
     states: Any,
     *,
     integrator: str,
@@ -486,7 +495,7 @@ def lockstep(
     ends = {}
     for name, src in sources.items():
         if name == "mujoco":
-            ends[name] = mujoco_steps(src, q, v, tau_b, integrator=integrator, timestep=dt, steps=window_steps)
+            ends[name] = mujoco_steps(stepped(src), q, v, tau_b, integrator=integrator, timestep=dt, steps=window_steps)
         else:
             ends[name] = mirror_steps(system, src, q, v, tau_b, integrator=integrator, timestep=dt, steps=window_steps)
     pairs = {}

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from ..engines.base import OneStateSource
 from . import estimate
 from .integrate import Trajectory
 
@@ -47,7 +48,7 @@ def reference_until(ref: Trajectory, check: Trajectory) -> float:
     return float(ref.t[-1]) if hit is None else hit
 
 
-def lyapunov(source: Any, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t_end: float) -> float:
+def lyapunov(source: OneStateSource, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t_end: float) -> float:
     """The largest Lyapunov exponent (1/s) by Benettin's method on the source's right-hand side."""
     f = source.rhs(tau)
     x = np.concatenate([q0, v0]).astype(float)
