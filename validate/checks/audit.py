@@ -18,11 +18,13 @@ a few seeded states.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
 from ..engines import make_source
+from ..engines.base import Source, engine_of
 from ..errors import HarnessError
 from ..systems import System
 from .modelsync import mujoco_joint_frames
@@ -42,14 +44,17 @@ FRAME = (
 )
 
 
-def mujoco_reading(system: System, source: Any) -> dict[str, Any]:
+def mujoco_reading(system: System, source: Source) -> dict[str, Any]:
     """MuJoCo's compiled model, keyed as `DrakeSource.reading` keys Drake's."""
-    view, m = system.view, source.m
+    from ..engines.mujoco import MujocoSource
+
+    mj = engine_of(source, MujocoSource)
+    view, m = system.view, mj.m
     out: dict[str, Any] = {}
     for b in system.bodies:
         out |= {f"body/{b}/{k}": view[f"body/{b}/{k}"] for k in ("mass", "com", "inertia")}
     frames = mujoco_joint_frames(system)
-    for j, qadr in zip(system.joints, source.qadr, strict=True):
+    for j, qadr in zip(system.joints, mj.qadr, strict=True):
         jid = int(np.nonzero(np.asarray(m.jnt_qposadr) == qadr)[0][0])
         limited = bool(m.jnt_limited[jid])
         limits = np.array(m.jnt_range[jid], dtype=float) if limited else np.array([-np.inf, np.inf])
@@ -63,27 +68,30 @@ def mujoco_reading(system: System, source: Any) -> dict[str, Any]:
     return out
 
 
-def pinocchio_reading(system: System, source: Any) -> dict[str, Any]:
+def pinocchio_reading(system: System, source: Source) -> dict[str, Any]:
     """Pinocchio's model (a joint's inertia holds its body and the links welded to it)."""
-    model = source.model
+    from ..engines.pinocchio import PinocchioSource
+
+    pn = engine_of(source, PinocchioSource)
+    model = pn.model
     out: dict[str, Any] = {}
-    for b, jid in zip(system.bodies, source.joint_of_body, strict=True):
+    for b, jid in zip(system.bodies, pn.joint_of_body, strict=True):
         inertia = model.inertias[jid]
         out |= {
             f"body/{b}/mass": float(inertia.mass),
             f"body/{b}/com": np.array(inertia.lever, dtype=float),
             f"body/{b}/inertia": np.array(inertia.inertia, dtype=float),
         }
-    frames, damping = source.joint_frames(), source.read_damping()
+    frames, damping = pn.joint_frames(), pn.read_damping()
     for k, j in enumerate(system.joints):
-        lo, hi = float(model.lowerPositionLimit[source.qidx[k]]), float(model.upperPositionLimit[source.qidx[k]])
+        lo, hi = float(model.lowerPositionLimit[pn.qidx[k]]), float(model.upperPositionLimit[pn.qidx[k]])
         limits = np.array([-np.inf if lo <= -UNBOUNDED else lo, np.inf if hi >= UNBOUNDED else hi])
         out |= {
             f"joint/{j}/anchor": frames[j][0],
             f"joint/{j}/motion": frames[j][1],
             f"joint/{j}/limits": limits,
             f"joint/{j}/damping": float(damping[k]),
-            f"joint/{j}/armature": float(model.armature[source.vidx[k]]),
+            f"joint/{j}/armature": float(model.armature[pn.vidx[k]]),
         }
     return out
 
@@ -183,7 +191,9 @@ def audit(
     if "pinocchio" in sources:
         readings["pinocchio"] = pinocchio_reading(sources["pinocchio"].system, sources["pinocchio"])
     if "drake" in sources:
-        readings["drake"] = sources["drake"].reading()
+        from ..engines.drake import DrakeSource
+
+        readings["drake"] = engine_of(sources["drake"], DrakeSource).reading()
     extent = max([float(np.abs(v).max()) for k, v in readings["mujoco"].items() if k.endswith("/anchor")] + [1.0])
     lengths = ("/anchor", "/com")  # judged against the chain's extent: a centre at the origin may read 1e-17 m
     rows = [
@@ -206,7 +216,7 @@ def audit(
     }
 
 
-def mass_matrix_gaps(system: System, sources: dict[str, Any], *, seed: int, n_states: int) -> dict[str, Any]:
+def mass_matrix_gaps(system: System, sources: Mapping[str, Source], *, seed: int, n_states: int) -> dict[str, Any]:
     """max |M_a - M_b| (kg m^2 or kg) for every pair of readers over `n_states` seeded states."""
     q = random_states(system, n=n_states, seed=seed).q
     M = {name: src.mass_matrix(q) for name, src in sources.items()}

@@ -16,6 +16,7 @@ judges a second time). In order:
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -23,6 +24,7 @@ import numpy as np
 
 from ..dynamics.cachedir import Cache
 from ..engines import make_sources
+from ..engines.base import Source
 from ..errors import HarnessError
 from ..results.schema import Derivation, ModelChecks, Pointwise
 from ..systems import System
@@ -48,7 +50,7 @@ class Decision:
     model_checks: ModelChecks | None = None
     pointwise: Pointwise | None = None
     states: States | None = None
-    sources: dict[str, Any] | None = None
+    sources: Mapping[str, Source] | None = None
     values: dict[str, dict[str, np.ndarray]] | None = None
     probe_set: verdict.ProbeSet | None = None
     unreadable: str = ""

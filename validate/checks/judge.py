@@ -24,6 +24,7 @@ l = 1.
 from __future__ import annotations
 
 import functools
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -31,6 +32,7 @@ import numpy as np
 from ...equations._forms import DerivationStep, Implicit, NotApplicable
 from ..dynamics.cachedir import Cache
 from ..engines import make_source, make_sources
+from ..engines.base import Source, posed
 from ..errors import HarnessError
 from ..systems import System
 from ..systems.modelview import ModelView
@@ -75,7 +77,7 @@ class EngineTerms:
     def __init__(
         self,
         system: System,
-        sources: dict[str, Any],
+        sources: Mapping[str, Source],
         states: States,
         values: dict[str, dict[str, np.ndarray]] | None = None,
     ) -> None:
@@ -114,7 +116,7 @@ class EngineTerms:
     def kinematics(self) -> dict[str, Any]:
         """Per-body kinematics of each engine, computed on first use (derivation steps need them)."""
         q, v = self._states.q, self._states.v
-        return {name: self._sources[name].kinematics(q, v) for name in self.engines}
+        return {name: posed(self._sources[name]).kinematics(q, v) for name in self.engines}
 
 
 def term_rows(
@@ -413,7 +415,7 @@ def printed_probes(system: System, *, n_probes: int, seed: int) -> tuple[list[An
 def judge_system(
     system: System,
     states: States,
-    sources: dict[str, Any],
+    sources: Mapping[str, Source],
     *,
     tolerances: Tolerances = TOLERANCES,
     values: dict[str, dict[str, np.ndarray]] | None = None,

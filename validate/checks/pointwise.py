@@ -6,12 +6,14 @@ Results are long-format rows: one per (quantity, pair of sources), sorted, with 
 from __future__ import annotations
 
 import itertools
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, cast
 
 import numpy as np
 
 from ..engines import make_sources
+from ..engines.base import Source
 from ..errors import HarnessError
 from ..guard import describe
 from ..results.schema import ComparisonRow, Pointwise
@@ -89,7 +91,7 @@ def validate_states(system: System, q: Any, v: Any, tau: Any | None = None) -> S
     return States(arrays["q"], arrays["v"], arrays["tau"])
 
 
-def evaluate(sources: dict[str, Any], states: States) -> dict[str, dict[str, np.ndarray]]:
+def evaluate(sources: Mapping[str, Source], states: States) -> dict[str, dict[str, np.ndarray]]:
     """Every quantity from every source: {source: {quantity: (N, ...) array}}.
 
     `qacc` is the forward dynamics at the given tau; `tau_inverse` is each source's inverse
@@ -217,7 +219,12 @@ def compare(
 
 
 def pointwise(
-    system: System, *, n: int, seed: int, sources: dict[str, Any] | None = None, tolerances: Tolerances = TOLERANCES
+    system: System,
+    *,
+    n: int,
+    seed: int,
+    sources: Mapping[str, Source] | None = None,
+    tolerances: Tolerances = TOLERANCES,
 ) -> Pointwise:
     """The pointwise check of one system at `n` seeded states."""
 

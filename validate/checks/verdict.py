@@ -21,6 +21,7 @@ that is not symmetric positive definite is reported with the state where it is n
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, cast
 
@@ -28,6 +29,7 @@ import numpy as np
 
 from ..dynamics.cachedir import Cache
 from ..engines import SYMBOLIC_MAX_DOF, make_sources
+from ..engines.base import Source
 from ..errors import HarnessError
 from ..results.schema import Derivation, Explanation, TermRow
 from ..systems import System
@@ -158,7 +160,9 @@ def definiteness(M: np.ndarray, states: States) -> dict[str, Any] | None:
     }
 
 
-def engine_values(sources: dict[str, Any], states: States, values: dict[str, Any] | None = None) -> dict[str, Any]:
+def engine_values(
+    sources: Mapping[str, Source], states: States, values: dict[str, Any] | None = None
+) -> dict[str, Any]:
     """The engines' quantities at `states` (reusing what the pointwise check computed, if given)."""
     if values is not None:
         return {k: values[k] for k in engines_of(sources)}
@@ -169,7 +173,7 @@ def engine_values(sources: dict[str, Any], states: States, values: dict[str, Any
 def term_rows_at(
     system: System,
     states: States,
-    sources: dict[str, Any],
+    sources: Mapping[str, Source],
     *,
     values: dict[str, Any] | None = None,
     tolerances: Tolerances = TOLERANCES,
@@ -341,7 +345,7 @@ def _explanations(
 def judge_derivation(
     system: System,
     states: States,
-    sources: dict[str, Any],
+    sources: Mapping[str, Source],
     probe_set: ProbeSet | None = None,
     *,
     values: dict[str, Any] | None = None,
@@ -485,7 +489,7 @@ def _unstated(system: System, term: str) -> list[str]:
 ENGINE_NAMES = {"mujoco": "MuJoCo", "pinocchio": "Pinocchio", "drake": "Drake"}
 
 
-def _engine_names(sources: dict[str, Any]) -> str:
+def _engine_names(sources: Mapping[str, Source]) -> str:
     """ "MuJoCo, Pinocchio and Drake": the engines a derivation was judged against."""
     names = [ENGINE_NAMES[n] for n in engines_of(sources) if n in ENGINE_NAMES]
     return ", ".join(names[:-1]) + f" and {names[-1]}" if len(names) > 1 else "".join(names)
