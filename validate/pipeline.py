@@ -24,6 +24,7 @@ from .dynamics.freeruns import (
     reference_dir,
     trajectory_results,
 )
+from .engines.base import stepped
 from .errors import HarnessError
 from .guard import DEFAULT_TIME_LIMIT, Stopped
 from .parallel import executor_for
@@ -65,7 +66,7 @@ def model_only_result(decision: Decision, *, t_end: float, dt_out: float, cache:
         **_identity(system),
         "failed": failed,
         "parameters": {},
-        "timestep": float(sources["mujoco"].m.opt.timestep),
+        "timestep": float(stepped(sources["mujoco"]).m.opt.timestep),
         "model_checks": model,
         "pointwise": point,
         "derivation": derivation,
@@ -226,7 +227,7 @@ def _run_stages(
         "failed": failed,
         "parameters": {k: float(v) for k, v in probing.param_fields(system.params).items()},
         "parameter_keys": parameter_keys(system),
-        "timestep": float(sources["mujoco"].m.opt.timestep),
+        "timestep": float(stepped(sources["mujoco"]).m.opt.timestep),
         "model_checks": model,
         "pointwise": point,
         "derivation": derivation,

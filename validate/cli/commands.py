@@ -7,6 +7,7 @@ import functools
 import json
 import os
 import sys
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +18,7 @@ from ..checks.pointwise import States, validate_states
 from ..dynamics.cache import CACHE_ENV, usable
 from ..dynamics.cachedir import Cache
 from ..engines import make_sources
+from ..engines.base import Source
 from ..errors import HarnessError
 from ..guard import DEFAULT_TIME_LIMIT
 from ..inputs import parse_json, regular_file
@@ -128,7 +130,7 @@ def states_from_file(system: System, path: Path) -> States:
     return validate_states(system, qs, vs, taus)
 
 
-def require_same_model(system: System, sources: dict[str, Any]) -> None:
+def require_same_model(system: System, sources: Mapping[str, Source]) -> None:
     """Dynamics are compared only between sources that describe the same model."""
 
     bad = modelsync.check(system, sources["pinocchio"])["mismatches"]

@@ -19,6 +19,7 @@ import numpy as np
 from ..checks.pointwise import validate_states
 from ..dynamics import integrate
 from ..engines import make_source
+from ..engines.base import stepped
 from ..errors import HarnessError
 from ..results import atomic_write, harness_version
 from ..systems import MODELS_DIR, System
@@ -161,6 +162,7 @@ def cmd_simulate(args: argparse.Namespace, one_system: Callable[[argparse.Namesp
     adjustments: list[str] = []
     timestep = None
     if args.source == "mujoco":
+        source = stepped(source)
         timestep, note = mujoco_timestep(float(source.m.opt.timestep), args.dt_out)
         adjustments += [note] if note else []
         traj = integrate.mujoco_trajectory(

@@ -23,6 +23,7 @@ import numpy as np
 
 from ..checks import pointwise
 from ..engines import make_source
+from ..engines.base import Source
 from ..engines.derivation import derive
 from ..results import atomic_write
 from ..systems import System
@@ -84,7 +85,7 @@ def _per_state(fn: Any, n_states: int, repeats: int) -> float:
     return best / n_states
 
 
-def _timings(source: Any, states: pointwise.States, repeats: int) -> dict[str, float]:
+def _timings(source: Source, states: pointwise.States, repeats: int) -> dict[str, float]:
     q, v, tau = states.q, states.v, states.tau
     a = np.zeros_like(q)
     calls = {
@@ -104,7 +105,7 @@ def _symbolic(system: System, budget: float) -> dict[str, Any]:
     d = derive(system.view, system.joints)
     derive_s = time.perf_counter() - start
     size = int(sp.count_ops(list(d.M)) + sp.count_ops(list(d.Cv)))
-    out = {"derive_s": derive_s, "ops_M_Cv": size}
+    out: dict[str, Any] = {"derive_s": derive_s, "ops_M_Cv": size}
     if derive_s > budget:
         return out
     start = time.perf_counter()

@@ -47,6 +47,7 @@ from ..checks.tolerances import SCALE_ALSO_BY
 from ..dynamics.integrate import initial_state, time_grid
 from ..dynamics.reference import DEFAULT_CACHE_DIR, reference_trajectory
 from ..engines import make_source
+from ..engines.base import engine_of, one_state, stepped
 from ..results import atomic_write, dumps, provenance
 from ..systems import System, load_all, system_names
 from .chains import chain_mjcf
@@ -191,7 +192,7 @@ def _reference_run(system: System, q0: np.ndarray, v0: np.ndarray, t: np.ndarray
         return {"q": ref.q, "method": str(info.get("method"))}
     from scipy.integrate import solve_ivp
 
-    rhs = make_source(system, "pinocchio").rhs(tau)
+    rhs = one_state(make_source(system, "pinocchio")).rhs(tau)
     sol = solve_ivp(rhs, (t[0], t[-1]), np.concatenate([q0, v0]), method="DOP853", t_eval=t, rtol=1e-12, atol=1e-14)
     return {"q": sol.y[: system.nv].T, "method": "scipy DOP853 rtol 1e-12 on Pinocchio's ABA"}
 
@@ -210,7 +211,14 @@ def trajectory_row(system: System, warp: Any, *, horizon: float, cache_dir: Any 
     run = engine_warp.run_in_coordinates(system, warp, q0, v0, tau, samples=len(t), steps=steps)
     q_warp = run["q"][0]
     q_c, _, _, raised = engine_mujoco.free_run(
-        make_source(system, "mujoco"), q0, v0, tau, len(t), steps, integrator=warp.integrator, timestep=warp.timestep
+        stepped(make_source(system, "mujoco")),
+        q0,
+        v0,
+        tau,
+        len(t),
+        steps,
+        integrator=warp.integrator,
+        timestep=warp.timestep,
     )
     ref = _reference_run(system, q0, v0, t, cache_dir)
     n_steps = steps * (len(t) - 1)
@@ -263,6 +271,8 @@ def system_result(
     system: System, *, n_states: int, horizon: float | None, cache_dir: Any = DEFAULT_CACHE_DIR
 ) -> dict[str, Any]:
     """One system's pointwise rows, its trajectory row (None without a horizon) and first-call times."""
+    from ..engines.warp import WarpSource
+
     start = time.perf_counter()
     warp = make_source(system, "warp")
     made = time.perf_counter() - start
@@ -270,10 +280,10 @@ def system_result(
     trajectory = trajectory_row(system, warp, horizon=horizon, cache_dir=cache_dir) if horizon else None
     return {
         "nv": system.nv,
-        "device": warp.device,
+        "device": engine_of(warp, WarpSource).device,
         "pointwise": rows,
         "trajectory": trajectory,
-        "first_call_s": {"put_model": made, **warp.first_call_s},
+        "first_call_s": {"put_model": made, **engine_of(warp, WarpSource).first_call_s},
     }
 
 
