@@ -18,7 +18,6 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -124,7 +123,7 @@ def decide(
     return Decision(system, derivation, model, point, states, sources, values, probe_set)
 
 
-def with_drake(model: ModelChecks, sources: Any) -> ModelChecks:
+def with_drake(model: ModelChecks, sources: Mapping[str, Source]) -> ModelChecks:
     """The model checks with what was aligned for Drake's reading (engines/drake.py), or why Drake was
     left out, listed beside the other alignments: never silent."""
     lines = [f"Drake: {line}" for line in getattr(sources.get("drake"), "alignments", [])]

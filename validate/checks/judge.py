@@ -46,7 +46,7 @@ from .tolerances import TOLERANCES, Tolerances
 ENGINES = ("mujoco", "pinocchio", "symbolic", "drake")  # the references a derivation is judged against
 
 
-def engines_of(sources: Any) -> tuple[str, ...]:
+def engines_of(sources: Mapping[str, Source]) -> tuple[str, ...]:
     """The references among `sources` (the symbolic one is left out of chains too long to derive)."""
     return tuple(n for n in ENGINES if n in sources)
 

@@ -16,7 +16,7 @@ from ..engines import make_sources
 from ..engines.base import Source
 from ..errors import HarnessError
 from ..guard import describe
-from ..results.schema import ComparisonRow, Pointwise
+from ..results.schema import ComparisonRow, Pointwise, WorstState
 from ..systems import System
 from .tolerances import QUANTITY_TIER, SCALE_ALSO_BY, TOLERANCES, Tolerances
 
@@ -38,7 +38,7 @@ class States:
     def __len__(self) -> int:
         return len(self.q)
 
-    def state(self, i: int) -> dict[str, list[float]]:
+    def state(self, i: int) -> WorstState:
         return {"q": self.q[i].tolist(), "v": self.v[i].tolist(), "tau": self.tau[i].tolist()}
 
 
