@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -62,3 +64,26 @@ def evaluated(system):
         sources = make_sources(system)
         _cache[system.name] = (states, sources, compare.evaluate(sources, states))
     return _cache[system.name]
+
+
+@pytest.fixture(scope="session")
+def cli_run(tmp_path_factory: pytest.TempPathFactory):
+    """`lagrange-xval run ARGS --out DIR` in a fresh folder, once per session for the same ARGS (an
+    end-to-end run that several tests read: the robots' runs take 5 to 30 s each): the finished
+    process and its output folder. A test must not change what it reads."""
+    done: dict[tuple[str, ...], tuple[subprocess.CompletedProcess[str], Path]] = {}
+
+    def run(*args: str) -> tuple[subprocess.CompletedProcess[str], Path]:
+        if args not in done:
+            folder = tmp_path_factory.mktemp("run")
+            proc = subprocess.run(
+                [sys.executable, "-m", "lagrange_xval.validate.cli", "run", *args, "--out", "out"],
+                cwd=folder,
+                capture_output=True,
+                text=True,
+                timeout=900,
+            )
+            done[args] = (proc, folder / "out")
+        return done[args]
+
+    return run

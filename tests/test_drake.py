@@ -7,8 +7,6 @@ from __future__ import annotations
 import importlib.util
 import json
 import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -99,30 +97,16 @@ def test_coordinates_are_mapped_by_joint_name():
 
 @needs_drake
 @pytest.mark.skipif(not ROBOTS.is_dir(), reason="example-robot-data is not installed")
-def test_run_on_ur5_compares_three_readers(tmp_path):
-    """`run --model ur5_robot.urdf`: Drake in the pointwise rows and the audit with three readers (about
-    6 s with 100 states: not marked slow)."""
-    done = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "lagrange_xval.validate.cli",
-            "run",
-            "--model",
-            str(ROBOTS / "ur_description/urdf/ur5_robot.urdf"),
-        ]
-        + ["--out", "out", "--no-replay", "--states", "100"],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=900,
-    )
+def test_run_on_ur5_compares_three_readers(cli_run):
+    """`run --model ur5_robot.urdf`: Drake in the pointwise rows and the audit with three readers (the
+    session's one run of the UR5, which tests/test_robots.py reads too)."""
+    done, out = cli_run("--model", str(ROBOTS / "ur_description/urdf/ur5_robot.urdf"))
     assert done.returncode == 0, done.stdout + done.stderr
-    result = json.loads((tmp_path / "out" / "results.json").read_text())["systems"]["ur5_robot"]
+    result = json.loads((out / "results.json").read_text())["systems"]["ur5_robot"]
     assert result["audit"]["readers"] == ["mujoco", "pinocchio", "drake"] and result["audit"]["passed"]
     pairs = {r["pair"] for r in result["pointwise"]["rows"]}
     assert {"drake~mujoco", "drake~pinocchio"} <= pairs
-    assert "Model audit: three readers" in (tmp_path / "out" / "report.md").read_text()
+    assert "Model audit: three readers" in (out / "report.md").read_text()
 
 
 @needs_drake

@@ -78,32 +78,17 @@ def test_a_mimic_joint_is_refused_unless_locked_and_fixed_finger_transmissions_a
 
 
 @needs_robots
-def test_run_on_a_robot_urdf_alone_end_to_end(tmp_path):
+def test_run_on_a_robot_urdf_alone_end_to_end(tmp_path, cli_run):
     """`lagrange-xval run --model ur5_robot.urdf --out DIR`: no equations module, report and replay."""
     assert ROBOTS is not None
-    done = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "lagrange_xval.validate.cli",
-            "run",
-            "--model",
-            str(ROBOTS / ARMS[0][0]),
-            "--out",
-            "out",
-        ],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
+    done, out = cli_run("--model", str(ROBOTS / ARMS[0][0]))
     assert done.returncode == 0, done.stdout + done.stderr
-    report = (tmp_path / "out" / "report.md").read_text()
+    report = (out / "report.md").read_text()
     assert "No derivation given: the engines' readings of the model and their dynamics compared" in report
     assert "URDF `" in report and "hand derivation" not in report  # issue 26: nothing of a derivation not given
     assert "no derivation given; MuJoCo, Pinocchio and Drake agree on the model and its dynamics" in done.stdout
     assert "made a MuJoCo motor" in report
-    assert (tmp_path / "out" / "ur5_robot.rrd").stat().st_size > 0
+    assert (out / "ur5_robot.rrd").stat().st_size > 0
     bad = subprocess.run(
         [
             *(sys.executable, "-m", "lagrange_xval.validate.cli", "simulate", "--model", str(ROBOTS / ARMS[0][0])),
@@ -126,22 +111,15 @@ def test_run_on_a_robot_urdf_alone_end_to_end(tmp_path):
     ],
     ids=["panda", "kinova"],
 )
-def test_run_the_other_arms_end_to_end(tmp_path, path, lock):
+def test_run_the_other_arms_end_to_end(cli_run, path, lock):
     """The Panda with its fingers locked from the command line (a step the report lists) and the Kinova."""
     assert ROBOTS is not None
-    args = ["run", "--model", str(ROBOTS / path), "--out", "out"] + (["--lock", lock] if lock else [])
-    done = subprocess.run(
-        [sys.executable, "-m", "lagrange_xval.validate.cli", *args],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
+    done, out = cli_run("--model", str(ROBOTS / path), *(["--lock", lock] if lock else []))
     assert done.returncode == 0, done.stdout + done.stderr
     assert re.search(
         r"no derivation given; MuJoCo, Pinocchio(, Drake and the derived equations| and Drake) agree", done.stdout
     )
-    report = (tmp_path / "out" / "report.md").read_text()
+    report = (out / "report.md").read_text()
     if lock:
         assert "panda_finger_joint1, panda_finger_joint2 locked at zero" in report
-    assert (tmp_path / "out" / f"{Path(path).stem}.rrd").stat().st_size > 0
+    assert (out / f"{Path(path).stem}.rrd").stat().st_size > 0
