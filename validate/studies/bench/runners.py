@@ -40,7 +40,7 @@ LOCAL = threading.local()
 
 def resources(name: str) -> tuple[Any, dict[str, Any]]:
     """The system and its three sources, built once per worker thread (setup is never timed)."""
-    cache = LOCAL.__dict__.setdefault("systems", {})
+    cache = LOCAL.__dict__.setdefault("systems", {})  # per worker thread: one entry per system benched
     if name not in cache:
         system = from_key(name)  # a repository system's name, or a person's files (systems.key_of)
         cache[name] = (system, make_sources(system))
