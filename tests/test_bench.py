@@ -8,6 +8,7 @@ import math
 import os
 import time
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -17,6 +18,7 @@ from lagrange_xval.validate.engines import make_sources
 from lagrange_xval.validate.engines.fastpath import scalar_rhs
 from lagrange_xval.validate.errors import HarnessError
 from lagrange_xval.validate.studies import bench
+from lagrange_xval.validate.studies.bench import FULL, QUICK
 
 ROW_KEYS = {
     "system", "method", "engine", "driver", "scheme", "setting", "value", "atol", "status", "message", "error_2s",
@@ -27,7 +29,7 @@ DP = "double_pendulum_point"
 
 
 def _specs(methods, rtols):
-    specs = [bench.scipy_spec("hand", "solve_ivp", m, r) for m in methods for r in rtols]
+    specs = [bench.scipy_spec("hand", "solve_ivp", m, r, atol_factor=FULL.atol_factor) for m in methods for r in rtols]
     for s in specs:
         s["method"] = bench.method_name(s)
     return specs
@@ -40,11 +42,10 @@ def _dominates(a, b, error):
 @pytest.fixture(scope="module")
 def tiny():
     """One system, two methods, two tolerances, two repeats, in a two-process pool."""
-    prepared = {DP: bench.prepare(DP)}
+    prepared = {DP: bench.prepare(DP, FULL)}
     with ProcessPoolExecutor(max_workers=2) as pool:
-        rows, _ = bench.sweep(
-            prepared, _specs(("DOP853", "RK45"), (1e-4, 1e-8)), repeats=2, executor=pool, budget=60.0, min_timed=0.0
-        )
+        plan = replace(FULL, repeats=2, budget=60.0, min_timed=0.0)
+        rows, _ = bench.sweep(prepared, _specs(("DOP853", "RK45"), (1e-4, 1e-8)), plan=plan, executor=pool)
     return rows
 
 
@@ -57,7 +58,7 @@ def test_tiny_sweep_rows_are_long_format_sorted_and_complete(tiny):
         assert r["status"] == "ok", r
         assert r["deterministic"], f"{r['method']} {r['value']}: repeats gave different samples"
         assert len(r["cpu_s_repeats"]) == 2 and r["cpu_s"] == np.median(r["cpu_s_repeats"])
-        assert r["atol"] == r["value"] * bench.ATOL_FACTOR
+        assert r["atol"] == r["value"] * FULL.atol_factor
         assert r["error_horizon"] >= max(r["error_2s"], r["error_10s"])
 
 
@@ -88,8 +89,8 @@ def test_tiny_sweep_pareto_front_is_a_non_dominated_subset(tiny):
 
 def test_tiny_sweep_time_to_epsilon_matches_the_rows(tiny):
     """The cheapest run of each method reaching eps at 2 s, or "not reached" when none does."""
-    table = bench.time_to_epsilon(tiny)
-    assert len(table) == 2 * len(bench.EPSILONS)
+    table = bench.time_to_epsilon(tiny, FULL.epsilons)
+    assert len(table) == 2 * len(FULL.epsilons)
     for e in table:
         runs = [r for r in tiny if r["method"] == e["method"]]
         good = [r for r in runs if r["error_2s"] <= e["epsilon"]]
@@ -114,7 +115,7 @@ def test_pareto_and_epsilon_ignore_runs_that_failed():
          "wall_s": 2.0, "error_2s": 1e-2},
     ]  # fmt: skip
     assert [(p["method"], p["value"]) for p in bench.pareto_front(rows, "error_2s")] == [("a", 1e-3)]
-    reached = {(e["method"], e["epsilon"]): e["result"] for e in bench.time_to_epsilon(rows)}
+    reached = {(e["method"], e["epsilon"]): e["result"] for e in bench.time_to_epsilon(rows, FULL.epsilons)}
     assert reached[("a", 1e-3)] == "reached" and reached[("a", 1e-6)] == "not reached"
     assert reached[("b", 1e-3)] == "not reached"
 
@@ -125,9 +126,9 @@ def test_pareto_and_epsilon_ignore_runs_that_failed():
 
 def test_mujoco_euler_at_a_huge_timestep_is_diverged():
     """Euler at 0.5 s from 20 rad/s: MuJoCo warns about qacc and resets the state; the run is "diverged"."""
-    case = dict(bench.case_for(systems.load(DP)), v0=[20.0, -20.0], dt_out=0.5)
+    case = dict(bench.case_for(systems.load(DP), FULL), v0=[20.0, -20.0], dt_out=0.5)
     spec = bench.step_spec("mujoco", "mujoco", "Euler", 0.5)
-    res = bench.execute(spec, case, budget=30.0, min_timed=0.0)
+    res = bench.execute(spec, case, plan=replace(FULL, budget=30.0, min_timed=0.0))
     assert res["status"] == "diverged", res["message"]
     assert "BADQACC" in res["message"]
 
@@ -165,16 +166,21 @@ def test_a_run_past_its_budget_is_stopped_as_timeout(driver):
     "spec", [bench.step_spec("mujoco", "mujoco", "RK4", 1e-5), bench.step_spec("pinocchio", "mirror", "RK4", 1e-5)]
 )
 def test_stepping_runs_past_their_budget_are_timeouts(spec):
-    res = bench.execute(spec, bench.case_for(systems.load(DP)), budget=0.02, min_timed=0.0)
+    res = bench.execute(spec, bench.case_for(systems.load(DP), FULL), plan=replace(FULL, budget=0.02, min_timed=0.0))
     assert res["status"] == "timeout", res
 
 
 def test_a_timeout_is_kept_and_tighter_settings_are_skipped_not_dropped():
     """With a budget nothing meets, every planned row is still there: timed out or skipped as costlier."""
-    prepared = {DP: bench.prepare(DP)}
+    prepared = {DP: bench.prepare(DP, FULL)}
     specs = _specs(("Radau",), (1e-9, 1e-10, 1e-11, 1e-12))
     with ThreadPoolExecutor(max_workers=1) as pool:
-        rows, _ = bench.sweep(prepared, specs, repeats=2, executor=pool, budget=0.01, min_timed=0.0)
+        rows, _ = bench.sweep(
+            prepared,
+            specs,
+            plan=replace(FULL, repeats=2, budget=0.01, min_timed=0.0),
+            executor=pool,
+        )
     assert [r["value"] for r in rows] == [1e-9, 1e-10, 1e-11, 1e-12]
     assert rows[0]["status"] == "timeout"
     assert {r["status"] for r in rows} <= {"timeout", "skipped"}
@@ -186,7 +192,11 @@ def test_the_mujoco_model_options_are_restored():
     system, sources = bench.resources(DP)
     m = sources["mujoco"].m
     before = (m.opt.integrator, m.opt.timestep)
-    bench.execute(bench.step_spec("mujoco", "mujoco", "Euler", 1e-2), bench.case_for(system), budget=30.0)
+    bench.execute(
+        bench.step_spec("mujoco", "mujoco", "Euler", 1e-2),
+        bench.case_for(system, FULL),
+        plan=replace(FULL, budget=30.0),
+    )
     assert (m.opt.integrator, m.opt.timestep) == before
 
 
@@ -247,7 +257,7 @@ def test_default_ratio_names_the_runs_that_would_pass():
         {"system": DP, "method": "hand solve_ivp RK45", "engine": "hand", "driver": "solve_ivp", "value": 1e-6,
          "atol": 1e-9, "status": "ok", "cpu_s": 0.1, "error_2s": 1e-6},
     ]  # fmt: skip
-    out = bench.default_ratio(rows)
+    out = bench.default_ratio(rows, FULL)
     assert out["value"] == 3.0 and out["passed"] is False
     assert [w["method"] for w in out["would_pass"]] == ["hand odeint", "hand solve_ivp DOP853"]
 
@@ -279,6 +289,6 @@ def test_bench_json_is_valid_json_and_written_atomically(tmp_path, monkeypatch):
 
 def test_unknown_system_and_bad_repeats_are_one_line_errors():
     with pytest.raises(HarnessError, match="Did you mean 'double_pendulum_point'"):
-        bench.run_bench(["double_pendulum_pointt"], quick=True)
+        bench.run_bench(["double_pendulum_pointt"], plan=QUICK)
     with pytest.raises(HarnessError, match="repeats"):
-        bench.run_bench([DP], quick=True, repeats=0)
+        bench.run_bench([DP], plan=replace(QUICK, repeats=0))

@@ -32,7 +32,7 @@ LOST_TWO = ("double_pendulum_point", "2 * p.l1 * p.l2 * c) + p.I1", "p.l1 * p.l2
 def mutated(system: str, old: str, new: str) -> systems.System:
     """The system with its equations module re-executed from the substituted source, as
     lagrange_xval.equations._mutated_x_<n> (relative imports resolve). The System is made with
-    dataclasses.replace, so it shares the original's `_cache` dict: caches must tell them apart."""
+    dataclasses.replace: a new System, its own memo (caches keyed by the module tell them apart too)."""
     original = systems.load(system)
     text = inspect.getsource(original.equations)
     assert text.count(old) == 1, f"{system}: {old!r} occurs {text.count(old)} times"
@@ -239,12 +239,12 @@ def test_taylor_guard_leaves_the_reference_bit_for_bit():
 
 
 def test_generated_code_is_not_shared_with_a_mutated_module_of_the_same_name():
-    """fastpath's cache lives on the System, which dataclasses.replace shares: the mutated module
-    still gets code generated from its own equations, and the original keeps its own."""
+    """fastpath's code lives in the System's memo, which dataclasses.replace does not share: the mutated
+    module gets code generated from its own equations, and the original keeps its own."""
     original = systems.load("gimbal")
     f_original = fastpath.scalar_rhs(original)
     s = dataclasses.replace(original, equations=mutated(*FRICTION_SIGN).equations)
-    assert s._cache is original._cache  # the hazard this guards against
+    assert s.memo is not original.memo  # once one dict shared by replace: the hazard this guarded against
     f_mutated = fastpath.scalar_rhs(s)
     y, tau = [0.0, 0.3, 1.0, 0.0], [0.0, 0.0]  # theta' = 0: only friction acts on psi
     assert f_mutated(0.0, y, tau)[2] == -f_original(0.0, y, tau)[2] != 0.0

@@ -16,6 +16,7 @@ from lagrange_xval.validate.parallel import named_executor, parse_executor
 from lagrange_xval.validate.studies import bench, stress
 
 DP = "double_pendulum_point"
+PLAN = replace(bench.FULL, repeats=2, budget=60.0, min_timed=0.0)  # a short sweep
 # what a run computes (its time aside): identical whatever executes it
 SAME = ("status", "message", "error_2s", "error_10s", "error_horizon", "t_exceeds_tolerance", "nfev", "steps")
 
@@ -29,8 +30,8 @@ def cluster_executor():
 def _specs():
     specs = [
         bench.taylor_spec(1e-9),
-        bench.scipy_spec("hand", "solve_ivp", "DOP853", 1e-6),
-        bench.scipy_spec("hand", "odeint", "LSODA", 1e-8),
+        bench.scipy_spec("hand", "solve_ivp", "DOP853", 1e-6, atol_factor=bench.FULL.atol_factor),
+        bench.scipy_spec("hand", "odeint", "LSODA", 1e-8, atol_factor=bench.FULL.atol_factor),
         bench.step_spec("mujoco", "mujoco", "RK4", 1e-2),
         bench.step_spec("hand", "compiled_rk4", "RK4", 1e-2),
     ]
@@ -40,10 +41,10 @@ def _specs():
 
 
 def test_a_bench_sweep_on_a_local_dask_cluster_equals_the_process_pool(cluster_executor):
-    prepared = {DP: bench.prepare(DP)}
-    on_dask, _ = bench.sweep(prepared, _specs(), repeats=2, executor=cluster_executor, budget=60.0, min_timed=0.0)
+    prepared = {DP: bench.prepare(DP, bench.FULL)}
+    on_dask, _ = bench.sweep(prepared, _specs(), plan=PLAN, executor=cluster_executor)
     with ProcessPoolExecutor(max_workers=2) as pool:
-        local, _ = bench.sweep(prepared, _specs(), repeats=2, executor=pool, budget=60.0, min_timed=0.0)
+        local, _ = bench.sweep(prepared, _specs(), plan=PLAN, executor=pool)
     assert [(r["method"], r["value"]) for r in on_dask] == [(r["method"], r["value"]) for r in local]
     for a, b in zip(on_dask, local, strict=True):
         assert a["status"] == "ok", a

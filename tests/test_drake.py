@@ -7,6 +7,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import os
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -18,8 +19,7 @@ from lagrange_xval.validate.dynamics.reference import reference_trajectory
 from lagrange_xval.validate.engines import drake as drake_engine
 from lagrange_xval.validate.engines import make_sources
 from lagrange_xval.validate.studies.bench import runners
-from lagrange_xval.validate.studies.bench.plan import CONTENDER_DRIVERS, GRID_DRIVERS
-from lagrange_xval.validate.studies.bench.plan import plan as sweep_plan
+from lagrange_xval.validate.studies.bench.plan import CONTENDER_DRIVERS, FULL, GRID_DRIVERS, QUICK
 from lagrange_xval.validate.systems import System, load, system_names
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -151,16 +151,18 @@ def test_no_drake_run_without_the_drake_source(monkeypatch):
 @needs_drake
 def test_bench_times_drakes_integrators():
     """Drake's integrators are contenders of the quick sweep; one runs, timed, with its samples."""
-    specs = [s for s in sweep_plan(quick=True) if s["engine"] == "drake"]
+    specs = [s for s in QUICK.specs() if s["engine"] == "drake"]
     assert {s["scheme"] for s in specs} == {"runge_kutta3", "runge_kutta2", "explicit_euler"}
     assert "drake" in CONTENDER_DRIVERS and "drake" in GRID_DRIVERS
-    case = runners.case_for(load("simple_pendulum"))
+    case = runners.case_for(load("simple_pendulum"), FULL)
     spec = next(s for s in specs if s["scheme"] == "runge_kutta3" and s["value"] == 1e-8)
-    row = runners.execute(spec, case, budget=5.0, min_timed=0.0)
+    row = runners.execute(spec, case, plan=replace(FULL, budget=5.0, min_timed=0.0))
     assert row["status"] == "ok" and row["cpu_s"] > 0 and row["steps"] > 1000
     ref, _ = reference_trajectory(
         load("simple_pendulum"), case["q0"], case["v0"], case["tau"], row["t"], cache_dir=None
     )
     assert np.abs(row["q"] - ref.q).max() < 1e-6
     fixed = next(s for s in specs if s["scheme"] == "runge_kutta2" and s["value"] == 1e-3)
-    assert 10_000 <= runners.execute(fixed, case, budget=5.0, min_timed=0.0)["steps"] <= 11_000  # + end-of-sample steps
+    assert (
+        10_000 <= runners.execute(fixed, case, plan=replace(FULL, budget=5.0, min_timed=0.0))["steps"] <= 11_000
+    )  # + end-of-sample steps

@@ -4,6 +4,8 @@ asserts on time: the ratios are measured by `lagrange-xval bench`."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from lagrange_xval.validate import systems
@@ -11,7 +13,7 @@ from lagrange_xval.validate.dynamics import compiled, fast, integrate, mirror
 from lagrange_xval.validate.dynamics.reference import reference_trajectory
 from lagrange_xval.validate.engines import make_source, make_sources
 from lagrange_xval.validate.engines.hand import HandSource
-from lagrange_xval.validate.studies.bench import checks
+from lagrange_xval.validate.studies.bench import FULL, checks
 
 from .test_budgets import FRICTION_SIGN, assert_kept_until_stop, mutated, start
 
@@ -175,7 +177,7 @@ def test_each_check_is_set_against_the_fastest_run_computing_the_same_at_its_err
             ]
         }
     ]
-    out = checks.checks_ratios(measured, ROWS)
+    out = checks.checks_ratios(measured, ROWS, target=FULL.checks_target)
     by = {e["check"]: e for e in out["rows"]}
     assert by["hand accurate"]["fastest"]["value"] == 1e-15 and by["hand accurate"]["ratio"] == pytest.approx(1.2)
     assert by["symbolic accurate"]["fastest"]["method"].startswith("symbolic")
@@ -189,13 +191,15 @@ def test_each_check_is_set_against_the_fastest_run_computing_the_same_at_its_err
 def test_a_check_timed_again_beside_its_fastest_run_takes_the_ratio_of_the_pair():
     """Two timings minutes apart carry what else the machine did: the side-by-side pair decides."""
     measured = [{"rows": [check("hand accurate", "hand", "accurate", 3e-3, 2e-15), check("u", "hand", "user", 1, 1)]}]
-    first = checks.checks_ratios(measured, ROWS)
+    first = checks.checks_ratios(measured, ROWS, target=FULL.checks_target)
     assert first["rows"][0]["ratio"] == pytest.approx(3.0) and first["passed"] is False
     pairs = checks.pairs_to_time(first)
     assert list(pairs) == ["s"] and [label for label, _ in pairs["s"]] == ["hand accurate"]  # the user's path: none
     spec = pairs["s"][0][1]
     assert (spec["driver"], spec["engine"], spec["value"]) == ("taylor", "hand", 1e-15)
-    again = checks.checks_ratios(measured, ROWS, {"s": {"hand accurate": {"cpu_s": 1.1e-3, "fastest_cpu_s": 1e-3}}})
+    again = checks.checks_ratios(
+        measured, ROWS, {"s": {"hand accurate": {"cpu_s": 1.1e-3, "fastest_cpu_s": 1e-3}}}, target=FULL.checks_target
+    )
     entry = again["rows"][0]
     assert entry["ratio"] == pytest.approx(1.1) and entry["sweep_ratio"] == pytest.approx(3.0)
     assert again["passed"] is True and again["value"] == pytest.approx(1.1)
@@ -205,13 +209,15 @@ def test_paired_timings_time_the_check_and_the_sweeps_run_in_one_task():
     from lagrange_xval.validate.studies import bench
 
     spec = {**bench.taylor_spec(1e-15), "method": "hand heyoka Taylor (double)"}
-    out = checks.paired_timings("simple_pendulum", [("hand accurate run", spec)], reps=2, budget=60.0)
+    out = checks.paired_timings(
+        "simple_pendulum", [("hand accurate run", spec)], plan=replace(FULL, budget=60.0), reps=2
+    )
     assert set(out) == {"hand accurate run"}
     assert out["hand accurate run"]["cpu_s"] > 0 and out["hand accurate run"]["fastest_cpu_s"] > 0
 
 
 def test_measure_checks_times_what_run_does_and_measures_its_errors():
-    out = checks.measure_checks("gimbal", reps=1)
+    out = checks.measure_checks("gimbal", plan=FULL, reps=1)
     by = {r["check"]: r for r in out["rows"]}
     expected = {"hand accurate run", "hand scipy run (the user's path)", "hand mirror RK4", "pinocchio mirror RK4"}
     assert expected | {"pinocchio scipy run", "symbolic accurate run", "hand mirror RK4 windows"} <= set(by)

@@ -5,6 +5,7 @@ the default path to the fastest method picks the right runs. No assertion here i
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -14,6 +15,7 @@ from lagrange_xval.validate.dynamics.integrate import time_grid
 from lagrange_xval.validate.dynamics.mirror import mirror_trajectory
 from lagrange_xval.validate.engines.fastpath import scalar_rhs
 from lagrange_xval.validate.studies import bench
+from lagrange_xval.validate.studies.bench import FULL, QUICK
 from lagrange_xval.validate.studies.bench.analysis import errors_against
 
 DP = "double_pendulum_point"
@@ -21,20 +23,26 @@ DP = "double_pendulum_point"
 
 @pytest.fixture(scope="module")
 def prepared():
-    return bench.prepare(DP)
+    return bench.prepare(DP, FULL)
 
 
 def _errors(res, ref):
     assert res["status"] == "ok", res
-    return errors_against(res["t"], res["q"], ref["t"], ref["q"], window=ref["horizon_window_s"])
+    return errors_against(
+        res["t"], res["q"], ref["t"], ref["q"], window=ref["horizon_window_s"], tolerance=FULL.horizon_tolerance
+    )
 
 
 def test_taylor_in_double_meets_its_tolerance_and_a_tighter_one_errs_less(prepared):
     """Against the long-double reference: tol 1e-12 is within 1e-10 rad at 2 s and 10 s, tol 1e-6
     errs more than tol 1e-12 at both times (the tolerance governs the error)."""
     case = prepared["case"]
-    loose = _errors(bench.execute(bench.taylor_spec(1e-6), case, budget=30.0, min_timed=0.0), prepared)
-    tight = _errors(bench.execute(bench.taylor_spec(1e-12), case, budget=30.0, min_timed=0.0), prepared)
+    loose = _errors(
+        bench.execute(bench.taylor_spec(1e-6), case, plan=replace(FULL, budget=30.0, min_timed=0.0)), prepared
+    )
+    tight = _errors(
+        bench.execute(bench.taylor_spec(1e-12), case, plan=replace(FULL, budget=30.0, min_timed=0.0)), prepared
+    )
     assert tight["error_2s"] < 1e-10 and tight["error_10s"] < 1e-10, tight
     assert loose["error_2s"] > 10 * tight["error_2s"] and loose["error_10s"] > 10 * tight["error_10s"]
 
@@ -93,22 +101,28 @@ def test_compiled_rk4_stops_at_its_deadline_and_on_blow_up():
 def test_rollout_gives_the_stepping_loop_bit_for_bit(batch):
     """MuJoCo's rollout (one or a batch of copies) and the mj_step loop of `run_mujoco` give the same bits."""
     system, _ = bench.resources(DP)
-    case = dict(bench.case_for(system), t_end=1.0)
-    loop = bench.execute(bench.step_spec("mujoco", "mujoco", "RK4", 1e-3), case, budget=30.0, min_timed=0.0)
+    case = dict(bench.case_for(system, FULL), t_end=1.0)
+    loop = bench.execute(
+        bench.step_spec("mujoco", "mujoco", "RK4", 1e-3), case, plan=replace(FULL, budget=30.0, min_timed=0.0)
+    )
     driver = "rollout" if batch == 1 else "rollout_batch"
-    rolled = bench.execute(bench.step_spec("mujoco", driver, "RK4", 1e-3), case, budget=30.0, min_timed=0.0)
+    rolled = bench.execute(
+        bench.step_spec("mujoco", driver, "RK4", 1e-3, batch=batch if batch > 1 else None),
+        case,
+        plan=replace(FULL, budget=30.0, min_timed=0.0),
+    )
     assert rolled["status"] == loop["status"] == "ok", rolled
     assert rolled["digest"] == loop["digest"]
     assert np.array_equal(rolled["q"], loop["q"])
 
 
 def test_every_contender_is_in_both_plans_and_named():
-    for quick in (True, False):
-        drivers = {s["driver"] for s in bench.plan(quick=quick)}
-        assert {"taylor", "compiled_rk4", "rollout", "rollout_batch", "odeint", "default"} <= drivers, quick
-        engines = {s["engine"] for s in bench.plan(quick=quick)}
+    for plan in (QUICK, FULL):
+        drivers = {s["driver"] for s in plan.specs()}
+        assert {"taylor", "compiled_rk4", "rollout", "rollout_batch", "odeint", "default"} <= drivers, plan.quick
+        engines = {s["engine"] for s in plan.specs()}
         assert "hand-cfunc" in engines
-    full = bench.plan(quick=False)
+    full = FULL.specs()
     for engine in ("hand", "symbolic"):
         tols = sorted(s["value"] for s in full if s["driver"] == "taylor" and s["engine"] == engine)
         assert tols[0] == pytest.approx(1e-16, rel=1e-9) and tols[-1] == pytest.approx(1e-6, rel=1e-9), engine
@@ -164,8 +178,12 @@ def test_taylor_on_the_derived_equations_follows_the_hand_reference(name):
     """heyoka's Taylor method on the symbolic source (joint coordinates; the absolute-angle pendulum's
     JOINT_MAP applied on the way in and out) stays within 1e-9 rad of the hand equations' reference at
     2 s; with a wrong JOINT_MAP handling the coordinates would differ by radians."""
-    ref = bench.prepare(name)
-    res = bench.execute(bench.taylor_spec(1e-12, "symbolic"), ref["case"], budget=30.0, min_timed=0.0)
+    ref = bench.prepare(name, FULL)
+    res = bench.execute(
+        bench.taylor_spec(1e-12, "symbolic"), ref["case"], plan=replace(FULL, budget=30.0, min_timed=0.0)
+    )
     assert res["status"] == "ok", res
-    err = errors_against(res["t"], res["q"], ref["t"], ref["q"], window=ref["horizon_window_s"])
+    err = errors_against(
+        res["t"], res["q"], ref["t"], ref["q"], window=ref["horizon_window_s"], tolerance=FULL.horizon_tolerance
+    )
     assert err["error_2s"] < 1e-9, err

@@ -67,7 +67,7 @@ def folder(cache_dir: Any, kind: str) -> Path | None:
     return Path(cache_dir)
 
 
-@functools.cache
+@functools.cache  # one value per process (no arguments)
 def harness_hash() -> str:
     """SHA-256 of the harness's and the equations' source files: any code change is a new key."""
     h = hashlib.sha256()
@@ -122,7 +122,7 @@ def _user_key() -> bytes | None:
     return found
 
 
-@functools.cache
+@functools.cache  # one value per process (no arguments)
 def signing_key() -> bytes:
     """The key entries are signed with: the user's, or one of this process (set in the environment
     for the workers it starts, so that they share it)."""
@@ -198,7 +198,7 @@ def store(path: Path, key: str, arrays: dict[str, np.ndarray], info: dict[str, A
         return False
 
 
-@functools.cache
+@functools.cache  # unbounded by design: once per folder and message, of the few folders a run writes
 def _unwritable(where: Path, message: str) -> None:
     """`message`, once per folder: a cache that cannot be written is one line, not one per entry."""
     warn(message)

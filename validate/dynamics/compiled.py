@@ -35,6 +35,7 @@ from ..engines.derivation import parameter_values
 from ..engines.symbolic import derivation_of
 from ..errors import HarnessError
 from ..systems import System, tracing
+from ..systems.memo import Memo
 from .reference import param_key, symbolic_dynamics
 
 # MuJoCo's RK4 tableau (`mj_RungeKutta(m, d, 4)`), used by the mirrors (mirror.py) and the compiled steps
@@ -45,7 +46,10 @@ RK4_STEPS_PER_CALL = 10
 # call up to this many joints; beyond, compact code and 2 steps per call (unrolled code of a 3-joint
 # arm's derived equations compiled in 13.7 s on a fresh machine, compact in 1.3 s).
 UNROLLED_MAX_DOF = 2  # steps composed into one compiled call (compile time grows with it)
-_CACHE: dict[tuple[Any, ...], Any] = {}
+# heyoka's compiled integrators and functions of this process, keyed by `_key` (not per System: a system
+# loaded again, as every worker task does, reuses them); bounded, a dropped one is compiled again. A full
+# bench compiles about 140 in a worker (5 systems x 22 Taylor tolerances and sources, cfuncs, RK4 steps).
+_COMPILED = Memo(maxsize=512)
 
 
 def _key(system: System, *what: Any) -> tuple[Any, ...]:
@@ -84,11 +88,13 @@ def taylor_integrator(system: System, tol: float, *, compact: bool = False, sour
     if source not in ("hand", "symbolic"):
         raise HarnessError(f"no Taylor integrator of the '{source}' source; valid: hand, symbolic.")
     key = _key(system, "taylor", float(tol), compact, source)
-    if key not in _CACHE:
+
+    def make() -> Any:
         ode = symbolic_dynamics(system).ode if source == "hand" else derived_ode(system)
         n = system.nv
-        _CACHE[key] = hy.taylor_adaptive(ode, np.zeros(2 * n), pars=np.zeros(n), tol=float(tol), compact_mode=compact)
-    return _CACHE[key]
+        return hy.taylor_adaptive(ode, np.zeros(2 * n), pars=np.zeros(n), tol=float(tol), compact_mode=compact)
+
+    return _COMPILED.get(key, make)
 
 
 def taylor_grid(
@@ -113,10 +119,12 @@ def compiled_rhs(system: System) -> Callable[[float, Any, Any], np.ndarray]:
     import heyoka as hy
 
     key = _key(system, "cfunc")
-    if key not in _CACHE:
+
+    def make() -> Any:
         dyn = symbolic_dynamics(system)
-        _CACHE[key] = hy.cfunc(list(dyn.rhs), list(dyn.state))
-    cf = _CACHE[key]
+        return hy.cfunc(list(dyn.rhs), list(dyn.state))
+
+    cf = _COMPILED.get(key, make)
 
     def rhs(t: float, y: Any, tau: Any) -> np.ndarray:
         return cf(y, pars=tau)  # type: ignore[no-any-return]
@@ -167,10 +175,11 @@ def compiled_rk4(system: System, steps: int) -> Any:
     if steps < 1:
         raise HarnessError(f"compiled RK4 needs at least one step per call; got {steps}.")
     key = _key(system, "rk4", steps)
-    if key not in _CACHE:
-        out, state = _rk4_expressions(system, steps)
-        _CACHE[key] = hy.cfunc(out, state)
-    return _CACHE[key]
+
+    def make() -> Any:
+        return hy.cfunc(*_rk4_expressions(system, steps))
+
+    return _COMPILED.get(key, make)
 
 
 def rk4_plan(dt_out: float, timestep: float, most: int = RK4_STEPS_PER_CALL) -> tuple[int, int]:

@@ -113,7 +113,7 @@ def lyapunov_exponent(
     return out
 
 
-@functools.cache
+@functools.lru_cache(maxsize=64)  # one per (system, start): bounded, recomputed when dropped
 def _lyapunov_cached(system: System, x0: tuple[float, ...], tau: tuple[float, ...], method: str) -> dict[str, Any]:
     n = system.nv
     return lyapunov_exponent(system, x0[:n], x0[n:], tau, method=method)

@@ -106,12 +106,13 @@ class Stepper:
         self.system, self.source, self.integrator, self.h = system, source, integrator, float(timestep)
         self.eulerdamp = integrator == "Euler" and eulerdamp_active(system)
         self.evaluations = 0  # forward-dynamics evaluations (states), a cost guard for tests
+        self._scalars: dict[tuple[tuple[float, ...], float | None], Any] = {}  # `_scalar` per (tau, damped)
 
     def _scalar(self, tau: np.ndarray) -> Any:
         """A one-state right-hand side f(t, y) without batch overhead, or None for MuJoCo's own."""
         damped = self.h if self.eulerdamp else None  # Euler's implicit damping: (M + h D)^-1 f
         key = (tuple(float(x) for x in tau), damped)
-        cache = self.__dict__.setdefault("_scalar_cache", {})
+        cache = self._scalars
         if key not in cache:
             make = getattr(self.source, "rhs" if damped is None else "damped_rhs", None)
             cache[key] = (
@@ -186,7 +187,7 @@ def _check_sample(q: Any, v: Any, budget: Budget, deadline: float) -> None:
         raise _Blowup(f"wall time {budget.max_wall_s:g} s")
 
 
-@functools.cache
+@functools.cache  # unbounded by design: two schemes x the few coordinate counts of the systems run
 def _scheme_code(integrator: str, n: int) -> Any:
     """`run(f, q, v, h, steps) -> (q, v)`: `steps` steps of `Stepper.step`'s one-state scheme (RK4 or
     semi-implicit Euler) on Python floats, generated as straight-line code for n coordinates with the

@@ -79,7 +79,7 @@ def param_key(system: System) -> tuple[tuple[str, str], ...]:
     return tuple((k, float(v).hex()) for k, v in sorted(vars(system.params).items()))
 
 
-@functools.cache
+@functools.lru_cache(maxsize=256)  # one per parameter set: probes and overrides make many
 def _symbolic(name: str, module: types.ModuleType, p: Any, n: int) -> SymbolicDynamics:
     import heyoka as hy
 
@@ -123,7 +123,7 @@ def rhs_check(system: System, *, n_states: int = 64, seed: int = 0) -> float:
     return float(np.abs(traced - numpy_a).max() / scale)
 
 
-@functools.cache
+@functools.lru_cache(maxsize=256)  # one per SymbolicDynamics, as _symbolic
 def _cfunc(dyn: SymbolicDynamics) -> Any:
     import heyoka as hy
 

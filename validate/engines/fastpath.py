@@ -102,8 +102,8 @@ def _compile(source: str, label: str) -> Any:
 def _key(system: System, variant: Any, damped_step: float | None = None) -> tuple[Any, ...]:
     """What the generated code depends on, by identity: the equations module and the functions traced
     (a mutated or reloaded module of the same name has other function objects), the parameter values
-    and the variant's own function. Never the system's name alone: `dataclasses.replace(system,
-    equations=...)` shares the original's `_cache`."""
+    and the variant's own function. Never the system's name alone: a module's functions replaced in
+    place (a mutation) leave the System, and its memo, as they were."""
     eq = system.equations
     params = tuple((k, float(v).hex()) for k, v in sorted(vars(system.params).items()))
     if variant is None:
@@ -114,17 +114,17 @@ def _key(system: System, variant: Any, damped_step: float | None = None) -> tupl
 
 def scalar_rhs(system: System, variant: Any = None, *, damped_step: float | None = None) -> Any:
     """The compiled scalar right-hand side `rhs(t, y, tau) -> list` of the hand equations, or of a
-    printed dynamic form; cached on the System, keyed by what it was generated from (`_key`).
+    printed dynamic form; kept in the System's memo, keyed by what it was generated from (`_key`).
     `damped_step` h (hand equations only): the accelerations of MuJoCo's Euler step with implicit
     joint damping, (M + h D)^-1 f (see `hand_accelerations`).
 
     The code is plain `math`: on a wrong derivation it can raise ZeroDivisionError (a singular M),
     OverflowError or ValueError (a math domain error); the integrators turn these into a finding
     (validate/dynamics/integrate.py EQUATION_ERRORS)."""
-    key = _key(system, variant, damped_step)
-    cache = system._cache
-    if key not in cache:
+
+    def make() -> tuple[Any, Any]:
         acc = hand_accelerations(system, damped_step) if variant is None else variant_accelerations(system, variant)
         label = f"{system.name} ({system.equations.__name__}) {variant.name if variant else 'hand'}"
-        cache[key] = (variant, _compile(rhs_source(*acc), label))  # the variant kept alive: id() in the key
-    return cache[key][1]
+        return variant, _compile(rhs_source(*acc), label)  # the variant kept alive: id() in the key
+
+    return system.memo.get(_key(system, variant, damped_step), make)[1]

@@ -13,7 +13,6 @@ import importlib
 import json
 import math
 import pkgutil
-from collections.abc import Hashable
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
@@ -24,6 +23,7 @@ from ..guard import DEFAULT_TIME_LIMIT, Guard, Stopped, guard_module
 from ..inputs import regular_file
 from . import textform, urdf
 from .forms import input_name, normalize
+from .memo import Memo
 from .modelview import ModelView, from_mujoco
 from .overrides import apply_overrides, parse
 
@@ -162,7 +162,6 @@ class System:
     locked: tuple[str, ...] = ()  # URDF joints made fixed (urdf.lock), a named step listed in the alignments
     # The MJCF text to use instead of the file's (a probe's edited copy); `mjcf` still names the file.
     text: str | None = field(default=None, repr=False)
-    _cache: dict[Hashable, Any] = field(default_factory=dict, compare=False, repr=False)
 
     def __post_init__(self) -> None:
 
@@ -171,7 +170,7 @@ class System:
 
     def derive(self, **changes: Any) -> System:
         """A copy with `changes` (overrides, text, equations) and nothing compiled or read yet."""
-        return dataclasses.replace(self, **changes, _cache={})
+        return dataclasses.replace(self, **changes)  # cached properties are not copied
 
     @classmethod
     def model_only(cls, model: str | Path, *, name: str | None = None, locked: tuple[str, ...] = ()) -> System:
@@ -373,9 +372,18 @@ class System:
         return urdf.lock(text, self.locked, self.mjcf.name) if self.locked else text
 
     def _file(self) -> tuple[str, str]:
-        if "file" not in self._cache:
-            self._cache["file"] = _model_file(self.mjcf)
-        return self._cache["file"]
+        """The model file's format and text, read once."""
+        return self._file_read
+
+    @functools.cached_property
+    def _file_read(self) -> tuple[str, str]:
+        return _model_file(self.mjcf)
+
+    @functools.cached_property
+    def memo(self) -> Memo:
+        """What is computed from this System and a few arguments (the fast path's generated code), kept
+        with it and never shared with a copy (`derive`, `dataclasses.replace`)."""
+        return Memo()
 
     @property
     def alignments(self) -> list[str]:
@@ -387,21 +395,24 @@ class System:
 
     def mujoco_model(self) -> Any:
         """The compiled MjModel (compiled once per System)."""
-        if "model" not in self._cache:
-            from .scope import refusals  # reads the compiled model with mujoco: loaded when first needed
+        return self._model
 
-            if self.locked and self.text is None and self.model_format != "urdf":
-                raise HarnessError(f"{self.mjcf.name}: --lock takes joints of a URDF model (an MJCF states its own).")
-            if self.reads_urdf:
-                model = urdf.compile_urdf(self.urdf_text(), self.mjcf.name)
-            else:
-                model = compile_mjcf(self.mjcf, self.overrides, self.text or self._locked_mjcf())
-            refused = refusals(model)  # before any dynamics: what no source could compare
-            if refused:
-                more = f" (and {len(refused) - 1} more: {'; '.join(refused[1:])})" if len(refused) > 1 else ""
-                raise HarnessError(f"{self.mjcf.name}: {refused[0]}{more}.")
-            self._cache["model"] = model
-        return self._cache["model"]
+    @functools.cached_property
+    def _model(self) -> Any:
+        """The MjModel, compiled and checked for what no source could compare."""
+        from .scope import refusals  # reads the compiled model with mujoco: loaded when first needed
+
+        if self.locked and self.text is None and self.model_format != "urdf":
+            raise HarnessError(f"{self.mjcf.name}: --lock takes joints of a URDF model (an MJCF states its own).")
+        if self.reads_urdf:
+            model = urdf.compile_urdf(self.urdf_text(), self.mjcf.name)
+        else:
+            model = compile_mjcf(self.mjcf, self.overrides, self.text or self._locked_mjcf())
+        refused = refusals(model)  # before any dynamics: what no source could compare
+        if refused:
+            more = f" (and {len(refused) - 1} more: {'; '.join(refused[1:])})" if len(refused) > 1 else ""
+            raise HarnessError(f"{self.mjcf.name}: {refused[0]}{more}.")
+        return model
 
     def mjcf_xml(self) -> str:
         """The MJCF text both engines parse, with overrides applied."""
@@ -413,26 +424,24 @@ class System:
             return None
         return urdf.as_mjcf(self.urdf_text(), self.mjcf.name)
 
-    @property
+    @functools.cached_property
     def view(self) -> ModelView:
-        if "view" not in self._cache:
-            self._cache["view"] = from_mujoco(self.mujoco_model(), self.mjcf.name)
-        return self._cache["view"]
+        """The compiled model's numbers, read once."""
+        return from_mujoco(self.mujoco_model(), self.mjcf.name)
 
-    @property
+    @functools.cached_property
     def params(self) -> Any:
-        if "params" not in self._cache:
-            from .reads import numeric_fields
+        """The equations module's `parameters(view)`, checked finite, read once."""
+        from .reads import numeric_fields
 
-            params = self.equations.parameters(self.view)
-            bad = [k for k, x in numeric_fields(params).items() if not math.isfinite(x)]
-            if bad:
-                raise HarnessError(
-                    f"parameters() returned a non-finite value for {', '.join(bad)}; every parameter must be a "
-                    "finite number read from the model."
-                )
-            self._cache["params"] = params
-        return self._cache["params"]
+        params = self.equations.parameters(self.view)
+        bad = [k for k, x in numeric_fields(params).items() if not math.isfinite(x)]
+        if bad:
+            raise HarnessError(
+                f"parameters() returned a non-finite value for {', '.join(bad)}; every parameter must be a "
+                "finite number read from the model."
+            )
+        return params
 
     @property
     def variants(self) -> tuple[Any, ...]:
@@ -455,7 +464,7 @@ def _check_contract(module: ModuleType, where: str) -> ModuleType:
         raise HarnessError(f"{where}: {exc}") from None
 
 
-@functools.cache
+@functools.cache  # unbounded by design: one per repository system (and time limit)
 def _equations_module(name: str, time_limit: float = DEFAULT_TIME_LIMIT) -> ModuleType:
     where = f"equations/{name}.py"
     guard = Guard(where, time_limit)

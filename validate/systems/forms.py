@@ -329,7 +329,7 @@ class _Derived:
     n: int
 
 
-@functools.cache
+@functools.lru_cache(maxsize=256)  # one per module and parameter set: probes make many
 def _derive(module: Any, params_type: Any, n: int, numeric_params: tuple[tuple[str, float], ...] | None) -> _Derived:
     """M, G and C v of an energies-only module, differentiated symbolically and generated as numpy
     code. Parameters are symbols where the module's code allows it (one derivation for every probe),

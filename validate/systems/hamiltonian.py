@@ -50,7 +50,7 @@ def _integer_powers(expr: Any) -> Any:
     )
 
 
-@functools.cache
+@functools.lru_cache(maxsize=256)  # one per module and parameter set: probes make many
 def _terms(module: Any, params_type: Any, n: int, numeric_params: tuple[tuple[str, float], ...] | None) -> _Terms:
     """M^-1, V and Hamilton's equations of `module`, from its H traced with sympy and generated as
     numpy code; parameters are symbols unless `numeric_params` are given."""
@@ -98,7 +98,7 @@ def _check_quadratic(inverse_mass: list[list[Any]], dH_dpm: list[Any], ps: list[
             )
 
 
-@functools.cache
+@functools.cache  # unbounded by design: one per equations module loaded, parameters symbolic
 def _symbolic(module: Any, params_type: Any, n: int) -> _Terms | None:
     """The terms with symbolic parameters, or None where the module's code needs numbers for them
     (a shape error of H, such as a term linear in pm, is raised here, once)."""

@@ -18,8 +18,8 @@ What is swept, per system, from its `initial_state` with tau = 0, on the grid t 
   precision on the hand equations at tol 1e-6 ... 1e-16; the hand equations as a compiled function
   (heyoka `cfunc`, engine "hand-cfunc") under `solve_ivp` DOP853 and `odeint`; RK4 with its steps
   compiled ("compiled RK4", up to 10 steps per call); MuJoCo's `rollout` at 1e-2 ... 1e-4 s, for one
-  trajectory and for a batch of ROLLOUT_BATCH copies of the start (its row's time is the batch's
-  divided by ROLLOUT_BATCH). Compilation is never timed.
+  trajectory and for a batch of `Plan.rollout_batch` copies of the start (its row's time is the batch's
+  divided by the batch). Compilation is never timed.
 
 What is measured per run: the error against the reference (heyoka Taylor in long double, accurate
 to ~1e-17, cached) as max over coordinates of |q - q_ref| at t = 2 s and 10 s, and its maximum over
@@ -29,7 +29,7 @@ pendulums and none for the regular systems, so on this 10 s grid the window is t
 CPU time (`time.process_time`) and wall time (`time.perf_counter`) of the integration alone (no
 setup, no compilation, no error computation; for MuJoCo the loop of `mj_step(m, d, nstep=k)` with a
 copy of qpos/qvel per sample, ~0.3 us each); right-hand-side evaluations (steps for MuJoCo).
-A run shorter than MIN_TIMED is executed back to back until the total reaches it and the mean is
+A run shorter than `Plan.min_timed` is executed back to back until the total reaches it and the mean is
 taken, the first (cold) execution dropped (timeit's autorange); the row's time is the median over
 repeats. Runs that diverge (non-finite values, MuJoCo's bad-qpos/qvel/qacc warnings), fail (the
 solver gives up) or exceed the per-run budget are recorded with that status, not dropped; a timeout
@@ -53,28 +53,19 @@ methods alike. The ratio measurements interleave their sides inside one task, so
 whatever runs beside them. Only `lagrange-xval run`, which uses both cores itself, is timed with
 nothing else of ours running (after the pool is shut down).
 
-Modules: plan (what is swept, budgets, targets), runners (one timed run in a worker), analysis
+Modules: plan (the Plan value: what is swept, budgets, targets; FULL and QUICK), runners (one timed
+run in a worker), analysis
 (errors, rows, Pareto fronts, the sweep), baselines (what the ratios are measured against: the
 hand-written right-hand side and the minimal pointwise calls; MuJoCo's and Pinocchio's raw loops
 live in engines/baselines.py), ratios (the fast-harness ratios and the default path against the
-fastest method at equal error, `frontier_ratios`), output (run_bench, bench.json,
-the summary, the command).
+fastest method at equal error, `frontier_ratios`), output (run_bench, bench.json, the command),
+tables (the console summary).
 """
 
 from .analysis import errors_against, pareto_front, sort_key, sweep, time_to_epsilon
 from .baselines import hand_math_rhs, numpy_solve_rhs, raw_hand, raw_pointwise
-from .output import bench_command, run_bench, run_time_command, summary, write_bench
-from .plan import (
-    ATOL_FACTOR,
-    EPSILONS,
-    FRONTIER_EPSILONS,
-    RUN_TARGET_S,
-    method_name,
-    plan,
-    scipy_spec,
-    step_spec,
-    taylor_spec,
-)
+from .output import bench_command, run_bench, run_time_command, write_bench
+from .plan import FULL, QUICK, Plan, Sweep, method_name, scipy_spec, step_spec, taylor_spec
 from .ratios import default_ratio, frontier_ratios, rhs_ratio, run_wall_times
 from .runners import (
     case_for,
@@ -88,12 +79,13 @@ from .runners import (
     run_scipy,
     run_taylor,
 )
+from .tables import summary
 
 __all__ = [
-    "ATOL_FACTOR",
-    "EPSILONS",
-    "FRONTIER_EPSILONS",
-    "RUN_TARGET_S",
+    "FULL",
+    "QUICK",
+    "Plan",
+    "Sweep",
     "bench_command",
     "case_for",
     "default_ratio",
@@ -104,7 +96,6 @@ __all__ = [
     "method_name",
     "numpy_solve_rhs",
     "pareto_front",
-    "plan",
     "prepare",
     "raw_hand",
     "raw_pointwise",

@@ -13,15 +13,16 @@ from typing import Any
 import numpy as np
 
 from ...errors import HarnessError
-from .plan import EPSILONS, ERROR_TIMES, HORIZON_TOLERANCE, MIN_TIMED
+from .plan import ERROR_TIMES, Plan
 from .runners import execute
 
 
 def errors_against(
-    t: np.ndarray, q: np.ndarray, ref_t: np.ndarray, ref_q: np.ndarray, *, window: float
+    t: np.ndarray, q: np.ndarray, ref_t: np.ndarray, ref_q: np.ndarray, *, window: float, tolerance: float
 ) -> dict[str, Any]:
     """error_2s, error_10s (max over coordinates of |q - q_ref|, rad), error_horizon (max over the
-    samples up to `window`; None when the run was sampled at ERROR_TIMES only) and t_exceeds_tolerance."""
+    samples up to `window`; None when the run was sampled at ERROR_TIMES only) and t_exceeds_tolerance
+    (the first sample whose error exceeds `tolerance`, rad)."""
     dt = float(ref_t[1] - ref_t[0])
     idx = np.rint(np.asarray(t) / dt).astype(int)
     if np.any(idx >= len(ref_t)) or not np.allclose(ref_t[idx], t, rtol=0.0, atol=1e-9):
@@ -30,7 +31,7 @@ def errors_against(
     at = {tt: float(err[i]) for i, tt in enumerate(np.asarray(t)) if any(abs(tt - e) < 1e-9 for e in ERROR_TIMES)}
     full = len(t) == len(ref_t)
     inside = np.asarray(t) <= window + 1e-9
-    above = np.nonzero(err > HORIZON_TOLERANCE)[0]
+    above = np.nonzero(err > tolerance)[0]
     return {
         "error_2s": at.get(2.0),
         "error_10s": at.get(10.0),
@@ -94,7 +95,7 @@ def pareto_front(rows: Iterable[dict[str, Any]], error: str, *, cost: str = "cpu
 
 def time_to_epsilon(
     rows: Iterable[dict[str, Any]],
-    epsilons: Iterable[float] = EPSILONS,
+    epsilons: Iterable[float],
     *,
     error: str = "error_2s",
     cost: str = "cpu_s",
@@ -145,107 +146,149 @@ def looser(a: dict[str, Any], b: dict[str, Any]) -> bool:
     return a["value"] > b["value"]
 
 
+Key = tuple[str, str, float]  # (system, method, setting value): one row
+Task = tuple[str, dict[str, Any]]  # (system, spec): one run
+
+
 def sweep(
     prepared: dict[str, dict[str, Any]],
     specs: list[dict[str, Any]],
     *,
-    repeats: int,
+    plan: Plan,
     executor: Executor,
-    budget: float,
-    min_timed: float = MIN_TIMED,
     progress: Callable[[str], None] | None = None,
     extra: dict[str, tuple[Callable[..., Any], tuple[Any, ...]]] | None = None,
 ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
-    """Every spec on every prepared system, `repeats` times, interleaved; rows sorted.
+    """Every spec on every prepared system, `plan.repeats` times, interleaved; rows sorted.
 
     Args:
         prepared: {system: prepare(system)}.
-        specs: the plan (see `plan`), the same for every system.
+        specs: the plan's runs (`Plan.specs`), the same for every system.
+        plan: the repeats, the per-run budget and what `execute` reads.
         extra: more worker tasks {key: (fn, args)} submitted with the last repeat (the ratio measurements);
             their results are returned in the second value.
     """
-    if repeats < 1:
-        raise HarnessError(f"repeats must be at least 1; got {repeats}.")
+    if plan.repeats < 1:
+        raise HarnessError(f"repeats must be at least 1; got {plan.repeats}.")
     rows = {(name, s["method"], s["value"]): row_of(name, s) for name in prepared for s in specs}
+    groups = method_groups(prepared, specs)
+    extras: dict[str, Any] = {}
+    digests: dict[Key, str | None] = {}
+    for rep in range(plan.repeats):
+        todo = [
+            [(name, s) for s in g if rep == 0 or rows[(name, s["method"], s["value"])]["status"] == "ok"]
+            for (name, _), g in groups.items()
+        ]
+        futures = {
+            executor.submit(execute, s, prepared[name]["case"], plan=plan, samples=rep == 0): (name, s)
+            for name, s in interleave(todo, rep)
+        }
+        last = rep == plan.repeats - 1
+        extra_futures = (
+            {executor.submit(fn, *args): label for label, (fn, args) in (extra or {}).items()} if last else {}
+        )
+        collect(futures, extra_futures, rows, digests, extras, prepared=prepared, plan=plan, rep=rep, progress=progress)
+    for row in rows.values():
+        if row["cpu_s_repeats"]:
+            row["cpu_s"] = statistics.median(row["cpu_s_repeats"])
+            row["wall_s"] = statistics.median(row["wall_s_repeats"])
+    return sorted(rows.values(), key=sort_key), extras
+
+
+def method_groups(prepared: dict[str, Any], specs: list[dict[str, Any]]) -> dict[tuple[str, str], list[dict[str, Any]]]:
+    """The specs of each (system, method), loosest setting first."""
     groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
     for name in prepared:
         for s in specs:
             groups.setdefault((name, s["method"]), []).append(s)
     for g in groups.values():
         g.sort(key=lambda s: -s["value"])
-    extras: dict[str, Any] = {}
-    digests: dict[tuple[str, str, float], str | None] = {}
-    for rep in range(repeats):
+    return groups
+
+
+def collect(
+    futures: dict[Future[Any], Task],
+    extra_futures: dict[Future[Any], str],
+    rows: dict[Key, dict[str, Any]],
+    digests: dict[Key, str | None],
+    extras: dict[str, Any],
+    *,
+    prepared: dict[str, dict[str, Any]],
+    plan: Plan,
+    rep: int,
+    progress: Callable[[str], None] | None,
+) -> None:
+    """One repeat's results into their rows (and the ratio measurements into `extras`) as they finish."""
+    if progress:
+        more = f" and {len(extra_futures)} ratio measurements" if extra_futures else ""
+        progress(f"repeat {rep + 1}/{plan.repeats}: timing {len(futures)} runs{more}")
+    done = 0
+    for fut in as_completed([*futures, *extra_futures]):
+        if fut in extra_futures:
+            extras[extra_futures[fut]] = fut.result()
+            if progress:
+                progress(f"measured {extra_futures[fut]} ({len(extras)}/{len(extra_futures)})")
+            continue
+        if fut.cancelled():
+            continue
+        name, s = futures[fut]
+        res = fut.result()
+        done += 1
+        key = (name, s["method"], s["value"])
         if rep == 0:
-            todo = [[(key[0], s) for s in g] for key, g in groups.items()]
+            digests[key] = res["digest"]
+            record_first(rows[key], res, prepared[name], plan)
+            if res["status"] == "timeout":  # tighter settings of the same method cost more: not run
+                skip_tighter(futures, rows, (name, s), budget=plan.budget)
         else:
-            todo = [
-                [(key[0], s) for s in g if rows[(key[0], s["method"], s["value"])]["status"] == "ok"]
-                for key, g in groups.items()
-            ]
-        order = interleave(todo, rep)
-        futures: dict[Future[Any], tuple[str, dict[str, Any]]] = {}
-        for name, s in order:
-            fut = executor.submit(
-                execute, s, prepared[name]["case"], budget=budget, min_timed=min_timed, samples=rep == 0
+            record_repeat(rows[key], res, digests[key], rep)
+        if progress and done % max(1, len(futures) // 10) == 0:
+            progress(f"repeat {rep + 1}/{plan.repeats}: {done}/{len(futures)} runs")
+
+
+def record_first(row: dict[str, Any], res: dict[str, Any], ref: dict[str, Any], plan: Plan) -> None:
+    """The first repeat of a run: its status, counts, errors against the reference (when ok) and times."""
+    row.update(
+        status=res["status"],
+        message=res["message"],
+        nfev=res["nfev"],
+        steps=res["steps"],
+        executions=res["executions"],
+        deterministic=res["deterministic"],
+    )
+    if res["status"] == "ok":
+        window = ref["horizon_window_s"]
+        row.update(
+            errors_against(res["t"], res["q"], ref["t"], ref["q"], window=window, tolerance=plan.horizon_tolerance)
+        )
+    add_times(row, res)
+
+
+def record_repeat(row: dict[str, Any], res: dict[str, Any], first_digest: str | None, rep: int) -> None:
+    """A later repeat: its times, and the run marked not deterministic where it failed or gave other bits."""
+    if res["status"] != "ok" or res["digest"] != first_digest:
+        row["deterministic"] = False
+        if res["status"] != "ok":
+            row["message"] = f"repeat {rep + 1}: {res['status']} {res['message']}".strip()
+            return
+    add_times(row, res)
+
+
+def add_times(row: dict[str, Any], res: dict[str, Any]) -> None:
+    """A timed execution's CPU and wall seconds among the row's repeats (a skipped run has none)."""
+    if res["status"] in ("ok", "timeout", "diverged", "failed"):
+        row["cpu_s_repeats"].append(res["cpu_s"])
+        row["wall_s_repeats"].append(res["wall_s"])
+
+
+def skip_tighter(
+    futures: dict[Future[Any], Task], rows: dict[Key, dict[str, Any]], timed_out: Task, *, budget: float
+) -> None:
+    """Cancel the settings of the same method tighter than one that timed out, their rows "skipped"."""
+    name, s = timed_out
+    for other, (oname, os_) in futures.items():
+        if oname == name and os_["method"] == s["method"] and looser(s, os_) and other.cancel():
+            rows[(oname, os_["method"], os_["value"])].update(
+                status="skipped",
+                message=f"not run: {s['setting']} {s['value']:g} already exceeded the {budget:g} s budget",
             )
-            futures[fut] = (name, s)
-        extra_futures: dict[Future[Any], str] = {}
-        if rep == repeats - 1:
-            for label, (fn, args) in (extra or {}).items():
-                extra_futures[executor.submit(fn, *args)] = label
-        done = 0
-        if progress:
-            more = f" and {len(extra_futures)} ratio measurements" if extra_futures else ""
-            progress(f"repeat {rep + 1}/{repeats}: timing {len(futures)} runs{more}")
-        for fut in as_completed([*futures, *extra_futures]):
-            if fut in extra_futures:
-                extras[extra_futures[fut]] = fut.result()
-                if progress:
-                    progress(f"measured {extra_futures[fut]} ({len(extras)}/{len(extra_futures)})")
-                continue
-            if fut.cancelled():
-                continue
-            name, s = futures[fut]
-            res = fut.result()
-            done += 1
-            key = (name, s["method"], s["value"])
-            row = rows[key]
-            if rep == 0:
-                row.update(
-                    status=res["status"],
-                    message=res["message"],
-                    nfev=res["nfev"],
-                    steps=res["steps"],
-                    executions=res["executions"],
-                    deterministic=res["deterministic"],
-                )
-                digests[key] = res["digest"]
-                if res["status"] == "ok":
-                    ref = prepared[name]
-                    row.update(errors_against(res["t"], res["q"], ref["t"], ref["q"], window=ref["horizon_window_s"]))
-                elif res["status"] == "timeout":  # tighter settings of the same method cost more: not run
-                    for other, (oname, os_) in futures.items():
-                        if oname == name and os_["method"] == s["method"] and looser(s, os_) and other.cancel():
-                            rows[(oname, os_["method"], os_["value"])].update(
-                                status="skipped",
-                                message=f"not run: {s['setting']} {s['value']:g} already exceeded the "
-                                f"{budget:g} s budget",
-                            )
-            elif res["status"] != "ok" or res["digest"] != digests[key]:
-                row["deterministic"] = False
-                if res["status"] != "ok":
-                    row["message"] = f"repeat {rep + 1}: {res['status']} {res['message']}".strip()
-                    continue
-            if res["status"] in ("ok", "timeout", "diverged", "failed"):
-                row["cpu_s_repeats"].append(res["cpu_s"])
-                row["wall_s_repeats"].append(res["wall_s"])
-            if progress and done % max(1, len(futures) // 10) == 0:
-                progress(f"repeat {rep + 1}/{repeats}: {done}/{len(futures)} runs")
-    out = []
-    for row in rows.values():
-        if row["cpu_s_repeats"]:
-            row["cpu_s"] = statistics.median(row["cpu_s_repeats"])
-            row["wall_s"] = statistics.median(row["wall_s_repeats"])
-        out.append(row)
-    return sorted(out, key=sort_key), extras

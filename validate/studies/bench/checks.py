@@ -41,7 +41,7 @@ from ...dynamics.fast import accurate_trajectory
 from ...dynamics.integrate import SCIPY_DEFAULT, scipy_trajectory, time_grid
 from ...dynamics.mirror import mirror_steps, mirror_trajectory, mujoco_steps
 from ...dynamics.reference import DEFAULT_CACHE_DIR, reference_trajectory
-from .plan import CHECKS_TARGET, GRID_DRIVERS, MAX_EXECUTIONS, MIN_TIMED
+from .plan import GRID_DRIVERS, Plan
 from .ratios import interleaved_medians
 from .runners import CacheDir, case_for, execute, resources
 
@@ -53,13 +53,13 @@ def _error_2s(t: np.ndarray, q: np.ndarray, ref_q: np.ndarray) -> float:
     return float(np.abs(q[k] - ref_q[k]).max())
 
 
-def _looped(fn: Callable[[], Any]) -> tuple[Callable[[], None], int]:
-    """`fn` executed back to back often enough to last MIN_TIMED (as the sweep times its short runs),
-    and how many times: the execution count is set from one untimed call."""
+def _looped(fn: Callable[[], Any], plan: Plan) -> tuple[Callable[[], None], int]:
+    """`fn` executed back to back often enough to last the plan's `min_timed` (as the sweep times its
+    short runs), and how many times: the execution count is set from one untimed call."""
     w0 = time.perf_counter()
     fn()
     once = time.perf_counter() - w0
-    k = max(1, min(MAX_EXECUTIONS, math.ceil(MIN_TIMED / max(once, 1e-9))))
+    k = max(1, min(plan.max_executions, math.ceil(plan.min_timed / max(once, 1e-9))))
 
     def run() -> None:
         for _ in range(k):
@@ -68,10 +68,11 @@ def _looped(fn: Callable[[], Any]) -> tuple[Callable[[], None], int]:
     return run, k
 
 
-def check_jobs(name: str) -> dict[str, tuple[str, str, Callable[[], Any]]]:
-    """The harness's trajectory checks on one system as `run` calls them: {label: (engine, kind, run)}."""
+def check_jobs(name: str, plan: Plan) -> dict[str, tuple[str, str, Callable[[], Any]]]:
+    """The harness's trajectory checks on one system as `run` calls them, on the plan's grid:
+    {label: (engine, kind, run)}."""
     system, sources = resources(name)
-    case = case_for(system)
+    case = case_for(system, plan)
     t = time_grid(case["t_end"], case["dt_out"])
     q0, v0, tau = (np.asarray(case[k], dtype=float) for k in ("q0", "v0", "tau"))
     dt = float(sources["mujoco"].m.opt.timestep)
@@ -108,20 +109,20 @@ def check_jobs(name: str) -> dict[str, tuple[str, str, Callable[[], Any]]]:
     return jobs
 
 
-def measure_checks(name: str, *, reps: int, cache_dir: CacheDir = DEFAULT_CACHE_DIR) -> dict[str, Any]:
+def measure_checks(name: str, *, plan: Plan, reps: int, cache_dir: CacheDir = DEFAULT_CACHE_DIR) -> dict[str, Any]:
     """Each of the harness's own trajectory checks on one system (a worker task): CPU time (median of
-    `reps` interleaved repeats of back-to-back executions lasting MIN_TIMED, per execution, after
-    untimed calls that compile what they need), error at t = 2 s
+    `reps` interleaved repeats of back-to-back executions lasting the plan's `min_timed`, per execution,
+    after untimed calls that compile what they need), error at t = 2 s
     against the reference, and what it is compared with (`kind`, see the module docstring)."""
     system, sources = resources(name)
-    case = case_for(system)
+    case = case_for(system, plan)
     t = time_grid(case["t_end"], case["dt_out"])
     q0, v0, tau = (np.asarray(case[k], dtype=float) for k in ("q0", "v0", "tau"))
     ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=cache_dir)
     dt = float(sources["mujoco"].m.opt.timestep)
     steps = round(float(t[1] - t[0]) / dt)
     hand = sources["hand"]
-    jobs = check_jobs(name)
+    jobs = check_jobs(name, plan)
     qw, vw = ref.q[:-1], ref.v[:-1]
     windows = {
         "hand mirror RK4 windows": lambda: mirror_steps(
@@ -133,7 +134,7 @@ def measure_checks(name: str, *, reps: int, cache_dir: CacheDir = DEFAULT_CACHE_
     }
     outputs = {k: fn() for k, (_, _, fn) in jobs.items()}  # compiles, and gives the errors
     ends = {k: fn() for k, fn in windows.items()}
-    loops = {k: _looped(fn) for k, fn in {**{k: fn for k, (_, _, fn) in jobs.items()}, **windows}.items()}
+    loops = {k: _looped(fn, plan) for k, fn in {**{k: fn for k, (_, _, fn) in jobs.items()}, **windows}.items()}
     medians = interleaved_medians({k: run for k, (run, _) in loops.items()}, reps)
     timed = {k: {c: medians[k][c] / loops[k][1] for c in ("cpu_s", "wall_s")} for k in loops}
     out = []
@@ -179,21 +180,21 @@ def measure_checks(name: str, *, reps: int, cache_dir: CacheDir = DEFAULT_CACHE_
 SPEC_KEYS = ("engine", "driver", "scheme", "setting", "value", "atol")  # what a sweep row was run from
 
 
-def paired_timings(name: str, pairs: list[tuple[str, dict[str, Any]]], *, reps: int, budget: float) -> dict[str, Any]:
+def paired_timings(name: str, pairs: list[tuple[str, dict[str, Any]]], *, plan: Plan, reps: int) -> dict[str, Any]:
     """Each check of `pairs` and the sweep run it is set against (its spec), timed again side by side in
     one worker task: `reps` alternations of the check (as `measure_checks` times it) and
     the run (as the sweep times it, `execute`), medians of each. A ratio of two timings taken minutes
     apart carries whatever else the machine did meanwhile; these two share it. {label: {cpu_s,
     fastest_cpu_s}}."""
     system, _ = resources(name)
-    case = case_for(system)
-    jobs = check_jobs(name)
+    case = case_for(system, plan)
+    jobs = check_jobs(name, plan)
     out: dict[str, Any] = {}
     for label, spec in pairs:
         fn = jobs[label][2]
         fn()  # compiles what it needs, untimed
-        run, k = _looped(fn)
-        execute(spec, case, budget=budget, samples=False)  # the same for the run
+        run, k = _looped(fn, plan)
+        execute(spec, case, plan=plan, samples=False)  # the same for the run
         mine, theirs = [], []
         for rep in range(reps):
             for side in ("check", "run") if rep % 2 == 0 else ("run", "check"):
@@ -202,7 +203,7 @@ def paired_timings(name: str, pairs: list[tuple[str, dict[str, Any]]], *, reps: 
                     run()
                     mine.append((time.process_time() - c0) / k)
                 else:
-                    theirs.append(execute(spec, case, budget=budget, samples=False)["cpu_s"])
+                    theirs.append(execute(spec, case, plan=plan, samples=False)["cpu_s"])
         out[label] = {"cpu_s": statistics.median(mine), "fastest_cpu_s": statistics.median(theirs)}
     return out
 
@@ -242,10 +243,14 @@ def _fastest(check: dict[str, Any], rows: list[dict[str, Any]]) -> dict[str, Any
 
 
 def checks_ratios(
-    measured: list[dict[str, Any]], rows: list[dict[str, Any]], paired: dict[str, dict[str, Any]] | None = None
+    measured: list[dict[str, Any]],
+    rows: list[dict[str, Any]],
+    paired: dict[str, dict[str, Any]] | None = None,
+    *,
+    target: float,
 ) -> dict[str, Any]:
     """Per check: the ratio of its CPU time to the fastest comparable run (the sweep's, or MuJoCo's
-    windows for the windows); the target CHECKS_TARGET applies to every check but the user's path.
+    windows for the windows); `target` (the plan's `checks_target`) applies to every check but the user's path.
     `paired` ({system: `paired_timings`}): where a check and its fastest run were timed again side by
     side, the ratio is theirs (the separate timings stay in the entry, as `sweep_ratio`)."""
     entries = []
@@ -283,15 +288,15 @@ def checks_ratios(
                     "ratio": ratio,
                     "sweep_ratio": sweep_ratio,
                     "paired": again,
-                    "target": CHECKS_TARGET if targeted else None,
-                    "passed": (ratio is not None and ratio <= CHECKS_TARGET) if targeted else None,
+                    "target": target if targeted else None,
+                    "passed": (ratio is not None and ratio <= target) if targeted else None,
                     "why": None if best else "no run of the sweep computes the same thing at this error",
                 }
             )
     judged = [e for e in entries if e["target"] is not None and e["ratio"] is not None]
     return {
         "value": max((e["ratio"] for e in judged), default=None),
-        "target": CHECKS_TARGET,
+        "target": target,
         "passed": bool(judged) and all(e["passed"] for e in judged),
         "rows": entries,
         "how": "CPU time (median of interleaved repeats) of each check as `run` calls it, over the CPU time of "

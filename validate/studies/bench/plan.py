@@ -1,150 +1,24 @@
-"""The benchmark's plan: what is swept (drivers, schemes, tolerances, timesteps), its budgets and
-the targets of the fast-harness ratios.
+"""The benchmark's plan as a value: what is swept (drivers, schemes, tolerances, timesteps), its
+budgets and the targets of the fast-harness ratios. FULL and QUICK are the two the command offers;
+`dataclasses.replace` makes any other (the tests' small budgets, `--repeats`).
+
+What stays a module constant is not a setting but a fact about the code: which drivers give the
+whole grid, which are contenders, a row's statuses, the sample times the error columns are named after.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 from ...dynamics.integrate import SCIPY_DEFAULT
 from ...engines import drake as drake_engine  # imports no pydrake: `unavailable` looks it up
 from ...engines.base import MUJOCO_INTEGRATORS  # every one is swept
 
-T_END = 10.0  # s: the grid of `run` (the reference cache is keyed by it)
-
-
-DT_OUT = 0.01  # s
-
-
-ERROR_TIMES = (2.0, 10.0)  # s
-
-
-HORIZON_TOLERANCE = 1e-6  # rad: the trajectory tier, and the chaos summary's horizon tolerance
-
-
-EPSILONS = (1e-3, 1e-6, 1e-9, 1e-12)  # rad, for "time to reach error eps" at t = 2 s
-
-
-FRONTIER_EPSILONS = (1e-6, 1e-9, 1e-12)  # rad at t = 2 s: the default path against the fastest contender
-
-
-ATOL_FACTOR = 1e-3  # atol = rtol * ATOL_FACTOR
-
-
-RTOLS = tuple(10.0**-k for k in range(3, 13))
-
-
-QUICK_RTOLS = (1e-3, 1e-6, 1e-9, 1e-12)
-
-
-IVP_METHODS = ("RK45", "DOP853", "Radau", "LSODA")
-
-
-QUICK_IVP_METHODS = ("DOP853", "RK45", "LSODA")
-
-
-QUICK_MUJOCO_INTEGRATORS = ("RK4", "Euler")
-
-
-TIMESTEPS = (1e-2, 1e-3, 1e-4, 1e-5)  # s
-
-
-QUICK_TIMESTEPS = (1e-2, 1e-3, 1e-4)
-
-
-TAYLOR_TOLERANCES = tuple(10.0**-k for k in range(6, 17))  # heyoka's Taylor in double: 1e-6 .. 1e-16
-
-
-QUICK_TAYLOR_TOLERANCES = (1e-6, 1e-9, 1e-12, 1e-15)
-
-
-TAYLOR_MAX_STEPS = 1_000_000  # a budget without a per-step callback: the references take ~46 steps/s
-
-
-ROLLOUT_TIMESTEPS = (1e-2, 1e-3, 1e-4)  # rollout records every step: 1e-5 s would hold 1e6 states per copy
-
-
-QUICK_ROLLOUT_TIMESTEPS = (1e-2, 1e-3)
-
-
-ROLLOUT_BATCH = 8  # copies of the start in one batched rollout (its row's time is per trajectory)
-
-
-# Drake's own integrators on its continuous plant (engines/drake.py `free_run`), where pydrake is installed:
-# its error-controlled RK3 at target accuracies, and fixed-step RK2 and explicit Euler.
-DRAKE_ACCURACIES = tuple(10.0**-k for k in range(4, 13))
-
-
-QUICK_DRAKE_ACCURACIES = (1e-4, 1e-6, 1e-8, 1e-10)
-
-
-DRAKE_FIXED = ("runge_kutta2", "explicit_euler")
-
-
-DRAKE_TIMESTEPS = (1e-2, 1e-3, 1e-4)  # s
-
-
-QUICK_DRAKE_TIMESTEPS = (1e-2, 1e-3)
-
-
-QUICK_SYSTEMS = ("double_pendulum_point", "gimbal")
-
-
-BUDGET = 20.0  # s of wall time per run
-
-
-QUICK_BUDGET = 5.0
-
-
-MIN_TIMED = 0.05  # s: shorter runs are repeated back to back (autorange)
-
-
-MAX_EXECUTIONS = 200
-
-
-DEFAULT_REPEATS = 3
-
-
-QUICK_REPEATS = 1
-
-
-QUICK_TARGET_S = 60.0
+ERROR_TIMES = (2.0, 10.0)  # s: the samples of the rows' "error_2s" and "error_10s"
 
 
 CHECK_EVERY = 128  # right-hand-side calls between deadline / finiteness checks (a power of two)
-
-
-RHS_SYSTEM = "double_pendulum_point"
-
-
-RHS_TARGET = 1.5  # fast path time / hand-written math time
-
-
-POINTWISE_SIZES = (1_000, 100_000)  # states per batch: the pointwise ratio at each
-
-
-POINTWISE_TARGET = 1.5  # harness time / raw engine calls time
-
-
-CHECKS_TARGET = 1.5  # a harness trajectory check's time / the fastest run computing the same at its error
-
-
-DEFAULT_EPSILON = 1e-9  # rad at t = 2 s
-
-
-DEFAULT_TARGET = 1.5  # default scipy time / fastest scipy driver reaching DEFAULT_EPSILON
-
-
-RUN_REPEATS = 5
-
-
-RUN_TARGET_S = 20.0  # s wall for `lagrange-xval run` on all systems, warm or cold cache (issue 10)
-
-
-RUN_WARM_TARGET_S = 15.0  # s wall with a warm cache (issue 6)
-
-
-FLAG_INTEGRATORS = ("RK4", "Euler")
 
 
 SCIPY_DRIVERS = ("solve_ivp", "ode", "ode_endpoints", "odeint")
@@ -173,6 +47,97 @@ CONTENDER_DRIVERS = ("taylor", "compiled_rk4", "rollout", "rollout_batch", "drak
 STATUSES = ("ok", "diverged", "failed", "timeout", "skipped")  # a row's "status"
 
 
+@dataclass(frozen=True)
+class Sweep:
+    """One method at each of its settings: (engine, driver, scheme) at every value of `setting`."""
+
+    engine: str
+    driver: str
+    scheme: str
+    setting: str  # "rtol" (atol = rtol * Plan.atol_factor), "tol", "timestep" (s) or "accuracy"
+    values: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What one bench measures, its budgets and the ratios' targets; FULL and QUICK are the two the command offers."""
+
+    sweeps: tuple[Sweep, ...]  # in submission order; the harness's default path is added by `specs`
+    systems: tuple[str, ...] = ()  # () = every repository system
+    quick: bool = False  # the small plan: so labelled in bench.json and the summary
+    t_end: float = 10.0  # s: the grid of `run` (the reference cache is keyed by it)
+    dt_out: float = 0.01  # s
+    horizon_tolerance: float = 1e-6  # rad: the trajectory tier, and the chaos summary's horizon tolerance
+    epsilons: tuple[float, ...] = (1e-3, 1e-6, 1e-9, 1e-12)  # rad, for "time to reach error eps" at t = 2 s
+    frontier_epsilons: tuple[float, ...] = (1e-6, 1e-9, 1e-12)  # rad at 2 s: the default path against the fastest
+    atol_factor: float = 1e-3  # atol = rtol * atol_factor
+    rollout_batch: int = 8  # copies of the start in one batched rollout (its row's time is per trajectory)
+    taylor_max_steps: int = 1_000_000  # a budget without a per-step callback: the references take ~46 steps/s
+    budget: float = 20.0  # s of wall time per run
+    min_timed: float = 0.05  # s: shorter runs are repeated back to back (autorange)
+    max_executions: int = 200
+    repeats: int = 3
+    target_s: float | None = None  # s: what the whole bench should take (the quick plan's)
+    rhs_system: str = "double_pendulum_point"
+    rhs_target: float = 1.5  # fast path time / hand-written math time
+    rhs_reps: int = 15
+    pointwise_sizes: tuple[int, ...] = (1_000, 100_000)  # states per batch: the pointwise ratio at each
+    pointwise_target: float = 1.5  # harness time / raw engine calls time
+    pointwise_reps: int = 5
+    flag_integrators: tuple[str, ...] = ("RK4", "Euler")
+    flag_steps: int = 20_000  # mj_step calls per timing of the disable flags
+    ratio_reps: int = 7  # interleaved repeats of the flags' and the checks' timings
+    checks_target: float = 1.5  # a harness trajectory check's time / the fastest run computing the same at its error
+    default_epsilon: float = 1e-9  # rad at t = 2 s
+    default_target: float = 1.5  # default scipy time / fastest scipy driver reaching default_epsilon
+    time_run: bool = True  # time `lagrange-xval run` (5 full runs take over a minute)
+    run_repeats: int = 5
+    run_target_s: float = 20.0  # s wall for `lagrange-xval run` on all systems, warm or cold cache (issue 10)
+    run_warm_target_s: float = 15.0  # s wall with a warm cache (issue 6)
+
+    def specs(self) -> list[dict[str, Any]]:
+        """Every run of one system, loosest setting first within each method; Drake's where pydrake is
+        importable; the harness's default path last."""
+        specs = [
+            spec_of(s, value, self)
+            for s in self.sweeps
+            if s.driver != "drake" or not drake_engine.unavailable()
+            for value in s.values
+        ]
+        specs.append(default_spec())
+        for s in specs:
+            s["method"] = method_name(s)
+        return specs
+
+
+def spec_of(sweep: Sweep, value: float, plan: Plan) -> dict[str, Any]:
+    """One run of a sweep: its engine, driver, scheme, setting, value and atol (rtol settings only)."""
+    if sweep.setting == "rtol":
+        return scipy_spec(sweep.engine, sweep.driver, sweep.scheme, value, atol_factor=plan.atol_factor)
+    batch = plan.rollout_batch if sweep.driver == "rollout_batch" else None
+    return {
+        "engine": sweep.engine,
+        "driver": sweep.driver,
+        "scheme": sweep.scheme,
+        "setting": sweep.setting,
+        "value": value,
+        "atol": None,
+        **({"batch": batch} if batch else {}),
+    }
+
+
+def default_spec() -> dict[str, Any]:
+    """The harness's default path (`integrate.scipy_trajectory` with `integrate.SCIPY_DEFAULT`), one run."""
+    return {
+        "engine": "hand",
+        "driver": "default",
+        "scheme": SCIPY_DEFAULT["method"],
+        "setting": "rtol",
+        "value": SCIPY_DEFAULT["rtol"],
+        "atol": SCIPY_DEFAULT["atol"],
+    }
+
+
 def method_name(spec: dict[str, Any]) -> str:
     """The row's method label, e.g. "hand solve_ivp DOP853", "mujoco RK4", "pinocchio mirror RK4"."""
     engine, driver, scheme = spec["engine"], spec["driver"], spec.get("scheme")
@@ -187,20 +152,21 @@ def method_name(spec: dict[str, Any]) -> str:
         "taylor": "heyoka Taylor (double)",
         "compiled_rk4": "compiled RK4 (heyoka cfunc)",
         "rollout": f"rollout {scheme}",
-        "rollout_batch": f"rollout {scheme} (batch of {ROLLOUT_BATCH}, per trajectory)",
+        "rollout_batch": f"rollout {scheme} (batch of {spec.get('batch')}, per trajectory)",
         "drake": str(scheme),
     }[driver]
     return f"{engine} {label}"
 
 
-def scipy_spec(engine: str, driver: str, scheme: str | None, rtol: float) -> dict[str, Any]:
+def scipy_spec(engine: str, driver: str, scheme: str | None, rtol: float, *, atol_factor: float) -> dict[str, Any]:
+    """A scipy run at `rtol`, atol = rtol * atol_factor."""
     return {
         "engine": engine,
         "driver": driver,
         "scheme": scheme,
         "setting": "rtol",
         "value": rtol,
-        "atol": rtol * ATOL_FACTOR,
+        "atol": rtol * atol_factor,
     }
 
 
@@ -209,8 +175,9 @@ def taylor_spec(tol: float, engine: str = "hand") -> dict[str, Any]:
     return {"engine": engine, "driver": "taylor", "scheme": "double", "setting": "tol", "value": tol, "atol": None}
 
 
-def step_spec(engine: str, driver: str, scheme: str, timestep: float) -> dict[str, Any]:
-    return {
+def step_spec(engine: str, driver: str, scheme: str, timestep: float, *, batch: int | None = None) -> dict[str, Any]:
+    """A fixed-step run at `timestep` (s); `batch`: the copies of a "rollout_batch" run."""
+    spec: dict[str, Any] = {
         "engine": engine,
         "driver": driver,
         "scheme": scheme,
@@ -218,77 +185,74 @@ def step_spec(engine: str, driver: str, scheme: str, timestep: float) -> dict[st
         "value": timestep,
         "atol": None,
     }
+    if batch is not None:
+        spec["batch"] = batch
+    return spec
 
 
-def drake_specs(*, quick: bool) -> list[dict[str, Any]]:
-    """Drake's integrators as contenders: RK3 at each target accuracy, RK2 and explicit Euler at fixed
-    steps; none where pydrake is not importable."""
-    if drake_engine.unavailable():
-        return []
-    accuracies = QUICK_DRAKE_ACCURACIES if quick else DRAKE_ACCURACIES
-    specs = [
-        {
-            "engine": "drake",
-            "driver": "drake",
-            "scheme": "runge_kutta3",
-            "setting": "accuracy",
-            "value": a,
-            "atol": None,
-        }
-        for a in accuracies
+def _drake_sweeps(accuracies: tuple[float, ...], timesteps: tuple[float, ...]) -> list[Sweep]:
+    """Drake's integrators on its continuous plant (engines/drake.py `free_run`): its error-controlled RK3
+    at target accuracies, and fixed-step RK2 and explicit Euler."""
+    fixed = [Sweep("drake", "drake", scheme, "timestep", timesteps) for scheme in ("runge_kutta2", "explicit_euler")]
+    return [Sweep("drake", "drake", "runge_kutta3", "accuracy", accuracies), *fixed]
+
+
+def full_sweeps() -> tuple[Sweep, ...]:
+    """Every method: scipy's four drivers on the hand equations and Pinocchio's ABA, MuJoCo's integrators,
+    the mirror, the compiled contenders, heyoka's Taylor, MuJoCo's rollout and Drake's integrators."""
+    rtols = tuple(10.0**-k for k in range(3, 13))
+    timesteps = (1e-2, 1e-3, 1e-4, 1e-5)  # s
+    rollout = (1e-2, 1e-3, 1e-4)  # s: rollout records every step, 1e-5 s would hold 1e6 states per copy
+    taylor = tuple(10.0**-k for k in range(6, 17))  # heyoka's Taylor in double: 1e-6 .. 1e-16
+    out: list[Sweep] = []
+    for engine in ("hand", "pinocchio"):
+        out += [Sweep(engine, "solve_ivp", m, "rtol", rtols) for m in ("RK45", "DOP853", "Radau", "LSODA")]
+        out += [Sweep(engine, driver, "dop853", "rtol", rtols) for driver in ("ode", "ode_endpoints")]
+        out.append(Sweep(engine, "odeint", "LSODA", "rtol", rtols))
+    out += [Sweep("mujoco", "mujoco", integ, "timestep", timesteps) for integ in MUJOCO_INTEGRATORS]
+    out.append(Sweep("pinocchio", "mirror", "RK4", "timestep", timesteps))
+    out += [
+        Sweep("hand-cfunc", "solve_ivp", "DOP853", "rtol", rtols),
+        Sweep("hand-cfunc", "odeint", "LSODA", "rtol", rtols),
     ]
-    for scheme in DRAKE_FIXED:
-        specs += [
-            step_spec("drake", "drake", scheme, dt) for dt in (QUICK_DRAKE_TIMESTEPS if quick else DRAKE_TIMESTEPS)
-        ]
-    return specs
+    out += [Sweep(engine, "taylor", "double", "tol", taylor) for engine in ("hand", "symbolic")]
+    out.append(Sweep("hand", "compiled_rk4", "RK4", "timestep", timesteps))
+    out += [Sweep("mujoco", driver, "RK4", "timestep", rollout) for driver in ("rollout", "rollout_batch")]
+    return (*out, *_drake_sweeps(tuple(10.0**-k for k in range(4, 13)), (1e-2, 1e-3, 1e-4)))
 
 
-def plan(*, quick: bool) -> list[dict[str, Any]]:
-    """Every run of one system, loosest setting first within each method."""
-    specs: list[dict[str, Any]] = []
-    if quick:
-        for m in QUICK_IVP_METHODS:
-            specs += [scipy_spec("hand", "solve_ivp", m, r) for r in QUICK_RTOLS]
-        for integ in QUICK_MUJOCO_INTEGRATORS:
-            specs += [step_spec("mujoco", "mujoco", integ, dt) for dt in QUICK_TIMESTEPS]
-        specs += [scipy_spec("hand", "odeint", "LSODA", r) for r in QUICK_RTOLS]  # the default's driver
-        specs += [scipy_spec("hand-cfunc", "odeint", "LSODA", r) for r in QUICK_RTOLS]
-        specs += [scipy_spec("pinocchio", "odeint", "LSODA", r) for r in QUICK_RTOLS]  # Pinocchio's check's driver
-        specs += [taylor_spec(tol) for tol in QUICK_TAYLOR_TOLERANCES]
-        specs += [taylor_spec(tol, "symbolic") for tol in QUICK_TAYLOR_TOLERANCES]
-        specs += [step_spec("hand", "compiled_rk4", "RK4", dt) for dt in QUICK_TIMESTEPS]
-        specs += [step_spec("mujoco", "rollout", "RK4", dt) for dt in QUICK_ROLLOUT_TIMESTEPS]
-        specs += [step_spec("pinocchio", "mirror", "RK4", dt) for dt in QUICK_ROLLOUT_TIMESTEPS]  # its check's
-        specs += [step_spec("mujoco", "rollout_batch", "RK4", dt) for dt in QUICK_ROLLOUT_TIMESTEPS]
-    else:
-        for engine in ("hand", "pinocchio"):
-            for m in IVP_METHODS:
-                specs += [scipy_spec(engine, "solve_ivp", m, r) for r in RTOLS]
-            for driver in ("ode", "ode_endpoints"):
-                specs += [scipy_spec(engine, driver, "dop853", r) for r in RTOLS]
-            specs += [scipy_spec(engine, "odeint", "LSODA", r) for r in RTOLS]
-        for integ in MUJOCO_INTEGRATORS:
-            specs += [step_spec("mujoco", "mujoco", integ, dt) for dt in TIMESTEPS]
-        specs += [step_spec("pinocchio", "mirror", "RK4", dt) for dt in TIMESTEPS]
-        specs += [scipy_spec("hand-cfunc", "solve_ivp", "DOP853", r) for r in RTOLS]
-        specs += [scipy_spec("hand-cfunc", "odeint", "LSODA", r) for r in RTOLS]
-        specs += [taylor_spec(tol) for tol in TAYLOR_TOLERANCES]
-        specs += [taylor_spec(tol, "symbolic") for tol in TAYLOR_TOLERANCES]
-        specs += [step_spec("hand", "compiled_rk4", "RK4", dt) for dt in TIMESTEPS]
-        for driver in ("rollout", "rollout_batch"):
-            specs += [step_spec("mujoco", driver, "RK4", dt) for dt in ROLLOUT_TIMESTEPS]
-    specs += drake_specs(quick=quick)
-    specs.append(
-        {
-            "engine": "hand",
-            "driver": "default",
-            "scheme": SCIPY_DEFAULT["method"],
-            "setting": "rtol",
-            "value": SCIPY_DEFAULT["rtol"],
-            "atol": SCIPY_DEFAULT["atol"],
-        }
-    )
-    for s in specs:
-        s["method"] = method_name(s)
-    return specs
+def quick_sweeps() -> tuple[Sweep, ...]:
+    """A few settings of each kind of method, and every driver a harness check uses."""
+    rtols = (1e-3, 1e-6, 1e-9, 1e-12)
+    timesteps = (1e-2, 1e-3, 1e-4)  # s
+    rollout = (1e-2, 1e-3)  # s
+    taylor = (1e-6, 1e-9, 1e-12, 1e-15)
+    out = [Sweep("hand", "solve_ivp", m, "rtol", rtols) for m in ("DOP853", "RK45", "LSODA")]
+    out += [Sweep("mujoco", "mujoco", integ, "timestep", timesteps) for integ in ("RK4", "Euler")]
+    out.append(Sweep("hand", "odeint", "LSODA", "rtol", rtols))  # the default's driver
+    out.append(Sweep("hand-cfunc", "odeint", "LSODA", "rtol", rtols))
+    out.append(Sweep("pinocchio", "odeint", "LSODA", "rtol", rtols))  # Pinocchio's check's driver
+    out += [Sweep(engine, "taylor", "double", "tol", taylor) for engine in ("hand", "symbolic")]
+    out.append(Sweep("hand", "compiled_rk4", "RK4", "timestep", timesteps))
+    out.append(Sweep("mujoco", "rollout", "RK4", "timestep", rollout))
+    out.append(Sweep("pinocchio", "mirror", "RK4", "timestep", rollout))  # its check's
+    out.append(Sweep("mujoco", "rollout_batch", "RK4", "timestep", rollout))
+    return (*out, *_drake_sweeps((1e-4, 1e-6, 1e-8, 1e-10), (1e-2, 1e-3)))
+
+
+FULL = Plan(sweeps=full_sweeps())
+
+
+QUICK = Plan(
+    sweeps=quick_sweeps(),
+    systems=("double_pendulum_point", "gimbal"),
+    quick=True,
+    budget=5.0,
+    repeats=1,
+    target_s=60.0,
+    rhs_reps=7,
+    pointwise_reps=3,
+    flag_steps=5_000,
+    ratio_reps=3,
+    time_run=False,
+)

@@ -24,21 +24,7 @@ from ...engines import make_source
 from ...engines.baselines import raw_mujoco, raw_pinocchio, raw_symbolic
 from ...engines.fastpath import scalar_rhs
 from .baselines import hand_math_rhs, numpy_solve_rhs, raw_hand, raw_pointwise
-from .plan import (
-    CONTENDER_DRIVERS,
-    DEFAULT_EPSILON,
-    DEFAULT_TARGET,
-    FLAG_INTEGRATORS,
-    FRONTIER_EPSILONS,
-    GRID_DRIVERS,
-    POINTWISE_SIZES,
-    POINTWISE_TARGET,
-    RHS_SYSTEM,
-    RHS_TARGET,
-    RUN_REPEATS,
-    RUN_TARGET_S,
-    RUN_WARM_TARGET_S,
-)
+from .plan import CONTENDER_DRIVERS, GRID_DRIVERS, Plan
 from .runners import case_for, resources
 
 
@@ -64,12 +50,12 @@ def interleaved_medians(fns: dict[str, Callable[[], Any]], reps: int) -> dict[st
     }
 
 
-def rhs_ratio(*, reps: int, calls: int = 10_000, n_states: int = 1000, seed: int = 0) -> dict[str, Any]:
+def rhs_ratio(plan: Plan, *, reps: int, calls: int = 10_000, n_states: int = 1000, seed: int = 0) -> dict[str, Any]:
     """Ratio 1 (a worker task): the right-hand side `scipy_trajectory` hands to the integrator for the
     hand equations (`integrate.source_rhs`: the generated fast path behind one call layer; the evaluation
     guard `integrate_rhs` puts around it is not included) against `hand_math_rhs`, per call, both called
-    as scipy calls them (f(t, y), y a float64 array) over `n_states` states."""
-    system, _ = resources(RHS_SYSTEM)
+    as scipy calls them (f(t, y), y a float64 array) over `n_states` states, on the plan's `rhs_system`."""
+    system, _ = resources(plan.rhs_system)
     hand = make_source(system, "hand")
     harness = source_rhs(hand, np.zeros(system.nv))
     fast, tau0 = scalar_rhs(system), [0.0] * system.nv
@@ -98,10 +84,10 @@ def rhs_ratio(*, reps: int, calls: int = 10_000, n_states: int = 1000, seed: int
     per_call = {k: v["cpu_s"] / (passes * n_states) * 1e6 for k, v in timed.items()}
     ratio = per_call["harness"] / per_call["hand_math"]
     return {
-        "system": RHS_SYSTEM,
+        "system": plan.rhs_system,
         "value": ratio,
-        "target": RHS_TARGET,
-        "passed": ratio <= RHS_TARGET,
+        "target": plan.rhs_target,
+        "passed": ratio <= plan.rhs_target,
         "per_call_us": per_call,
         "numpy_vs_hand_math": per_call["numpy_solve"] / per_call["hand_math"],
         "calls_per_measurement": passes * n_states,
@@ -113,23 +99,24 @@ def rhs_ratio(*, reps: int, calls: int = 10_000, n_states: int = 1000, seed: int
     }
 
 
-def pointwise_ratio(name: str, *, reps: int, sizes: tuple[int, ...] = POINTWISE_SIZES, seed: int = 0) -> dict[str, Any]:
-    """Ratio 2 for one system (a worker task), at each batch size of `sizes`: `compare.evaluate` through
-    every source against `raw_pointwise` (the minimal loops computing the same), interleaved; and each
-    source's own `evaluate` against its raw calls (`raw_hand`; `raw_mujoco`, `raw_pinocchio`: the engine's
-    calls state by state with nothing else in the loop; `raw_symbolic`: the generated code alone).
+def pointwise_ratio(name: str, plan: Plan, *, reps: int, seed: int = 0) -> dict[str, Any]:
+    """Ratio 2 for one system (a worker task), at each batch size of the plan's `pointwise_sizes`:
+    `compare.evaluate` through every source against `raw_pointwise` (the minimal loops computing the
+    same), interleaved; and each source's own `evaluate` against its raw calls (`raw_hand`; `raw_mujoco`,
+    `raw_pinocchio`: the engine's calls state by state with nothing else in the loop; `raw_symbolic`: the
+    generated code alone).
     Sources and states are built, and the symbolic code generated, before timing. Value: the worst
     size's whole-evaluate ratio."""
     system, every = resources(name)
     # Drake has no raw counterpart here (its source is already one engine call per state): not in this ratio
     sources = {k: s for k, s in every.items() if k != "drake"}
-    per_size = [_pointwise_at(system, sources, n_states, seed=seed, reps=reps) for n_states in sizes]
+    per_size = [_pointwise_at(system, sources, n_states, seed=seed, reps=reps) for n_states in plan.pointwise_sizes]
     worst = max(per_size, key=lambda r: r["value"])
     return {
         "system": system.name,
         "value": worst["value"],
-        "target": POINTWISE_TARGET,
-        "passed": all(r["value"] <= POINTWISE_TARGET for r in per_size),
+        "target": plan.pointwise_target,
+        "passed": all(r["value"] <= plan.pointwise_target for r in per_size),
         "per_size": per_size,
         "by_source": worst["by_source"],
         "repeats": reps,
@@ -177,17 +164,19 @@ def _pointwise_at(system: Any, sources: dict[str, Any], n_states: int, *, seed: 
     }
 
 
-def flags_ratio(name: str, *, steps: int, reps: int) -> list[dict[str, Any]]:
-    """Per integrator (RK4, Euler): CPU time per mj_step at the MJCF's timestep from the system's start,
-    with the model's disable flags and with `disableflags = 0`, interleaved (a worker task)."""
+def flags_ratio(name: str, plan: Plan, *, reps: int) -> list[dict[str, Any]]:
+    """Per integrator of the plan's `flag_integrators`: CPU time per mj_step (`flag_steps` of them) at the
+    MJCF's timestep from the system's start, with the model's disable flags and with `disableflags = 0`,
+    interleaved (a worker task)."""
     from ...engines import mujoco as engine  # imports MuJoCo: loaded when first used
 
     system, sources = resources(name)
     src = sources["mujoco"]
-    case = case_for(system)
+    case = case_for(system, plan)
     model_flags, timestep = int(src.m.opt.disableflags), float(src.m.opt.timestep)
+    steps = plan.flag_steps
     out = []
-    for integ in FLAG_INTEGRATORS:
+    for integ in plan.flag_integrators:
 
         def stepping(flags: int, integ: str = integ) -> Callable[[], None]:
             def run() -> None:
@@ -216,16 +205,11 @@ def flags_ratio(name: str, *, steps: int, reps: int) -> list[dict[str, Any]]:
     return out
 
 
-def default_ratio(
-    rows: list[dict[str, Any]],
-    *,
-    system: str = RHS_SYSTEM,
-    epsilon: float = DEFAULT_EPSILON,
-    target: float = DEFAULT_TARGET,
-) -> dict[str, Any]:
-    """From the sweep: the default's CPU time over that of the fastest scipy run on the hand equations
-    reaching `epsilon` at t = 2 s (drivers giving the whole 10 ms grid, as the default must), and which
-    (method, rtol) runs would meet the target."""
+def default_ratio(rows: list[dict[str, Any]], plan: Plan) -> dict[str, Any]:
+    """From the sweep, on the plan's `rhs_system`: the default's CPU time over that of the fastest scipy run
+    on the hand equations reaching `default_epsilon` at t = 2 s (drivers giving the whole 10 ms grid, as
+    the default must), and which (method, rtol) runs would meet `default_target`."""
+    system, epsilon, target = plan.rhs_system, plan.default_epsilon, plan.default_target
     mine = [r for r in rows if r["system"] == system]
     default = next((r for r in mine if r["driver"] == "default"), None)
     candidates = [
@@ -275,7 +259,7 @@ def default_ratio(
     }
 
 
-def frontier_ratios(rows: list[dict[str, Any]], epsilons: tuple[float, ...] = FRONTIER_EPSILONS) -> dict[str, Any]:
+def frontier_ratios(rows: list[dict[str, Any]], epsilons: tuple[float, ...]) -> dict[str, Any]:
     """From the sweep, per system and eps: the harness's default trajectory path (its driver, `odeint`
     on the hand equations' generated right-hand side, at the cheapest rtol reaching eps at t = 2 s; the
     default rtol itself as one of them) against the fastest run of any method reaching eps that gives
@@ -336,10 +320,12 @@ RUN_CONDITIONS = {
 }
 
 
-def run_wall_times(repeats: int = RUN_REPEATS, *, timeout: float = 900.0) -> dict[str, Any]:
+def run_wall_times(plan: Plan, *, timeout: float = 900.0) -> dict[str, Any]:
     """`python -m lagrange_xval.validate.cli run` (all systems, reports and replays) timed as
-    subprocesses one after another, with nothing else of the bench running: per repeat, three runs
-    into new folders, one per condition of RUN_CONDITIONS (fresh machine, cold cache, warm cache)."""
+    subprocesses one after another, with nothing else of the bench running: per repeat (the plan's
+    `run_repeats`), three runs into new folders, one per condition of RUN_CONDITIONS (fresh machine,
+    cold cache, warm cache), against the plan's `run_target_s` and `run_warm_target_s`."""
+    repeats = plan.run_repeats
     walls: dict[str, list[float]] = {c: [] for c in RUN_CONDITIONS}
     cpus: dict[str, list[float]] = {c: [] for c in RUN_CONDITIONS}
     codes: list[int] = []
@@ -374,10 +360,10 @@ def run_wall_times(repeats: int = RUN_REPEATS, *, timeout: float = 900.0) -> dic
     worst = max(medians.values())
     return {
         "value": worst,
-        "target": RUN_TARGET_S,
-        "passed": worst < RUN_TARGET_S and medians["warm cache"] < RUN_WARM_TARGET_S,
+        "target": plan.run_target_s,
+        "passed": worst < plan.run_target_s and medians["warm cache"] < plan.run_warm_target_s,
         "median_s": medians,
-        "warm_target": RUN_WARM_TARGET_S,
+        "warm_target": plan.run_warm_target_s,
         "wall_s_all": walls,
         "cpu_s_all": cpus,
         "exit_codes": codes,

@@ -26,18 +26,7 @@ from ...engines import make_sources
 from ...engines.fastpath import scalar_rhs
 from ...errors import HarnessError
 from ...systems import from_key, key_of
-from .plan import (
-    CHECK_EVERY,
-    DT_OUT,
-    ERROR_TIMES,
-    HORIZON_TOLERANCE,
-    MAX_EXECUTIONS,
-    MIN_TIMED,
-    ROLLOUT_BATCH,
-    SCIPY_DRIVERS,
-    T_END,
-    TAYLOR_MAX_STEPS,
-)
+from .plan import CHECK_EVERY, ERROR_TIMES, SCIPY_DRIVERS, Plan
 
 CacheDir = Path | str | None  # reference_trajectory's cache_dir: a folder, None (no cache) or cache.DEFAULT
 
@@ -51,35 +40,35 @@ LOCAL = threading.local()
 
 def resources(name: str) -> tuple[Any, dict[str, Any]]:
     """The system and its three sources, built once per worker thread (setup is never timed)."""
-    cache = LOCAL.__dict__.setdefault("systems", {})
+    cache = LOCAL.__dict__.setdefault("systems", {})  # per worker thread: one entry per system benched
     if name not in cache:
         system = from_key(name)  # a repository system's name, or a person's files (systems.key_of)
         cache[name] = (system, make_sources(system))
     return cache[name]
 
 
-def case_for(system: Any) -> dict[str, Any]:
-    """The start the bench integrates from: the system's `initial_state`, tau = 0, the 10 s grid."""
+def case_for(system: Any, plan: Plan) -> dict[str, Any]:
+    """The start the bench integrates from: the system's `initial_state`, tau = 0, the plan's grid."""
     q0, v0 = initial_state(system)
     return {
         "system": key_of(system),  # what the workers find it by
         "q0": q0.tolist(),
         "v0": v0.tolist(),
         "tau": [0.0] * system.nv,
-        "t_end": T_END,
-        "dt_out": DT_OUT,
+        "t_end": plan.t_end,
+        "dt_out": plan.dt_out,
     }
 
 
-def prepare(name: str, cache_dir: CacheDir = DEFAULT_CACHE_DIR) -> dict[str, Any]:
-    """Reference trajectory and predictability horizon of one system (a worker task), kept in
-    `cache_dir` (reference_trajectory's: a folder, None for none, or the configured cache)."""
+def prepare(name: str, plan: Plan, cache_dir: CacheDir = DEFAULT_CACHE_DIR) -> dict[str, Any]:
+    """Reference trajectory and predictability horizon of one system on the plan's grid (a worker task),
+    kept in `cache_dir` (reference_trajectory's: a folder, None for none, or the configured cache)."""
     system, _ = resources(name)
-    case = case_for(system)
+    case = case_for(system, plan)
     t = time_grid(case["t_end"], case["dt_out"])
     ref, info = reference_trajectory(system, case["q0"], case["v0"], case["tau"], t, cache_dir=cache_dir)
     summary = chaos_summary(
-        system, case["q0"], case["v0"], case["tau"], t=t, tolerance=HORIZON_TOLERANCE, cache_dir=cache_dir
+        system, case["q0"], case["v0"], case["tau"], t=t, tolerance=plan.horizon_tolerance, cache_dir=cache_dir
     )
     horizon = summary["horizon_from_rounding"]["horizon"]
     return {
@@ -353,18 +342,18 @@ def run_mirror(
 
 
 def run_taylor(
-    system: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, tol: float, source: str = "hand"
+    system: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, tol: float, max_steps: int, source: str = "hand"
 ) -> dict[str, Any]:
     """heyoka's Taylor integrator in double precision at `tol` on the hand equations or the derived
     ones ("symbolic": joint coordinates, JOINT_MAP applied outside the clock); compiled before the
-    clock starts, `propagate_grid` alone timed. At most TAYLOR_MAX_STEPS steps."""
+    clock starts, `propagate_grid` alone timed. At most `max_steps` steps."""
     n = len(q0)
     A = system.joint_map if source == "symbolic" else None
     if A is not None:  # q_notes = A q_joint, and the inputs' work: tau_joint = A^T tau_notes
         q0, v0, tau = np.linalg.solve(A, q0), np.linalg.solve(A, v0), A.T @ np.asarray(tau, dtype=float)
     ta = taylor_integrator(system, tol, source=source)
     c0, w0 = time.process_time(), time.perf_counter()
-    outcome, states, steps = taylor_grid(ta, q0, v0, tau, t, max_steps=TAYLOR_MAX_STEPS)
+    outcome, states, steps = taylor_grid(ta, q0, v0, tau, t, max_steps=max_steps)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     if outcome != "ok":
         status = "diverged" if "nf_state" in outcome else "failed"
@@ -442,12 +431,12 @@ def run_default(system: Any, source: Any, q0: Any, v0: Any, tau: Any, t: np.ndar
     return result_row("ok", "", cpu, wall, t=traj.t, q=traj.q, nfev=int(traj.stats["nfev"]))
 
 
-def run_once(spec: dict[str, Any], case: dict[str, Any], *, budget: float) -> dict[str, Any]:
-    """One execution of one spec on one case, in this process."""
+def run_once(spec: dict[str, Any], case: dict[str, Any], plan: Plan) -> dict[str, Any]:
+    """One execution of one spec on one case, in this process, within the plan's budget."""
     system, sources = resources(case["system"])
     t = time_grid(case["t_end"], case["dt_out"])
     q0, v0, tau = (np.asarray(case[k], dtype=float) for k in ("q0", "v0", "tau"))
-    driver, engine = spec["driver"], spec["engine"]
+    driver, engine, budget = spec["driver"], spec["engine"], plan.budget
     if driver in SCIPY_DRIVERS:
         y0 = np.concatenate([q0, v0])
         tau_list: Any = None
@@ -490,11 +479,11 @@ def run_once(spec: dict[str, Any], case: dict[str, Any], *, budget: float) -> di
     if driver == "taylor":
         if engine not in sources:
             return result_row("skipped", f"no {engine} source for {system.name}", 0.0, 0.0)
-        return run_taylor(system, q0, v0, tau, t, tol=spec["value"], source=engine)
+        return run_taylor(system, q0, v0, tau, t, tol=spec["value"], max_steps=plan.taylor_max_steps, source=engine)
     if driver == "compiled_rk4":
         return run_compiled_rk4(system, q0, v0, tau, t, timestep=spec["value"], deadline=time.perf_counter() + budget)
     if driver in ("rollout", "rollout_batch"):
-        batch = ROLLOUT_BATCH if driver == "rollout_batch" else 1
+        batch = spec["batch"] if driver == "rollout_batch" else 1
         return run_rollout(
             system, sources["mujoco"], q0, v0, tau, t, integrator=spec["scheme"], timestep=spec["value"], batch=batch
         )
@@ -512,20 +501,18 @@ def digest(q: np.ndarray | None) -> str | None:
     return None if q is None else hashlib.sha256(np.ascontiguousarray(q).tobytes()).hexdigest()[:16]
 
 
-def execute(
-    spec: dict[str, Any], case: dict[str, Any], *, budget: float, min_timed: float = MIN_TIMED, samples: bool = True
-) -> dict[str, Any]:
+def execute(spec: dict[str, Any], case: dict[str, Any], *, plan: Plan, samples: bool = True) -> dict[str, Any]:
     """One timing of one spec (a worker task): the run, repeated back to back while the total time is
-    under `min_timed` (the first, cold, execution then dropped), mean per execution.
+    under the plan's `min_timed` (the first, cold, execution then dropped), mean per execution.
 
     Returns plain data: status, message, cpu_s, wall_s, executions, nfev, steps, digest of the samples
     (every execution must give the same bits), and the samples t, q when `samples`.
     """
-    first = run_once(spec, case, budget=budget)
+    first = run_once(spec, case, plan)
     cpus, walls, deterministic = [first["cpu_s"]], [first["wall_s"]], True
     if first["status"] == "ok":
-        while sum(walls) < min_timed and len(walls) < MAX_EXECUTIONS:
-            again = run_once(spec, case, budget=budget)
+        while sum(walls) < plan.min_timed and len(walls) < plan.max_executions:
+            again = run_once(spec, case, plan)
             if again["status"] != "ok" or digest(again["q"]) != digest(first["q"]):
                 deterministic = False
                 break

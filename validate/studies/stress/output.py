@@ -9,7 +9,7 @@ from collections.abc import Callable
 from concurrent.futures import Executor, as_completed
 from dataclasses import asdict
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ...engines import make_sources
 from ...errors import HarnessError
@@ -34,6 +34,9 @@ from .settings import (
     Settings,
 )
 from .stability import stability_rows, stiff_rows
+
+if TYPE_CHECKING:  # rich is imported when the summary is printed
+    from rich.console import Console
 
 
 def sort_key(row: dict[str, Any]) -> tuple[Any, ...]:
@@ -247,129 +250,161 @@ def column_style(col: str, longest: dict[str, int] | None = None) -> dict[str, A
     return {"no_wrap": True, "min_width": (longest or {}).get(col, len(col))}
 
 
-def print_summary(results: dict[str, Any], console: Any = None) -> None:
-    """Readable tables of the results (rich)."""
+def print_summary(results: dict[str, Any], console: Console | None = None) -> None:
+    """Readable tables of the results (rich), one per section that ran, then what was skipped."""
     from rich.console import Console
-    from rich.table import Table
 
     console = console or Console()
     longest = longest_names(results)
     if results["drift"]:
-        table = Table(title="Energy over long horizons (MJCF timestep; dE = E - E0, E by the hand equations)")
-        for col in (
-            "system",
-            "engine",
-            "integrator",
-            "horizon s",
-            "class",
-            "direction",
-            "max |dE| / (E0-Vmin)",
-            "|dE| rate J/s",
-        ):
-            table.add_column(col, **column_style(col, longest))
-        for r in results["drift"]:
-            table.add_row(
-                r["system"],
-                r["engine"],
-                r["integrator"],
-                f"{r['horizon']:g}",
-                r["class"],
-                r["direction"] or "-",
-                fmt(r["relative_max"], ".2e"),
-                fmt(r["rate"], ".1e"),
-            )
-        console.print(table)
+        drift_table(results["drift"], longest, console)
     if results["stability"]:
-        speeds = sorted({r["speed"] for r in results["stability"]})
-        criteria = sorted({r["criterion"] for r in results["stability"]}, key=lambda c: c == "divergence")
-        table = Table(
-            title=f"Largest stable timestep (s) over {results['stability'][0]['t_end']:g} s, bisection on "
-            f"log dt in [{DT_RANGE[0]:g}, {DT_RANGE[1]:g}]; v0 = speed on every coordinate; "
-            f"criteria: {' / '.join(criteria)}"
-        )
-        for col in ("system", "engine", "integrator", *[f"{s:g} rad/s" for s in speeds]):
-            table.add_column(col, **column_style(col, longest))
-        cells: dict[tuple[str, str, str], dict[float, dict[str, str]]] = {}
-        for r in results["stability"]:
-            text = (
-                f">={r['max_stable']:.2g}"
-                if r["min_unstable"] is None
-                else f"<{r['min_unstable']:.2g}"
-                if r["max_stable"] is None
-                else f"{r['max_stable']:.3g}"
-            )
-            cells.setdefault((r["system"], r["engine"], r["integrator"]), {}).setdefault(r["speed"], {})[
-                r["criterion"]
-            ] = text
-        for (system, engine, integrator), by_speed in cells.items():
-            table.add_row(
-                system,
-                engine,
-                integrator,
-                *[" / ".join(by_speed.get(s, {}).get(c, "-") for c in criteria) for s in speeds],
-            )
-        console.print(table)
+        stability_table(results["stability"], longest, console)
     if results["conditioning_summary"]:
-        table = Table(
-            title="Ill-conditioning: the worst pair's disagreement (compare's scaled error) vs cond(M) over "
-            "the sample; C = max per-state error / (cond eps)"
-        )
-        for col in (
-            "system",
-            "sweep",
-            "quantity",
-            "cond(M) max",
-            "disagreement",
-            "slope",
-            "C",
-            "C (cond_eq)",
-            "base tier fails from cond",
-            "current tier fails from cond",
-        ):
-            table.add_column(col, **column_style(col, longest))
-        for s in results["conditioning_summary"]:
-            table.add_row(
-                s["system"],
-                s["sweep"],
-                s["quantity"],
-                f"{s['cond_range'][0]:.1e} .. {s['cond_range'][1]:.1e}",
-                f"{s['disagreement_range'][0]:.1e} .. {s['disagreement_range'][1]:.1e}",
-                fmt(s["slope"], ".2f"),
-                f"{s['c_state']:.2g}",
-                f"{s['c_state_eq']:.2g}",
-                fmt(s["base_tier_fails_from_cond"]),
-                fmt(s["tier_fails_from_cond"]),
-            )
-        console.print(table)
-        p = results.get("solve_tier_proposal") or {}
-        if p:
-            console.print(
-                f"Solve tier per state max({p['rtol']:g}, C eps kappa): the states beyond {p['rtol']:g} needed "
-                f"C = {p['measured_C_cond']:.2g} with kappa = cond(M) ({p['measured_C_cond_eq']:.2g} with the "
-                f"equilibrated cond, whose ratio reaches {p['measured_C_cond_eq_all_states']:.2g} at states below "
-                f"{p['rtol']:g}: it does not bound the error); {p['margin']:g}x margin gives C = "
-                f"{p['C_cond']:g} on cond(M), binding from cond {fmt(p['kappa_from_cond'])}; "
-                f"current cond_factor: {p['current_cond_factor']}.",
-                highlight=False,
-            )
+        conditioning_table(results["conditioning_summary"], longest, console)
+        proposal_line(results.get("solve_tier_proposal") or {}, console)
     if results["stiff_friction"]:
-        dts = sorted({r["timestep"] for r in results["stiff_friction"]})
-        table = Table(
-            title="Stiff friction: stable? and max |q - q_ref| (rad) vs DOP853 rtol 1e-12 on the hand "
-            "equations, per timestep (s)"
-        )
-        for col in ("system", "damping x", "engine", "integrator", *[f"{d:g}" for d in dts]):
-            table.add_column(col, **column_style(col, longest))
-        cells2: dict[tuple[Any, ...], dict[float, str]] = {}
-        for r in results["stiff_friction"]:
-            cells2.setdefault((r["system"], f"{r['damping_factor']:g}", r["engine"], r["integrator"]), {})[
-                r["timestep"]
-            ] = f"{r['max_error']:.0e}" if r["stable"] else "UNSTABLE"
-        for key, by_dt in cells2.items():
-            table.add_row(*key, *[by_dt.get(d, "-") for d in dts])
-        console.print(table)
+        stiff_table(results["stiff_friction"], longest, console)
     for s in results["skipped"]:
         console.print(f"skipped {s['section']} on {s['system']}: {s['why']}")
+
+
+def drift_table(rows: list[dict[str, Any]], longest: dict[str, int], console: Console) -> None:
+    """Energy over the long horizons: class, direction, worst relative change and rate."""
+    from rich.table import Table
+
+    table = Table(title="Energy over long horizons (MJCF timestep; dE = E - E0, E by the hand equations)")
+    for col in (
+        "system",
+        "engine",
+        "integrator",
+        "horizon s",
+        "class",
+        "direction",
+        "max |dE| / (E0-Vmin)",
+        "|dE| rate J/s",
+    ):
+        table.add_column(col, **column_style(col, longest))
+    for r in rows:
+        table.add_row(
+            r["system"],
+            r["engine"],
+            r["integrator"],
+            f"{r['horizon']:g}",
+            r["class"],
+            r["direction"] or "-",
+            fmt(r["relative_max"], ".2e"),
+            fmt(r["rate"], ".1e"),
+        )
+    console.print(table)
+
+
+def stability_table(rows: list[dict[str, Any]], longest: dict[str, int], console: Console) -> None:
+    """The largest stable timestep per system, engine and integrator, at each speed and criterion."""
+    from rich.table import Table
+
+    speeds = sorted({r["speed"] for r in rows})
+    criteria = sorted({r["criterion"] for r in rows}, key=lambda c: c == "divergence")
+    table = Table(
+        title=f"Largest stable timestep (s) over {rows[0]['t_end']:g} s, bisection on "
+        f"log dt in [{DT_RANGE[0]:g}, {DT_RANGE[1]:g}]; v0 = speed on every coordinate; "
+        f"criteria: {' / '.join(criteria)}"
+    )
+    for col in ("system", "engine", "integrator", *[f"{s:g} rad/s" for s in speeds]):
+        table.add_column(col, **column_style(col, longest))
+    cells: dict[tuple[str, str, str], dict[float, dict[str, str]]] = {}
+    for r in rows:
+        by_speed = cells.setdefault((r["system"], r["engine"], r["integrator"]), {})
+        by_speed.setdefault(r["speed"], {})[r["criterion"]] = stable_cell(r)
+    for (system, engine, integrator), by_speed in cells.items():
+        table.add_row(
+            system,
+            engine,
+            integrator,
+            *[" / ".join(by_speed.get(s, {}).get(c, "-") for c in criteria) for s in speeds],
+        )
+    console.print(table)
+
+
+def stable_cell(r: dict[str, Any]) -> str:
+    """The bisection's answer: the largest stable dt, or a bound where it ran off the bracket."""
+    if r["min_unstable"] is None:
+        return f">={r['max_stable']:.2g}"
+    if r["max_stable"] is None:
+        return f"<{r['min_unstable']:.2g}"
+    return f"{r['max_stable']:.3g}"
+
+
+def conditioning_table(summary: list[dict[str, Any]], longest: dict[str, int], console: Console) -> None:
+    """Ill-conditioning: the worst pair's disagreement against cond(M), and where each tier fails."""
+    from rich.table import Table
+
+    table = Table(
+        title="Ill-conditioning: the worst pair's disagreement (compare's scaled error) vs cond(M) over "
+        "the sample; C = max per-state error / (cond eps)"
+    )
+    for col in (
+        "system",
+        "sweep",
+        "quantity",
+        "cond(M) max",
+        "disagreement",
+        "slope",
+        "C",
+        "C (cond_eq)",
+        "base tier fails from cond",
+        "current tier fails from cond",
+    ):
+        table.add_column(col, **column_style(col, longest))
+    for s in summary:
+        table.add_row(
+            s["system"],
+            s["sweep"],
+            s["quantity"],
+            f"{s['cond_range'][0]:.1e} .. {s['cond_range'][1]:.1e}",
+            f"{s['disagreement_range'][0]:.1e} .. {s['disagreement_range'][1]:.1e}",
+            fmt(s["slope"], ".2f"),
+            f"{s['c_state']:.2g}",
+            f"{s['c_state_eq']:.2g}",
+            fmt(s["base_tier_fails_from_cond"]),
+            fmt(s["tier_fails_from_cond"]),
+        )
+    console.print(table)
+
+
+def proposal_line(p: dict[str, Any], console: Console) -> None:
+    """The proposed solve tier from the measured disagreement (nothing when none was proposed)."""
+    if not p:
+        return
+    console.print(
+        f"Solve tier per state max({p['rtol']:g}, C eps kappa): the states beyond {p['rtol']:g} needed "
+        f"C = {p['measured_C_cond']:.2g} with kappa = cond(M) ({p['measured_C_cond_eq']:.2g} with the "
+        f"equilibrated cond, whose ratio reaches {p['measured_C_cond_eq_all_states']:.2g} at states below "
+        f"{p['rtol']:g}: it does not bound the error); {p['margin']:g}x margin gives C = "
+        f"{p['C_cond']:g} on cond(M), binding from cond {fmt(p['kappa_from_cond'])}; "
+        f"current cond_factor: {p['current_cond_factor']}.",
+        highlight=False,
+    )
+
+
+def stiff_table(rows: list[dict[str, Any]], longest: dict[str, int], console: Console) -> None:
+    """Stiff friction: stable or not, and the error against the reference, per timestep."""
+    from rich.table import Table
+
+    dts = sorted({r["timestep"] for r in rows})
+    table = Table(
+        title="Stiff friction: stable? and max |q - q_ref| (rad) vs DOP853 rtol 1e-12 on the hand "
+        "equations, per timestep (s)"
+    )
+    for col in ("system", "damping x", "engine", "integrator", *[f"{d:g}" for d in dts]):
+        table.add_column(col, **column_style(col, longest))
+    cells: dict[tuple[str, str, str, str], dict[float, str]] = {}
+    for r in rows:
+        key = (r["system"], f"{r['damping_factor']:g}", r["engine"], r["integrator"])
+        cells.setdefault(key, {})[r["timestep"]] = f"{r['max_error']:.0e}" if r["stable"] else "UNSTABLE"
+    for key, by_dt in cells.items():
+        table.add_row(*key, *[by_dt.get(d, "-") for d in dts])
+    console.print(table)
 
 
 def stress_command(args: Any, executor: Executor | None = None) -> int:
