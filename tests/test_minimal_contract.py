@@ -389,6 +389,7 @@ def test_a_baked_in_centre_of_mass_is_named_alone_and_passes_once_stated(tmp_pat
     assert result.passed, result.statement
 
 
+@pytest.mark.long
 def test_gym_acrobot_passes_every_stage_of_run(tmp_path):
     """The whole job on explicit accelerations with u and joint damping: MuJoCo's damped Euler cannot be
     mirrored without M, so that one mirror is not judged (said), and nothing fails a right derivation."""

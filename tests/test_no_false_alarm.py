@@ -192,6 +192,7 @@ def test_stiff_model_convergence_and_its_fresh_reference():
 SHORT = {"n_states": 40, "seed": 0, "n_probes": 1}
 
 
+@pytest.mark.long
 @pytest.mark.parametrize(
     "make",
     [

@@ -22,6 +22,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+import pytest
 from lagrange_xval.validate.cli.commands import COMMANDS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -221,6 +222,7 @@ def _venv_with_wheel(tmp: Path, wheel: Path) -> Path:
     return python
 
 
+@pytest.mark.long
 def test_the_built_wheel_installs_whole_and_every_command_runs(tmp_path):
     """`pip wheel .`, installed without -e into a fresh venv: the package resolves there (not to the
     checkout), every module imports, the data files are in, every command's --help works and a short

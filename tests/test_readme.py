@@ -22,3 +22,12 @@ def test_readme_has_exactly_two_setup_commands():
 def test_ci_runs_the_readme_test_command():
     ci = (PACKAGE_ROOT / ".ci" / "run").read_text()
     assert _commands()[1] in ci
+
+
+def test_ci_runs_the_long_tests_the_readme_command_leaves_out():
+    """The README's command leaves out the tests marked `long` (pyproject's addopts); .ci/run runs them
+    after it, so CI covers every test."""
+    ci = (PACKAGE_ROOT / ".ci" / "run").read_text()
+    addopts = (PACKAGE_ROOT / "pyproject.toml").read_text()
+    assert "not long" in addopts
+    assert ci.index(_commands()[1]) < ci.index(".venv/bin/python -m pytest -q -m long")

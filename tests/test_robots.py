@@ -102,6 +102,7 @@ def test_run_on_a_robot_urdf_alone_end_to_end(tmp_path, cli_run):
     assert bad.returncode != 0 and "take a model alone" in bad.stderr, bad.stderr
 
 
+@pytest.mark.long
 @needs_robots
 @pytest.mark.parametrize(
     ("path", "lock"),

@@ -54,6 +54,7 @@ def test_a_chain_with_no_symbolic_source_says_per_engine_until_when():
         assert run["trust"]["trusted_until"] == pytest.approx(2.0), run["trust_statement"]
 
 
+@pytest.mark.long
 @needs_robots
 def test_the_panda_says_which_engine_departs_and_why(cli_run):
     """The Panda from 0.5 rad is chaotic (lambda of several 1/s): MuJoCo's RK4 at the URDF's 2 ms step is

@@ -157,6 +157,7 @@ def _cli(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     )
 
 
+@pytest.mark.long
 def test_run_on_a_urdf_outside_the_repository(tmp_path):
     """`run --model MY.urdf --equations MY.py --out DIR` from a folder of one's own: right, it passes
     with the report (saying URDF, with the alignments) and the replay; with the damping of two joints

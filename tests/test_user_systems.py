@@ -95,6 +95,7 @@ def test_run_on_a_model_and_equations_outside_the_repository(tmp_path):
     assert {p.name for p in (tmp_path / "out").iterdir()} >= {"report.html", "report.md", "results.json", "my_cart.rrd"}
 
 
+@pytest.mark.long
 def test_run_systems_folder(tmp_path):
     """`run --systems DIR` runs every <name>.xml with its <name>.py; a file without its partner is
     named, and the others run all the same."""
@@ -195,6 +196,7 @@ def test_bench_and_stress_take_model_and_equations_together(command, capsys):
     assert "--model and --equations go together" in capsys.readouterr().err
 
 
+@pytest.mark.long
 @pytest.mark.parametrize("name", sorted(FORMS))
 def test_every_new_system_passes_the_whole_job(name):
     """Verdicts, trajectories, chaos and the mirrors of MuJoCo's integrators: a 3-DOF damped arm (whose
@@ -223,6 +225,7 @@ def _without(text: str, names: tuple[str, ...]) -> str:
     return "".join(lines)
 
 
+@pytest.mark.long
 def test_optional_functions_left_out_are_not_checked_never_failed(tmp_path):
     """A derivation with only its dynamics (no energies, no body poses, no printed variants) gets the
     whole job; what it leaves out is listed as not checked, in the derivation and the pointwise check."""

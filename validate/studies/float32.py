@@ -271,7 +271,7 @@ def system_result(
     system: System, *, n_states: int, horizon: float | None, cache_dir: Any = DEFAULT_CACHE_DIR
 ) -> dict[str, Any]:
     """One system's pointwise rows, its trajectory row (None without a horizon) and first-call times."""
-    from ..engines.warp import WarpSource
+    from ..engines import warp as warp_engine  # loads Warp
 
     start = time.perf_counter()
     warp = make_source(system, "warp")
@@ -280,7 +280,7 @@ def system_result(
     trajectory = trajectory_row(system, warp, horizon=horizon, cache_dir=cache_dir) if horizon else None
     return {
         "nv": system.nv,
-        "device": engine_of(warp, WarpSource).device,
+        "device": engine_of(warp, warp_engine.WarpSource).device,
         "pointwise": rows,
         "trajectory": trajectory,
         "first_call_s": {"put_model": made, **engine_of(warp, WarpSource).first_call_s},
