@@ -283,7 +283,7 @@ def system_result(
         "device": engine_of(warp, warp_engine.WarpSource).device,
         "pointwise": rows,
         "trajectory": trajectory,
-        "first_call_s": {"put_model": made, **engine_of(warp, WarpSource).first_call_s},
+        "first_call_s": {"put_model": made, **engine_of(warp, warp_engine.WarpSource).first_call_s},
     }
 
 
