@@ -80,53 +80,68 @@ def _kind(symbol: Any) -> str:
     return name.split("_")[0]
 
 
-def candidates(expected: Any, q: list[Any], params: list[Any], rates: tuple[Any, ...] = ()) -> list[Candidate]:
-    """The single-slip differences from `expected`, most specific first: slips in one term, then
-    slips across the whole entry, then each term on its own (lost, doubled, sign, wrong number)."""
+def _parameter_slips(t: Any, params: list[Any]) -> list[Candidate]:
+    """The slips of one parameter in the term `t`: swapped for another of its kind, lost or extra."""
     import sympy as sp
 
-    expanded = sp.expand(expected)
-    terms = [t for t in sp.Add.make_args(expanded) if t != 0] if expanded != 0 else []
     one = Fraction(1)
     out: list[Candidate] = []
-    for t in terms:
-        present = [p for p in params if t.has(p)]
-        for p in present:
-            power = sp.degree(t, p) if t.is_polynomial(p) else 1
-            for r in params:
-                if r == p or _kind(r) != _kind(p):
-                    continue
-                if not t.has(r):
-                    out.append(Candidate(t.xreplace({p: r}) - t, "swap", f"has {r} where expected has {p} in {t}", one))
-                if power >= 2:  # one factor of p^2 for another length: l1 l2 for l2^2
-                    out.append(
-                        Candidate(t * r / p - t, "swap", f"has {p}*{r} where expected has {p}**{power} in {t}", one)
-                    )
-            out.append(Candidate(t / p - t, "drop", f"lacks the factor {p} in {t}", one))
-            out.append(Candidate(t * p - t, "extra", f"has an extra factor {p} in {t}", one))
-        for f in t.atoms(sp.sin, sp.cos):
-            other = (sp.cos if isinstance(f, sp.sin) else sp.sin)(f.args[0])
-            out.append(Candidate(t.xreplace({f: other}) - t, "trig", f"has {other} where expected has {f} in {t}", one))
-            for x in q:
-                if f.args[0] != x:
-                    g = f.func(x)
-                    out.append(
-                        Candidate(t.xreplace({f: g}) - t, "argument", f"has {g} where expected has {f} in {t}", one)
-                    )
-        for x in rates:  # one rate for another: (theta' + theta') for (theta' + phi')
-            if t.has(x):
-                for y in rates:
-                    if y != x:
-                        out.append(
-                            Candidate(t.xreplace({x: y}) - t, "argument", f"has {y} where expected has {x} in {t}", one)
-                        )
+    for p in [p for p in params if t.has(p)]:
+        power = sp.degree(t, p) if t.is_polynomial(p) else 1
+        for r in params:
+            if r == p or _kind(r) != _kind(p):
+                continue
+            if not t.has(r):
+                out.append(Candidate(t.xreplace({p: r}) - t, "swap", f"has {r} where expected has {p} in {t}", one))
+            if power >= 2:  # one factor of p^2 for another length: l1 l2 for l2^2
+                out.append(Candidate(t * r / p - t, "swap", f"has {p}*{r} where expected has {p}**{power} in {t}", one))
+        out.append(Candidate(t / p - t, "drop", f"lacks the factor {p} in {t}", one))
+        out.append(Candidate(t * p - t, "extra", f"has an extra factor {p} in {t}", one))
+    return out
+
+
+def _trig_slips(t: Any, q: list[Any]) -> list[Candidate]:
+    """The slips of a trigonometric factor in the term `t`: sin for cos (or back), another coordinate."""
+    import sympy as sp
+
+    one = Fraction(1)
+    out: list[Candidate] = []
+    for f in t.atoms(sp.sin, sp.cos):
+        other = (sp.cos if isinstance(f, sp.sin) else sp.sin)(f.args[0])
+        out.append(Candidate(t.xreplace({f: other}) - t, "trig", f"has {other} where expected has {f} in {t}", one))
+        for x in q:
+            if f.args[0] != x:
+                g = f.func(x)
+                out.append(Candidate(t.xreplace({f: g}) - t, "argument", f"has {g} where expected has {f} in {t}", one))
+    return out
+
+
+def _rate_slips(t: Any, rates: tuple[Any, ...]) -> list[Candidate]:
+    """One rate for another in the term `t`: (theta' + theta') for (theta' + phi')."""
+    one = Fraction(1)
+    return [
+        Candidate(t.xreplace({x: y}) - t, "argument", f"has {y} where expected has {x} in {t}", one)
+        for x in rates
+        if t.has(x)
+        for y in rates
+        if y != x
+    ]
+
+
+def _entry_slips(expanded: Any, terms: list[Any], params: list[Any]) -> list[Candidate]:
+    """The slips across the whole entry: a group of terms scaled, two parameters exchanged, a factor
+    lost everywhere, sin for cos everywhere."""
+    import sympy as sp
+
+    one = Fraction(1)
+    out: list[Candidate] = []
     present = [p for p in params if expanded.has(p)]
     for p in present:  # every term in p by the same wrong number: a 1/2 misplaced in front of a group
         members = [t for t in terms if t.has(p)]
         group = sp.Add(*members)
         if len(members) > 1 and group != expanded:
             out.append(Candidate(group, "group", f"the terms in {p}: {group}", None))
-    for p, r in itertools.permutations(present, 2):  # across the entry
+    for p, r in itertools.permutations(present, 2):
         if _kind(p) == _kind(r) and str(p) < str(r):
             out.append(
                 Candidate(expanded.xreplace({p: r, r: p}) - expanded, "exchange", f"has {p} and {r} exchanged", one)
@@ -136,8 +151,21 @@ def candidates(expected: Any, q: list[Any], params: list[Any], rates: tuple[Any,
     for f in expanded.atoms(sp.sin, sp.cos):
         other = (sp.cos if isinstance(f, sp.sin) else sp.sin)(f.args[0])
         out.append(Candidate(expanded.xreplace({f: other}) - expanded, "trig", f"has {other} for {f} everywhere", one))
+    return out
+
+
+def candidates(expected: Any, q: list[Any], params: list[Any], rates: tuple[Any, ...] = ()) -> list[Candidate]:
+    """The single-slip differences from `expected`, most specific first: slips in one term, then
+    slips across the whole entry, then each term on its own (lost, doubled, sign, wrong number)."""
+    import sympy as sp
+
+    expanded = sp.expand(expected)
+    terms = [t for t in sp.Add.make_args(expanded) if t != 0] if expanded != 0 else []
+    out: list[Candidate] = []
     for t in terms:
-        out.append(Candidate(t, "term", str(t), None))
+        out += [*_parameter_slips(t, params), *_trig_slips(t, q), *_rate_slips(t, rates)]
+    out += _entry_slips(expanded, terms, params)
+    out += [Candidate(t, "term", str(t), None) for t in terms]
     out.append(Candidate(expanded, "scale", "expected", None))
     return out[:MAX_CANDIDATES]
 

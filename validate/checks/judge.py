@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from ...equations._forms import DerivationStep, Implicit, NotApplicable
+from ...equations._forms import DerivationStep, Explicit, Implicit, NotApplicable
 from ..dynamics.cachedir import Cache
 from ..engines import make_source, make_sources
 from ..engines.base import Source, posed
@@ -229,6 +229,146 @@ def _printed_parameter_rows(system: System, variant: Any) -> list[dict[str, Any]
     return rows
 
 
+def _step_rows(
+    system: System, variant: DerivationStep, terms: EngineTerms, states: States, tolerances: Tolerances
+) -> list[dict[str, Any]]:
+    """A derivation step's printed expression against the engines' kinematics or energies."""
+    printed = real_array(f"{variant.name} evaluate()", variant.evaluate(system.params, states.q, states.v))
+    refs = {
+        n: engine_quantity(system, terms, variant.quantity, n, states, variant.angle_index) for n in terms.by_engine
+    }
+    printed = np.broadcast_to(printed, refs["mujoco"].shape)
+    return term_rows("value", printed, refs, states, tier="algebraic", tolerances=tolerances)
+
+
+def _implicit_rows(
+    system: System,
+    variant: Implicit,
+    terms: EngineTerms,
+    states: States,
+    p0: Any,
+    tolerances: Tolerances,
+) -> list[dict[str, Any]]:
+    """An implicit form's residual split into terms (module docstring), each against the engines'
+    scaled by the printed row scale, and the residual at the engines' accelerations (`p0`: the
+    parameters without joint friction)."""
+    p = system.params
+    q, v, tau = states.q, states.v, states.tau
+    zero = np.zeros_like(q)
+    uses = system.uses
+    e = terms.by_engine
+    r = lambda *args: real_array(f"{variant.name} residual()", variant.residual(*args))  # noqa: E731
+    s = real_array(f"{variant.name} row_scale()", variant.row_scale(p))
+    r00 = r(p, q, zero, zero, zero)
+    n = system.nv
+    cols = [r(p, q, zero, np.broadcast_to(np.eye(n)[j], q.shape), zero) - r00 for j in range(n)]
+    mass = np.stack(cols, axis=-1)
+    rows = term_rows(
+        "mass matrix",
+        mass,
+        {k: s[:, None] * e[k]["M"] for k in e},
+        states,
+        tier="algebraic",
+        tolerances=tolerances,
+    )
+    if "gravity" in uses:
+        rows += term_rows(
+            "gravity", r00, {k: s * e[k]["G"] for k in e}, states, tier="algebraic", tolerances=tolerances
+        )
+    vel = r(p0, q, v, zero, zero) - r(p0, q, zero, zero, zero)
+    rows += term_rows(
+        "velocity",
+        vel,
+        {k: s * e[k]["Cv"] for k in e},
+        states,
+        tier="algebraic",
+        tolerances=tolerances,
+        min_scale={k: float(np.abs(s).max()) * force_scale(e[k]["M"], v) for k in e},
+    )
+    if "damping" in uses:
+        fr = r(p, q, v, zero, zero) - r(p0, q, v, zero, zero)
+        rows += term_rows(
+            "friction",
+            fr,
+            {k: -s * e[k]["passive"] for k in e},
+            states,
+            tier="algebraic",
+            tolerances=tolerances,
+        )
+    if "actuation" in uses:
+        act = r(p, q, zero, zero, tau) - r00
+        rows += term_rows("actuation", act, {k: -s * tau for k in e}, states, tier="algebraic", tolerances=tolerances)
+    residual = {k: r(p, q, v, e[k]["a"], tau) for k in e}
+    for k in e:  # the residual at the engine's own accelerations should vanish
+        scale = float(np.abs(s * (e[k]["Cv"] + e[k]["G"])).max())
+        rows += term_rows(
+            "residual",
+            residual[k],
+            {k: np.zeros_like(residual[k])},
+            states,
+            tier="solve",
+            tolerances=tolerances,
+            min_scale={k: scale},
+        )
+    return rows
+
+
+def _explicit_rows(
+    system: System,
+    variant: Explicit,
+    terms: EngineTerms,
+    states: States,
+    p0: Any,
+    tolerances: Tolerances,
+) -> list[dict[str, Any]]:
+    """An explicit (or Matlab state-space) form's accelerations split into terms, each against the
+    engines' accelerations from that term alone, and the acceleration overall (`p0`: the parameters
+    without joint friction)."""
+    p = system.params
+    q, v, tau = states.q, states.v, states.tau
+    zero = np.zeros_like(q)
+    uses = system.uses
+    e = terms.by_engine
+    f = lambda *args: real_array(f"{variant.name} acceleration()", variant.acceleration(*args))  # noqa: E731
+    f00 = f(p, q, zero, zero)
+    rows: list[dict[str, Any]] = []
+    if "gravity" in uses:
+        rows += term_rows(
+            "gravity", f00, {k: e[k]["a_gravity"] for k in e}, states, tier="solve", tolerances=tolerances
+        )
+    vel = f(p0, q, v, zero) - f(p0, q, zero, zero)
+    rows += term_rows("velocity", vel, {k: e[k]["a_velocity"] for k in e}, states, tier="solve", tolerances=tolerances)
+    if "damping" in uses:
+        fr = f(p, q, v, zero) - f(p0, q, v, zero)
+        rows += term_rows(
+            "friction",
+            fr,
+            {k: e[k]["a_friction"] for k in e},
+            states,
+            tier="solve",
+            tolerances=tolerances,
+        )
+    if "actuation" in uses:
+        act = f(p, q, zero, tau) - f00
+        rows += term_rows(
+            "actuation",
+            act,
+            {k: e[k]["a_actuation"] for k in e},
+            states,
+            tier="solve",
+            tolerances=tolerances,
+        )
+    rows += term_rows(
+        "acceleration",
+        f(p, q, v, tau),
+        {k: e[k]["a"] for k in e},
+        states,
+        tier="solve",
+        tolerances=tolerances,
+    )
+    return rows
+
+
 def judge_variant(
     system: System,
     variant: Any,
@@ -239,11 +379,6 @@ def judge_variant(
     printed_parameters: bool = True,
 ) -> dict[str, Any]:
     """One printed form's verdict, with every separated term against both engines."""
-    p = system.params
-    q, v, tau = states.q, states.v, states.tau
-    zero = np.zeros_like(q)
-    uses = system.uses
-    e = terms.by_engine
     result: dict[str, Any] = {
         "name": variant.name,
         "kind": variant.kind,
@@ -254,105 +389,11 @@ def judge_variant(
         p0 = frictionless_params(system)
         rows = _printed_parameter_rows(system, variant) if printed_parameters else []
         if isinstance(variant, DerivationStep):
-            printed = real_array(f"{variant.name} evaluate()", variant.evaluate(p, q, v))
-            refs = {n: engine_quantity(system, terms, variant.quantity, n, states, variant.angle_index) for n in e}
-            printed = np.broadcast_to(printed, refs["mujoco"].shape)
-            rows += term_rows("value", printed, refs, states, tier="algebraic", tolerances=tolerances)
+            rows += _step_rows(system, variant, terms, states, tolerances)
         elif isinstance(variant, Implicit):
-            r = lambda *args: real_array(f"{variant.name} residual()", variant.residual(*args))  # noqa: E731
-            s = real_array(f"{variant.name} row_scale()", variant.row_scale(p))
-            r00 = r(p, q, zero, zero, zero)
-            n = system.nv
-            cols = [r(p, q, zero, np.broadcast_to(np.eye(n)[j], q.shape), zero) - r00 for j in range(n)]
-            mass = np.stack(cols, axis=-1)
-            rows += term_rows(
-                "mass matrix",
-                mass,
-                {k: s[:, None] * e[k]["M"] for k in e},
-                states,
-                tier="algebraic",
-                tolerances=tolerances,
-            )
-            if "gravity" in uses:
-                rows += term_rows(
-                    "gravity", r00, {k: s * e[k]["G"] for k in e}, states, tier="algebraic", tolerances=tolerances
-                )
-            vel = r(p0, q, v, zero, zero) - r(p0, q, zero, zero, zero)
-            rows += term_rows(
-                "velocity",
-                vel,
-                {k: s * e[k]["Cv"] for k in e},
-                states,
-                tier="algebraic",
-                tolerances=tolerances,
-                min_scale={k: float(np.abs(s).max()) * force_scale(e[k]["M"], v) for k in e},
-            )
-            if "damping" in uses:
-                fr = r(p, q, v, zero, zero) - r(p0, q, v, zero, zero)
-                rows += term_rows(
-                    "friction",
-                    fr,
-                    {k: -s * e[k]["passive"] for k in e},
-                    states,
-                    tier="algebraic",
-                    tolerances=tolerances,
-                )
-            if "actuation" in uses:
-                act = r(p, q, zero, zero, tau) - r00
-                rows += term_rows(
-                    "actuation", act, {k: -s * tau for k in e}, states, tier="algebraic", tolerances=tolerances
-                )
-            residual = {k: r(p, q, v, e[k]["a"], tau) for k in e}
-            for k in e:  # the residual at the engine's own accelerations should vanish
-                scale = float(np.abs(s * (e[k]["Cv"] + e[k]["G"])).max())
-                rows += term_rows(
-                    "residual",
-                    residual[k],
-                    {k: np.zeros_like(residual[k])},
-                    states,
-                    tier="solve",
-                    tolerances=tolerances,
-                    min_scale={k: scale},
-                )
+            rows += _implicit_rows(system, variant, terms, states, p0, tolerances)
         else:  # explicit and Matlab state-space forms
-            f = lambda *args: real_array(f"{variant.name} acceleration()", variant.acceleration(*args))  # noqa: E731
-            f00 = f(p, q, zero, zero)
-            if "gravity" in uses:
-                rows += term_rows(
-                    "gravity", f00, {k: e[k]["a_gravity"] for k in e}, states, tier="solve", tolerances=tolerances
-                )
-            vel = f(p0, q, v, zero) - f(p0, q, zero, zero)
-            rows += term_rows(
-                "velocity", vel, {k: e[k]["a_velocity"] for k in e}, states, tier="solve", tolerances=tolerances
-            )
-            if "damping" in uses:
-                fr = f(p, q, v, zero) - f(p0, q, v, zero)
-                rows += term_rows(
-                    "friction",
-                    fr,
-                    {k: e[k]["a_friction"] for k in e},
-                    states,
-                    tier="solve",
-                    tolerances=tolerances,
-                )
-            if "actuation" in uses:
-                act = f(p, q, zero, tau) - f00
-                rows += term_rows(
-                    "actuation",
-                    act,
-                    {k: e[k]["a_actuation"] for k in e},
-                    states,
-                    tier="solve",
-                    tolerances=tolerances,
-                )
-            rows += term_rows(
-                "acceleration",
-                f(p, q, v, tau),
-                {k: e[k]["a"] for k in e},
-                states,
-                tier="solve",
-                tolerances=tolerances,
-            )
+            rows += _explicit_rows(system, variant, terms, states, p0, tolerances)
     except NotApplicable as exc:  # a printed form that does not apply to these parameters
         result.update(verdict="not applicable", reason=str(exc), terms=[])
         return result

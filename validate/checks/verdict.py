@@ -342,6 +342,153 @@ def _explanations(
         ]
 
 
+def _rows_at_model(
+    system: System, states: States, sources: dict[str, Any], values: dict[str, Any] | None, tolerances: Tolerances
+) -> tuple[list[dict[str, Any]], dict[int, dict[str, Any]]]:
+    """Every term's rows at the model's parameters and the model's own checks; its notes, as probe 0's."""
+    rows, notes = term_rows_at(system, states, sources, values=values, tolerances=tolerances)
+    for r in rows:
+        r["probe"] = 0
+    return rows + _model_rows(system), ({0: notes} if notes else {})
+
+
+def _rows_at_probes(
+    probe_set: ProbeSet, *, probe_states: int, seed: int, tolerances: Tolerances
+) -> tuple[list[dict[str, Any]], dict[int, dict[str, Any]]]:
+    """What parameters() misread, then every term's rows at each probe; each probe's notes, by index."""
+    rows: list[dict[str, Any]] = []
+    notes: dict[int, dict[str, Any]] = {}
+    if probe_set.misread is not None:
+        rows.append(
+            {
+                **_error_row("parameters", "mjcf", probe_set.misread["message"]),
+                "pair": "hand~mjcf",
+                "engine": "mjcf",
+                "probe": None,
+                "fields": probe_set.misread["fields"],
+            }
+        )
+    for probe in probe_set.probes:
+        ps = random_states(probe.system, n=probe_states, seed=seed + probe.index)
+        prow, pnotes = term_rows_at(probe.system, ps, make_sources(probe.system), tolerances=tolerances)
+        for r in prow:
+            r["probe"] = probe.index
+        rows += prow
+        if pnotes:
+            notes[probe.index] = pnotes
+    return rows, notes
+
+
+def _coverage(result: Derivation, system: System, states: States, probe_set: ProbeSet, probe_states: int) -> None:
+    """What the verdict was reached on: the probes, those not built, parameters held at zero,
+    functions not provided and the number of states."""
+    probe_list = probe_set.probes
+    result["probes"] = [{"index": 0, "label": "model", "changed": {}}] + [p.as_dict() for p in probe_list]
+    result["probe_problems"] = probe_set.problems
+    # A parameter that is zero in the model stays zero at every probe: the terms it scales are not tested.
+    result["held_at_zero"] = sorted(k for k, x in probing.param_fields(system.params).items() if x == 0.0)
+    absent = not_provided_in(system.equations)
+    if absent:
+        result["not_checked"] = [f"{fn}() not provided" for fn in absent]
+    result["checked"] = {
+        "states_at_model": len(states),
+        "states_per_probe": probe_states,
+        "probes": len(probe_list),
+        "evaluations": len(states) + probe_states * len(probe_list),
+    }
+
+
+def _agreement(result: Derivation, sources: dict[str, Any], probe_set: ProbeSet) -> None:
+    """The verdict and statement where every term agrees."""
+    probe_list, problems = probe_set.probes, probe_set.problems
+    result["verdict"] = "agrees"
+    result["statement"] = (
+        f"agrees with {_engine_names(sources)} in every term at the model's parameters"
+        + (f" and at {len(probe_list)} probe parameter sets" if probe_list else " (no probes)")
+        + f" ({result['checked']['evaluations']} states)"
+    )
+    if problems:
+        result["statement"] += f"; {len(problems)} probe(s) could not be built"
+
+
+def _hidden_statement(
+    result: Derivation,
+    system: System,
+    first: str,
+    failing: list[dict[str, Any]],
+    probe_set: ProbeSet,
+    *,
+    seed: int,
+    tolerances: Tolerances,
+) -> None:
+    """The statement for a mistake the model's own values hide: the first probe that shows it, the
+    parameters that expose it alone, and the assumptions the derivation makes without saying."""
+    first_probe = min(r["probe"] for r in failing if r.get("probe"))
+    described = next(p for p in probe_set.probes if p.index == first_probe).describe()
+    exposed = exposing_fields(system, first, tolerances=tolerances, seed=seed)
+    result["exposed_by"] = exposed
+    result["statement"] = (
+        f"{first} disagrees at probe {first_probe} but agrees at the model's own parameters: the mistake is "
+        f"hidden by the model's values ({described})"
+        + (f"; it shows when {' or '.join(exposed)} alone changes" if exposed else "")
+    )
+    unstated = _unstated(system, first)
+    if unstated:
+        result["unstated_assumptions"] = unstated
+        result["statement"] += "; " + words.assumption_hint(unstated, first)
+
+
+def _disagreement(
+    result: Derivation,
+    system: System,
+    rows: list[dict[str, Any]],
+    probe_set: ProbeSet,
+    *,
+    seed: int,
+    tolerances: Tolerances,
+    cache: Cache | None,
+) -> None:
+    """The verdict and statement where a term disagrees: the first such term, where it is worst,
+    the failing entries explained, and whether the model's own values hide the mistake."""
+    failing = [r for r in rows if not r["passed"]]
+    misread = probe_set.misread
+    result["verdict"] = "disagrees"
+    first = _first_term(failing)
+    worst = max((r for r in failing if r["term"] == first), key=lambda r: r["scaled"])
+    result["first_disagreeing_term"] = first
+    result["failing_terms"] = [t for t in HAND_TERMS if any(r["term"] == t for r in failing)]
+    result["worst_term"] = {
+        k: worst.get(k) for k in ("term", "engine", "probe", "max_abs", "scaled", "tolerance", "worst_state", "error")
+    }
+    explained = _explanations(system, probe_set.systems(), result["failing_terms"], seed, cache)
+    if explained:
+        result["explanations"] = _in_your_words(system, explained)
+    at_model = any(not r["passed"] for r in rows if r.get("probe") == 0)
+    result["hidden_by_model_values"] = not at_model
+    if result["hidden_by_model_values"] and misread is None:
+        _hidden_statement(result, system, first, failing, probe_set, seed=seed, tolerances=tolerances)
+    elif misread is not None:
+        result["statement"] = misread["message"]
+    else:
+        result["statement"] = f"{first} disagrees at the model's parameters"
+        if "error" in worst:
+            result["statement"] += f": {worst['error']}"
+    first_explained = next((e for e in result.get("explanations", []) if e.get("explained")), None)
+    if first_explained:
+        result["statement"] += f"; {first_explained['entry']}: {first_explained['statement']}"
+
+
+def _not_spd_note(result: Derivation, all_notes: dict[int, dict[str, Any]]) -> None:
+    """Where the derivation's mass matrix is not symmetric positive definite, said in the statement."""
+    spd = next((n["mass_matrix_not_spd"] for n in all_notes.values() if "mass_matrix_not_spd" in n), None)
+    if spd:
+        result["mass_matrix_not_spd"] = spd
+        result["statement"] += (
+            f"; your M(q) is {spd['what']} at q = {np.round(spd['q'], 4).tolist()} "
+            f"(smallest eigenvalue {spd['smallest_eigenvalue']:.3g}, {spd['states']} of {spd['of']} states)"
+        )
+
+
 def judge_derivation(
     system: System,
     states: States,
@@ -361,102 +508,21 @@ def judge_derivation(
     parameter alone exposes it. `cache`: where the explanations of wrong entries are kept (None: nowhere)."""
 
     result: Derivation = {"name": "hand derivation", "kind": "hand", "equations": system.equations.__name__}
-    rows, notes = term_rows_at(system, states, sources, values=values, tolerances=tolerances)
-    for r in rows:
-        r["probe"] = 0
-    all_notes = {0: notes} if notes else {}
-    rows += _model_rows(system)
+    rows, all_notes = _rows_at_model(system, states, sources, values, tolerances)
     probe_set = probe_set or derivation_probes(system, n_probes=n_probes, seed=seed)
-    probe_list, problems, misread = probe_set.probes, probe_set.problems, probe_set.misread
-    if misread is not None:
-        rows.append(
-            {
-                **_error_row("parameters", "mjcf", misread["message"]),
-                "pair": "hand~mjcf",
-                "engine": "mjcf",
-                "probe": None,
-                "fields": misread["fields"],
-            }
-        )
-    for probe in probe_list:
-        ps = random_states(probe.system, n=probe_states, seed=seed + probe.index)
-        prow, pnotes = term_rows_at(probe.system, ps, make_sources(probe.system), tolerances=tolerances)
-        for r in prow:
-            r["probe"] = probe.index
-        rows += prow
-        if pnotes:
-            all_notes[probe.index] = pnotes
-    result["probes"] = [{"index": 0, "label": "model", "changed": {}}] + [p.as_dict() for p in probe_list]
-    result["probe_problems"] = problems
-    # A parameter that is zero in the model stays zero at every probe: the terms it scales are not tested.
-    result["held_at_zero"] = sorted(k for k, x in probing.param_fields(system.params).items() if x == 0.0)
-    absent = not_provided_in(system.equations)
-    if absent:
-        result["not_checked"] = [f"{fn}() not provided" for fn in absent]
-    result["checked"] = {
-        "states_at_model": len(states),
-        "states_per_probe": probe_states,
-        "probes": len(probe_list),
-        "evaluations": len(states) + probe_states * len(probe_list),
-    }
+    probe_rows, probe_notes = _rows_at_probes(probe_set, probe_states=probe_states, seed=seed, tolerances=tolerances)
+    rows += probe_rows
+    all_notes |= probe_notes
+    _coverage(result, system, states, probe_set, probe_states)
     result["terms"] = cast(list[TermRow], rows)
     result["summary"] = summarise(rows)
     if all_notes:
         result["notes"] = {str(k): v for k, v in all_notes.items()}
-    failing = [r for r in rows if not r["passed"]]
-    if not failing:
-        result["verdict"] = "agrees"
-        result["statement"] = (
-            f"agrees with {_engine_names(sources)} in every term at the model's parameters"
-            + (f" and at {len(probe_list)} probe parameter sets" if probe_list else " (no probes)")
-            + f" ({result['checked']['evaluations']} states)"
-        )
-        if problems:
-            result["statement"] += f"; {len(problems)} probe(s) could not be built"
+    if all(r["passed"] for r in rows):
+        _agreement(result, sources, probe_set)
         return result
-    result["verdict"] = "disagrees"
-    first = _first_term(failing)
-    worst = max((r for r in failing if r["term"] == first), key=lambda r: r["scaled"])
-    result["first_disagreeing_term"] = first
-    result["failing_terms"] = [t for t in HAND_TERMS if any(r["term"] == t for r in failing)]
-    result["worst_term"] = {
-        k: worst.get(k) for k in ("term", "engine", "probe", "max_abs", "scaled", "tolerance", "worst_state", "error")
-    }
-    explained = _explanations(system, [p.system for p in probe_list], result["failing_terms"], seed, cache)
-    if explained:
-        result["explanations"] = _in_your_words(system, explained)
-    at_model = any(not r["passed"] for r in rows if r.get("probe") == 0)
-    result["hidden_by_model_values"] = not at_model
-    if result["hidden_by_model_values"] and misread is None:
-        first_probe = min(r["probe"] for r in failing if r.get("probe"))
-        described = next(p for p in probe_list if p.index == first_probe).describe()
-        exposed = exposing_fields(system, first, tolerances=tolerances, seed=seed)
-        result["exposed_by"] = exposed
-        result["statement"] = (
-            f"{first} disagrees at probe {first_probe} but agrees at the model's own parameters: the mistake is "
-            f"hidden by the model's values ({described})"
-            + (f"; it shows when {' or '.join(exposed)} alone changes" if exposed else "")
-        )
-        unstated = _unstated(system, first)
-        if unstated:
-            result["unstated_assumptions"] = unstated
-            result["statement"] += "; " + words.assumption_hint(unstated, first)
-    elif misread is not None:
-        result["statement"] = misread["message"]
-    else:
-        result["statement"] = f"{first} disagrees at the model's parameters"
-        if "error" in worst:
-            result["statement"] += f": {worst['error']}"
-    first_explained = next((e for e in result.get("explanations", []) if e.get("explained")), None)
-    if first_explained:
-        result["statement"] += f"; {first_explained['entry']}: {first_explained['statement']}"
-    spd = next((n["mass_matrix_not_spd"] for n in all_notes.values() if "mass_matrix_not_spd" in n), None)
-    if spd:
-        result["mass_matrix_not_spd"] = spd
-        result["statement"] += (
-            f"; your M(q) is {spd['what']} at q = {np.round(spd['q'], 4).tolist()} "
-            f"(smallest eigenvalue {spd['smallest_eigenvalue']:.3g}, {spd['states']} of {spd['of']} states)"
-        )
+    _disagreement(result, system, rows, probe_set, seed=seed, tolerances=tolerances, cache=cache)
+    _not_spd_note(result, all_notes)
     return result
 
 

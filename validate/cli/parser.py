@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -168,110 +168,112 @@ class Deprecated(argparse.Action):
         setattr(namespace, self.dest, values)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    debug = argparse.ArgumentParser(add_help=False)
-    debug.add_argument(
-        "--debug", action="store_true", default=argparse.SUPPRESS, help="print the traceback of an error"
+def _model_options(parser: argparse.ArgumentParser) -> None:
+    """`--model`, `--equations` (a person's own files) and `--lock`."""
+    parser.add_argument(
+        "--model", type=path_arg, metavar="PATH", help="your own model, MJCF .xml or URDF .urdf (with --equations)"
     )
-    p = argparse.ArgumentParser(prog="lagrange-xval", description=DESCRIPTION, epilog=EPILOG, parents=[debug])
-    p.add_argument(
-        "--version",
-        action="version",
-        version=f"%(prog)s {harness_version()}",
-        help="print the harness's version and exit",
+    parser.add_argument(
+        "--equations", type=path_arg, metavar="PATH", help="your own equations module, .py (with --model)"
     )
-    p.set_defaults(debug=False)
-    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    _lock_option(parser)
 
-    def command(name: str, **kwargs: Any) -> argparse.ArgumentParser:
-        return sub.add_parser(name, parents=[debug], description=kwargs.get("help"), **kwargs)
 
-    def model_options(parser: argparse.ArgumentParser) -> None:
-        parser.add_argument(
-            "--model", type=path_arg, metavar="PATH", help="your own model, MJCF .xml or URDF .urdf (with --equations)"
-        )
-        parser.add_argument(
-            "--equations", type=path_arg, metavar="PATH", help="your own equations module, .py (with --model)"
-        )
-        lock_option(parser)
+def _lock_option(parser: argparse.ArgumentParser) -> None:
+    """`--lock JOINTS`: URDF joints made fixed before the model is read."""
+    parser.add_argument(
+        "--lock",
+        type=joints_arg,
+        default=(),
+        metavar="JOINTS",
+        help="comma-separated joints of the --model URDF to make fixed at zero before it is read (a gripper's "
+        "fingers; a <mimic> joint must be), a step the report lists",
+    )
 
-    def lock_option(parser: argparse.ArgumentParser) -> None:
-        parser.add_argument(
-            "--lock",
-            type=joints_arg,
-            default=(),
-            metavar="JOINTS",
-            help="comma-separated joints of the --model URDF to make fixed at zero before it is read (a gripper's "
-            "fingers; a <mimic> joint must be), a step the report lists",
-        )
 
-    def probes_option(parser: argparse.ArgumentParser) -> None:
-        parser.add_argument(
-            "--probes",
-            type=probe_count,
-            default=4,
-            metavar="K",
-            help="probe parameter sets per derivation, every parameter moved, 0 to 100 "
-            "(default 4; 0: the model's only)",
-        )
+def _probes_option(parser: argparse.ArgumentParser) -> None:
+    """`--probes K`: probe parameter sets per derivation."""
+    parser.add_argument(
+        "--probes",
+        type=probe_count,
+        default=4,
+        metavar="K",
+        help="probe parameter sets per derivation, every parameter moved, 0 to 100 (default 4; 0: the model's only)",
+    )
 
-    def time_limit_option(parser: argparse.ArgumentParser) -> None:
-        parser.add_argument(
-            "--time-limit",
-            type=positive_float,
-            default=DEFAULT_TIME_LIMIT,
-            metavar="SECONDS",
-            help=f"how long each call into an equations module (and its import) may take, s (default "
-            f"{DEFAULT_TIME_LIMIT:g}); a call that does not return in time is that system's finding",
-        )
 
-    def cache_options(parser: argparse.ArgumentParser) -> None:
-        parser.add_argument(
-            "--cache-dir", type=path_arg, metavar="DIR", help="reference and chaos cache (default: OUT/.cache)"
-        )
-        parser.add_argument("--no-cache", action="store_true", help="compute everything, read and write no cache")
+def _time_limit_option(parser: argparse.ArgumentParser) -> None:
+    """`--time-limit SECONDS`: how long each call into an equations module may take."""
+    parser.add_argument(
+        "--time-limit",
+        type=positive_float,
+        default=DEFAULT_TIME_LIMIT,
+        metavar="SECONDS",
+        help=f"how long each call into an equations module (and its import) may take, s (default "
+        f"{DEFAULT_TIME_LIMIT:g}); a call that does not return in time is that system's finding",
+    )
 
-    def executor_option(parser: argparse.ArgumentParser, what: str, here: str = "a process pool on every core") -> None:
-        parser.add_argument(
-            "--executor",
-            type=executor_arg,
-            default="local",
-            metavar="local|dask[:ADDRESS]",
-            help=f"where {what} run: local (default; {here}), "
-            "dask (a dask.distributed LocalCluster, one worker per core) or dask:ADDRESS (a running dask scheduler, "
-            "e.g. dask:tcp://HOST:8786; needs the [dask] extra)",
-        )
 
-    def seed_option(parser: argparse.ArgumentParser, what: str) -> None:
-        parser.add_argument(
-            "--seed",
-            type=seed_arg,
-            default=DEFAULT_SEED,
-            metavar="S",
-            help=f"seed of the random {what}, 0 to 2**63 - 1 (default {DEFAULT_SEED}); the same seed, the same draws",
-        )
+def _cache_options(parser: argparse.ArgumentParser) -> None:
+    """`--cache-dir DIR` and `--no-cache`."""
+    parser.add_argument(
+        "--cache-dir", type=path_arg, metavar="DIR", help="reference and chaos cache (default: OUT/.cache)"
+    )
+    parser.add_argument("--no-cache", action="store_true", help="compute everything, read and write no cache")
 
-    def states_option(parser: Any, what: str) -> Any:  # a parser or a mutually exclusive group
-        return parser.add_argument(
-            "--states",
-            type=state_count,
-            default=DEFAULT_STATES,
-            metavar="N",
-            help=f"number of seeded random states {what}, 1 to {MAX_STATES} (default {DEFAULT_STATES})",
-        )
 
-    def systems_argument(parser: argparse.ArgumentParser, what: str) -> None:
-        parser.add_argument("systems", nargs="*", metavar="SYSTEM", help=system_help(what))
+def _executor_option(parser: argparse.ArgumentParser, what: str, here: str = "a process pool on every core") -> None:
+    """`--executor local|dask[:ADDRESS]`: where `what` run (`here`: what local means for this command)."""
+    parser.add_argument(
+        "--executor",
+        type=executor_arg,
+        default="local",
+        metavar="local|dask[:ADDRESS]",
+        help=f"where {what} run: local (default; {here}), "
+        "dask (a dask.distributed LocalCluster, one worker per core) or dask:ADDRESS (a running dask scheduler, "
+        "e.g. dask:tcp://HOST:8786; needs the [dask] extra)",
+    )
 
-    def one_system_argument(parser: argparse.ArgumentParser) -> None:
-        parser.add_argument(
-            "system",
-            nargs="?",
-            metavar="SYSTEM",
-            help=system_help("a repository system (or give --model and --equations)"),
-        )
 
-    listing = command("list", help="the systems, their coordinates, degrees of freedom and printed forms")
+def _seed_option(parser: argparse.ArgumentParser, what: str) -> None:
+    """`--seed S`: the seed of the random `what`."""
+    parser.add_argument(
+        "--seed",
+        type=seed_arg,
+        default=DEFAULT_SEED,
+        metavar="S",
+        help=f"seed of the random {what}, 0 to 2**63 - 1 (default {DEFAULT_SEED}); the same seed, the same draws",
+    )
+
+
+def _states_option(parser: argparse._ActionsContainer, what: str) -> argparse.Action:
+    """`--states N`: a count of random states, on a parser or a mutually exclusive group."""
+    return parser.add_argument(
+        "--states",
+        type=state_count,
+        default=DEFAULT_STATES,
+        metavar="N",
+        help=f"number of seeded random states {what}, 1 to {MAX_STATES} (default {DEFAULT_STATES})",
+    )
+
+
+def _systems_argument(parser: argparse.ArgumentParser, what: str) -> None:
+    """The positional SYSTEM names, any number."""
+    parser.add_argument("systems", nargs="*", metavar="SYSTEM", help=system_help(what))
+
+
+def _one_system_argument(parser: argparse.ArgumentParser) -> None:
+    """The positional SYSTEM, one or none (then --model and --equations)."""
+    parser.add_argument(
+        "system",
+        nargs="?",
+        metavar="SYSTEM",
+        help=system_help("a repository system (or give --model and --equations)"),
+    )
+
+
+def _list_arguments(listing: argparse.ArgumentParser) -> None:
+    """`list`: the folder of systems to list."""
     listing.add_argument(
         "--systems",
         dest="systems_dir",
@@ -281,10 +283,12 @@ def build_parser() -> argparse.ArgumentParser:
         "instead of the repository's",
     )
 
-    run = command("run", help="validate every system (or those named) and write the reports")
-    systems_argument(run, "the systems to validate (default: every one)")
-    states_option(run, "per system")
-    seed_option(run, "states and probe parameter sets")
+
+def _run_arguments(run: argparse.ArgumentParser) -> None:
+    """`run`: the systems, states, seed, reports folder, probes, a person's own systems, cache, executor."""
+    _systems_argument(run, "the systems to validate (default: every one)")
+    _states_option(run, "per system")
+    _seed_option(run, "states and probe parameter sets")
     run.add_argument(
         "--out",
         type=path_arg,
@@ -293,8 +297,8 @@ def build_parser() -> argparse.ArgumentParser:
         help="reports folder: report.html, report.md, results.json, <system>.rrd (default: reports)",
     )
     run.add_argument("--no-replay", action="store_true", help="skip the rerun .rrd recordings")
-    probes_option(run)
-    model_options(run)
+    _probes_option(run)
+    _model_options(run)
     run.add_argument(
         "--systems",
         dest="systems_dir",
@@ -303,19 +307,15 @@ def build_parser() -> argparse.ArgumentParser:
         help="a folder of your own systems: each <name>.xml or <name>.urdf with its <name>.py (a file without its "
         "partner is named and skipped)",
     )
-    time_limit_option(run)
-    cache_options(run)
-    executor_option(run, "the systems")
+    _time_limit_option(run)
+    _cache_options(run)
+    _executor_option(run, "the systems")
 
-    check = command(
-        "check",
-        help="the verdict on one derivation, as `run` and lagrange_xval.check give it, without trajectories; "
-        "writes nothing",
-    )
-    one_system_argument(check)
-    model_options(check)
+
+def _check_states_options(check: argparse.ArgumentParser) -> None:
+    """`check`'s states to compare at: random (`--states N`, old spelling `--n N`) or a file's."""
     given = check.add_mutually_exclusive_group()
-    states_option(given, "to compare at")
+    _states_option(given, "to compare at")
     given.add_argument(
         "--states-file",
         type=path_arg,
@@ -332,9 +332,16 @@ def build_parser() -> argparse.ArgumentParser:
         instead="--states N",
         help="deprecated spelling of --states N",
     )
-    seed_option(check, "states (not used with --states-file)")
+
+
+def _check_arguments(check: argparse.ArgumentParser) -> None:
+    """`check`: one system, its states, seed, output as JSON, probes or pointwise only, where to keep explanations."""
+    _one_system_argument(check)
+    _model_options(check)
+    _check_states_options(check)
+    _seed_option(check, "states (not used with --states-file)")
     check.add_argument("--json", action="store_true", help="print one JSON object (schema in the README)")
-    probes_option(check)
+    _probes_option(check)
     check.add_argument(
         "--pointwise-only",
         action="store_true",
@@ -347,13 +354,13 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="DIR",
         help="keep the explanations of wrong entries in DIR (default: none; check writes nothing)",
     )
-    time_limit_option(check)
+    _time_limit_option(check)
 
-    sim = command(
-        "simulate", help="one trajectory of one source, sampled every --dt-out seconds, written as CSV or JSON"
-    )
-    one_system_argument(sim)
-    model_options(sim)
+
+def _simulate_arguments(sim: argparse.ArgumentParser) -> None:
+    """`simulate`: one system, the source, the initial state and input, the duration and sampling, the file."""
+    _one_system_argument(sim)
+    _model_options(sim)
     sim.add_argument(
         "--source",
         choices=("hand", "mujoco", "pinocchio"),
@@ -362,20 +369,11 @@ def build_parser() -> argparse.ArgumentParser:
         "divide --dt-out if it does not (the output says so); "
         "pinocchio: ABA (scipy odeint)",
     )
-    sim.add_argument(
-        "--q0",
-        type=vector_arg,
-        required=True,
-        metavar="A,B,...",
-        help="initial coordinates, comma-separated, notes' coordinates (rad; m for a slide)",
-    )
-    sim.add_argument(
-        "--v0",
-        type=vector_arg,
-        required=True,
-        metavar="A,B,...",
-        help="initial velocities, comma-separated (rad/s; m/s for a slide)",
-    )
+    for name, what in (
+        ("--q0", "initial coordinates, comma-separated, notes' coordinates (rad; m for a slide)"),
+        ("--v0", "initial velocities, comma-separated (rad/s; m/s for a slide)"),
+    ):
+        sim.add_argument(name, type=vector_arg, required=True, metavar="A,B,...", help=what)
     sim.add_argument(
         "--tau",
         type=vector_arg,
@@ -386,7 +384,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--t-end", type=positive_float, required=True, metavar="T", help="duration (s), a whole multiple of --dt-out"
     )
     sim.add_argument("--dt-out", type=positive_float, required=True, metavar="DT", help="output sampling interval (s)")
-    time_limit_option(sim)
+    _time_limit_option(sim)
     sim.add_argument(
         "--out",
         type=path_arg,
@@ -395,7 +393,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="FILE.csv (a commented # header, then one row per sample) or FILE.json; both record the request and units",
     )
 
-    rep = command("report", help="re-render the reports from an existing results.json")
+
+def _report_arguments(rep: argparse.ArgumentParser) -> None:
+    """`report`: the reports folder to re-render."""
     rep.add_argument(
         "--out",
         type=path_arg,
@@ -404,21 +404,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="the reports folder: reads its results.json, rewrites report.md, report.html and img/ (default: reports)",
     )
 
-    bench = command("bench", help="run time against error: work-precision sweep and the fast-harness ratios")
-    systems_argument(bench, "the systems to time (default: every one)")
-    bench.add_argument(
-        "--quick", action="store_true", help=f"2 systems, small plan, 1 repeat ({QUICK_DURATION['bench --quick']})"
-    )
-    bench.add_argument(
-        "--out", type=path_arg, default=Path("reports"), metavar="DIR", help="folder for bench.json (default: reports)"
-    )
-    bench.add_argument(
-        "--repeats",
-        type=positive_int,
-        default=None,
-        metavar="N",
-        help="timing repeats, the median is kept (default 3; --quick 1; --run-time 5)",
-    )
+
+def _bench_study_options(bench: argparse.ArgumentParser) -> None:
+    """`bench`'s studies run instead of the default sweep: --chains, --float32, --run-time."""
     bench.add_argument(
         "--chains",
         action="store_true",
@@ -437,12 +425,33 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="only time `lagrange-xval run`: fresh machine, cold and warm cache (--repeats, default 5); writes nothing",
     )
-    model_options(bench)
-    cache_options(bench)
-    executor_option(bench, "the timed runs")
 
-    stress = command("stress", help="numerical stability: long horizons, stable timesteps, conditioning")
-    systems_argument(stress, "the systems to stress (default: every one)")
+
+def _bench_arguments(bench: argparse.ArgumentParser) -> None:
+    """`bench`: the systems, quick plan, output folder, repeats, the studies, own systems, cache, executor."""
+    _systems_argument(bench, "the systems to time (default: every one)")
+    bench.add_argument(
+        "--quick", action="store_true", help=f"2 systems, small plan, 1 repeat ({QUICK_DURATION['bench --quick']})"
+    )
+    bench.add_argument(
+        "--out", type=path_arg, default=Path("reports"), metavar="DIR", help="folder for bench.json (default: reports)"
+    )
+    bench.add_argument(
+        "--repeats",
+        type=positive_int,
+        default=None,
+        metavar="N",
+        help="timing repeats, the median is kept (default 3; --quick 1; --run-time 5)",
+    )
+    _bench_study_options(bench)
+    _model_options(bench)
+    _cache_options(bench)
+    _executor_option(bench, "the timed runs")
+
+
+def _stress_arguments(stress: argparse.ArgumentParser) -> None:
+    """`stress`: the systems, parameter overrides, quick plan, output folder, own systems, cache, executor."""
+    _systems_argument(stress, "the systems to stress (default: every one)")
     stress.add_argument(
         "--set",
         action="append",
@@ -455,11 +464,13 @@ def build_parser() -> argparse.ArgumentParser:
     stress.add_argument(
         "--out", type=path_arg, default=Path("reports"), metavar="DIR", help="folder for stress.json (default: reports)"
     )
-    model_options(stress)
-    cache_options(stress)
-    executor_option(stress, "the sections", "one after another in this process")
+    _model_options(stress)
+    _cache_options(stress)
+    _executor_option(stress, "the sections", "one after another in this process")
 
-    new = command("new", help="write a starting equations module for your own model")
+
+def _new_arguments(new: argparse.ArgumentParser) -> None:
+    """`new`: the module's name, the model, where to write it, joints to lock."""
     new.add_argument("name", metavar="NAME", help="the module's name (NAME.py), a Python identifier")
     new.add_argument(
         "--model", type=path_arg, required=True, metavar="PATH", help="your model, MJCF .xml or URDF .urdf"
@@ -467,26 +478,11 @@ def build_parser() -> argparse.ArgumentParser:
     new.add_argument(
         "--dir", type=path_arg, default=None, metavar="DIR", help="where to write NAME.py (default: the model's folder)"
     )
-    lock_option(new)
-    derive = command(
-        "derive",
-        help="the model's own equations of motion, derived symbolically (rotation-matrix method of the notes)",
-    )
-    derive.add_argument("system", nargs="?", help="a repository system (or give --model, with or without --equations)")
-    derive.add_argument("--model", type=path_arg, metavar="PATH", help="any MJCF or URDF model")
-    derive.add_argument(
-        "--equations",
-        type=path_arg,
-        metavar="PATH",
-        help="an equations module: its coordinates (and JOINT_MAP) name the equations",
-    )
-    derive.add_argument(
-        "--coordinates",
-        metavar="NAMES",
-        help="comma-separated names for the joints' coordinates, in the model's joint order",
-    )
-    lock_option(derive)
-    time_limit_option(derive)
+    _lock_option(new)
+
+
+def _derive_output_options(derive: argparse.ArgumentParser) -> None:
+    """`derive`'s output: --force, --simplify, and plain text, --latex or --python."""
     derive.add_argument(
         "--force",
         action="store_true",
@@ -503,16 +499,36 @@ def build_parser() -> argparse.ArgumentParser:
     form.add_argument("--latex", action="store_true", help="print LaTeX instead of plain text")
     form.add_argument("--python", action="store_true", help="print numpy code instead of plain text")
 
-    audit = command(
-        "audit",
-        help="the model read by MuJoCo, Pinocchio and Drake side by side: masses, centres of mass, inertias, "
-        "joint anchors, axes, limits, damping, armature; the reader in the minority named where they differ",
+
+def _derive_arguments(derive: argparse.ArgumentParser) -> None:
+    """`derive`: the system or model, the equations or coordinates naming it, joints to lock, the output."""
+    derive.add_argument("system", nargs="?", help="a repository system (or give --model, with or without --equations)")
+    derive.add_argument("--model", type=path_arg, metavar="PATH", help="any MJCF or URDF model")
+    derive.add_argument(
+        "--equations",
+        type=path_arg,
+        metavar="PATH",
+        help="an equations module: its coordinates (and JOINT_MAP) name the equations",
     )
+    derive.add_argument(
+        "--coordinates",
+        metavar="NAMES",
+        help="comma-separated names for the joints' coordinates, in the model's joint order",
+    )
+    _lock_option(derive)
+    _time_limit_option(derive)
+    _derive_output_options(derive)
+
+
+def _audit_arguments(audit: argparse.ArgumentParser) -> None:
+    """`audit`: the model, joints to lock, output as JSON."""
     audit.add_argument("model", type=path_arg, metavar="MODEL", help="an MJCF .xml or URDF .urdf (or a system name)")
-    lock_option(audit)
+    _lock_option(audit)
     audit.add_argument("--json", action="store_true", help="print the audit as one JSON object")
 
-    replay = command("replay", help="a rerun recording of a system's trajectories")
+
+def _replay_arguments(replay: argparse.ArgumentParser) -> None:
+    """`replay`: the system, a file to save instead of a viewer, the results to replay."""
     replay.add_argument("system", metavar="SYSTEM", help=system_help("a system in the results (or one of yours)"))
     replay.add_argument("--save", type=path_arg, metavar="FILE", help="write a .rrd file instead of spawning a viewer")
     replay.add_argument(
@@ -523,6 +539,57 @@ def build_parser() -> argparse.ArgumentParser:
         help="the results `run` wrote (default: reports/results.json); nothing is recomputed, and the joints "
         "`run --lock` locked are locked again as the results record them",
     )
+
+
+COMMANDS: tuple[tuple[str, str, Callable[[argparse.ArgumentParser], None]], ...] = (  # in the order --help lists
+    ("list", "the systems, their coordinates, degrees of freedom and printed forms", _list_arguments),
+    ("run", "validate every system (or those named) and write the reports", _run_arguments),
+    (
+        "check",
+        "the verdict on one derivation, as `run` and lagrange_xval.check give it, without trajectories; writes nothing",
+        _check_arguments,
+    ),
+    (
+        "simulate",
+        "one trajectory of one source, sampled every --dt-out seconds, written as CSV or JSON",
+        _simulate_arguments,
+    ),
+    ("report", "re-render the reports from an existing results.json", _report_arguments),
+    ("bench", "run time against error: work-precision sweep and the fast-harness ratios", _bench_arguments),
+    ("stress", "numerical stability: long horizons, stable timesteps, conditioning", _stress_arguments),
+    ("new", "write a starting equations module for your own model", _new_arguments),
+    (
+        "derive",
+        "the model's own equations of motion, derived symbolically (rotation-matrix method of the notes)",
+        _derive_arguments,
+    ),
+    (
+        "audit",
+        "the model read by MuJoCo, Pinocchio and Drake side by side: masses, centres of mass, inertias, "
+        "joint anchors, axes, limits, damping, armature; the reader in the minority named where they differ",
+        _audit_arguments,
+    ),
+    ("replay", "a rerun recording of a system's trajectories", _replay_arguments),
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command line: `--debug` and `--version`, then every command of COMMANDS with its arguments."""
+    debug = argparse.ArgumentParser(add_help=False)
+    debug.add_argument(
+        "--debug", action="store_true", default=argparse.SUPPRESS, help="print the traceback of an error"
+    )
+    p = argparse.ArgumentParser(prog="lagrange-xval", description=DESCRIPTION, epilog=EPILOG, parents=[debug])
+    p.add_argument(
+        "--version",
+        action="version",
+        version=f"%(prog)s {harness_version()}",
+        help="print the harness's version and exit",
+    )
+    p.set_defaults(debug=False)
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name, help_text, add_arguments in COMMANDS:
+        add_arguments(sub.add_parser(name, parents=[debug], description=help_text, help=help_text))
     return p
 
 

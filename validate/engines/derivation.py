@@ -214,11 +214,8 @@ def axis_rotation(axis: Any, angle: Any) -> Any:
     return sp.eye(3) + sp.sin(angle) * K + (1 - sp.cos(angle)) * (K * K)
 
 
-def derive(view: Any, joints: tuple[str, ...]) -> Derivation:
-    """The equations of motion of the model `view` in the coordinates of `joints` (one per joint)."""
-    import sympy as sp
-
-    P = _Params(view)
+def _bodies_and_joints(view: Any, joints: tuple[str, ...]) -> tuple[list[str], list[str]]:
+    """The model's moving bodies and its joints, in model order; each joint must be one of `joints`."""
     order = [k.split("/")[1] for k in view if k.startswith("body/") and k.endswith("/mass")]
     all_joints = [k.split("/")[1] for k in view if k.startswith("joint/") and k.endswith("/type")]
     missing = [j for j in joints if j not in all_joints]
@@ -227,46 +224,79 @@ def derive(view: Any, joints: tuple[str, ...]) -> Derivation:
     extra = [j for j in all_joints if j not in joints]
     if extra:
         raise HarnessError(f"joint '{extra[0]}' of the model is not among the coordinates' joints.")
-    q = [sp.Symbol(_clean(j), real=True) for j in joints]
-    v = [sp.Symbol(f"d{_clean(j)}", real=True) for j in joints]
-    index = {j: i for i, j in enumerate(joints)}
-    n = len(joints)
+    return order, all_joints
+
+
+def _gravity(view: Any, P: _Params) -> Any:
+    """The gravity vector: the symbol g times the model's direction of gravity, exact."""
+    import sympy as sp
 
     g_vec = np.asarray(view["gravity"], dtype=float)
     g_norm = float(np.linalg.norm(g_vec))
     g = P.scalar("g", "gravity", "norm", "m/s^2")
-    gravity = sp.Matrix(P.fixed("gravity direction", g_vec / g_norm if g_norm else np.zeros(3))) * g
+    return sp.Matrix(P.fixed("gravity direction", g_vec / g_norm if g_norm else np.zeros(3))) * g
 
-    frames: dict[str, tuple[Any, Any, Any]] = {"world": (sp.zeros(3, 1), sp.eye(3), sp.zeros(3, n))}
-    out: dict[str, dict[str, Any]] = {k: {} for k in ("com", "origin", "rotation", "J_com", "J_origin", "J_omega")}
-    T_body, V_body = {}, {}
+
+def _through_joint(view: Any, P: _Params, j: str, qi: Any, i: int, x: Any, R: Any, Jw: Any) -> tuple[Any, Any]:
+    """Step 1 for joint `j` (coordinate `qi`, column `i`): a hinge turns the frame (x, R) about its axis
+    through its anchor and writes its world axis into column i of Jw; a slide moves it along its axis."""
+    import sympy as sp
+
+    kind = view[f"joint/{j}/type"]
+    if kind not in ("hinge", "slide"):
+        raise HarnessError(f"joint '{j}' is a {kind} joint: only hinge and slide joints are derived.")
+    axis_np = np.asarray(view[f"joint/{j}/axis"], dtype=float)
+    axis = sp.Matrix(P.fixed(f"axis {j}", axis_np / np.linalg.norm(axis_np)))
+    if kind == "slide":
+        return x + R * axis * qi, R
+    anchor = P.vector(f"a_{_clean(j)}", f"joint/{j}/pos", "m")
+    Rj = axis_rotation(axis, qi)
+    Jw[:, i] = R * axis
+    return x + R * (anchor - Rj * anchor), R * Rj
+
+
+def _body_frame(
+    view: Any, P: _Params, b: str, parent: tuple[Any, Any, Any], joints: list[str], q: list[Any], index: dict[str, int]
+) -> tuple[Any, Any, Any]:
+    """Step 1 for body `b`: its frame's origin, rotation and angular-velocity Jacobian (world), from its
+    parent's frame, its placement and its `joints`."""
+    x, R, Jw = parent
+    pos = P.vector(f"l_{_clean(b)}", f"body/{b}/pos", "m")
+    quat = P.fixed(f"quat {b}", view[f"body/{b}/quat"])
+    x = x + R * pos
+    R = R * _quat_matrix(*quat)
+    Jw = Jw.copy()
+    for j in joints:
+        x, R = _through_joint(view, P, j, q[index[j]], index[j], x, R, Jw)
+    return x, R, Jw
+
+
+def _bodies(
+    view: Any,
+    P: _Params,
+    order: list[str],
+    all_joints: list[str],
+    *,
+    q: list[Any],
+    v: list[Any],
+    index: dict[str, int],
+    gravity: Any,
+) -> tuple[dict[str, dict[str, Any]], dict[str, tuple[Any, ...]]]:
+    """Steps 1-4 body by body, parents before children whatever the model's order: each body's frame,
+    centre of mass, Jacobians and energies (by quantity, then body), and the mass, Jacobians and inertia
+    its share of the mass matrix is made of (by body). `index`: each joint's coordinate."""
+    import sympy as sp
+
+    frames: dict[str, tuple[Any, Any, Any]] = {"world": (sp.zeros(3, 1), sp.eye(3), sp.zeros(3, len(q)))}
+    quantities = ("com", "origin", "rotation", "J_com", "J_origin", "J_omega", "T_body", "V_body")
+    out: dict[str, dict[str, Any]] = {k: {} for k in quantities}
+    terms: dict[str, tuple[Any, ...]] = {}
     joints_of = {b: [j for j in all_joints if view[f"joint/{j}/body"] == b] for b in order}
     remaining = list(order)
-    while remaining:  # parents before children, whatever the model's order
+    while remaining:
         b = next(b for b in remaining if view[f"body/{b}/parent"] in frames)
         remaining.remove(b)
-        x, R, Jw = frames[view[f"body/{b}/parent"]]
-        pos = P.vector(f"l_{_clean(b)}", f"body/{b}/pos", "m")
-        quat = P.fixed(f"quat {b}", view[f"body/{b}/quat"])
-        x = x + R * pos
-        R = R * _quat_matrix(*quat)
-        Jw = Jw.copy()
-        for j in joints_of[b]:
-            kind = view[f"joint/{j}/type"]
-            if kind not in ("hinge", "slide"):
-                raise HarnessError(f"joint '{j}' is a {kind} joint: only hinge and slide joints are derived.")
-            axis_np = np.asarray(view[f"joint/{j}/axis"], dtype=float)
-            axis = sp.Matrix(P.fixed(f"axis {j}", axis_np / np.linalg.norm(axis_np)))
-            i = index[j]
-            if kind == "hinge":
-                anchor = P.vector(f"a_{_clean(j)}", f"joint/{j}/pos", "m")
-                Rj = axis_rotation(axis, q[i])
-                x = x + R * (anchor - Rj * anchor)
-                Jw[:, i] = R * axis
-                R = R * Rj
-            else:
-                x = x + R * axis * q[i]
-        frames[b] = (x, R, Jw)
+        x, R, Jw = frames[b] = _body_frame(view, P, b, frames[view[f"body/{b}/parent"]], joints_of[b], q, index)
         mass = P.scalar(f"m_{_clean(b)}", f"body/{b}/mass", None, "kg")
         com_local = P.vector(f"c_{_clean(b)}", f"body/{b}/com", "m")
         inertia = P.inertia(_clean(b), f"body/{b}/inertia")
@@ -274,34 +304,70 @@ def derive(view: Any, joints: tuple[str, ...]) -> Derivation:
         Jc, Jo = r.jacobian(q), x.jacobian(q)
         vc = Jc * sp.Matrix(v)
         w_body = R.T * Jw * sp.Matrix(v)
-        T_body[b] = (mass * (vc.T * vc)[0] + (w_body.T * inertia * w_body)[0]) / 2
-        V_body[b] = -mass * (gravity.T * r)[0]
+        out["T_body"][b] = (mass * (vc.T * vc)[0] + (w_body.T * inertia * w_body)[0]) / 2
+        out["V_body"][b] = -mass * (gravity.T * r)[0]
         out["com"][b], out["origin"][b], out["rotation"][b] = r, x, R
         out["J_com"][b], out["J_origin"][b], out["J_omega"][b] = Jc, Jo, Jw
-        out.setdefault("terms", {})[b] = (mass, Jc, R, Jw, inertia)
+        terms[b] = (mass, Jc, R, Jw, inertia)
+    return out, terms
+
+
+def _mass_matrix(terms: dict[str, tuple[Any, ...]], order: list[str], n: int) -> Any:
+    """Step 3: M(q) = sum_b m_b J_c^T J_c + J_b^T I_b J_b, with J_b = R_b^T J_w in the body frame."""
+    import sympy as sp
 
     M = sp.zeros(n, n)
     for b in order:
-        mass, Jc, R, Jw, inertia = out["terms"][b]
+        mass, Jc, R, Jw, inertia = terms[b]
         Jb = R.T * Jw
         M += mass * Jc.T * Jc + Jb.T * inertia * Jb
-    damping, stiffness = [], []
+    return M
+
+
+def _joint_parameters(P: _Params, joints: tuple[str, ...]) -> tuple[list[Any], list[Any], list[Any]]:
+    """Each joint's armature, damping and stiffness symbols, in the coordinates' order."""
+    armature, damping, stiffness = [], [], []
     for j in joints:
-        i = index[j]
-        M[i, i] += P.scalar(f"J_{_clean(j)}", f"joint/{j}/armature", None, "kg m^2")
+        armature.append(P.scalar(f"J_{_clean(j)}", f"joint/{j}/armature", None, "kg m^2"))
         damping.append(P.scalar(f"b_{_clean(j)}", f"joint/{j}/damping", None, "N m s"))
         stiffness.append(P.scalar(f"k_{_clean(j)}", f"joint/{j}/stiffness", None, "N m"))
-    springs = sum((k * qi**2 / 2 for k, qi in zip(stiffness, q, strict=True)), sp.Integer(0))
-    V = sum(V_body.values(), sp.Integer(0)) + springs
-    T = sum(T_body.values(), sp.Integer(0))
-    G = sp.Matrix([sp.diff(V, qi) for qi in q])
+    return armature, damping, stiffness
+
+
+def _coriolis(M: Any, q: list[Any], v: list[Any]) -> Any:
+    """Step 5: C_ij = sum_k Gamma_ijk v_k, from the Christoffel symbols of M."""
+    import sympy as sp
+
+    n = len(q)
     dM = [M.diff(qk) for qk in q]
     C = sp.zeros(n, n)
     for i in range(n):
         for j in range(n):
             C[i, j] = sum((dM[k][i, j] + dM[j][i, k] - dM[i][j, k]) * v[k] / 2 for k in range(n))
+    return C
+
+
+def derive(view: Any, joints: tuple[str, ...]) -> Derivation:
+    """The equations of motion of the model `view` in the coordinates of `joints` (one per joint)."""
+    import sympy as sp
+
+    P = _Params(view)
+    order, all_joints = _bodies_and_joints(view, joints)
+    q = [sp.Symbol(_clean(j), real=True) for j in joints]
+    v = [sp.Symbol(f"d{_clean(j)}", real=True) for j in joints]
+    index = {j: i for i, j in enumerate(joints)}
+    gravity = _gravity(view, P)
+    out, terms = _bodies(view, P, order, all_joints, q=q, v=v, index=index, gravity=gravity)
+    M = _mass_matrix(terms, order, len(joints))
+    armature, damping, stiffness = _joint_parameters(P, joints)
+    for i, J in enumerate(armature):
+        M[i, i] += J
+    springs = sum((k * qi**2 / 2 for k, qi in zip(stiffness, q, strict=True)), sp.Integer(0))
+    V = sum(out["V_body"].values(), sp.Integer(0)) + springs
+    T = sum(out["T_body"].values(), sp.Integer(0))
+    G = sp.Matrix([sp.diff(V, qi) for qi in q])
+    C = _coriolis(M, q, v)
     passive = sp.Matrix([-b * vi - k * qi for b, k, vi, qi in zip(damping, stiffness, v, q, strict=True)])
-    out.pop("terms")
     return Derivation(
         joints=tuple(joints),
         q=q,
@@ -314,8 +380,6 @@ def derive(view: Any, joints: tuple[str, ...]) -> Derivation:
         Cv=C * sp.Matrix(v),
         G=G,
         passive=passive,
-        T_body=T_body,
-        V_body=V_body,
         parameters=P.meaning,
         source=P.source,
         signs=P.sign,

@@ -4,11 +4,14 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .scene import TRAIL_SECONDS, as_floats, shade
+
+if TYPE_CHECKING:
+    from rerun import RecordingStream
 
 TIMELINE = "time"  # s
 
@@ -41,102 +44,134 @@ def time_column(seconds: np.ndarray) -> Any:
     return rr.TimeColumn(TIMELINE, duration=np.rint(np.asarray(seconds, dtype=float) * 1e9).astype("timedelta64[ns]"))
 
 
-def log_scene(rec: Any, scene: dict[str, Any]) -> None:
-    """Sends the scene to a recording stream: static styling and text first, then whole columns."""
+def _static(rec: RecordingStream, path: str, *archetypes: Any) -> None:
+    """Logs styling or text that does not change with time."""
+    rec.log(path, *archetypes, static=True, strict=True)
+
+
+def _send(rec: RecordingStream, path: str, columns: Any, times: list[Any]) -> None:
+    """Sends a whole time series at the instants `times` (one time column)."""
+    rec.send_columns(path, indexes=times, columns=columns, strict=True)
+
+
+def _log_frame(rec: RecordingStream, scene: dict[str, Any], radius: float) -> None:
+    """The scene's axes (which way is up), description, anchors and the error threshold."""
     import rerun as rr
 
-    name, t = scene["name"], scene["t"]
-    root = f"/{name}"
-    times = [time_column(t)]
-    radius = 0.03 * scene["scale"]
-
-    def send(path: str, columns: Any, index: Any = None) -> None:
-        rec.send_columns(path, indexes=index or times, columns=columns, strict=True)
-
-    def static(path: str, *archetypes: Any) -> None:
-        rec.log(path, *archetypes, static=True, strict=True)
-
+    root, t = f"/{scene['name']}", scene["t"]
     axis, sign = scene["up"]
-    static(root, getattr(rr.ViewCoordinates, f"RIGHT_HAND_{'XYZ'[axis]}_{'UP' if sign > 0 else 'DOWN'}"))
-    static(f"{root}/description", rr.TextDocument(describe(scene), media_type=rr.MediaType.MARKDOWN))
+    _static(rec, root, getattr(rr.ViewCoordinates, f"RIGHT_HAND_{'XYZ'[axis]}_{'UP' if sign > 0 else 'DOWN'}"))
+    _static(rec, f"{root}/description", rr.TextDocument(describe(scene), media_type=rr.MediaType.MARKDOWN))
     first = scene["runs"][0]
-    static(
+    _static(
+        rec,
         f"{root}/anchors",
         rr.Points3D([first["anchor"][b][0] for b in scene["roots"]], radii=0.6 * radius, colors=ANCHOR_COLOUR),
     )
     if scene["threshold"] is not None and len(t):
-        static(f"{root}/threshold", rr.SeriesLines(colors=THRESHOLD_COLOUR, names="threshold", widths=1.0))
-        send(
+        _static(rec, f"{root}/threshold", rr.SeriesLines(colors=THRESHOLD_COLOUR, names="threshold", widths=1.0))
+        _send(
+            rec,
             f"{root}/threshold",
             rr.Scalars.columns(scalars=np.full(2, np.log10(scene["threshold"]))),
             [time_column(np.array([t[0], t[-1]]))],
         )
 
+
+def _log_bodies(rec: RecordingStream, scene: dict[str, Any], r: dict[str, Any], radius: float) -> None:
+    """One run's 3D view: centres of mass, links, trails and body axes."""
+    import rerun as rr
+
+    base, colour, times = f"/{scene['name']}/{r['key']}", r["colour"], [time_column(r["t"])]
+    for b in scene["bodies"]:
+        _static(rec, f"{base}/bodies/{b}", rr.Points3D.from_fields(colors=colour, radii=radius))
+        _send(rec, f"{base}/bodies/{b}", rr.Points3D.columns(positions=r["com"][b]), times)
+    for b, strips in r["links"].items():
+        _static(rec, f"{base}/links/{b}", rr.LineStrips3D.from_fields(colors=colour, radii=0.25 * radius))
+        _send(rec, f"{base}/links/{b}", rr.LineStrips3D.columns(strips=strips), times)
+    for b, strips in r["trails"].items():
+        _static(rec, f"{base}/trail/{b}", rr.LineStrips3D.from_fields(colors=colour, radii=0.12 * radius))
+        _send(rec, f"{base}/trail/{b}", rr.LineStrips3D.columns(strips=strips), times)
+    for b, segments in r["axes"].items():
+        shades = [colour, shade(colour, 255, 0.55), shade(colour, 0, 0.45)]  # x, y, z
+        _static(rec, f"{base}/axes/{b}", rr.LineStrips3D.from_fields(colors=shades, radii=0.3 * radius))
+        _send(
+            rec,
+            f"{base}/axes/{b}",
+            rr.LineStrips3D.columns(strips=segments.reshape(-1, 2, 3)).partition(np.full(len(r["t"]), 3)),
+            times,
+        )
+
+
+def _log_plots(rec: RecordingStream, scene: dict[str, Any], r: dict[str, Any]) -> None:
+    """One run's time series: its coordinates, log10 error and envelope vs hand, and energy change."""
+    import rerun as rr
+
+    base, colour, times = f"/{scene['name']}/{r['key']}", r["colour"], [time_column(r["t"])]
+    for i, c in enumerate(scene["coordinates"]):
+        _static(rec, f"{base}/q/{c}", rr.SeriesLines(colors=colour, names=f"{r['key']}: {c}"))
+        _send(rec, f"{base}/q/{c}", rr.Scalars.columns(scalars=plottable(r["q"][:, i])), times)
+    if r["error"] is not None:
+        _static(rec, f"{base}/log10_error", rr.SeriesLines(colors=colour, names=r["key"]))
+        _send(rec, f"{base}/log10_error", rr.Scalars.columns(scalars=log10_error(r["error"])), times)
+    if r["envelope"] is not None:
+        _static(
+            rec,
+            f"{base}/log10_envelope",
+            rr.SeriesLines(colors=shade(colour, 255, 0.5), widths=1.0, names=f"{r['key']} envelope"),
+        )
+        _send(rec, f"{base}/log10_envelope", rr.Scalars.columns(scalars=log10_error(r["envelope"])), times)
+    if r["energy"] is not None:
+        _static(rec, f"{base}/energy_change", rr.SeriesLines(colors=colour, names=r["key"]))
+        _send(rec, f"{base}/energy_change", rr.Scalars.columns(scalars=plottable(r["energy"] - r["energy"][0])), times)
+
+
+def _log_exceedance(rec: RecordingStream, scene: dict[str, Any], r: dict[str, Any]) -> tuple[float, str, Any] | None:
+    """Where one run's error vs hand first exceeds the threshold, marked on the error plot; the event
+    (time, text, colour) for the log, or None where it never does."""
+    import rerun as rr
+
+    t, base, colour = scene["t"], f"/{scene['name']}/{r['key']}", r["colour"]
+    first_time = r["run"].get("first_exceeds_threshold")
+    if first_time is None or r["error"] is None or not np.isfinite(float(first_time)):
+        return None
+    k = int(np.argmin(np.abs(t - float(first_time))))
+    _static(
+        rec,
+        f"{base}/exceeds_threshold",
+        rr.SeriesPoints(colors=colour, markers="cross", marker_sizes=8.0, names=f"{r['key']} exceeds threshold"),
+    )
+    _send(
+        rec,
+        f"{base}/exceeds_threshold",
+        rr.Scalars.columns(scalars=log10_error(r["error"][k : k + 1])),
+        [time_column(t[k : k + 1])],
+    )
+    return (
+        float(t[k]),
+        f"{r['key']}: error vs hand first exceeds {scene['threshold']:g} at t = {t[k]:g} s ({r['error'][k]:.3g})",
+        colour,
+    )
+
+
+def log_scene(rec: RecordingStream, scene: dict[str, Any]) -> None:
+    """Sends the scene to a recording stream: static styling and text first, then whole columns."""
+    import rerun as rr
+
+    radius = 0.03 * scene["scale"]
+    _log_frame(rec, scene, radius)
     events = []
     for r in scene["runs"]:
-        base, colour, run = f"{root}/{r['key']}", r["colour"], r["run"]
-        run_times = [time_column(r["t"])]
-
-        def send_run(path: str, columns: Any, run_times: Any = run_times) -> None:
-            send(path, columns, run_times)
-
-        for b in scene["bodies"]:
-            static(f"{base}/bodies/{b}", rr.Points3D.from_fields(colors=colour, radii=radius))
-            send_run(f"{base}/bodies/{b}", rr.Points3D.columns(positions=r["com"][b]))
-        for b, strips in r["links"].items():
-            static(f"{base}/links/{b}", rr.LineStrips3D.from_fields(colors=colour, radii=0.25 * radius))
-            send_run(f"{base}/links/{b}", rr.LineStrips3D.columns(strips=strips))
-        for b, strips in r["trails"].items():
-            static(f"{base}/trail/{b}", rr.LineStrips3D.from_fields(colors=colour, radii=0.12 * radius))
-            send_run(f"{base}/trail/{b}", rr.LineStrips3D.columns(strips=strips))
-        for b, segments in r["axes"].items():
-            shades = [colour, shade(colour, 255, 0.55), shade(colour, 0, 0.45)]  # x, y, z
-            static(f"{base}/axes/{b}", rr.LineStrips3D.from_fields(colors=shades, radii=0.3 * radius))
-            send_run(
-                f"{base}/axes/{b}",
-                rr.LineStrips3D.columns(strips=segments.reshape(-1, 2, 3)).partition(np.full(len(r["t"]), 3)),
-            )
-        for i, c in enumerate(scene["coordinates"]):
-            static(f"{base}/q/{c}", rr.SeriesLines(colors=colour, names=f"{r['key']}: {c}"))
-            send_run(f"{base}/q/{c}", rr.Scalars.columns(scalars=plottable(r["q"][:, i])))
-        if r["error"] is not None:
-            static(f"{base}/log10_error", rr.SeriesLines(colors=colour, names=r["key"]))
-            send_run(f"{base}/log10_error", rr.Scalars.columns(scalars=log10_error(r["error"])))
-        if r["envelope"] is not None:
-            static(
-                f"{base}/log10_envelope",
-                rr.SeriesLines(colors=shade(colour, 255, 0.5), widths=1.0, names=f"{r['key']} envelope"),
-            )
-            send_run(f"{base}/log10_envelope", rr.Scalars.columns(scalars=log10_error(r["envelope"])))
-        if r["energy"] is not None:
-            static(f"{base}/energy_change", rr.SeriesLines(colors=colour, names=r["key"]))
-            send_run(f"{base}/energy_change", rr.Scalars.columns(scalars=plottable(r["energy"] - r["energy"][0])))
-        first_time = run.get("first_exceeds_threshold")
-        if first_time is not None and r["error"] is not None and np.isfinite(float(first_time)):
-            k = int(np.argmin(np.abs(t - float(first_time))))
-            static(
-                f"{base}/exceeds_threshold",
-                rr.SeriesPoints(
-                    colors=colour, markers="cross", marker_sizes=8.0, names=f"{r['key']} exceeds threshold"
-                ),
-            )
-            send(
-                f"{base}/exceeds_threshold",
-                rr.Scalars.columns(scalars=log10_error(r["error"][k : k + 1])),
-                [time_column(t[k : k + 1])],
-            )
-            events.append(
-                (
-                    float(t[k]),
-                    f"{r['key']}: error vs hand first exceeds {scene['threshold']:g} "
-                    f"at t = {t[k]:g} s ({r['error'][k]:.3g})",
-                    colour,
-                )
-            )
+        _log_bodies(rec, scene, r, radius)
+        _log_plots(rec, scene, r)
+        event = _log_exceedance(rec, scene, r)
+        if event is not None:
+            events.append(event)
     if events:
         events.sort(key=lambda e: e[0])
-        send(
-            f"{root}/events",
+        _send(
+            rec,
+            f"/{scene['name']}/events",
             rr.TextLog.columns(text=[e[1] for e in events], level=["WARN"] * len(events), color=[e[2] for e in events]),
             [time_column(np.array([e[0] for e in events]))],
         )

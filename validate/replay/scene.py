@@ -98,88 +98,90 @@ def recorded_params(system: System, sys_results: Mapping[str, Any]) -> Any:
     return system.params
 
 
-def build_scene(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str, Any] | None = None) -> dict[str, Any]:
-    """The arrays and text of one system's recording. Pure numpy; no rerun calls."""
+def _recorded_system(name: str, sys_results: Mapping[str, Any]) -> System:
+    """The system the results were computed for: the repository's, a person's own files, or a model alone."""
     model, equations = sys_results.get("mjcf", ""), sys_results.get("equations", "")
     if name in system_names() and str(model).startswith("models/"):
-        system = load(name)
-    elif equations:  # a system from the user's own files, recorded by their paths
-        system = System.from_files(model, equations, name=name, locked=tuple(sys_results.get("locked") or ()))
-    else:  # the model alone: no derivation places the bodies
-        system = System.model_only(model, name=name, locked=tuple(sys_results.get("locked") or ()))
-    view = system.view
-    params = recorded_params(system, sys_results) if system.equations is not None else None
-    traj = sys_results["trajectories"]
-    t = as_floats(traj["t"])
-    runs_in = list(traj["runs"])
-    if not runs_in:
-        raise HarnessError(f"{name}: the results hold no trajectory runs to replay.")
-    runs_in += wrong_form_runs(sys_results)
-    keys, colours = run_keys(runs_in), run_colours(runs_in)
+        return load(name)
+    if equations:  # a system from the user's own files, recorded by their paths
+        return System.from_files(model, equations, name=name, locked=tuple(sys_results.get("locked") or ()))
+    # the model alone: no derivation places the bodies
+    return System.model_only(model, name=name, locked=tuple(sys_results.get("locked") or ()))
+
+
+def _placed_bodies(system: System, sys_results: Mapping[str, Any]) -> list[str]:
+    """The bodies the derivation places (none where it gives no body positions and rotations)."""
     bodies = list(sys_results.get("bodies") or system.bodies)
     if system.equations is None or {"body_positions", "body_rotations"} & set(not_provided_in(system.equations)):
-        bodies = []  # the derivation does not place its bodies: the recording shows q, energy and errors only
-    parent = {b: view[f"body/{b}/parent"] for b in bodies}
-    children = {b for b in bodies if any(parent[c] == b for c in bodies)}
-    tips = [b for b in bodies if b not in children]
-    body_joint: dict[str, str] = {}
-    for j in system.joints:
-        body_joint.setdefault(view[f"joint/{j}/body"], j)
-    depth = {b: 0 for b in bodies}
-    for b in bodies:
+        return []  # the derivation does not place its bodies: the recording shows q, energy and errors only
+    return bodies
+
+
+def _depths(parent: dict[str, str]) -> dict[str, int]:
+    """How many of the bodies are above each body in the tree."""
+    depth = {b: 0 for b in parent}
+    for b in parent:
         p = parent[b]
         while p in parent:
             depth[b] += 1
             p = parent[p]
+    return depth
 
-    runs = []
-    for key, colour, run in zip(keys, colours, runs_in, strict=True):
-        t_run = as_floats(run["t"]) if "t" in run else t
-        q = as_floats(run["q"]).reshape(len(t_run), -1)
-        K_run = len(t_run)
-        positions = system.equations.body_positions(params, q) if bodies else {}
-        rotations = system.equations.body_rotations(params, q) if bodies else {}
-        com = {b: np.asarray(x, dtype=float).reshape(K_run, 3) for b, x in positions.items()}
-        rot = {b: np.asarray(x, dtype=float).reshape(K_run, 3, 3) for b, x in rotations.items()}
-        anchor = {}
-        for b in bodies:
-            origin = com[b] - rot[b] @ view[f"body/{b}/com"]
-            joint = body_joint.get(b)
-            anchor[b] = origin + rot[b] @ view[f"joint/{joint}/pos"] if joint else origin
-        links = {
-            b: np.stack([com[parent[b]] if parent[b] in com else anchor[b], anchor[b], com[b]], axis=1) for b in bodies
-        }
-        energy = as_floats(run["energy"]) if "energy" in run else None
-        error = as_floats(run["error_vs_hand"]) if "error_vs_hand" in run else None
-        envelope = as_floats(run["envelope"]) if "envelope" in run else None
-        runs.append(
-            {
-                "key": key,
-                "colour": colour,
-                "run": run,
-                "t": t_run,
-                "q": q,
-                "com": com,
-                "rot": rot,
-                "anchor": anchor,
-                "links": links,
-                "energy": energy,
-                "error": error,
-                "envelope": envelope if envelope is not None and envelope.shape == (K_run,) else None,
-            }
-        )
 
-    # Scene size: how far anything drawn reaches from the origin (1 m when everything sits there);
-    # samples of a diverged run (non-finite q) do not count.
+def _placed_run(
+    system: System, params: Any, parent: dict[str, str], run: dict[str, Any], t: np.ndarray
+) -> dict[str, Any]:
+    """One run's samples and its bodies (`parent`'s keys) placed by the equations' kinematics: centres
+    of mass, rotations, joint anchors and links (parent's centre of mass, anchor, centre of mass)."""
+    view, bodies = system.view, list(parent)
+    body_joint: dict[str, str] = {}
+    for j in system.joints:
+        body_joint.setdefault(view[f"joint/{j}/body"], j)
+    t_run = as_floats(run["t"]) if "t" in run else t
+    q = as_floats(run["q"]).reshape(len(t_run), -1)
+    K_run = len(t_run)
+    positions = system.equations.body_positions(params, q) if bodies else {}
+    rotations = system.equations.body_rotations(params, q) if bodies else {}
+    com = {b: np.asarray(x, dtype=float).reshape(K_run, 3) for b, x in positions.items()}
+    rot = {b: np.asarray(x, dtype=float).reshape(K_run, 3, 3) for b, x in rotations.items()}
+    anchor = {}
+    for b in bodies:
+        origin = com[b] - rot[b] @ view[f"body/{b}/com"]
+        joint = body_joint.get(b)
+        anchor[b] = origin + rot[b] @ view[f"joint/{joint}/pos"] if joint else origin
+    links = {
+        b: np.stack([com[parent[b]] if parent[b] in com else anchor[b], anchor[b], com[b]], axis=1) for b in bodies
+    }
+    envelope = as_floats(run["envelope"]) if "envelope" in run else None
+    return {
+        "run": run,
+        "t": t_run,
+        "q": q,
+        "com": com,
+        "rot": rot,
+        "anchor": anchor,
+        "links": links,
+        "energy": as_floats(run["energy"]) if "energy" in run else None,
+        "error": as_floats(run["error_vs_hand"]) if "error_vs_hand" in run else None,
+        "envelope": envelope if envelope is not None and envelope.shape == (K_run,) else None,
+    }
+
+
+def _scale(runs: list[dict[str, Any]], bodies: list[str]) -> float:
+    """Scene size: how far anything drawn reaches from the origin (1 m when everything sits there);
+    samples of a diverged run (non-finite q) do not count."""
     norms = np.concatenate(
         [np.linalg.norm(r[kind][b], axis=-1) for r in runs for kind in ("com", "anchor") for b in bodies]
         or [np.zeros(1)]
     )
     reach = float(norms[np.isfinite(norms)].max(initial=0.0))
-    scale = reach if reach > 1e-9 else 1.0
-    # Bodies whose centre of mass never moves show their motion by their axes only.
-    still = [b for b in bodies if all(np.ptp(r["com"][b], axis=0).max() <= 1e-9 * scale for r in runs)]
-    window = _window(t)
+    return reach if reach > 1e-9 else 1.0
+
+
+def _axes_and_trails(
+    runs: list[dict[str, Any]], still: list[str], tips: list[str], depth: dict[str, int], scale: float
+) -> None:
+    """Each run's body axes (for the bodies whose centre of mass stays still) and its tips' trails."""
     for r in runs:
         n, w = len(r["t"]), _window(r["t"])
         trail_index = np.clip(np.arange(n)[:, None] + np.arange(1 - w, 1)[None, :], 0, n - 1)
@@ -190,17 +192,48 @@ def build_scene(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str,
             r["axes"][b] = np.stack([np.broadcast_to(r["com"][b][:, None, :], ends.shape), ends], axis=2)
         # The tip's path: its centre of mass, or the end of its x axis when that stays still (line of sight).
         r["trails"] = {b: (r["axes"][b][:, 0, 1] if b in still else r["com"][b])[trail_index] for b in tips}
-    # A link whose three points coincide throughout (a body turning about its own centre) is not drawn.
+
+
+def _drop_still_links(runs: list[dict[str, Any]], bodies: list[str], scale: float) -> None:
+    """A link whose three points coincide throughout (a body turning about its own centre) is not drawn."""
     for b in bodies:
         if all(np.ptp(r["links"][b].reshape(-1, 3), axis=0).max() <= 1e-9 * scale for r in runs):
             for r in runs:
                 del r["links"][b]
 
-    # Up is against gravity; a scene that disables gravity still says in the MJCF where down is.
-    gravity = np.asarray(view["gravity"], dtype=float)
+
+def _up(system: System) -> tuple[int, int]:
+    """Up is against gravity; a scene that disables gravity still says in the MJCF where down is."""
+    gravity = np.asarray(system.view["gravity"], dtype=float)
     if not gravity.any():
         gravity = np.asarray(system.mujoco_model().opt.gravity, dtype=float)
-    up = up_axis(gravity)
+    return up_axis(gravity)
+
+
+def build_scene(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """The arrays and text of one system's recording. Pure numpy; no rerun calls."""
+    system = _recorded_system(name, sys_results)
+    view = system.view
+    params = recorded_params(system, sys_results) if system.equations is not None else None
+    traj = sys_results["trajectories"]
+    t = as_floats(traj["t"])
+    runs_in = list(traj["runs"])
+    if not runs_in:
+        raise HarnessError(f"{name}: the results hold no trajectory runs to replay.")
+    runs_in += wrong_form_runs(sys_results)
+    bodies = _placed_bodies(system, sys_results)
+    parent = {b: view[f"body/{b}/parent"] for b in bodies}
+    children = {b for b in bodies if any(parent[c] == b for c in bodies)}
+    tips = [b for b in bodies if b not in children]
+    runs = [
+        {"key": key, "colour": colour, **_placed_run(system, params, parent, run, t)}
+        for key, colour, run in zip(run_keys(runs_in), run_colours(runs_in), runs_in, strict=True)
+    ]
+    scale = _scale(runs, bodies)
+    # Bodies whose centre of mass never moves show their motion by their axes only.
+    still = [b for b in bodies if all(np.ptp(r["com"][b], axis=0).max() <= 1e-9 * scale for r in runs)]
+    _axes_and_trails(runs, still, tips, _depths(parent), scale)
+    _drop_still_links(runs, bodies, scale)
     return {
         "name": name,
         "sys": sys_results,
@@ -211,8 +244,8 @@ def build_scene(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str,
         "still": still,
         "parent": parent,
         "scale": scale,
-        "window": window,
-        "up": up,
+        "window": _window(t),
+        "up": _up(system),
         "coordinates": list(sys_results.get("coordinates") or system.coordinates),
         "units": [joint_unit(view, j) for j in system.joints],
         "roots": [b for b in bodies if parent[b] not in parent],

@@ -407,15 +407,14 @@ def same_run(s: dict[str, Any], integrator: str, free_run: dict[str, Any]) -> di
     )
 
 
-def system_experiments(doc: Document, name: str, s: dict[str, Any]) -> None:
-    ex = s.get("experiments")
-    if not ex:
-        label = "Perturbation experiment" if is_user(s) else "The notes' experiments"
-        doc.p(f"{label}: {NOT_RUN}.", "missing")
-        return
+def _when(x: Any, t_end: float) -> str:
+    """A separation or departure time, or never within the experiment's `t_end`."""
+    return f"{as_float(x):.2f} s" if x is not None else f"never ({t_end:g} s)"
+
+
+def _experiment_intro(doc: Document, ex: dict[str, Any], notes: Any) -> None:
+    """The starts, the perturbation, the integrator, and what separation and departure mean."""
     coord = ex.get("perturbed_coordinate", "q")
-    notes = ex.get("notes_experiment") if not is_user(s) else None
-    chaotic = is_chaotic(s)
     what = f"The notes' experiment ({notes})" if notes else "A perturbation experiment"
     doc.p(
         f"{what}: from q0 = {np.asarray(ex['q0']).tolist()}, v0 = {np.asarray(ex['v0']).tolist()}, "
@@ -423,13 +422,13 @@ def system_experiments(doc: Document, name: str, s: dict[str, Any]) -> None:
         f"Separation: when the two starts differ by more than {ex['resemblance']:g} rad; departure: when the "
         f"unperturbed run departs by as much from the accurate solution ({ex['accurate']})."
     )
-    t_end = as_float(series(ex["t"])[-1]) if ex.get("t") else float("nan")
 
-    def when(x: Any) -> str:
-        return f"{as_float(x):.2f} s" if x is not None else f"never ({t_end:g} s)"
 
+def _separation_table(doc: Document, name: str, s: dict[str, Any], notes: Any, t_end: float) -> None:
+    """Every form's separation and departure times beside its verdict; the wrong forms named below."""
+    ex = s["experiments"]
     verdicts = {v.get("name"): v.get("verdict") for v in s.get("variants", [])}
-    whose = "notes' " if notes else ""
+    of_notes = "notes' " if notes else ""
 
     def form_verdict(form: str) -> Any:
         if form == "hand derivation":
@@ -445,14 +444,14 @@ def system_experiments(doc: Document, name: str, s: dict[str, Any]) -> None:
             r["form"],
             form_verdict(r["form"]),
             Num(r["rtol"], 1),
-            when(r.get("separation_time")),
-            when(r.get("departure_time")),
+            _when(r.get("separation_time"), t_end),
+            _when(r.get("departure_time"), t_end),
             integration(r),
         )
         for r in ex.get("runs", [])
     ]
     doc.table(
-        f"When the {whose}two starts stop resembling each other, {name}",
+        f"When the {of_notes}two starts stop resembling each other, {name}",
         ("form", "form's verdict", "rtol", "separation", "departure", "integration"),
         rows,
     )
@@ -463,56 +462,85 @@ def system_experiments(doc: Document, name: str, s: dict[str, Any]) -> None:
             "the wrong equations part from the right motion, not how the system behaves.",
             "note",
         )
+
+
+def _separation_finding(doc: Document, name: str, s: dict[str, Any], notes: Any, t_end: float) -> bool:
+    """What the hand derivation's runs at rtol 1e-3 and 1e-6 say about separation; whether the loose
+    solver's own error parts the starts first (False where either run is missing)."""
+    ex = s["experiments"]
     by_rtol = {r["rtol"]: r for r in ex.get("runs", []) if r["form"] == "hand derivation"}
     loose, tight = by_rtol.get(1e-3), by_rtol.get(1e-6)
+    if not (loose and tight):
+        return False
+    chaotic = is_chaotic(s)
+    sep, dep = loose.get("separation_time"), loose.get("departure_time")
+    tight_sep = tight.get("separation_time")
     solver_first = False
-    if loose and tight:
-        sep, dep = loose.get("separation_time"), loose.get("departure_time")
-        tight_sep = tight.get("separation_time")
-        if sep is None and tight_sep is None:
-            finding = (
-                f"With the hand derivation the two starts stay within {ex['resemblance']:g} rad of each other for the "
-                f"whole {t_end:g} s at both tolerances"
-                + ("" if chaotic else f" ({name} is not chaotic from this start)")
-                + "."
+    if sep is None and tight_sep is None:
+        finding = (
+            f"With the hand derivation the two starts stay within {ex['resemblance']:g} rad of each other for the "
+            f"whole {t_end:g} s at both tolerances"
+            + ("" if chaotic else f" ({name} is not chaotic from this start)")
+            + "."
+        )
+        if dep is not None:
+            finding += f" At rtol 1e-3 the run itself departs from the accurate solution at {_when(dep, t_end)}."
+    else:
+        finding = (
+            f"With the hand derivation at ode45's default tolerance (rtol 1e-3) the two starts separate at "
+            f"{_when(sep, t_end)}, and the unperturbed run has itself left the accurate solution at "
+            f"{_when(dep, t_end)}: "
+        )
+        solver_first = dep is not None and (sep is None or as_float(dep) <= as_float(sep))
+        if solver_first:
+            finding += (
+                f"the loose solver's own error, not only the {ex['perturbation']:g} rad perturbation, makes them part. "
             )
-            if dep is not None:
-                finding += f" At rtol 1e-3 the run itself departs from the accurate solution at {when(dep)}."
+        elif chaotic:
+            finding += "the perturbation, amplified by the chaos, makes them part. "
         else:
-            finding = (
-                f"With the hand derivation at ode45's default tolerance (rtol 1e-3) the two starts separate at "
-                f"{when(sep)}, and the unperturbed run has itself left the accurate solution at {when(dep)}: "
-            )
-            solver_first = dep is not None and (sep is None or as_float(dep) <= as_float(sep))
-            if solver_first:
-                finding += (
-                    f"the loose solver's own error, not only the {ex['perturbation']:g} rad perturbation, makes them "
-                    "part. "
-                )
-            elif chaotic:
-                finding += "the perturbation, amplified by the chaos, makes them part. "
-            else:
-                finding += f"the {ex['perturbation']:g} rad perturbation makes them part. "
-            later = f"at {when(tight_sep)}" if tight_sep is not None else f"later than {t_end:g} s"
-            finding += f"At rtol 1e-6 they separate {later}"
-            claim = ex.get("notes_separation") if notes else None
-            finding += f" (the notes report about {as_float(claim):g} s by eye)." if claim is not None else "."
-        doc.p(finding)
+            finding += f"the {ex['perturbation']:g} rad perturbation makes them part. "
+        later = f"at {_when(tight_sep, t_end)}" if tight_sep is not None else f"later than {t_end:g} s"
+        finding += f"At rtol 1e-6 they separate {later}"
+        claim = ex.get("notes_separation") if notes else None
+        finding += f" (the notes report about {as_float(claim):g} s by eye)." if claim is not None else "."
+    doc.p(finding)
+    return solver_first
+
+
+def _experiment_figure_section(doc: Document, name: str, ex: dict[str, Any], notes: Any, solver_first: bool) -> None:
+    """The figure of the hand derivation's runs from both starts, where they were kept."""
     hand = [r for r in ex.get("runs", []) if r["form"] == "hand derivation" and "q" in r]
-    if hand:
-        caption = f"The last coordinate ({coord}) from both starts, at each tolerance, with the accurate solution"
-        caption += (
-            ": at ode45's default tolerance the solver's own error separates the curves as early as the "
-            "perturbation does."
-            if solver_first
-            else "."
-        )
-        doc.figure(
-            f"img/{name}_experiment.png",
-            experiment_figure(name, ex, hand, notes=bool(notes)),
-            f"{coord} against time for the two starts at both tolerances, {name}",
-            caption,
-        )
+    if not hand:
+        return
+    coord = ex.get("perturbed_coordinate", "q")
+    caption = f"The last coordinate ({coord}) from both starts, at each tolerance, with the accurate solution"
+    caption += (
+        ": at ode45's default tolerance the solver's own error separates the curves as early as the perturbation does."
+        if solver_first
+        else "."
+    )
+    doc.figure(
+        f"img/{name}_experiment.png",
+        experiment_figure(name, ex, hand, notes=bool(notes)),
+        f"{coord} against time for the two starts at both tolerances, {name}",
+        caption,
+    )
+
+
+def system_experiments(doc: Document, name: str, s: dict[str, Any]) -> None:
+    """The notes' (or a perturbation) experiment: what it is, when the starts separate, the finding, the figure."""
+    ex = s.get("experiments")
+    if not ex:
+        label = "Perturbation experiment" if is_user(s) else "The notes' experiments"
+        doc.p(f"{label}: {NOT_RUN}.", "missing")
+        return
+    notes = ex.get("notes_experiment") if not is_user(s) else None
+    _experiment_intro(doc, ex, notes)
+    t_end = as_float(series(ex["t"])[-1]) if ex.get("t") else float("nan")
+    _separation_table(doc, name, s, notes, t_end)
+    solver_first = _separation_finding(doc, name, s, notes, t_end)
+    _experiment_figure_section(doc, name, ex, notes, solver_first)
 
 
 def experiment_figure(name: str, ex: dict[str, Any], runs: list[dict[str, Any]], *, notes: bool = False) -> bytes:

@@ -229,55 +229,72 @@ def _facade(module: Any, form: str) -> Any:
             facade.passive = _no_friction  # type: ignore[attr-defined]
         return facade
     if form == "b":
-        r = module.residual
-
-        def mass_matrix_b(p: Any, q: Any) -> np.ndarray:
-            z, n = _zeros(q), np.shape(q)[-1]
-            r0, *cols = _rows_of(r, p, [(q, z, z, z)] + [(q, z, _unit(q, j, n), z) for j in range(n)])
-            return _stack_columns([c - r0 for c in cols])
-
-        def parts_b(p: Any, q: Any, v: Any) -> tuple[Any, Any, Any]:
-            z = _zeros(q)
-            g, at_v, at_minus_v = _rows_of(r, p, [(q, z, z, z), (q, v, z, z), (q, -np.asanyarray(v), z, z)])
-            plus, minus = at_v - g, at_minus_v - g
-            return g, (plus + minus) / 2, -(plus - minus) / 2
-
-        facade.mass_matrix = mass_matrix_b  # type: ignore[attr-defined]
-        facade.bias = lambda p, q, v: (lambda g, c, _: g + c)(*parts_b(p, q, v))  # type: ignore[attr-defined]
-        if not callable(getattr(module, "passive", None)):
-            facade.passive = lambda p, q, v: parts_b(p, q, v)[2]  # type: ignore[attr-defined]
-        return facade
+        return _residual_facade(facade, module)
     if form == "c" and input_name(module) == "u":
         return _accelerations_facade(facade, module)
     if form == "c":
-        f = module.qacc
-
-        def calls_c(p: Any, q: Any, extra: list[tuple[Any, ...]]) -> tuple[Any, np.ndarray, list[np.ndarray]]:
-            """qacc at rest, at each unit torque and at the `extra` arguments, in one batched call:
-            (qacc at rest, M^-1 column by column, the answers at `extra`)."""
-            z, n = _zeros(q), np.shape(q)[-1]
-            a0, *rest = _rows_of(f, p, [(q, z, z)] + [(q, z, _unit(q, j, n)) for j in range(n)] + extra)
-            return a0, _stack_columns([c - a0 for c in rest[:n]]), rest[n:]
-
-        def mass_matrix_c(p: Any, q: Any) -> np.ndarray:
-            return inverse(calls_c(p, q, [])[1])
-
-        def parts_c(p: Any, q: Any, v: Any) -> tuple[Any, Any, Any]:
-            z = _zeros(q)
-            a0, minv, (at_v, at_minus_v) = calls_c(p, q, [(q, v, z), (q, -np.asanyarray(v), z)])
-            M = inverse(minv)
-            plus, minus = at_v - a0, at_minus_v - a0
-            return -_matvec(M, a0), -_matvec(M, (plus + minus) / 2), _matvec(M, (plus - minus) / 2)
-
-        facade.mass_matrix = mass_matrix_c  # type: ignore[attr-defined]
-        facade.bias = lambda p, q, v: (lambda g, c, _: g + c)(*parts_c(p, q, v))  # type: ignore[attr-defined]
-        if not callable(getattr(module, "passive", None)):
-            facade.passive = lambda p, q, v: parts_c(p, q, v)[2]  # type: ignore[attr-defined]
-        return facade
+        return _qacc_facade(facade, module)
     if form == "e":  # the Hamiltonian, as its energies (validate/systems/hamiltonian.py), then as form d
         module = hamiltonian.energies(module)
         facade.kinetic_energy, facade.potential_energy = module.kinetic_energy, module.potential_energy  # type: ignore[attr-defined]
-    # form d: energies only
+    return _energies_facade(facade, module)
+
+
+def _residual_facade(facade: _Facade, module: Any) -> _Facade:
+    """Form (b), the residual r(p, q, v, a, tau), as form (a): M column by column from unit
+    accelerations; gravity at rest; the velocity terms and friction as r's parts even and odd in v."""
+    r = module.residual
+
+    def mass_matrix_b(p: Any, q: Any) -> np.ndarray:
+        z, n = _zeros(q), np.shape(q)[-1]
+        r0, *cols = _rows_of(r, p, [(q, z, z, z)] + [(q, z, _unit(q, j, n), z) for j in range(n)])
+        return _stack_columns([c - r0 for c in cols])
+
+    def parts_b(p: Any, q: Any, v: Any) -> tuple[Any, Any, Any]:
+        z = _zeros(q)
+        g, at_v, at_minus_v = _rows_of(r, p, [(q, z, z, z), (q, v, z, z), (q, -np.asanyarray(v), z, z)])
+        plus, minus = at_v - g, at_minus_v - g
+        return g, (plus + minus) / 2, -(plus - minus) / 2
+
+    facade.mass_matrix = mass_matrix_b  # type: ignore[attr-defined]
+    facade.bias = lambda p, q, v: (lambda g, c, _: g + c)(*parts_b(p, q, v))  # type: ignore[attr-defined]
+    if not callable(getattr(module, "passive", None)):
+        facade.passive = lambda p, q, v: parts_b(p, q, v)[2]  # type: ignore[attr-defined]
+    return facade
+
+
+def _qacc_facade(facade: _Facade, module: Any) -> _Facade:
+    """Form (c), explicit accelerations qacc(p, q, v, tau), as form (a): M^-1 column by column from
+    unit torques, inverted; gravity, velocity terms and friction from qacc at rest and at +-v."""
+    f = module.qacc
+
+    def calls_c(p: Any, q: Any, extra: list[tuple[Any, ...]]) -> tuple[Any, np.ndarray, list[np.ndarray]]:
+        """qacc at rest, at each unit torque and at the `extra` arguments, in one batched call:
+        (qacc at rest, M^-1 column by column, the answers at `extra`)."""
+        z, n = _zeros(q), np.shape(q)[-1]
+        a0, *rest = _rows_of(f, p, [(q, z, z)] + [(q, z, _unit(q, j, n)) for j in range(n)] + extra)
+        return a0, _stack_columns([c - a0 for c in rest[:n]]), rest[n:]
+
+    def mass_matrix_c(p: Any, q: Any) -> np.ndarray:
+        return inverse(calls_c(p, q, [])[1])
+
+    def parts_c(p: Any, q: Any, v: Any) -> tuple[Any, Any, Any]:
+        z = _zeros(q)
+        a0, minv, (at_v, at_minus_v) = calls_c(p, q, [(q, v, z), (q, -np.asanyarray(v), z)])
+        M = inverse(minv)
+        plus, minus = at_v - a0, at_minus_v - a0
+        return -_matvec(M, a0), -_matvec(M, (plus + minus) / 2), _matvec(M, (plus - minus) / 2)
+
+    facade.mass_matrix = mass_matrix_c  # type: ignore[attr-defined]
+    facade.bias = lambda p, q, v: (lambda g, c, _: g + c)(*parts_c(p, q, v))  # type: ignore[attr-defined]
+    if not callable(getattr(module, "passive", None)):
+        facade.passive = lambda p, q, v: parts_c(p, q, v)[2]  # type: ignore[attr-defined]
+    return facade
+
+
+def _energies_facade(facade: _Facade, module: Any) -> _Facade:
+    """Form (d), the energies T and V (form (e) after its Hamiltonian is turned into them), as form (a):
+    M, gravity and the velocity terms by Lagrange's equations (`_energy_terms`); no friction unless given."""
 
     def mass_matrix_d(p: Any, q: Any) -> np.ndarray:
         return _energy_terms(module, p, q, None)[0]

@@ -92,53 +92,86 @@ def _positive(key: str, value: float) -> None:
         raise HarnessError(f"--set {key} must be positive; got {value}.")
 
 
+def _scale_mass(root: ET.Element, key: str, k: float) -> None:
+    """scale/mass: every body's mass and inertia times k."""
+    _positive(key, k)
+    for el in root.iter("inertial"):
+        for attr in ("mass", "diaginertia", "fullinertia"):
+            _scale_attr(el, attr, k)
+
+
+def _scale_length(root: ET.Element, key: str, k: float) -> None:
+    """scale/length: every position, centre of mass and geom size times k, inertia times k^2."""
+    _positive(key, k)
+    for el in root.iter():
+        if el.tag in ("body", "inertial", "joint", "geom", "site", "camera", "light"):
+            for attr in ("pos", "fromto", "size"):
+                _scale_attr(el, attr, k)
+        if el.tag == "inertial":
+            for attr in ("diaginertia", "fullinertia"):
+                _scale_attr(el, attr, k * k)
+
+
+def _scale_gravity(root: ET.Element, k: float) -> None:
+    """scale/gravity: gravity times k (MuJoCo's default gravity where the model gives none)."""
+    option = root.find("option")
+    if option is None:
+        option = ET.SubElement(root, "option")
+    option.set("gravity", option.get("gravity", MUJOCO_DEFAULT_GRAVITY))
+    _scale_attr(option, "gravity", k)
+
+
+def _set_body(root: ET.Element, key: str, name: str, field: str, value: float) -> None:
+    """body/<name>/mass (its inertia scaled alike) or body/<name>/inertia (times value)."""
+    _positive(key, value)
+    inertial = _inertial(_named(root, "body", "body", name), name)
+    ratio = value / float(inertial.get("mass", "0") or 1.0) if field == "mass" else value
+    if field == "mass":
+        inertial.set("mass", repr(value))
+    for attr in ("diaginertia", "fullinertia"):
+        _scale_attr(inertial, attr, ratio)
+
+
+def _set_joint(root: ET.Element, key: str, name: str, field: str, value: float) -> None:
+    """joint/<name>/damping, armature, frictionloss or stiffness: a non-negative value."""
+    if value < 0:
+        raise HarnessError(f"--set {key} must be non-negative; got {value}.")
+    _named(root, "joint", "joint", name).set(field, repr(value))
+
+
+def _set_gear(root: ET.Element, name: str, value: float) -> None:
+    """actuator/<name>/gear: the gear's first entry."""
+    section = root.find("actuator")
+    if section is None:
+        raise unknown_name("actuator", name, [])
+    actuator = _named(section, "", "actuator", name)
+    gear = (actuator.get("gear") or "1").split()
+    gear[0] = repr(value)
+    actuator.set("gear", " ".join(gear))
+
+
+def _apply(root: ET.Element, key: str, value: float) -> None:
+    """One override applied to the parsed model, by the kind of its key."""
+    parts = key.split("/")
+    if key == "scale/mass":
+        _scale_mass(root, key, value)
+    elif key == "scale/length":
+        _scale_length(root, key, value)
+    elif key == "scale/gravity":
+        _scale_gravity(root, value)
+    elif len(parts) == 3 and parts[0] == "body" and parts[2] in ("mass", "inertia"):
+        _set_body(root, key, parts[1], parts[2], value)
+    elif len(parts) == 3 and parts[0] == "joint" and parts[2] in ("damping", "armature", "frictionloss", "stiffness"):
+        _set_joint(root, key, parts[1], parts[2], value)
+    elif len(parts) == 3 and parts[0] == "actuator" and parts[2] == "gear":
+        _set_gear(root, parts[1], value)
+    else:
+        raise HarnessError(f"Unknown parameter '{key}'. Valid keys: {', '.join(PATTERNS)}.")
+
+
 def apply_overrides(text: str, overrides: tuple[tuple[str, float], ...]) -> str:
     """The MJCF `text` with the overrides applied; an unknown key or name is a one-line error."""
     root = ET.fromstring(text)
     for key, value in overrides:
-        parts = key.split("/")
-        if key == "scale/mass":
-            _positive(key, value)
-            for el in root.iter("inertial"):
-                for attr in ("mass", "diaginertia", "fullinertia"):
-                    _scale_attr(el, attr, value)
-        elif key == "scale/length":
-            _positive(key, value)
-            for el in root.iter():
-                if el.tag in ("body", "inertial", "joint", "geom", "site", "camera", "light"):
-                    for attr in ("pos", "fromto", "size"):
-                        _scale_attr(el, attr, value)
-                if el.tag == "inertial":
-                    for attr in ("diaginertia", "fullinertia"):
-                        _scale_attr(el, attr, value * value)
-        elif key == "scale/gravity":
-            option = root.find("option")
-            if option is None:
-                option = ET.SubElement(root, "option")
-            option.set("gravity", option.get("gravity", MUJOCO_DEFAULT_GRAVITY))
-            _scale_attr(option, "gravity", value)
-        elif len(parts) == 3 and parts[0] == "body" and parts[2] in ("mass", "inertia"):
-            _positive(key, value)
-            inertial = _inertial(_named(root, "body", "body", parts[1]), parts[1])
-            ratio = value / float(inertial.get("mass", "0") or 1.0) if parts[2] == "mass" else value
-            if parts[2] == "mass":
-                inertial.set("mass", repr(value))
-            for attr in ("diaginertia", "fullinertia"):
-                _scale_attr(inertial, attr, ratio)
-        elif (
-            len(parts) == 3 and parts[0] == "joint" and parts[2] in ("damping", "armature", "frictionloss", "stiffness")
-        ):
-            if value < 0:
-                raise HarnessError(f"--set {key} must be non-negative; got {value}.")
-            _named(root, "joint", "joint", parts[1]).set(parts[2], repr(value))
-        elif len(parts) == 3 and parts[0] == "actuator" and parts[2] == "gear":
-            section = root.find("actuator")
-            if section is None:
-                raise unknown_name("actuator", parts[1], [])
-            actuator = _named(section, "", "actuator", parts[1])
-            gear = (actuator.get("gear") or "1").split()
-            gear[0] = repr(value)
-            actuator.set("gear", " ".join(gear))
-        else:
-            raise HarnessError(f"Unknown parameter '{key}'. Valid keys: {', '.join(PATTERNS)}.")
+        _apply(root, key, value)
     return ET.tostring(root, encoding="unicode")

@@ -336,6 +336,135 @@ def compiled_view(text: str) -> ModelView:
     return from_mujoco(model, "set_values")
 
 
+def _parse(text: str) -> ET.Element:
+    """The MJCF document's root element, comments kept; not XML or not MJCF is a one-line HarnessError."""
+    try:
+        root = ET.fromstring(text, parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True)))
+    except ET.ParseError as exc:
+        raise HarnessError(f"set_values: not well-formed XML ({exc}).") from None
+    if root.tag != "mujoco":
+        raise HarnessError(f"set_values: not an MJCF document (root element <{root.tag}>, expected <mujoco>).")
+    return root
+
+
+def _unit(key: str, given: Any, arr: np.ndarray) -> np.ndarray:
+    """`arr`, which must be a unit vector (MuJoCo would normalize it and not give back what was written)."""
+    if not abs(float(np.linalg.norm(arr)) - 1.0) <= UNIT_RTOL:
+        raise _bad(key, given, f"not a unit vector (norm {float(np.linalg.norm(arr))!r}; MuJoCo normalizes it)")
+    return arr
+
+
+class _Edit:
+    """One set_values call: the parsed model, its compiled view before the edit (compiled once, when first
+    needed), what has been written, and the inertial fields and damped joints left for after the loop."""
+
+    def __init__(self, text: str, root: ET.Element, model_view: Mapping[str, Any] | None) -> None:
+        self.text, self.root, self.model = text, root, _Model(root)
+        self.view = model_view
+        self.written: dict[str, Any] = {}  # key -> the full value the compiled model must give back
+        self.inertials: dict[str, dict[str, Any]] = {}
+        self.damping_set: set[str] = set()
+
+    def current(self) -> Mapping[str, Any]:
+        """The compiled model of the text before the edit."""
+        if self.view is None:
+            self.view = compiled_view(self.text)
+        return self.view
+
+    def filled(self, key: str, arr: np.ndarray, held: np.ndarray | None) -> np.ndarray:
+        """`arr` with its NaN entries from `held` (the element's own attribute), else from the compiled model."""
+        if not np.isnan(arr).any():
+            return arr
+        return np.where(np.isnan(arr), held if held is not None else np.asarray(self.current()[key], dtype=float), arr)
+
+    def set(self, key: str, value: Any) -> None:
+        """One key: a structure key checked, gravity, a body's pose, a joint's field or a gear written, or a
+        body's mass, com or inertia kept for its <inertial>."""
+        kind, name, field_ = _split(key, self.model)
+        if field_ in STRUCTURE_FIELDS.get(kind, ()):
+            have = self.current()[key]
+            if value != have:
+                raise HarnessError(
+                    f"set_values: {key} is {have!r} in the model, got {value!r}; the writer cannot change the "
+                    "tree's structure (parents, joint types, which body a joint moves, which joint an actuator drives)."
+                )
+            return
+        arr = _number(key, field_, value)
+        if kind == "gravity":
+            self.gravity(key, arr)
+            return
+        el = self.model.element(kind, name)
+        if kind == "body" and field_ in ("mass", "com", "inertia"):
+            self.inertials.setdefault(name, {})[field_] = (key, value, arr)
+        elif kind == "body":
+            self.body_pose(el, key, name, field_, value, arr)
+        elif kind == "joint":
+            self.joint(el, key, name, field_, value, arr)
+        elif not np.isnan(arr):  # actuator gear: the first entry
+            gear = (el.get("gear") or "").split() or [repr(float(arr))]
+            gear[0] = repr(float(arr))
+            el.set("gear", " ".join(gear))
+            self.written[key] = float(arr)
+
+    def gravity(self, key: str, arr: np.ndarray) -> None:
+        """<option gravity>, enabling gravity where the scene disables it and the new value is not zero."""
+        off = self.model.disabled("gravity")
+        option = self.root.find("option")
+        held = np.zeros(3) if off else _attr_vector(option, "gravity", 3)
+        if held is None:
+            held = np.array([float(x) for x in MUJOCO_DEFAULT_GRAVITY.split()])
+        g = self.filled(key, arr, held)
+        self.written[key] = g
+        if off and not np.any(g):
+            return  # the scene's gravity stays disabled, and zero is what the model has
+        if off:
+            self.model.enable("gravity")
+        if option is None:
+            option = ET.Element("option")
+            self.root.insert(0, option)
+        option.set("gravity", _floats(g))
+
+    def body_pose(self, el: ET.Element, key: str, name: str, field_: str, value: Any, arr: np.ndarray) -> None:
+        """A body's pos, or its quat (replacing any other orientation attribute)."""
+        if self.model.in_frame(el):
+            raise _bad(key, value, f"body '{name}' sits inside a <frame>, whose transform the writer does not invert")
+        if field_ == "pos":
+            self.written[key] = self.filled(key, arr, _attr_vector(el, "pos", 3))
+            el.set("pos", _floats(self.written[key]))
+            return
+        quat = _unit(key, value, self.filled(key, arr, _attr_vector(el, "quat", 4)))
+        for attr in _ORIENTATION_ATTRS:
+            el.attrib.pop(attr, None)
+        el.set("quat", _floats(quat))
+        self.written[key] = quat
+
+    def joint(self, el: ET.Element, key: str, name: str, field_: str, value: Any, arr: np.ndarray) -> None:
+        """A joint's axis or pos, or a non-negative damping, armature, frictionloss or stiffness."""
+        if el.tag == "freejoint":
+            raise _bad(key, value, f"joint '{name}' is a <freejoint>, which takes no {field_}")
+        if field_ in ("axis", "pos"):
+            vec = self.filled(key, arr, _attr_vector(el, field_, 3))
+            self.written[key] = _unit(key, value, vec) if field_ == "axis" else vec
+            el.set(field_, _floats(self.written[key]))
+        elif not np.isnan(arr):
+            if arr < 0:
+                raise _bad(key, value, "must be non-negative")
+            el.set(field_, repr(float(arr)))
+            self.written[key] = float(arr)
+            if field_ == "damping":
+                self.damping_set.add(name)
+
+    def enable_dampers(self) -> None:
+        """Dampers enabled where the scene disables them and a damping set is not zero; the other joints'
+        damping set to 0, which is what the model had."""
+        model = self.model
+        if any(self.written[f"joint/{n}/damping"] != 0 for n in self.damping_set) and model.disabled("damper"):
+            model.enable("damper")
+            for n, joint in model.joints.items():
+                if n not in self.damping_set and joint.tag == "joint":
+                    joint.set("damping", "0")  # what the model had while dampers were disabled
+
+
 def set_values(
     text: str, values: Mapping[str, Any], *, model_view: Mapping[str, Any] | None = None, verify: bool = True
 ) -> str:
@@ -358,110 +487,16 @@ def set_values(
     had). An unknown key or name, a bad shape, an infinite or unphysical value, or an edit the MJCF
     compiler would not give back (a body inside a <frame>, inertia from geoms) is a one-line HarnessError.
     """
-    try:
-        root = ET.fromstring(text, parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True)))
-    except ET.ParseError as exc:
-        raise HarnessError(f"set_values: not well-formed XML ({exc}).") from None
-    if root.tag != "mujoco":
-        raise HarnessError(f"set_values: not an MJCF document (root element <{root.tag}>, expected <mujoco>).")
-    model = _Model(root)
-    views: dict[str, Mapping[str, Any]] = {} if model_view is None else {"view": model_view}
-
-    def current() -> Mapping[str, Any]:
-        if "view" not in views:
-            views["view"] = compiled_view(text)
-        return views["view"]
-
-    def filled(key: str, arr: np.ndarray, held: np.ndarray | None) -> np.ndarray:
-        if not np.isnan(arr).any():
-            return arr
-        return np.where(np.isnan(arr), held if held is not None else np.asarray(current()[key], dtype=float), arr)
-
-    def unit(key: str, given: Any, arr: np.ndarray) -> np.ndarray:
-        if not abs(float(np.linalg.norm(arr)) - 1.0) <= UNIT_RTOL:
-            raise _bad(key, given, f"not a unit vector (norm {float(np.linalg.norm(arr))!r}; MuJoCo normalizes it)")
-        return arr
-
-    written: dict[str, Any] = {}  # key -> the full value the compiled model must give back
-    inertials: dict[str, dict[str, Any]] = {}
-    damping_set: set[str] = set()
+    root = _parse(text)
+    edit = _Edit(text, root, model_view)
     for key, value in values.items():
-        kind, name, field_ = _split(key, model)
-        if field_ in STRUCTURE_FIELDS.get(kind, ()):
-            have = current()[key]
-            if value != have:
-                raise HarnessError(
-                    f"set_values: {key} is {have!r} in the model, got {value!r}; the writer cannot change the "
-                    "tree's structure (parents, joint types, which body a joint moves, which joint an actuator drives)."
-                )
-            continue
-        arr = _number(key, field_, value)
-        if kind == "gravity":
-            off = model.disabled("gravity")
-            option = root.find("option")
-            held = np.zeros(3) if off else _attr_vector(option, "gravity", 3)
-            if held is None:
-                held = np.array([float(x) for x in MUJOCO_DEFAULT_GRAVITY.split()])
-            g = filled(key, arr, held)
-            written[key] = g
-            if off and not np.any(g):
-                continue  # the scene's gravity stays disabled, and zero is what the model has
-            if off:
-                model.enable("gravity")
-            if option is None:
-                option = ET.Element("option")
-                root.insert(0, option)
-            option.set("gravity", _floats(g))
-            continue
-        el = model.element(kind, name)
-        if kind == "body" and field_ in ("mass", "com", "inertia"):
-            inertials.setdefault(name, {})[field_] = (key, value, arr)
-        elif kind == "body":
-            if model.in_frame(el):
-                raise _bad(
-                    key, value, f"body '{name}' sits inside a <frame>, whose transform the writer does not invert"
-                )
-            if field_ == "pos":
-                written[key] = filled(key, arr, _attr_vector(el, "pos", 3))
-                el.set("pos", _floats(written[key]))
-            else:
-                quat = unit(key, value, filled(key, arr, _attr_vector(el, "quat", 4)))
-                for attr in _ORIENTATION_ATTRS:
-                    el.attrib.pop(attr, None)
-                el.set("quat", _floats(quat))
-                written[key] = quat
-        elif kind == "joint":
-            if el.tag == "freejoint":
-                raise _bad(key, value, f"joint '{name}' is a <freejoint>, which takes no {field_}")
-            if field_ in ("axis", "pos"):
-                vec = filled(key, arr, _attr_vector(el, field_, 3))
-                written[key] = unit(key, value, vec) if field_ == "axis" else vec
-                el.set(field_, _floats(written[key]))
-            elif not np.isnan(arr):
-                if arr < 0:
-                    raise _bad(key, value, "must be non-negative")
-                el.set(field_, repr(float(arr)))
-                written[key] = float(arr)
-                if field_ == "damping":
-                    damping_set.add(name)
-        elif not np.isnan(arr):  # actuator gear: the first entry
-            gear = (el.get("gear") or "").split() or [repr(float(arr))]
-            gear[0] = repr(float(arr))
-            el.set("gear", " ".join(gear))
-            written[key] = float(arr)
-
-    if any(written[f"joint/{n}/damping"] != 0 for n in damping_set) and model.disabled("damper"):
-        model.enable("damper")
-        for n, joint in model.joints.items():
-            if n not in damping_set and joint.tag == "joint":
-                joint.set("damping", "0")  # what the model had while dampers were disabled
-
-    for name, fields in inertials.items():
-        _write_inertial(model, name, fields, current, written)
-
+        edit.set(key, value)
+    edit.enable_dampers()
+    for name, fields in edit.inertials.items():
+        _write_inertial(edit.model, name, fields, edit.current, edit.written)
     edited = _prolog(text) + ET.tostring(root, encoding="unicode")
     if verify:
-        _verify(edited, current(), written)
+        _verify(edited, edit.current(), edit.written)
     return edited
 
 
