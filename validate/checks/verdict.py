@@ -343,7 +343,7 @@ def _explanations(
 
 
 def _rows_at_model(
-    system: System, states: States, sources: dict[str, Any], values: dict[str, Any] | None, tolerances: Tolerances
+    system: System, states: States, sources: Mapping[str, Source], values: dict[str, Any] | None, tolerances: Tolerances
 ) -> tuple[list[dict[str, Any]], dict[int, dict[str, Any]]]:
     """Every term's rows at the model's parameters and the model's own checks; its notes, as probe 0's."""
     rows, notes = term_rows_at(system, states, sources, values=values, tolerances=tolerances)
@@ -398,7 +398,7 @@ def _coverage(result: Derivation, system: System, states: States, probe_set: Pro
     }
 
 
-def _agreement(result: Derivation, sources: dict[str, Any], probe_set: ProbeSet) -> None:
+def _agreement(result: Derivation, sources: Mapping[str, Source], probe_set: ProbeSet) -> None:
     """The verdict and statement where every term agrees."""
     probe_list, problems = probe_set.probes, probe_set.problems
     result["verdict"] = "agrees"
