@@ -15,7 +15,7 @@ parameter sets (validate/checks/verdict.py).
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -27,7 +27,7 @@ from .checks.tolerances import TOLERANCES, Tolerances
 from .dynamics.cachedir import Cache
 from .errors import HarnessError
 from .guard import Stopped
-from .results.schema import CheckData
+from .results.schema import CheckData, ComparisonRow, TermRow, WorstState
 from .systems import System, load
 
 __all__ = ["Cache", "Result", "Row", "System", "check", "load", "result_of"]
@@ -44,7 +44,7 @@ class Row:
     scaled: float  # max_abs divided by the quantity's scale (its largest magnitude over the states)
     tolerance: float  # the tier `scaled` is judged against
     passed: bool
-    worst_state: dict[str, list[float]] | None = None  # q, v, tau where |a - b| is largest
+    worst_state: WorstState | None = None  # q, v, tau where |a - b| is largest
     probe: int | None = None  # 0: the model's own parameters; k: probe k (derivation rows)
     detail: str = ""  # why, where a number cannot say it (a function that raised, a model mismatch)
 
@@ -97,8 +97,8 @@ def _f(x: Any) -> float:
         return float("nan")
 
 
-def _row(check: str, r: Mapping[str, Any], quantity: str) -> Row:
-    """A result row of the harness (a dict) as a typed Row."""
+def _row(check: str, r: ComparisonRow | TermRow, quantity: str, *, probe: int | None = None, detail: str = "") -> Row:
+    """A result row of the harness (a pointwise or a derivation row) as a typed Row."""
     return Row(
         check,
         quantity,
@@ -107,9 +107,9 @@ def _row(check: str, r: Mapping[str, Any], quantity: str) -> Row:
         _f(r["scaled"]),
         _f(r["tolerance"]),
         bool(r["passed"]),
-        r.get("worst_state"),
-        r.get("probe"),
-        r.get("error", ""),
+        r["worst_state"],
+        probe,
+        detail,
     )
 
 
@@ -168,7 +168,10 @@ def result_of(decision: Decision) -> Result:
         Row("model", m["key"], m["check"], np.inf, np.inf, 0.0, False, detail=m["why"]) for m in model["mismatches"]
     ]
     rows += [_row("pointwise", r, r["quantity"]) for r in point["rows"]]
-    rows += [_row("derivation", r, r["term"]) for r in derivation.get("terms", [])]
+    rows += [
+        _row("derivation", r, r["term"], probe=r.get("probe"), detail=r.get("error", ""))
+        for r in derivation.get("terms", [])
+    ]
     # Derivation rows first among the failures: they name the term, the pointwise rows the quantity.
     order = {"model": 0, "derivation": 1, "pointwise": 2}
     rows.sort(key=lambda r: (r.passed, order[r.check]))

@@ -42,6 +42,7 @@ from ..dynamics.cachedir import Cache
 from ..engines.derivation import axis_rotation, parameter_values
 from ..engines.readable import in_coordinates, tidy, transformed
 from ..engines.symbolic import derivation_of
+from ..results.schema import Explanation
 from ..systems import System
 from ..systems.values import real_array
 from .pointwise import random_states
@@ -259,7 +260,7 @@ def explain_entries(
     *,
     seed: int = 0,
     cache: Cache | None = None,
-) -> list[dict[str, Any]]:
+) -> list[Explanation]:
     """One record per disagreeing item (term, entry label, expected sympy expression in the named
     coordinates, user(system, q, v) -> one value per state): the expected expression and the symbolic
     difference the user's numbers fit (verified at held-back states), or that none fits; each record
@@ -268,7 +269,7 @@ def explain_entries(
     d = derivation_of(system)
     symbols = _symbols(tuple(system.coordinates))
     samples = _Samples([system, *probe_systems], d, symbols, seed)
-    out = []
+    out: list[Explanation] = []
     for term, label, entry, user in items:
         try:
             with np.errstate(all="ignore"):
@@ -287,7 +288,7 @@ def explain_entries(
 
 def _explain_entry(
     d: Any, samples: _Samples, symbols: dict[str, list[Any]], term: str, label: str, entry: Any, mine: np.ndarray
-) -> dict[str, Any] | None:
+) -> Explanation | None:
     """One entry's record, or None where the user's numbers equal the expected entry's."""
     import sympy as sp
 
@@ -297,7 +298,7 @@ def _explain_entry(
     D = mine - exp_num
     if not np.all(np.isfinite(D)) or float(np.abs(D).max()) <= 1e-9 * scale:
         return None
-    record = {
+    record: Explanation = {
         "term": term,
         "entry": label,
         "expected": sp.sstr(expected),
@@ -327,7 +328,7 @@ def _cached(key: str, where: Path | None) -> dict[str, Any] | None:
     return found[1] if found is not None and "record" in found[1] else None
 
 
-def _keep(key: str, record: dict[str, Any] | None, where: Path | None) -> None:
+def _keep(key: str, record: Explanation | None, where: Path | None) -> None:
     if where is not None:
         cache.store(where / f"{key[:32]}.npz", key, {}, {"record": record})
 
@@ -403,7 +404,7 @@ def step_expression(system: System, quantity: tuple[Any, ...], angle_index: int 
 
 def explain(
     system: System, probe_systems: list[System], terms: list[str], *, seed: int = 0, cache: Cache | None = None
-) -> list[dict[str, Any]]:
+) -> list[Explanation]:
     """The disagreeing entries of a derivation's `terms` (mass matrix, gravity, ...), explained
     (`cache`: where records are kept, None for nowhere)."""
     d = derivation_of(system)
@@ -422,7 +423,7 @@ def explain(
 
 def _fit(
     expected: Any, exp_num: np.ndarray, D: np.ndarray, scale: float, samples: _Samples, symbols: dict[str, list[Any]]
-) -> dict[str, Any]:
+) -> Explanation:
     """The simplest candidate difference that reproduces D, or why none does."""
     params = list(samples.args[2 * len(symbols["q"]) :])
     found = candidates(expected, symbols["q"], params, tuple(symbols["v"]))

@@ -10,18 +10,18 @@ B u, judged against tau. An input a function ignores (a zero response) is named.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 
 from ...equations._forms import Explicit
+from ..results.schema import TermRow
 from ..systems import System
 from ..systems.forms import written_form
 from .judge import EngineTerms, judge_variant, term_rows
 from .pointwise import States
 from .tolerances import TOLERANCES, Tolerances
 
-ErrorRow = Callable[[str, str, str], dict[str, Any]]  # (term, engine, why) -> a failing row
+ErrorRow = Callable[[str, str, str], TermRow]  # (term, engine, why) -> a failing row
 
 
 def ignored_torques(system: System, states: States) -> str:
@@ -60,11 +60,9 @@ def _unit_controls(system: System, q: np.ndarray) -> list[np.ndarray]:
     return [np.broadcast_to(np.eye(nu)[k], (len(q), nu)) for k in range(nu)]
 
 
-def _ignored_inputs(
-    system: System, response: list[np.ndarray], fname: str, error_row: ErrorRow
-) -> list[dict[str, Any]]:
+def _ignored_inputs(system: System, response: list[np.ndarray], fname: str, error_row: ErrorRow) -> list[TermRow]:
     """A failing actuation row for each input the person's function ignores (its response is zero)."""
-    out = []
+    out: list[TermRow] = []
     for k, col in enumerate(response):
         if np.all(np.isfinite(col)) and not np.any(col):
             why = f"your {fname} does not depend on u[{k}] (actuator {system.actuators[k]})"
@@ -74,7 +72,7 @@ def _ignored_inputs(
 
 def acceleration_rows(
     system: System, states: States, terms: EngineTerms, *, error_row: ErrorRow, tolerances: Tolerances = TOLERANCES
-) -> list[dict[str, Any]]:
+) -> list[TermRow]:
     """Explicit accelerations with inputs u, judged as a printed explicit form is (judge.py): each
     force's acceleration M^-1 (G, C v, friction, B u) against the engines', and the accelerations."""
     qacc = system.equations.ORIGINAL.qacc
@@ -85,7 +83,7 @@ def acceleration_rows(
     )
     try:
         with np.errstate(all="ignore"):
-            rows = list(
+            rows: list[TermRow] = list(
                 judge_variant(system, variant, terms, states, tolerances=tolerances, printed_parameters=False)["terms"]
             )
             zero = np.zeros_like(states.q)
@@ -104,7 +102,7 @@ def acceleration_rows(
 
 def actuation_rows(
     system: System, states: States, terms: EngineTerms, *, error_row: ErrorRow, tolerances: Tolerances = TOLERANCES
-) -> list[dict[str, Any]]:
+) -> list[TermRow]:
     """An implicit residual with inputs u: -(r(q, 0, 0, u) - r(q, 0, 0, 0)) is the person's B u, against tau."""
     r, p, q = system.equations.ORIGINAL.residual, system.params, states.q
     zero = np.zeros_like(q)

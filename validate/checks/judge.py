@@ -34,6 +34,7 @@ from ..dynamics.cachedir import Cache
 from ..engines import make_source, make_sources
 from ..engines.base import Source, posed
 from ..errors import HarnessError
+from ..results.schema import ComparisonRow, Explanation, TermRow
 from ..systems import System
 from ..systems.modelview import ModelView
 from ..systems.values import real_array
@@ -130,24 +131,45 @@ def term_rows(
     min_scale: dict[str, float] | None = None,
     who: str = "printed",
     cond: np.ndarray | None = None,
-) -> list[dict[str, Any]]:
-    rows = []
-    for name, ref in engines.items():
-        row = error_row(
-            term,
-            f"{who}~{name}",
-            printed,
-            ref,
-            states,
-            tier=tier,
-            tolerances=tolerances,
-            min_scale=(min_scale or {}).get(name, 0.0),
-            cond=cond,
+) -> list[TermRow]:
+    """`printed` against each engine's value: one row per engine (pointwise.error_row's, as a term)."""
+    return [
+        as_term_row(
+            error_row(
+                term,
+                f"{who}~{name}",
+                printed,
+                ref,
+                states,
+                tier=tier,
+                tolerances=tolerances,
+                min_scale=(min_scale or {}).get(name, 0.0),
+                cond=cond,
+            ),
+            engine=name,
         )
-        row["term"] = row.pop("quantity")
-        row["engine"] = name
-        rows.append(row)
-    return rows
+        for name, ref in engines.items()
+    ]
+
+
+def as_term_row(row: ComparisonRow, *, engine: str) -> TermRow:
+    """A comparison row as a derivation's term row: its `quantity` is the `term`, judged against `engine`."""
+    out: TermRow = {
+        "term": row["quantity"],
+        "engine": engine,
+        "pair": row["pair"],
+        "max_abs": row["max_abs"],
+        "max_rel": row["max_rel"],
+        "scale": row["scale"],
+        "scaled": row["scaled"],
+        "tolerance": row["tolerance"],
+        "tier": row["tier"],
+        "passed": row["passed"],
+        "worst_state": row["worst_state"],
+    }
+    if "cond_max" in row:
+        out["cond_max"] = row["cond_max"]
+    return out
 
 
 def _axis_rotation(axis: np.ndarray, angle: np.ndarray, engine: str) -> np.ndarray:
@@ -205,8 +227,8 @@ def engine_quantity(
     raise ValueError(f"unknown derivation-step quantity {quantity}")
 
 
-def _printed_parameter_rows(system: System, variant: Any) -> list[dict[str, Any]]:
-    rows = []
+def _printed_parameter_rows(system: System, variant: Any) -> list[TermRow]:
+    rows: list[TermRow] = []
     for field, printed in sorted(getattr(variant, "printed_parameters", {}).items()):
         compiled = float(getattr(system.params, field))
         err = abs(printed - compiled)
@@ -525,7 +547,7 @@ def explain_variant(
     *,
     seed: int = 0,
     cache: Cache | None = None,
-) -> list[dict[str, Any]]:
+) -> list[Explanation]:
     """A wrong printed form's disagreeing entries as symbolic differences from the model's own
     equations (checks/explain.py), at the probes that keep the printed form's equalities: a derivation
     step's value entry by entry; an explicit form's accelerations by term, through their numerators

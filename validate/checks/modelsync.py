@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from ..engines.base import Source, engine_of
 from ..results.schema import Mismatch, ModelChecks
 from ..systems import System
 from ..systems.modelview import quat_to_mat
@@ -103,11 +104,14 @@ def equations_vs_model(system: System) -> list[Mismatch]:
     return rows
 
 
-def pinocchio_vs_mujoco(system: System, pin_source: Any) -> list[Mismatch]:
+def pinocchio_vs_mujoco(system: System, pin_source: Source) -> list[Mismatch]:
     """Mass, centre of mass and inertia of each compared body, as each engine compiled it."""
-    model, view = pin_source.model, system.view
+    from ..engines.pinocchio import PinocchioSource
+
+    pn = engine_of(pin_source, PinocchioSource)  # a MappedSource's engine: its model is the same
+    model, view = pn.model, system.view
     rows: list[Mismatch] = []
-    for body, jid in zip(system.bodies, pin_source.joint_of_body, strict=True):
+    for body, jid in zip(system.bodies, pn.joint_of_body, strict=True):
         inertia = model.inertias[jid]
         pairs = {
             "mass": (view[f"body/{body}/mass"], inertia.mass),
@@ -154,11 +158,14 @@ def mujoco_joint_frames(system: System) -> dict[str, tuple[np.ndarray, np.ndarra
     return out
 
 
-def joints_pinocchio_vs_mujoco(system: System, pin_source: Any) -> list[Mismatch]:
+def joints_pinocchio_vs_mujoco(system: System, pin_source: Source) -> list[Mismatch]:
     """Anchor (hinges) and motion axis of each compared joint at q = 0, and for a URDF the damping,
     as each engine read them."""
-    mj, pn = mujoco_joint_frames(system), pin_source.joint_frames()
-    damping = pin_source.read_damping() if system.reads_urdf else None
+    from ..engines.pinocchio import PinocchioSource
+
+    engine = engine_of(pin_source, PinocchioSource)
+    mj, pn = mujoco_joint_frames(system), engine.joint_frames()
+    damping = engine.read_damping() if system.reads_urdf else None
     # anchors are compared relative to the chain's extent: one at the origin may be read as 1e-17 m
     extent = max([float(np.abs(f[0]).max()) for f in (*mj.values(), *pn.values())] + [1e-300])
     rows: list[Mismatch] = []
@@ -174,7 +181,7 @@ def joints_pinocchio_vs_mujoco(system: System, pin_source: Any) -> list[Mismatch
     return rows
 
 
-def check(system: System, pin_source: Any) -> ModelChecks:
+def check(system: System, pin_source: Source) -> ModelChecks:
     rows = (
         (equations_vs_model(system) if system.equations is not None else [])
         + pinocchio_vs_mujoco(system, pin_source)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 
@@ -133,7 +133,7 @@ def error_row(
     tolerances: Tolerances = TOLERANCES,
     min_scale: float = 0.0,
     cond: np.ndarray | None = None,
-) -> dict[str, Any]:
+) -> ComparisonRow:
     """One row: the max absolute error, the max error relative to each state's magnitude, `scaled`
     (results.schema.SCALED_DEFINITION: the max absolute error divided by the largest magnitude either
     source gives the quantity over the states, or `min_scale` if larger; what the tier judges), and the
@@ -154,7 +154,7 @@ def error_row(
         scaled = float(per_state.max() / scale)
         finite = bool(np.all(np.isfinite(diff)))
         passed = finite and bool(np.all(per_state / scale <= tol))
-    return {
+    row: ComparisonRow = {
         "quantity": quantity,
         "pair": pair,
         "max_abs": float(per_state.max()),
@@ -165,8 +165,10 @@ def error_row(
         "tolerance": rtol,
         "passed": passed,
         "worst_state": states.state(worst),
-        **({} if cond is None else {"cond_max": float(np.max(cond))}),
     }
+    if cond is not None:
+        row["cond_max"] = float(np.max(cond))
+    return row
 
 
 def force_scale(M: np.ndarray, v: np.ndarray) -> float:
@@ -191,7 +193,7 @@ def compare(
     reference: str = "mujoco",
 ) -> list[ComparisonRow]:
     """Rows for every quantity and every pair of sources, sorted by quantity then pair."""
-    rows = []
+    rows: list[ComparisonRow] = []
     names = sorted(values)
     cond = np.linalg.cond(values[reference]["M"]) if reference in values else None
     forces = force_scale(values[reference]["M"], states.v) if reference in values else 0.0
@@ -215,7 +217,7 @@ def compare(
                     cond=cond,
                 )
             )
-    return cast(list[ComparisonRow], sorted(rows, key=lambda r: (r["quantity"], r["pair"])))
+    return sorted(rows, key=lambda r: (r["quantity"], r["pair"]))
 
 
 def pointwise(

@@ -177,7 +177,7 @@ def term_rows_at(
     *,
     values: dict[str, Any] | None = None,
     tolerances: Tolerances = TOLERANCES,
-) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+) -> tuple[list[TermRow], dict[str, Any]]:
     """Every term of the derivation against both engines at one parameter set; and notes (errors,
     mass-matrix definiteness)."""
     ev = engine_values(sources, states, values)  # keyed by the engines present
@@ -213,7 +213,7 @@ def term_rows_at(
     tiers = dict(TERM_TIER)
     if written_form(system.equations) == "c":
         tiers.update({t: "solve" for t in ("mass matrix", "gravity", "velocity", "friction")})
-    rows: list[dict[str, Any]] = []
+    rows: list[TermRow] = []
     absent = {TERM_OF_FUNCTION[fn] for fn in not_provided_in(system.equations)}
     if accelerations_only(system.equations):  # judged in accelerations: M and the forces are not the person's
         absent |= {"mass matrix", "gravity", "velocity", "friction", "acceleration"}
@@ -252,7 +252,7 @@ def term_rows_at(
     return rows, notes
 
 
-def _error_row(term: str, engine: str, why: str) -> dict[str, Any]:
+def _error_row(term: str, engine: str, why: str) -> TermRow:
     return {
         "term": term,
         "pair": f"hand~{engine}",
@@ -269,23 +269,25 @@ def _error_row(term: str, engine: str, why: str) -> dict[str, Any]:
     }
 
 
-def _model_rows(system: System) -> list[dict[str, Any]]:
+def _model_rows(system: System) -> list[TermRow]:
     """A failing "parameters" row where the compiled model differs from what the derivation assumes
     of it (its parameters() or assumptions() read or state the wrong element)."""
 
     try:
         bad = [r for r in equations_vs_model(system) if not r["passed"]]
     except Exception as exc:  # noqa: BLE001 - the user's parameters() or assumptions() raised
-        return [{**_error_row("parameters", "mjcf", f"{type(exc).__name__}: {exc}"), "probe": 0}]
-    if not bad:
-        return []
-    keys = "; ".join(f"{r['key']}: assumed {r['expected']}, model {r['actual']}" for r in bad[:3])
-    return [
-        {**_error_row("parameters", "mjcf", f"the model differs from what the derivation assumes ({keys})"), "probe": 0}
-    ]
+        why = f"{type(exc).__name__}: {exc}"
+    else:
+        if not bad:
+            return []
+        keys = "; ".join(f"{r['key']}: assumed {r['expected']}, model {r['actual']}" for r in bad[:3])
+        why = f"the model differs from what the derivation assumes ({keys})"
+    row = _error_row("parameters", "mjcf", why)
+    row["probe"] = 0
+    return [row]
 
 
-def _first_term(failing: list[dict[str, Any]]) -> str:
+def _first_term(failing: list[TermRow]) -> str:
     names = {r["term"] for r in failing}
     return next(t for t in HAND_TERMS if t in names)
 
@@ -330,7 +332,7 @@ def _explanations(
             }
         ]
     try:
-        return cast(list[Explanation], explain(system, probe_systems, terms, seed=seed, cache=cache))
+        return explain(system, probe_systems, terms, seed=seed, cache=cache)
     except Exception as exc:  # noqa: BLE001 - the user's code or a model the derivation cannot read
         return [
             {
@@ -573,7 +575,7 @@ def exposing_fields(system: System, term: str, *, tolerances: Tolerances = TOLER
     return out
 
 
-def summarise(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+def summarise(rows: list[TermRow]) -> list[dict[str, Any]]:
     """Per term: passed, the worst scaled error (engine and probe), the tolerance it was judged with
     (the smallest relative change of the term the check could have seen) and the term's scale."""
     out = []

@@ -33,9 +33,14 @@ class Provenance(TypedDict):
 
 
 class WorstState(TypedDict, total=False):
+    """Where a row is worst: the state (q, v, tau); for a printed form's "printed parameters" row
+    (no state), the printed number and the compiled one (checks/judge.py)."""
+
     q: list[float]
     v: list[float]
     tau: list[float]
+    printed: float
+    compiled: float
 
 
 class ComparisonRow(TypedDict):
@@ -68,7 +73,8 @@ class TermRow(TypedDict):
     tier: str
     passed: bool
     worst_state: WorstState | None
-    probe: NotRequired[int]  # 0: the model's own parameters; k: probe k
+    probe: NotRequired[int | None]  # 0: the model's own parameters; k: probe k; None: parameters() misread
+    fields: NotRequired[dict[str, list[float]]]  # parameters() misread: per field, [built with, read back]
     parameters: NotRequired[str]
     error: NotRequired[str]  # a function that raised or returned nonsense
     cond_max: NotRequired[float]  # largest cond(M) over the states (solve-tier terms)

@@ -16,7 +16,7 @@ import pkgutil
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..errors import HarnessError, unknown_name
 from ..guard import DEFAULT_TIME_LIMIT, Guard, Stopped, guard_module
@@ -26,6 +26,10 @@ from .forms import input_name, normalize
 from .memo import Memo
 from .modelview import ModelView, from_mujoco
 from .overrides import apply_overrides, parse
+
+if TYPE_CHECKING:  # numpy and mujoco are loaded when first used
+    import mujoco
+    import numpy as np
 
 PACKAGE_ROOT = Path(__file__).resolve().parents[2]
 MODELS_DIR = PACKAGE_ROOT / "models"
@@ -116,7 +120,7 @@ def _ignore_warning(message: str) -> None:
     pass
 
 
-def compile_model(path: Path) -> Any:
+def compile_model(path: Path) -> mujoco.MjModel:
     """MuJoCo's model of a model file, MJCF or URDF (validate/systems/urdf.py)."""
     root, text = _model_file(path)
     return urdf.compile_urdf(text, path.name) if root == urdf.ROOT else compile_mjcf(path)
@@ -135,7 +139,7 @@ def model_view(path: Path) -> ModelView:
     return from_mujoco(model, Path(path).name)
 
 
-def compile_mjcf(path: Path, overrides: tuple[tuple[str, float], ...] = (), text: str | None = None) -> Any:
+def compile_mjcf(path: Path, overrides: tuple[tuple[str, float], ...] = (), text: str | None = None) -> mujoco.MjModel:
     """Compiles an MJCF file (or `text`, an edited copy of it) with MuJoCo; a bad file becomes a
     one-line HarnessError."""
     import mujoco
@@ -235,7 +239,7 @@ class System:
         return self.model_joints
 
     @property
-    def joint_map(self) -> Any:
+    def joint_map(self) -> np.ndarray | None:
         """A with q_notes = A q_joints, or None where each coordinate is its joint's own angle."""
         A = getattr(self.equations, "JOINT_MAP", None)
         if A is None:
@@ -262,7 +266,7 @@ class System:
         return tuple(out)
 
     @property
-    def joint_ranges(self) -> Any:
+    def joint_ranges(self) -> np.ndarray:
         """(n, 2) lower and upper limits of the coordinates' joints as the model states them (a URDF's
         <limit>, an MJCF range), -inf/inf where none; random states are drawn inside them. The limits'
         forces are never compared (they are refused or disabled)."""
@@ -331,7 +335,7 @@ class System:
         return tuple(k.split("/")[1] for k in self.view if k.startswith("actuator/") and k.endswith("/joint"))
 
     @property
-    def input_matrix(self) -> Any:
+    def input_matrix(self) -> np.ndarray:
         """B (nv, nu): the generalized force on each coordinate per unit control of each actuator (its gear
         on the coordinate of its joint), so tau = B u."""
         import numpy as np
@@ -393,12 +397,12 @@ class System:
         locked = [f"joint(s) {', '.join(self.locked)} locked at zero (made fixed) in the URDF both engines read"]
         return (locked if self.locked else []) + urdf.alignments(self.urdf_text(), self.mjcf.name)
 
-    def mujoco_model(self) -> Any:
+    def mujoco_model(self) -> mujoco.MjModel:
         """The compiled MjModel (compiled once per System)."""
         return self._model
 
     @functools.cached_property
-    def _model(self) -> Any:
+    def _model(self) -> mujoco.MjModel:
         """The MjModel, compiled and checked for what no source could compare."""
         from .scope import refusals  # reads the compiled model with mujoco: loaded when first needed
 

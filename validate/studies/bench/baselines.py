@@ -9,12 +9,15 @@ values bit for bit), as MuJoCo's rollout_test.py holds its fast path to a plain 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
 
+from ...checks.pointwise import States
+from ...engines.base import Source
 from ...engines.baselines import raw_mujoco, raw_pinocchio, raw_symbolic
+from ...systems import System
 
 
 def hand_math_rhs(p: Any) -> Callable[[float, Any], list[float]]:
@@ -68,7 +71,7 @@ def numpy_solve_rhs(p: Any) -> Callable[[float, Any], np.ndarray]:
     return rhs
 
 
-def raw_hand(system: Any, states: Any) -> dict[str, Any]:
+def raw_hand(system: System, states: States) -> dict[str, Any]:
     """The hand side of the pointwise check as the equations module's vectorised numpy formulas,
     called directly (one batched solve; tau_inverse at the computed accelerations)."""
     q, v, tau = states.q, states.v, states.tau
@@ -90,7 +93,7 @@ def raw_hand(system: Any, states: Any) -> dict[str, Any]:
     }
 
 
-def raw_pointwise(system: Any, sources: dict[str, Any], states: Any) -> dict[str, Any]:
+def raw_pointwise(system: System, sources: Mapping[str, Source], states: States) -> dict[str, Any]:
     """What `compare.evaluate` computes, as the minimal loops (`raw_hand`, `raw_mujoco`, `raw_pinocchio`;
     the engines' inverse dynamics at the hand accelerations; `raw_symbolic` where the symbolic source
     is on). {source: {quantity: array}} (the symbolic source: its generated code's raw output)."""

@@ -41,6 +41,7 @@ from ...dynamics.fast import accurate_trajectory
 from ...dynamics.integrate import SCIPY_DEFAULT, scipy_trajectory, time_grid
 from ...dynamics.mirror import mirror_steps, mirror_trajectory, mujoco_steps
 from ...dynamics.reference import DEFAULT_CACHE_DIR, reference_trajectory
+from ...engines.base import stepped
 from .plan import GRID_DRIVERS, Plan
 from .ratios import interleaved_medians
 from .runners import CacheDir, case_for, execute, resources
@@ -75,7 +76,7 @@ def check_jobs(name: str, plan: Plan) -> dict[str, tuple[str, str, Callable[[], 
     case = case_for(system, plan)
     t = time_grid(case["t_end"], case["dt_out"])
     q0, v0, tau = (np.asarray(case[k], dtype=float) for k in ("q0", "v0", "tau"))
-    dt = float(sources["mujoco"].m.opt.timestep)
+    dt = float(stepped(sources["mujoco"]).m.opt.timestep)
     hand = sources["hand"]
     jobs: dict[str, tuple[str, str, Callable[[], Any]]] = {
         "hand accurate run": ("hand", "accurate", lambda: accurate_trajectory(system, hand, q0, v0, tau, t)),
@@ -119,7 +120,8 @@ def measure_checks(name: str, *, plan: Plan, reps: int, cache_dir: CacheDir = DE
     t = time_grid(case["t_end"], case["dt_out"])
     q0, v0, tau = (np.asarray(case[k], dtype=float) for k in ("q0", "v0", "tau"))
     ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=cache_dir)
-    dt = float(sources["mujoco"].m.opt.timestep)
+    mj = stepped(sources["mujoco"])
+    dt = float(mj.m.opt.timestep)
     steps = round(float(t[1] - t[0]) / dt)
     hand = sources["hand"]
     jobs = check_jobs(name, plan)
@@ -128,9 +130,7 @@ def measure_checks(name: str, *, plan: Plan, reps: int, cache_dir: CacheDir = DE
         "hand mirror RK4 windows": lambda: mirror_steps(
             system, hand, qw, vw, tau, integrator="RK4", timestep=dt, steps=steps
         ),
-        "MuJoCo RK4 windows": lambda: mujoco_steps(
-            sources["mujoco"], qw, vw, tau, integrator="RK4", timestep=dt, steps=steps
-        ),
+        "MuJoCo RK4 windows": lambda: mujoco_steps(mj, qw, vw, tau, integrator="RK4", timestep=dt, steps=steps),
     }
     outputs = {k: fn() for k, (_, _, fn) in jobs.items()}  # compiles, and gives the errors
     ends = {k: fn() for k, fn in windows.items()}

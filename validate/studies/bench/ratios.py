@@ -12,7 +12,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -21,8 +21,10 @@ import numpy as np
 from ...checks import pointwise as compare
 from ...dynamics.integrate import source_rhs
 from ...engines import make_source
+from ...engines.base import Source, stepped
 from ...engines.baselines import raw_mujoco, raw_pinocchio, raw_symbolic
 from ...engines.fastpath import scalar_rhs
+from ...systems import System
 from .baselines import hand_math_rhs, numpy_solve_rhs, raw_hand, raw_pointwise
 from .plan import CONTENDER_DRIVERS, GRID_DRIVERS, Plan
 from .runners import case_for, resources
@@ -123,7 +125,9 @@ def pointwise_ratio(name: str, plan: Plan, *, reps: int, seed: int = 0) -> dict[
     }
 
 
-def _pointwise_at(system: Any, sources: dict[str, Any], n_states: int, *, seed: int, reps: int) -> dict[str, Any]:
+def _pointwise_at(
+    system: System, sources: Mapping[str, Source], n_states: int, *, seed: int, reps: int
+) -> dict[str, Any]:
     """`pointwise_ratio` at one batch size."""
     states = compare.random_states(system, n=n_states, seed=seed)
     q, v, tau = states.q, states.v, states.tau
@@ -171,7 +175,7 @@ def flags_ratio(name: str, plan: Plan, *, reps: int) -> list[dict[str, Any]]:
     from ...engines import mujoco as engine  # imports MuJoCo: loaded when first used
 
     system, sources = resources(name)
-    src = sources["mujoco"]
+    src = stepped(sources["mujoco"])
     case = case_for(system, plan)
     model_flags, timestep = int(src.m.opt.disableflags), float(src.m.opt.timestep)
     steps = plan.flag_steps

@@ -22,10 +22,11 @@ from ...dynamics.drakerun import drake_trajectory
 from ...dynamics.integrate import SCIPY_DEFAULT, initial_state, scipy_trajectory, time_grid
 from ...dynamics.mirror import mirror_trajectory
 from ...dynamics.reference import DEFAULT_CACHE_DIR, reference_trajectory
-from ...engines import make_sources
+from ...engines import Sources, make_sources
+from ...engines.base import OneStateSource, Source, SteppedSource, one_state, stepped
 from ...engines.fastpath import scalar_rhs
 from ...errors import HarnessError
-from ...systems import from_key, key_of
+from ...systems import System, from_key, key_of
 from .plan import CHECK_EVERY, ERROR_TIMES, SCIPY_DRIVERS, Plan
 
 CacheDir = Path | str | None  # reference_trajectory's cache_dir: a folder, None (no cache) or cache.DEFAULT
@@ -38,7 +39,7 @@ class Stop(Exception):
 LOCAL = threading.local()
 
 
-def resources(name: str) -> tuple[Any, dict[str, Any]]:
+def resources(name: str) -> tuple[System, Sources]:
     """The system and its three sources, built once per worker thread (setup is never timed)."""
     cache = LOCAL.__dict__.setdefault("systems", {})  # per worker thread: one entry per system benched
     if name not in cache:
@@ -47,7 +48,7 @@ def resources(name: str) -> tuple[Any, dict[str, Any]]:
     return cache[name]
 
 
-def case_for(system: Any, plan: Plan) -> dict[str, Any]:
+def case_for(system: System, plan: Plan) -> dict[str, Any]:
     """The start the bench integrates from: the system's `initial_state`, tau = 0, the plan's grid."""
     q0, v0 = initial_state(system)
     return {
@@ -258,8 +259,8 @@ def run_scipy(
 
 
 def run_mujoco(
-    system: Any,
-    source: Any,
+    system: System,
+    source: SteppedSource,
     q0: Any,
     v0: Any,
     tau: Any,
@@ -301,7 +302,7 @@ def run_mujoco(
 class GuardedSource:
     """A source whose `rhs` is guarded (deadline, finiteness), for the mirror integrators."""
 
-    def __init__(self, source: Any, deadline: float) -> None:
+    def __init__(self, source: OneStateSource, deadline: float) -> None:
         self._source, self._deadline = source, deadline
         self.name = source.name
         self.stats: Callable[[], dict[str, Any]] = lambda: {"nfev": 0, "stop": None}
@@ -315,8 +316,8 @@ class GuardedSource:
 
 
 def run_mirror(
-    system: Any,
-    source: Any,
+    system: System,
+    source: Source,
     q0: Any,
     v0: Any,
     tau: Any,
@@ -327,7 +328,7 @@ def run_mirror(
     deadline: float,
 ) -> dict[str, Any]:
     """`mirror_trajectory` (MuJoCo's scheme on an engine's per-call rhs), timed around the call."""
-    src = GuardedSource(source, deadline)
+    src = GuardedSource(one_state(source), deadline)
     c0, w0 = time.process_time(), time.perf_counter()
     try:
         traj = mirror_trajectory(system, src, q0, v0, tau, t, integrator=integrator, timestep=timestep)
@@ -342,7 +343,7 @@ def run_mirror(
 
 
 def run_taylor(
-    system: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, tol: float, max_steps: int, source: str = "hand"
+    system: System, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, tol: float, max_steps: int, source: str = "hand"
 ) -> dict[str, Any]:
     """heyoka's Taylor integrator in double precision at `tol` on the hand equations or the derived
     ones ("symbolic": joint coordinates, JOINT_MAP applied outside the clock); compiled before the
@@ -363,7 +364,7 @@ def run_taylor(
 
 
 def run_compiled_rk4(
-    system: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, timestep: float, deadline: float
+    system: System, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, timestep: float, deadline: float
 ) -> dict[str, Any]:
     """Classic RK4 with its steps compiled (heyoka cfunc, `compiled.rk4_plan` steps per call), one
     Python call per group of steps; the loop over the samples is timed."""
@@ -380,7 +381,16 @@ def run_compiled_rk4(
 
 
 def run_rollout(
-    system: Any, source: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, integrator: str, timestep: float, batch: int
+    system: System,
+    source: SteppedSource,
+    q0: Any,
+    v0: Any,
+    tau: Any,
+    t: np.ndarray,
+    *,
+    integrator: str,
+    timestep: float,
+    batch: int,
 ) -> dict[str, Any]:
     """MuJoCo's `rollout` of `batch` copies of the start (engines/mujoco.rollout_run); the row's time is
     the batch's CPU time divided by `batch` (per trajectory), its samples those of the first copy."""
@@ -400,7 +410,7 @@ def run_rollout(
 
 
 def run_drake(
-    system: Any, source: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, spec: dict[str, Any]
+    system: System, source: Source, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, spec: dict[str, Any]
 ) -> dict[str, Any]:
     """Drake's own integrator on its continuous plant (dynamics/integrate.py `drake_trajectory`): at a
     target accuracy (setting "accuracy", max step one output interval) or fixed steps ("timestep");
@@ -419,7 +429,7 @@ def run_drake(
     return result_row("ok", "", cpu, wall, t=t, q=np.ascontiguousarray(traj.q), nfev=nfev, steps=steps)
 
 
-def run_default(system: Any, source: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray) -> dict[str, Any]:
+def run_default(system: System, source: Source, q0: Any, v0: Any, tau: Any, t: np.ndarray) -> dict[str, Any]:
     """The harness's default scipy integration, as `run` calls it (no budget: it has no hook)."""
     c0, w0 = time.process_time(), time.perf_counter()
     try:
@@ -445,7 +455,7 @@ def run_once(spec: dict[str, Any], case: dict[str, Any], plan: Plan) -> dict[str
         elif engine == "hand-cfunc":
             f, tau_list = compiled_rhs(system), np.array(tau, dtype=float)
         else:
-            f = sources[engine].rhs(tau)
+            f = one_state(sources[engine]).rhs(tau)
         deadline = time.perf_counter() + budget
         return run_scipy(
             driver, spec["scheme"], f, y0, t, rtol=spec["value"], atol=spec["atol"], deadline=deadline, tau=tau_list
@@ -453,7 +463,7 @@ def run_once(spec: dict[str, Any], case: dict[str, Any], plan: Plan) -> dict[str
     if driver == "mujoco":
         return run_mujoco(
             system,
-            sources["mujoco"],
+            stepped(sources["mujoco"]),
             q0,
             v0,
             tau,
@@ -485,7 +495,15 @@ def run_once(spec: dict[str, Any], case: dict[str, Any], plan: Plan) -> dict[str
     if driver in ("rollout", "rollout_batch"):
         batch = spec["batch"] if driver == "rollout_batch" else 1
         return run_rollout(
-            system, sources["mujoco"], q0, v0, tau, t, integrator=spec["scheme"], timestep=spec["value"], batch=batch
+            system,
+            stepped(sources["mujoco"]),
+            q0,
+            v0,
+            tau,
+            t,
+            integrator=spec["scheme"],
+            timestep=spec["value"],
+            batch=batch,
         )
     if driver == "drake":
         if "drake" not in sources:

@@ -5,6 +5,7 @@ approach the worst configuration, and the solve tier they would need.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -13,8 +14,10 @@ import numpy as np
 from ...checks import pointwise as compare
 from ...checks.tolerances import TOLERANCES
 from ...engines import make_sources
+from ...engines.base import Source
 from ...engines.hand import HandSource
 from ...errors import HarnessError
+from ...systems import System
 from .settings import EPS, FIT_FROM_COND, MAX_FACTOR, PROPOSAL_MARGIN, TARGET_DISTANCES, TARGETED_STATES, Settings
 
 
@@ -25,7 +28,7 @@ def equilibrated_cond(M: np.ndarray) -> np.ndarray:
     return np.linalg.cond(M * d[..., :, None] * d[..., None, :])
 
 
-def worst_configuration(system: Any, hand: Any) -> np.ndarray:
+def worst_configuration(system: System, hand: Source) -> np.ndarray:
     """The q (rad) with the largest cond(M): the best point of a grid, refined by Nelder-Mead on log cond."""
     from scipy.optimize import minimize  # heavy: loaded when first used
 
@@ -44,7 +47,7 @@ def worst_configuration(system: Any, hand: Any) -> np.ndarray:
     return res.x if res.fun <= neg_log_cond(start) else start
 
 
-def conditioning_states(system: Any, hand: Any, *, n: int, seed: int) -> tuple[Any, np.ndarray]:
+def conditioning_states(system: System, hand: Source, *, n: int, seed: int) -> tuple[compare.States, np.ndarray]:
     """compare.random_states plus TARGETED_STATES approaching the worst configuration, and that q."""
     states = compare.random_states(system, n=n, seed=seed)
     q_worst = worst_configuration(system, hand)
@@ -68,7 +71,7 @@ class Sweep:
     light: str  # body made lighter beyond MAX_FACTOR
 
 
-def sweep_overrides(system: Any, sweep: Sweep, ratio: float) -> tuple[tuple[str, float], ...]:
+def sweep_overrides(system: System, sweep: Sweep, ratio: float) -> tuple[tuple[str, float], ...]:
     """Overrides (added to the system's own) that make the heavy body `ratio` times the light one's
     mass (or inertia), relative to the system as loaded."""
     heavy_f = min(ratio, MAX_FACTOR)
@@ -87,7 +90,7 @@ def sweep_overrides(system: Any, sweep: Sweep, ratio: float) -> tuple[tuple[str,
     return tuple(out)
 
 
-def conditioning_sweeps(system: Any, hand: Any) -> list[Sweep]:
+def conditioning_sweeps(system: System, hand: Source) -> list[Sweep]:
     """Ratio sweeps between the first and the last body, both ways: of masses where M depends on them,
     of inertias where it does not (the mass-balanced gimbal). None for one coordinate (cond(M) = 1)."""
     if system.nv < 2 or len(system.bodies) < 2:
@@ -107,7 +110,7 @@ def conditioning_sweeps(system: Any, hand: Any) -> list[Sweep]:
     return [Sweep(f"{kind} {last}/{first}", kind, last, first), Sweep(f"{kind} {first}/{last}", kind, first, last)]
 
 
-def conditioning_point(system: Any, *, n_states: int, seed: int) -> dict[str, Any]:
+def conditioning_point(system: System, *, n_states: int, seed: int) -> dict[str, Any]:
     """cond(M) and the sources' disagreement in q'' and tau_inverse at one parameter set.
 
     Besides compare.compare's rows (their `scaled` error, `tolerance` and verdict), each row gets the
@@ -155,7 +158,7 @@ def conditioning_point(system: Any, *, n_states: int, seed: int) -> dict[str, An
     }
 
 
-def conditioning_rows(system: Any, sources: dict[str, Any], settings: Settings) -> list[dict[str, Any]]:
+def conditioning_rows(system: System, sources: Mapping[str, Source], settings: Settings) -> list[dict[str, Any]]:
 
     out = []
     for sweep in conditioning_sweeps(system, sources["hand"]):

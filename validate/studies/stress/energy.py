@@ -4,11 +4,14 @@ numerical damping, energy injection, irregular.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
 from ...dynamics.integrate import initial_state
+from ...engines.base import Source
+from ...systems import System
 from .runs import downsample, run_energy, simulate
 from .settings import (
     ENVELOPE_GROWTH,
@@ -115,11 +118,13 @@ def classify_energy(
     }
 
 
-def conservative(system: Any) -> bool:
+def conservative(system: System) -> bool:
     return not ({"damping", "actuation"} & set(system.uses))
 
 
-def drift_rows(system: Any, sources: dict[str, Any], settings: Settings, *, V_min: float) -> list[dict[str, Any]]:
+def drift_rows(
+    system: System, sources: Mapping[str, Source], settings: Settings, *, V_min: float
+) -> list[dict[str, Any]]:
     """Energy over every horizon, for every MuJoCo integrator and mirror, at the MJCF timestep."""
     q0, v0 = initial_state(system)
     tau = np.zeros(system.nv)

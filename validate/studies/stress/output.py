@@ -11,7 +11,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ...engines import make_sources
+from ...engines import Sources, make_sources
 from ...errors import HarnessError
 from ...results import atomic_write, dumps, provenance
 from ...systems import System, from_key, key_of, load, system_names
@@ -137,7 +137,7 @@ def run_stress(
 LOCAL = threading.local()
 
 
-def prepare(system: Any) -> tuple[dict[str, Any], float]:
+def prepare(system: System) -> tuple[Sources, float]:
     """A system's sources and the smallest potential on its grid (shared by its sections)."""
     sources = make_sources(system)
     return sources, minimum_potential(system, sources["hand"])
@@ -157,7 +157,7 @@ def section_task(
         return run_section(cache[(key, overrides)], section, settings)
 
 
-def run_section(prepared: tuple[Any, dict[str, Any], float], section: str, settings: Settings) -> dict[str, Any]:
+def run_section(prepared: tuple[System, Sources, float], section: str, settings: Settings) -> dict[str, Any]:
     """One section's rows on one system: {"system", "section", "rows", "skipped", "elapsed"}."""
     s, sources, V_min = prepared
     t0 = time.perf_counter()

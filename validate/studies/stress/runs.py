@@ -5,12 +5,15 @@ at the first warning or non-finite state; their energy, downsampled for the resu
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
 from ...dynamics.mirror import mirror_trajectory
+from ...engines.base import Source, stepped
 from ...errors import HarnessError, unknown_name
+from ...systems import System
 from .settings import MIRROR_INTEGRATORS, MUJOCO_INTEGRATORS, SERIES_POINTS, Run
 
 
@@ -22,8 +25,8 @@ def quiet_mujoco_warnings() -> Any:
 
 
 def simulate(
-    system: Any,
-    sources: dict[str, Any],
+    system: System,
+    sources: Mapping[str, Source],
     engine: str,
     integrator: str,
     q0: Any,
@@ -57,7 +60,7 @@ def simulate(
         from ...engines import mujoco as mj  # imports MuJoCo
 
         done_q, done_v, failure, k_fail = mj.sampled_run(
-            sources["mujoco"],
+            stepped(sources["mujoco"]),
             q0,
             v0,
             tau,
@@ -97,7 +100,7 @@ def simulate(
     return Run(np.array(ts), np.array(qs).reshape(-1, n), np.array(vs).reshape(-1, n), failure, t_fail)
 
 
-def minimum_potential(system: Any, hand: Any) -> float:
+def minimum_potential(system: System, hand: Source) -> float:
     """V_min (J): the smallest potential energy on a grid of 65 points per coordinate over [-pi, pi]."""
     n = system.nv
     points = 65 if n <= 3 else 9
@@ -106,7 +109,7 @@ def minimum_potential(system: Any, hand: Any) -> float:
     return float(hand.energies(q, np.zeros_like(q))[1].min())
 
 
-def run_energy(hand: Any, run: Run) -> np.ndarray:
+def run_energy(hand: Source, run: Run) -> np.ndarray:
     """E = T + V at every sample of a run (J), by the hand equations."""
     with np.errstate(all="ignore"):
         kin, pot = hand.energies(run.q, run.v)

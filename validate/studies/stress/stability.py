@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -11,7 +11,9 @@ import numpy as np
 from ...dynamics.integrate import initial_state, scipy_trajectory, time_grid
 from ...dynamics.mirror import eulerdamp_active
 from ...engines import make_sources
+from ...engines.base import Source
 from ...errors import HarnessError
+from ...systems import System
 from .energy import classify_energy
 from .runs import minimum_potential, run_energy, simulate
 from .settings import (
@@ -27,8 +29,8 @@ from .settings import (
 
 
 def stability_trial(
-    system: Any,
-    sources: dict[str, Any],
+    system: System,
+    sources: Mapping[str, Source],
     engine: str,
     integrator: str,
     q0: Any,
@@ -108,7 +110,9 @@ def criterion_name(growth: float) -> str:
     return f"energy x{1 + growth:g}"
 
 
-def stability_rows(system: Any, sources: dict[str, Any], settings: Settings, *, V_min: float) -> list[dict[str, Any]]:
+def stability_rows(
+    system: System, sources: Mapping[str, Source], settings: Settings, *, V_min: float
+) -> list[dict[str, Any]]:
     """Per speed, engine, integrator and criterion (settings.growth_factors): the bisection's result."""
     q0, _ = initial_state(system)
     tau = np.zeros(system.nv)
@@ -156,7 +160,7 @@ def stability_rows(system: Any, sources: dict[str, Any], settings: Settings, *, 
     return rows
 
 
-def stiff_rows(system: Any, settings: Settings) -> list[dict[str, Any]]:
+def stiff_rows(system: System, settings: Settings) -> list[dict[str, Any]]:
     """Every integrator at every timestep on the system with its joint damping times each factor."""
     q0, v0 = initial_state(system)
     tau = np.zeros(system.nv)
