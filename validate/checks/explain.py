@@ -369,7 +369,7 @@ def _user_part(part: str, index: tuple[int, ...]) -> Any:
 
 
 def step_expression(system: System, quantity: tuple[Any, ...], angle_index: int = 0) -> Any:
-    """The model's own expression of a derivation step's quantity (judge.engine_quantity's list), in
+    """The model's own expression of a derivation step's quantity (terms.engine_quantity's list), in
     the system's coordinates: a scalar, a 3-vector or a 3x3 matrix."""
     import sympy as sp
 

@@ -17,8 +17,9 @@ from ...equations._forms import Explicit
 from ..results.schema import TermRow
 from ..systems import System
 from ..systems.forms import written_form
-from .judge import EngineTerms, judge_variant, term_rows
+from .judge import judge_variant
 from .pointwise import States
+from .terms import EngineTerms, term_rows
 from .tolerances import TOLERANCES, Tolerances
 
 ErrorRow = Callable[[str, str, str], TermRow]  # (term, engine, why) -> a failing row

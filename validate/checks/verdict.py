@@ -39,9 +39,9 @@ from . import probes as probing
 from . import words
 from .explain import explain
 from .inputs import acceleration_rows, actuation_rows, ignored_torques
-from .judge import EngineTerms, engines_of, term_rows
 from .modelsync import equations_vs_model
 from .pointwise import States, force_scale, random_states
+from .terms import EngineTerms, engines_of, term_rows
 from .tolerances import TOLERANCES, Tolerances
 
 HAND_TERMS = (
@@ -346,7 +346,7 @@ def _explanations(
 
 def _rows_at_model(
     system: System, states: States, sources: Mapping[str, Source], values: dict[str, Any] | None, tolerances: Tolerances
-) -> tuple[list[dict[str, Any]], dict[int, dict[str, Any]]]:
+) -> tuple[list[TermRow], dict[int, dict[str, Any]]]:
     """Every term's rows at the model's parameters and the model's own checks; its notes, as probe 0's."""
     rows, notes = term_rows_at(system, states, sources, values=values, tolerances=tolerances)
     for r in rows:
@@ -356,9 +356,9 @@ def _rows_at_model(
 
 def _rows_at_probes(
     probe_set: ProbeSet, *, probe_states: int, seed: int, tolerances: Tolerances
-) -> tuple[list[dict[str, Any]], dict[int, dict[str, Any]]]:
+) -> tuple[list[TermRow], dict[int, dict[str, Any]]]:
     """What parameters() misread, then every term's rows at each probe; each probe's notes, by index."""
-    rows: list[dict[str, Any]] = []
+    rows: list[TermRow] = []
     notes: dict[int, dict[str, Any]] = {}
     if probe_set.misread is not None:
         rows.append(
@@ -417,7 +417,7 @@ def _hidden_statement(
     result: Derivation,
     system: System,
     first: str,
-    failing: list[dict[str, Any]],
+    failing: list[TermRow],
     probe_set: ProbeSet,
     *,
     seed: int,
@@ -425,7 +425,7 @@ def _hidden_statement(
 ) -> None:
     """The statement for a mistake the model's own values hide: the first probe that shows it, the
     parameters that expose it alone, and the assumptions the derivation makes without saying."""
-    first_probe = min(r["probe"] for r in failing if r.get("probe"))
+    first_probe = min(p for r in failing if (p := r.get("probe")))
     described = next(p for p in probe_set.probes if p.index == first_probe).describe()
     exposed = exposing_fields(system, first, tolerances=tolerances, seed=seed)
     result["exposed_by"] = exposed
@@ -443,7 +443,7 @@ def _hidden_statement(
 def _disagreement(
     result: Derivation,
     system: System,
-    rows: list[dict[str, Any]],
+    rows: list[TermRow],
     probe_set: ProbeSet,
     *,
     seed: int,
@@ -516,7 +516,7 @@ def judge_derivation(
     rows += probe_rows
     all_notes |= probe_notes
     _coverage(result, system, states, probe_set, probe_states)
-    result["terms"] = cast(list[TermRow], rows)
+    result["terms"] = rows
     result["summary"] = summarise(rows)
     if all_notes:
         result["notes"] = {str(k): v for k, v in all_notes.items()}
