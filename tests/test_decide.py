@@ -120,7 +120,9 @@ def test_check_leaves_the_package_and_the_working_folder_unchanged(tmp_path):
         f"r = lx.check(lx.System.from_files({str(model)!r}, {str(module)!r}), n_states=20, probes=2)\n"
         "sys.exit(0 if not r.passed and 'gravity' in r.statement else 3)\n"
     )
-    skip = (".git", ".venv", "__pycache__")
+    # what the tools write, never the harness: git, the venv, bytecode, and (the test files run in parallel)
+    # pytest's and hypothesis's own folders
+    skip = (".git", ".venv", "__pycache__", ".pytest_cache", ".hypothesis")
     package, inputs = _tree(PACKAGE_ROOT, skip), _tree(tmp_path / "in")
     done = subprocess.run([sys.executable, "-c", code], cwd=work, env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stdout + done.stderr

@@ -286,6 +286,7 @@ def test_one_process_per_task_and_a_dying_task_fails_alone() -> None:
     assert len({pid for _, pid in results} | {after.result()[1]}) == 4
 
 
+@pytest.mark.long
 def test_derive_of_a_chain_beyond_three_joints_is_exact_with_common_subexpressions(tmp_path: Path) -> None:
     """Beyond three joints `derive` does not simplify (minutes on a 6-joint arm): it says so on stderr
     and prints the exact equations with their common subexpressions, every term of M, C v and G named."""

@@ -142,6 +142,7 @@ def test_new_lock_writes_the_module_of_the_locked_urdf(tmp_path, capsys):
     assert "no joint 'nope' to lock" in capsys.readouterr().err and not (tmp_path / "other.py").exists()
 
 
+@pytest.mark.long
 def test_new_filled_in_from_derive_passes_every_check_locked(tmp_path, capsys):
     """`new --lock` and `derive --python --lock` on the same URDF: derive's code is the dynamics of
     new's module as it is, which passes check (the model's numbers and probes moving every field),

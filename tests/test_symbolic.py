@@ -194,6 +194,7 @@ def test_derive_python_output_computes_the_engines_mass_matrix(tmp_path):
     assert derived["kinetic_energy"](p, q, v).shape == derived["potential_energy"](p, q).shape == (2,)
 
 
+@pytest.mark.long
 def test_derive_urdf_arm_latex_and_bad_input(tmp_path):
     urdf = EXAMPLES / "urdf" / "spatial_arm.urdf"
     done = _cli("derive", "--model", str(urdf), "--latex", "--coordinates", "q1,q2,q3")
