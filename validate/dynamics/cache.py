@@ -14,9 +14,9 @@ the entry is rewritten. Files are readable by everyone (0644); an entry another 
 key) is recomputed like a forged one. A cache that cannot be written costs time, never the run.
 
 Where: the folder of the `Cache` value a caller passes down (dynamics/cachedir.py: `run` and `check`);
-for `cache_dir=DEFAULT`, `$LAGRANGE_XVAL_CACHE` (`bench` sets it from `--cache-dir`, default
-`OUT/.cache`, and to the empty string for `--no-cache`; pool workers inherit it), else the user's cache
-folder, never a folder inside the installed package.
+for `cache_dir=DEFAULT` (`bench`, `derive`), `$LAGRANGE_XVAL_CACHE` when the user sets it (the empty
+string: no cache; pool workers inherit it; the harness never writes it), else the user's cache folder,
+never a folder inside the installed package.
 """
 
 from __future__ import annotations
