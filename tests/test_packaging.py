@@ -11,6 +11,7 @@ from __future__ import annotations
 import ast
 import functools
 import importlib.util
+import os
 import re
 import shutil
 import subprocess
@@ -257,3 +258,36 @@ def test_the_built_wheel_installs_whole_and_every_command_runs(tmp_path):
     assert done.returncode == 0, done.stdout + done.stderr
     assert done.stdout.splitlines()[-1].startswith("verdict: simple_pendulum: pass"), done.stdout
     assert list(work.iterdir()) == []
+    _api_check_writes_nothing(python, _installed_folder(python, work), tmp_path, work)
+
+
+def _installed_folder(python: Path, work: Path) -> Path:
+    """The installed package's folder, as the installed interpreter finds it."""
+    code = "import lagrange_xval, pathlib; print(pathlib.Path(lagrange_xval.__file__).parent)"
+    found = subprocess.run([str(python), "-c", code], cwd=work, capture_output=True, text=True, check=True)
+    return Path(found.stdout.strip())
+
+
+def _api_check_writes_nothing(python: Path, package: Path, tmp_path: Path, work: Path) -> None:
+    """`lx.check` of a wrong derivation (whose explanation a cache would keep) with the installed
+    package: the installation and the working folder are as they were (bytecode off)."""
+    from .mutations import MUTATIONS, mutated_source
+
+    hidden = next(m for m in MUTATIONS if m.system == "simple_pendulum" and m.name.startswith("g sin th without l"))
+    model, module = tmp_path / "in" / "mine.xml", tmp_path / "in" / "mine.py"
+    model.parent.mkdir()
+    model.write_text((ROOT / "models" / "simple_pendulum.xml").read_text())
+    module.write_text(mutated_source(hidden))
+    code = (
+        "import lagrange_xval as lx, sys\n"
+        f"r = lx.check(lx.System.from_files({str(model)!r}, {str(module)!r}), n_states=20, probes=2)\n"
+        "sys.exit(0 if not r.passed and 'gravity' in r.statement else 3)\n"
+    )
+    before = sorted(p for p in package.rglob("*") if "__pycache__" not in p.parts)
+    xdg = tmp_path / "xdg"
+    env = {k: v for k, v in os.environ.items() if k != "LAGRANGE_XVAL_CACHE"}
+    env |= {"PYTHONDONTWRITEBYTECODE": "1", "XDG_CACHE_HOME": str(xdg)}
+    done = subprocess.run([str(python), "-c", code], cwd=work, env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert sorted(p for p in package.rglob("*") if "__pycache__" not in p.parts) == before
+    assert list(work.iterdir()) == [] and not xdg.exists()
