@@ -289,3 +289,26 @@ def test_a_worker_signalled_before_its_initializer_ran_stays_quiet():
         err = f.read()
     assert os.WIFSIGNALED(status) and os.WTERMSIG(status) == signal.SIGTERM, status
     assert err == ""
+
+
+def test_completed_gives_each_future_once_as_it_finishes():
+    """parallel.completed (run's, bench's and stress's wait): every future once, in the order they
+    finish, those finished before it is called included."""
+    import threading
+    from concurrent.futures import Future, ThreadPoolExecutor
+
+    from lagrange_xval.validate.parallel import completed
+
+    early: Future[int] = Future()
+    early.set_result(-1)
+    gates = [threading.Event() for _ in range(3)]
+    with ThreadPoolExecutor(max_workers=3) as pool:
+        futures = [pool.submit(lambda i=i: gates[i].wait(10) and i) for i in range(3)]
+        order = []
+        stream = completed([*futures, early])
+        order.append(next(stream).result())
+        for i in (2, 0, 1):
+            gates[i].set()
+            order.append(next(stream).result())
+        assert list(stream) == []
+    assert order == [-1, 2, 0, 1]

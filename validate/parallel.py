@@ -21,16 +21,31 @@ from __future__ import annotations
 import contextlib
 import functools
 import os
+import queue
 import re
 import threading
 from collections import deque
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import CancelledError, Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor
-from typing import Any
+from typing import Any, TypeVar
 
 from .errors import HarnessError
 
 EXECUTOR_KINDS = ("local", "dask")
+T = TypeVar("T")
+
+
+def completed(futures: Iterable[Future[T]]) -> Iterator[Future[T]]:
+    """The futures as each finishes (as `concurrent.futures.as_completed`), waited for through their
+    done callbacks and a C queue. CPython 3.11's `as_completed` takes every future's lock in a loop
+    that Ctrl-C can interrupt midway: a lock left held then blocks the pool's manager thread, which
+    the interpreter joins at exit, for ever (a run interrupted just as it started hung)."""
+    finished: queue.SimpleQueue[Future[T]] = queue.SimpleQueue()
+    pending = list(futures)
+    for future in pending:
+        future.add_done_callback(finished.put)
+    for _ in pending:
+        yield finished.get()
 
 
 def _worker_init(parent: int) -> None:
@@ -48,6 +63,9 @@ def _worker_init(parent: int) -> None:
         ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGKILL)
     if os.getppid() != parent:  # the parent died before the line above took effect
         os._exit(1)
+
+
+MANAGER_JOIN_S = 30.0  # at most this long for a pool's manager thread at shutdown (they end in milliseconds)
 
 
 class OnePerTask(Executor):
@@ -140,7 +158,7 @@ class OnePerTask(Executor):
             managers, self._managers = self._managers, []
         for manager in managers:
             if manager is not None and manager is not threading.current_thread():
-                manager.join()
+                manager.join(timeout=MANAGER_JOIN_S)
 
 
 @contextlib.contextmanager

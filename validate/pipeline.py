@@ -5,7 +5,7 @@ Each step returns plain data; `run` assembles `results.json` and the reports ren
 
 from __future__ import annotations
 
-from concurrent.futures import BrokenExecutor, Executor, as_completed
+from concurrent.futures import BrokenExecutor, Executor
 from pathlib import Path
 from typing import Any
 
@@ -27,7 +27,7 @@ from .dynamics.freeruns import (
 from .engines.base import stepped
 from .errors import HarnessError
 from .guard import DEFAULT_TIME_LIMIT, Stopped
-from .parallel import executor_for
+from .parallel import completed, executor_for
 from .results import provenance
 from .results.schema import Derivation, ModelChecks, Pointwise, Provenance, RunResults, SystemResult
 from .systems import MODELS_DIR, System, load, load_all
@@ -466,7 +466,7 @@ def run(
             if progress:
                 progress(system.name, "start")
         done: dict[str, Any] = {}
-        for future in as_completed(futures):
+        for future in completed(futures):
             name = futures[future].name
             done[name], extra = _outcome(future, futures[future])
             if rendered is not None and after is not None:

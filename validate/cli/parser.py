@@ -445,6 +445,7 @@ def _bench_arguments(bench: argparse.ArgumentParser) -> None:
     )
     _bench_study_options(bench)
     _model_options(bench)
+    _time_limit_option(bench)
     _cache_options(bench)
     _executor_option(bench, "the timed runs")
 
@@ -465,6 +466,7 @@ def _stress_arguments(stress: argparse.ArgumentParser) -> None:
         "--out", type=path_arg, default=Path("reports"), metavar="DIR", help="folder for stress.json (default: reports)"
     )
     _model_options(stress)
+    _time_limit_option(stress)
     _cache_options(stress)
     _executor_option(stress, "the sections", "one after another in this process")
 

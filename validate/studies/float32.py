@@ -48,6 +48,7 @@ from ..dynamics.integrate import initial_state, time_grid
 from ..dynamics.reference import DEFAULT_CACHE_DIR, reference_trajectory
 from ..engines import make_source
 from ..engines.base import engine_of, one_state, stepped
+from ..guard import DEFAULT_TIME_LIMIT
 from ..results import atomic_write, dumps, provenance
 from ..systems import System, load_all, system_names
 from .chains import chain_mjcf
@@ -443,7 +444,10 @@ def float32_command(args: Any) -> int:
 
     names = list(getattr(args, "systems", None) or [])
     locked = tuple(getattr(args, "locked", None) or ())
-    own = tuple(System.from_files(m, e, locked=locked) for m, e in (getattr(args, "files", None) or []))
+    limit = getattr(args, "time_limit", DEFAULT_TIME_LIMIT)
+    own = tuple(
+        System.from_files(m, e, locked=locked, time_limit=limit) for m, e in (getattr(args, "files", None) or [])
+    )
     results = run_float32(
         names or None,
         quick=bool(getattr(args, "quick", False)),

@@ -578,19 +578,21 @@ FILES_KEY = "file:"  # the key of a system from a person's own files: paths and 
 
 def key_of(system: System) -> str:
     """A string that finds `system` again in another process (`from_key`): a repository system's name,
-    or the paths of a person's model and equations module (overrides travel separately)."""
+    or the paths of a person's model and equations module with its time limit (overrides travel
+    separately)."""
     repository = system.text is None and system.name in system_names()
     if repository and system.mjcf.resolve() == (MODELS_DIR / f"{system.name}.xml").resolve():
         return system.name
     equations = Path(getattr(system.equations, "__file__", "") or "")
+    limit = getattr(getattr(system.equations, "GUARD", None), "time_limit", DEFAULT_TIME_LIMIT)
     return FILES_KEY + json.dumps(
-        [str(system.mjcf.resolve()), str(equations.resolve()), system.name, list(system.locked)]
+        [str(system.mjcf.resolve()), str(equations.resolve()), system.name, list(system.locked), limit]
     )
 
 
 def from_key(key: str) -> System:
     """The system `key_of` gave the key of."""
     if key.startswith(FILES_KEY):
-        model, equations, name, locked = json.loads(key[len(FILES_KEY) :])
-        return System.from_files(model, equations, name=name, locked=tuple(locked))
+        model, equations, name, locked, limit = json.loads(key[len(FILES_KEY) :])
+        return System.from_files(model, equations, name=name, locked=tuple(locked), time_limit=limit)
     return load(key)

@@ -7,12 +7,13 @@ from __future__ import annotations
 import math
 import statistics
 from collections.abc import Callable, Iterable
-from concurrent.futures import Executor, Future, as_completed
+from concurrent.futures import Executor, Future
 from typing import Any
 
 import numpy as np
 
 from ...errors import HarnessError
+from ...parallel import completed
 from .plan import ERROR_TIMES, Plan
 from .runners import execute
 
@@ -223,7 +224,7 @@ def collect(
         more = f" and {len(extra_futures)} ratio measurements" if extra_futures else ""
         progress(f"repeat {rep + 1}/{plan.repeats}: timing {len(futures)} runs{more}")
     done = 0
-    for fut in as_completed([*futures, *extra_futures]):
+    for fut in completed([*futures, *extra_futures]):
         if fut in extra_futures:
             extras[extra_futures[fut]] = fut.result()
             if progress:

@@ -5,14 +5,15 @@ from __future__ import annotations
 import statistics
 import time
 from collections.abc import Callable
-from concurrent.futures import Executor, as_completed
+from concurrent.futures import Executor
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from ...dynamics.reference import DEFAULT_CACHE_DIR
 from ...errors import HarnessError
-from ...parallel import executor_for
+from ...guard import DEFAULT_TIME_LIMIT
+from ...parallel import completed, executor_for
 from ...results import atomic_write, dumps, provenance
 from ...systems import System, key_of, load_all, system_names
 from .analysis import pareto_front, sweep, time_to_epsilon
@@ -43,6 +44,7 @@ def run_bench(
     files: list[tuple[Path, Path]] | None = None,
     locked: tuple[str, ...] = (),
     cache_dir: CacheDir = DEFAULT_CACHE_DIR,
+    time_limit: float = DEFAULT_TIME_LIMIT,
 ) -> dict[str, Any]:
     """The work-precision sweep and the ratios, as JSON-able data.
 
@@ -58,7 +60,9 @@ def run_bench(
     start = time.perf_counter()
     if plan.repeats < 1:
         raise HarnessError(f"--repeats must be at least 1; got {plan.repeats}.")
-    named = chosen_systems(names, plan, files=files, locked=locked)  # unknown names fail here, before any work
+    named = chosen_systems(
+        names, plan, files=files, locked=locked, time_limit=time_limit
+    )  # unknown names fail here, before any work
     chosen = list(named)  # what the workers find each system by (systems.key_of)
     with executor_for(executor) as pool:
         if progress:
@@ -80,13 +84,18 @@ def run_bench(
 
 
 def chosen_systems(
-    names: list[str] | None, plan: Plan, *, files: list[tuple[Path, Path]] | None, locked: tuple[str, ...]
+    names: list[str] | None,
+    plan: Plan,
+    *,
+    files: list[tuple[Path, Path]] | None,
+    locked: tuple[str, ...],
+    time_limit: float = DEFAULT_TIME_LIMIT,
 ) -> dict[str, str]:
     """{key: name} of the systems benched: `names`, or the plan's (every one when it names none), and
     a person's `files`."""
     chosen = list(names) if names else ([] if files else list(plan.systems or system_names()))
     systems = load_all(chosen) if chosen else []
-    systems += [System.from_files(m, e, locked=locked) for m, e in (files or [])]
+    systems += [System.from_files(m, e, locked=locked, time_limit=time_limit) for m, e in (files or [])]
     return {key_of(s): s.name for s in systems}
 
 
@@ -242,7 +251,7 @@ def prepare_all(
     """`prepare` on every system in the pool, a progress line as each reference is ready."""
     futures = {pool.submit(prepare, k, plan, cache_dir=cache_dir): k for k in chosen}
     out: dict[str, Any] = {}
-    for fut in as_completed(futures):
+    for fut in completed(futures):
         out[futures[fut]] = fut.result()
         if progress:
             progress(f"reference of {named[futures[fut]]} ready ({len(out)}/{len(chosen)})")
@@ -305,6 +314,7 @@ def bench_command(args: Any, executor: Executor | None = None) -> int:
         locked=tuple(getattr(args, "locked", None) or ()),
         executor=executor,
         cache_dir=getattr(args, "reference_cache", DEFAULT_CACHE_DIR),
+        time_limit=getattr(args, "time_limit", DEFAULT_TIME_LIMIT),
     )
     results["config"]["executor"] = getattr(args, "executor", None) or "local"
     path = write_bench(results, Path(getattr(args, "out", None) or "reports"))

@@ -6,13 +6,15 @@ import sys
 import threading
 import time
 from collections.abc import Callable
-from concurrent.futures import Executor, as_completed
+from concurrent.futures import Executor
 from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ...engines import Sources, make_sources
 from ...errors import HarnessError
+from ...guard import DEFAULT_TIME_LIMIT
+from ...parallel import completed
 from ...results import atomic_write, dumps, provenance
 from ...systems import System, from_key, key_of, load, system_names
 from ...systems.overrides import parse
@@ -67,6 +69,7 @@ def run_stress(
     files: list[tuple[Path, Path]] | None = None,
     executor: Executor | None = None,
     locked: tuple[str, ...] = (),
+    time_limit: float = DEFAULT_TIME_LIMIT,
 ) -> dict[str, Any]:
     """The four stress experiments on the systems named (all when none) and on a person's own
     (`files`: (model, equations) pairs, their URDF joints `locked` made fixed), with `overrides` on
@@ -79,7 +82,8 @@ def run_stress(
     settings = settings or (QUICK if quick else FULL)
     say = progress or (lambda msg: None)
     systems_ = [load(n, overrides=tuple(overrides)) for n in (names or ([] if files else system_names()))]
-    systems_ += [System.from_files(m, e, locked=locked).derive(overrides=tuple(overrides)) for m, e in (files or [])]
+    own = [System.from_files(m, e, locked=locked, time_limit=time_limit) for m, e in (files or [])]
+    systems_ += [s.derive(overrides=tuple(overrides)) for s in own]
     for s in systems_:
         try:
             s.mujoco_model()
@@ -121,7 +125,7 @@ def run_stress(
             executor.submit(section_task, key_of(s), tuple(overrides), section, settings): (s, section)
             for s, section in tasks
         }
-        for fut in as_completed(futures):
+        for fut in completed(futures):
             done = fut.result()
             collect(results, done)
             say(f"[{time.perf_counter() - start:6.1f} s] {done['system']}: {done['section']} ({done['elapsed']:.1f} s)")
@@ -423,6 +427,7 @@ def stress_command(args: Any, executor: Executor | None = None) -> int:
         files=getattr(args, "files", None),
         executor=executor,
         locked=tuple(getattr(args, "locked", None) or ()),
+        time_limit=getattr(args, "time_limit", DEFAULT_TIME_LIMIT),
     )
     path = write_stress(results, Path(getattr(args, "out", None) or "reports"))
     print_summary(results, Console(width=None if sys.stdout.isatty() else 160))
