@@ -301,3 +301,34 @@ def test_derive_of_a_chain_beyond_three_joints_is_exact_with_common_subexpressio
     assert "exact, not simplified: common subexpressions first" in out and "\nx0 = " in out
     names = [line.split(" = ")[0] for line in out.splitlines()]
     assert sum(n.startswith("M[") for n in names) == 10 and sum(n.startswith("G[") for n in names) == 4
+
+
+@pytest.mark.parametrize("command", ["bench", "stress"])
+def test_bench_and_stress_take_the_time_limit(tmp_path: Path, command: str) -> None:
+    """`bench` and `stress` on a person's module that sleeps at import: one line naming the import and
+    the --time-limit given, soon after it."""
+    model, equations = _system(tmp_path, "slow_start", at_import="time.sleep(1000)")
+    start = time.monotonic()
+    proc = _cli(
+        command,
+        "--model",
+        str(model),
+        "--equations",
+        str(equations),
+        "--quick",
+        "--out",
+        str(tmp_path / "o"),
+        "--time-limit",
+        "1",
+    )
+    assert proc.returncode == 2, proc.stderr
+    assert "slow_start.py: importing it did not return within 1 s" in _error_line(proc)
+    assert time.monotonic() - start < 60 and not (tmp_path / "o").exists()
+
+
+def test_a_persons_time_limit_travels_to_the_workers(tmp_path: Path) -> None:
+    """bench's and stress's workers find a person's system by its key: its time limit comes with it."""
+    from lagrange_xval.validate.systems import from_key, key_of
+
+    system = lx.System.from_files(*_system(tmp_path, "limited"), time_limit=3.5)
+    assert from_key(key_of(system)).equations.GUARD.time_limit == 3.5
