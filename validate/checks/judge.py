@@ -170,41 +170,18 @@ def _explicit_rows(
     e = terms.by_engine
     f = lambda *args: real_array(f"{variant.name} acceleration()", variant.acceleration(*args))  # noqa: E731
     f00 = f(p, q, zero, zero)
-    rows: list[TermRow] = []
-    if "gravity" in uses:
-        rows += term_rows(
-            "gravity", f00, {k: e[k]["a_gravity"] for k in e}, states, tier="solve", tolerances=tolerances
-        )
-    vel = f(p0, q, v, zero) - f(p0, q, zero, zero)
-    rows += term_rows("velocity", vel, {k: e[k]["a_velocity"] for k in e}, states, tier="solve", tolerances=tolerances)
+
+    def against(term: str, value: np.ndarray, key: str) -> list[TermRow]:
+        """`term`'s rows: `value` against each engine's accelerations `key`."""
+        return term_rows(term, value, {k: e[k][key] for k in e}, states, tier="solve", tolerances=tolerances)
+
+    rows: list[TermRow] = against("gravity", f00, "a_gravity") if "gravity" in uses else []
+    rows += against("velocity", f(p0, q, v, zero) - f(p0, q, zero, zero), "a_velocity")
     if "damping" in uses:
-        fr = f(p, q, v, zero) - f(p0, q, v, zero)
-        rows += term_rows(
-            "friction",
-            fr,
-            {k: e[k]["a_friction"] for k in e},
-            states,
-            tier="solve",
-            tolerances=tolerances,
-        )
+        rows += against("friction", f(p, q, v, zero) - f(p0, q, v, zero), "a_friction")
     if "actuation" in uses:
-        act = f(p, q, zero, tau) - f00
-        rows += term_rows(
-            "actuation",
-            act,
-            {k: e[k]["a_actuation"] for k in e},
-            states,
-            tier="solve",
-            tolerances=tolerances,
-        )
-    rows += term_rows(
-        "acceleration",
-        f(p, q, v, tau),
-        {k: e[k]["a"] for k in e},
-        states,
-        tier="solve",
-        tolerances=tolerances,
-    )
+        rows += against("actuation", f(p, q, zero, tau) - f00, "a_actuation")
+    rows += against("acceleration", f(p, q, v, tau), "a")
     return rows
 
 
