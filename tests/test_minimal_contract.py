@@ -405,3 +405,69 @@ def test_gym_acrobot_passes_every_stage_of_run(tmp_path):
     results = json.loads((tmp_path / "out" / "results.json").read_text())
     mirror = results["systems"]["mine"]["chaos"]["integrators"]["Euler"]["mirrors"]["mujoco~hand"]
     assert mirror["judged"] is False and "cannot be mirrored" in mirror["why_not_judged"]
+
+
+RIP_MODEL = """<mujoco model="rip">
+  <option gravity="0 0 -9.81" timestep="0.001"/>
+  <default><geom contype="0" conaffinity="0" mass="0"/></default>
+  <worldbody>
+    <body name="arm" pos="0 0 0.2">
+      <joint name="th" type="hinge" axis="0 0 1" damping="0.002"/>
+      <inertial pos="0.05 0 0" mass="0.1" diaginertia="1e-5 9e-5 9e-5"/>
+      <body name="pend" pos="0.1 0 0">
+        <joint name="al" type="hinge" axis="1 0 0" damping="0.0005"/>
+        <inertial pos="0 0 0.06" mass="0.03" diaginertia="4e-5 4e-5 1e-6"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator><motor name="m" joint="th" gear="1"/></actuator>
+</mujoco>
+"""
+RIP = '''"""Rotary inverted pendulum, my energies (alpha = 0 upright, tipping towards the arm's -y)."""
+import numpy as np
+from dataclasses import dataclass
+
+@dataclass
+class P:
+    m1: float; a1: float; J1: float; L: float; m2: float; l2: float; Jx: float; Jy: float; Jz: float; g: float
+    h: float; b1: float; b2: float
+
+def parameters(model):
+    I2 = model["body/pend/inertia"]
+    return P(model["body/arm/mass"], model["body/arm/com"][0], model["body/arm/inertia"][2, 2],
+             model["body/pend/pos"][0], model["body/pend/mass"], model["body/pend/com"][2], I2[0, 0], I2[1, 1],
+             I2[2, 2], -model["gravity"][2], model["body/arm/pos"][2], model["joint/th/damping"],
+             model["joint/al/damping"])
+
+def kinetic_energy(p, q, v):
+    al, dth, dal = q[..., 1], v[..., 0], v[..., 1]
+    T = 0.5 * (p.J1 + p.m1 * p.a1**2) * dth**2 + 0.5 * p.Jx * dal**2
+    T += 0.5 * (p.JY * np.sin(al) ** 2 + p.Jz * np.cos(al) ** 2) * dth**2
+    return T + 0.5 * p.m2 * ((p.L * dth) ** 2 + (p.l2 * dal) ** 2 + (p.l2 * np.sin(al) * dth) ** 2
+                             - 2 * p.L * p.l2 * np.cos(al) * dth * dal)
+
+def potential_energy(p, q):
+    return p.m1 * p.g * p.h + p.m2 * p.g * (p.h + p.l2 * np.cos(q[..., 1]))
+
+def passive(p, q, v):
+    return -np.stack([p.b1 * v[..., 0], p.b2 * v[..., 1]], axis=-1)
+'''
+
+
+def _rip(folder: Path, source: str) -> lx.System:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "rip.xml").write_text(RIP_MODEL)
+    (folder / "rip.py").write_text(source)
+    return lx.System.from_files(folder / "rip.xml", folder / "rip.py")
+
+
+def test_a_rotary_inverted_pendulum_in_energies_passes_and_the_visible_mistake_is_named_first(tmp_path):
+    """The notes' goal written from paper (energies, friction, one motor): right, it passes; with the
+    cross term's sign flipped (seen at the model's values) and Jx for Jy (hidden there: Jx = Jy), the
+    statement explains the entry that is wrong at the model's own parameters."""
+    right = _check(_rip(tmp_path / "right", RIP.replace("p.JY", "p.Jy")))
+    assert right.passed, right.statement
+    two = RIP.replace("p.JY", "p.Jx").replace("- 2 * p.L", "+ 2 * p.L")
+    wrong = _check(_rip(tmp_path / "wrong", two))
+    assert not wrong.passed and wrong.statement.startswith("mass matrix disagrees at the model's parameters")
+    assert "M[th, al]: yours has the term -l2*L*m2*cos(al) with the wrong sign" in wrong.statement, wrong.statement

@@ -298,10 +298,12 @@ def _explain_entry(
     D = mine - exp_num
     if not np.all(np.isfinite(D)) or float(np.abs(D).max()) <= 1e-9 * scale:
         return None
+    at_model = D[: len(samples.states[0][1].q)]  # the first model's states are the system's own
     record: Explanation = {
         "term": term,
         "entry": label,
         "expected": sp.sstr(expected),
+        "at_model": bool(float(np.abs(at_model).max()) > 1e-9 * scale),
         **_fit(expected, exp_num, D, scale, samples, symbols),
     }
     named = {str(x) for x in sp.sympify(expected).free_symbols} | set(re.findall(r"\w+", record["statement"]))

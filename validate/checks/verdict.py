@@ -475,7 +475,8 @@ def _disagreement(
         result["statement"] = f"{first} disagrees at the model's parameters"
         if "error" in worst:
             result["statement"] += f": {worst['error']}"
-    first_explained = next((e for e in result.get("explanations", []) if e.get("explained")), None)
+    explained_ = [e for e in result.get("explanations", []) if e.get("explained")]  # seen at the model's values first:
+    first_explained = next(iter([e for e in explained_ if e.get("at_model", True) or not at_model] or explained_), None)
     if first_explained:
         result["statement"] += f"; {first_explained['entry']}: {first_explained['statement']}"
 

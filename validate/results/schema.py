@@ -114,6 +114,7 @@ class Explanation(TypedDict, total=False):
     entry: str  # "M[theta, phi]", "G[theta]", ...
     expected: str  # the model's own expression (sympy's notation, the model's parameter names)
     explained: bool  # a fit reproduced the user's numbers at held-back states
+    at_model: bool  # the entry differs at the model's own parameters too (False: only a probe shows it)
     statement: str  # "yours has m_link1 where expected has m_link2 in ...", or why none fits
     difference: str  # yours - expected, when one term explains it
     residual: float  # the fit's largest residual at the held-back states, relative to the entry's scale
