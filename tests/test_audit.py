@@ -15,9 +15,10 @@ from lagrange_xval.validate.checks import audit
 from lagrange_xval.validate.cli import main
 from lagrange_xval.validate.errors import HarnessError
 from lagrange_xval.validate.systems import System, load
+from lagrange_xval.validate.systems.urdf import robots_folder
 
 ROOT = Path(__file__).resolve().parents[1]
-ROBOTS = ROOT / ".venv/lib/python3.11/site-packages/cmeel.prefix/share/example-robot-data/robots"
+ROBOTS = robots_folder() or ROOT / "example-robot-data not installed"
 pytestmark = [
     pytest.mark.skipif(
         importlib.util.find_spec("pydrake") is None and os.environ.get("CI") != "true", reason="pydrake not installed"

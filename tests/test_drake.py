@@ -21,12 +21,13 @@ from lagrange_xval.validate.engines import make_sources
 from lagrange_xval.validate.studies.bench import runners
 from lagrange_xval.validate.studies.bench.plan import CONTENDER_DRIVERS, FULL, GRID_DRIVERS, QUICK
 from lagrange_xval.validate.systems import System, load, system_names
+from lagrange_xval.validate.systems.urdf import robots_folder
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = sorted(ROOT.glob("examples/*.xml"))
 HAS_DRAKE = importlib.util.find_spec("pydrake") is not None
 needs_drake = pytest.mark.skipif(not HAS_DRAKE and os.environ.get("CI") != "true", reason="pydrake not installed")
-ROBOTS = ROOT / ".venv/lib/python3.11/site-packages/cmeel.prefix/share/example-robot-data/robots"
+ROBOTS = robots_folder() or ROOT / "example-robot-data not installed"
 
 
 def _systems() -> list[System]:

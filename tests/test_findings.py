@@ -19,6 +19,7 @@ from lagrange_xval.validate.report import findings
 from lagrange_xval.validate.report.document import to_plain
 from lagrange_xval.validate.results.schema import SCALED_DEFINITION
 from lagrange_xval.validate.systems import PACKAGE_ROOT
+from lagrange_xval.validate.systems.urdf import robots_folder
 
 EXAMPLES = PACKAGE_ROOT / "examples"
 NOTES = ["double_pendulum_point", "gimbal", "simple_pendulum"]
@@ -446,16 +447,6 @@ def model_alone() -> dict[str, Any]:
     if robots is not None:
         files.append((robots / "ur_description/urdf/ur5_robot.urdf", None))
     return run(None, n_states=40, seed=0, files=files, n_probes=0)
-
-
-def robots_folder() -> Path | None:
-    import importlib.metadata
-
-    try:
-        dist = importlib.metadata.distribution("example-robot-data")
-    except importlib.metadata.PackageNotFoundError:
-        return None
-    return Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))
 
 
 def test_a_model_alone_says_so_and_never_speaks_of_a_derivation(model_alone):

@@ -5,7 +5,6 @@ the derived equations, for chains short enough) pointwise within the tolerance t
 
 from __future__ import annotations
 
-import importlib.metadata
 import os
 import re
 import subprocess
@@ -17,17 +16,9 @@ from lagrange_xval.validate.checks import modelsync, pointwise
 from lagrange_xval.validate.engines import SYMBOLIC_MAX_DOF, make_sources
 from lagrange_xval.validate.errors import HarnessError
 from lagrange_xval.validate.systems import System
+from lagrange_xval.validate.systems.urdf import robots_folder
 
-
-def _robots() -> Path | None:
-    try:
-        dist = importlib.metadata.distribution("example-robot-data")
-    except importlib.metadata.PackageNotFoundError:
-        return None
-    return Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))
-
-
-ROBOTS = _robots()
+ROBOTS = robots_folder()
 needs_robots = pytest.mark.skipif(
     ROBOTS is None and os.environ.get("CI") != "true",  # under CI the lock installs it: a missing one fails
     reason="example-robot-data is not installed (pip install -r requirements.lock)",

@@ -31,7 +31,6 @@ its kernel cache); the first call of each Warp function per system is timed and 
 
 from __future__ import annotations
 
-import importlib.metadata
 import tempfile
 import time
 from collections.abc import Callable, Iterator
@@ -51,6 +50,7 @@ from ..engines.base import engine_of, one_state, stepped
 from ..guard import DEFAULT_TIME_LIMIT
 from ..results import atomic_write, dumps, provenance
 from ..systems import System, load_all, system_names
+from ..systems.urdf import robots_folder
 from .chains import chain_mjcf
 
 EPS32 = 2.0**-23  # float32 unit roundoff (x2), 1.19e-7
@@ -123,15 +123,6 @@ COLUMNS = (
     "float64_scaled",
     "reference",
 )
-
-
-def robots_folder() -> Path | None:
-    """example-robot-data's robots folder, or None where it is not installed."""
-    try:
-        dist = importlib.metadata.distribution("example-robot-data")
-    except importlib.metadata.PackageNotFoundError:
-        return None
-    return Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))
 
 
 # ----------------------------------------------------------------------------------------------

@@ -29,9 +29,11 @@ chain, is stated here and listed in the results (`alignments`), never done silen
 
 from __future__ import annotations
 
+import importlib.metadata
 import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from ..errors import HarnessError
@@ -46,6 +48,16 @@ class Transmission:
     actuator: str
     joint: str
     gear: float
+
+
+def robots_folder() -> Path | None:
+    """example-robot-data's robots folder (its URDFs: UR5, Panda, Kinova, ...), or None where that
+    package is not installed (it is in requirements.lock and the `robots` extra)."""
+    try:
+        dist = importlib.metadata.distribution("example-robot-data")
+    except importlib.metadata.PackageNotFoundError:
+        return None
+    return Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))
 
 
 def _root(text: str, source: str) -> ET.Element:
