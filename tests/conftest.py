@@ -70,7 +70,8 @@ def evaluated(system):
 def cli_run(tmp_path_factory: pytest.TempPathFactory):
     """`lagrange-xval run ARGS --out DIR` in a fresh folder, once per session for the same ARGS (an
     end-to-end run that several tests read: the robots' runs take 5 to 30 s each): the finished
-    process and its output folder. A test must not change what it reads."""
+    process and its output folder. A test must not change what it reads. The test files run on
+    pytest-xdist workers, a file on one worker (`--dist loadfile`): tests that share a run sit in one file."""
     done: dict[tuple[str, ...], tuple[subprocess.CompletedProcess[str], Path]] = {}
 
     def run(*args: str) -> tuple[subprocess.CompletedProcess[str], Path]:

@@ -5,7 +5,6 @@ what Drake reads differently is listed as an alignment; a missing pydrake is a s
 from __future__ import annotations
 
 import importlib.util
-import json
 import os
 from dataclasses import replace
 from pathlib import Path
@@ -21,13 +20,11 @@ from lagrange_xval.validate.engines import make_sources
 from lagrange_xval.validate.studies.bench import runners
 from lagrange_xval.validate.studies.bench.plan import CONTENDER_DRIVERS, FULL, GRID_DRIVERS, QUICK
 from lagrange_xval.validate.systems import System, load, system_names
-from lagrange_xval.validate.systems.urdf import robots_folder
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = sorted(ROOT.glob("examples/*.xml"))
 HAS_DRAKE = importlib.util.find_spec("pydrake") is not None
 needs_drake = pytest.mark.skipif(not HAS_DRAKE and os.environ.get("CI") != "true", reason="pydrake not installed")
-ROBOTS = robots_folder() or ROOT / "example-robot-data not installed"
 
 
 def _systems() -> list[System]:
@@ -94,20 +91,6 @@ def test_coordinates_are_mapped_by_joint_name():
     source = make_sources(system)["drake"]
     for j, i in zip(system.joints, source.qidx, strict=True):
         assert source.plant.GetJointByName(j).position_start() == i
-
-
-@needs_drake
-@pytest.mark.skipif(not ROBOTS.is_dir(), reason="example-robot-data is not installed")
-def test_run_on_ur5_compares_three_readers(cli_run):
-    """`run --model ur5_robot.urdf`: Drake in the pointwise rows and the audit with three readers (the
-    session's one run of the UR5, which tests/test_robots.py reads too)."""
-    done, out = cli_run("--model", str(ROBOTS / "ur_description/urdf/ur5_robot.urdf"))
-    assert done.returncode == 0, done.stdout + done.stderr
-    result = json.loads((out / "results.json").read_text())["systems"]["ur5_robot"]
-    assert result["audit"]["readers"] == ["mujoco", "pinocchio", "drake"] and result["audit"]["passed"]
-    pairs = {r["pair"] for r in result["pointwise"]["rows"]}
-    assert {"drake~mujoco", "drake~pinocchio"} <= pairs
-    assert "Model audit: three readers" in (out / "report.md").read_text()
 
 
 @needs_drake

@@ -5,6 +5,7 @@ the derived equations, for chains short enough) pointwise within the tolerance t
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import subprocess
@@ -115,3 +116,34 @@ def test_run_the_other_arms_end_to_end(cli_run, path, lock):
     if lock:
         assert "panda_finger_joint1, panda_finger_joint2 locked at zero" in report
     assert (out / f"{Path(path).stem}.rrd").stat().st_size > 0
+
+
+@needs_robots
+def test_run_on_ur5_compares_three_readers(cli_run):
+    """`run --model ur5_robot.urdf`: Drake in the pointwise rows and the audit with three readers (the
+    session's one run of the UR5, which test_run_on_a_robot_urdf_alone_end_to_end reads too)."""
+    assert ROBOTS is not None
+    done, out = cli_run("--model", str(ROBOTS / "ur_description/urdf/ur5_robot.urdf"))
+    assert done.returncode == 0, done.stdout + done.stderr
+    result = json.loads((out / "results.json").read_text())["systems"]["ur5_robot"]
+    assert result["audit"]["readers"] == ["mujoco", "pinocchio", "drake"] and result["audit"]["passed"]
+    pairs = {r["pair"] for r in result["pointwise"]["rows"]}
+    assert {"drake~mujoco", "drake~pinocchio"} <= pairs
+    assert "Model audit: three readers" in (out / "report.md").read_text()
+
+
+@pytest.mark.long
+@needs_robots
+def test_the_panda_says_which_engine_departs_and_why(cli_run):
+    """The Panda from 0.5 rad is chaotic (lambda of several 1/s): MuJoCo's RK4 at the URDF's 2 ms step is
+    trusted only until its own error estimate passes 1e-3 rad, and its departure is expected (read from
+    the session's one `run` of the Panda, which test_run_the_other_arms_end_to_end reads too)."""
+    assert ROBOTS is not None
+    lock = "panda_finger_joint1,panda_finger_joint2"
+    done, out = cli_run("--model", str(ROBOTS / "panda_description/urdf/panda.urdf"), "--lock", lock)
+    assert done.returncode == 0, done.stdout + done.stderr
+    traj = json.loads((out / "results.json").read_text())["systems"]["panda"]["trajectories"]
+    found = traj["trust"]
+    assert found["lyapunov_exponent"] > 1.0 and found["predictability_horizon"] < 10.0, found
+    mujoco = next(r for r in traj["runs"] if r["source"] == "mujoco")
+    assert mujoco["trust"]["trusted_until"] < 10.0 and mujoco["trust"]["expected"] is True, mujoco["trust_statement"]

@@ -3,15 +3,11 @@ whether that is expected (validate/dynamics/trust.py; issue 25 item 3)."""
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
 from lagrange_xval.validate.dynamics import freeruns, trust
 from lagrange_xval.validate.engines import make_sources
 from lagrange_xval.validate.systems import MODELS_DIR, System
-
-from .test_robots import ROBOTS, needs_robots
 
 T = np.linspace(0.0, 2.0, 201)
 
@@ -52,20 +48,3 @@ def test_a_chain_with_no_symbolic_source_says_per_engine_until_when():
     for run in traj["runs"]:
         assert run["trust_statement"].startswith(run["method"]), run["trust_statement"]
         assert run["trust"]["trusted_until"] == pytest.approx(2.0), run["trust_statement"]
-
-
-@pytest.mark.long
-@needs_robots
-def test_the_panda_says_which_engine_departs_and_why(cli_run):
-    """The Panda from 0.5 rad is chaotic (lambda of several 1/s): MuJoCo's RK4 at the URDF's 2 ms step is
-    trusted only until its own error estimate passes 1e-3 rad, and its departure is expected (read from
-    the session's one `run` of the Panda, which tests/test_robots.py reads too)."""
-    assert ROBOTS is not None
-    lock = "panda_finger_joint1,panda_finger_joint2"
-    done, out = cli_run("--model", str(ROBOTS / "panda_description/urdf/panda.urdf"), "--lock", lock)
-    assert done.returncode == 0, done.stdout + done.stderr
-    traj = json.loads((out / "results.json").read_text())["systems"]["panda"]["trajectories"]
-    found = traj["trust"]
-    assert found["lyapunov_exponent"] > 1.0 and found["predictability_horizon"] < 10.0, found
-    mujoco = next(r for r in traj["runs"] if r["source"] == "mujoco")
-    assert mujoco["trust"]["trusted_until"] < 10.0 and mujoco["trust"]["expected"] is True, mujoco["trust_statement"]
