@@ -78,6 +78,25 @@ def trajectory_results(
         f"information only: a different start ({runs[-1]['label']}), compared with the reference from the "
         "unperturbed start to show how far the start alone moves the motion"
     )
+    reference = (
+        f"hand equations, {ref_info.get('method', 'Taylor')} ({ref_info.get('precision', '')}); "
+        f"agrees with a second method to {ref_info.get('agreement_q', float('nan')):.1e} rad"
+    )
+    info = {k: v for k, v in ref_info.items() if np.isscalar(v) or isinstance(v, str)}
+    return {
+        **_start_and_reference((q0, v0, tau), (t_end, dt_out, t), reference, info),
+        "threshold_rule": estimate.rule(),
+        "safety": estimate.SAFETY,
+        "runs": runs,
+    }
+
+
+def _start_and_reference(
+    start: tuple[np.ndarray, np.ndarray, np.ndarray], grid: tuple[float, float, np.ndarray], reference: str, info: Any
+) -> dict[str, Any]:
+    """What every free-run record starts with: the start (q0, v0, tau), the grid (t_end, dt_out, t),
+    the reference and the threshold."""
+    (q0, v0, tau), (t_end, dt_out, t) = start, grid
     return {
         "q0": q0,
         "v0": v0,
@@ -85,13 +104,9 @@ def trajectory_results(
         "t_end": t_end,
         "dt_out": dt_out,
         "t": t,
-        "reference": f"hand equations, {ref_info.get('method', 'Taylor')} ({ref_info.get('precision', '')}); "
-        f"agrees with a second method to {ref_info.get('agreement_q', float('nan')):.1e} rad",
-        "reference_info": {k: v for k, v in ref_info.items() if np.isscalar(v) or isinstance(v, str)},
+        "reference": reference,
+        "reference_info": info,
         "threshold": TRAJECTORY_THRESHOLD,
-        "threshold_rule": estimate.rule(),
-        "safety": estimate.SAFETY,
-        "runs": runs,
     }
 
 
@@ -201,15 +216,7 @@ def divergence_results(
         run["why_not_counted"] = why
     return {
         **({"trust": trusted} if trusted is not None else {}),
-        "q0": q0,
-        "v0": v0,
-        "tau": tau,
-        "t_end": t_end,
-        "dt_out": dt_out,
-        "t": t,
-        "reference": reference,
-        "reference_info": info,
-        "threshold": TRAJECTORY_THRESHOLD,
+        **_start_and_reference((q0, v0, tau), (t_end, dt_out, t), reference, info),
         "information_only": why,
         "runs": runs,
     }
