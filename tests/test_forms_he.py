@@ -7,13 +7,14 @@ an expression of the wrong shape is a one-line error.
 from __future__ import annotations
 
 import shutil
+import textwrap
 from pathlib import Path
 
 import lagrange_xval as lx
 import numpy as np
 import pytest
 from lagrange_xval.validate.errors import HarnessError
-from lagrange_xval.validate.systems import hamiltonian
+from lagrange_xval.validate.systems import hamiltonian, textform
 from lagrange_xval.validate.systems.forms import written_form
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -77,27 +78,18 @@ def hamiltonian(p, q, pm):
     return T + V
 '''
 
-# The cart-pole of examples/cart_pole.py (theta from the upright, the rod's centre of mass at l/2),
-# its energies on paper; V counts from the world origin's height, as the engines do.
-TEXT = """# cp.toml: a cart-pole, energies from paper
-description = "Cart-pole from my notes"
-coordinates = ["x", "theta"]
-velocities = ["dx", "dtheta"]
-T = "(mc + mp)/2*dx^2 + mp*lc*cos(theta)*dx*dtheta + (mp*lc^2 + I)/2*dtheta^2"
-V = "mc*g*(h + ccz) + mp*g*(h + pz + lc*cos(theta))"
-friction = ["-kx*dx", "0"]
 
-[symbols]
-mc = "body/cart/mass"
-mp = "body/pole/mass"
-lc = "body/pole/com[2]"
-I = "body/pole/inertia[1][1]"
-kx = "joint/x/damping"
-g = "-gravity[2]"
-h = "body/cart/pos[2]"
-ccz = "body/cart/com[2]"
-pz = "body/pole/pos[2]"
-"""
+def _docstring_example() -> str:
+    """The TOML example of validate/systems/textform.py's docstring, as a person would copy it: the
+    cart-pole of examples/cart_pole.py (theta from the upright, the rod's centre of mass at l/2), its
+    energies on paper; V counts from the world origin's height, as the engines do."""
+    lines = (textform.__doc__ or "").splitlines()
+    first = next(i for i, line in enumerate(lines) if line.strip().startswith("# cart_pole.toml"))
+    last = next(i for i in range(first, len(lines)) if not lines[i].strip())
+    return textwrap.dedent("\n".join(lines[first:last])) + "\n"
+
+
+TEXT = _docstring_example()
 
 
 def _write(folder: Path, model: str, name: str, text: str, mistake: tuple[str, str] | None = None) -> lx.System:
@@ -225,7 +217,7 @@ def test_a_wrong_text_file_is_named(tmp_path, mistake, term):
         (('V = "mc*g', 'V = "dx*mc*g'), "'dx' is not a declared symbol"),  # V has no velocities
         (('g = "-gravity[2]"', 'g = "-gravity[5]"'), "no entry"),
         (('mc = "body/cart/mass"', 'mc = "body/kart/mass"'), "Did you mean 'body/cart/mass'"),
-        (('coordinates = ["x", "theta"]', 'coordinates = ["x", "th"]'), "'th' is not a joint of the model"),
+        (('joints = ["x", "theta"]', 'joints = ["x", "th"]'), "'th' is not a joint of the model"),
     ],
     ids=[
         "import",
