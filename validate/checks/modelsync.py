@@ -111,16 +111,48 @@ def pinocchio_vs_mujoco(system: System, pin_source: Source) -> list[Mismatch]:
     pn = engine_of(pin_source, PinocchioSource)  # a MappedSource's engine: its model is the same
     model, view = pn.model, system.view
     rows: list[Mismatch] = []
-    for body, jid in zip(system.bodies, pn.joint_of_body, strict=True):
+    moved = {view[f"joint/{j}/body"] for j in system.model_joints}
+    welded: dict[str, list[str]] = {}
+    for key in view:
+        if key.startswith("body/") and key.endswith("/parent"):
+            body = key[len("body/") : -len("/parent")]
+            if body not in moved:
+                welded.setdefault(view[key], []).append(body)
+    for body, jid, fid in zip(system.bodies, pn.joint_of_body, pn.frames, strict=True):
+        # Pinocchio keeps one inertia per joint, in the joint's frame, with the bodies welded to it
+        # added; MuJoCo one per body, in the body's frame: both brought to the body's frame and content.
         inertia = model.inertias[jid]
+        R, p = model.frames[fid].placement.rotation, model.frames[fid].placement.translation
+        mass, com, rot = _rigid(view, body, welded)
         pairs = {
-            "mass": (view[f"body/{body}/mass"], inertia.mass),
-            "com": (view[f"body/{body}/com"], inertia.lever),
-            "inertia": (view[f"body/{body}/inertia"], inertia.inertia),
+            "mass": (mass, inertia.mass),
+            "com": (com, R.T @ (inertia.lever - p)),
+            "inertia": (rot, R.T @ inertia.inertia @ R),
         }
         for what, (mj, pn) in pairs.items():
-            rows.append(_engine_row(f"body/{body}/{what}", mj, pn, _same(mj, pn), "compiled this body"))
+            # a centre of mass moved into the body's frame carries the rounding of the move's size
+            floor = float(np.abs(p).max()) if what == "com" else 0.0
+            rows.append(_engine_row(f"body/{body}/{what}", mj, pn, _same(mj, pn, floor), "compiled this body"))
     return rows
+
+
+def _rigid(view: Any, body: str, welded: dict[str, list[str]]) -> tuple[float, np.ndarray, np.ndarray]:
+    """Mass, centre of mass and inertia about it, in `body`'s frame, of `body` and the bodies welded to
+    it (no joint between them) as MuJoCo compiled them."""
+    parts = [(float(view[f"body/{body}/mass"]), np.asarray(view[f"body/{body}/com"], dtype=float), view[f"body/{body}/inertia"])]
+    for child in welded.get(body, []):
+        m, c, inertia = _rigid(view, child, welded)
+        R = quat_to_mat(np.asarray(view[f"body/{child}/quat"], dtype=float))
+        parts.append((m, np.asarray(view[f"body/{child}/pos"], dtype=float) + R @ c, R @ inertia @ R.T))
+    if len(parts) == 1:
+        return parts[0]
+    mass = sum(m for m, _, _ in parts)
+    com = sum((m * c for m, c, _ in parts), np.zeros(3)) / mass if mass > 0 else np.zeros(3)
+    total = np.zeros((3, 3))
+    for m, c, inertia in parts:
+        d = c - com
+        total += inertia + m * (d @ d * np.eye(3) - np.outer(d, d))
+    return mass, com, total
 
 
 def _engine_row(key: str, mujoco_value: Any, pinocchio_value: Any, ok: bool, what: str) -> Mismatch:
@@ -136,31 +168,40 @@ def _engine_row(key: str, mujoco_value: Any, pinocchio_value: Any, ok: bool, wha
 
 
 def mujoco_joint_frames(system: System) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """MuJoCo's reading of the same (`PinocchioSource.joint_frames`), from its compiled bodies and joints."""
-    view = system.view
-    poses: dict[str, tuple[np.ndarray, np.ndarray]] = {"world": (np.zeros(3), np.eye(3))}
+    """MuJoCo's reading of the same (`PinocchioSource.joint_frames`) at q = 0, from its own kinematics
+    (a joint's `ref` moves the frames MuJoCo compiles: at q = 0 they are where every reader puts them)."""
+    import mujoco
 
-    def pose(body: str) -> tuple[np.ndarray, np.ndarray]:
-        if body not in poses:
-            p, R = pose(view[f"body/{body}/parent"])
-            local = quat_to_mat(np.asarray(view[f"body/{body}/quat"], dtype=float))
-            poses[body] = (p + R @ np.asarray(view[f"body/{body}/pos"], dtype=float), R @ local)
-        return poses[body]
-
+    model = system.mujoco_model()
+    data = mujoco.MjData(model)
+    data.qpos[:] = 0.0
+    mujoco.mj_kinematics(model, data)
     out = {}
     for j in system.joints:
-        p, R = pose(view[f"joint/{j}/body"])
-        axis = R @ np.asarray(view[f"joint/{j}/axis"], dtype=float)
+        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j)
+        axis = np.array(data.xaxis[jid], dtype=float)
         axis = axis / np.linalg.norm(axis)
         zero = np.zeros(3)
-        motion = np.concatenate([zero, axis] if view[f"joint/{j}/type"] == "hinge" else [axis, zero])
-        out[j] = (p + R @ np.asarray(view[f"joint/{j}/pos"], dtype=float), motion)
+        motion = np.concatenate([zero, axis] if view_type(system, j) == "hinge" else [axis, zero])
+        out[j] = (np.array(data.xanchor[jid], dtype=float), motion)
     return out
 
 
+def view_type(system: System, joint: str) -> str:
+    return str(system.view[f"joint/{joint}/type"])
+
+
+def _at_origin(anchor: np.ndarray, motion: np.ndarray) -> np.ndarray:
+    """A joint's motion per unit velocity (linear, angular) at `anchor`, moved to the world origin: the
+    same for every anchor on a hinge's axis line, and for every anchor of a slide."""
+    return np.concatenate([motion[:3] - np.cross(motion[3:], anchor), motion[3:]])
+
+
 def joints_pinocchio_vs_mujoco(system: System, pin_source: Source) -> list[Mismatch]:
-    """Anchor (hinges) and motion axis of each compared joint at q = 0, and for a URDF the damping,
-    as each engine read them."""
+    """Axis line (a hinge's `anchor`: where its axis passes, as the motion of the world origin) and
+    motion axis of each compared joint at q = 0, and for a URDF the damping, as each engine read them.
+    Anchors are compared as lines, not points: a reader may put a hinge's frame anywhere on its axis
+    (Pinocchio's composite of several joints in one body, a joint off its body's origin)."""
     from ..engines.pinocchio import PinocchioSource
 
     engine = engine_of(pin_source, PinocchioSource)
@@ -170,15 +211,21 @@ def joints_pinocchio_vs_mujoco(system: System, pin_source: Source) -> list[Misma
     extent = max([float(np.abs(f[0]).max()) for f in (*mj.values(), *pn.values())] + [1e-300])
     rows: list[Mismatch] = []
     for i, j in enumerate(system.joints):
-        pairs = {"motion": (mj[j][1], pn[j][1])}
-        if system.view[f"joint/{j}/type"] == "hinge":  # a slide's anchor is any point on its line
-            pairs["anchor"] = (mj[j][0], pn[j][0])
+        pairs = {"motion": (mj[j][1][3:] if view_type(system, j) == "hinge" else mj[j][1][:3], _axis(system, j, pn[j][1]))}
+        if view_type(system, j) == "hinge":  # a slide's anchor is any point on its line
+            pairs["anchor"] = (_at_origin(*mj[j])[:3], _at_origin(*pn[j])[:3])
         if damping is not None:
             pairs["damping"] = (system.view[f"joint/{j}/damping"], damping[i])
         for what, (a, b) in pairs.items():
             ok = _same(a, b, floor=extent if what == "anchor" else 1.0 if what == "motion" else 0.0)
             rows.append(_engine_row(f"joint/{j}/{what}", a, b, ok, "read this joint"))
     return rows
+
+
+def _axis(system: System, joint: str, motion: np.ndarray) -> np.ndarray:
+    """A reader's joint axis from its motion (linear, angular): the angular half of a hinge's, the
+    linear half of a slide's."""
+    return motion[3:] if view_type(system, joint) == "hinge" else motion[:3]
 
 
 def check(system: System, pin_source: Source) -> ModelChecks:
@@ -188,4 +235,7 @@ def check(system: System, pin_source: Source) -> ModelChecks:
         + joints_pinocchio_vs_mujoco(system, pin_source)
     )
     failed = [r for r in rows if not r["passed"]]
-    return {"n_checked": len(rows), "passed": not failed, "mismatches": failed, "alignments": system.alignments}
+    out: ModelChecks = {"n_checked": len(rows), "passed": not failed, "mismatches": failed, "alignments": system.alignments}
+    if system.left_out:
+        out["left_out"] = system.left_out
+    return out

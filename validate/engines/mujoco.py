@@ -15,6 +15,7 @@ import numpy as np
 
 from ..errors import HarnessError, unknown_name
 from ..systems import System
+from ..systems.scope import joint_actuators
 from .base import INTEGRATOR_ENUMS, MUJOCO_INTEGRATORS, Kinematics, SteppedSource, batch_threads
 
 # What a batch sets per state with one mj_setState call (in this order in a state row).
@@ -112,7 +113,7 @@ class MujocoSource:
         self.ctrl_of_coord = np.full(n, -1)
         self.gear = np.ones(n)
         actuation_on = not (self.m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_ACTUATION))
-        for a in range(self.m.nu if actuation_on else 0):
+        for a in joint_actuators(self.m) if actuation_on else []:
             dof = self.m.jnt_dofadr[self.m.actuator_trnid[a, 0]]
             (k,) = np.nonzero(self.dadr == dof)[0][:1] if np.any(self.dadr == dof) else (None,)
             if k is not None:

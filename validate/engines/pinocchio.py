@@ -38,7 +38,7 @@ def build_model(system: System) -> Any:
             raise HarnessError(f"{system.mjcf.name}: Pinocchio cannot build the model: {first}") from None
         model.gravity.linear = np.array(system.view["gravity"], dtype=float)
         return model
-    xml = system.mjcf_xml()
+    xml = one_tree(system.mjcf_xml())
     fd, path = tempfile.mkstemp(suffix=".xml", prefix=f"{system.name}_")
     try:
         with os.fdopen(fd, "w") as f:
@@ -53,6 +53,50 @@ def build_model(system: System) -> Any:
     return model
 
 
+WRAPPER = "pinocchio#world_bodies"  # the fixed body that gathers the world's bodies for Pinocchio's parser
+TREES = ("body", "frame", "replicate")  # elements under <worldbody> that carry bodies
+
+
+def one_tree(xml: str) -> str:
+    """The MJCF with every body under <worldbody> gathered in one fixed body at the world's origin
+    (WRAPPER): Pinocchio's MJCF parser reads the first body tree only (the others, and their joints, are
+    dropped); a body without joints is welded to its parent, so the dynamics are unchanged. Unchanged
+    where the world has one tree."""
+    import xml.etree.ElementTree as ET
+
+    root = ET.fromstring(xml)
+    for world in root.iter("worldbody"):
+        trees = [c for c in world if c.tag in TREES]
+        if len(trees) > 1:
+            wrapper = ET.Element("body", {"name": WRAPPER})
+            world.insert(list(world).index(trees[0]), wrapper)
+            for tree in trees:
+                world.remove(tree)
+                wrapper.append(tree)
+            return ET.tostring(root, encoding="unicode")
+    return xml
+
+
+COMPOSITE = "Composite_"  # Pinocchio's MJCF parser: the joints of one body as one composite joint, named after the first
+
+
+def joint_indices(model: Any, system: System) -> dict[str, tuple[int, int, int]]:
+    """Each one-coordinate joint of Pinocchio's model by its MJCF name: (Pinocchio joint id, q index, v
+    index). Several joints in one body (a planar root: slide x, slide z, hinge y) are one composite joint
+    in Pinocchio, named after the first; its parts are the body's joints in MuJoCo's order."""
+    out: dict[str, tuple[int, int, int]] = {}
+    for jid in range(1, model.njoints):
+        name, joint = model.names[jid], model.joints[jid]
+        if name.startswith(COMPOSITE) and f"joint/{name[len(COMPOSITE) :]}/body" in system.view:
+            body = system.view[f"joint/{name[len(COMPOSITE) :]}/body"]
+            parts = [j for j in system.model_joints if system.view[f"joint/{j}/body"] == body]
+            for k, part in enumerate(parts[: joint.nq] if joint.nq == joint.nv else []):
+                out[part] = (jid, joint.idx_q + k, joint.idx_v + k)
+        elif joint.nq == 1 and joint.nv == 1:
+            out[name] = (jid, joint.idx_q, joint.idx_v)
+    return out
+
+
 class PinocchioSource:
     name = "pinocchio"
 
@@ -65,17 +109,12 @@ class PinocchioSource:
             raise HarnessError(
                 f"Pinocchio sees {self.model.nv} degrees of freedom in {system.mjcf.name}; the equations have {n}."
             )
-        qidx: list[int] = []
-        vidx: list[int] = []
-        for j in system.joints:
-            if not self.model.existJointName(j):
-                raise HarnessError(f"Pinocchio's model of {system.mjcf.name} has no joint '{j}'.")
-            joint = self.model.joints[self.model.getJointId(j)]
-            if joint.nq != 1 or joint.nv != 1:
-                raise HarnessError(f"joint '{j}': only one-degree-of-freedom joints are supported.")
-            qidx.append(joint.idx_q)
-            vidx.append(joint.idx_v)
-        self.qidx, self.vidx = np.array(qidx), np.array(vidx)
+        self.joint_ids = joint_indices(self.model, system)
+        missing = [j for j in system.joints if j not in self.joint_ids]
+        if missing:
+            raise HarnessError(f"Pinocchio's model of {system.mjcf.name} has no joint '{missing[0]}'.")
+        self.qidx = np.array([self.joint_ids[j][1] for j in system.joints])
+        self.vidx = np.array([self.joint_ids[j][2] for j in system.joints])
         self.damping = np.array([system.view[f"joint/{j}/damping"] for j in system.joints])
         self.frames, self.joint_of_body = [], []
         for b in system.bodies:
@@ -141,7 +180,7 @@ class PinocchioSource:
         pin.computeJointJacobians(self.model, self.data, q)
         out = {}
         for j, v in zip(self.system.joints, self.vidx, strict=True):
-            jid = self.model.getJointId(j)
+            jid = self.joint_ids[j][0]
             J = np.reshape(
                 pin.getJointJacobian(self.model, self.data, jid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED), (6, -1)
             )
@@ -245,7 +284,9 @@ class PinocchioSource:
                 oMi = placements[jid]
                 R[i, k] = oMi.rotation
                 p[i, k] = oMi.translation
-        out = {"T": kin, "V": pot}
+        # computeKineticEnergy sums the bodies' energies; a joint's armature (rotor inertia, in M through
+        # model.armature) adds its own: T = 1/2 v^T M v, as MuJoCo and Drake count it.
+        out = {"T": kin + 0.5 * np.asarray(model.armature) @ (vs * vs), "V": pot}
         if full is not None:
             out["M"] = self._symmetric(full)
         if poses:

@@ -158,6 +158,13 @@ def section_model_checks(doc: Document, name: str, s: dict[str, Any]) -> None:
         + "every compared body's mass, centre of mass and inertia, and every compared joint's anchor and axis, as "
         "Pinocchio and MuJoCo read them (pinocchio~mujoco)."
     )
+    if mc.get("left_out"):
+        doc.p(
+            "Left out of every comparison: the model's constraints, which add forces on top of the equations of "
+            "motion that no Lagrangian derivation of the chain contains (switched off in MuJoCo, absent from "
+            "Pinocchio's and Drake's smooth dynamics), and the passive forces MuJoCo alone computes:"
+        )
+        doc.blocks.append(Items(tuple(mc["left_out"])))
     if mc.get("alignments"):
         doc.p(
             "What the harness aligned between the engines' readings before comparing them (a URDF is read "

@@ -129,13 +129,14 @@ def compile_model(path: Path) -> mujoco.MjModel:
 def model_view(path: Path) -> ModelView:
     """The compiled model of a file (MJCF or URDF) as a ModelView, after the scope's refusals: what
     `derive` reads when no equations module is given."""
-    from .scope import refusals
+    from .scope import refusals, unconstrained
 
     model = compile_model(Path(path))
     refused = refusals(model)
     if refused:
         more = f" (and {len(refused) - 1} more)" if len(refused) > 1 else ""
         raise HarnessError(f"{Path(path).name}: {refused[0]}{more}.")
+    unconstrained(model)
     return from_mujoco(model, Path(path).name)
 
 
@@ -401,10 +402,21 @@ class System:
         """The compiled MjModel (compiled once per System)."""
         return self._model
 
+    @property
+    def left_out(self) -> list[str]:
+        """The constraints of the model (limits, contacts, equality, friction loss) and the passive forces
+        only MuJoCo computes, one line per kind: switched off in every comparison (systems/scope.py)."""
+        return self._compiled[1]
+
     @functools.cached_property
     def _model(self) -> mujoco.MjModel:
-        """The MjModel, compiled and checked for what no source could compare."""
-        from .scope import refusals  # reads the compiled model with mujoco: loaded when first needed
+        return self._compiled[0]
+
+    @functools.cached_property
+    def _compiled(self) -> tuple[mujoco.MjModel, list[str]]:
+        """The MjModel, compiled, checked for what no source could compare and with its constraints
+        switched off; and what was left out."""
+        from .scope import refusals, unconstrained  # reads the compiled model with mujoco: loaded when first needed
 
         if self.locked and self.text is None and self.model_format != "urdf":
             raise HarnessError(f"{self.mjcf.name}: --lock takes joints of a URDF model (an MJCF states its own).")
@@ -416,7 +428,7 @@ class System:
         if refused:
             more = f" (and {len(refused) - 1} more: {'; '.join(refused[1:])})" if len(refused) > 1 else ""
             raise HarnessError(f"{self.mjcf.name}: {refused[0]}{more}.")
-        return model
+        return model, unconstrained(model)
 
     def mjcf_xml(self) -> str:
         """The MJCF text both engines parse, with overrides applied."""

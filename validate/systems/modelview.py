@@ -18,7 +18,7 @@ defaults of their own), so the compiled MJCF is the single source of numbers. Ke
     joint/<name>/armature        kg m^2
     joint/<name>/frictionloss    N m
     joint/<name>/stiffness       N m / rad
-    actuator/<name>/joint        joint name the actuator drives
+    actuator/<name>/joint        joint name the actuator drives (an unnamed actuator: "actuator#<id>")
     actuator/<name>/gear         transmission ratio (generalized force per unit control)
 """
 
@@ -69,11 +69,16 @@ def from_mujoco(model: Any, source: str) -> ModelView:
     """Snapshots a compiled `mujoco.MjModel` into a ModelView."""
     import mujoco
 
+    from .scope import joint_actuators
+
     def name(obj: int, i: int) -> str:
+        """The element's name; an unnamed one is called by MuJoCo's id: "actuator#0" (shown as such)."""
         n = mujoco.mj_id2name(model, obj, i)
-        if not n:
-            raise HarnessError(f"{source}: every body, joint and actuator needs a name (unnamed id {i}).")
-        return n
+        if n:
+            return n
+        if obj != mujoco.mjtObj.mjOBJ_ACTUATOR:
+            raise HarnessError(f"{source}: every body and joint needs a name (unnamed id {i}).")
+        return f"actuator#{i}"
 
     gravity_off = model.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_GRAVITY)
     # The gravity the dynamics see: zero when the scene disables it.
@@ -101,12 +106,8 @@ def from_mujoco(model: Any, source: str) -> ModelView:
         values[f"joint/{n}/armature"] = float(model.dof_armature[dof])
         values[f"joint/{n}/frictionloss"] = float(model.dof_frictionloss[dof])
         values[f"joint/{n}/stiffness"] = float(model.jnt_stiffness[j])
-    for a in range(model.nu):
+    for a in joint_actuators(model):  # the others are never driven (systems/scope.py)
         n = name(mujoco.mjtObj.mjOBJ_ACTUATOR, a)
-        if int(model.actuator_trntype[a]) != int(mujoco.mjtTrn.mjTRN_JOINT):
-            raise HarnessError(
-                f"{source}: actuator '{n}' must drive a joint (trntype joint); got another transmission."
-            )
         values[f"actuator/{n}/joint"] = name(mujoco.mjtObj.mjOBJ_JOINT, int(model.actuator_trnid[a, 0]))
         values[f"actuator/{n}/gear"] = float(model.actuator_gear[a, 0])
     return ModelView(values, source)

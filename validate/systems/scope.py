@@ -1,23 +1,25 @@
-"""What the harness can compare, read off the compiled model before any dynamics.
+"""What the harness compares, read off the compiled model before any dynamics.
 
-The equations a person derives by hand (and the three sources' common interface) describe a chain
-of hinge and slide joints, one coordinate each, moved by gravity, joint damping, armature, springs
-and motors. Anything that adds forces or coordinates outside that is refused by name, with why:
+A Lagrangian derivation gives the smooth dynamics M(q) q'' + C(q, q') q' + G(q) = tau + passive(q, q').
+Constraints add forces on top of it that no derivation of the chain contains; a published model has
+them (joint ranges, a floor, dry friction, a URDF <mimic>), and they are left out of every comparison,
+never a reason to refuse the model:
 
-    free and ball joints      more than one coordinate per joint (a quaternion): no angle per joint
-    contacts                  forces that switch on and off with the configuration (two geoms that can
-                              collide, or a <contact><pair>), unless contacts are disabled in <option>
-                              (contacts, limits, equality constraints and friction loss are all
-                              constraints: <flag constraint="disable"/> turns every one off)
-    equality constraints      constraint forces the hand equations do not have
-    joint limits              constraint forces at the limits (unless limits are disabled)
+    contacts                  two geoms that can collide, or a <contact><pair>
+    joint and tendon limits   constraint forces at a range's ends
+    equality constraints      welds, joint couplings (a URDF <mimic> is read as one), ...
     friction loss             dry friction: a constraint force, not a function of q and v
-    tendons                   forces along paths the equations do not describe
 
-`refusals(model)` lists every such element (empty when the model is in scope). A URDF is read first
-by `urdf_refusals`: its planar and floating joints (and any other type than revolute, continuous,
-prismatic and fixed) are refused by type and name before either engine reads the file, since the two
-readers would split or drop them differently.
+`unconstrained(model)` switches them off on the compiled model (MuJoCo's disable flags for contact,
+limit, equality and friction loss: what it then computes is `qacc_smooth`, the smooth dynamics every
+engine computes) and returns one line per kind the model has, naming its elements: the verdict and the
+report say once what was left out. Two passive forces only MuJoCo computes are set to zero on the model
+and listed the same way: a tendon's spring and damper and a body's gravity compensation (`gravcomp`).
+
+`refusals(model)` lists what cannot be compared at all (empty when the model is in scope): a model in
+which nothing moves, and free and ball joints (a quaternion: no angle per joint). A URDF is read first
+by `urdf_refusals`: its planar and floating joints are refused by type and name before either engine
+reads the file, since the readers would split or drop them differently.
 """
 
 from __future__ import annotations
@@ -30,6 +32,11 @@ import numpy as np
 DOF_OF = {"free": 6, "ball": 3}
 URDF_JOINTS = ("revolute", "continuous", "prismatic", "fixed")  # one coordinate each, or none
 URDF_DOF = {"planar": 3, "floating": 6}
+SHOWN = 3  # names listed per kind of constraint; the rest counted
+
+# The constraints a model can add to its smooth dynamics, and the disable flag that removes each.
+_OFF = mujoco.mjtDisableBit
+CONSTRAINT_FLAGS = int(_OFF.mjDSBL_CONTACT | _OFF.mjDSBL_LIMIT | _OFF.mjDSBL_EQUALITY | _OFF.mjDSBL_FRICTIONLOSS)
 
 
 def urdf_refusals(joints: list[tuple[str, str]]) -> list[str]:
@@ -45,7 +52,7 @@ def urdf_refusals(joints: list[tuple[str, str]]) -> list[str]:
 
 
 def _name(model: Any, obj: Any, i: int, kind: str) -> str:
-    return mujoco.mj_id2name(model, obj, i) or f"{kind} {i}"
+    return mujoco.mj_id2name(model, obj, i) or f"{kind}#{i}"
 
 
 def _disabled(model: Any, bit: Any) -> bool:
@@ -66,6 +73,12 @@ def _collide(model: Any, a: int, b: int) -> bool:
     return True
 
 
+def _listed(names: list[str]) -> str:
+    """'a', 'b', 'c' and 2 more."""
+    shown = ", ".join(f"'{n}'" for n in names[:SHOWN])
+    return shown + (f" and {len(names) - SHOWN} more" if len(names) > SHOWN else "")
+
+
 def refusals(model: Any) -> list[str]:
     """One line per element the harness cannot compare, naming it and why (empty: in scope)."""
     out = [] if model.nv else ["no joint moves (every body is fixed): there are no equations of motion to compare"]
@@ -79,50 +92,124 @@ def refusals(model: Any) -> list[str]:
                 f"({DOF_OF[kind]} degrees of freedom): only hinge and slide joints, one coordinate each, "
                 "can be compared"
             )
-    constraints = not _disabled(model, mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)  # off: no constraint force at all
-    if constraints and not _disabled(model, mujoco.mjtDisableBit.mjDSBL_CONTACT):
-        if model.npair:
-            out.append(
-                f"the model has {model.npair} explicit contact pair(s) (<contact><pair>): contact forces cannot "
-                "be compared"
-            )
-        pairs = [(a, b) for a in range(model.ngeom) for b in range(a + 1, model.ngeom) if _collide(model, a, b)]
-        if pairs:
-            a, b = pairs[0]
-            geom = mujoco.mjtObj.mjOBJ_GEOM
-            out.append(
-                f"geoms '{_name(model, geom, a, 'geom')}' and '{_name(model, geom, b, 'geom')}' can collide"
-                + (f" (and {len(pairs) - 1} more pairs)" if len(pairs) > 1 else "")
-                + ': contact forces cannot be compared; set contype="0" conaffinity="0" on the geoms or '
-                '<flag contact="disable"/> in <option>'
-            )
-    for e in range(model.neq if constraints else 0):
-        what = f"equality constraint '{_name(model, mujoco.mjtObj.mjOBJ_EQUALITY, e, 'equality')}'"
-        fix = ""
+    return out
+
+
+def _contacts(model: Any) -> list[str]:
+    if _disabled(model, mujoco.mjtDisableBit.mjDSBL_CONTACT):
+        return []
+    geom = mujoco.mjtObj.mjOBJ_GEOM
+    pairs = [(a, b) for a in range(model.ngeom) for b in range(a + 1, model.ngeom) if _collide(model, a, b)]
+    named = [f"{_name(model, geom, a, 'geom')}~{_name(model, geom, b, 'geom')}" for a, b in pairs]
+    named += [
+        f"{_name(model, geom, int(model.pair_geom1[p]), 'geom')}~{_name(model, geom, int(model.pair_geom2[p]), 'geom')}"
+        for p in range(model.npair)
+    ]
+    return [f"contacts between {len(named)} pair(s) of geoms ({_listed(named)})"] if named else []
+
+
+def _limits(model: Any) -> list[str]:
+    if _disabled(model, mujoco.mjtDisableBit.mjDSBL_LIMIT):
+        return []
+    joints = [_name(model, mujoco.mjtObj.mjOBJ_JOINT, int(j), "joint") for j in np.nonzero(model.jnt_limited)[0]]
+    tendons = [_name(model, mujoco.mjtObj.mjOBJ_TENDON, int(t), "tendon") for t in np.nonzero(model.tendon_limited)[0]]
+    out = [f"the range of joint(s) {_listed(joints)}"] if joints else []
+    return out + ([f"the range of tendon(s) {_listed(tendons)}"] if tendons else [])
+
+
+def _equalities(model: Any) -> list[str]:
+    if _disabled(model, mujoco.mjtDisableBit.mjDSBL_EQUALITY):
+        return []
+    named = []
+    for e in range(model.neq):
+        what = _name(model, mujoco.mjtObj.mjOBJ_EQUALITY, e, "equality")
         if int(model.eq_type[e]) == int(mujoco.mjtEq.mjEQ_JOINT):  # a URDF <mimic> becomes one, unnamed
-            joints = [
-                _name(model, mujoco.mjtObj.mjOBJ_JOINT, int(i), "joint")
-                for i in (model.eq_obj1id[e], model.eq_obj2id[e])
-            ]
-            what += f" coupling joint '{joints[0]}' to joint '{joints[1]}' (a URDF <mimic> is read as one)"
-            fix = f"; lock it with --lock {joints[0]} (or both: --lock {joints[1]},{joints[0]}; locked= in Python)"
-        out.append(f"{what}: constraint forces cannot be compared (the hand equations of a chain have none){fix}")
-    if constraints and not _disabled(model, mujoco.mjtDisableBit.mjDSBL_LIMIT):
-        for limited in np.nonzero(model.jnt_limited)[0]:
-            out.append(
-                f"joint '{_name(model, mujoco.mjtObj.mjOBJ_JOINT, int(limited), 'joint')}' is limited: the limit's "
-                'constraint force cannot be compared; remove its range or set <flag limit="disable"/>'
-            )
-    if constraints and not _disabled(model, mujoco.mjtDisableBit.mjDSBL_FRICTIONLOSS):
-        for dof in np.nonzero(model.dof_frictionloss > 0)[0]:
-            d, joint = int(dof), int(model.dof_jntid[dof])
-            out.append(
-                f"joint '{_name(model, mujoco.mjtObj.mjOBJ_JOINT, joint, 'joint')}' has frictionloss "
-                f"{float(model.dof_frictionloss[d]):g}: dry friction is a constraint force, not a function of q and v"
-            )
-    for t in range(model.ntendon):
+            a, b = (_name(model, mujoco.mjtObj.mjOBJ_JOINT, int(i), "joint") for i in (model.eq_obj1id[e], model.eq_obj2id[e]))
+            what += f" (joint '{a}' coupled to joint '{b}')"
+        named.append(what)
+    return [f"equality constraint(s) {_listed(named)}"] if named else []
+
+
+def _frictionloss(model: Any) -> list[str]:
+    if _disabled(model, mujoco.mjtDisableBit.mjDSBL_FRICTIONLOSS):
+        return []
+    dofs = np.nonzero(model.dof_frictionloss > 0)[0]
+    joints = [_name(model, mujoco.mjtObj.mjOBJ_JOINT, int(model.dof_jntid[d]), "joint") for d in dofs]
+    tendons = [_name(model, mujoco.mjtObj.mjOBJ_TENDON, int(t), "tendon") for t in np.nonzero(model.tendon_frictionloss > 0)[0]]
+    named = list(dict.fromkeys(joints)) + [f"tendon {t}" for t in tendons]
+    return [f"the dry friction (frictionloss) of {_listed(named)}"] if named else []
+
+
+def _only_mujoco(model: Any) -> list[str]:
+    """Passive forces MuJoCo alone computes, set to zero on `model` (one line per kind)."""
+    out = []
+    sprung = np.nonzero((model.tendon_stiffness > 0) | (model.tendon_damping > 0))[0]
+    if len(sprung):
+        names = [_name(model, mujoco.mjtObj.mjOBJ_TENDON, int(t), "tendon") for t in sprung]
+        model.tendon_stiffness[sprung] = 0.0
+        model.tendon_damping[sprung] = 0.0
+        out.append(f"the spring and damper of tendon(s) {_listed(names)} (MuJoCo only, not compared)")
+    compensated = np.nonzero(model.body_gravcomp)[0]
+    if len(compensated):
+        names = [_name(model, mujoco.mjtObj.mjOBJ_BODY, int(b), "body") for b in compensated]
+        model.body_gravcomp[compensated] = 0.0
+        out.append(f"the gravity compensation (gravcomp) of body(ies) {_listed(names)} (MuJoCo only, not compared)")
+    return out
+
+
+def joint_actuators(model: Any) -> list[int]:
+    """The actuators whose force is gear x control on one joint (a joint transmission, no activation
+    dynamics, a fixed gain): the inputs every source can be given. The others are never driven."""
+    return [
+        a
+        for a in range(model.nu)
+        if int(model.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT)
+        and int(model.actuator_dyntype[a]) == int(mujoco.mjtDyn.mjDYN_NONE)
+        and int(model.actuator_gaintype[a]) == int(mujoco.mjtGain.mjGAIN_FIXED)
+    ]
+
+
+def _actuators(model: Any) -> list[str]:
+    """Actuator forces at zero control (a servo's feedback, set to zero on `model`) and actuators no
+    source can be given an input through, one line per kind."""
+    out = []
+    biased = [a for a in range(model.nu) if int(model.actuator_biastype[a]) != int(mujoco.mjtBias.mjBIAS_NONE)]
+    if biased:
+        names = [_name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, a, "actuator") for a in biased]
+        model.actuator_biastype[biased] = int(mujoco.mjtBias.mjBIAS_NONE)
+        out.append(f"the feedback (bias force) of actuator(s) {_listed(names)}, a controller's, not the plant's")
+    if not _disabled(model, mujoco.mjtDisableBit.mjDSBL_CLAMPCTRL) and np.any(model.actuator_ctrllimited):
+        limited = [_name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, int(a), "actuator") for a in np.nonzero(model.actuator_ctrllimited)[0]]
+        model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CLAMPCTRL)
+        out.append(f"the control range of actuator(s) {_listed(limited)} (an input is the torque asked for, unclamped)")
+    capped = np.nonzero(model.actuator_forcelimited)[0]
+    held = np.nonzero(model.jnt_actfrclimited)[0]
+    if len(capped) or len(held):
+        names = [_name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, int(a), "actuator") for a in capped]
+        names += [f"joint {_name(model, mujoco.mjtObj.mjOBJ_JOINT, int(j), 'joint')}" for j in held]
+        model.actuator_forcelimited[capped] = 0
+        model.jnt_actfrclimited[held] = 0
+        out.append(f"the force range of {_listed(names)} (an input is the torque asked for, unclamped)")
+    plain = set(joint_actuators(model))
+    other = [_name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, a, "actuator") for a in range(model.nu) if a not in plain]
+    if other:
         out.append(
-            f"tendon '{_name(model, mujoco.mjtObj.mjOBJ_TENDON, t, 'tendon')}': forces along a tendon cannot be "
-            "compared"
+            f"actuator(s) {_listed(other)} (a tendon or site transmission, activation dynamics or a gain that is "
+            "not fixed): never driven, so no input goes through them"
         )
     return out
+
+
+def constraints(model: Any) -> list[str]:
+    """One line per kind of constraint `model` has switched on, naming its elements (empty: none)."""
+    if _disabled(model, mujoco.mjtDisableBit.mjDSBL_CONSTRAINT):  # every constraint off already
+        return []
+    return _contacts(model) + _limits(model) + _equalities(model) + _frictionloss(model)
+
+
+def unconstrained(model: Any) -> list[str]:
+    """Switches `model`'s constraints off (and zeroes the passive forces only MuJoCo computes); returns
+    one line per kind that was left out, naming its elements (module docstring)."""
+    left = constraints(model)
+    model.opt.disableflags |= CONSTRAINT_FLAGS
+    return left + _only_mujoco(model) + _actuators(model)
