@@ -334,6 +334,18 @@ def _joint_parameters(P: _Params, joints: tuple[str, ...]) -> tuple[list[Any], l
     return armature, damping, stiffness
 
 
+def _springrefs(P: _Params, view: Any, joints: tuple[str, ...]) -> list[Any]:
+    """Each joint's spring reference (a symbol where the model has one, else 0)."""
+    import sympy as sp
+
+    return [
+        P.scalar(f"q0_{_clean(j)}", f"joint/{j}/springref", None, "rad")
+        if f"joint/{j}/springref" in view
+        else sp.Integer(0)
+        for j in joints
+    ]
+
+
 def _coriolis(M: Any, q: list[Any], v: list[Any]) -> Any:
     """Step 5: C_ij = sum_k Gamma_ijk v_k, from the Christoffel symbols of M."""
     import sympy as sp
@@ -362,12 +374,16 @@ def derive(view: Any, joints: tuple[str, ...]) -> Derivation:
     armature, damping, stiffness = _joint_parameters(P, joints)
     for i, J in enumerate(armature):
         M[i, i] += J
-    springs = sum((k * qi**2 / 2 for k, qi in zip(stiffness, q, strict=True)), sp.Integer(0))
-    V = sum(out["V_body"].values(), sp.Integer(0)) + springs
-    T = sum(out["T_body"].values(), sp.Integer(0))
-    G = sp.Matrix([sp.diff(V, qi) for qi in q])
+    # Springs, as MuJoCo counts them: in V (the energy) and in the passive forces, not in G (the bias).
+    stretch = [qi - r for qi, r in zip(q, _springrefs(P, view, joints), strict=True)]
+    springs = sum((k * x**2 / 2 for k, x in zip(stiffness, stretch, strict=True)), sp.Integer(0))
+    gravity_V = sum(out["V_body"].values(), sp.Integer(0))
+    V = gravity_V + springs
+    # A joint's armature (rotor inertia) is in M, so in T too: T = 1/2 v^T M v.
+    T = sum(out["T_body"].values(), sp.Integer(0)) + sum((J * vi**2 / 2 for J, vi in zip(armature, v, strict=True)), sp.Integer(0))
+    G = sp.Matrix([sp.diff(gravity_V, qi) for qi in q])
     C = _coriolis(M, q, v)
-    passive = sp.Matrix([-b * vi - k * qi for b, k, vi, qi in zip(damping, stiffness, v, q, strict=True)])
+    passive = sp.Matrix([-b * vi - k * x for b, k, vi, x in zip(damping, stiffness, v, stretch, strict=True)])
     return Derivation(
         joints=tuple(joints),
         q=q,

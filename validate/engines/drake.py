@@ -140,11 +140,25 @@ def _align(system: System, plant: Any) -> list[str]:
                 f"joint '{j}': armature {armature:g} given to Drake as the rotor inertia of a motor (Drake adds "
                 "armature only through a motor's reflected inertia)"
             )
-        stiffness = float(system.view[f"joint/{j}/stiffness"])
-        if stiffness:
-            out.append(f"joint '{j}': stiffness {stiffness:g} not read by Drake (nor applied by Pinocchio's source)")
+        out += _spring(system, plant, j)
     out.append("joint limits not enforced: Drake's continuous-mode plant has none (MuJoCo's are disabled)")
     return out
+
+
+def _spring(system: System, plant: Any, j: str) -> list[str]:
+    """A joint's stiffness, which Drake's MJCF parser does not read, as Drake's own spring on the joint
+    (a force element: in the passive forces, the dynamics and the potential energy)."""
+    from pydrake.multibody.tree import PrismaticSpring, RevoluteSpring
+
+    stiffness = float(system.view[f"joint/{j}/stiffness"])
+    if not stiffness:
+        return []
+    key = f"joint/{j}/springref"
+    ref = float(system.view[key]) if key in system.view else 0.0
+    joint = plant.GetJointByName(j)
+    kind = RevoluteSpring if system.view[f"joint/{j}/type"] == "hinge" else PrismaticSpring
+    plant.AddForceElement(kind(joint, ref, stiffness))
+    return [f"joint '{j}': stiffness {stiffness:g} (springref {ref:g}), which Drake's parser does not read, given as a spring"]
 
 
 def parsed_values(system: System, plant: Any) -> dict[str, tuple[float, float]]:

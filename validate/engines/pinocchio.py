@@ -116,6 +116,10 @@ class PinocchioSource:
         self.qidx = np.array([self.joint_ids[j][1] for j in system.joints])
         self.vidx = np.array([self.joint_ids[j][2] for j in system.joints])
         self.damping = np.array([system.view[f"joint/{j}/damping"] for j in system.joints])
+        # Joint springs, which Pinocchio's algorithms ignore: a passive force and a potential energy here.
+        self.stiffness = np.array([system.view[f"joint/{j}/stiffness"] for j in system.joints])
+        refs = [f"joint/{j}/springref" for j in system.joints]
+        self.springref = np.array([system.view[k] if k in system.view else 0.0 for k in refs])
         self.frames, self.joint_of_body = [], []
         for b in system.bodies:
             if not self.model.existBodyName(b):
@@ -192,8 +196,8 @@ class PinocchioSource:
         return np.array(self.model.damping[self.vidx], dtype=float)
 
     def passive(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """Joint damping, which Pinocchio's algorithms ignore, as a generalized force."""
-        return -self.damping * v
+        """Joint damping and springs, which Pinocchio's algorithms ignore, as a generalized force."""
+        return -self.damping * v - self.stiffness * (q - self.springref)
 
     def rhs(self, tau: np.ndarray):
         """scipy's right-hand side on ABA, with no per-call work beyond the call and the damping; ABA in
@@ -286,7 +290,8 @@ class PinocchioSource:
                 p[i, k] = oMi.translation
         # computeKineticEnergy sums the bodies' energies; a joint's armature (rotor inertia, in M through
         # model.armature) adds its own: T = 1/2 v^T M v, as MuJoCo and Drake count it.
-        out = {"T": kin + 0.5 * np.asarray(model.armature) @ (vs * vs), "V": pot}
+        springs = 0.5 * self.stiffness @ (qs[self.qidx] - self.springref[:, None]) ** 2
+        out = {"T": kin + 0.5 * np.asarray(model.armature) @ (vs * vs), "V": pot + springs}
         if full is not None:
             out["M"] = self._symmetric(full)
         if poses:

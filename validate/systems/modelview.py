@@ -18,6 +18,7 @@ defaults of their own), so the compiled MJCF is the single source of numbers. Ke
     joint/<name>/armature        kg m^2
     joint/<name>/frictionloss    N m
     joint/<name>/stiffness       N m / rad
+    joint/<name>/springref       rad (m): where the spring is relaxed; present only where it is not 0
     actuator/<name>/joint        joint name the actuator drives (an unnamed actuator: "actuator#<id>")
     actuator/<name>/gear         transmission ratio (generalized force per unit control)
 """
@@ -46,6 +47,9 @@ class ModelView(Mapping[str, Any]):
             return self._values[key]
         except KeyError:
             raise unknown_name(f"model key (in {self.source})", key, self._values) from None
+
+    def __contains__(self, key: object) -> bool:
+        return key in self._values
 
     def __iter__(self) -> Iterator[str]:
         return iter(self._values)
@@ -106,6 +110,8 @@ def from_mujoco(model: Any, source: str) -> ModelView:
         values[f"joint/{n}/armature"] = float(model.dof_armature[dof])
         values[f"joint/{n}/frictionloss"] = float(model.dof_frictionloss[dof])
         values[f"joint/{n}/stiffness"] = float(model.jnt_stiffness[j])
+        if model.qpos_spring[model.jnt_qposadr[j]] and _JOINT_TYPES[int(model.jnt_type[j])] in ("hinge", "slide"):
+            values[f"joint/{n}/springref"] = float(model.qpos_spring[model.jnt_qposadr[j]])
     for a in joint_actuators(model):  # the others are never driven (systems/scope.py)
         n = name(mujoco.mjtObj.mjOBJ_ACTUATOR, a)
         values[f"actuator/{n}/joint"] = name(mujoco.mjtObj.mjOBJ_JOINT, int(model.actuator_trnid[a, 0]))

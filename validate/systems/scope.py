@@ -149,6 +149,10 @@ def _only_mujoco(model: Any) -> list[str]:
         model.tendon_stiffness[sprung] = 0.0
         model.tendon_damping[sprung] = 0.0
         out.append(f"the spring and damper of tendon(s) {_listed(names)} (MuJoCo only, not compared)")
+    if model.opt.density or model.opt.viscosity:
+        medium = f"density {model.opt.density:g} kg/m^3, viscosity {model.opt.viscosity:g} Pa s"
+        model.opt.density, model.opt.viscosity = 0.0, 0.0
+        out.append(f"the fluid forces of the medium ({medium}) (MuJoCo only, not compared)")
     compensated = np.nonzero(model.body_gravcomp)[0]
     if len(compensated):
         names = [_name(model, mujoco.mjtObj.mjOBJ_BODY, int(b), "body") for b in compensated]
