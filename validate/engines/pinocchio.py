@@ -110,6 +110,9 @@ class PinocchioSource:
                 f"Pinocchio sees {self.model.nv} degrees of freedom in {system.mjcf.name}; the equations have {n}."
             )
         self.joint_ids = joint_indices(self.model, system)
+        # Pinocchio 4.1's computeKineticEnergy disagrees with 1/2 v^T M v from its own CRBA where a joint
+        # is a composite (several joints in one body; 34% on gymnasium's ant): T from CRBA there.
+        self.composite = any(n.startswith(COMPOSITE) for n in self.model.names)
         missing = [j for j in system.joints if j not in self.joint_ids]
         if missing:
             raise HarnessError(f"Pinocchio's model of {system.mjcf.name} has no joint '{missing[0]}'.")
@@ -263,7 +266,7 @@ class PinocchioSource:
         return self._in_c(pin.rneaInParallel, self._qs(q), self._vs(v), a) - self.passive(q, v)
 
     def energies(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        out = self._per_state(self._qs(q), self._vs(v), poses=False)
+        out = self._per_state(self._qs(q), self._vs(v), poses=False, mass=self.composite)
         return out["T"], out["V"]
 
     def _per_state(self, qs: np.ndarray, vs: np.ndarray, *, poses: bool, mass: bool = False) -> dict[str, np.ndarray]:
@@ -291,7 +294,10 @@ class PinocchioSource:
         # computeKineticEnergy sums the bodies' energies; a joint's armature (rotor inertia, in M through
         # model.armature) adds its own: T = 1/2 v^T M v, as MuJoCo and Drake count it.
         springs = 0.5 * self.stiffness @ (qs[self.qidx] - self.springref[:, None]) ** 2
-        out = {"T": kin + 0.5 * np.asarray(model.armature) @ (vs * vs), "V": pot + springs}
+        kin = kin + 0.5 * np.asarray(model.armature) @ (vs * vs)
+        if full is not None and self.composite:  # computeKineticEnergy is wrong there: from CRBA's M
+            kin = 0.5 * np.einsum("in,nij,jn->n", vs, full, vs)
+        out = {"T": kin, "V": pot + springs}
         if full is not None:
             out["M"] = self._symmetric(full)
         if poses:

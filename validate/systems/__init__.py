@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 from ..errors import HarnessError, unknown_name
 from ..guard import DEFAULT_TIME_LIMIT, Guard, Stopped, guard_module
 from ..inputs import regular_file
-from . import textform, urdf
+from . import floating, textform, urdf
 from .forms import input_name, normalize
 from .memo import Memo
 from .modelview import ModelView, from_mujoco
@@ -98,6 +98,7 @@ def mjcf_text(path: Path, overrides: tuple[tuple[str, float], ...] = (), text: s
             raise HarnessError(f"{path.name}: not well-formed XML ({exc}).") from None
         if root != "mujoco":
             raise HarnessError(f"{path.name}: not an MJCF document (root element <{root}>, expected <mujoco>).")
+    text = floating.convert(text)[0]  # free and ball joints as slides and hinges (systems/floating.py)
     if overrides:
         text = apply_overrides(text, overrides)
     return _absolute_includes(text, path.resolve().parent)
@@ -392,9 +393,10 @@ class System:
 
     @property
     def alignments(self) -> list[str]:
-        """What the harness does so that the engines' readings of a URDF agree (none for MJCF)."""
+        """What the harness does so that the engines' readings of a model agree: for an MJCF its free and
+        ball joints in one coordinate per degree of freedom (systems/floating.py), for a URDF urdf.py's."""
         if self.model_format != "urdf":
-            return []
+            return floating.convert(self._file_read[1])[1]
         locked = [f"joint(s) {', '.join(self.locked)} locked at zero (made fixed) in the URDF both engines read"]
         return (locked if self.locked else []) + urdf.alignments(self.urdf_text(), self.mjcf.name)
 

@@ -1,0 +1,101 @@
+"""Free and ball joints in coordinates every source shares: slides and hinges in the same body.
+
+A free joint (a floating base) and a ball joint keep a quaternion in MuJoCo (nq != nv), Pinocchio
+(FreeFlyer, Spherical) and Drake (QuaternionFloatingJoint, BallRpyJoint), each with its own order of
+the quaternion and its own frame for the velocity. The harness compares one coordinate per degree of
+freedom, so it gives every reader the same body with the same freedom in other coordinates: a free
+joint becomes three slides along the body's axes and three hinges about them (z, then y, then x, each
+about the axis the previous ones turned: intrinsic Z-Y-X Euler angles), a ball joint the three hinges
+alone, at its anchor. The mechanics are unchanged (the same bodies, masses and forces); the
+coordinates are a chart with its own singularity (the middle angle at +-90 degrees), and a person's
+module writes its equations in them. Each converted joint is listed in the alignments.
+
+An unnamed body or joint is named by MuJoCo's own id (`body#3`, `joint#5`), shown as such.
+
+Joint names: `<name>_tx`, `_ty`, `_tz`, `_rz`, `_ry`, `_rx` (an unnamed free joint is called `free#<k>`,
+a ball `ball#<k>`, by its order in the file).
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+SLIDES = (("tx", "1 0 0"), ("ty", "0 1 0"), ("tz", "0 0 1"))
+HINGES = (("rz", "0 0 1"), ("ry", "0 1 0"), ("rx", "1 0 0"))
+KEPT = ("damping", "armature", "stiffness", "frictionloss", "group")  # what each part keeps
+ZEROED = ("damping", "armature", "stiffness", "frictionloss", "ref", "springref")
+
+
+def _unnamed(text: str) -> bool:
+    """Whether a <body> or <joint> tag of the text has no name (a quick look before parsing)."""
+    import re
+
+    return any("name=" not in tag for tag in re.findall(r"<(?:body|joint|freejoint)\b[^>]*>", text))
+
+
+def _kind(element: ET.Element) -> str | None:
+    if element.tag == "freejoint":
+        return "free"
+    if element.tag == "joint" and element.get("type") in ("free", "ball"):
+        return element.get("type")
+    return None
+
+
+def _parts(element: ET.Element, kind: str, name: str) -> list[ET.Element]:
+    """The slides and hinges that stand for one free or ball joint."""
+    # What the joint states, and zero for the rest: a default class's joint attributes (armature, ref,
+    # a range) must not reach the parts where MuJoCo did not give them to the free joint.
+    kept = {k: element.get(k, "0") for k in ZEROED} | {k: v for k, v in element.attrib.items() if k in KEPT}
+    pos = {"pos": element.get("pos", "0 0 0")} if kind == "ball" else {}
+    out = []
+    for suffix, axis in (SLIDES if kind == "free" else ()) + HINGES:
+        kind_of = "slide" if suffix.startswith("t") else "hinge"
+        attrib = {"name": f"{name}_{suffix}", "type": kind_of, "axis": axis, "limited": "false", **pos, **kept}
+        out.append(ET.Element("joint", attrib))
+    return out
+
+
+def _name_unnamed(root: ET.Element) -> list[str]:
+    """Names every unnamed body and joint by MuJoCo's own id ("body#3", "joint#5": bodies in the order
+    MuJoCo numbers them, from 1, and each body's joints in turn), so that every reader can be mapped by
+    name; one line if any was named."""
+    named: list[str] = []
+    joints = 0
+    for b, body in enumerate(root.iter("body"), start=1):
+        if not body.get("name"):
+            body.set("name", f"body#{b}")
+            named.append(f"body#{b}")
+        for element in body:
+            if element.tag in ("joint", "freejoint"):
+                if not element.get("name"):
+                    element.set("name", f"joint#{joints}")
+                    named.append(f"joint#{joints}")
+                joints += 1
+    return [f"unnamed bodies and joints called by MuJoCo's ids: {', '.join(named)}"] if named else []
+
+
+def convert(text: str) -> tuple[str, list[str]]:
+    """The MJCF with its free and ball joints as slides and hinges (module docstring) and its unnamed
+    bodies and joints named by MuJoCo's ids, and one line per change; the text unchanged where it needs none."""
+    if "free" not in text and "ball" not in text and not _unnamed(text):
+        return text, []
+    root = ET.fromstring(text)
+    lines: list[str] = _name_unnamed(root)
+    count = {"free": 0, "ball": 0}
+    for body in root.iter("body"):
+        for i, element in reversed(list(enumerate(body))):
+            kind = _kind(element)
+            if kind is None:
+                continue
+            count[kind] += 1
+            name = element.get("name") or f"{kind}#{count[kind]}"
+            parts = _parts(element, kind, name)
+            body.remove(element)
+            for k, part in enumerate(parts):
+                body.insert(i + k, part)
+            lines.append(
+                f"{kind} joint '{name}' compared in the coordinates "
+                f"{', '.join(p.get('name', '') for p in parts)} (slides along and hinges about the body's axes, "
+                "intrinsic Z-Y-X angles; the same body and freedom, one coordinate per degree of freedom)"
+            )
+    return (ET.tostring(root, encoding="unicode"), lines) if lines else (text, [])
