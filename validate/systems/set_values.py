@@ -492,12 +492,31 @@ def set_values(
     for key, value in values.items():
         edit.set(key, value)
     edit.enable_dampers()
+    if edit.inertials and edit.model.compiler("inertiafromgeom") == "true":
+        _inertia_as_compiled(edit.model, edit.current())
     for name, fields in edit.inertials.items():
         _write_inertial(edit.model, name, fields, edit.current, edit.written)
     edited = _prolog(text) + ET.tostring(root, encoding="unicode")
     if verify:
         _verify(edited, edit.current(), edit.written)
     return edited
+
+
+def _inertia_as_compiled(model: _Model, view: Mapping[str, Any]) -> None:
+    """<compiler inertiafromgeom="true"> (every body's inertia from its geoms, <inertial> ignored) made
+    "auto", each <inertial> the model has set to what the geoms gave: the compiled model is unchanged,
+    and a body's inertia can now be written."""
+    for compiler in model.root.findall("compiler"):
+        if compiler.get("inertiafromgeom") is not None:
+            compiler.set("inertiafromgeom", "auto")
+    for name, body in model.bodies.items():
+        inertial = body.find("inertial")
+        if inertial is None:
+            continue
+        attrs = _inertia_attrs(np.asarray(view[f"body/{name}/inertia"], dtype=float))
+        assert attrs is not None  # a tensor MuJoCo compiled
+        inertial.attrib.clear()
+        inertial.attrib.update({"mass": repr(float(view[f"body/{name}/mass"])), "pos": _floats(view[f"body/{name}/com"]), **attrs})
 
 
 def _write_inertial(
@@ -510,8 +529,6 @@ def _write_inertial(
     """Mass, com and inertia of one body into its <inertial> (created, from the compiled model, if absent)."""
     body = model.bodies[name]
     for key, value, _ in fields.values():
-        if model.compiler("inertiafromgeom") == "true":
-            raise _bad(key, value, "the model takes every body's inertia from its geoms (<compiler inertiafromgeom>)")
         if float(model.compiler("settotalmass") or "-1") > 0:
             raise _bad(key, value, "<compiler settotalmass> rescales every mass")
     inertial = body.find("inertial")
