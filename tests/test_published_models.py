@@ -1,0 +1,98 @@
+"""Models as they are published (issue 32): gymnasium's MuJoCo environments, in its wheel (pinned in
+requirements.lock), with joint ranges, floors, free joints, several joints in one body, unnamed
+actuators and geom-derived inertia. None is refused for a constraint the equations of motion do not
+contain; a right hand derivation of one of them passes and a slipped one fails naming the term."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import mujoco
+import pytest
+from lagrange_xval.validate.cli import main
+from lagrange_xval.validate.systems import System, floating, scope
+
+EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "gymnasium" / "inverted_double_pendulum.py"
+
+
+def _assets() -> Path:
+    spec = importlib.util.find_spec("gymnasium")
+    assert spec is not None and spec.origin, "gymnasium is in requirements.lock (its wheel carries the models)"
+    return Path(spec.origin).parent / "envs" / "mujoco" / "assets"
+
+
+MODELS = sorted(p.name for p in _assets().glob("*.xml"))
+
+
+def _last(capsys: pytest.CaptureFixture[str]) -> str:
+    return capsys.readouterr().out.strip().splitlines()[-1]
+
+
+def test_constraints_are_listed_and_switched_off_not_refused():
+    """A floor, ranges, a control range: each kind named once, and MuJoCo's flags switch them off."""
+    model = mujoco.MjModel.from_xml_path(str(_assets() / "hopper.xml"))
+    left = scope.unconstrained(model)
+    assert any(line.startswith("contacts between 7 pair(s)") for line in left), left
+    assert any("the range of joint(s) 'thigh_joint'" in line for line in left), left
+    assert model.opt.disableflags & scope.CONSTRAINT_FLAGS == scope.CONSTRAINT_FLAGS
+    assert not scope.refusals(model)
+
+
+def test_free_joints_become_slides_and_hinges_every_reader_shares():
+    """ant.xml's free joint: six one-coordinate joints in the same body, listed; unnamed bodies named."""
+    text, lines = floating.convert((_assets() / "ant.xml").read_text())
+    model = mujoco.MjModel.from_xml_string(text)
+    assert model.nq == model.nv == 14
+    assert any("free joint 'root'" in line for line in lines) and any("body#" in line for line in lines)
+
+
+@pytest.mark.parametrize("name", ["inverted_pendulum.xml", "inverted_double_pendulum.xml", "hopper.xml", "point.xml"])
+def test_published_models_pass_alone(name, capsys):
+    """Ranges, a floor, several joints in one body, unnamed actuators: a verdict, and every reader agrees."""
+    assert main(["check", "--model", str(_assets() / name), "--states", "20"]) == 0
+    last = _last(capsys)
+    assert last.startswith(f"verdict: {Path(name).stem}: pass") and "left out" in last, last
+
+
+@pytest.mark.long
+@pytest.mark.parametrize("name", MODELS)
+def test_every_gymnasium_model_gets_a_verdict(name, capsys):
+    """No refusal: exit 0 or 1 with a verdict line, never an error (exit 2)."""
+    code = main(["check", "--model", str(_assets() / name), "--states", "10", "--probes", "0"])
+    last = _last(capsys)
+    assert code in (0, 1) and last.startswith(f"verdict: {Path(name).stem}: "), last
+
+
+def test_a_hand_derivation_of_the_inverted_double_pendulum_passes_and_a_coriolis_slip_fails(tmp_path, capsys):
+    """Written from gymnasium's XML (examples/gymnasium): right, it passes at the model and at the probes
+    (the capsules' inertia written into each probe); with the Christoffel symbols' half-term's sign
+    flipped, it fails on the velocity terms."""
+    model = str(_assets() / "inverted_double_pendulum.xml")
+    assert main(["check", "--model", model, "--equations", str(EXAMPLE), "--states", "50"]) == 0
+    assert "at 4 probe parameter sets" in _last(capsys)
+    text = EXAMPLE.read_text()
+    slip = ' - 0.5 * np.einsum("...jki'
+    assert slip in text
+    wrong = tmp_path / "inverted_double_pendulum.py"
+    wrong.write_text(text.replace(slip, ' + 0.5 * np.einsum("...jki'))
+    assert main(["check", "--model", model, "--equations", str(wrong), "--states", "50"]) == 1
+    last = _last(capsys)
+    assert last.startswith("verdict: inverted_double_pendulum: FAIL: velocity disagrees"), last
+
+
+def test_a_model_with_armature_and_springs_passes_alone(tmp_path, capsys):
+    """Slides with stiffness (one off its springref), damping and armature, a hinge with armature: MuJoCo,
+    Pinocchio, Drake and the derived equations agree on M, T (armature included), V and the passive
+    forces (springs included)."""
+    path = tmp_path / "sprung.xml"
+    path.write_text(
+        """<mujoco model="sprung"><worldbody><body name="cart" pos="0 0 1">
+      <joint name="x" type="slide" axis="1 0 0" stiffness="20" springref="0.1" damping="3" armature="0.2"/>
+      <joint name="z" type="slide" axis="0 0 1" stiffness="5" damping="1"/>
+      <geom type="sphere" size="0.1" mass="1"/>
+      <body name="pole" pos="0 0 -0.3"><joint name="th" type="hinge" axis="0 1 0" armature="0.05"/>
+        <geom type="capsule" fromto="0 0 0 0 0 -0.5" size="0.02" mass="0.5"/></body></body></worldbody></mujoco>"""
+    )
+    assert main(["check", "--model", str(path), "--states", "30"]) == 0, _last(capsys)
+    assert _last(capsys).startswith("verdict: sprung: pass")
