@@ -133,6 +133,7 @@ class PinocchioSource:
             self.frames.append(fid)
             self.joint_of_body.append(self.model.frames[fid].parentJoint)
         self.gravity = np.array(system.view["gravity"], dtype=float)
+        self.centres = self._centres()
         self.q_neutral = pin.neutral(self.model)
         self._pool: Any = None  # Pinocchio's ModelPool for the batched algorithms, made when first used
 
@@ -178,6 +179,22 @@ class PinocchioSource:
         for i, (qi, vi, ti) in enumerate(zip(qs.T, vs.T, self._vs(tau).T, strict=True)):
             out[i] = aba(model, data, qi, vi, ti, convention=LOCAL)
         return out[:, self.vidx]
+
+    def _centres(self) -> np.ndarray:
+        """Each compared body's centre of mass in its joint's frame: Pinocchio's joint inertia's lever,
+        except where bodies without a joint are welded to the body (Pinocchio adds them to the joint's
+        inertia and keeps no inertia per body): there the body's own centre, as compiled, in its frame."""
+        view = self.system.view
+        moved = {str(view[f"joint/{j}/body"]) for j in self.system.model_joints}
+        parents = [k[len("body/") : -len("/parent")] for k in view if k.startswith("body/") and k.endswith("/parent")]
+        carrying = {str(view[f"body/{b}/parent"]) for b in parents if b not in moved}
+        out = []
+        for b, jid, fid in zip(self.system.bodies, self.joint_of_body, self.frames, strict=True):
+            if b in carrying:
+                out.append(self.model.frames[fid].placement.act(np.asarray(view[f"body/{b}/com"], dtype=float)))
+            else:
+                out.append(np.array(self.model.inertias[jid].lever, dtype=float))
+        return np.array(out, dtype=float).reshape(-1, 3)
 
     def joint_frames(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         """Pinocchio's reading of each compared joint at q = 0: its anchor in world coordinates and
@@ -301,7 +318,7 @@ class PinocchioSource:
         if full is not None:
             out["M"] = self._symmetric(full)
         if poses:
-            levers = np.array([model.inertias[j].lever for j in self.joint_of_body]).reshape(nb, 3)
+            levers = self.centres.reshape(nb, 3)
             frame_rot = np.array([model.frames[f].placement.rotation for f in self.frames]).reshape(nb, 3, 3)
             out["body_positions"] = np.einsum("nkij,kj->nki", R, levers) + p
             out["body_rotations"] = R @ frame_rot
