@@ -342,13 +342,16 @@ def _run_files(
     locked: tuple[str, ...] = (),
     cache: Cache | None = None,
     time_limit: float = DEFAULT_TIME_LIMIT,
+    balance_inertia: bool = False,
 ) -> SystemResult:
     """One system from a model file and an equations file (picklable, for process pools)."""
 
     if equations:
-        system = System.from_files(model, equations, locked=locked, time_limit=time_limit)
+        system = System.from_files(
+            model, equations, locked=locked, time_limit=time_limit, balance_inertia=balance_inertia
+        )
     else:
-        system = System.model_only(model, locked=locked)
+        system = System.model_only(model, locked=locked, balance_inertia=balance_inertia)
     return guarded_run(system, n_states=n_states, seed=seed, n_probes=n_probes, cache=cache)
 
 
@@ -422,6 +425,7 @@ def run(
     locked: tuple[str, ...] = (),
     cache: Cache | None = None,
     time_limit: float = DEFAULT_TIME_LIMIT,
+    balance_inertia: bool = False,
 ) -> RunResults:
     """Every system (or those named), each in a worker of `executor` (default: a process pool on
     every core; any `concurrent.futures.Executor` will do, a distributed one included). `files`:
@@ -438,9 +442,9 @@ def run(
     # Unknown names and unreadable files fail here, before any work starts.
     systems = load_all(names, time_limit=time_limit) if names or not files else []
     users = [
-        System.from_files(m, e, locked=locked, time_limit=time_limit)
+        System.from_files(m, e, locked=locked, time_limit=time_limit, balance_inertia=balance_inertia)
         if e is not None
-        else System.model_only(m, locked=locked)
+        else System.model_only(m, locked=locked, balance_inertia=balance_inertia)
         for m, e in (files or [])
     ]
     taken = [s.name for s in systems + users]
@@ -460,7 +464,7 @@ def run(
         }
         for (model, equations), user in zip(files or [], users, strict=True):
             equations_file = "" if equations is None else str(equations)
-            args = (str(model), equations_file, n_states, seed, n_probes, locked, cache, time_limit)
+            args = (str(model), equations_file, n_states, seed, n_probes, locked, cache, time_limit, balance_inertia)
             futures[pool.submit(_task, _run_files, args, after, meta)] = user
         for system in futures.values():
             if progress:

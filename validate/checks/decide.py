@@ -79,6 +79,10 @@ class Decision:
         if bad and (self.model_only or self.derivation.get("verdict") == "agrees"):
             more = f" (and {len(bad) - 1} more)" if len(bad) > 1 else ""
             text += f"; but pointwise {bad[0]['quantity']} {bad[0]['pair']} disagrees{more}"
+        defects = self.model_checks.get("defects", [])
+        if defects:
+            more = f" (and {len(defects) - 1} more)" if len(defects) > 1 else ""
+            text += f"; the file has a defect: {defects[0]}{more}"
         left = self.model_checks.get("left_out", [])
         if left:
             text += f" (left out, as no equation of motion contains them: {'; '.join(left)})"

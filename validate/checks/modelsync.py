@@ -243,4 +243,6 @@ def check(system: System, pin_source: Source) -> ModelChecks:
     out: ModelChecks = {"n_checked": len(rows), "passed": not failed, "mismatches": failed, "alignments": system.alignments}
     if system.left_out:
         out["left_out"] = system.left_out
+    if system.defects:
+        out["defects"] = system.defects
     return out

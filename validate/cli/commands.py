@@ -215,6 +215,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             locked=locked,
             cache=cache,
             time_limit=args.time_limit,
+            balance_inertia=args.balance_inertia,
         )
     cache.trim()
     hint = replay_hint(args.out, written=not args.no_replay)
@@ -257,9 +258,10 @@ def one_system(args: argparse.Namespace) -> System:
     limit = getattr(args, "time_limit", DEFAULT_TIME_LIMIT)
     if files:
         model, equations = files[0]
+        balance = bool(getattr(args, "balance_inertia", False))
         if equations is None:
-            return System.model_only(model, locked=locked)
-        return System.from_files(model, equations, locked=locked, time_limit=limit)
+            return System.model_only(model, locked=locked, balance_inertia=balance)
+        return System.from_files(model, equations, locked=locked, time_limit=limit, balance_inertia=balance)
     if not args.system:
         raise HarnessError("name a SYSTEM (see `lagrange-xval list`) or give --model PATH --equations PATH.")
     return load(args.system, time_limit=limit)

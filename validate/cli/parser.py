@@ -187,7 +187,13 @@ def _lock_option(parser: argparse.ArgumentParser) -> None:
         default=(),
         metavar="JOINTS",
         help="comma-separated joints of the --model URDF to make fixed at zero before it is read (a gripper's "
-        "fingers; a <mimic> joint must be), a step the report lists",
+        "fingers), a step the report lists",
+    )
+    parser.add_argument(
+        "--balance-inertia",
+        action="store_true",
+        help="give every reader of the --model URDF the repaired inertia of each link whose inertia is invalid "
+        "(MuJoCo's balanceinertia; without it only MuJoCo, which refuses the file as written, is given it)",
     )
 
 

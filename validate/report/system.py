@@ -158,6 +158,9 @@ def section_model_checks(doc: Document, name: str, s: dict[str, Any]) -> None:
         + "every compared body's mass, centre of mass and inertia, and every compared joint's anchor and axis, as "
         "Pinocchio and MuJoCo read them (pinocchio~mujoco)."
     )
+    if mc.get("defects"):
+        doc.p("Defects of the file, each a finding (systems/inertia.py says how each was repaired and for whom):")
+        doc.blocks.append(Items(tuple(mc["defects"])))
     if mc.get("left_out"):
         doc.p(
             "Left out of every comparison: the model's constraints, which add forces on top of the equations of "

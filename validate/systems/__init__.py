@@ -22,6 +22,7 @@ from ..errors import HarnessError, unknown_name
 from ..guard import DEFAULT_TIME_LIMIT, Guard, Stopped, guard_module
 from ..inputs import regular_file
 from . import floating, textform, urdf
+from .inertia import repair_urdf
 from .forms import input_name, normalize
 from .memo import Memo
 from .modelview import ModelView, from_mujoco
@@ -166,6 +167,7 @@ class System:
     equations: Any  # the equations module (form a after normalize), or None for the model alone
     overrides: tuple[tuple[str, float], ...] = ()
     locked: tuple[str, ...] = ()  # URDF joints made fixed (urdf.lock), a named step listed in the alignments
+    balance_inertia: bool = False  # every reader given the repaired inertia of a defective link (systems/inertia.py)
     # The MJCF text to use instead of the file's (a probe's edited copy); `mjcf` still names the file.
     text: str | None = field(default=None, repr=False)
 
@@ -179,13 +181,15 @@ class System:
         return dataclasses.replace(self, **changes)  # cached properties are not copied
 
     @classmethod
-    def model_only(cls, model: str | Path, *, name: str | None = None, locked: tuple[str, ...] = ()) -> System:
+    def model_only(
+        cls, model: str | Path, *, name: str | None = None, locked: tuple[str, ...] = (), balance_inertia: bool = False
+    ) -> System:
         """The model alone, for the engines and the symbolic source (no derivation): coordinates are
         the model's joints in order, the bodies those the joints move; `locked`: URDF joints made fixed."""
         model = Path(model)
         if not model.is_file():
             raise HarnessError(f"model file not found: {model} (give an MJCF .xml or a URDF .urdf file).")
-        system = cls(name=name or model.stem, mjcf=model, equations=None, locked=tuple(locked))
+        system = cls(name=name or model.stem, mjcf=model, equations=None, locked=tuple(locked), balance_inertia=balance_inertia)
         system.mujoco_model()
         return system
 
@@ -198,6 +202,7 @@ class System:
         name: str | None = None,
         locked: tuple[str, ...] = (),
         time_limit: float = DEFAULT_TIME_LIMIT,
+        balance_inertia: bool = False,
     ) -> System:
         """A system from any model file (MJCF or URDF) and any equations module file (named after the
         module's file stem unless `name` is given); both are checked before anything is computed.
@@ -207,7 +212,9 @@ class System:
         if not model.is_file():
             raise HarnessError(f"model file not found: {model} (give an MJCF .xml or a URDF .urdf file).")
         module = load_module(equations, model=model, time_limit=time_limit)
-        system = cls(name=name or equations.stem, mjcf=model, equations=module, locked=tuple(locked))
+        system = cls(
+            name=name or equations.stem, mjcf=model, equations=module, locked=tuple(locked), balance_inertia=balance_inertia
+        )
         system.mujoco_model()  # a model MuJoCo refuses fails here, in one line
         return system
 
@@ -375,7 +382,17 @@ class System:
     def urdf_text(self) -> str:
         """The URDF file's text (only for `reads_urdf` systems), with the `locked` joints made fixed."""
         text = self._file()[1]
-        return urdf.lock(text, self.locked, self.mjcf.name) if self.locked else text
+        text = urdf.lock(text, self.locked, self.mjcf.name) if self.locked else text
+        return repair_urdf(text)[0] if self.balance_inertia else text
+
+    @property
+    def defects(self) -> list[str]:
+        """The file's defective inertias (systems/inertia.py), one line per link: stated in the verdict."""
+        if self.model_format != "urdf":
+            return []
+        lines = repair_urdf(self._file()[1])[1]
+        given = "every reader" if self.balance_inertia else "MuJoCo (the other readers read the file as written)"
+        return [f"{line}; given to {given}" for line in lines]
 
     def _file(self) -> tuple[str, str]:
         """The model file's format and text, read once."""

@@ -37,6 +37,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import HarnessError
+from .inertia import repair_urdf
 
 ROOT = "robot"
 UNBOUNDED = 1e10  # the limits of a continuous joint handed to Pinocchio as revolute, in rad
@@ -72,17 +73,28 @@ def without_geometry(text: str) -> str:
     return _GEOMETRY.sub("", text)
 
 
+def coupled_transmissions(text: str, source: str) -> list[str]:
+    """One line per <transmission> that is not one actuator on one joint (a differential wrist): not read."""
+    out = []
+    for tr in _root(text, source).iter("transmission"):
+        joints, actuators = tr.findall("joint"), tr.findall("actuator")
+        if len(joints) != 1 or len(actuators) != 1:
+            out.append(
+                f"transmission '{tr.get('name', '?')}' ({len(joints)} joint(s), {len(actuators)} actuator(s): "
+                f"{', '.join(j.get('name', '?') for j in joints)}) not read: no input goes through it"
+            )
+    return out
+
+
 def transmissions(text: str, source: str) -> list[Transmission]:
-    """The URDF's <transmission> elements: one actuator on one joint each (others are refused)."""
+    """The URDF's <transmission> elements of one actuator on one joint each (`coupled_transmissions`
+    lists the others, which are not read)."""
     out = []
     for tr in _root(text, source).iter("transmission"):
         name = tr.get("name", "?")
         joints, actuators = tr.findall("joint"), tr.findall("actuator")
         if len(joints) != 1 or len(actuators) != 1:
-            raise HarnessError(
-                f"{source}: transmission '{name}' has {len(joints)} joint(s) and {len(actuators)} actuator(s); "
-                "the harness reads one actuator on one joint per transmission"
-            )
+            continue
         reduction = actuators[0].findtext("mechanicalReduction") or tr.findtext("mechanicalReduction") or "1"
         try:
             gear = float(reduction)
@@ -143,6 +155,7 @@ def _spec(text: str, source: str) -> Any:
 
     joints = [(j.get("name") or "?", j.get("type") or "?") for j in _root(text, source).findall("joint")]
     refused = urdf_refusals(joints)  # before either engine reads the file
+    text = repair_urdf(text)[0]  # a defective inertia, which MuJoCo refuses, as its balanceinertia gives it
     if refused:
         raise HarnessError(f"{source}: {refused[0]}" + (f" (and {len(refused) - 1} more)" if len(refused) > 1 else ""))
     mujoco.set_mju_user_warning(_no_log)  # MuJoCo would append to MUJOCO_LOG.TXT in the working directory
@@ -262,6 +275,7 @@ def alignments(text: str, source: str) -> list[str]:
             out.append(f"transmission of '{tr.actuator}' on the fixed joint '{tr.joint}' ignored (it moves nothing)")
         else:
             out.append(f"transmission of '{tr.actuator}' on joint '{tr.joint}' made a MuJoCo motor, gear {tr.gear:g}")
+    out += coupled_transmissions(text, source)
     out.append(
         "not in URDF, MuJoCo's defaults used: gravity (0, 0, -9.81) m/s^2 (copied into Pinocchio), timestep "
         "0.002 s, Euler integrator, no armature, no springs"

@@ -1,0 +1,83 @@
+"""Defects of a published file's inertias: found, named and repaired in one stated way.
+
+A link's inertia tensor must be positive definite and its principal moments A, B, C must satisfy the
+triangle inequality A + B >= C (each one: a rigid body's mass cannot be farther from every axis than
+the other two allow). Published URDFs break both; MuJoCo refuses them ("inertia must satisfy A + B >=
+C; use 'balanceinertia'", "inertia must have positive eigenvalues"), Pinocchio reads them as written,
+and Drake may replace them. The harness states each defect (the link, the inequality, by how much)
+and, so that MuJoCo can read the file, gives MuJoCo the tensor its compiler's `balanceinertia` gives:
+every principal moment set to their mean (trace / 3, an isotropic tensor), and the same for a tensor
+that is not positive definite but whose trace is. The other readers read the file as written, so their
+readings of that link differ from MuJoCo's and the verdict names the defect; with `--balance-inertia`
+every reader is given the repaired tensor.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+TOLERANCE = 1e-12  # relative to the largest moment: MuJoCo's own check allows rounding
+
+
+def tensor(inertia: ET.Element) -> np.ndarray:
+    """The (3, 3) tensor of a URDF <inertia> element (absent entries 0)."""
+    get = lambda k: float(inertia.get(k, "0") or 0.0)  # noqa: E731
+    xy, xz, yz = get("ixy"), get("ixz"), get("iyz")
+    return np.array([[get("ixx"), xy, xz], [xy, get("iyy"), yz], [xz, yz, get("izz")]])
+
+
+def defect(I: np.ndarray) -> str:
+    """What is wrong with the tensor I, or "" (valid, or zero: a massless link)."""
+    if not np.any(I):
+        return ""
+    moments = np.linalg.eigvalsh(I)
+    scale = float(np.abs(moments).max())
+    shown = ", ".join(f"{m:.4g}" for m in moments)
+    if moments[0] <= TOLERANCE * scale:
+        return f"inertia not positive definite (principal moments {shown} kg m^2)"
+    a, b, c = moments
+    if a + b < c - TOLERANCE * scale:
+        return f"principal moments violate A + B >= C: {a:.4g} + {b:.4g} < {c:.4g} by {c - a - b:.3g} kg m^2"
+    return ""
+
+
+def repaired(I: np.ndarray) -> np.ndarray | None:
+    """MuJoCo's balanceinertia of a defective tensor: trace / 3 on the diagonal (None where the trace is
+    not positive: no valid tensor to give)."""
+    mean = float(np.trace(I)) / 3.0
+    return mean * np.eye(3) if mean > 0 else None
+
+
+def urdf_defects(root: ET.Element) -> list[tuple[str, str, ET.Element]]:
+    """(link, what is wrong, its <inertia> element) for every defective link of a URDF tree."""
+    out = []
+    for link in root.iter("link"):
+        inertia = link.find("inertial/inertia")
+        if inertia is None:
+            continue
+        why = defect(tensor(inertia))
+        if why:
+            out.append((link.get("name", "?"), why, inertia))
+    return out
+
+
+def repair_urdf(text: str) -> tuple[str, list[str]]:
+    """The URDF with every defective link's inertia repaired (module docstring), and one line per link
+    saying what was wrong and what it was given; the text unchanged where nothing is defective."""
+    if "inertia" not in text:
+        return text, []
+    root = ET.fromstring(text)
+    lines = []
+    for link, why, element in urdf_defects(root):
+        fixed = repaired(tensor(element))
+        if fixed is None:
+            lines.append(f"link '{link}': {why}; no valid tensor has its trace: read as written")
+            continue
+        for key in ("ixy", "ixz", "iyz"):
+            element.set(key, "0")
+        for key in ("ixx", "iyy", "izz"):
+            element.set(key, repr(float(fixed[0, 0])))
+        lines.append(f"link '{link}': {why}; balanced to {fixed[0, 0]:.6g} kg m^2 on each axis (MuJoCo's balanceinertia)")
+    return (ET.tostring(root, encoding="unicode"), lines) if lines else (text, [])
