@@ -170,13 +170,14 @@ def test_new_filled_in_from_derive_passes_every_check_locked(tmp_path, capsys):
 
 
 @needs_robots
-def test_new_on_the_panda_locks_its_fingers_or_names_the_lock(tmp_path, capsys):
-    """The Panda's second finger mimics the first: `new` without --lock refuses it naming the --lock
-    that fixes it; with both fingers locked it writes the seven arm joints."""
+def test_new_on_the_panda_with_or_without_its_fingers_locked(tmp_path, capsys):
+    """The Panda's second finger mimics the first: a constraint, left out like every other, so `new`
+    without --lock writes all nine joints; with both fingers locked it writes the seven arm joints."""
     assert ROBOTS is not None
     panda = ROBOTS / "panda_description/urdf/panda.urdf"
-    assert main(["new", "mine", "--model", str(panda), "--dir", str(tmp_path)]) == 2
-    assert "lock it with --lock panda_finger_joint2" in capsys.readouterr().err
+    assert main(["new", "whole", "--model", str(panda), "--dir", str(tmp_path)]) == 0
+    whole = runpy.run_path(str(tmp_path / "whole.py"))
+    assert len(whole["COORDINATES"]) == 9 and "panda_finger_joint2" in whole["COORDINATES"]
     fingers = "panda_finger_joint1,panda_finger_joint2"
     assert main(["new", "mine", "--model", str(panda), "--dir", str(tmp_path), "--lock", fingers]) == 0
     module = runpy.run_path(str(tmp_path / "mine.py"))

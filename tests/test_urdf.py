@@ -104,22 +104,9 @@ def test_a_mujoco_only_extension_is_named_as_a_parity_difference(tmp_path):
 @pytest.mark.parametrize(
     ("old", "new", "named"),
     [
-        (
-            '<dynamics damping="0.23"/>',
-            '<dynamics damping="0.23" friction="0.4"/>',
-            "joint 'shoulder' has frictionloss",
-        ),
         ('type="continuous"', 'type="floating"', "joint 'yaw' is a floating joint"),
         ('<mass value="1.7"/>', '<mass value="-1.7"/>', "MuJoCo cannot"),
         ("</robot>", "", "not well-formed XML"),
-        (
-            "</robot>",
-            '<link name="l4"><inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4" ixy="0" ixz="0" '
-            'iyz="0"/></inertial></link><joint name="wrist" type="revolute"><parent link="link3"/><child link="l4"/>'
-            '<axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/><mimic joint="elbow"/></joint>'
-            "</robot>",
-            "coupling joint 'wrist' to joint 'elbow'",
-        ),
         ('<child link="link3"/>', '<child link="link9"/>', "MuJoCo cannot"),
     ],
 )
@@ -127,6 +114,30 @@ def test_a_urdf_outside_scope_or_broken_is_one_line(tmp_path, old, new, named):
     with pytest.raises(HarnessError, match=named) as err:
         System.from_files(_urdf(tmp_path, old, new), EQUATIONS)
     assert "\n" not in str(err.value)
+
+
+MIMIC = (
+    '<link name="l4"><inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4" ixy="0" ixz="0" '
+    'iyz="0"/></inertial></link><joint name="wrist" type="revolute"><parent link="link3"/><child link="l4"/>'
+    '<axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/><mimic joint="elbow"/></joint>'
+    "</robot>"
+)
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "named"),
+    [
+        ('<dynamics damping="0.23"/>', '<dynamics damping="0.23" friction="0.4"/>', "frictionloss) of 'shoulder'"),
+        ("</robot>", MIMIC, "(joint 'wrist' coupled to joint 'elbow')"),
+    ],
+    ids=["friction", "mimic"],
+)
+def test_a_urdf_with_friction_or_a_mimic_joint_is_read_with_them_left_out(tmp_path, old, new, named):
+    """Dry friction and a <mimic> coupling are constraints: named as left out, not refused, and every
+    reader agrees on the chain without them."""
+    system = System.model_only(_urdf(tmp_path, old, new))
+    assert any(named in line for line in system.left_out), system.left_out
+    assert lx.check(system, n_states=30).passed
 
 
 def test_overrides_on_a_urdf_edit_its_mjcf_form(arm):

@@ -73,9 +73,9 @@ def _collide(model: Any, a: int, b: int) -> bool:
     return True
 
 
-def _listed(names: list[str]) -> str:
+def _listed(names: list[str], *, quoted: bool = True) -> str:
     """'a', 'b', 'c' and 2 more."""
-    shown = ", ".join(f"'{n}'" for n in names[:SHOWN])
+    shown = ", ".join(f"'{n}'" if quoted else n for n in names[:SHOWN])
     return shown + (f" and {len(names) - SHOWN} more" if len(names) > SHOWN else "")
 
 
@@ -122,12 +122,12 @@ def _equalities(model: Any) -> list[str]:
         return []
     named = []
     for e in range(model.neq):
-        what = _name(model, mujoco.mjtObj.mjOBJ_EQUALITY, e, "equality")
+        what = f"'{_name(model, mujoco.mjtObj.mjOBJ_EQUALITY, e, 'equality')}'"
         if int(model.eq_type[e]) == int(mujoco.mjtEq.mjEQ_JOINT):  # a URDF <mimic> becomes one, unnamed
             a, b = (_name(model, mujoco.mjtObj.mjOBJ_JOINT, int(i), "joint") for i in (model.eq_obj1id[e], model.eq_obj2id[e]))
             what += f" (joint '{a}' coupled to joint '{b}')"
         named.append(what)
-    return [f"equality constraint(s) {_listed(named)}"] if named else []
+    return [f"equality constraint(s) {_listed(named, quoted=False)}"] if named else []
 
 
 def _frictionloss(model: Any) -> list[str]:
