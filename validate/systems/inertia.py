@@ -7,7 +7,8 @@ C; use 'balanceinertia'", "inertia must have positive eigenvalues"), Pinocchio r
 and Drake may replace them. The harness states each defect (the link, the inequality, by how much)
 and, so that MuJoCo can read the file, gives MuJoCo the tensor its compiler's `balanceinertia` gives:
 every principal moment set to their mean (trace / 3, an isotropic tensor), and the same for a tensor
-that is not positive definite but whose trace is. The other readers read the file as written, so their
+that is not positive definite but whose trace is; a link of mass 0 with a non-zero inertia has the
+inertia dropped, as MuJoCo reads it (Pinocchio keeps it, Drake reads such a link as 1 kg). The other readers read the file as written, so their
 readings of that link differ from MuJoCo's and the verdict names the defect; with `--balance-inertia`
 every reader is given the repaired tensor.
 """
@@ -50,6 +51,14 @@ def repaired(I: np.ndarray) -> np.ndarray | None:
     return mean * np.eye(3) if mean > 0 else None
 
 
+def _mass(link: ET.Element) -> float:
+    element = link.find("inertial/mass")
+    try:
+        return float(element.get("value", "0")) if element is not None else 0.0
+    except ValueError:
+        return float("nan")  # not a number: the readers say so
+
+
 def urdf_defects(root: ET.Element) -> list[tuple[str, str, ET.Element]]:
     """(link, what is wrong, its <inertia> element) for every defective link of a URDF tree."""
     out = []
@@ -57,7 +66,9 @@ def urdf_defects(root: ET.Element) -> list[tuple[str, str, ET.Element]]:
         inertia = link.find("inertial/inertia")
         if inertia is None:
             continue
-        why = defect(tensor(inertia))
+        I = tensor(inertia)
+        massless = _mass(link) == 0.0 and bool(np.any(I))
+        why = f"mass 0 with a non-zero inertia (trace {np.trace(I):.4g} kg m^2)" if massless else defect(I)
         if why:
             out.append((link.get("name", "?"), why, inertia))
     return out
@@ -71,6 +82,11 @@ def repair_urdf(text: str) -> tuple[str, list[str]]:
     root = ET.fromstring(text)
     lines = []
     for link, why, element in urdf_defects(root):
+        if why.startswith("mass 0"):  # MuJoCo's reading: a massless link has no inertia
+            for key in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz"):
+                element.set(key, "0")
+            lines.append(f"link '{link}': {why}; its inertia dropped (MuJoCo's reading of a massless link)")
+            continue
         fixed = repaired(tensor(element))
         if fixed is None:
             lines.append(f"link '{link}': {why}; no valid tensor has its trace: read as written")

@@ -169,17 +169,21 @@ def _spec(text: str, source: str) -> Any:
         joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_FALSE
     names = {j.name for j in spec.joints}
     fixed = set(fixed_joints(text, source))
-    for tr in transmissions(text, source):
-        if tr.joint in fixed:
-            continue  # a motor on a fixed joint moves nothing (listed in the alignments)
-        if tr.joint not in names:
-            raise HarnessError(
-                f"{source}: transmission of '{tr.actuator}' drives joint '{tr.joint}', which MuJoCo's reading lacks "
-                f"(moving joints: {', '.join(sorted(names)) or 'none'})"
-            )
-        motor = spec.add_actuator(name=tr.actuator, target=tr.joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    for tr, name in motors(text, source):
+        if tr.joint in fixed or tr.joint not in names:
+            continue  # a motor on a fixed or absent joint moves nothing (listed in the alignments)
+        motor = spec.add_actuator(name=name, target=tr.joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
         motor.gear[0] = tr.gear
     return spec
+
+
+def motors(text: str, source: str) -> list[tuple[Transmission, str]]:
+    """Each one-joint transmission with the name of the MuJoCo motor made of it: its actuator's, or,
+    where two transmissions name the same actuator, the actuator's name and the joint's
+    ("thumb_motor@thumb_joint")."""
+    found = transmissions(text, source)
+    count = {tr.actuator: sum(t.actuator == tr.actuator for t in found) for tr in found}
+    return [(tr, tr.actuator if count[tr.actuator] == 1 else f"{tr.actuator}@{tr.joint}") for tr in found]
 
 
 def compile_urdf(text: str, source: str) -> Any:
@@ -270,11 +274,14 @@ def alignments(text: str, source: str) -> list[str]:
         inner = "".join(ET.tostring(child, encoding="unicode").strip() for child in ext)
         out.append(f"MuJoCo's own <mujoco> extension read by MuJoCo only (Pinocchio ignores it): {inner[:200]}")
     welded = set(fixed_joints(text, source))
-    for tr in transmissions(text, source):
+    joints = {j.get("name") for j in root.iter("joint")}
+    for tr, name in motors(text, source):
         if tr.joint in welded:
             out.append(f"transmission of '{tr.actuator}' on the fixed joint '{tr.joint}' ignored (it moves nothing)")
+        elif tr.joint not in joints:
+            out.append(f"transmission of '{tr.actuator}' on joint '{tr.joint}', which the file lacks, ignored")
         else:
-            out.append(f"transmission of '{tr.actuator}' on joint '{tr.joint}' made a MuJoCo motor, gear {tr.gear:g}")
+            out.append(f"transmission of '{tr.actuator}' on joint '{tr.joint}' made a MuJoCo motor '{name}', gear {tr.gear:g}")
     out += coupled_transmissions(text, source)
     out.append(
         "not in URDF, MuJoCo's defaults used: gravity (0, 0, -9.81) m/s^2 (copied into Pinocchio), timestep "
