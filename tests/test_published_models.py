@@ -96,3 +96,52 @@ def test_a_model_with_armature_and_springs_passes_alone(tmp_path, capsys):
     )
     assert main(["check", "--model", str(path), "--states", "30"]) == 0, _last(capsys)
     assert _last(capsys).startswith("verdict: sprung: pass")
+
+
+def _extreme(tmp_path: Path) -> System:
+    """The absolute-angle double pendulum with a 50 kg bob on a 0.1 m rod below a 2 m rod."""
+    from lagrange_xval.validate.systems import load
+
+    notes = load("double_pendulum_absolute")
+    text = notes.mjcf.read_text()
+    text = text.replace('<inertial pos="0 -1 0" mass="1"', '<inertial pos="0 -2 0" mass="1"', 1)
+    text = text.replace('<body name="link2" pos="0 -1 0">', '<body name="link2" pos="0 -2 0">', 1)
+    i = text.index('<body name="link2"')
+    text = text[:i] + text[i:].replace('<inertial pos="0 -1 0" mass="1"', '<inertial pos="0 -0.1 0" mass="50"', 1)
+    path = tmp_path / "double_pendulum_absolute.xml"
+    path.write_text(text)
+    return System(name=notes.name, mjcf=path, equations=notes.equations)
+
+
+def test_scipys_error_estimate_bounds_its_error_at_an_extreme_ratio(tmp_path):
+    """odeint's error against the reference stays within 10 x its own estimate (the threshold) on Pinocchio's
+    ABA where the check run is DOP853 (odeint's own check run at rtol/10 was as far off as the run)."""
+    import numpy as np
+    from lagrange_xval.validate.dynamics.estimate import scipy_estimate, threshold
+    from lagrange_xval.validate.dynamics.integrate import SCIPY_DEFAULT, scipy_trajectory
+    from lagrange_xval.validate.dynamics.reference import reference_trajectory
+    from lagrange_xval.validate.engines import make_source
+
+    system = _extreme(tmp_path)
+    t = np.linspace(0.0, 10.0, 1001)
+    q0, v0, tau = np.array([0.0, 3.0]), np.zeros(2), np.zeros(2)
+    ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=None)
+    pin = make_source(system, "pinocchio")
+    o = SCIPY_DEFAULT
+    run = scipy_trajectory(system, pin, q0, v0, tau, t, method=o["method"], rtol=o["rtol"], atol=o["atol"])
+    estimate, how = scipy_estimate(system, pin, run, q0, v0, tau)
+    error = np.abs(run.q - ref.q).max(axis=1)
+    assert "DOP853" in how
+    assert np.all(error <= threshold(estimate)), float((error / threshold(estimate)).max())
+
+
+@pytest.mark.long
+def test_a_right_derivation_passes_at_an_extreme_ratio(tmp_path, capsys):
+    """`run` on the 50 kg bob below a 2 m rod: the mirrors judged within their scheme's horizon and the
+    scipy runs against their own estimates, so the notes' right derivation passes (it failed both)."""
+    system = _extreme(tmp_path)
+    eq = tmp_path / "double_pendulum_absolute.py"
+    eq.write_text("from lagrange_xval.equations.double_pendulum_absolute import *  # noqa: F403\n")
+    out = tmp_path / "out"
+    args = ["run", "--model", str(system.mjcf), "--equations", str(eq), "--out", str(out), "--no-replay"]
+    assert main(args) == 0, capsys.readouterr().out[-600:]

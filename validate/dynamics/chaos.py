@@ -267,13 +267,20 @@ def round_off_limit(hand: Any, ref: Trajectory, tau: np.ndarray, *, timestep: fl
 
 
 def _mirror_verdict(
-    t: np.ndarray, diff: np.ndarray, w: np.ndarray, env: np.ndarray, ref: Trajectory, tolerance: float, limit: float
+    t: np.ndarray,
+    diff: np.ndarray,
+    w: np.ndarray,
+    env: np.ndarray,
+    ref: Trajectory,
+    tolerance: float,
+    limit: float,
+    until: float | None = None,
 ) -> dict[str, Any]:
     """Round-off windows (within `limit` ulps, `round_off_limit`) and a free-run difference inside the
-    envelope: the two halves of a mirror's verdict."""
+    envelope (judged no later than `until`: the scheme's own horizon): the two halves of a mirror's verdict."""
     ulp = float(np.spacing(np.abs(np.concatenate([ref.q, ref.v], axis=1)).max()))
     window_ulps = float(np.linalg.norm(w, axis=1).max() / ulp)
-    judge = judge_free_run(t, diff, env, tolerance=tolerance)
+    judge = judge_free_run(t, diff, env, tolerance=tolerance, until=until)
     return {
         "max_window_difference": float(np.linalg.norm(w, axis=1).max()),
         "window_ulps": window_ulps,
@@ -506,7 +513,10 @@ def crossvalidate(
             entry["mirrors"][f"mujoco~{engine}"] = {
                 "max_difference": float(diff.max()),
                 "difference_at": sample_at(t, diff),
-                **_mirror_verdict(t, diff, w, env_m, ref, tolerance, out["round_off"]["limit"]),
+                # judged while the scheme's own error leaves the tolerance unreached (its free run's horizon)
+                **_mirror_verdict(
+                    t, diff, w, env_m, ref, tolerance, out["round_off"]["limit"], entry["free_run"]["judge"]["horizon"]
+                ),
             }
             status = runs[engine].stats.get("status", "ok")  # a mirror that diverged or stopped fails, with its reason
             if status != "ok":

@@ -197,13 +197,19 @@ def judge_free_run(
     *,
     tolerance: float = DEFAULT_TOLERANCE,
     safety: float = SAFETY,
+    until: float | None = None,
 ) -> dict[str, Any]:
-    """Whether a free-running error stays inside safety x envelope up to the predictability horizon.
+    """Whether a free-running error stays inside safety x envelope up to the predictability horizon
+    (and no later than `until`, where another prediction ends: a mirror's, where its scheme's own
+    truncation error leaves the tolerance and the reference's flow no longer bounds how the scheme
+    amplifies a difference).
 
     Returns {"passed", "horizon" (s or None = whole grid), "judged_until" (s), "safety",
     "max_ratio" (largest error / envelope within the horizon), "first_violation" (s or None)}.
     """
     horizon = predictability_horizon(t, envelope, tolerance)
+    if until is not None:
+        horizon = until if horizon is None else min(horizon, until)
     within = t <= (horizon if horizon is not None else t[-1])
     floor = np.finfo(float).tiny
     ratio = np.where(within, np.asarray(error) / np.maximum(envelope, floor), 0.0)
