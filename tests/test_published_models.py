@@ -145,3 +145,22 @@ def test_a_right_derivation_passes_at_an_extreme_ratio(tmp_path, capsys):
     out = tmp_path / "out"
     args = ["run", "--model", str(system.mjcf), "--equations", str(eq), "--out", str(out), "--no-replay"]
     assert main(args) == 0, capsys.readouterr().out[-600:]
+
+
+def test_check_constraints_says_when_and_which_constraint_acts(tmp_path, capsys):
+    """`check --constraints`: the model as published (a range on theta, limits on) runs in MuJoCo and
+    agrees with the notes' derivation until theta reaches its range, which the verdict names."""
+    from lagrange_xval.validate.systems import load
+
+    notes = load("double_pendulum_point")
+    text = notes.mjcf.read_text().replace(' constraint="disable" limit="disable"', "", 1)
+    text = text.replace('<joint name="theta" type="hinge"', '<joint name="theta" range="-0.2 0.2" type="hinge"', 1)
+    model, eq = tmp_path / "ranged.xml", tmp_path / "double_pendulum_point.py"
+    model.write_text(text)
+    eq.write_text("from lagrange_xval.equations.double_pendulum_point import *  # noqa: F403\n")
+    args = ["check", "--model", str(model), "--equations", str(eq), "--states", "20", "--probes", "1"]
+    assert main([*args, "--constraints"]) == 0
+    last = _last(capsys)
+    assert "agrees with the equations until 0.5" in last and "when joint 'theta' reaches its range" in last, last
+    assert main(["check", "--model", str(model), "--states", "20", "--constraints"]) == 2
+    assert "give --equations" in capsys.readouterr().err

@@ -13,7 +13,7 @@ from typing import Any
 
 from ..checks import modelsync
 from ..checks import pointwise as compare
-from ..checks.decide import decide
+from ..checks.decide import Decision, decide
 from ..checks.pointwise import States, validate_states
 from ..dynamics.cache import CACHE_ENV, usable
 from ..dynamics.cachedir import Cache
@@ -154,11 +154,31 @@ def cmd_check(args: argparse.Namespace) -> int:
     decision = decide(system, n_states=args.states, seed=args.seed, probes=args.probes, cache=cache, states=states)
     if cache is not None:
         cache.trim()
+    constrained = with_constraints(decision) if args.constraints else None
+    passed = decision.passed and (constrained is None or constrained["passed"])
     if args.json:
-        print(json.dumps(checking.decision_json(decision), allow_nan=False))
+        document = checking.decision_json(decision)
+        if constrained is not None:
+            document = {**document, "constraints": constrained, "passed": passed}
+        print(json.dumps(document, allow_nan=False))
     else:
-        print("\n".join(checking.text_lines(decision)))
-    return 0 if decision.passed else 1
+        lines = checking.text_lines(decision)
+        if constrained is not None:  # the verdict line says when and which constraint, and decides with it
+            verdict = "pass" if passed else "FAIL"
+            lines[-1] = f"verdict: {system.name}: {verdict}: {decision.statement}; {constrained['statement']}"
+        print("\n".join(lines))
+    return 0 if passed else 1
+
+
+def with_constraints(decision: Decision) -> dict[str, Any]:
+    """`check --constraints`: the model's constrained run against the equations until the first
+    constraint acts (validate/dynamics/constrained.py); needs a derivation that reads its model."""
+    from ..dynamics.constrained import until_constraint
+    from ..engines.base import stepped
+
+    if decision.system.equations is None or decision.sources is None:
+        raise HarnessError("--constraints compares the model's constrained motion with your equations: give --equations.")
+    return until_constraint(decision.system, stepped(decision.sources["mujoco"]))
 
 
 def pointwise_only(args: argparse.Namespace, system: System, states: States | None) -> int:

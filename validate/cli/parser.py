@@ -355,6 +355,12 @@ def _check_arguments(check: argparse.ArgumentParser) -> None:
         "(a mistake the model's values hide passes)",
     )
     check.add_argument(
+        "--constraints",
+        action="store_true",
+        help="also run the model as published (its ranges, contacts, equality constraints and dry friction on) "
+        "and compare it with the equations until the first constraint acts: the verdict says when and which",
+    )
+    check.add_argument(
         "--cache-dir",
         type=path_arg,
         metavar="DIR",

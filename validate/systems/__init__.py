@@ -432,9 +432,9 @@ class System:
         return self._compiled[0]
 
     @functools.cached_property
-    def _compiled(self) -> tuple[mujoco.MjModel, list[str]]:
+    def _compiled(self) -> tuple[mujoco.MjModel, list[str], int]:
         """The MjModel, compiled, checked for what no source could compare and with its constraints
-        switched off; and what was left out."""
+        switched off; what was left out; and the disable flags as published."""
         from .scope import refusals, unconstrained  # reads the compiled model with mujoco: loaded when first needed
 
         if self.locked and self.text is None and self.model_format != "urdf":
@@ -447,7 +447,13 @@ class System:
         if refused:
             more = f" (and {len(refused) - 1} more: {'; '.join(refused[1:])})" if len(refused) > 1 else ""
             raise HarnessError(f"{self.mjcf.name}: {refused[0]}{more}.")
-        return model, unconstrained(model)
+        published = int(model.opt.disableflags)
+        return model, unconstrained(model), published
+
+    @property
+    def published_flags(self) -> int:
+        """MuJoCo's disable flags as the model states them, before its constraints were switched off."""
+        return self._compiled[2]
 
     def mjcf_xml(self) -> str:
         """The MJCF text both engines parse, with overrides applied."""
