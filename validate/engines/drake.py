@@ -256,6 +256,17 @@ class DrakeSource:
             self.context, np.zeros(plant.num_velocities())
         )
         self.fixed_potential = self._fixed_potential()
+        self._trial()
+
+    def _trial(self) -> None:
+        """One forward dynamics at the default state: Drake refuses a model it cannot solve (an
+        articulated body inertia that is not positive definite: a massless link at a chain's end) only
+        when first asked, which would end the comparison; here it sets Drake aside, saying why."""
+        try:
+            self._forward(np.zeros(self.plant.num_velocities()))
+        except RuntimeError as exc:
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise HarnessError(f"Drake cannot solve this model's dynamics: {first[:300]}") from None
 
     def _fixed_potential(self) -> float:
         """The potential energy of the bodies welded to the world: a constant Drake counts and the other

@@ -74,10 +74,59 @@ def urdf_defects(root: ET.Element) -> list[tuple[str, str, ET.Element]]:
     return out
 
 
+MINVAL = 1e-15  # MuJoCo's mjMINVAL: a moving body's mass and principal moments must exceed it
+BOUND_MASS, BOUND_INERTIA = 1e-9, 1e-12  # kg, kg m^2: what a moving link below it is given (boundmass, boundinertia)
+
+
+def _moving_links(root: ET.Element) -> set[str]:
+    return {
+        str(j.find("child").get("link"))  # type: ignore[union-attr]
+        for j in root.iter("joint")
+        if j.get("type") not in (None, "fixed") and j.find("child") is not None
+    }
+
+
+def _bounded(root: ET.Element) -> list[str]:
+    """Moving links MuJoCo refuses for a mass or a principal moment below MINVAL (a massless "virtual"
+    link between two joints, a point mass): given BOUND_MASS and BOUND_INERTIA, as MuJoCo's compiler's
+    boundmass and boundinertia would; one line each."""
+    lines = []
+    for link in root.iter("link"):
+        if link.get("name") not in _moving_links(root):
+            continue
+        inertial = link.find("inertial")
+        mass = _mass(link) if inertial is not None else 0.0
+        element = link.find("inertial/inertia")
+        moments = np.linalg.eigvalsh(tensor(element)) if element is not None else np.zeros(3)
+        if mass >= MINVAL and moments[0] >= MINVAL:
+            continue
+        if inertial is None:
+            inertial = ET.SubElement(link, "inertial")
+        if inertial.find("mass") is None:
+            ET.SubElement(inertial, "mass")
+        if element is None:
+            element = ET.SubElement(inertial, "inertia")
+        why = f"mass {mass:g} kg" if mass < MINVAL else f"principal moments {', '.join(f'{m:.3g}' for m in moments)} kg m^2"
+        inertial.find("mass").set("value", repr(max(mass, BOUND_MASS)))  # type: ignore[union-attr]
+        _isotropic(element, max(float(np.trace(tensor(element))) / 3.0, BOUND_INERTIA))
+        lines.append(
+            f"link '{link.get('name')}' moves with {why}, below MuJoCo's minimum {MINVAL:g}; given mass "
+            f"{max(mass, BOUND_MASS):g} kg and {float(element.get('ixx')):g} kg m^2 on each axis (boundmass, boundinertia)"
+        )
+    return lines
+
+
+def _isotropic(element: ET.Element, moment: float) -> None:
+    for key in ("ixy", "ixz", "iyz"):
+        element.set(key, "0")
+    for key in ("ixx", "iyy", "izz"):
+        element.set(key, repr(moment))
+
+
 def repair_urdf(text: str) -> tuple[str, list[str]]:
     """The URDF with every defective link's inertia repaired (module docstring), and one line per link
     saying what was wrong and what it was given; the text unchanged where nothing is defective."""
-    if "inertia" not in text:
+    if "<joint" not in text:
         return text, []
     root = ET.fromstring(text)
     lines = []
@@ -96,4 +145,5 @@ def repair_urdf(text: str) -> tuple[str, list[str]]:
         for key in ("ixx", "iyy", "izz"):
             element.set(key, repr(float(fixed[0, 0])))
         lines.append(f"link '{link}': {why}; balanced to {fixed[0, 0]:.6g} kg m^2 on each axis (MuJoCo's balanceinertia)")
+    lines += _bounded(root)
     return (ET.tostring(root, encoding="unicode"), lines) if lines else (text, [])
