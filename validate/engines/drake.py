@@ -246,9 +246,13 @@ class DrakeSource:
         self.qidx, self.vidx = self._indices(system)
         self.q_default = np.array(plant.GetPositions(self.context), dtype=float)
         self.bodies = [self._body(b) for b in system.bodies]
-        # A compared body with the bodies welded to it (a URDF's fixed links): one rigid body, as
-        # MuJoCo fuses it and Pinocchio adds it to the joint's inertia.
-        self.groups = [list(plant.GetBodiesWeldedTo(b)) for b in self.bodies]
+        # A compared body with the bodies welded to it that MuJoCo fused into it (a URDF's fixed links):
+        # one rigid body, as MuJoCo compiled it; a welded body MuJoCo keeps (an MJCF's) stays apart.
+        kept = {k.split("/")[1] for k in system.view if k.startswith("body/") and k.endswith("/parent")}
+        self.groups = [
+            [w for w in plant.GetBodiesWeldedTo(b) if w.index() == b.index() or w.name() not in kept]
+            for b in self.bodies
+        ]
         self.gravity = np.array(plant.gravity_field().gravity_vector(), dtype=float)
         if plant.num_actuated_dofs():
             plant.get_actuation_input_port().FixValue(self.context, np.zeros(plant.num_actuated_dofs()))

@@ -278,7 +278,8 @@ class System:
     def joint_ranges(self) -> np.ndarray:
         """(n, 2) lower and upper limits of the coordinates' joints as the model states them (a URDF's
         <limit>, an MJCF range), -inf/inf where none; random states are drawn inside them. The limits'
-        forces are never compared (they are refused or disabled)."""
+        forces are never compared (they are switched off); a free or ball joint's middle angle stays
+        within +-floating.CHART_LIMIT, away from its chart's singularity."""
         import mujoco
         import numpy as np
 
@@ -290,6 +291,11 @@ class System:
             jid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j)
             if jid >= 0 and m.jnt_limited[jid] and m.jnt_range[jid][0] < m.jnt_range[jid][1]:
                 out[i] = m.jnt_range[jid]
+        if self.model_format != "urdf":  # a free or ball joint's middle angle, away from its chart's singularity
+            chart = floating.middle_angles(self._file_read[1])
+            for i, j in enumerate(self.joints):
+                if j in chart:
+                    out[i] = np.clip(out[i], -floating.CHART_LIMIT, floating.CHART_LIMIT)
         return out
 
     @property

@@ -99,3 +99,19 @@ def convert(text: str) -> tuple[str, list[str]]:
                 "intrinsic Z-Y-X angles; the same body and freedom, one coordinate per degree of freedom)"
             )
     return (ET.tostring(root, encoding="unicode"), lines) if lines else (text, [])
+
+
+CHART_LIMIT = 1.2  # rad: the middle angle's range random states are drawn in (cos 1.2 = 0.36: M stays well posed)
+
+
+def middle_angles(text: str) -> set[str]:
+    """The middle hinge (`_ry`) of every converted free or ball joint: the chart is singular where it
+    reaches +-pi/2 (the first and last hinges align, M loses rank), so random states keep it within
+    +-CHART_LIMIT."""
+    if "free" not in text and "ball" not in text:
+        return set()
+    converted, _ = convert(text)
+    names = {j.get("name", "") for j in ET.fromstring(converted).iter("joint")}
+    originals = {n[: -len("_ry")] for n in names if n.endswith("_ry") and n[: -len("_ry")] + "_rz" in names}
+    return {f"{n}_ry" for n in originals if f"{n}_rx" in names}
+

@@ -163,13 +163,15 @@ def _only_mujoco(model: Any) -> list[str]:
 
 def joint_actuators(model: Any) -> list[int]:
     """The actuators whose force is gear x control on one joint (a joint transmission, no activation
-    dynamics, a fixed gain): the inputs every source can be given. The others are never driven."""
+    dynamics, a fixed unit gain: a motor): the inputs every source can be given. The others (a servo's
+    gain kp, a tendon) are never driven."""
     return [
         a
         for a in range(model.nu)
         if int(model.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT)
         and int(model.actuator_dyntype[a]) == int(mujoco.mjtDyn.mjDYN_NONE)
         and int(model.actuator_gaintype[a]) == int(mujoco.mjtGain.mjGAIN_FIXED)
+        and float(model.actuator_gainprm[a, 0]) == 1.0
     ]
 
 
@@ -198,8 +200,8 @@ def _actuators(model: Any) -> list[str]:
     other = [_name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, a, "actuator") for a in range(model.nu) if a not in plain]
     if other:
         out.append(
-            f"actuator(s) {_listed(other)} (a tendon or site transmission, activation dynamics or a gain that is "
-            "not fixed): never driven, so no input goes through them"
+            f"actuator(s) {_listed(other)} (a tendon or site transmission, activation dynamics or a gain other "
+            "than 1: a servo): never driven, so no input goes through them"
         )
     return out
 
