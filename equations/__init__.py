@@ -9,7 +9,10 @@ A module needs only `parameters(model)` and its dynamics in one form; everything
                                        the probes move each number it reads (validate/systems/reads.py)
     DESCRIPTION: str                   optional: one paragraph (default: the docstring's first paragraph)
     COORDINATES: tuple[str, ...]       optional: the generalized coordinates, in order (default: the
-                                       model's joints, in the model's order)
+                                       model's joints, in the model's order; a free joint `root` is six:
+                                       root_tx, root_ty, root_tz slides along the body's axes, then
+                                       root_rz, root_ry, root_rx hinges, intrinsic Z-Y-X angles; a ball
+                                       joint the three hinges: validate/systems/floating.py)
     JOINTS: tuple[str, ...]            optional: the model joint that measures each coordinate, same sign
                                        and zero (default: COORDINATES where they name joints, else the
                                        model's joints)
