@@ -1,0 +1,317 @@
+"""The catalogue of known importer behaviours (issue 33): what MuJoCo, Pinocchio and Drake each do with
+a model file that its format means otherwise, each entry with where it was reported and the reader
+that shows it on the versions in requirements.lock (MuJoCo 4.0.0, Pinocchio 4.1.0, Drake 1.51.1;
+each checked by a planted case in tests/test_audit.py, not assumed).
+
+The audit (validate/checks/audit.py) names the entry that explains each difference between a reader
+and the format's meaning: an entry applies when its reader, format and field match the difference and
+the file has the feature the entry is about (`features`, read from the file's text alone). A
+difference no entry explains is said to be unexplained.
+"""
+
+from __future__ import annotations
+
+import re
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+
+INERTIAL = ("mass", "com", "inertia")
+
+
+@dataclass(frozen=True)
+class Behaviour:
+    """One known importer behaviour.
+
+    Attributes:
+        key: a short name, shown with the finding.
+        readers: the readers that show it on the installed versions.
+        formats: "mjcf", "urdf" or both.
+        fields: the audited fields it changes ("joint": the joint is missing).
+        feature: the file feature it needs (`features`).
+        cause: what the reader does, one clause.
+        reported: where it was reported (an issue tracker URL).
+    """
+
+    key: str
+    readers: tuple[str, ...]
+    formats: tuple[str, ...]
+    fields: tuple[str, ...]
+    feature: str
+    cause: str
+    reported: str
+
+
+CATALOGUE: tuple[Behaviour, ...] = (
+    Behaviour(
+        "geom mass from a default class",
+        ("pinocchio",),
+        ("mjcf",),
+        INERTIAL,
+        "default geom mass",
+        "ignores the mass a default class gives the geoms and weighs them by density (1000 kg/m^3)",
+        "https://github.com/newton-physics/newton/pull/1744",
+    ),
+    Behaviour(
+        "inertiafromgeom",
+        ("pinocchio", "drake"),
+        ("mjcf",),
+        INERTIAL,
+        "compiler inertiafromgeom",
+        "does not apply the compiler's inertiafromgeom (which of <inertial> and the geoms gives the inertia)",
+        "https://github.com/RobotLocomotion/drake/issues/20232",
+    ),
+    Behaviour(
+        "inertiagrouprange",
+        ("pinocchio", "drake"),
+        ("mjcf",),
+        INERTIAL,
+        "compiler inertiagrouprange",
+        "ignores the compiler's inertiagrouprange and weighs geoms of every group",
+        "https://github.com/newton-physics/newton/issues/3593",
+    ),
+    Behaviour(
+        "boundmass/boundinertia",
+        ("drake",),
+        ("mjcf",),
+        INERTIAL,
+        "compiler boundmass",
+        "ignores the compiler's boundmass/boundinertia (the lower bounds MuJoCo applies)",
+        "https://github.com/newton-physics/newton/issues/3741",
+    ),
+    Behaviour(
+        "balanceinertia",
+        ("pinocchio", "drake"),
+        ("mjcf", "urdf"),
+        ("inertia", "read"),
+        "compiler balanceinertia",
+        "keeps (or refuses) the inertia that MuJoCo's balanceinertia replaces",
+        "https://github.com/google-deepmind/mujoco/issues/375",
+    ),
+    Behaviour(
+        "eulerseq",
+        ("pinocchio",),
+        ("mjcf",),
+        (*INERTIAL, "anchor", "axis"),
+        "compiler eulerseq",
+        "reads euler angles in another sequence than the compiler's eulerseq",
+        "https://github.com/stack-of-tasks/pinocchio/pull/2526",
+    ),
+    Behaviour(
+        "fusestatic",
+        ("mujoco",),
+        ("urdf", "mjcf"),
+        ("com", "inertia"),
+        "welded rotated body",
+        "sums the inertia of a body fused across a fixed joint in the wrong frame (fusestatic)",
+        "https://github.com/google-deepmind/mujoco/issues/2982",
+    ),
+    Behaviour(
+        "a fixed joint's rpy",
+        ("mujoco",),
+        ("urdf",),
+        ("com", "inertia", "anchor", "axis"),
+        "fixed joint rpy",
+        "drops the rotation (rpy) of a fixed joint when it fuses the child link",
+        "https://github.com/google-deepmind/mujoco/issues/1176",
+    ),
+    Behaviour(
+        "an inertial's rpy",
+        ("mujoco",),
+        ("urdf",),
+        ("inertia",),
+        "inertial rpy",
+        "drops the rotation of an <inertial>'s <origin rpy>",
+        "https://github.com/google-deepmind/mujoco/issues/3559",
+    ),
+    Behaviour(
+        "mesh inertia and the 1 kg default",
+        ("pinocchio", "drake"),
+        ("mjcf",),
+        INERTIAL,
+        "mesh geom",
+        "does not compute a mesh geom's inertia (Pinocchio gives it 1 kg and a unit inertia; Drake drops an "
+        "inline mesh)",
+        "https://github.com/newton-physics/newton/issues/3753",
+    ),
+    Behaviour(
+        "an invalid inertia replaced",
+        ("drake", "mujoco", "pinocchio"),
+        ("urdf", "mjcf"),
+        (*INERTIAL, "read"),
+        "invalid inertia",
+        "replaces or refuses an inertia that is not physically valid (zero mass with inertia, the triangle "
+        "inequality violated, not positive definite)",
+        "https://github.com/RobotLocomotion/drake/issues/16992",
+    ),
+    Behaviour(
+        "several joints in one body",
+        ("pinocchio",),
+        ("mjcf",),
+        ("joint",),
+        "several joints in one body",
+        "makes one composite joint of a body's several joints (their names are not joints of its model)",
+        "https://github.com/stack-of-tasks/pinocchio/pull/2786",
+    ),
+    Behaviour(
+        "a fixed root's pose",
+        ("pinocchio",),
+        ("mjcf",),
+        ("com", "inertia", "anchor", "axis"),
+        "fixed root pose",
+        "drops the pose of a root body welded to the world (no joint), so the chain below it moves",
+        "https://github.com/RobotLocomotion/drake/issues/20232",
+    ),
+    Behaviour(
+        "stiffness and springref",
+        ("pinocchio", "drake"),
+        ("mjcf",),
+        ("stiffness", "springref"),
+        "joint spring",
+        "has no joint spring: stiffness and springref are dropped (Drake warns)",
+        "https://github.com/RobotLocomotion/drake/pull/22493",
+    ),
+    Behaviour(
+        "frictionloss",
+        ("drake",),
+        ("mjcf", "urdf"),
+        ("frictionloss",),
+        "joint friction",
+        "drops dry joint friction (MJCF frictionloss, URDF <dynamics friction>; Drake warns)",
+        "https://github.com/RobotLocomotion/drake/pull/16953",
+    ),
+    Behaviour(
+        "armature without a motor",
+        ("drake",),
+        ("mjcf",),
+        ("armature",),
+        "joint armature",
+        "reads armature only as a motor's reflected inertia, so a joint without a motor loses it",
+        "https://github.com/RobotLocomotion/drake/pull/22493",
+    ),
+    Behaviour(
+        "gravcomp",
+        ("pinocchio", "drake"),
+        ("mjcf",),
+        ("gravcomp",),
+        "gravcomp",
+        "drops a body's gravity compensation (gravcomp)",
+        "https://github.com/RobotLocomotion/drake/pull/22493",
+    ),
+    Behaviour(
+        "mimic",
+        ("pinocchio", "drake", "mujoco"),
+        ("urdf",),
+        ("mimic",),
+        "mimic",
+        "ignores the <mimic> coupling (Pinocchio's default reading, Drake's continuous plant)",
+        "https://github.com/RobotLocomotion/drake/issues/21472",
+    ),
+    Behaviour(
+        "joint ref",
+        ("drake",),
+        ("mjcf",),
+        ("ref",),
+        "joint ref",
+        "ignores a joint's ref: its q = 0 is the file's pose, so its coordinate is MuJoCo's minus ref",
+        "https://github.com/RobotLocomotion/drake/issues/20232",
+    ),
+)
+
+
+def _compiler(root: ET.Element) -> dict[str, str]:
+    out: dict[str, str] = {}
+    for c in root.iter("compiler"):  # MuJoCo merges every <compiler>, the last one winning
+        out.update(c.attrib)
+    return out
+
+
+def _mjcf_features(root: ET.Element) -> set[str]:
+    out = {f"compiler {k}" for k in _compiler(root)}
+    if any(g.get("mass") is not None for d in root.iter("default") for g in d.findall("geom")):
+        out.add("default geom mass")
+    if any(g.get("type") == "mesh" or g.get("mesh") for g in root.iter("geom")):
+        out.add("mesh geom")
+    for body in root.iter("body"):
+        if len(body.findall("joint")) > 1:
+            out.add("several joints in one body")
+        if body.get("gravcomp") not in (None, "0"):
+            out.add("gravcomp")
+    joints = [j for j in root.iter("joint")] + [j for d in root.iter("default") for j in d.findall("joint")]
+    for attr, feature in (
+        ("stiffness", "joint spring"),
+        ("springref", "joint spring"),
+        ("frictionloss", "joint friction"),
+        ("armature", "joint armature"),
+        ("ref", "joint ref"),
+    ):
+        if any(j.get(attr) not in (None, "0") for j in joints):
+            out.add(feature)
+    world = root.find("worldbody")
+    for body in world.findall("body") if world is not None else []:
+        posed = any(body.get(a) for a in ("pos", "quat", "euler", "axisangle", "xyaxes", "zaxis"))
+        if body.find("joint") is None and body.find("freejoint") is None and posed:
+            out.add("fixed root pose")
+        if body.find("joint") is not None and any(
+            b.find("joint") is None and any(b.get(a) for a in ("quat", "euler", "axisangle")) for b in body.iter("body")
+        ):
+            out.add("welded rotated body")
+    return out
+
+
+def _rpy(el: ET.Element | None) -> bool:
+    o = el.find("origin") if el is not None else None
+    return o is not None and any(float(x) != 0.0 for x in (o.get("rpy") or "0").split())
+
+
+def _urdf_features(root: ET.Element) -> set[str]:
+    out = {f"compiler {k}" for k in _compiler(root)}
+    for j in root.findall("joint"):
+        if j.get("type") == "fixed" and _rpy(j):
+            out |= {"fixed joint rpy", "welded rotated body"}
+        if j.find("mimic") is not None:
+            out.add("mimic")
+        dyn = j.find("dynamics")
+        if dyn is not None and dyn.get("friction") not in (None, "0", "0.0"):
+            out.add("joint friction")
+    for link in root.findall("link"):
+        inertial = link.find("inertial")
+        if inertial is not None and _rpy(inertial):
+            out.add("inertial rpy")
+        if inertial is not None and _invalid(inertial):
+            out.add("invalid inertia")
+    return out
+
+
+def _invalid(inertial: ET.Element) -> bool:
+    """Zero mass with an inertia, a negative moment, or a violated triangle inequality (diagonal)."""
+    import numpy as np
+
+    try:
+        mass = float((inertial.find("mass") or ET.Element("m", value="0")).get("value", "0"))
+        i = inertial.find("inertia")
+        k = {a: float(i.get(a, "0")) if i is not None else 0.0 for a in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+    except ValueError:
+        return True
+    tensor = np.array([[k["ixx"], k["ixy"], k["ixz"]], [k["ixy"], k["iyy"], k["iyz"]], [k["ixz"], k["iyz"], k["izz"]]])
+    moments = np.linalg.eigvalsh(tensor)
+    if mass <= 0.0:
+        return bool(np.any(moments != 0.0))
+    return bool(moments[0] < 0.0 or moments[0] + moments[1] < moments[2] * (1 - 1e-9))
+
+
+def features(text: str, fmt: str) -> set[str]:
+    """The features of a model file that catalogue entries are about (empty where it does not parse)."""
+    try:
+        root = ET.fromstring(re.sub(r"<\?xml[^>]*\?>", "", text, count=1))
+    except ET.ParseError:
+        return set()
+    return _urdf_features(root) if fmt == "urdf" else _mjcf_features(root)
+
+
+def explain(reader: str, fmt: str, field: str, found: set[str]) -> list[Behaviour]:
+    """The entries that explain `reader` differing from the format's meaning on `field` in a file with
+    the features `found` (most specific first: fewer readers, fewer fields)."""
+    hits = [
+        b for b in CATALOGUE if reader in b.readers and fmt in b.formats and field in b.fields and b.feature in found
+    ]
+    return sorted(hits, key=lambda b: (len(b.readers), len(b.fields)))

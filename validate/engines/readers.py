@@ -1,0 +1,375 @@
+"""Each engine as a plain reader of a model file (issue 33): MuJoCo (`MjSpec`), Pinocchio
+(`buildModelFromXML` / `buildModelFromMJCF`) and Drake (`Parser`), each on the file as given (a
+URDF's `<visual>`/`<collision>` removed, so that no mesh file is needed: its dynamics are its
+`<inertial>` elements), nothing aligned, every quantity put in the common frame of
+validate/systems/meaning.py: the reader's own reference configuration (MuJoCo's qpos0, the others'
+q = 0 or neutral), world coordinates, each joint with the rigid group it moves.
+
+What a reader has no field for is read as its neutral value (no stiffness, no gravcomp, no mimic), so
+that a reader that drops a field is seen dropping it. A reader that refuses the file raises
+HarnessError naming the reader, the element where the library says, and a likely cause
+(`failure`): no raw library message (a C++ `unordered_map::at`) reaches the screen alone.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import re
+import tempfile
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import HarnessError
+from ..systems.meaning import Inertial, JointRead, Reading, composite
+from ..systems.urdf import without_geometry
+
+LABEL = {"meaning": "the format", "mujoco": "MuJoCo", "pinocchio": "Pinocchio", "drake": "Drake"}
+# Library messages and what usually causes them (the element is quoted from the message when it names one).
+CAUSES = (
+    (
+        "unordered_map::at",
+        'an element or attribute it does not know (a default class such as class="main", '
+        "a mesh or an include it cannot resolve)",
+    ),
+    ("mesh", "a mesh file missing or in a format it cannot read"),
+    ("mass and inertia of moving bodies", "a moving body without mass (a link without <inertial>)"),
+    ("A + B >= C", "an inertia that violates the triangle inequality (balanceinertia would fix it)"),
+    ("positive", "an inertia that is not positive definite"),
+    ("model name", "the <mujoco> element has no model name"),
+    ("frame", "a <frame> or a pose it cannot place"),
+    ("joint", "a joint type or attribute it does not support"),
+)
+
+
+def failure(reader: str, source: str, exc: BaseException) -> HarnessError:
+    """One line: the reader, the element where the message names one, the likely cause, the message."""
+    text = str(exc).strip()
+    first = text.splitlines()[0] if text else type(exc).__name__
+    element = re.search(r"(?:[Ee]lement|tag|body|joint|geom|link)\s+'?\"?([\w./-]+)", text)
+    line = re.search(r"[Ll]ine\s*[:=]?\s*(\d+)|\.(?:xml|urdf):(\d+)", text)
+    cause = next((why for key, why in CAUSES if key.lower() in text.lower()), "")
+    where = f" at {element.group(0)}" if element else ""
+    where += f" (line {line.group(1) or line.group(2)})" if line else ""
+    because = f"; likely {cause}" if cause else ""
+    return HarnessError(
+        f"{source}: {LABEL[reader]} cannot read it{where}{because} ({LABEL[reader]} says: {first[:160]})"
+    )
+
+
+def _guarded(reader: str, source: str, fn: Callable[[], Any]) -> Any:
+    try:
+        return fn()
+    except HarnessError:
+        raise
+    except Exception as exc:  # each library raises its own types (ValueError, RuntimeError, std::exception)
+        raise failure(reader, source, exc) from None
+
+
+def read(reader: str, path: Path, text: str, fmt: str) -> Reading:
+    """`reader`'s Reading of the model (`text` of `path`, format "urdf" or "mjcf")."""
+    fn = {"mujoco": mujoco_reading, "pinocchio": pinocchio_reading, "drake": drake_reading}[reader]
+    return _guarded(reader, path.name, lambda: fn(path, text, fmt))
+
+
+def _model_text(text: str, fmt: str) -> str:
+    return without_geometry(text) if fmt == "urdf" else text
+
+
+@contextlib.contextmanager
+def _as_file(path: Path, text: str) -> Iterator[str]:
+    """The MJCF file itself where `text` is its content, else a temporary copy with its file names made
+    absolute (so that its includes and meshes resolve as from `path`), removed afterwards."""
+    if path.is_file() and path.read_text() == text:
+        yield str(path)
+        return
+    fd, name = tempfile.mkstemp(suffix=".xml", prefix="audit_")
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(_absolute(text, path))
+        yield name
+    finally:
+        os.unlink(name)
+
+
+# --- MuJoCo ---------------------------------------------------------------------------------------
+
+
+def mujoco_model(path: Path, text: str, fmt: str) -> tuple[Any, list[str]]:
+    """MuJoCo's compiled model of the file and its warnings."""
+    import mujoco
+
+    said: list[str] = []
+    mujoco.set_mju_user_warning(lambda msg: said.append(msg.strip()))
+    try:
+        if fmt == "urdf":
+            model = mujoco.MjSpec.from_string(_model_text(text, fmt)).compile()
+        else:
+            with _as_file(path, text) as name:
+                model = mujoco.MjSpec.from_file(name).compile()
+    finally:
+        mujoco.set_mju_user_warning(None)
+    return model, said
+
+
+def _absolute(text: str, path: Path) -> str:
+    """The MJCF with its `file=` and `meshdir`/`texturedir` attributes made absolute (read from elsewhere)."""
+
+    def fix(m: re.Match[str]) -> str:
+        value = m.group(2)
+        return m.group(0) if os.path.isabs(value) else f'{m.group(1)}="{(path.parent / value).resolve()}"'
+
+    return re.sub(r'\b(file|meshdir|texturedir|assetdir)="([^"]*)"', fix, text)
+
+
+def _mujoco_group(m: Any, b: int) -> int:
+    """The id of the joint that moves body b (its last joint, else its parent's), -1: the world."""
+    while b > 0:
+        if m.body_jntnum[b]:
+            return int(m.body_jntadr[b] + m.body_jntnum[b] - 1)
+        b = int(m.body_parentid[b])
+    return -1
+
+
+def mujoco_reading(path: Path, text: str, fmt: str) -> Reading:
+    """MuJoCo's compiled model at qpos0 (its reference: the frames as the file writes them)."""
+    import mujoco
+
+    m, said = mujoco_model(path, text, fmt)
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    name = lambda obj, i: mujoco.mj_id2name(m, obj, i) or f"{obj.name[6:].lower()} {i}"  # noqa: E731
+    parts: dict[int, list[Inertial]] = {}
+    for b in range(1, m.nbody):
+        R = d.ximat[b].reshape(3, 3)
+        inertial = Inertial(float(m.body_mass[b]), np.array(d.xipos[b]), R @ np.diag(m.body_inertia[b]) @ R.T)
+        parts.setdefault(_mujoco_group(m, b), []).append(inertial)
+    joints, groups = {}, {}
+    couplings = _mujoco_mimics(m, name)
+    for j in range(m.njnt):
+        kind = {int(mujoco.mjtJoint.mjJNT_HINGE): "hinge", int(mujoco.mjtJoint.mjJNT_SLIDE): "slide"}.get(
+            int(m.jnt_type[j])
+        )
+        if kind is None:
+            continue
+        jn, dof, qadr, b = (
+            name(mujoco.mjtObj.mjOBJ_JOINT, j),
+            int(m.jnt_dofadr[j]),
+            int(m.jnt_qposadr[j]),
+            int(m.jnt_bodyid[j]),
+        )
+        limited = bool(m.jnt_limited[j])
+        joints[jn] = JointRead(
+            kind=kind,
+            body=name(mujoco.mjtObj.mjOBJ_BODY, b),
+            anchor=np.array(d.xanchor[j]),
+            axis=np.array(d.xaxis[j]),
+            ref=float(m.qpos0[qadr]),
+            limits=np.array(m.jnt_range[j], dtype=float) if limited else np.array([-np.inf, np.inf]),
+            damping=float(m.dof_damping[dof]),
+            stiffness=float(m.jnt_stiffness[j]),
+            springref=float(m.qpos_spring[qadr]),
+            frictionloss=float(m.dof_frictionloss[dof]),
+            armature=float(m.dof_armature[dof]),
+            gravcomp=float(m.body_gravcomp[b]),
+            mimic=couplings.get(jn),
+        )
+        groups[jn] = composite(parts.get(j, []))
+    actuators = {}
+    for a in range(m.nu):
+        if int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT):
+            actuators[name(mujoco.mjtObj.mjOBJ_ACTUATOR, a)] = (
+                name(mujoco.mjtObj.mjOBJ_JOINT, int(m.actuator_trnid[a, 0])),
+                float(m.actuator_gear[a, 0]),
+            )
+    return Reading("mujoco", joints, groups, actuators, warnings=said)
+
+
+def _mujoco_mimics(m: Any, name: Callable[[Any, int], str]) -> dict[str, tuple[str, float, float]]:
+    """joint -> (leader, multiplier, offset) of every joint equality q1 = offset + multiplier q2."""
+    import mujoco
+
+    out = {}
+    for e in range(m.neq):
+        if int(m.eq_type[e]) == int(mujoco.mjtEq.mjEQ_JOINT) and int(m.eq_obj2id[e]) >= 0:
+            follower = name(mujoco.mjtObj.mjOBJ_JOINT, int(m.eq_obj1id[e]))
+            leader = name(mujoco.mjtObj.mjOBJ_JOINT, int(m.eq_obj2id[e]))
+            out[follower] = (leader, float(m.eq_data[e, 1]), float(m.eq_data[e, 0]))
+    return out
+
+
+# --- Pinocchio ------------------------------------------------------------------------------------
+
+
+def pinocchio_model(path: Path, text: str, fmt: str) -> Any:
+    import pinocchio as pin
+
+    if fmt == "urdf":
+        return pin.buildModelFromXML(_model_text(text, fmt))
+    with _as_file(path, text) as name:
+        return pin.buildModelFromMJCF(name)
+
+
+def _reference(model: Any) -> Any:
+    """Pinocchio's reference configuration: the MJCF's qpos0 (its joints' `ref`) where it read one."""
+    import pinocchio as pin
+
+    try:
+        return model.referenceConfigurations["qpos0"]
+    except (KeyError, IndexError):
+        return pin.neutral(model)
+
+
+def pinocchio_reading(path: Path, text: str, fmt: str) -> Reading:
+    """Pinocchio's model at its neutral configuration: each joint's inertia (its body and the links
+    welded to it, in the joint frame) put in the world."""
+    import pinocchio as pin
+
+    model = pinocchio_model(path, text, fmt)
+    data = model.createData()
+    q = _reference(model)
+    pin.computeJointJacobians(model, data, q)
+    pin.updateFramePlacements(model, data)
+    bodies: dict[int, str] = {}
+    for f in model.frames:
+        if f.type == pin.FrameType.BODY:
+            bodies.setdefault(int(f.parentJoint), f.name)
+    joints, groups = {}, {}
+    for jid in range(1, model.njoints):
+        jm, oMi = model.joints[jid], data.oMi[jid]
+        if jm.nv != 1:
+            continue
+        J = np.reshape(pin.getJointJacobian(model, data, jid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED), (6, -1))
+        motion = np.array(J[:, jm.idx_v], dtype=float)
+        kind = "hinge" if np.linalg.norm(motion[3:]) > 0.5 else "slide"
+        unbounded = "Unbounded" in jm.shortname() or "RUB" in jm.shortname()
+        lo, hi = float(model.lowerPositionLimit[jm.idx_q]), float(model.upperPositionLimit[jm.idx_q])
+        jn = model.names[jid]
+        joints[jn] = JointRead(
+            kind=kind,
+            body=bodies.get(jid, jn),
+            anchor=np.array(oMi.translation, dtype=float),
+            axis=motion[3:] if kind == "hinge" else motion[:3],
+            ref=float(q[jm.idx_q]) if jm.nq == 1 else 0.0,
+            limits=np.array([-np.inf, np.inf]) if unbounded or hi >= 1e10 else np.array([lo, hi]),
+            damping=float(model.damping[jm.idx_v]),
+            frictionloss=float(model.friction[jm.idx_v]),
+            armature=float(model.armature[jm.idx_v]),
+        )
+        I, R = model.inertias[jid], oMi.rotation
+        groups[jn] = Inertial(float(I.mass), np.array(oMi.act(I.lever)), R @ np.array(I.inertia) @ R.T)
+    return Reading("pinocchio", joints, groups, None)
+
+
+# --- Drake ----------------------------------------------------------------------------------------
+
+
+class _Collect(logging.Handler):
+    def __init__(self) -> None:
+        super().__init__(logging.WARNING)
+        self.lines: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        text = record.getMessage().split("warning: ", 1)[-1].strip()
+        if text not in self.lines:
+            self.lines.append(text)
+
+
+def drake_plant(path: Path, text: str, fmt: str) -> tuple[Any, list[str]]:
+    """Drake's finalized continuous plant of the file and its parser's warnings."""
+    from pydrake.multibody.parsing import Parser
+    from pydrake.multibody.plant import MultibodyPlant
+
+    plant = MultibodyPlant(time_step=0.0)
+    log, handler = logging.getLogger("drake"), _Collect()
+    log.addHandler(handler)
+    propagate, log.propagate = log.propagate, False
+    try:
+        if fmt == "urdf":
+            Parser(plant).AddModelsFromString(_model_text(text, fmt), "urdf")
+        else:
+            with _as_file(path, text) as name:
+                Parser(plant).AddModels(Path(name))
+        plant.Finalize()
+    finally:
+        log.removeHandler(handler)
+        log.propagate = propagate
+    return plant, handler.lines
+
+
+def _drake_groups(plant: Any) -> dict[int, str]:
+    """body index -> the name of the joint that moves it ('' for the world or a floating root)."""
+    from pydrake.multibody.tree import JointIndex
+
+    moving = {}
+    for i in plant.GetJointIndices():
+        joint = plant.get_joint(JointIndex(int(i)))
+        moving[int(joint.child_body().index())] = joint
+    out: dict[int, str] = {}
+    for i in range(plant.num_bodies()):
+        b = i
+        while b in moving and moving[b].num_velocities() == 0:
+            b = int(moving[b].parent_body().index())
+        joint = moving.get(b)
+        out[i] = joint.name() if joint is not None and joint.num_velocities() == 1 else ""
+    return out
+
+
+def drake_reading(path: Path, text: str, fmt: str) -> Reading:
+    """Drake's plant at its default configuration (a URDF's free root left where it is by default)."""
+    from pydrake.multibody.tree import BodyIndex
+
+    plant, said = drake_plant(path, text, fmt)
+    ctx = plant.CreateDefaultContext()
+    group = _drake_groups(plant)
+    parts: dict[str, list[Inertial]] = {}
+    for i in range(1, plant.num_bodies()):
+        body = plant.get_body(BodyIndex(i))
+        X = plant.EvalBodyPoseInWorld(ctx, body)
+        M = body.CalcSpatialInertiaInBodyFrame(ctx)
+        mass = float(M.get_mass())
+        if not np.isfinite(mass) or mass <= 0.0:
+            continue
+        com = np.array(M.get_com(), dtype=float)
+        R = X.rotation().matrix()
+        inertia = np.array(M.Shift(com).CalcRotationalInertia().CopyToFullMatrix3(), dtype=float)
+        parts.setdefault(group[i], []).append(Inertial(mass, X @ com, R @ inertia @ R.T))
+    motors = {
+        plant.get_joint_actuator(a).joint().name(): plant.get_joint_actuator(a) for a in plant.GetJointActuatorIndices()
+    }
+    joints, groups = {}, {}
+    for i in plant.GetJointIndices():
+        joint = plant.get_joint(i)
+        if joint.num_velocities() != 1 or not (hasattr(joint, "revolute_axis") or hasattr(joint, "translation_axis")):
+            continue
+        joints[joint.name()] = _drake_joint(plant, ctx, joint, motors.get(joint.name()))
+        groups[joint.name()] = composite(parts.get(joint.name(), []))
+    actuators = {
+        plant.get_joint_actuator(a).name(): (
+            plant.get_joint_actuator(a).joint().name(),
+            float(plant.get_joint_actuator(a).default_gear_ratio()),
+        )
+        for a in plant.GetJointActuatorIndices()
+    }
+    return Reading("drake", joints, groups, actuators, warnings=said)
+
+
+def _drake_joint(plant: Any, ctx: Any, joint: Any, motor: Any) -> JointRead:
+    X = joint.frame_on_child().CalcPoseInWorld(ctx)
+    R = joint.frame_on_parent().CalcPoseInWorld(ctx).rotation().matrix()
+    hinge = hasattr(joint, "revolute_axis")
+    axis = np.asarray(joint.revolute_axis() if hinge else joint.translation_axis(), dtype=float)
+    lo, hi = float(joint.position_lower_limits()[0]), float(joint.position_upper_limits()[0])
+    return JointRead(
+        kind="hinge" if hinge else "slide",
+        body=joint.child_body().name(),
+        anchor=np.array(X.translation(), dtype=float),
+        axis=R @ axis,
+        limits=np.array([lo, hi]),
+        damping=float(joint.default_damping()),
+        armature=0.0 if motor is None else float(motor.default_reflected_inertia()),
+    )
