@@ -29,7 +29,9 @@ class Behaviour:
         fields: the audited fields it changes ("joint": the joint is missing).
         feature: the file feature it needs (`features`).
         cause: what the reader does, one clause.
-        reported: where it was reported (an issue tracker URL).
+        reported: where it was reported: an issue or pull request of the tracker that shows it, or the
+            closest report found (another importer with the same fault, the parser's list of what it
+            supports) where none of the reader's own trackers has one.
     """
 
     key: str
@@ -207,6 +209,16 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "https://github.com/RobotLocomotion/drake/issues/21472",
     ),
     Behaviour(
+        "<frame>",
+        ("pinocchio", "drake"),
+        ("mjcf",),
+        ("joint", *INERTIAL),
+        "frame element",
+        "drops the bodies inside an MJCF <frame> (mj_saveLastXML writes one for a URDF's rotated fixed joint; "
+        "Drake warns 'frame ... unsupported')",
+        "https://github.com/RobotLocomotion/drake/issues/16369",
+    ),
+    Behaviour(
         "joint ref",
         ("drake",),
         ("mjcf",),
@@ -246,6 +258,8 @@ def _mjcf_features(root: ET.Element) -> set[str]:
     ):
         if any(j.get(attr) not in (None, "0") for j in joints):
             out.add(feature)
+    if any(True for _ in root.iter("frame")):
+        out.add("frame element")
     world = root.find("worldbody")
     for body in world.findall("body") if world is not None else []:
         posed = any(body.get(a) for a in ("pos", "quat", "euler", "axisangle", "xyaxes", "zaxis"))

@@ -14,6 +14,7 @@ HarnessError naming the reader, the element where the library says, and a likely
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import logging
 import os
 import re
@@ -46,34 +47,50 @@ CAUSES = (
 )
 
 
-def failure(reader: str, source: str, exc: BaseException) -> HarnessError:
-    """One line: the reader, the element where the message names one, the likely cause, the message."""
-    text = str(exc).strip()
-    first = text.splitlines()[0] if text else type(exc).__name__
-    element = re.search(r"(?:[Ee]lement|tag|body|joint|geom|link)\s+'?\"?([\w./-]+)", text)
-    line = re.search(r"[Ll]ine\s*[:=]?\s*(\d+)|\.(?:xml|urdf):(\d+)", text)
-    cause = next((why for key, why in CAUSES if key.lower() in text.lower()), "")
-    where = f" at {element.group(0)}" if element else ""
-    where += f" (line {line.group(1) or line.group(2)})" if line else ""
+def _classes(text: str) -> str:
+    """Default classes the MJCF's elements name but never define (MuJoCo's unnamed top class is "main")."""
+    defined = set(re.findall(r"<default\b[^>]*\bclass\s*=\s*[\"']([^\"']+)", text))
+    used = re.findall(r"<(\w+)\b[^>]*\b(?:child)?class\s*=\s*[\"']([^\"']+)", text)
+    unknown = [(tag, name) for tag, name in used if tag != "default" and name not in defined]
+    if not unknown:
+        return ""
+    tag, name = unknown[0]
+    return f'<{tag} class="{name}"> names a default class the file defines only as MuJoCo\'s unnamed top class'
+
+
+def failure(reader: str, source: str, exc: BaseException, text: str = "") -> HarnessError:
+    """One line: the reader, the element where the message (or the file) names one, the likely cause,
+    and the library's own first line."""
+    said = str(exc).strip()
+    first = said.splitlines()[0] if said else type(exc).__name__
+    element = re.search(r"Element '([^']+)', line (\d+)", said) or re.search(r"\.(?:xml|urdf):(\d+)", said)
+    where = ""
+    if element is not None and element.lastindex == 2:
+        where = f" at <{element.group(1)}> (line {element.group(2)})"
+    elif element is not None:
+        where = f" at line {element.group(1)}"
+    cause = next((why for key, why in CAUSES if key.lower() in said.lower()), "")
+    if "unordered_map::at" in said and _classes(text):
+        cause = _classes(text)
     because = f"; likely {cause}" if cause else ""
     return HarnessError(
         f"{source}: {LABEL[reader]} cannot read it{where}{because} ({LABEL[reader]} says: {first[:160]})"
     )
 
 
-def _guarded(reader: str, source: str, fn: Callable[[], Any]) -> Any:
+def _guarded(reader: str, source: str, fn: Callable[[], Any], text: str) -> Any:
     try:
         return fn()
     except HarnessError:
         raise
     except Exception as exc:  # each library raises its own types (ValueError, RuntimeError, std::exception)
-        raise failure(reader, source, exc) from None
+        raise failure(reader, source, exc, text) from None
 
 
 def read(reader: str, path: Path, text: str, fmt: str) -> Reading:
     """`reader`'s Reading of the model (`text` of `path`, format "urdf" or "mjcf")."""
     fn = {"mujoco": mujoco_reading, "pinocchio": pinocchio_reading, "drake": drake_reading}[reader]
-    return _guarded(reader, path.name, lambda: fn(path, text, fmt))
+    return _guarded(reader, path.name, lambda: fn(path, text, fmt), text)
 
 
 def _model_text(text: str, fmt: str) -> str:
@@ -144,10 +161,12 @@ def mujoco_reading(path: Path, text: str, fmt: str) -> Reading:
     mujoco.mj_kinematics(m, d)
     name = lambda obj, i: mujoco.mj_id2name(m, obj, i) or f"{obj.name[6:].lower()} {i}"  # noqa: E731
     parts: dict[int, list[Inertial]] = {}
+    members: dict[int, list[str]] = {}
     for b in range(1, m.nbody):
         R = d.ximat[b].reshape(3, 3)
         inertial = Inertial(float(m.body_mass[b]), np.array(d.xipos[b]), R @ np.diag(m.body_inertia[b]) @ R.T)
         parts.setdefault(_mujoco_group(m, b), []).append(inertial)
+        members.setdefault(_mujoco_group(m, b), []).append(name(mujoco.mjtObj.mjOBJ_BODY, b))
     joints, groups = {}, {}
     couplings = _mujoco_mimics(m, name)
     for j in range(m.njnt):
@@ -177,6 +196,7 @@ def mujoco_reading(path: Path, text: str, fmt: str) -> Reading:
             armature=float(m.dof_armature[dof]),
             gravcomp=float(m.body_gravcomp[b]),
             mimic=couplings.get(jn),
+            parent=_mujoco_parent(m, j, name),
         )
         groups[jn] = composite(parts.get(j, []))
     actuators = {}
@@ -186,7 +206,19 @@ def mujoco_reading(path: Path, text: str, fmt: str) -> Reading:
                 name(mujoco.mjtObj.mjOBJ_JOINT, int(m.actuator_trnid[a, 0])),
                 float(m.actuator_gear[a, 0]),
             )
-    return Reading("mujoco", joints, groups, actuators, warnings=said)
+    body_names = {name(mujoco.mjtObj.mjOBJ_JOINT, j): tuple(members.get(j, ())) for j in range(m.njnt)}
+    return Reading(
+        "mujoco", joints, groups, actuators, warnings=said, members=body_names, gravity=np.array(m.opt.gravity)
+    )
+
+
+def _mujoco_parent(m: Any, j: int, name: Callable[[Any, int], str]) -> str:
+    """The joint above joint j: the previous joint of its body, else the joint moving its parent body."""
+    import mujoco
+
+    b = int(m.jnt_bodyid[j])
+    above = j - 1 if j > int(m.body_jntadr[b]) else _mujoco_group(m, int(m.body_parentid[b]))
+    return "" if above < 0 else name(mujoco.mjtObj.mjOBJ_JOINT, above)
 
 
 def _mujoco_mimics(m: Any, name: Callable[[Any, int], str]) -> dict[str, tuple[str, float, float]]:
@@ -259,10 +291,19 @@ def pinocchio_reading(path: Path, text: str, fmt: str) -> Reading:
             damping=float(model.damping[jm.idx_v]),
             frictionloss=float(model.friction[jm.idx_v]),
             armature=float(model.armature[jm.idx_v]),
+            parent=_pinocchio_parent(model, jid),
         )
         I, R = model.inertias[jid], oMi.rotation
         groups[jn] = Inertial(float(I.mass), np.array(oMi.act(I.lever)), R @ np.array(I.inertia) @ R.T)
     return Reading("pinocchio", joints, groups, None)
+
+
+def _pinocchio_parent(model: Any, jid: int) -> str:
+    """The nearest one-degree-of-freedom joint above joint jid ("": the world)."""
+    k = int(model.parents[jid])
+    while k > 0 and model.joints[k].nv != 1:
+        k = int(model.parents[k])
+    return model.names[k] if k > 0 else ""
 
 
 # --- Drake ----------------------------------------------------------------------------------------
@@ -346,7 +387,8 @@ def drake_reading(path: Path, text: str, fmt: str) -> Reading:
         joint = plant.get_joint(i)
         if joint.num_velocities() != 1 or not (hasattr(joint, "revolute_axis") or hasattr(joint, "translation_axis")):
             continue
-        joints[joint.name()] = _drake_joint(plant, ctx, joint, motors.get(joint.name()))
+        read_joint = _drake_joint(plant, ctx, joint, motors.get(joint.name()))
+        joints[joint.name()] = dataclasses.replace(read_joint, parent=group[int(joint.parent_body().index())])
         groups[joint.name()] = composite(parts.get(joint.name(), []))
     actuators = {
         plant.get_joint_actuator(a).name(): (

@@ -55,6 +55,7 @@ class JointRead:
         anchor: (3,) m; axis: (3,) unit.
         limits: (2,) rad or m (+-inf: none).
         mimic: (leader joint, multiplier, offset) or None.
+        parent: the nearest moving joint above it ("" : the world).
     """
 
     kind: str
@@ -70,6 +71,7 @@ class JointRead:
     armature: float = 0.0
     gravcomp: float = 0.0
     mimic: tuple[str, float, float] | None = None
+    parent: str = ""
 
 
 @dataclass
@@ -81,6 +83,7 @@ class Reading:
         joints: name -> JointRead; groups: joint name -> Inertial of what it moves.
         actuators: name -> (joint, gear), or None where the reader has no actuators.
         warnings: the reader's own warnings while reading; notes: what the harness did to read it.
+        members: joint -> the bodies (links) of the group it moves; gravity: (3,) m/s^2.
     """
 
     reader: str
@@ -89,6 +92,8 @@ class Reading:
     actuators: dict[str, tuple[str, float]] | None = None
     warnings: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    members: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
 
 
 def composite(parts: list[Inertial]) -> Inertial:
@@ -160,7 +165,7 @@ def link_inertial(link: ET.Element, R: np.ndarray, p: np.ndarray) -> Inertial:
     return Inertial(mass, R @ pi + p, Rw @ local @ Rw.T)
 
 
-def _joint_read(j: ET.Element, R: np.ndarray, p: np.ndarray) -> JointRead:
+def _joint_read(j: ET.Element, R: np.ndarray, p: np.ndarray, parent: str) -> JointRead:
     """A moving joint whose frame is at (R, p) in the world."""
     name = f"joint '{j.get('name', '?')}'"
     given = j.find("axis")
@@ -191,6 +196,7 @@ def _joint_read(j: ET.Element, R: np.ndarray, p: np.ndarray) -> JointRead:
         damping=_number(dyn, "damping", 0.0, name),
         frictionloss=_number(dyn, "friction", 0.0, name),
         mimic=coupling,
+        parent="" if parent == "world" else parent,
     )
 
 
@@ -231,14 +237,23 @@ def urdf_meaning(text: str, source: str) -> Reading:
 
     joints: dict[str, JointRead] = {}
     parts: dict[str, list[Inertial]] = {}
+    members: dict[str, list[str]] = {}
     for link in links:
         R, p, group = place(link)
         parts.setdefault(group, []).append(link_inertial(links[link], R, p))
+        members.setdefault(group, []).append(link)
         j = by_child.get(link)
         if j is not None and j.get("type") in MOVING:
-            joints[j.get("name", "?")] = _joint_read(j, R, p)
+            above = place(j.find("parent").get("link", ""))[2]  # type: ignore[union-attr]
+            joints[j.get("name", "?")] = _joint_read(j, R, p, above)
     groups = {name: composite(parts.get(name, [])) for name in joints}
-    return Reading("meaning", joints, groups, actuators=_transmissions(root), notes=[])
+    return Reading(
+        "meaning",
+        joints,
+        groups,
+        actuators=_transmissions(root),
+        members={name: tuple(members.get(name, ())) for name in joints},
+    )
 
 
 def _transmissions(root: ET.Element) -> dict[str, tuple[str, float]]:
