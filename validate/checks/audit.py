@@ -89,17 +89,24 @@ def _short(x: Any) -> str:
     return "none" if v is None else str(v)
 
 
-def _cause(reader: str, fmt: str, field: str, found: set[str]) -> tuple[str, str, str]:
+def _cause(
+    reader: str, fmt: str, field: str, found: set[str], names: tuple[str, ...] | None, rotated: bool = True
+) -> tuple[str, str, str]:
     """(entry key, cause, where reported) of the catalogue entry explaining it, or an unexplained note."""
-    hits = importers.explain(reader, fmt, field, found)
+    hits = importers.explain(reader, fmt, field, found, names, rotated=rotated)
     if not hits:
         return "", "no known importer behaviour explains it", ""
     return hits[0].key, hits[0].cause, hits[0].reported
 
 
-def _finding(reader: str, key: str, value: Any, reference: Any, fmt: str, found: set[str]) -> dict[str, Any]:
+def _finding(
+    reader: str, key: str, value: Any, reference: Any, fmt: str, found: set[str], names: tuple[str, ...]
+) -> dict[str, Any]:
     name, field = key.split("/")[1], key.split("/")[-1]
-    entry, cause, url = _cause(reader, fmt, field, found)
+    rotated = field != "inertia" or bool(
+        np.allclose(np.linalg.eigvalsh(value), np.linalg.eigvalsh(reference), rtol=1e-6, atol=1e-15)
+    )
+    entry, cause, url = _cause(reader, fmt, field, found, names, rotated)
     unit = f" {UNITS[field]}" if field in UNITS else ""
     text = (
         f"{LABEL[reader]} misreads {name}'s {field} ({_short(value)}{unit}; the {fmt.upper()} means "
@@ -118,10 +125,15 @@ def _rows(reference: Reading, readings: dict[str, Reading], fmt: str, found: set
     flat = {name: fields(r, labels) for name, r in readings.items()}
     ref = fields(reference, labels)
     extent = max([float(np.abs(v).max()) for k, v in ref.items() if k.endswith("/anchor")] + [1.0])
+    scope = {}  # a key's element -> the names a catalogue feature may be on (the group's links, its joint)
+    for j, r in reference.joints.items():
+        scope[j] = scope[r.body] = (j, r.body, *reference.members.get(j, ()))
     rows = []
     for key, want in ref.items():
         if key.endswith("/anchor") and ref[key.replace("/anchor", "/kind")] == "slide":
             continue  # a slide joint has no anchor (Drake places its frame elsewhere)
+        if key.endswith("/com") and ref[key.replace("/com", "/mass")] == 0.0:
+            continue  # a massless group has no centre of mass
         if key.startswith("actuator/"):  # Pinocchio has no actuators; one that drops a transmission reads none
             values = {n: f.get(key) for n, f in flat.items() if readings[n].actuators is not None}
         else:
@@ -135,7 +147,8 @@ def _rows(reference: Reading, readings: dict[str, Reading], fmt: str, found: set
             "agree": not wrong,
             "informational": key.endswith(INFORMATIONAL),
         }
-        row["misreads"] = [_finding(n, key, values[n], want, fmt, found) for n in wrong]
+        names = scope.get(key.split("/")[1], (key.split("/")[1],))
+        row["misreads"] = [_finding(n, key, values[n], want, fmt, found, names) for n in wrong]
         rows.append(row)
     return rows
 
@@ -145,7 +158,7 @@ def _missing(reference: Reading, readings: dict[str, Reading], fmt: str, found: 
     for name, r in readings.items():
         absent = [j for j in reference.joints if j not in r.joints]
         if absent:
-            entry, cause, url = _cause(name, fmt, "joint", found)
+            entry, cause, url = _cause(name, fmt, "joint", found, tuple(absent))
             out.append(
                 {
                     "reader": name,
@@ -204,7 +217,7 @@ def audit_file(
 
 
 def _skip_cause(reader: str, fmt: str, found: set[str]) -> str:
-    hits = importers.explain(reader, fmt, "read", found)
+    hits = importers.explain(reader, fmt, "read", found, None)
     return f" [{hits[0].key}: {hits[0].reported}]" if hits else ""
 
 

@@ -29,6 +29,8 @@ class Behaviour:
         fields: the audited fields it changes ("joint": the joint is missing).
         feature: the file feature it needs (`features`).
         cause: what the reader does, one clause.
+        rotation: its inertia differs by a rotation only (the same principal moments): it explains no
+            other inertia difference.
         reported: where it was reported: an issue or pull request of the tracker that shows it, or the
             closest report found (another importer with the same fault, the parser's list of what it
             supports) where none of the reader's own trackers has one.
@@ -41,6 +43,7 @@ class Behaviour:
     feature: str
     cause: str
     reported: str
+    rotation: bool = False
 
 
 CATALOGUE: tuple[Behaviour, ...] = (
@@ -82,11 +85,12 @@ CATALOGUE: tuple[Behaviour, ...] = (
     ),
     Behaviour(
         "balanceinertia",
-        ("pinocchio", "drake"),
+        ("mujoco", "pinocchio", "drake"),
         ("mjcf", "urdf"),
         ("inertia", "read"),
-        "compiler balanceinertia",
-        "keeps (or refuses) the inertia that MuJoCo's balanceinertia replaces",
+        "balanced inertia",
+        "balanceinertia: MuJoCo replaces an inertia that violates A + B >= C (its compiler option, in a URDF's "
+        "<mujoco> element too); Pinocchio keeps it, Drake refuses or replaces it",
         "https://github.com/google-deepmind/mujoco/issues/375",
     ),
     Behaviour(
@@ -106,6 +110,7 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "welded rotated body",
         "sums the inertia of a body fused across a fixed joint in the wrong frame (fusestatic)",
         "https://github.com/google-deepmind/mujoco/issues/2982",
+        rotation=True,
     ),
     Behaviour(
         "a fixed joint's rpy",
@@ -115,6 +120,7 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "fixed joint rpy",
         "drops the rotation (rpy) of a fixed joint when it fuses the child link",
         "https://github.com/google-deepmind/mujoco/issues/1176",
+        rotation=True,
     ),
     Behaviour(
         "an inertial's rpy",
@@ -124,6 +130,7 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "inertial rpy",
         "drops the rotation of an <inertial>'s <origin rpy>",
         "https://github.com/google-deepmind/mujoco/issues/3559",
+        rotation=True,
     ),
     Behaviour(
         "mesh inertia and the 1 kg default",
@@ -241,13 +248,17 @@ def _mjcf_features(root: ET.Element) -> set[str]:
     out = {f"compiler {k}" for k in _compiler(root)}
     if any(g.get("mass") is not None for d in root.iter("default") for g in d.findall("geom")):
         out.add("default geom mass")
-    if any(g.get("type") == "mesh" or g.get("mesh") for g in root.iter("geom")):
-        out.add("mesh geom")
     for body in root.iter("body"):
+        name = body.get("name", "")
+        inertial = body.find("inertial")
+        if "compiler balanceinertia" in out and inertial is not None and _unbalanced(inertial.get("diaginertia")):
+            out.add(f"balanced inertia:{name}")
         if len(body.findall("joint")) > 1:
-            out.add("several joints in one body")
+            out |= {f"several joints in one body:{j.get('name', '')}" for j in body.findall("joint")}
         if body.get("gravcomp") not in (None, "0"):
-            out.add("gravcomp")
+            out.add(f"gravcomp:{name}")
+        if any(g.get("type") == "mesh" or g.get("mesh") for g in body.findall("geom")):
+            out.add(f"mesh geom:{name}")
     joints = [j for j in root.iter("joint")] + [j for d in root.iter("default") for j in d.findall("joint")]
     for attr, feature in (
         ("stiffness", "joint spring"),
@@ -280,8 +291,10 @@ def _rpy(el: ET.Element | None) -> bool:
 def _urdf_features(root: ET.Element) -> set[str]:
     out = {f"compiler {k}" for k in _compiler(root)}
     for j in root.findall("joint"):
+        found = j.find("child")
+        child = found.get("link", "") if found is not None else ""
         if j.get("type") == "fixed" and _rpy(j):
-            out |= {"fixed joint rpy", "welded rotated body"}
+            out |= {f"fixed joint rpy:{child}", "welded rotated body"}
         if j.find("mimic") is not None:
             out.add("mimic")
         dyn = j.find("dynamics")
@@ -290,10 +303,21 @@ def _urdf_features(root: ET.Element) -> set[str]:
     for link in root.findall("link"):
         inertial = link.find("inertial")
         if inertial is not None and _rpy(inertial):
-            out.add("inertial rpy")
+            out.add(f"inertial rpy:{link.get('name', '')}")
         if inertial is not None and _invalid(inertial):
-            out.add("invalid inertia")
+            out |= {"invalid inertia", f"invalid inertia:{link.get('name', '')}"}
+            if "compiler balanceinertia" in out:
+                out.add(f"balanced inertia:{link.get('name', '')}")
     return out
+
+
+def _unbalanced(diagonal: str | None) -> bool:
+    """An MJCF diaginertia that violates A + B >= C."""
+    try:
+        a, b, c = sorted(float(x) for x in (diagonal or "1 1 1").split())
+    except ValueError:
+        return False
+    return a + b < c
 
 
 def _invalid(inertial: ET.Element) -> bool:
@@ -301,7 +325,8 @@ def _invalid(inertial: ET.Element) -> bool:
     import numpy as np
 
     try:
-        mass = float((inertial.find("mass") or ET.Element("m", value="0")).get("value", "0"))
+        found = inertial.find("mass")
+        mass = float(found.get("value", "0")) if found is not None else 0.0
         i = inertial.find("inertia")
         k = {a: float(i.get(a, "0")) if i is not None else 0.0 for a in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
     except ValueError:
@@ -322,10 +347,36 @@ def features(text: str, fmt: str) -> set[str]:
     return _urdf_features(root) if fmt == "urdf" else _mjcf_features(root)
 
 
-def explain(reader: str, fmt: str, field: str, found: set[str]) -> list[Behaviour]:
-    """The entries that explain `reader` differing from the format's meaning on `field` in a file with
-    the features `found` (most specific first: fewer readers, fewer fields)."""
+def _scoped(feature: str, found: set[str], names: tuple[str, ...] | None) -> int:
+    """2: the feature is on one of `names` (a body, link or joint); 1: on the file; 0: absent.
+    `names` None: anywhere in the file."""
+    if names is None:
+        return 1 if any(f == feature or f.startswith(feature + ":") for f in found) else 0
+    if any(f"{feature}:{n}" in found for n in names):
+        return 2
+    return 1 if feature in found else 0
+
+
+def explain(
+    reader: str,
+    fmt: str,
+    field: str,
+    found: set[str],
+    names: tuple[str, ...] | None = None,
+    *,
+    rotated: bool = True,
+) -> list[Behaviour]:
+    """The entries that explain `reader` differing from the format's meaning on `field` of the
+    elements `names` (the group's links and joint) in a file with the features `found`: an entry on
+    one of those elements first, then the more specific (fewer readers, fewer fields). `rotated`: an
+    inertia that differs by a rotation only (entries about a lost rotation explain nothing else)."""
     hits = [
-        b for b in CATALOGUE if reader in b.readers and fmt in b.formats and field in b.fields and b.feature in found
+        (score, b)
+        for b in CATALOGUE
+        if reader in b.readers
+        and fmt in b.formats
+        and field in b.fields
+        and (rotated or not b.rotation or field != "inertia")
+        and (score := _scoped(b.feature, found, names))
     ]
-    return sorted(hits, key=lambda b: (len(b.readers), len(b.fields)))
+    return [b for _, b in sorted(hits, key=lambda h: (-h[0], len(h[1].readers), len(h[1].fields)))]

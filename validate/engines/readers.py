@@ -315,7 +315,7 @@ class _Collect(logging.Handler):
         self.lines: list[str] = []
 
     def emit(self, record: logging.LogRecord) -> None:
-        text = record.getMessage().split("warning: ", 1)[-1].strip()
+        text = record.getMessage().split("warning: ", 1)[-1].strip().splitlines()[0]
         if text not in self.lines:
             self.lines.append(text)
 

@@ -99,8 +99,9 @@ class Reading:
 def composite(parts: list[Inertial]) -> Inertial:
     """The rigid sum of `parts` (each in world coordinates): mass, centre of mass, inertia about it."""
     mass = sum(p.mass for p in parts)
-    if mass <= 0.0:
-        return ZERO
+    if mass <= 0.0:  # no centre of mass; an inertia without mass (a defect of the file) is kept as given
+        inertia = sum((p.inertia for p in parts), np.zeros((3, 3)))
+        return Inertial(0.0, parts[0].com if parts else np.zeros(3), inertia)
     com = sum((p.mass * p.com for p in parts), np.zeros(3)) / mass
     inertia = np.zeros((3, 3))
     for p in parts:
