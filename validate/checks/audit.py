@@ -112,7 +112,19 @@ def _finding(
         f"{LABEL[reader]} misreads {name}'s {field} ({_short(value)}{unit}; the {fmt.upper()} means "
         f"{_short(reference)}{unit}): {cause}" + (f" [{entry}: {url}]" if url else "")
     )
-    return {"reader": reader, "key": key, "field": field, "entry": entry, "reported": url, "finding": text}
+    short = (
+        f"{LABEL[reader]} misreads {name}'s {field} ({_short(value)}{unit}, {_short(reference)}{unit} by the "
+        f"{fmt.upper()}" + (f": {entry}" if entry else ": cause unknown") + ")"
+    )
+    return {
+        "reader": reader,
+        "key": key,
+        "field": field,
+        "entry": entry,
+        "reported": url,
+        "finding": text,
+        "short": short,
+    }
 
 
 def _reference(path: Path, text: str, fmt: str) -> Reading:
@@ -168,6 +180,7 @@ def _missing(reference: Reading, readings: dict[str, Reading], fmt: str, found: 
                     "reported": url,
                     "finding": f"{LABEL[name]} has no joint {', '.join(repr(j) for j in absent)}: {cause}"
                     + (f" [{entry}: {url}]" if url else ""),
+                    "short": f"{LABEL[name]} has no joint {absent[0]!r} ({entry or 'cause unknown'})",
                 }
             )
     return out
@@ -292,6 +305,32 @@ def lines(result: dict[str, Any]) -> list[str]:
         f"  consequence, max |M_reader - M_format| (and |G_reader - G_format|) at {gaps['n_states']} seeded "
         f"configurations: {shown or 'no reader has every joint'}"
     )
+    return out
+
+
+SET_ASIDE = ("pinocchio", "drake")  # MuJoCo's compiled model is what the harness's own model view reads
+
+
+def set_aside(system: System) -> dict[str, str]:
+    """The readers to leave out of a verdict, each with the sentence that names it: every reader that
+    misreads a field the dynamics use (against the format's meaning), as long as two readers still agree
+    with that meaning; MuJoCo, whose reading the harness's model view is, is never set aside. {} where
+    the audit cannot be made."""
+    try:
+        result = audit_file(*_file_of(system), n_states=1)
+    except HarnessError:
+        return {}
+    wrong = [r for r in result["readers"] if r in result["excluded"]]
+    agreeing = [r for r in result["readers"] if r not in wrong]
+    if len(agreeing) < 2:
+        return {}
+    out = {}
+    for reader in (r for r in wrong if r in SET_ASIDE):
+        said = [
+            m["short"] for m in result["misreads"] if m["reader"] == reader and not m["key"].endswith(INFORMATIONAL)
+        ]
+        more = f" (and {len(said) - 1} more)" if len(said) > 1 else ""
+        out[reader] = f"{said[0]}{more}: excluded"
     return out
 
 
