@@ -36,7 +36,7 @@ RTOL = 1e-9  # the readers parse the same decimal text through different rotatio
 N_STATES = 100  # seeded configurations at which each reading's M and G are compared with the format's
 # Fields no smooth dynamics use (limits are constraints; ref moves the coordinate's zero, not the frames;
 # an actuator's gear scales the input, not M or the bias): a difference is shown, but fails nothing.
-INFORMATIONAL = ("/limits", "/ref", "/gear", "/joint")
+INFORMATIONAL = ("/limits", "/ref", "/gear", "/target")
 LENGTHS = ("/anchor", "/com")  # judged against the chain's extent: a centre at the origin may read 1e-17 m
 FRAME = (
     "each reader at its reference configuration (MuJoCo's qpos0: a joint's ref; the others' zero), world "

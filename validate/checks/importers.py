@@ -57,12 +57,23 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "https://github.com/newton-physics/newton/pull/1744",
     ),
     Behaviour(
+        "collision-free geoms",
+        ("pinocchio",),
+        ("mjcf",),
+        INERTIAL,
+        "collision-free geom",
+        'leaves out the mass of geoms that collide with nothing (contype="0" conaffinity="0": visual geoms, '
+        "which MuJoCo weighs like any other)",
+        "https://github.com/newton-physics/mujoco-usd-converter/issues/67",
+    ),
+    Behaviour(
         "inertiafromgeom",
         ("pinocchio", "drake"),
         ("mjcf",),
-        INERTIAL,
+        (*INERTIAL, "read"),
         "compiler inertiafromgeom",
-        "does not apply the compiler's inertiafromgeom (which of <inertial> and the geoms gives the inertia)",
+        'does not apply the compiler\'s inertiafromgeom (Pinocchio and Drake refuse inertiafromgeom="false" where a '
+        "body has no <inertial>; MuJoCo gives that body no mass)",
         "https://github.com/RobotLocomotion/drake/issues/20232",
     ),
     Behaviour(
@@ -105,10 +116,10 @@ CATALOGUE: tuple[Behaviour, ...] = (
     Behaviour(
         "fusestatic",
         ("mujoco",),
-        ("urdf", "mjcf"),
-        ("com", "inertia"),
+        ("urdf",),
+        ("inertia",),
         "welded rotated body",
-        "sums the inertia of a body fused across a fixed joint in the wrong frame (fusestatic)",
+        "sums the inertia of a link fused across a rotated fixed joint in the wrong frame (fusestatic)",
         "https://github.com/google-deepmind/mujoco/issues/2982",
         rotation=True,
     ),
@@ -120,7 +131,6 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "fixed joint rpy",
         "drops the rotation (rpy) of a fixed joint when it fuses the child link",
         "https://github.com/google-deepmind/mujoco/issues/1176",
-        rotation=True,
     ),
     Behaviour(
         "an inertial's rpy",
@@ -226,6 +236,16 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "https://github.com/RobotLocomotion/drake/issues/16369",
     ),
     Behaviour(
+        "transmissions",
+        ("mujoco",),
+        ("urdf",),
+        ("target", "gear"),
+        "transmission",
+        "ignores a URDF's <transmission> elements: it makes no actuator (the harness adds them as motors in its "
+        "own model)",
+        "https://github.com/google-deepmind/mujoco_menagerie/issues/24",
+    ),
+    Behaviour(
         "joint ref",
         ("drake",),
         ("mjcf",),
@@ -259,6 +279,8 @@ def _mjcf_features(root: ET.Element) -> set[str]:
             out.add(f"gravcomp:{name}")
         if any(g.get("type") == "mesh" or g.get("mesh") for g in body.findall("geom")):
             out.add(f"mesh geom:{name}")
+        if any(g.get("contype") == "0" and g.get("conaffinity") == "0" for g in body.findall("geom")):
+            out.add(f"collision-free geom:{name}")
     joints = [j for j in root.iter("joint")] + [j for d in root.iter("default") for j in d.findall("joint")]
     for attr, feature in (
         ("stiffness", "joint spring"),
@@ -276,10 +298,6 @@ def _mjcf_features(root: ET.Element) -> set[str]:
         posed = any(body.get(a) for a in ("pos", "quat", "euler", "axisangle", "xyaxes", "zaxis"))
         if body.find("joint") is None and body.find("freejoint") is None and posed:
             out.add("fixed root pose")
-        if body.find("joint") is not None and any(
-            b.find("joint") is None and any(b.get(a) for a in ("quat", "euler", "axisangle")) for b in body.iter("body")
-        ):
-            out.add("welded rotated body")
     return out
 
 
@@ -294,12 +312,14 @@ def _urdf_features(root: ET.Element) -> set[str]:
         found = j.find("child")
         child = found.get("link", "") if found is not None else ""
         if j.get("type") == "fixed" and _rpy(j):
-            out |= {f"fixed joint rpy:{child}", "welded rotated body"}
+            out |= {f"fixed joint rpy:{child}", f"welded rotated body:{child}"}
         if j.find("mimic") is not None:
             out.add("mimic")
         dyn = j.find("dynamics")
         if dyn is not None and dyn.get("friction") not in (None, "0", "0.0"):
             out.add("joint friction")
+    if root.find("transmission") is not None:
+        out.add("transmission")
     for link in root.findall("link"):
         inertial = link.find("inertial")
         if inertial is not None and _rpy(inertial):

@@ -525,14 +525,7 @@ def _derive_arguments(derive: argparse.ArgumentParser) -> None:
 def _audit_arguments(audit: argparse.ArgumentParser) -> None:
     """`audit`: the model (or two files of one robot), joints to lock, output as JSON."""
     audit.add_argument("model", type=path_arg, metavar="MODEL", help="an MJCF .xml or URDF .urdf (or a system name)")
-    audit.add_argument(
-        "other",
-        type=path_arg,
-        nargs="?",
-        metavar="MODEL_B",
-        help="a second file of the same robot (a URDF and the MJCF made from it, say): joints matched by name, "
-        "inertial fields, forward kinematics, gravity torques, M and bias compared at 1,000 seeded configurations",
-    )
+    audit.add_argument("other", type=path_arg, nargs="?", metavar="MODEL_B", help="a second file of the same robot")
     _lock_option(audit)
     audit.add_argument("--json", action="store_true", help="print the audit as one JSON object")
 
@@ -575,8 +568,7 @@ COMMANDS: tuple[tuple[str, str, Callable[[argparse.ArgumentParser], None]], ...]
     ),
     (
         "audit",
-        "the model read by MuJoCo, Pinocchio and Drake, each judged against what the format means (every field "
-        "of the equations of motion), each misreading named with its known cause; or two files of one robot compared",
+        "each reader of the model judged against what its format means, misreadings named; or two files compared",
         _audit_arguments,
     ),
     ("replay", "a rerun recording of a system's trajectories", _replay_arguments),

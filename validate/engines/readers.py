@@ -32,6 +32,12 @@ from ..systems.urdf import without_geometry
 LABEL = {"meaning": "the format", "mujoco": "MuJoCo", "pinocchio": "Pinocchio", "drake": "Drake"}
 # Library messages and what usually causes them (the element is quoted from the message when it names one).
 CAUSES = (
+    ("inertia from geom", 'inertiafromgeom="false" with a body that has no <inertial>'),
+    ("inertiafromgeom=false", 'inertiafromgeom="false" with a body that has no <inertial>'),
+    (
+        "IsPhysicallyValid",
+        "an inertia that is not physically valid (the triangle inequality, a zero mass with inertia)",
+    ),
     (
         "unordered_map::at",
         'an element or attribute it does not know (a default class such as class="main", '
@@ -62,14 +68,17 @@ def failure(reader: str, source: str, exc: BaseException, text: str = "") -> Har
     """One line: the reader, the element where the message (or the file) names one, the likely cause,
     and the library's own first line."""
     said = str(exc).strip()
-    first = said.splitlines()[0] if said else type(exc).__name__
+    lines = said.splitlines()
+    # Pinocchio's C++ errors begin with the source file and function; what it says follows "message:"
+    first = lines[lines.index("message:") + 1] if "message:" in lines[:-1] else (lines[0] if lines else "")
+    first = first or type(exc).__name__
     element = re.search(r"Element '([^']+)', line (\d+)", said) or re.search(r"\.(?:xml|urdf):(\d+)", said)
     where = ""
     if element is not None and element.lastindex == 2:
         where = f" at <{element.group(1)}> (line {element.group(2)})"
     elif element is not None:
         where = f" at line {element.group(1)}"
-    cause = next((why for key, why in CAUSES if key.lower() in said.lower()), "")
+    cause = next((why for key, why in CAUSES if key.lower() in first.lower()), "")
     if "unordered_map::at" in said and _classes(text):
         cause = _classes(text)
     because = f"; likely {cause}" if cause else ""

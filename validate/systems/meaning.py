@@ -290,5 +290,5 @@ def fields(reading: Reading, labels: dict[str, str]) -> dict[str, Any]:
             f"joint/{j}/mimic": r.mimic,
         }
     for a, (joint, gear) in (reading.actuators or {}).items():
-        out |= {f"actuator/{a}/joint": joint, f"actuator/{a}/gear": gear}
+        out |= {f"actuator/{a}/target": joint, f"actuator/{a}/gear": gear}
     return out
