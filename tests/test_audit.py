@@ -135,9 +135,9 @@ PLANTED = {
     ),
     "an invalid inertia replaced": (urdf(extra=FINGER.format(mimic="", mass="0")), "urdf", {"drake": "mass"}, None),
     "several joints in one body": (
-        mjcf(world='<body name="b" pos="0 0 1"><joint name="rootx" type="slide" axis="1 0 0"/><joint name="rootz" '
-                   f'type="slide" axis="0 0 1"/><joint name="rooty" axis="0 1 0"/>{INERTIAL}</body>'),
-        "mjcf", {"pinocchio": "joint"}, None,
+        mjcf(INERTIAL + '<body name="c" pos="0.2 0 -0.3"><joint name="x" axis="1 0 0" pos="0 0 0.1"/><joint name="y" '
+                        f'axis="0 1 0" pos="0 0 0.1"/>{INERTIAL}</body>'),
+        "mjcf", {"pinocchio": "joint", "drake": "anchor"}, None,
     ),
     "a fixed root's pose": (
         mjcf(world=f'<body name="base" pos="0.3 0.2 1" euler="0 0 30">{INERTIAL}<body name="b" pos="0 0 0.2">'
@@ -166,6 +166,10 @@ PLANTED = {
         "mjcf", {"pinocchio": "joint", "drake": "joint"}, None,
     ),
     "joint ref": (mjcf(joint=' ref="20"'), "mjcf", {"drake": "ref"}, None),
+    "settotalmass": (
+        mjcf('<geom type="capsule" fromto="0 0 0 0 0 1" size="0.05"/>', '<compiler settotalmass="5"/>'),
+        "mjcf", {"pinocchio": "mass", "drake": "mass"}, None,
+    ),
     "transmissions": (urdf(extra=TRANSMISSION), "urdf", {"mujoco": "target"}, None),
 }  # fmt: skip
 

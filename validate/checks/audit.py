@@ -261,10 +261,12 @@ def consequences(
     |G_reader - G_format| (N m or N) at `n_states` seeded configurations of the format's coordinates
     (validate/checks/chain.py on each reading; a reader missing a joint is not compared)."""
     ref = chain(reference)
+    out: dict[str, Any] = {"n_states": n_states, "seed": seed, "max_abs": {}, "gravity_max_abs": {}}
+    if not ref.joints:
+        return out  # nothing moves
     rng = np.random.default_rng(seed)
     q = rng.uniform(-np.pi, np.pi, (n_states, len(ref.joints)))
     want = dynamics(ref, q)
-    out: dict[str, Any] = {"n_states": n_states, "seed": seed, "max_abs": {}, "gravity_max_abs": {}}
     for name, reading in readings.items():
         if any(j not in reading.joints for j in ref.joints):
             continue

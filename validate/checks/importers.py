@@ -86,6 +86,15 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "https://github.com/newton-physics/newton/issues/3593",
     ),
     Behaviour(
+        "settotalmass",
+        ("pinocchio", "drake"),
+        ("mjcf",),
+        ("mass", "inertia"),
+        "compiler settotalmass",
+        "ignores the compiler's settotalmass (MuJoCo scales every body's mass and inertia to that total)",
+        "https://github.com/newton-physics/newton/issues/3689",
+    ),
+    Behaviour(
         "boundmass/boundinertia",
         ("drake",),
         ("mjcf",),
@@ -164,12 +173,13 @@ CATALOGUE: tuple[Behaviour, ...] = (
     ),
     Behaviour(
         "several joints in one body",
-        ("pinocchio",),
+        ("pinocchio", "drake"),
         ("mjcf",),
-        ("joint",),
+        ("joint", "anchor", "axis"),
         "several joints in one body",
-        "makes one composite joint of a body's several joints (their names are not joints of its model)",
-        "https://github.com/stack-of-tasks/pinocchio/pull/2786",
+        "reads a body's several joints otherwise: Pinocchio makes one composite joint of them (their names are not "
+        "joints of its model); Drake places the first in the parent's frame, without the body's pos",
+        "https://github.com/RobotLocomotion/drake/issues/20232",
     ),
     Behaviour(
         "a fixed root's pose",
@@ -220,7 +230,7 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "mimic",
         ("pinocchio", "drake", "mujoco"),
         ("urdf",),
-        ("mimic",),
+        ("mimic", "read"),
         "mimic",
         "ignores the <mimic> coupling (Pinocchio's default reading, Drake's continuous plant)",
         "https://github.com/RobotLocomotion/drake/issues/21472",

@@ -19,6 +19,7 @@ import logging
 import os
 import re
 import tempfile
+import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -32,6 +33,8 @@ from ..systems.urdf import without_geometry
 LABEL = {"meaning": "the format", "mujoco": "MuJoCo", "pinocchio": "Pinocchio", "drake": "Drake"}
 # Library messages and what usually causes them (the element is quoted from the message when it names one).
 CAUSES = (
+    ("cannot mimic", "a <mimic> it cannot apply (on a joint without degrees of freedom)"),
+    ("mimic element specifies", "a <mimic> that names a joint the file does not have"),
     ("inertia from geom", 'inertiafromgeom="false" with a body that has no <inertial>'),
     ("inertiafromgeom=false", 'inertiafromgeom="false" with a body that has no <inertial>'),
     (
@@ -132,14 +135,16 @@ def mujoco_model(path: Path, text: str, fmt: str) -> tuple[Any, list[str]]:
     said: list[str] = []
     mujoco.set_mju_user_warning(lambda msg: said.append(msg.strip()))
     try:
-        if fmt == "urdf":
-            model = mujoco.MjSpec.from_string(_model_text(text, fmt)).compile()
-        else:
-            with _as_file(path, text) as name:
-                model = mujoco.MjSpec.from_file(name).compile()
+        with warnings.catch_warnings(record=True) as caught:  # the bindings' own (a deprecated attribute)
+            warnings.simplefilter("always")
+            if fmt == "urdf":
+                model = mujoco.MjSpec.from_string(_model_text(text, fmt)).compile()
+            else:
+                with _as_file(path, text) as name:
+                    model = mujoco.MjSpec.from_file(name).compile()
     finally:
         mujoco.set_mju_user_warning(None)
-    return model, said
+    return model, said + [str(w.message).splitlines()[0] for w in caught]
 
 
 def _absolute(text: str, path: Path) -> str:

@@ -210,6 +210,8 @@ def _tree(root: ET.Element, source: str) -> tuple[dict[str, ET.Element], dict[st
             raise HarnessError(f"{source}: joint '{j.get('name', '?')}' needs a <parent> and a <child> link it names.")
         by_child[child.get("link", "")] = j
     roots = [name for name in links if name not in by_child]
+    if not links:
+        raise HarnessError(f"{source}: no <link> element: not a robot description (a xacro macro file, say).")
     if len(roots) != 1:
         raise HarnessError(f"{source}: {len(roots)} root links ({', '.join(roots)}); a URDF has one tree.")
     return links, by_child, roots
