@@ -92,8 +92,13 @@ TRANSMISSION = """<transmission name="t1"><type>transmission_interface/SimpleTra
   <joint name="j1"><hardwareInterface>EffortJointInterface</hardwareInterface></joint>
   <actuator name="m1"><mechanicalReduction>50</mechanicalReduction></actuator></transmission>"""
 TET = '<mesh name="tet" vertex="0 0 0 0.2 0 0 0 0.2 0 0 0 0.2"/>'
+NESTED = (
+    '<default><default class="a"><joint damping="3"/><default class="b"><default class="c"><joint axis="0 1 0"/>'
+    "</default></default></default></default>"
+)
 ROTATED = dict(l2_inertial=False, tool_xyz="0 0 0")  # the group is the tool alone: a lost rotation keeps its moments
-# entry -> (model, format, {reader: a field the entry must explain}, a copy given to MuJoCo only (or None))
+# entry -> (model, format, {reader: a field the entry must explain}, None, or for an entry no installed reader
+# shows any more, a copy given to MuJoCo only, or {reader: its copy})
 PLANTED = {
     "geom mass from a default class": (
         mjcf('<geom fromto="0 0 0 0 0 1" size="0.05"/>', '<default><geom type="capsule" mass="1"/></default>'),
@@ -165,7 +170,11 @@ PLANTED = {
                         "</body></frame>"),
         "mjcf", {"pinocchio": "joint", "drake": "joint"}, None,
     ),
-    "joint ref": (mjcf(joint=' ref="20"'), "mjcf", {"drake": "ref"}, None),
+    "joint ref": (mjcf(joint=' ref="20"'), "mjcf", {"drake": "ref"}, {"drake": mjcf()}),
+    "nested default classes": (
+        mjcf(joint=' class="c"', head=NESTED),
+        "mjcf", {"drake": "damping"}, None,
+    ),
     "settotalmass": (
         mjcf('<geom type="capsule" fromto="0 0 0 0 0 1" size="0.05"/>', '<compiler settotalmass="5"/>'),
         "mjcf", {"pinocchio": "mass", "drake": "mass"}, None,
@@ -182,8 +191,11 @@ def test_every_catalogue_entry_has_a_planted_case():
 def test_each_planted_fault_names_its_readers_and_cause(tmp_path, entry):
     """The readers that show the fault are named, the catalogue entry explains it, and no other reader
     is named for that field."""
-    text, fmt, fields, mujoco_copy = PLANTED[entry]
-    result = _audit(tmp_path, text, fmt, **({"mujoco": mujoco_copy} if mujoco_copy else {}))
+    text, fmt, fields, copy = PLANTED[entry]
+    copies = copy if isinstance(copy, dict) else {"mujoco": copy} if copy else {}
+    behaviour = next(b for b in importers.CATALOGUE if b.key == entry)
+    assert bool(copies) == behaviour.fixed, "an entry the installed readers show is planted in the file itself"
+    result = _audit(tmp_path, text, fmt, **copies)
     named = _named(result, entry)
     for reader, field in fields.items():
         assert field in named.get(reader, set()), (entry, reader, result["findings"], result["skipped"])

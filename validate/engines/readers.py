@@ -425,6 +425,7 @@ def _drake_joint(plant: Any, ctx: Any, joint: Any, motor: Any) -> JointRead:
         body=joint.child_body().name(),
         anchor=np.array(X.translation(), dtype=float),
         axis=R @ axis,
+        ref=float(joint.default_positions()[0]),  # an MJCF joint's ref (its default position)
         limits=np.array([lo, hi]),
         damping=float(joint.default_damping()),
         armature=0.0 if motor is None else float(motor.default_reflected_inertia()),
