@@ -137,11 +137,14 @@ def decide(
     return Decision(system, derivation, model, point, states, sources, values, probe_set, excluded=excluded)
 
 
+READERS = {"mujoco", "pinocchio", "drake"}
+
+
 def _misreaders(system: System, model: ModelChecks, point: Pointwise) -> dict[str, str]:
     """The readers that misread the model (checks/audit.py `set_aside`), looked for only where Pinocchio's
-    reading differs from MuJoCo's or a pointwise pair with Pinocchio or Drake disagrees."""
+    reading differs from MuJoCo's or a pointwise pair of two readers disagrees."""
     suspect = any(m.get("check") == "pinocchio~mujoco" for m in model["mismatches"]) or any(
-        not r["passed"] and ("pinocchio" in r["pair"] or "drake" in r["pair"]) for r in point["rows"]
+        not r["passed"] and set(r["pair"].split("~")) <= READERS for r in point["rows"]
     )
     if not suspect:
         return {}
