@@ -102,7 +102,7 @@ CATALOGUE: tuple[Behaviour, ...] = (
         ("drake",),
         ("mjcf",),
         INERTIAL,
-        "compiler boundmass",
+        "compiler bounds",
         "ignores the compiler's boundmass/boundinertia (the lower bounds MuJoCo applies)",
         "https://github.com/newton-physics/newton/issues/3741",
     ),
@@ -291,39 +291,52 @@ def _compiler(root: ET.Element) -> dict[str, str]:
     return out
 
 
-def _mjcf_features(root: ET.Element) -> set[str]:
-    out = {f"compiler {k}" for k in _compiler(root)}
-    if any(g.get("mass") is not None for d in root.iter("default") for g in d.findall("geom")):
-        out.add("default geom mass")
-    for body in root.iter("body"):
-        name = body.get("name", "")
-        inertial = body.find("inertial")
-        if "compiler balanceinertia" in out and inertial is not None and _unbalanced(inertial.get("diaginertia")):
-            out.add(f"balanced inertia:{name}")
-        if len(body.findall("joint")) > 1:
-            out |= {f"several joints in one body:{j.get('name', '')}" for j in body.findall("joint")}
-        if body.get("gravcomp") not in (None, "0"):
-            out.add(f"gravcomp:{name}")
-        if any(g.get("type") == "mesh" or g.get("mesh") for g in body.findall("geom")):
-            out.add(f"mesh geom:{name}")
-        if any(g.get("contype") == "0" and g.get("conaffinity") == "0" for g in body.findall("geom")):
-            out.add(f"collision-free geom:{name}")
-    joints = [j for j in root.iter("joint")] + [j for d in root.iter("default") for j in d.findall("joint")]
-    for attr, feature in (
-        ("stiffness", "joint spring"),
-        ("springref", "joint spring"),
-        ("frictionloss", "joint friction"),
-        ("armature", "joint armature"),
-        ("ref", "joint ref"),
-    ):
-        if any(j.get(attr) not in (None, "0") for j in joints):
-            out.add(feature)
+def _body_features(body: ET.Element, balancing: bool) -> set[str]:
+    """The features of one MJCF body, scoped to its name (or its joints' names)."""
+    name, out = body.get("name", ""), set()
+    inertial = body.find("inertial")
+    if balancing and inertial is not None and _unbalanced(inertial.get("diaginertia")):
+        out.add(f"balanced inertia:{name}")
+    if len(body.findall("joint")) > 1:
+        out |= {f"several joints in one body:{j.get('name', '')}" for j in body.findall("joint")}
+    if body.get("gravcomp") not in (None, "0"):
+        out.add(f"gravcomp:{name}")
+    if any(g.get("type") == "mesh" or g.get("mesh") for g in body.findall("geom")):
+        out.add(f"mesh geom:{name}")
+    if any(g.get("contype") == "0" and g.get("conaffinity") == "0" for g in body.findall("geom")):
+        out.add(f"collision-free geom:{name}")
+    return out
+
+
+JOINT_FEATURES = (
+    ("stiffness", "joint spring"),
+    ("springref", "joint spring"),
+    ("frictionloss", "joint friction"),
+    ("armature", "joint armature"),
+    ("ref", "joint ref"),
+)
+
+
+def _default_features(root: ET.Element) -> set[str]:
+    """What default classes pass on: geom masses, collision-free geoms, nesting two deep."""
+    geoms = [g for d in root.iter("default") for g in d.findall("geom")]
+    out = {"default geom mass"} if any(g.get("mass") is not None for g in geoms) else set()
+    if any(g.get("contype") == "0" and g.get("conaffinity") == "0" for g in geoms):
+        out.add("collision-free geom")
     if any(d.find("default/default") is not None for d in root.iter("default") if d.get("class")):
         out.add("nested default class")
-    if any(
-        g.get("contype") == "0" and g.get("conaffinity") == "0" for d in root.iter("default") for g in d.findall("geom")
-    ):
-        out.add("collision-free geom")
+    return out
+
+
+def _mjcf_features(root: ET.Element) -> set[str]:
+    out = {f"compiler {k}" for k in _compiler(root)}
+    if {"compiler boundmass", "compiler boundinertia"} & out:
+        out.add("compiler bounds")
+    for body in root.iter("body"):
+        out |= _body_features(body, "compiler balanceinertia" in out)
+    joints = [j for j in root.iter("joint")] + [j for d in root.iter("default") for j in d.findall("joint")]
+    out |= {feature for attr, feature in JOINT_FEATURES if any(j.get(attr) not in (None, "0") for j in joints)}
+    out |= _default_features(root)
     if any(True for _ in root.iter("frame")):
         out.add("frame element")
     world = root.find("worldbody")
