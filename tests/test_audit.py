@@ -293,6 +293,16 @@ def test_a_dropped_fixed_joint_rpy_names_the_link_behind_the_phantom_torque(tmp_
     assert "link tool's inertial frame rotated by the fixed joint 'tool_joint''s rpy in A, not in B" in first
 
 
+def test_two_files_differing_in_a_joints_damping_name_the_joint(tmp_path):
+    from lagrange_xval.validate.checks import twofiles
+
+    a = tmp_path / "arm.urdf"
+    a.write_text(urdf(j1='<dynamics damping="0.5"/>'))
+    result = twofiles.compare(a, _saved(tmp_path, urdf(j1='<dynamics damping="0.2"/>'), "arm.xml"))
+    assert not result["differences"] and result["joint_fields"] == ["joint j1 damping: 0.5 in A, 0.2 in B"]
+    assert not result["passed"]
+
+
 def test_the_two_file_command(tmp_path, capsys):
     a = tmp_path / "arm.urdf"
     a.write_text(urdf())

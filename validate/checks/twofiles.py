@@ -10,7 +10,9 @@ of an MJCF); bodies and joints are matched by name (the unmatched are listed); t
 - forward kinematics (each joint's anchor and axis, each group's centre of mass), the gravity torques
   G(q), the mass matrix M(q) and the bias C(q, v) v + G(q) at `N_STATES` seeded configurations
   (validate/checks/chain.py, numpy on each reading: no engine between the file and the numbers;
-  unmatched joints held at their reference).
+  unmatched joints held at their reference);
+- each matched joint's kind, damping, stiffness, springref, frictionloss, armature, mimic coupling and
+  limits (limits are shown, and fail nothing: no smooth dynamics use them), and gravity.
 
 Each joint whose torques differ is named with the size of the effect and the group that causes it:
 "joint6 gravity torque differs by up to 1.02 N m: link gripper_end's inertial frame rotated by the
@@ -183,6 +185,35 @@ def _joint_lines(gaps: dict[str, np.ndarray], scale: dict[str, float], names: li
     return out
 
 
+JOINT_FIELDS = ("kind", "damping", "stiffness", "springref", "frictionloss", "armature", "mimic", "limits")
+
+
+def _joint_fields(names: list[str], ra: Reading, rb: Reading) -> list[str]:
+    """Each matched joint's passive and coupling fields that differ between the files (limits: shown)."""
+    out = []
+    for j in names:
+        for field in JOINT_FIELDS:
+            x, y = getattr(ra.joints[j], field), getattr(rb.joints[j], field)
+            if isinstance(x, str) or x is None or y is None or isinstance(x, tuple):
+                same = x == y or (isinstance(x, tuple) and isinstance(y, tuple) and np.allclose(x[1:], y[1:]))
+            else:
+                same = bool(np.allclose(x, y, rtol=RTOL, atol=0.0))
+            if not same:
+                out.append(f"joint {j} {field}: {_text(x)} in A, {_text(y)} in B")
+    if not np.allclose(ra.gravity, rb.gravity, rtol=RTOL, atol=0.0):
+        out.append(f"gravity: {_text(ra.gravity)} m/s^2 in A, {_text(rb.gravity)} in B")
+    return out
+
+
+def _text(x: Any) -> str:
+    if x is None or isinstance(x, str):
+        return str(x)
+    if isinstance(x, tuple):
+        return f"{x[0]} x {x[1]:g} + {x[2]:g}"
+    arr = np.atleast_1d(np.asarray(x, dtype=float))
+    return " ".join(f"{v:.4g}" for v in arr) if arr.size > 1 else f"{arr[0]:.4g}"
+
+
 def compare(a: Path, b: Path, *, n_states: int = N_STATES, seed: int = 0) -> dict[str, Any]:
     """The two files compared (the module docstring); `passed` when every matched quantity agrees."""
     ra, fa, ta = load(a)
@@ -216,6 +247,7 @@ def compare(a: Path, b: Path, *, n_states: int = N_STATES, seed: int = 0) -> dic
         row["finding"] = f"{row['joint']} {row['what']} differs by up to {row['gap']:.3g}{unit}" + (
             f": {causes[0]}" if causes else ": no known cause (the groups and frames agree at the reference)"
         )
+    joint_fields = _joint_fields(names, ra, rb)
     body_a = {m for ms in ra.members.values() for m in ms}
     body_b = {m for ms in rb.members.values() for m in ms}
     return {
@@ -233,8 +265,9 @@ def compare(a: Path, b: Path, *, n_states: int = N_STATES, seed: int = 0) -> dic
         "max_gap": {k: float(g.max()) for k, g in gaps.items()},
         "scale": scale,
         "differences": rows,
-        "findings": [r["finding"] for r in rows],
-        "passed": not rows,
+        "joint_fields": joint_fields,
+        "findings": [r["finding"] for r in rows] + joint_fields,
+        "passed": not rows and not [f for f in joint_fields if " limits: " not in f],
     }
 
 
@@ -254,7 +287,8 @@ def lines(result: dict[str, Any]) -> list[str]:
             out.append(f"  bodies only in {side} (fused into a neighbour, or missing): {bodies}")
     out.append(
         f"  compared at {result['n_states']} seeded configurations (seed {result['seed']}): forward kinematics, "
-        f"gravity torques, M, bias; agreement within {result['rtol']:g} of each quantity's scale"
+        f"gravity torques, M, bias; each joint's damping, stiffness, springref, frictionloss, armature, mimic and "
+        f"limits; agreement within {result['rtol']:g} of each quantity's scale"
     )
     gaps = result["max_gap"]
     out.append(
