@@ -149,6 +149,11 @@ PLANTED = {
                    f'<joint name="j" axis="0 1 0"/>{INERTIAL}</body></body>'),
         "mjcf", {"pinocchio": "anchor"}, None,
     ),
+    "a free root's coordinates": (
+        mjcf(world=f'<body name="torso" pos="0 1 1" euler="0 0 30"><freejoint name="root"/>{INERTIAL}'
+                   f'<body name="arm" pos="0.2 0 0"><joint name="j" axis="0 1 0"/>{INERTIAL}</body></body>'),
+        "mjcf", {"pinocchio": "anchor"}, None,
+    ),
     "stiffness and springref": (
         mjcf(joint=' stiffness="3" springref="20"'), "mjcf", {"pinocchio": "stiffness", "drake": "springref"}, None,
     ),

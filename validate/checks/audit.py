@@ -201,6 +201,9 @@ def audit_file(
     readings, skipped = {}, {}
     for name in READERS:
         p, t = (inputs or {}).get(name, (path, text))
+        if fmt == "mjcf" and name == "mujoco" and t == text:
+            readings[name] = reference  # MuJoCo's compiled model is what an MJCF means
+            continue
         try:
             readings[name] = read(name, p, t, fmt)
         except HarnessError as exc:
@@ -268,8 +271,8 @@ def consequences(
     q = rng.uniform(-np.pi, np.pi, (n_states, len(ref.joints)))
     want = dynamics(ref, q)
     for name, reading in readings.items():
-        if any(j not in reading.joints for j in ref.joints):
-            continue
+        if reading is reference or any(j not in reading.joints for j in ref.joints):
+            continue  # the format's own reading (MuJoCo's, of an MJCF), or a reader missing a joint
         c = chain(reading)
         full = np.zeros((n_states, len(c.joints)))
         idx = [c.joints.index(j) for j in ref.joints]
@@ -278,6 +281,20 @@ def consequences(
         out["max_abs"][name] = float(np.abs(got["M"][:, idx][:, :, idx] - want["M"]).max())
         out["gravity_max_abs"][name] = float(np.abs(got["G"][:, idx] - want["G"]).max())
     return out
+
+
+SHOWN = 12  # misreadings printed in full; the rest are counted by cause
+
+
+def _summary(misreads: list[dict[str, Any]]) -> list[str]:
+    """One line per (reader, cause) where there are more misreadings than are printed."""
+    if len(misreads) <= SHOWN:
+        return []
+    counts: dict[tuple[str, str], int] = {}
+    for m in misreads:
+        key = (m["reader"], m["entry"] or "no known cause")
+        counts[key] = counts.get(key, 0) + 1
+    return [f"  {LABEL[r]}: {n} fields, {entry}" for (r, entry), n in sorted(counts.items(), key=lambda x: -x[1])]
 
 
 def lines(result: dict[str, Any]) -> list[str]:
@@ -292,11 +309,12 @@ def lines(result: dict[str, Any]) -> list[str]:
     out.append(f"  compared: {len(result['rows'])} fields ({result['frame']})")
     if not result["misreads"]:
         out.append(f"  every field agrees with the format's meaning ({readers})")
-    for m in result["misreads"][:12]:
+    out += _summary(result["misreads"])
+    for m in result["misreads"][:SHOWN]:
         info = " (information: no smooth dynamics use it)" if m["key"].endswith(INFORMATIONAL) else ""
         out.append(f"  DIFFERS {m['finding']}{info}")
-    if len(result["misreads"]) > 12:
-        out.append(f"  ... and {len(result['misreads']) - 12} more (--json for all)")
+    if len(result["misreads"]) > SHOWN:
+        out.append(f"  ... and {len(result['misreads']) - SHOWN} more (--json for all)")
     for reader, said in result.get("warnings", {}).items():
         out.append(f"  {LABEL[reader]} warned ({len(said)}): " + " | ".join(w[:110] for w in said[:3]))
     gaps = result["mass_matrix"]

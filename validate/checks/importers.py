@@ -185,7 +185,7 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "several joints in one body",
         "reads a body's several joints otherwise: Pinocchio makes one composite joint of them (their names are not "
         "joints of its model); Drake places the first in the parent's frame, without the body's pos",
-        "https://github.com/RobotLocomotion/drake/issues/20232",
+        "https://github.com/RobotLocomotion/drake/issues/20367",
     ),
     Behaviour(
         "a fixed root's pose",
@@ -194,7 +194,17 @@ CATALOGUE: tuple[Behaviour, ...] = (
         ("com", "inertia", "anchor", "axis"),
         "fixed root pose",
         "drops the pose of a root body welded to the world (no joint), so the chain below it moves",
-        "https://github.com/RobotLocomotion/drake/issues/20232",
+        "https://github.com/stack-of-tasks/pinocchio/issues/2782",
+    ),
+    Behaviour(
+        "a free root's coordinates",
+        ("pinocchio",),
+        ("mjcf",),
+        ("com", "inertia", "anchor", "axis"),
+        "free root pose",
+        "reads a free joint's coordinates relative to the root body's pose in the file (MuJoCo's are in the "
+        "world), so at MuJoCo's qpos0 the root's pos and orientation are applied twice",
+        "https://github.com/stack-of-tasks/pinocchio/issues/2066",
     ),
     Behaviour(
         "stiffness and springref",
@@ -342,8 +352,11 @@ def _mjcf_features(root: ET.Element) -> set[str]:
     world = root.find("worldbody")
     for body in world.findall("body") if world is not None else []:
         posed = any(body.get(a) for a in ("pos", "quat", "euler", "axisangle", "xyaxes", "zaxis"))
-        if body.find("joint") is None and body.find("freejoint") is None and posed:
+        free = body.find("freejoint") is not None or any(j.get("type") == "free" for j in body.findall("joint"))
+        if body.find("joint") is None and not free and posed:
             out.add("fixed root pose")
+        if free and posed:
+            out.add("free root pose")
     return out
 
 
@@ -434,7 +447,7 @@ def explain(
 ) -> list[Behaviour]:
     """The entries that explain `reader` differing from the format's meaning on `field` of the
     elements `names` (the group's links and joint) in a file with the features `found`: an entry on
-    one of those elements first, then the more specific (fewer readers, fewer fields). `rotated`: an
+    one of those elements first, then the more specific (fewer fields, then fewer readers). `rotated`: an
     inertia that differs by a rotation only (entries about a lost rotation explain nothing else)."""
     hits = [
         (score, b)
@@ -445,4 +458,4 @@ def explain(
         and (rotated or not b.rotation or field != "inertia")
         and (score := _scoped(b.feature, found, names))
     ]
-    return [b for _, b in sorted(hits, key=lambda h: (-h[0], len(h[1].readers), len(h[1].fields)))]
+    return [b for _, b in sorted(hits, key=lambda h: (-h[0], len(h[1].fields), len(h[1].readers)))]

@@ -9,6 +9,7 @@ from typing import Any
 from .document import Items
 
 LABEL = {"mujoco": "MuJoCo", "pinocchio": "Pinocchio", "drake": "Drake"}
+MAX_ITEMS = 30  # findings listed in the report; results.json keeps every one
 
 
 def audit_section(doc: Any, name: str, s: dict[str, Any]) -> None:
@@ -27,6 +28,8 @@ def audit_section(doc: Any, name: str, s: dict[str, Any]) -> None:
     )
     skipped = [f"{LABEL.get(r, r)} not a reader: {why}" for r, why in a.get("skipped", {}).items()]
     findings = a.get("findings", [])
+    if len(findings) > MAX_ITEMS:
+        findings = [*findings[:MAX_ITEMS], f"... and {len(findings) - MAX_ITEMS} more (results.json has them all)"]
     warned = [f"{LABEL.get(r, r)} warned: {w}" for r, said in a.get("warnings", {}).items() for w in said[:5]]
     doc.blocks.append(Items(tuple(skipped + findings + warned) or (f"every field agrees between {readers}",)))
     gaps = a.get("mass_matrix", {})
