@@ -144,6 +144,10 @@ PLANTED = {
                         f'axis="0 1 0" pos="0 0 0.1"/>{INERTIAL}</body>'),
         "mjcf", {"pinocchio": "joint", "drake": "anchor"}, None,
     ),
+    "several root bodies": (
+        mjcf(world=BODY.format(joint="", inside=INERTIAL) + f'<body name="c"><joint name="k"/>{INERTIAL}</body>'),
+        "mjcf", {"pinocchio": "joint"}, None,
+    ),
     "a fixed root's pose": (
         mjcf(world=f'<body name="base" pos="0.3 0.2 1" euler="0 0 30">{INERTIAL}<body name="b" pos="0 0 0.2">'
                    f'<joint name="j" axis="0 1 0"/>{INERTIAL}</body></body>'),

@@ -188,6 +188,15 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "https://github.com/RobotLocomotion/drake/issues/20367",
     ),
     Behaviour(
+        "several root bodies",
+        ("pinocchio",),
+        ("mjcf",),
+        ("joint",),
+        "several root bodies",
+        "reads only the first body of <worldbody>: the joints of the others are not in its model",
+        "https://github.com/stack-of-tasks/pinocchio/issues/2364",
+    ),
+    Behaviour(
         "a fixed root's pose",
         ("pinocchio",),
         ("mjcf",),
@@ -240,7 +249,7 @@ CATALOGUE: tuple[Behaviour, ...] = (
         ("gravcomp",),
         "gravcomp",
         "drops a body's gravity compensation (gravcomp)",
-        "https://github.com/RobotLocomotion/drake/pull/22493",
+        "https://github.com/RobotControlStack/robot-control-stack/issues/201",
     ),
     Behaviour(
         "mimic",
@@ -350,6 +359,8 @@ def _mjcf_features(root: ET.Element) -> set[str]:
     if any(True for _ in root.iter("frame")):
         out.add("frame element")
     world = root.find("worldbody")
+    if world is not None and len(world.findall("body")) > 1:
+        out.add("several root bodies")
     for body in world.findall("body") if world is not None else []:
         posed = any(body.get(a) for a in ("pos", "quat", "euler", "axisangle", "xyaxes", "zaxis"))
         free = body.find("freejoint") is not None or any(j.get("type") == "free" for j in body.findall("joint"))
