@@ -238,8 +238,13 @@ def _skip_cause(reader: str, fmt: str, found: set[str]) -> str:
 
 
 def _file_of(system: System) -> tuple[Path, str, str]:
+    """The model file, the text its readers get (the file's own where nothing was changed: its includes
+    and meshes then resolve as they do for the file), its format."""
     fmt = system.model_format
-    return system.mjcf, system.urdf_text() if system.reads_urdf else system.mjcf_xml(), fmt
+    if system.reads_urdf:
+        return system.mjcf, system.urdf_text(), fmt
+    unchanged = not system.overrides and system.text is None and not system.locked
+    return system.mjcf, system.mjcf.read_text() if unchanged else system.mjcf_xml(), fmt
 
 
 def audit(

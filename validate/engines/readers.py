@@ -33,6 +33,7 @@ from ..systems.urdf import without_geometry
 LABEL = {"meaning": "the format", "mujoco": "MuJoCo", "pinocchio": "Pinocchio", "drake": "Drake"}
 # Library messages and what usually causes them (the element is quoted from the message when it names one).
 CAUSES = (
+    ("Error opening file", "a file it names is missing (a mesh, a texture or an include)"),
     ("cannot mimic", "a <mimic> it cannot apply (on a joint without degrees of freedom)"),
     ("mimic element specifies", "a <mimic> that names a joint the file does not have"),
     ("inertia from geom", 'inertiafromgeom="false" with a body that has no <inertial>'),
