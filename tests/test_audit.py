@@ -129,6 +129,10 @@ PLANTED = {
         "mjcf", {"pinocchio": "inertia"}, None,
     ),
     "fusestatic": (urdf(**ROTATED), "urdf", {"mujoco": "inertia"}, urdf(tool_rpy="0 0 0", **ROTATED)),
+    "an axisangle's axis": (
+        mjcf(INERTIAL + f'<body name="c" pos="0 0.1 0.5" axisangle="1 1 0 30"><joint name="k"/>{INERTIAL}</body>'),
+        "mjcf", {"pinocchio": "axis"}, None,
+    ),
     "a fixed joint's rpy": (urdf(), "urdf", {"mujoco": "com"}, urdf(tool_rpy="0 0 0")),
     "an inertial's rpy": (
         urdf(tool_rpy="0 0 0", tool_inertial_rpy="0.4 0 0.2", **ROTATED), "urdf", {"mujoco": "inertia"},

@@ -137,6 +137,15 @@ CATALOGUE: tuple[Behaviour, ...] = (
         fixed=True,
     ),
     Behaviour(
+        "an axisangle's axis",
+        ("pinocchio",),
+        ("mjcf",),
+        ("com", "inertia", "anchor", "axis"),
+        "unnormalized axisangle",
+        "does not normalize an axisangle's axis (MuJoCo does), so the rotation it builds is not the file's",
+        "https://github.com/stack-of-tasks/pinocchio/pull/2526",
+    ),
+    Behaviour(
         "a fixed joint's rpy",
         ("mujoco",),
         ("urdf",),
@@ -358,6 +367,8 @@ def _mjcf_features(root: ET.Element) -> set[str]:
     out |= _default_features(root)
     if any(True for _ in root.iter("frame")):
         out.add("frame element")
+    if any(_unnormalized(el.get("axisangle")) for el in root.iter()):
+        out.add("unnormalized axisangle")
     world = root.find("worldbody")
     if world is not None and len(world.findall("body")) > 1:
         out.add("several root bodies")
@@ -399,6 +410,15 @@ def _urdf_features(root: ET.Element) -> set[str]:
             if "compiler balanceinertia" in out:
                 out.add(f"balanced inertia:{link.get('name', '')}")
     return out
+
+
+def _unnormalized(axisangle: str | None) -> bool:
+    """An axisangle whose axis is not a unit vector to 1e-12."""
+    try:
+        x, y, z = (float(v) for v in (axisangle or "").split()[:3])
+    except ValueError:
+        return False
+    return abs((x * x + y * y + z * z) ** 0.5 - 1.0) > 1e-12
 
 
 def _unbalanced(diagonal: str | None) -> bool:
