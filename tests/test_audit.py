@@ -92,6 +92,8 @@ TRANSMISSION = """<transmission name="t1"><type>transmission_interface/SimpleTra
   <joint name="j1"><hardwareInterface>EffortJointInterface</hardwareInterface></joint>
   <actuator name="m1"><mechanicalReduction>50</mechanicalReduction></actuator></transmission>"""
 TET = '<mesh name="tet" vertex="0 0 0 0.2 0 0 0 0.2 0 0 0 0.2"/>'
+TIP = """<joint name="tip_joint" type="fixed"><parent link="l2"/><child link="tip"/><origin xyz="0 0 0.5"/></joint>
+  <link name="tip"><collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>"""
 NESTED = (
     '<default><default class="a"><joint damping="3"/><default class="b"><default class="c"><joint axis="0 1 0"/>'
     "</default></default></default></default>"
@@ -191,6 +193,10 @@ PLANTED = {
     "settotalmass": (
         mjcf('<geom type="capsule" fromto="0 0 0 0 0 1" size="0.05"/>', '<compiler settotalmass="5"/>'),
         "mjcf", {"pinocchio": "mass", "drake": "mass"}, None,
+    ),
+    "geometry weighed for a link without <inertial>": (
+        urdf(extra=TIP),
+        "urdf", {"mujoco": "mass"}, None,
     ),
     "transmissions": (urdf(extra=TRANSMISSION), "urdf", {"mujoco": "target"}, None),
 }  # fmt: skip

@@ -289,6 +289,15 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "https://github.com/RobotLocomotion/drake/pull/22625",
     ),
     Behaviour(
+        "geometry weighed for a link without <inertial>",
+        ("mujoco",),
+        ("urdf",),
+        INERTIAL,
+        "geometry without inertial",
+        "weighs the collision geometry of a link without <inertial> (1000 kg/m^3), where URDF means no mass",
+        "https://github.com/ros/urdfdom/issues/138",
+    ),
+    Behaviour(
         "transmissions",
         ("mujoco",),
         ("urdf",),
@@ -405,6 +414,8 @@ def _urdf_features(root: ET.Element) -> set[str]:
         inertial = link.find("inertial")
         if inertial is not None and _rpy(inertial):
             out.add(f"inertial rpy:{link.get('name', '')}")
+        if inertial is None and link.find("collision/geometry") is not None:
+            out.add(f"geometry without inertial:{link.get('name', '')}")
         if inertial is not None and _invalid(inertial):
             out |= {"invalid inertia", f"invalid inertia:{link.get('name', '')}"}
             if "compiler balanceinertia" in out:

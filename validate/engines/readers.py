@@ -1,7 +1,8 @@
 """Each engine as a plain reader of a model file (issue 33): MuJoCo (`MjSpec`), Pinocchio
 (`buildModelFromXML` / `buildModelFromMJCF`) and Drake (`Parser`), each on the file as given (a
-URDF's `<visual>`/`<collision>` removed, so that no mesh file is needed: its dynamics are its
-`<inertial>` elements), nothing aligned, every quantity put in the common frame of
+URDF's `<visual>`/`<collision>` removed, so that no mesh file is needed: urdfdom's dynamics are its
+`<inertial>` elements; MuJoCo keeps the primitive ones, which it weighs for a link without
+`<inertial>`), nothing aligned, every quantity put in the common frame of
 validate/systems/meaning.py: the reader's own reference configuration (MuJoCo's qpos0, the others'
 q = 0 or neutral), world coordinates, each joint with the rigid group it moves.
 
@@ -106,6 +107,19 @@ def read(reader: str, path: Path, text: str, fmt: str) -> Reading:
     return _guarded(reader, path.name, lambda: fn(path, text, fmt), text)
 
 
+def _primitives_kept(text: str) -> str:
+    """The URDF with only its mesh geometry removed (mesh files may be absent): MuJoCo then weighs a
+    link's primitive collision geometry as it does on the file (inertiafromgeom), which urdfdom does not."""
+    import xml.etree.ElementTree as ET
+
+    root = ET.fromstring(text)
+    for link in root.iter("link"):
+        for el in [*link.findall("visual"), *link.findall("collision")]:
+            if el.find("geometry/mesh") is not None:
+                link.remove(el)
+    return ET.tostring(root, encoding="unicode")
+
+
 def _model_text(text: str, fmt: str) -> str:
     return without_geometry(text) if fmt == "urdf" else text
 
@@ -139,7 +153,7 @@ def mujoco_model(path: Path, text: str, fmt: str) -> tuple[Any, list[str]]:
         with warnings.catch_warnings(record=True) as caught:  # the bindings' own (a deprecated attribute)
             warnings.simplefilter("always")
             if fmt == "urdf":
-                model = mujoco.MjSpec.from_string(_model_text(text, fmt)).compile()
+                model = mujoco.MjSpec.from_string(_primitives_kept(text)).compile()
             else:
                 with _as_file(path, text) as name:
                     model = mujoco.MjSpec.from_file(name).compile()
