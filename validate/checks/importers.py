@@ -51,6 +51,15 @@ class Behaviour:
 
 CATALOGUE: tuple[Behaviour, ...] = (
     Behaviour(
+        "<option gravity>",
+        ("pinocchio",),
+        ("mjcf",),
+        ("gravity",),
+        "option gravity",
+        "ignores <option gravity> and keeps its own (0, 0, -9.81) m/s^2",
+        "https://github.com/RobotControlStack/robot-control-stack/issues/201",
+    ),
+    Behaviour(
         "geom mass from a default class",
         ("pinocchio",),
         ("mjcf",),
@@ -367,6 +376,8 @@ def _default_features(root: ET.Element) -> set[str]:
 
 def _mjcf_features(root: ET.Element) -> set[str]:
     out = {f"compiler {k}" for k in _compiler(root)}
+    if any(o.get("gravity") for o in root.iter("option")):
+        out.add("option gravity")
     if {"compiler boundmass", "compiler boundinertia"} & out:
         out.add("compiler bounds")
     for body in root.iter("body"):

@@ -324,7 +324,7 @@ def pinocchio_reading(path: Path, text: str, fmt: str) -> Reading:
         )
         I, R = model.inertias[jid], oMi.rotation
         groups[jn] = Inertial(float(I.mass), np.array(oMi.act(I.lever)), R @ np.array(I.inertia) @ R.T)
-    return Reading("pinocchio", joints, groups, None)
+    return Reading("pinocchio", joints, groups, None, gravity=np.array(model.gravity.linear, dtype=float))
 
 
 def _pinocchio_parent(model: Any, jid: int) -> str:
@@ -426,7 +426,8 @@ def drake_reading(path: Path, text: str, fmt: str) -> Reading:
         )
         for a in plant.GetJointActuatorIndices()
     }
-    return Reading("drake", joints, groups, actuators, warnings=said)
+    gravity = np.array(plant.gravity_field().gravity_vector(), dtype=float)
+    return Reading("drake", joints, groups, actuators, warnings=said, gravity=gravity)
 
 
 def _drake_joint(plant: Any, ctx: Any, joint: Any, motor: Any) -> JointRead:

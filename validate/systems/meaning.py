@@ -275,9 +275,10 @@ def _transmissions(root: ET.Element) -> dict[str, tuple[str, float]]:
 
 
 def fields(reading: Reading, labels: dict[str, str]) -> dict[str, Any]:
-    """The reading flattened: 'body/<link>/mass', ..., 'joint/<name>/<field>', 'actuator/<name>/gear';
+    """The reading flattened: 'model/world/gravity', 'body/<link>/mass', ..., 'joint/<name>/<field>',
+    'actuator/<name>/gear';
     `labels`: joint -> the link its group is shown as (the reference's)."""
-    out: dict[str, Any] = {}
+    out: dict[str, Any] = {"model/world/gravity": reading.gravity}
     for j, g in reading.groups.items():
         b = labels.get(j, j)
         out |= {f"body/{b}/mass": g.mass, f"body/{b}/com": g.com, f"body/{b}/inertia": g.inertia}
