@@ -169,6 +169,9 @@ PLANTED = {
         mjcf(joint=' stiffness="3" springref="20"'), "mjcf", {"pinocchio": "stiffness", "drake": "springref"}, None,
     ),
     "frictionloss": (mjcf(joint=' frictionloss="0.1"'), "mjcf", {"drake": "frictionloss"}, None),
+    "springdamper": (
+        mjcf(joint=' springdamper="0.5 1"'), "mjcf", {"pinocchio": "damping", "drake": "stiffness"}, None,
+    ),
     "armature without a motor": (mjcf(joint=' armature="0.05"'), "mjcf", {"drake": "armature"}, None),
     "gravcomp": (
         mjcf(world=f'<body name="b" pos="0 0 1" gravcomp="0.5"><joint name="j" axis="0 1 0"/>{INERTIAL}</body>'),

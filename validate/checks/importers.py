@@ -243,6 +243,16 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "https://github.com/RobotLocomotion/drake/pull/22493",
     ),
     Behaviour(
+        "springdamper",
+        ("pinocchio", "drake"),
+        ("mjcf",),
+        ("damping", "stiffness"),
+        "springdamper",
+        "ignores a joint's springdamper (the time constant and damping ratio MuJoCo turns into stiffness and "
+        "damping from the joint's inertia)",
+        "https://github.com/RobotLocomotion/drake/pull/22493",
+    ),
+    Behaviour(
         "frictionloss",
         ("drake",),
         ("mjcf", "urdf"),
@@ -360,6 +370,7 @@ JOINT_FEATURES = (
     ("frictionloss", "joint friction"),
     ("armature", "joint armature"),
     ("ref", "joint ref"),
+    ("springdamper", "springdamper"),
 )
 
 
