@@ -336,6 +336,11 @@ def test_the_two_file_command(tmp_path, capsys):
     assert "DIFFERS j" in out and "tool_joint" in out
     assert main(["audit", str(a), str(tmp_path / "missing.xml")]) == 2
     assert "lagrange-xval: error: no model file" in capsys.readouterr().err
+    notes = tmp_path / "notes.xml"
+    notes.write_text("<notes/>")
+    assert main(["audit", str(a), str(notes)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("lagrange-xval: error: notes.xml: root element <notes>") and len(err.splitlines()) == 1
 
 
 def test_a_mimic_and_dry_friction_are_audited_not_refused(tmp_path, capsys):
@@ -432,3 +437,6 @@ def test_a_misreading_reader_is_set_aside_and_named_in_the_verdict(tmp_path):
     ), statement
     assert "excluded" in statement and "derivation assumes" not in statement
     assert decision.passed and all("pinocchio" not in r["pair"] for r in decision.pointwise["rows"])
+    from lagrange_xval.validate.cli.check import verdict_data
+
+    assert verdict_data(decision)["excluded"] == dict(decision.excluded)
