@@ -440,3 +440,14 @@ def test_a_misreading_reader_is_set_aside_and_named_in_the_verdict(tmp_path):
     from lagrange_xval.validate.cli.check import verdict_data
 
     assert verdict_data(decision)["excluded"] == dict(decision.excluded)
+
+
+def test_run_shows_a_set_aside_readers_trajectory_without_judging_it():
+    """`run` (pipeline.set_aside_runs): the trajectory of a reader the verdict set aside counts for nothing
+    and says why; the others are judged as before."""
+    from lagrange_xval.validate.pipeline import set_aside_runs
+
+    traj = {"runs": [{"source": "pinocchio", "counts": True}, {"source": "mujoco", "counts": True}]}
+    set_aside_runs(traj, {"pinocchio": "Pinocchio misreads upper_arm's mass (...): excluded"})
+    assert traj["runs"][0]["counts"] is False and "misreads upper_arm's mass" in traj["runs"][0]["why_not_counted"]
+    assert traj["runs"][1] == {"source": "mujoco", "counts": True}
