@@ -145,6 +145,11 @@ PLANTED = {
         mjcf('<geom type="mesh" mesh="tet"/>', f"<asset>{TET}</asset>"),
         "mjcf", {"pinocchio": "mass", "drake": "mass"}, None,
     ),
+    "shell inertia": (
+        mjcf('<geom type="sphere" size="0.1" pos="0 0 0.3" shellinertia="true"/>'), "mjcf", {"drake": "mass"}, None,
+    ),
+    "a joint without <limit>": (urdf().replace('<limit lower="-2" upper="2" effort="10" velocity="1"/>', ""), "urdf",
+                                {}, None),
     "an invalid inertia replaced": (urdf(extra=FINGER.format(mimic="", mass="0")), "urdf", {"drake": "mass"}, None),
     "several joints in one body": (
         mjcf(INERTIAL + '<body name="c" pos="0.2 0 -0.3"><joint name="x" axis="1 0 0" pos="0 0 0.1"/><joint name="y" '
@@ -224,9 +229,11 @@ def test_each_planted_fault_names_its_readers_and_cause(tmp_path, entry):
         assert field in named.get(reader, set()), (entry, reader, result["findings"], result["skipped"])
     wrong = {(m["reader"], m["field"]) for m in result["misreads"] if m["field"] in fields.values()}
     assert {r for r, _ in wrong} <= set(fields), (entry, result["findings"])
-    if entry == "inertiafromgeom":  # Pinocchio and Drake refuse the file: each says why, with the entry
-        assert set(result["skipped"]) == {"pinocchio", "drake"}
-        assert all("inertiafromgeom" in why for why in result["skipped"].values()), result["skipped"]
+    refusing = {"inertiafromgeom": {"pinocchio", "drake"}, "shell inertia": {"pinocchio"}}
+    refusing["a joint without <limit>"] = {"pinocchio"}
+    if entry in refusing:  # the readers that refuse the file: each says why, with the entry
+        assert set(result["skipped"]) == refusing[entry]
+        assert all(f"[{entry}:" in why for why in result["skipped"].values()), result["skipped"]
 
 
 @pytest.mark.parametrize(

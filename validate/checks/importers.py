@@ -179,11 +179,30 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "mesh inertia and the 1 kg default",
         ("pinocchio", "drake"),
         ("mjcf",),
-        INERTIAL,
+        (*INERTIAL, "read"),
         "mesh geom",
         "does not compute a mesh geom's inertia (Pinocchio gives it 1 kg and a unit inertia; Drake drops an "
-        "inline mesh)",
+        "inline mesh and refuses a mesh file other than .obj)",
         "https://github.com/newton-physics/newton/issues/3753",
+    ),
+    Behaviour(
+        "shell inertia",
+        ("pinocchio", "drake"),
+        ("mjcf",),
+        (*INERTIAL, "read"),
+        "shell inertia",
+        'does not weigh a geom as a shell (shellinertia, mesh inertia="shell"): Pinocchio refuses it, Drake '
+        "weighs it solid",
+        "https://github.com/newton-physics/newton/issues/3753",
+    ),
+    Behaviour(
+        "a joint without <limit>",
+        ("pinocchio",),
+        ("urdf",),
+        ("read",),
+        "joint without limit",
+        "refuses a revolute or prismatic joint without <limit> (urdfdom's rule; MuJoCo and Drake read it)",
+        "https://github.com/ros/urdfdom/issues/138",
     ),
     Behaviour(
         "an invalid inertia replaced",
@@ -398,6 +417,10 @@ def _mjcf_features(root: ET.Element) -> set[str]:
     out |= _default_features(root)
     if any(True for _ in root.iter("frame")):
         out.add("frame element")
+    if any(g.get("shellinertia") == "true" for g in root.iter("geom")) or any(
+        m.get("inertia") == "shell" for m in root.iter("mesh")
+    ):
+        out.add("shell inertia")
     if any(_unnormalized(el.get("axisangle")) for el in root.iter()):
         out.add("unnormalized axisangle")
     world = root.find("worldbody")
@@ -427,6 +450,8 @@ def _urdf_features(root: ET.Element) -> set[str]:
             out |= {f"fixed joint rpy:{child}", f"welded rotated body:{child}"}
         if j.find("mimic") is not None:
             out.add("mimic")
+        if j.get("type") in ("revolute", "prismatic") and j.find("limit") is None:
+            out.add("joint without limit")
         dyn = j.find("dynamics")
         if dyn is not None and dyn.get("friction") not in (None, "0", "0.0"):
             out.add("joint friction")

@@ -34,6 +34,8 @@ from ..systems.urdf import without_geometry
 LABEL = {"meaning": "the format", "mujoco": "MuJoCo", "pinocchio": "Pinocchio", "drake": "Drake"}
 # Library messages and what usually causes them (the element is quoted from the message when it names one).
 CAUSES = (
+    ("does not contain a valid URDF", "urdfdom refuses the file (a revolute or prismatic joint without <limit>, say)"),
+    ("Shell inertia", 'a geom weighed as a shell (shellinertia, mesh inertia="shell")'),
     ("Error opening file", "a file it names is missing (a mesh, a texture or an include)"),
     ("cannot mimic", "a <mimic> it cannot apply (on a joint without degrees of freedom)"),
     ("mimic element specifies", "a <mimic> that names a joint the file does not have"),
