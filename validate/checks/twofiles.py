@@ -16,7 +16,7 @@ of an MJCF); bodies and joints are matched by name (the unmatched are listed); t
 
 Each joint whose torques differ is named with the size of the effect and the group that causes it:
 "joint6 gravity torque differs by up to 1.02 N m: link gripper_end's inertial frame rotated by the
-fixed joint 'gripper_joint''s rpy in A, not in B". Two quantities agree within RTOL of their scale:
+fixed joint gripper_joint's rpy in A, not in B". Two quantities agree within RTOL of their scale:
 `mj_saveLastXML` writes 6 significant digits.
 """
 
@@ -125,7 +125,7 @@ def _group_cause(j: str, ra: Reading, rb: Reading, welds: dict[str, dict[str, st
         for link in label.members.get(j, ()):
             if link in welds[side]:
                 return (
-                    f"link {link}'s inertial frame rotated by the fixed joint '{welds[side][link]}''s rpy in "
+                    f"link {link}'s inertial frame rotated by the fixed joint {welds[side][link]}'s rpy in "
                     f"{side}, not in {other} ({'; '.join(parts)})"
                 )
     links = ", ".join(ra.members.get(j, ()) or (j,))
