@@ -183,6 +183,54 @@ def _mujoco_group(m: Any, b: int) -> int:
     return -1
 
 
+def _namer(m: Any) -> Callable[[Any, int], str]:
+    """An element's name, or MuJoCo's id for an unnamed one ("joint 3")."""
+    import mujoco
+
+    return lambda obj, i: mujoco.mj_id2name(m, obj, i) or f"{obj.name[6:].lower()} {i}"
+
+
+def _mujoco_joint(m: Any, d: Any, j: int, name: Callable[[Any, int], str], mimic: Any) -> JointRead | None:
+    """Hinge or slide joint j at qpos0, in the world (None for a ball or free joint)."""
+    import mujoco
+
+    kinds = {int(mujoco.mjtJoint.mjJNT_HINGE): "hinge", int(mujoco.mjtJoint.mjJNT_SLIDE): "slide"}
+    kind = kinds.get(int(m.jnt_type[j]))
+    if kind is None:
+        return None
+    dof, qadr, b = int(m.jnt_dofadr[j]), int(m.jnt_qposadr[j]), int(m.jnt_bodyid[j])
+    return JointRead(
+        kind=kind,
+        body=name(mujoco.mjtObj.mjOBJ_BODY, b),
+        anchor=np.array(d.xanchor[j]),
+        axis=np.array(d.xaxis[j]),
+        ref=float(m.qpos0[qadr]),
+        limits=np.array(m.jnt_range[j], dtype=float) if m.jnt_limited[j] else np.array([-np.inf, np.inf]),
+        damping=float(m.dof_damping[dof]),
+        stiffness=float(m.jnt_stiffness[j]),
+        springref=float(m.qpos_spring[qadr]),
+        frictionloss=float(m.dof_frictionloss[dof]),
+        armature=float(m.dof_armature[dof]),
+        gravcomp=float(m.body_gravcomp[b]),
+        mimic=mimic,
+        parent=_mujoco_parent(m, j, name),
+    )
+
+
+def _mujoco_actuators(m: Any, name: Callable[[Any, int], str]) -> dict[str, tuple[str, float]]:
+    """Each actuator on a joint: (joint, gear)."""
+    import mujoco
+
+    return {
+        name(mujoco.mjtObj.mjOBJ_ACTUATOR, a): (
+            name(mujoco.mjtObj.mjOBJ_JOINT, int(m.actuator_trnid[a, 0])),
+            float(m.actuator_gear[a, 0]),
+        )
+        for a in range(m.nu)
+        if int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT)
+    }
+
+
 def mujoco_reading(path: Path, text: str, fmt: str) -> Reading:
     """MuJoCo's compiled model at qpos0 (its reference: the frames as the file writes them)."""
     import mujoco
@@ -190,7 +238,7 @@ def mujoco_reading(path: Path, text: str, fmt: str) -> Reading:
     m, said = mujoco_model(path, text, fmt)
     d = mujoco.MjData(m)
     mujoco.mj_kinematics(m, d)
-    name = lambda obj, i: mujoco.mj_id2name(m, obj, i) or f"{obj.name[6:].lower()} {i}"  # noqa: E731
+    name = _namer(m)
     parts: dict[int, list[Inertial]] = {}
     members: dict[int, list[str]] = {}
     for b in range(1, m.nbody):
@@ -201,45 +249,19 @@ def mujoco_reading(path: Path, text: str, fmt: str) -> Reading:
     joints, groups = {}, {}
     couplings = _mujoco_mimics(m, name)
     for j in range(m.njnt):
-        kind = {int(mujoco.mjtJoint.mjJNT_HINGE): "hinge", int(mujoco.mjtJoint.mjJNT_SLIDE): "slide"}.get(
-            int(m.jnt_type[j])
-        )
-        if kind is None:
-            continue
-        jn, dof, qadr, b = (
-            name(mujoco.mjtObj.mjOBJ_JOINT, j),
-            int(m.jnt_dofadr[j]),
-            int(m.jnt_qposadr[j]),
-            int(m.jnt_bodyid[j]),
-        )
-        limited = bool(m.jnt_limited[j])
-        joints[jn] = JointRead(
-            kind=kind,
-            body=name(mujoco.mjtObj.mjOBJ_BODY, b),
-            anchor=np.array(d.xanchor[j]),
-            axis=np.array(d.xaxis[j]),
-            ref=float(m.qpos0[qadr]),
-            limits=np.array(m.jnt_range[j], dtype=float) if limited else np.array([-np.inf, np.inf]),
-            damping=float(m.dof_damping[dof]),
-            stiffness=float(m.jnt_stiffness[j]),
-            springref=float(m.qpos_spring[qadr]),
-            frictionloss=float(m.dof_frictionloss[dof]),
-            armature=float(m.dof_armature[dof]),
-            gravcomp=float(m.body_gravcomp[b]),
-            mimic=couplings.get(jn),
-            parent=_mujoco_parent(m, j, name),
-        )
-        groups[jn] = composite(parts.get(j, []))
-    actuators = {}
-    for a in range(m.nu):
-        if int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT):
-            actuators[name(mujoco.mjtObj.mjOBJ_ACTUATOR, a)] = (
-                name(mujoco.mjtObj.mjOBJ_JOINT, int(m.actuator_trnid[a, 0])),
-                float(m.actuator_gear[a, 0]),
-            )
+        jn = name(mujoco.mjtObj.mjOBJ_JOINT, j)
+        read_joint = _mujoco_joint(m, d, j, name, couplings.get(jn))
+        if read_joint is not None:
+            joints[jn], groups[jn] = read_joint, composite(parts.get(j, []))
     body_names = {name(mujoco.mjtObj.mjOBJ_JOINT, j): tuple(members.get(j, ())) for j in range(m.njnt)}
     return Reading(
-        "mujoco", joints, groups, actuators, warnings=said, members=body_names, gravity=np.array(m.opt.gravity)
+        "mujoco",
+        joints,
+        groups,
+        _mujoco_actuators(m, name),
+        warnings=said,
+        members=body_names,
+        gravity=np.array(m.opt.gravity),
     )
 
 
