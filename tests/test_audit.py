@@ -211,6 +211,28 @@ PLANTED = {
 }  # fmt: skip
 
 
+TWO_FAULTS = {  # one file, two readers at fault for two causes: each named with its own
+    "gravity and bounds": (
+        mjcf(head='<option gravity="0 0 -3"/><compiler boundmass="2"/>'),
+        {("pinocchio", "<option gravity>"), ("drake", "boundmass/boundinertia")},
+    ),
+    "two roots and nested classes": (
+        mjcf(joint=' class="c"', head=NESTED).replace(
+            "</worldbody>", f'<body name="other" pos="2 0 1"><joint name="o"/>{INERTIAL}</body></worldbody>'
+        ),
+        {("pinocchio", "several root bodies"), ("drake", "nested default classes")},
+    ),
+}
+
+
+@pytest.mark.parametrize("case", sorted(TWO_FAULTS))
+def test_two_faults_in_one_file_are_each_named_with_their_cause(tmp_path, case):
+    text, want = TWO_FAULTS[case]
+    result = _audit(tmp_path, text, "mjcf")
+    got = {(m["reader"], m["entry"]) for m in result["misreads"] if not m["key"].endswith(audit.INFORMATIONAL)}
+    assert got == want, result["findings"]
+
+
 def test_every_catalogue_entry_has_a_planted_case():
     assert set(PLANTED) == {b.key for b in importers.CATALOGUE}
 
@@ -321,6 +343,18 @@ def test_a_dropped_fixed_joint_rpy_names_the_link_behind_the_phantom_torque(tmp_
     first = result["findings"][0]
     assert first.startswith("j1 gravity torque differs by up to") or first.startswith("j2 gravity torque"), first
     assert "link tool's inertial frame rotated by the fixed joint tool_joint's rpy in A, not in B" in first
+
+
+@pytest.mark.skipif(not ROBOTS.is_dir() and os.environ.get("CI") != "true", reason="example-robot-data missing")
+def test_the_ur5_and_the_mjcf_mujoco_writes_from_it_agree(tmp_path):
+    """A real robot: MuJoCo's 6 significant digits stay within the agreement tolerance."""
+    from lagrange_xval.validate.checks import twofiles
+    from lagrange_xval.validate.systems.urdf import without_geometry
+
+    a = tmp_path / "ur5.urdf"
+    a.write_text(without_geometry(UR5.read_text()))
+    result = twofiles.compare(a, _saved(tmp_path, a.read_text(), "ur5.xml"))
+    assert result["passed"] and len(result["matched_joints"]) == 6, result["findings"]
 
 
 def test_two_files_differing_in_a_joints_damping_name_the_joint(tmp_path):
