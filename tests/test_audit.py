@@ -63,9 +63,16 @@ def urdf(tool_rpy: str = "0.5 0 0.3", tool_inertial_rpy: str = "0 0 0", tool_xyz
 </robot>"""
 
 
+PART = (
+    '<mujocoinclude><body name="c" pos="0 0 1"><joint name="k" axis="1 0 0"/>'
+    '<inertial pos="0 0 0.5" mass="1" diaginertia="0.01 0.02 0.025"/></body></mujocoinclude>'
+)
+
+
 def _audit(tmp_path: Path, text: str, fmt: str, **inputs: str) -> dict:
     path = tmp_path / ("m.urdf" if fmt == "urdf" else "m.xml")
     path.write_text(text)
+    (tmp_path / "part.xml").write_text(PART)  # what a planted <include> reads
     own = {}
     for reader, copy in inputs.items():
         other = tmp_path / f"{reader}_{path.name}"
@@ -155,6 +162,9 @@ PLANTED = {
         mjcf(INERTIAL + '<body name="c" pos="0.2 0 -0.3"><joint name="x" axis="1 0 0" pos="0 0 0.1"/><joint name="y" '
                         f'axis="0 1 0" pos="0 0 0.1"/>{INERTIAL}</body>'),
         "mjcf", {"pinocchio": "joint", "drake": "anchor"}, None,
+    ),
+    "<include>": (
+        mjcf(INERTIAL + '<include file="part.xml"/>'), "mjcf", {"pinocchio": "joint"}, None,
     ),
     "several root bodies": (
         mjcf(world=BODY.format(joint="", inside=INERTIAL) + f'<body name="c"><joint name="k"/>{INERTIAL}</body>'),

@@ -212,7 +212,7 @@ def audit_file(
             readings[name] = read(name, p, t, fmt)
         except HarnessError as exc:
             skipped[name] = str(exc)
-    found = importers.features(text, fmt)
+    found = importers.features(text, fmt, path.parent)
     rows = _rows(reference, readings, fmt, found)
     misreads = _missing(reference, readings, fmt, found) + [m for r in rows for m in r["misreads"]]
     skipped_why = {name: why + _skip_cause(name, fmt, found) for name, why in skipped.items()}

@@ -14,6 +14,7 @@ from __future__ import annotations
 import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
+from pathlib import Path
 
 INERTIAL = ("mass", "com", "inertia")
 
@@ -223,6 +224,15 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "reads a body's several joints otherwise: Pinocchio makes one composite joint of them (their names are not "
         "joints of its model); Drake places the first in the parent's frame, without the body's pos",
         "https://github.com/RobotLocomotion/drake/issues/20367",
+    ),
+    Behaviour(
+        "<include>",
+        ("pinocchio",),
+        ("mjcf",),
+        ("joint", "read", *INERTIAL, "damping", "armature", "stiffness", "frictionloss"),
+        "include",
+        "does not read <include>: the bodies, joints and default classes of an included file are not in its model",
+        "https://github.com/RobotControlStack/robot-control-stack/issues/201",
     ),
     Behaviour(
         "several root bodies",
@@ -506,13 +516,39 @@ def _invalid(inertial: ET.Element) -> bool:
     return bool(moments[0] < 0.0 or moments[0] + moments[1] < moments[2] * (1 - 1e-9))
 
 
-def features(text: str, fmt: str) -> set[str]:
-    """The features of a model file that catalogue entries are about (empty where it does not parse)."""
+INCLUDE = re.compile(r"<include\s+file\s*=\s*[\"']([^\"']+)[\"']\s*/>")
+MAX_INCLUDES = 64  # files spliced at most (an include that includes itself stops here)
+
+
+def spliced(text: str, folder: Path | None) -> str:
+    """The MJCF with each <include file> replaced by the included file's content, as MuJoCo splices it
+    (files that cannot be read are left as they are)."""
+    for _ in range(MAX_INCLUDES):
+        match = INCLUDE.search(text)
+        if match is None or folder is None:
+            return text
+        try:
+            inner = (folder / match.group(1)).read_text()
+        except OSError:
+            return text
+        inner = re.sub(r"<\?xml[^>]*\?>|</?mujocoinclude[^>]*>|</?mujoco\b[^>]*>", "", inner)
+        text = text[: match.start()] + inner + text[match.end() :]
+    return text
+
+
+def features(text: str, fmt: str, folder: Path | None = None) -> set[str]:
+    """The features of a model file that catalogue entries are about (empty where it does not parse);
+    `folder`: where an MJCF's includes are read from (their elements count as the file's)."""
+    if fmt == "mjcf" and INCLUDE.search(text):
+        found = {"include"}
+        text = spliced(text, folder)
+    else:
+        found = set()
     try:
         root = ET.fromstring(re.sub(r"<\?xml[^>]*\?>", "", text, count=1))
     except ET.ParseError:
-        return set()
-    return _urdf_features(root) if fmt == "urdf" else _mjcf_features(root)
+        return found
+    return found | (_urdf_features(root) if fmt == "urdf" else _mjcf_features(root))
 
 
 def _scoped(feature: str, found: set[str], names: tuple[str, ...] | None) -> int:

@@ -61,14 +61,20 @@ CAUSES = (
 
 
 def _classes(text: str) -> str:
-    """Default classes the MJCF's elements name but never define (MuJoCo's unnamed top class is "main")."""
+    """A default class the MJCF's elements name but do not define in this file, and where it is."""
     defined = set(re.findall(r"<default\b[^>]*\bclass\s*=\s*[\"']([^\"']+)", text))
     used = re.findall(r"<(\w+)\b[^>]*\b(?:child)?class\s*=\s*[\"']([^\"']+)", text)
     unknown = [(tag, name) for tag, name in used if tag != "default" and name not in defined]
     if not unknown:
         return ""
     tag, name = unknown[0]
-    return f'<{tag} class="{name}"> names a default class the file defines only as MuJoCo\'s unnamed top class'
+    if name == "main":
+        where = "the file defines only as MuJoCo's unnamed top class"
+    elif "<include" in text:
+        where = "defined in an included file (Pinocchio reads no <include>)"
+    else:
+        where = "that no <default> defines"
+    return f'<{tag} class="{name}"> names a default class {where}'
 
 
 def failure(reader: str, source: str, exc: BaseException, text: str = "") -> HarnessError:
