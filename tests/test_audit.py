@@ -157,6 +157,10 @@ PLANTED = {
     ),
     "a joint without <limit>": (urdf().replace('<limit lower="-2" upper="2" effort="10" velocity="1"/>', ""), "urdf",
                                 {}, None),
+    "a continuous joint's <limit>": (
+        urdf().replace('<axis xyz="1 0 0"/>', '<axis xyz="1 0 0"/><limit lower="-1" upper="1"/>'),
+        "urdf", {"drake": "limits"}, None,
+    ),
     "an invalid inertia replaced": (urdf(extra=FINGER.format(mimic="", mass="0")), "urdf", {"drake": "mass"}, None),
     "several joints in one body": (
         mjcf(INERTIAL + '<body name="c" pos="0.2 0 -0.3"><joint name="x" axis="1 0 0" pos="0 0 0.1"/><joint name="y" '

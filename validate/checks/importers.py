@@ -206,6 +206,16 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "https://github.com/ros/urdfdom/issues/138",
     ),
     Behaviour(
+        "a continuous joint's <limit>",
+        ("drake",),
+        ("urdf",),
+        ("limits",),
+        "continuous with limit",
+        "reads the <limit> of a continuous joint as position limits (urdfdom ignores them: a continuous joint has "
+        "none)",
+        "https://github.com/RobotLocomotion/drake/pull/16953",
+    ),
+    Behaviour(
         "an invalid inertia replaced",
         ("drake", "mujoco", "pinocchio"),
         ("urdf", "mjcf"),
@@ -462,6 +472,9 @@ def _urdf_features(root: ET.Element) -> set[str]:
             out.add("mimic")
         if j.get("type") in ("revolute", "prismatic") and j.find("limit") is None:
             out.add("joint without limit")
+        limit = j.find("limit")
+        if j.get("type") == "continuous" and limit is not None and (limit.get("lower") or limit.get("upper")):
+            out.add("continuous with limit")
         dyn = j.find("dynamics")
         if dyn is not None and dyn.get("friction") not in (None, "0", "0.0"):
             out.add("joint friction")
