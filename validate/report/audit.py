@@ -4,12 +4,21 @@ warnings and each reading's consequence on M and G."""
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 from .document import Items
 
 LABEL = {"mujoco": "MuJoCo", "pinocchio": "Pinocchio", "drake": "Drake"}
 MAX_ITEMS = 30  # findings listed in the report; results.json keeps every one
+# The report is self-contained (no web address): a finding's "[entry: where it was reported]" keeps the
+# entry's name; results.json and `lagrange-xval audit` keep the address.
+REPORTED = re.compile(r"\[([^\]:]+): https?://[^\]]+\]")
+
+
+def _offline(line: str) -> str:
+    """The line without web addresses (a reader's warning may name its troubleshooting page)."""
+    return re.sub(r"https?://\S+", "(its web page)", REPORTED.sub(r"[\1]", line))
 
 
 def audit_section(doc: Any, name: str, s: dict[str, Any]) -> None:
@@ -31,7 +40,8 @@ def audit_section(doc: Any, name: str, s: dict[str, Any]) -> None:
     if len(findings) > MAX_ITEMS:
         findings = [*findings[:MAX_ITEMS], f"... and {len(findings) - MAX_ITEMS} more (results.json has them all)"]
     warned = [f"{LABEL.get(r, r)} warned: {w}" for r, said in a.get("warnings", {}).items() for w in said[:5]]
-    doc.blocks.append(Items(tuple(skipped + findings + warned) or (f"every field agrees between {readers}",)))
+    items = tuple(_offline(line) for line in skipped + findings + warned)
+    doc.blocks.append(Items(items or (f"every field agrees between {readers}",)))
     gaps = a.get("mass_matrix", {})
     gravity = gaps.get("gravity_max_abs", {})
     doc.table(
