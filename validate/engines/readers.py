@@ -34,6 +34,8 @@ from ..systems.urdf import without_geometry
 LABEL = {"meaning": "the format", "mujoco": "MuJoCo", "pinocchio": "Pinocchio", "drake": "Drake"}
 # Library messages and what usually causes them (the element is quoted from the message when it names one).
 CAUSES = (
+    ("hfields are not supported", "a height-field geom (hfield), which it does not read"),
+    ("No such node", "an element it requires and the file does not have (a body under <worldbody>, say)"),
     ("missing element", "an element the format requires is missing (an <inertial> without <mass> or <inertia>)"),
     ("repeated element", "an element given twice where one is allowed (two <inertial> in one link)"),
     ("does not contain a valid URDF", "urdfdom refuses the file (a revolute or prismatic joint without <limit>, say)"),
