@@ -215,7 +215,7 @@ def audit_file(
     found = importers.features(text, fmt, path.parent)
     rows = _rows(reference, readings, fmt, found)
     misreads = _missing(reference, readings, fmt, found) + [m for r in rows for m in r["misreads"]]
-    skipped_why = {name: why + _skip_cause(name, fmt, found) for name, why in skipped.items()}
+    skipped_why = {name: why + _skip_cause(name, fmt, found, why) for name, why in skipped.items()}
     dynamic = [m for r in rows if not r["informational"] for m in r["misreads"]] + _missing(
         reference, readings, fmt, found
     )
@@ -236,8 +236,13 @@ def audit_file(
     }
 
 
-def _skip_cause(reader: str, fmt: str, found: set[str]) -> str:
-    hits = importers.explain(reader, fmt, "read", found, None)
+def _skip_cause(reader: str, fmt: str, found: set[str], said: str) -> str:
+    """The catalogue entry behind a reader's refusal: one that explains a refusal in these words."""
+    hits = [
+        b
+        for b in importers.explain(reader, fmt, "read", found, None)
+        if any(word.lower() in said.lower() for word in b.refusals)
+    ]
     return f" [{hits[0].key}: {hits[0].reported}]" if hits else ""
 
 

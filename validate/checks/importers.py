@@ -30,6 +30,8 @@ class Behaviour:
         fields: the audited fields it changes ("joint": the joint is missing).
         feature: the file feature it needs (`features`).
         cause: what the reader does, one clause.
+        refusals: for an entry that explains a refusal ("read"), the words of the reader's message it
+            explains (an entry explains no other refusal).
         fixed: no reader shows it on the installed versions (reported on earlier ones; the tests plant it in
             one reader's input): it still explains what an older reader, or a converter, did.
         rotation: its inertia differs by a rotation only (the same principal moments): it explains no
@@ -48,6 +50,7 @@ class Behaviour:
     reported: str
     rotation: bool = False
     fixed: bool = False
+    refusals: tuple[str, ...] = ()
 
 
 CATALOGUE: tuple[Behaviour, ...] = (
@@ -88,6 +91,7 @@ CATALOGUE: tuple[Behaviour, ...] = (
         'does not apply the compiler\'s inertiafromgeom (Pinocchio and Drake refuse inertiafromgeom="false" where a '
         "body has no <inertial>; MuJoCo gives that body no mass)",
         "https://github.com/RobotLocomotion/drake/issues/20232",
+        refusals=("inertia from geom", "inertiafromgeom=false"),
     ),
     Behaviour(
         "inertiagrouprange",
@@ -125,6 +129,7 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "balanceinertia: MuJoCo replaces an inertia that violates A + B >= C (its compiler option, in a URDF's "
         "<mujoco> element too); Pinocchio keeps it, Drake refuses or replaces it",
         "https://github.com/google-deepmind/mujoco/issues/375",
+        refusals=("A + B >= C", "IsPhysicallyValid", "rotational inertia"),
     ),
     Behaviour(
         "eulerseq",
@@ -185,6 +190,7 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "does not compute a mesh geom's inertia (Pinocchio gives it 1 kg and a unit inertia; Drake drops an "
         "inline mesh and refuses a mesh file other than .obj)",
         "https://github.com/newton-physics/newton/issues/3753",
+        refusals=("mesh",),
     ),
     Behaviour(
         "shell inertia",
@@ -195,6 +201,7 @@ CATALOGUE: tuple[Behaviour, ...] = (
         'does not weigh a geom as a shell (shellinertia, mesh inertia="shell"): Pinocchio refuses it, Drake '
         "weighs it solid",
         "https://github.com/newton-physics/newton/issues/3753",
+        refusals=("shell",),
     ),
     Behaviour(
         "a joint without <limit>",
@@ -204,6 +211,7 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "joint without limit",
         "refuses a revolute or prismatic joint without <limit> (urdfdom's rule; MuJoCo and Drake read it)",
         "https://github.com/ros/urdfdom/issues/138",
+        refusals=("valid URDF",),
     ),
     Behaviour(
         "a continuous joint's <limit>",
@@ -224,6 +232,7 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "replaces or refuses an inertia that is not physically valid (zero mass with inertia, the triangle "
         "inequality violated, not positive definite)",
         "https://github.com/RobotLocomotion/drake/issues/16992",
+        refusals=("A + B >= C", "positive", "IsPhysicallyValid", "mass and inertia of moving", "rotational inertia"),
     ),
     Behaviour(
         "several joints in one body",
@@ -243,6 +252,7 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "include",
         "does not read <include>: the bodies, joints and default classes of an included file are not in its model",
         "https://github.com/RobotControlStack/robot-control-stack/issues/201",
+        refusals=("unordered_map::at", "No such node"),
     ),
     Behaviour(
         "several root bodies",
@@ -326,6 +336,7 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "mimic",
         "ignores the <mimic> coupling (Pinocchio's default reading, Drake's continuous plant)",
         "https://github.com/RobotLocomotion/drake/issues/21472",
+        refusals=("mimic",),
     ),
     Behaviour(
         "<frame>",
