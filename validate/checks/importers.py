@@ -252,7 +252,7 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "include",
         "does not read <include>: the bodies, joints and default classes of an included file are not in its model",
         "https://github.com/RobotControlStack/robot-control-stack/issues/201",
-        refusals=("unordered_map::at", "No such node"),
+        refusals=("unordered_map::at",),
     ),
     Behaviour(
         "several root bodies",
