@@ -29,6 +29,7 @@ from ..systems import System
 from ..systems.meaning import Reading, fields, urdf_meaning
 from . import importers
 from .chain import chain, dynamics
+from .features import features
 
 READERS = ("mujoco", "pinocchio", "drake")
 LABEL = {"mujoco": "MuJoCo", "pinocchio": "Pinocchio", "drake": "Drake"}
@@ -212,7 +213,7 @@ def audit_file(
             readings[name] = read(name, p, t, fmt)
         except HarnessError as exc:
             skipped[name] = str(exc)
-    found = importers.features(text, fmt, path.parent)
+    found = features(text, fmt, path.parent)
     rows = _rows(reference, readings, fmt, found)
     misreads = _missing(reference, readings, fmt, found) + [m for r in rows for m in r["misreads"]]
     skipped_why = {name: why + _skip_cause(name, fmt, found, why) for name, why in skipped.items()}
