@@ -5,6 +5,7 @@ Each step returns plain data; `run` assembles `results.json` and the reports ren
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from concurrent.futures import BrokenExecutor, Executor
 from pathlib import Path
 from typing import Any
@@ -186,12 +187,13 @@ def _run_stages(
                 t_end=t_end,
                 dt_out=dt_out,
                 integrators=RUN_INTEGRATORS,
-                mirror_engines=("hand", "pinocchio"),
+                mirror_engines=tuple(e for e in ("hand", "pinocchio") if e not in (decision.excluded or {})),
                 cache_dir=reference_dir(cache),
             ),
         )
         if traj is not None:
             judge_trajectories(traj, cross.get("amplification") if cross else None, stages.get("chaos"))
+            set_aside_runs(traj, decision.excluded or {})
     else:
         why = (
             "not run: the hand derivation already disagrees with the engines "
@@ -241,6 +243,13 @@ def _run_stages(
         "skipped": skipped_work(system),
         "passed": passed,
     }
+
+
+def set_aside_runs(traj: dict[str, Any], excluded: Mapping[str, str]) -> None:
+    """A reader the verdict set aside (checks/audit.py: it misreads the model) is shown, not judged."""
+    for run in traj["runs"]:
+        if run.get("source") in excluded:
+            run["counts"], run["why_not_counted"] = False, f"information only: {excluded[run['source']]}"
 
 
 def _what_failed(

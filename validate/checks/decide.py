@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..dynamics.cachedir import Cache
-from ..engines import make_sources
+from ..engines import Sources, make_sources
 from ..engines.base import Source
 from ..errors import HarnessError
 from ..results.schema import Derivation, ModelChecks, Pointwise
@@ -53,6 +53,7 @@ class Decision:
     values: dict[str, dict[str, np.ndarray]] | None = None
     probe_set: verdict.ProbeSet | None = None
     unreadable: str = ""
+    excluded: Mapping[str, str] | None = None  # reader -> the sentence naming its misreading (checks/audit.py)
 
     @property
     def model_only(self) -> bool:
@@ -74,7 +75,12 @@ class Decision:
             return text
         if self.model_checks["mismatches"]:
             key = self.model_checks["mismatches"][0]["key"]
-            text = f"the model differs from what the derivation assumes ({key}); {text}"
+            if self.model_only:
+                text = f"the readers differ on the model ({key}); {text}"
+            else:
+                text = f"the model differs from what the derivation assumes ({key}); {text}"
+        if self.excluded:
+            text = "; ".join(self.excluded.values()) + f"; {text}"
         bad = [r for r in self.pointwise["rows"] if not r["passed"]]
         if bad and (self.model_only or self.derivation.get("verdict") == "agrees"):
             more = f" (and {len(bad) - 1} more)" if len(bad) > 1 else ""
@@ -121,13 +127,46 @@ def decide(
     states = states if states is not None else compare.random_states(system, n=n_states, seed=seed)
     values = compare.evaluate(sources, states)  # evaluated once: the judges reuse the engines' values
     point = compare.pointwise_result(values, states, seed=seed, tolerances=tolerances)
+    excluded = _misreaders(system, model, point)
+    judged = Sources({n: s for n, s in sources.items() if n not in excluded})
+    judged.skipped = getattr(sources, "skipped", {})
+    if excluded:  # judged against the sources that agree with what the file means
+        model = set_aside(model, excluded)
+        kept = {n: v for n, v in values.items() if n not in excluded}
+        point = compare.pointwise_result(kept, states, seed=seed, tolerances=tolerances)
     if system.equations is None:
-        return Decision(system, no_derivation(), model, point, states, sources, values)
+        return Decision(system, no_derivation(), model, point, states, sources, values, excluded=excluded)
     probe_set = verdict.derivation_probes(system, n_probes=probes, seed=seed)
+    kept = {n: v for n, v in values.items() if n not in excluded}
     derivation = verdict.judge_derivation(
-        system, states, sources, probe_set, values=values, seed=seed, tolerances=tolerances, cache=cache
+        system, states, judged, probe_set, values=kept, seed=seed, tolerances=tolerances, cache=cache
     )
-    return Decision(system, derivation, model, point, states, sources, values, probe_set)
+    return Decision(system, derivation, model, point, states, sources, values, probe_set, excluded=excluded)
+
+
+READERS = {"mujoco", "pinocchio", "drake"}
+
+
+def _misreaders(system: System, model: ModelChecks, point: Pointwise) -> dict[str, str]:
+    """The readers that misread the model (checks/audit.py `set_aside`), looked for only where Pinocchio's
+    reading differs from MuJoCo's or a pointwise pair of two readers disagrees."""
+    suspect = any(m.get("check") == "pinocchio~mujoco" for m in model["mismatches"]) or any(
+        not r["passed"] and set(r["pair"].split("~")) <= READERS for r in point["rows"]
+    )
+    if not suspect:
+        return {}
+    from .audit import set_aside as misreadings
+
+    return misreadings(system)
+
+
+def set_aside(model: ModelChecks, excluded: Mapping[str, str]) -> ModelChecks:
+    """The model checks without the rows of a reader set aside, which are listed among the alignments."""
+    if "pinocchio" not in excluded:
+        return model
+    kept = [m for m in model["mismatches"] if m.get("check") != "pinocchio~mujoco"]
+    lines = [f"{why} (checks/audit.py: judged against what the file means)" for why in excluded.values()]
+    return {**model, "passed": not kept, "mismatches": kept, "alignments": [*model["alignments"], *lines]}
 
 
 def with_drake(model: ModelChecks, sources: Mapping[str, Source]) -> ModelChecks:

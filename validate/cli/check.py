@@ -36,6 +36,7 @@ def verdict_data(decision: Decision) -> dict[str, Any]:
         "first_disagreeing_term": d.get("first_disagreeing_term"),
         "hidden_by_model_values": d.get("hidden_by_model_values", False),
         "model_mismatches": [m["key"] for m in mismatches(decision)],
+        "excluded": dict(decision.excluded or {}),
         "terms": [
             {k: t.get(k) for k in ("term", "passed", "worst_scaled", "tolerance", "engine", "probe")}
             for t in d.get("summary", [])

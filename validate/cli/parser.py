@@ -535,8 +535,9 @@ def _derive_arguments(derive: argparse.ArgumentParser) -> None:
 
 
 def _audit_arguments(audit: argparse.ArgumentParser) -> None:
-    """`audit`: the model, joints to lock, output as JSON."""
+    """`audit`: the model (or two files of one robot), joints to lock, output as JSON."""
     audit.add_argument("model", type=path_arg, metavar="MODEL", help="an MJCF .xml or URDF .urdf (or a system name)")
+    audit.add_argument("other", type=path_arg, nargs="?", metavar="MODEL_B", help="a second file of the same robot")
     _lock_option(audit)
     audit.add_argument("--json", action="store_true", help="print the audit as one JSON object")
 
@@ -579,8 +580,7 @@ COMMANDS: tuple[tuple[str, str, Callable[[argparse.ArgumentParser], None]], ...]
     ),
     (
         "audit",
-        "the model read by MuJoCo, Pinocchio and Drake side by side: masses, centres of mass, inertias, "
-        "joint anchors, axes, limits, damping, armature; the reader in the minority named where they differ",
+        "each reader of the model judged against what its format means, misreadings named; or two files compared",
         _audit_arguments,
     ),
     ("replay", "a rerun recording of a system's trajectories", _replay_arguments),
