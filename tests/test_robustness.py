@@ -15,7 +15,6 @@ from lagrange_xval.validate import systems
 from lagrange_xval.validate.checks import modelsync
 from lagrange_xval.validate.cli import main
 from lagrange_xval.validate.engines import make_source
-from lagrange_xval.validate.errors import HarnessError
 
 POINT = systems.load("double_pendulum_point")
 
@@ -101,7 +100,11 @@ CONSTRAINTS = [
 ]
 
 
-@pytest.mark.parametrize(("edits", "named"), CONSTRAINTS, ids=["colliding geoms", "contact pair", "equality", "limit", "frictionloss", "tendon"])
+@pytest.mark.parametrize(
+    ("edits", "named"),
+    CONSTRAINTS,
+    ids=["colliding geoms", "contact pair", "equality", "limit", "frictionloss", "tendon"],
+)
 def test_constraints_are_left_out_by_name_and_a_right_derivation_still_passes(tmp_path, edits, named, capsys):
     """Contacts, equality constraints, limits, friction loss and a tendon's spring add forces that no
     equation of motion of the chain contains: each is named once as left out (switched off in every
@@ -125,7 +128,11 @@ def test_constraints_are_left_out_by_name_and_a_right_derivation_still_passes(tm
     ("old", "new", "named"),
     [
         ('<joint name="phi" type="hinge"', '<joint name="phi" type="ball"', "ball joint 'phi'"),
-        ('<joint name="theta" type="hinge" axis="0 0 1" pos="0 0 0"/>', '<freejoint name="float"/>', "free joint 'float'"),
+        (
+            '<joint name="theta" type="hinge" axis="0 0 1" pos="0 0 0"/>',
+            '<freejoint name="float"/>',
+            "free joint 'float'",
+        ),
     ],
     ids=["ball", "free"],
 )

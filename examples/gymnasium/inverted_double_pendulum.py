@@ -115,7 +115,8 @@ def bias(p: Params, q: np.ndarray, v: np.ndarray) -> np.ndarray:
     gravity = np.stack(
         [
             -(p.m0 + p.m1 + p.m2) * p.gx * np.ones_like(a),
-            -p.m1 * p.c1 * (p.gx * ca - p.gz * sa) - p.m2 * (p.gx * (p.L * ca + p.c2 * cab) - p.gz * (p.L * sa + p.c2 * sab)),
+            -p.m1 * p.c1 * (p.gx * ca - p.gz * sa)
+            - p.m2 * (p.gx * (p.L * ca + p.c2 * cab) - p.gz * (p.L * sa + p.c2 * sab)),
             -p.m2 * p.c2 * (p.gx * cab - p.gz * sab),
         ],
         -1,

@@ -76,7 +76,9 @@ class Decision:
         if self.model_checks["mismatches"]:
             key = self.model_checks["mismatches"][0]["key"]
             if self.model_only:
-                text = f"the readers differ on the model ({key}); {text}"
+                check = str(self.model_checks["mismatches"][0].get("check", ""))
+                reader = check.split("~")[0].capitalize() if "~" in check else "a reader"
+                text = f"{reader} reads the model otherwise than MuJoCo ({key}); {text}"
             else:
                 text = f"the model differs from what the derivation assumes ({key}); {text}"
         if self.excluded:

@@ -177,7 +177,9 @@ def with_constraints(decision: Decision) -> dict[str, Any]:
     from ..engines.base import stepped
 
     if decision.system.equations is None or decision.sources is None:
-        raise HarnessError("--constraints compares the model's constrained motion with your equations: give --equations.")
+        raise HarnessError(
+            "--constraints compares the model's constrained motion with your equations: give --equations."
+        )
     return until_constraint(decision.system, stepped(decision.sources["mujoco"]))
 
 

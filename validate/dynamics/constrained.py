@@ -15,67 +15,20 @@ from __future__ import annotations
 
 from typing import Any
 
-import mujoco
 import numpy as np
 
 from ..engines.base import SteppedSource
+from ..engines.constraints import constrained_run
 from ..systems import System
 from .estimate import threshold
 from .integrate import initial_state, time_grid
 from .reference import reference_trajectory
 from .trust import TRUST
 
-_WHAT = {
-    int(mujoco.mjtConstraint.mjCNSTR_EQUALITY): "equality constraint '{}' acts",
-    int(mujoco.mjtConstraint.mjCNSTR_FRICTION_DOF): "the dry friction of joint '{}' acts",
-    int(mujoco.mjtConstraint.mjCNSTR_FRICTION_TENDON): "the dry friction of tendon '{}' acts",
-    int(mujoco.mjtConstraint.mjCNSTR_LIMIT_JOINT): "joint '{}' reaches its range",
-    int(mujoco.mjtConstraint.mjCNSTR_LIMIT_TENDON): "tendon '{}' reaches its range",
-}
 
-
-def _which(m: Any, d: Any) -> str:
-    """The first active constraint row, in words."""
-    kind, i = int(d.efc_type[0]), int(d.efc_id[0])
-    if kind in _WHAT:
-        obj = {
-            int(mujoco.mjtConstraint.mjCNSTR_EQUALITY): mujoco.mjtObj.mjOBJ_EQUALITY,
-            int(mujoco.mjtConstraint.mjCNSTR_FRICTION_DOF): mujoco.mjtObj.mjOBJ_JOINT,
-            int(mujoco.mjtConstraint.mjCNSTR_LIMIT_JOINT): mujoco.mjtObj.mjOBJ_JOINT,
-        }.get(kind, mujoco.mjtObj.mjOBJ_TENDON)
-        if kind == int(mujoco.mjtConstraint.mjCNSTR_FRICTION_DOF):
-            i = int(m.dof_jntid[i])
-        return _WHAT[kind].format(mujoco.mj_id2name(m, obj, i) or f"#{i}")
-    a, b = (int(g) for g in d.contact.geom[i])
-    names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom#{g}" for g in (a, b)]
-    return f"geoms '{names[0]}' and '{names[1]}' touch"
-
-
-def constrained_run(system: System, source: SteppedSource, t: np.ndarray, q0: Any, v0: Any) -> tuple[np.ndarray, float | None, str]:
-    """MuJoCo's run of the model as published (constraints on) sampled on `t` until the first active
-    constraint: (samples (k, n) up to it, its time or None, what it was)."""
-    m, d = source.m, source.d
-    saved = m.opt.disableflags
-    m.opt.disableflags = system.published_flags
-    try:
-        mujoco.mj_resetData(m, d)
-        source.set_state(np.asarray(q0, dtype=float), np.asarray(v0, dtype=float))
-        mujoco.mj_forward(m, d)
-        steps = max(round(float(t[1] - t[0]) / m.opt.timestep), 1) if len(t) > 1 else 1
-        out = [source.get_state()[0]]
-        for _ in range(len(t) - 1):
-            for _ in range(steps):
-                if d.nefc:
-                    return np.array(out), float(d.time), _which(m, d)
-                mujoco.mj_step(m, d)
-            out.append(source.get_state()[0])
-        return np.array(out), None, ""
-    finally:
-        m.opt.disableflags = saved
-        mujoco.mj_resetData(m, d)
-
-
-def until_constraint(system: System, source: SteppedSource, *, t_end: float = 10.0, dt_out: float = 0.01) -> dict[str, Any]:
+def until_constraint(
+    system: System, source: SteppedSource, *, t_end: float = 10.0, dt_out: float = 0.01
+) -> dict[str, Any]:
     """The comparison of the module docstring: {"until" (s or None: no constraint acted), "what",
     "max_error" (rad, before it), "passed", "statement"}."""
     q0, v0 = initial_state(system)
@@ -89,7 +42,9 @@ def until_constraint(system: System, source: SteppedSource, *, t_end: float = 10
 
     integrator = {0: "Euler", 1: "RK4", 2: "implicit", 3: "implicitfast"}.get(int(source.m.opt.integrator), "Euler")
     run = Trajectory("mujoco", f"MuJoCo {integrator}", t[: len(q)].copy(), q, np.zeros_like(q), {})
-    estimate = mujoco_estimate(system, source, run, q0, v0, tau, integrator=integrator)[0] if len(q) > 1 else np.zeros(1)
+    estimate = (
+        mujoco_estimate(system, source, run, q0, v0, tau, integrator=integrator)[0] if len(q) > 1 else np.zeros(1)
+    )
     bound = threshold(estimate)
     # judged while the run's own threshold stays below TRUST: beyond, it cannot tell equations apart (trust.py)
     judged = np.cumprod(bound <= TRUST).astype(bool)
@@ -101,7 +56,10 @@ def until_constraint(system: System, source: SteppedSource, *, t_end: float = 10
     elif when is not None:
         span = f"over the {end:g} s its own error estimate can judge (to {TRUST:g} rad); then, at {when:.3g} s, {what}"
     else:
-        span = f"over the {end:g} s its own error estimate can judge (to {TRUST:g} rad); no constraint acted in {t_end:g} s"
+        span = (
+            f"over the {end:g} s its own error estimate can judge (to {TRUST:g} rad); "
+            f"no constraint acted in {t_end:g} s"
+        )
     return {
         "until": when,
         "what": what,

@@ -380,7 +380,9 @@ def derive(view: Any, joints: tuple[str, ...]) -> Derivation:
     gravity_V = sum(out["V_body"].values(), sp.Integer(0))
     V = gravity_V + springs
     # A joint's armature (rotor inertia) is in M, so in T too: T = 1/2 v^T M v.
-    T = sum(out["T_body"].values(), sp.Integer(0)) + sum((J * vi**2 / 2 for J, vi in zip(armature, v, strict=True)), sp.Integer(0))
+    T = sum(out["T_body"].values(), sp.Integer(0)) + sum(
+        (J * vi**2 / 2 for J, vi in zip(armature, v, strict=True)), sp.Integer(0)
+    )
     G = sp.Matrix([sp.diff(gravity_V, qi) for qi in q])
     C = _coriolis(M, q, v)
     passive = sp.Matrix([-b * vi - k * x for b, k, vi, x in zip(damping, stiffness, v, stretch, strict=True)])

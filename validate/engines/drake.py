@@ -181,7 +181,10 @@ def _spring(system: System, plant: Any, j: str) -> list[str]:
     joint = plant.GetJointByName(j)
     kind = RevoluteSpring if system.view[f"joint/{j}/type"] == "hinge" else PrismaticSpring
     plant.AddForceElement(kind(joint, ref, stiffness))
-    return [f"joint '{j}': stiffness {stiffness:g} (springref {ref:g}), which Drake's parser does not read, given as a spring"]
+    return [
+        f"joint '{j}': stiffness {stiffness:g} (springref {ref:g}), which Drake's parser does not read, "
+        "given as a spring"
+    ]
 
 
 def parsed_values(system: System, plant: Any) -> dict[str, tuple[float, float]]:

@@ -77,7 +77,9 @@ def one_tree(xml: str) -> str:
     return xml
 
 
-COMPOSITE = "Composite_"  # Pinocchio's MJCF parser: the joints of one body as one composite joint, named after the first
+COMPOSITE = (
+    "Composite_"  # Pinocchio's MJCF parser: the joints of one body as one composite joint, named after the first
+)
 
 
 def joint_indices(model: Any, system: System) -> dict[str, tuple[int, int, int]]:

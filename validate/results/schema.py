@@ -97,7 +97,9 @@ class ModelChecks(TypedDict):
     mismatches: list[Mismatch]
     alignments: list[str]  # what the harness aligned between the engines' readings (a URDF; Drake's: "Drake: ...")
     defects: NotRequired[list[str]]  # the file's defects (an invalid inertia), what each reader was given
-    left_out: NotRequired[list[str]]  # the model's constraints (and MuJoCo-only forces) switched off in every comparison
+    left_out: NotRequired[
+        list[str]
+    ]  # the model's constraints (and MuJoCo-only forces) switched off in every comparison
 
 
 class Pointwise(TypedDict):

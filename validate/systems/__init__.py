@@ -22,8 +22,8 @@ from ..errors import HarnessError, unknown_name
 from ..guard import DEFAULT_TIME_LIMIT, Guard, Stopped, guard_module
 from ..inputs import regular_file
 from . import floating, textform, urdf
-from .inertia import repair_urdf
 from .forms import input_name, normalize
+from .inertia import repair_urdf
 from .memo import Memo
 from .modelview import ModelView, from_mujoco
 from .overrides import apply_overrides, parse
@@ -189,7 +189,9 @@ class System:
         model = Path(model)
         if not model.is_file():
             raise HarnessError(f"model file not found: {model} (give an MJCF .xml or a URDF .urdf file).")
-        system = cls(name=name or model.stem, mjcf=model, equations=None, locked=tuple(locked), balance_inertia=balance_inertia)
+        system = cls(
+            name=name or model.stem, mjcf=model, equations=None, locked=tuple(locked), balance_inertia=balance_inertia
+        )
         system.mujoco_model()
         return system
 
@@ -213,7 +215,11 @@ class System:
             raise HarnessError(f"model file not found: {model} (give an MJCF .xml or a URDF .urdf file).")
         module = load_module(equations, model=model, time_limit=time_limit)
         system = cls(
-            name=name or equations.stem, mjcf=model, equations=module, locked=tuple(locked), balance_inertia=balance_inertia
+            name=name or equations.stem,
+            mjcf=model,
+            equations=module,
+            locked=tuple(locked),
+            balance_inertia=balance_inertia,
         )
         system.mujoco_model()  # a model MuJoCo refuses fails here, in one line
         return system

@@ -114,4 +114,3 @@ def middle_angles(text: str) -> set[str]:
     names = {j.get("name", "") for j in ET.fromstring(converted).iter("joint")}
     originals = {n[: -len("_ry")] for n in names if n.endswith("_ry") and n[: -len("_ry")] + "_rz" in names}
     return {f"{n}_ry" for n in originals if f"{n}_rx" in names}
-

@@ -8,9 +8,11 @@ and Drake may replace them. The harness states each defect (the link, the inequa
 and, so that MuJoCo can read the file, gives MuJoCo the tensor its compiler's `balanceinertia` gives:
 every principal moment set to their mean (trace / 3, an isotropic tensor), and the same for a tensor
 that is not positive definite but whose trace is; a link of mass 0 with a non-zero inertia has the
-inertia dropped, as MuJoCo reads it (Pinocchio keeps it, Drake reads such a link as 1 kg). The other readers read the file as written, so their
-readings of that link differ from MuJoCo's and the verdict names the defect; with `--balance-inertia`
-every reader is given the repaired tensor.
+inertia dropped, as MuJoCo reads it (Pinocchio keeps it, Drake reads such a link as 1 kg); a moving
+link below MuJoCo's minimum mass or inertia (a massless "virtual" link between two joints, a point
+mass) is given MuJoCo's boundmass and boundinertia values. The other readers read the file as
+written, so their readings of that link differ from MuJoCo's and the verdict names the defect; with
+`--balance-inertia` every reader is given the repaired values.
 """
 
 from __future__ import annotations
@@ -98,20 +100,25 @@ def _bounded(root: ET.Element) -> list[str]:
         mass = _mass(link) if inertial is not None else 0.0
         element = link.find("inertial/inertia")
         moments = np.linalg.eigvalsh(tensor(element)) if element is not None else np.zeros(3)
-        if mass >= MINVAL and moments[0] >= MINVAL:
-            continue
+        if (mass >= MINVAL and moments[0] >= MINVAL) or mass < 0 or moments[0] < -MINVAL * 1e3:
+            continue  # valid, or invalid beyond rounding (a negative mass, a negative moment): named elsewhere
         if inertial is None:
             inertial = ET.SubElement(link, "inertial")
         if inertial.find("mass") is None:
             ET.SubElement(inertial, "mass")
         if element is None:
             element = ET.SubElement(inertial, "inertia")
-        why = f"mass {mass:g} kg" if mass < MINVAL else f"principal moments {', '.join(f'{m:.3g}' for m in moments)} kg m^2"
+        why = (
+            f"mass {mass:g} kg"
+            if mass < MINVAL
+            else f"principal moments {', '.join(f'{m:.3g}' for m in moments)} kg m^2"
+        )
         inertial.find("mass").set("value", repr(max(mass, BOUND_MASS)))  # type: ignore[union-attr]
         _isotropic(element, max(float(np.trace(tensor(element))) / 3.0, BOUND_INERTIA))
         lines.append(
             f"link '{link.get('name')}' moves with {why}, below MuJoCo's minimum {MINVAL:g}; given mass "
-            f"{max(mass, BOUND_MASS):g} kg and {float(element.get('ixx')):g} kg m^2 on each axis (boundmass, boundinertia)"
+            f"{max(mass, BOUND_MASS):g} kg and {float(element.get('ixx', '0')):g} kg m^2 on each axis "
+            "(boundmass, boundinertia)"
         )
     return lines
 
@@ -144,6 +151,8 @@ def repair_urdf(text: str) -> tuple[str, list[str]]:
             element.set(key, "0")
         for key in ("ixx", "iyy", "izz"):
             element.set(key, repr(float(fixed[0, 0])))
-        lines.append(f"link '{link}': {why}; balanced to {fixed[0, 0]:.6g} kg m^2 on each axis (MuJoCo's balanceinertia)")
+        lines.append(
+            f"link '{link}': {why}; balanced to {fixed[0, 0]:.6g} kg m^2 on each axis (MuJoCo's balanceinertia)"
+        )
     lines += _bounded(root)
     return (ET.tostring(root, encoding="unicode"), lines) if lines else (text, [])

@@ -16,7 +16,7 @@ defaults of their own), so the compiled MJCF is the single source of numbers. Ke
     joint/<name>/pos             (3,) joint anchor in the body frame, m
     joint/<name>/damping         N m s / rad (viscous, MJCF joint damping; 0 if dampers are disabled)
     joint/<name>/armature        kg m^2
-    joint/<name>/frictionloss    N m (0 where friction loss is switched off, as it is in every comparison)
+    joint/<name>/frictionloss    N m (dry friction: a constraint, left out of every comparison)
     joint/<name>/stiffness       N m / rad
     joint/<name>/springref       rad (m): where the spring is relaxed; present only where it is not 0
     actuator/<name>/joint        joint name the actuator drives (an unnamed actuator: "actuator#<id>")
@@ -89,9 +89,6 @@ def from_mujoco(model: Any, source: str) -> ModelView:
     values: dict[str, Any] = {"gravity": np.zeros(3) if gravity_off else np.array(model.opt.gravity, dtype=float)}
     # Likewise the damping the dynamics see: zero when the scene disables dampers.
     damper_off = model.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_DAMPER)
-    friction_off = model.opt.disableflags & int(
-        mujoco.mjtDisableBit.mjDSBL_FRICTIONLOSS | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
-    )
     for b in range(1, model.nbody):
         n = name(mujoco.mjtObj.mjOBJ_BODY, b)
         rot = quat_to_mat(np.array(model.body_iquat[b]))
@@ -111,8 +108,7 @@ def from_mujoco(model: Any, source: str) -> ModelView:
         values[f"joint/{n}/pos"] = np.array(model.jnt_pos[j], dtype=float)
         values[f"joint/{n}/damping"] = 0.0 if damper_off else float(model.dof_damping[dof])
         values[f"joint/{n}/armature"] = float(model.dof_armature[dof])
-        # dry friction is a constraint, switched off in every comparison (systems/scope.py): what the dynamics see
-        values[f"joint/{n}/frictionloss"] = 0.0 if friction_off else float(model.dof_frictionloss[dof])
+        values[f"joint/{n}/frictionloss"] = float(model.dof_frictionloss[dof])
         values[f"joint/{n}/stiffness"] = float(model.jnt_stiffness[j])
         if model.qpos_spring[model.jnt_qposadr[j]] and _JOINT_TYPES[int(model.jnt_type[j])] in ("hinge", "slide"):
             values[f"joint/{n}/springref"] = float(model.qpos_spring[model.jnt_qposadr[j]])

@@ -124,7 +124,10 @@ def _equalities(model: Any) -> list[str]:
     for e in range(model.neq):
         what = f"'{_name(model, mujoco.mjtObj.mjOBJ_EQUALITY, e, 'equality')}'"
         if int(model.eq_type[e]) == int(mujoco.mjtEq.mjEQ_JOINT):  # a URDF <mimic> becomes one, unnamed
-            a, b = (_name(model, mujoco.mjtObj.mjOBJ_JOINT, int(i), "joint") for i in (model.eq_obj1id[e], model.eq_obj2id[e]))
+            a, b = (
+                _name(model, mujoco.mjtObj.mjOBJ_JOINT, int(i), "joint")
+                for i in (model.eq_obj1id[e], model.eq_obj2id[e])
+            )
             what += f" (joint '{a}' coupled to joint '{b}')"
         named.append(what)
     return [f"equality constraint(s) {_listed(named, quoted=False)}"] if named else []
@@ -135,7 +138,9 @@ def _frictionloss(model: Any) -> list[str]:
         return []
     dofs = np.nonzero(model.dof_frictionloss > 0)[0]
     joints = [_name(model, mujoco.mjtObj.mjOBJ_JOINT, int(model.dof_jntid[d]), "joint") for d in dofs]
-    tendons = [_name(model, mujoco.mjtObj.mjOBJ_TENDON, int(t), "tendon") for t in np.nonzero(model.tendon_frictionloss > 0)[0]]
+    tendons = [
+        _name(model, mujoco.mjtObj.mjOBJ_TENDON, int(t), "tendon") for t in np.nonzero(model.tendon_frictionloss > 0)[0]
+    ]
     named = list(dict.fromkeys(joints)) + [f"tendon {t}" for t in tendons]
     return [f"the dry friction (frictionloss) of {_listed(named)}"] if named else []
 
@@ -185,7 +190,10 @@ def _actuators(model: Any) -> list[str]:
         model.actuator_biastype[biased] = int(mujoco.mjtBias.mjBIAS_NONE)
         out.append(f"the feedback (bias force) of actuator(s) {_listed(names)}, a controller's, not the plant's")
     if not _disabled(model, mujoco.mjtDisableBit.mjDSBL_CLAMPCTRL) and np.any(model.actuator_ctrllimited):
-        limited = [_name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, int(a), "actuator") for a in np.nonzero(model.actuator_ctrllimited)[0]]
+        limited = [
+            _name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, int(a), "actuator")
+            for a in np.nonzero(model.actuator_ctrllimited)[0]
+        ]
         model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CLAMPCTRL)
         out.append(f"the control range of actuator(s) {_listed(limited)} (an input is the torque asked for, unclamped)")
     capped = np.nonzero(model.actuator_forcelimited)[0]

@@ -516,7 +516,9 @@ def _inertia_as_compiled(model: _Model, view: Mapping[str, Any]) -> None:
         attrs = _inertia_attrs(np.asarray(view[f"body/{name}/inertia"], dtype=float))
         assert attrs is not None  # a tensor MuJoCo compiled
         inertial.attrib.clear()
-        inertial.attrib.update({"mass": repr(float(view[f"body/{name}/mass"])), "pos": _floats(view[f"body/{name}/com"]), **attrs})
+        inertial.attrib.update(
+            {"mass": repr(float(view[f"body/{name}/mass"])), "pos": _floats(view[f"body/{name}/com"]), **attrs}
+        )
 
 
 def _write_inertial(

@@ -281,7 +281,9 @@ def alignments(text: str, source: str) -> list[str]:
         elif tr.joint not in joints:
             out.append(f"transmission of '{tr.actuator}' on joint '{tr.joint}', which the file lacks, ignored")
         else:
-            out.append(f"transmission of '{tr.actuator}' on joint '{tr.joint}' made a MuJoCo motor '{name}', gear {tr.gear:g}")
+            out.append(
+                f"transmission of '{tr.actuator}' on joint '{tr.joint}' made a MuJoCo motor '{name}', gear {tr.gear:g}"
+            )
     out += coupled_transmissions(text, source)
     out.append(
         "not in URDF, MuJoCo's defaults used: gravity (0, 0, -9.81) m/s^2 (copied into Pinocchio), timestep "
