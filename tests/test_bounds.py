@@ -1,0 +1,133 @@
+"""Inputs a person controls cannot exhaust the harness or forge its output: the text form's expressions
+are bounded (validate/systems/expression.py), names are data, cache entries are verified before they are
+inflated, models are refused above a stated size, and what is shown of a person's text is escaped and cut
+(validate/errors.py `shown`)."""
+
+from __future__ import annotations
+
+import shutil
+import types
+from pathlib import Path
+
+import lagrange_xval as lx
+import numpy as np
+import pytest
+from lagrange_xval.validate.errors import HarnessError
+from lagrange_xval.validate.systems import model_view, textform
+
+ROOT = Path(__file__).resolve().parents[1]
+V = "mc*g*(h + ccz) + mp*g*(h + pz + lc*cos(theta))"
+TOML = f'''
+T = "(mc + mp)/2*dx^2 + mp*lc*cos(theta)*dx*dtheta + (mp*lc^2 + I)/2*dtheta^2"
+V = "{V}"
+[symbols]
+mc = "body/cart/mass"
+mp = "body/pole/mass"
+lc = "body/pole/com[2]"
+I = "body/pole/inertia[1][1]"
+g = "-gravity[2]"
+h = "body/cart/pos[2]"
+ccz = "body/cart/com[2]"
+pz = "body/pole/pos[2]"
+'''
+
+
+def _text_system(folder: Path, old: str = "", new: str = "") -> lx.System:
+    """The cart-pole of examples/ with its energies as text, `old` replaced by `new` in the file."""
+    shutil.copy(ROOT / "examples/cart_pole.xml", folder / "model.xml")
+    assert not old or TOML.count(old) == 1, old
+    (folder / "cp.toml").write_text(TOML.replace(old, new) if old else TOML)
+    return lx.System.from_files(folder / "model.xml", folder / "cp.toml")
+
+
+def _module(folder: Path, old: str = "", new: str = "") -> types.ModuleType:
+    """The text form's module (form d, before the harness wraps it) of the file `_text_system` writes."""
+    shutil.copy(ROOT / "examples/cart_pole.xml", folder / "model.xml")
+    (folder / "cp.toml").write_text(TOML.replace(old, new) if old else TOML)
+    return textform.module_from_file(folder / "cp.toml", model_view(folder / "model.xml"))
+
+
+# ---- the text form's expressions ---------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("bomb", "message"),
+    [
+        ("9^9^9", r"V is not finite: '9\^9\^9' is about 10\^3.7e\+08, beyond double precision"),
+        ("2^2^2^2^2^2^2", r"V is not finite: '2\^2\^2\^2\^2' is about 10\^1.97e\+04"),
+        ("mc/0", r"V divides by zero: 'mc/0' divides by '0'"),
+        ("mc/(h - h)", r"V divides by zero: 'mc/\(h - h\)' divides by '\(h - h\)'"),
+        ("0^-1*mc", r"V divides by zero: '0\^-1' is zero to a negative power"),
+        ("log(0)*mc", r"V is not finite: 'log\(0\)' is complex infinity"),
+        ("sqrt(-1)*mc", r"V is not real: 'sqrt\(-1\)' is I"),
+        ("1e400*mc", r"'1e400' is not a finite double"),
+        ("1e200*1e200*mc", r"V is not finite: '1e200\*1e200\*mc' is beyond double precision"),
+        ("(" * 101 + "mc" + ")" * 101, r"nests parentheses, calls and exponents deeper than 100 levels"),
+        ("mc" + "^mc" * 101, r"deeper than 100 levels"),
+        ("h" + "+h" * 50_001, r"has more than 100,000 numbers, names and operations"),
+        ("mc" + " " * 200_000, r"has 200,002 characters; at most 200,000"),
+    ],
+    ids=[
+        "9^9^9",
+        "2^2^...",
+        "m/0",
+        "m/(h-h)",
+        "0^-1",
+        "log0",
+        "sqrt-1",
+        "1e400",
+        "overflow",
+        "depth",
+        "powers",
+        "terms",
+        "size",
+    ],
+)
+def test_an_expression_bomb_is_one_line_naming_it(tmp_path, bomb, message):
+    """What would compute a huge integer, recurse past Python's limit or is not finite is refused in one
+    line naming the part, before sympy or numpy meet it."""
+    with pytest.raises(HarnessError, match=message) as caught:
+        _text_system(tmp_path, V, bomb)
+    text = str(caught.value)
+    assert "\n" not in text and len(text) < 1500, text[:200]
+
+
+def test_a_hundred_thousand_signs_are_one_sign(tmp_path):
+    """100,000 unary minus signs (an even number) read as none: a loop, not a recursion."""
+    module = _module(tmp_path, f'V = "{V}"', f'V = "{"-" * 100_000}({V})"')
+    plain = _module(tmp_path / "plain" if (tmp_path / "plain").mkdir() is None else tmp_path)
+    assert module.EXPRESSIONS["V"] == plain.EXPRESSIONS["V"]
+
+
+def test_a_3000_term_potential_works(tmp_path):
+    """A realistic V of 3,000 distinct terms (about 120,000 characters) is read, compiled and evaluated;
+    its value is the model's V plus the added terms computed apart in numpy."""
+    extra = [f"{k}e-6*mp*g*lc*cos({k}*theta)" for k in range(1, 3000)]
+    module = _module(tmp_path, f'V = "{V}"', f'V = "{" + ".join([V, *extra])}"')
+    plain = _module(tmp_path / "plain" if (tmp_path / "plain").mkdir() is None else tmp_path)
+    view = model_view(tmp_path / "model.xml")
+    p = module.parameters(view)
+    q = np.array([0.3, 0.7])
+    added = sum(k * 1e-6 * p.mp * p.g * p.lc * np.cos(k * q[1]) for k in range(1, 3000))
+    assert len(module.EXPRESSIONS["V"].args) >= 3000
+    assert np.isclose(module.potential_energy(p, q), plain.potential_energy(p, q) + added, rtol=1e-12, atol=0)
+
+
+def test_the_micro_sign_is_mu(tmp_path):
+    """A symbol declared with the micro sign (U+00B5) is the Greek mu (U+03BC) the expressions write: NFKC."""
+    micro, mu = "\u00b5", "\u03bc"
+    text = TOML.replace("*g*", f"*{mu}*").replace('g = "-gravity[2]"', f'"{micro}" = "-gravity[2]"')
+    module = _module(tmp_path, TOML, text)
+    plain = _module(tmp_path / "plain" if (tmp_path / "plain").mkdir() is None else tmp_path)
+    view = model_view(tmp_path / "model.xml")
+    q = np.array([0.3, 0.7])
+    assert mu in module.Params.__dataclass_fields__
+    assert module.potential_energy(module.parameters(view), q) == plain.potential_energy(plain.parameters(view), q)
+
+
+def test_two_spellings_of_one_name_are_named_together(tmp_path):
+    """l and the script l (U+2113) both declared read as one name: one message naming both spellings."""
+    script = "\u2113"
+    with pytest.raises(HarnessError, match=f"'lc' and '{script}c' are one name") as caught:
+        _module(tmp_path, 'lc = "body/pole/com[2]"', f'lc = "body/pole/com[2]"\n"{script}c" = "body/pole/com[2]"')
+    assert "\n" not in str(caught.value)
