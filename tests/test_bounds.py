@@ -5,13 +5,19 @@ inflated, models are refused above a stated size, and what is shown of a person'
 
 from __future__ import annotations
 
+import io
+import json
+import re
 import shutil
+import tracemalloc
 import types
+import zipfile
 from pathlib import Path
 
 import lagrange_xval as lx
 import numpy as np
 import pytest
+from lagrange_xval.validate.dynamics import cache
 from lagrange_xval.validate.errors import HarnessError
 from lagrange_xval.validate.systems import model_view, textform
 
@@ -131,3 +137,61 @@ def test_two_spellings_of_one_name_are_named_together(tmp_path):
     with pytest.raises(HarnessError, match=f"'lc' and '{script}c' are one name") as caught:
         _module(tmp_path, 'lc = "body/pole/com[2]"', f'lc = "body/pole/com[2]"\n"{script}c" = "body/pole/com[2]"')
     assert "\n" not in str(caught.value)
+
+
+# ---- cache entries: the signed header first --------------------------------------------------------
+
+
+def _bloated(path: Path, claim: tuple[int, ...], *, resign: bool) -> None:
+    """The entry at `path` with array `q` replaced by a deflated member whose .npy header claims `claim`
+    float64s (1.5 GiB) over a few MB of zeros; `resign`: the manifest says so too, signed again."""
+    with np.load(path) as z:
+        header = json.loads(str(z[cache.HEADER]))
+    if resign:
+        header["arrays"]["q"] = {"dtype": "<f8", "shape": list(claim), "sha256": "0" * 64}
+        header["hmac"] = cache._signature(header)
+    buffer = io.BytesIO()
+    np.lib.format.write_array_header_1_0(buffer, {"descr": "<f8", "fortran_order": False, "shape": claim})
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr(f"{cache.HEADER}.npy", _npy(np.array(json.dumps(header))))
+        z.writestr("q.npy", buffer.getvalue() + bytes(8 * 2**20))
+
+
+def _npy(a: np.ndarray) -> bytes:
+    buffer = io.BytesIO()
+    np.save(buffer, a)
+    return buffer.getvalue()
+
+
+@pytest.mark.parametrize(
+    ("resign", "why"),
+    [(False, "array q is <f8 \\[201326592\\], signed as <f8 \\[3\\]"), (True, "would take 1,610,612,752 bytes")],
+    ids=["member-claims", "signed-claim"],
+)
+def test_a_small_entry_claiming_gigabytes_is_refused_unread(tmp_path, capsys, resign, why):
+    """A few-MB entry whose array claims 1.5 GiB is refused on one warning line from its headers alone:
+    the signed manifest states every array's shape, and no array is read that differs from it or that
+    would pass MAX_ENTRY_BYTES."""
+    path = tmp_path / "x.npz"
+    assert cache.store(path, "k", {"q": np.arange(3.0), "t": np.arange(2.0)}, {"n": 1})
+    _bloated(path, (3 * 2**26,), resign=resign)
+    assert path.stat().st_size < 2**20
+    tracemalloc.start()
+    try:
+        assert cache.load(path, "k") is None
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    err = capsys.readouterr().err
+    assert peak < 2**20, f"{peak:,} bytes allocated reading a refused entry"
+    assert err.count("\n") == 1 and re.search(why, err), err
+
+
+def test_a_signed_entry_reads_back_whole(tmp_path):
+    """What `store` writes, `load` returns: the arrays bit for bit and the info."""
+    arrays = {"q": np.arange(12.0).reshape(3, 4), "i": np.arange(5), "f": np.asfortranarray(np.eye(3))}
+    assert cache.store(tmp_path / "x.npz", "k", arrays, {"n": 1})
+    loaded, info = cache.load(tmp_path / "x.npz", "k")
+    assert info == {"n": 1} and sorted(loaded) == sorted(arrays)
+    for name, a in arrays.items():
+        assert loaded[name].dtype == a.dtype and np.array_equal(loaded[name], a)
