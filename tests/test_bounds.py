@@ -6,9 +6,12 @@ inflated, models are refused above a stated size, and what is shown of a person'
 from __future__ import annotations
 
 import io
+import os
 import json
 import re
 import shutil
+import subprocess
+import sys
 import tracemalloc
 import types
 import zipfile
@@ -195,3 +198,46 @@ def test_a_signed_entry_reads_back_whole(tmp_path):
     assert info == {"n": 1} and sorted(loaded) == sorted(arrays)
     for name, a in arrays.items():
         assert loaded[name].dtype == a.dtype and np.array_equal(loaded[name], a)
+
+
+# ---- the user's cache folder -------------------------------------------------------------------------
+
+
+def test_a_relative_xdg_cache_home_is_ignored(tmp_path, monkeypatch):
+    """XDG says a relative XDG_CACHE_HOME is ignored: the cache and its key go under $HOME/.cache, and
+    `derive` (which caches in the user's folder) creates nothing in the working directory."""
+    from lagrange_xval.validate.cli import main
+    from lagrange_xval.validate.dynamics.cachedir import user_folder
+
+    work, home = tmp_path / "work", tmp_path / "home"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    monkeypatch.setenv("HOME", str(home))
+    monkeypatch.setenv("XDG_CACHE_HOME", "relative/cache")
+    monkeypatch.delenv(cache.CACHE_ENV, raising=False)
+    assert user_folder() == home / ".cache" / "lagrange-xval"
+    assert cache.key_file() == home / ".cache" / "lagrange-xval" / "key"
+    assert main(["derive", "simple_pendulum"]) == 0
+    assert list(work.iterdir()) == []
+    assert (home / ".cache" / "lagrange-xval" / "derive").is_dir()
+
+
+@pytest.mark.long
+def test_without_home_run_says_so_once(tmp_path):
+    """With HOME unset there is no cache key to keep: `run` says so on one warning line, and heyoka's
+    JIT cache is off instead of warning on every compilation (37 lines before)."""
+    env = {k: v for k, v in os.environ.items() if k not in ("HOME", "XDG_CACHE_HOME", cache.CACHE_ENV)}
+    env.pop(cache.PROCESS_KEY_ENV, None)
+    done = subprocess.run(
+        [sys.executable, "-m", "lagrange_xval.validate.cli", "run", "simple_pendulum", "--no-replay"]
+        + ["--out", str(tmp_path / "out")],
+        env=env,
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    warnings = [line for line in done.stderr.splitlines() if "warn" in line.lower()]
+    assert len(warnings) == 1 and "no private cache key" in warnings[0], warnings[:5]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]

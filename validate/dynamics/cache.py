@@ -104,11 +104,9 @@ def _signature(header: dict[str, Any]) -> str:
 
 
 def key_file() -> Path | None:
-    """Where the user's signing key is kept, or None (neither XDG_CACHE_HOME nor HOME is set)."""
-    base = os.environ.get("XDG_CACHE_HOME") or (
-        os.path.join(os.environ["HOME"], ".cache") if os.environ.get("HOME") else ""
-    )
-    return Path(base) / "lagrange-xval" / "key" if os.path.isabs(base) else None
+    """Where the user's signing key is kept, or None (no absolute XDG_CACHE_HOME and no HOME)."""
+    folder = user_folder()
+    return None if folder is None else folder / "key"
 
 
 def _read_key(path: Path) -> bytes | None:
