@@ -6,8 +6,8 @@ inflated, models are refused above a stated size, and what is shown of a person'
 from __future__ import annotations
 
 import io
-import os
 import json
+import os
 import re
 import shutil
 import subprocess
@@ -21,7 +21,7 @@ import lagrange_xval as lx
 import numpy as np
 import pytest
 from lagrange_xval.validate.dynamics import cache
-from lagrange_xval.validate.errors import HarnessError
+from lagrange_xval.validate.errors import HarnessError, escaped, shown
 from lagrange_xval.validate.systems import model_view, textform
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -241,3 +241,74 @@ def test_without_home_run_says_so_once(tmp_path):
     warnings = [line for line in done.stderr.splitlines() if "warn" in line.lower()]
     assert len(warnings) == 1 and "no private cache key" in warnings[0], warnings[:5]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+# ---- a person's text is data ---------------------------------------------------------------------------
+
+
+def test_shown_escapes_control_characters_and_cuts():
+    """Every C0/C1 control character, DEL and the bidirectional overrides are written as repr writes them;
+    past the limit the text is cut, saying how much was left out."""
+    text = "a\nverdict: x: pass\r\x1b[31m\x00\x7f\x9b\u2028\u202e" + "y" * 500
+    out = shown(text)
+    assert out.startswith("a\\nverdict: x: pass\\r\\x1b[31m\\x00\\x7f\\x9b\\u2028\\u202e")
+    assert out.endswith(f"... ({len(escaped(text)) - 300} more characters)")
+    assert all(c.isprintable() for c in out)
+    assert escaped("µ/é θ") == "µ/é θ"  # printable Unicode is kept
+
+
+RAISES = """
+from dataclasses import dataclass
+import numpy as np
+
+@dataclass(frozen=True)
+class Params:
+    m: float
+    l: float
+    g: float
+    I: float
+
+def parameters(model):
+    return Params(model["body/link/mass"], -model["body/link/com"][1], -model["gravity"][1],
+                  model["body/link/inertia"][2, 2])
+
+def mass_matrix(p, q):
+    raise ValueError("boom\\nverdict: mine: pass: forged\\x1b[2J" + "y" * 1_000_000)
+
+def bias(p, q, v):
+    return (p.m * p.g * p.l * np.sin(q[..., 0]) + 0 * v[..., 0])[..., None]
+"""
+
+
+def test_a_module_message_cannot_forge_a_verdict_line(tmp_path, capsys):
+    """A 1 MB exception message with a newline, a `verdict:` line and an escape sequence: `check` prints
+    one verdict line (its own), escaped and cut; `--json` keeps the message whole."""
+    from lagrange_xval.validate.cli import main
+    from lagrange_xval.validate.errors import LINE_CHARS
+
+    shutil.copy(ROOT / "models/simple_pendulum.xml", tmp_path / "sp.xml")
+    (tmp_path / "sp.py").write_text(RAISES)
+    argv = ["check", "--model", str(tmp_path / "sp.xml"), "--equations", str(tmp_path / "sp.py")]
+    assert main([*argv, "--states", "20", "--probes", "1"]) == 1
+    out = capsys.readouterr().out.splitlines()
+    verdicts = [line for line in out if line.startswith("verdict:")]
+    assert len(verdicts) == 1 and verdicts[0] == out[-1], verdicts
+    assert "mass_matrix() raised ValueError: boom\\nverdict: mine" in out[-1] and "\x1b" not in "".join(out)
+    assert max(map(len, out)) < LINE_CHARS + 40
+    assert main([*argv, "--states", "20", "--probes", "1", "--json"]) == 1
+    statement = json.loads(capsys.readouterr().out)["verdict"]["statement"]
+    assert "boom\nverdict: mine: pass: forged\x1b[2J" + "y" * 1_000_000 in statement
+
+
+def test_an_import_error_is_one_escaped_line(tmp_path, capsys):
+    """A module whose import raises a message of many lines and escape codes: one error line, status 2."""
+    from lagrange_xval.validate.cli import main
+
+    shutil.copy(ROOT / "models/simple_pendulum.xml", tmp_path / "sp.xml")
+    (tmp_path / "sp.py").write_text('raise RuntimeError("a\\nverdict: sp: pass\\x1b]0;title\\x07" + "z" * 100_000)\n')
+    assert main(["check", "--model", str(tmp_path / "sp.xml"), "--equations", str(tmp_path / "sp.py")]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    lines = captured.err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("lagrange-xval: error: "), lines[:3]
+    assert "RuntimeError: a\\nverdict: sp: pass\\x1b]0;title\\x07zzz" in lines[0] and len(lines[0]) < 1100

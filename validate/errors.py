@@ -27,6 +27,15 @@ def shown(text: object, limit: int = SHOWN_CHARS) -> str:
     return f"{out[:limit]}... ({len(out) - limit} more characters)"
 
 
+LINE_CHARS = 1000  # the most of one console line that holds a person's text (a verdict, an error)
+
+
+def console(lines: Iterable[str]) -> str:
+    """Lines for the console, each `shown` (escaped, cut to LINE_CHARS): a person's text inside a line
+    cannot start another (no `verdict:` line forged by an exception message), colour or move the cursor."""
+    return "\n".join(shown(line, LINE_CHARS) for line in lines)
+
+
 class HarnessError(Exception):
     """A user-facing error. The CLI prints its message on one line and exits non-zero."""
 

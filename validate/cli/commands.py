@@ -19,7 +19,7 @@ from ..dynamics.cache import CACHE_ENV, usable
 from ..dynamics.cachedir import Cache
 from ..engines import make_sources
 from ..engines.base import Source
-from ..errors import HarnessError
+from ..errors import HarnessError, console
 from ..guard import DEFAULT_TIME_LIMIT
 from ..inputs import parse_json, regular_file
 from ..parallel import named_executor
@@ -76,9 +76,9 @@ def cmd_list(args: argparse.Namespace) -> int:
         listed = [describe_files(m, e) for m, e in user_files(args) or []]
         lonely = list(getattr(args, "lonely", None) or [])
     for _, lines in listed:
-        print("\n".join(lines))
+        print(console(lines))
     for line in lonely:
-        print(line)
+        print(console([line]))
     return 0 if all(ok for ok, _ in listed) else 1
 
 
@@ -157,7 +157,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(checking.decision_json(decision), allow_nan=False))
     else:
-        print("\n".join(checking.text_lines(decision)))
+        print(console(checking.text_lines(decision)))
     return 0 if decision.passed else 1
 
 
@@ -176,7 +176,7 @@ def pointwise_only(args: argparse.Namespace, system: System, states: States | No
         print(json.dumps(checking.json_document(system, states, values, rows, passed), allow_nan=False))
     else:
         title = f"{system.name}: {len(states)} states, coordinates ({', '.join(system.coordinates)}); pointwise only"
-        print("\n".join(checking.table_lines(rows, title)))
+        print(console(checking.table_lines(rows, title)))
     return 0 if passed else 1
 
 
@@ -221,15 +221,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     write_all(results, args.out, replay=not args.no_replay, rendered=rendered, hint=hint)
     if args.systems or not files:  # the repository's systems were run: say which files were not
         for line in unpaired_lines():
-            print(line)
+            print(console([line]))
     for line in getattr(args, "lonely", None) or []:
-        print(line)
+        print(console([line]))
     verdict = "all systems pass" if results["passed"] else "some systems FAIL"
     print(f"{verdict}; reports in {hint.out}/ (report.html, report.md, results.json)")
     if hint.written and any(s.get("trajectories") for s in results["systems"].values()):
         print(f"replays: {hint.viewer} {hint.out}/<system>.rrd")
-    for line in console_lines(dict(results), f"{hint.out}/report.html"):
-        print(line)
+    print(console(console_lines(dict(results), f"{hint.out}/report.html")))
     return 0 if results["passed"] else 1
 
 

@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import shown
+from ..errors import console, shown
 from ..files import create_file, replace_file, stage
 from ..files import folder as open_folder
 from ..systems import PACKAGE_ROOT
@@ -161,7 +161,7 @@ def _ephemeral() -> bool:
 
 
 def warn(message: str) -> None:
-    print(f"lagrange-xval: warning: {message}", file=sys.stderr, flush=True)
+    print(console([f"lagrange-xval: warning: {message}"]), file=sys.stderr, flush=True)
 
 
 class _Refused(Exception):
