@@ -312,3 +312,110 @@ def test_an_import_error_is_one_escaped_line(tmp_path, capsys):
     lines = captured.err.splitlines()
     assert len(lines) == 1 and lines[0].startswith("lagrange-xval: error: "), lines[:3]
     assert "RuntimeError: a\\nverdict: sp: pass\\x1b]0;title\\x07zzz" in lines[0] and len(lines[0]) < 1100
+
+
+# ---- models: size and numbers, before any engine works -------------------------------------------------
+
+FLAT = (
+    '<body name="b{i}" pos="{x} 0 0"><joint name="j{i}" type="hinge" axis="0 0 1"/>'
+    '<inertial pos="0 0 -0.1" mass="1" diaginertia="0.01 0.01 0.01"/></body>'
+)
+
+
+def _flat(n: int) -> str:
+    return "<mujoco><worldbody>" + "".join(FLAT.format(i=i, x=0.01 * i) for i in range(n)) + "</worldbody></mujoco>"
+
+
+REPLICATED = (
+    '<mujoco><worldbody><replicate count="100" offset="0.1 0 0"><replicate count="100" offset="0 0.1 0">'
+    + FLAT.format(i=0, x=0)
+    + "</replicate></replicate></worldbody></mujoco>"
+)
+
+
+@pytest.mark.parametrize("text", [_flat(10_000), REPLICATED], ids=["10000-bodies", "replicate-100x100"])
+def test_a_huge_model_is_refused_before_it_is_compiled(tmp_path, capsys, monkeypatch, text):
+    """10,000 joints (written out, or two nested <replicate count=100>) are one error line naming the
+    limits, status 2, and MuJoCo never compiles the model."""
+    import mujoco
+    from lagrange_xval.validate.cli import main
+
+    def never(*args, **kwargs):
+        raise AssertionError("compiled")
+
+    monkeypatch.setattr(mujoco.MjModel, "from_xml_string", never)
+    (tmp_path / "big.xml").write_text(text)
+    assert main(["check", "--model", str(tmp_path / "big.xml")]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and "10,000 joints and 10,000 bodies; a model may have at most 500 joints" in err[0], err
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        ('gravity="0 -9.81 0"', 'gravity="0 nan 0"', r"gravity \(0 nan 0\) is not finite"),
+        ('axis="0 0 1" pos', 'axis="0 0 inf" pos', r"joint 'theta' axis \(0 0 nan\) is not finite"),
+        ('mass="1" diag', 'mass="1e308" diag', r"body 'link' mass \(1e\+308\) exceeds 1e\+100"),
+    ],
+    ids=["gravity-nan", "axis-inf", "mass-1e308"],
+)
+@pytest.mark.parametrize("command", ["check", "audit"])
+def test_a_number_that_is_not_finite_is_named(tmp_path, capsys, old, new, message, command):
+    """Non-finite gravity, an infinite axis, a mass whose products overflow: one error line naming the
+    field and the element, status 2 (not status 1 with numpy's overflow warnings and NaN differences)."""
+    from lagrange_xval.validate.cli import main
+
+    text = (ROOT / "models/simple_pendulum.xml").read_text()
+    assert text.count(old) == 1
+    (tmp_path / "sp.xml").write_text(text.replace(old, new))
+    shutil.copy(ROOT / "equations/simple_pendulum.py", tmp_path / "sp.py")
+    argv = ["check", "--model", str(tmp_path / "sp.xml"), "--equations", str(tmp_path / "sp.py")]
+    assert main(argv if command == "check" else ["audit", str(tmp_path / "sp.xml")]) == 2
+    captured = capsys.readouterr()
+    lines = captured.err.splitlines()
+    assert len(lines) == 1 and re.search(message, lines[0]), captured.err[-2000:]
+
+
+BOMB = (
+    '<?xml version="1.0"?>\n<!DOCTYPE mujoco [<!ENTITY a "aaaaaaaaaa">'
+    + "".join(f'<!ENTITY {c} "{("&" + p + ";") * 10}">' for p, c in zip("abcdefg", "bcdefgh", strict=True))
+    + "]>\n"
+)
+XXE = '<?xml version="1.0"?>\n<!DOCTYPE mujoco [<!ENTITY x SYSTEM "file:///etc/hostname">]>\n'
+
+
+@pytest.mark.parametrize(
+    ("case", "message"),
+    [
+        ("malformed", "not well-formed XML"),
+        ("entity-bomb", "declares <!DOCTYPE ...>; a model needs no DOCTYPE or entities"),
+        ("xxe", "declares <!DOCTYPE ...>"),
+        ("absolute-include", r'<include file="/[^"]*/inc.xml">: an include must be a relative path inside'),
+        ("include-leaves", r'<include file="../inc.xml"> leaves the model\'s folder'),
+    ],
+)
+def test_a_bad_model_in_a_systems_folder_is_one_line(tmp_path, capsys, case, message):
+    """`run --systems DIR` of a folder whose model is malformed, holds an entity bomb or an external
+    entity, or includes a file by absolute path or outside its folder: status 2, one error line naming
+    the cause, nothing written."""
+    from lagrange_xval.validate.cli import main
+
+    text = (ROOT / "models/simple_pendulum.xml").read_text()
+    head = text.index("<mujoco")
+    folder = tmp_path / "systems"
+    folder.mkdir()
+    (tmp_path / "inc.xml").write_text('<mujoco><option timestep="0.002"/></mujoco>')
+    body = {
+        "malformed": text[:300],
+        "entity-bomb": BOMB + text[head:].replace("<mujoco", '<mujoco model="&h;"', 1),
+        "xxe": XXE + text[head:].replace("<mujoco", '<mujoco model="&x;"', 1),
+        "absolute-include": text.replace("<worldbody>", f'<include file="{tmp_path / "inc.xml"}"/><worldbody>'),
+        "include-leaves": text.replace("<worldbody>", '<include file="../inc.xml"/><worldbody>'),
+    }[case]
+    (folder / "x.xml").write_text(body)
+    shutil.copy(ROOT / "equations/simple_pendulum.py", folder / "x.py")
+    out = tmp_path / "out"
+    assert main(["run", "--systems", str(folder), "--out", str(out), "--no-replay"]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1 and re.search(message, lines[0]), lines[-3:]
+    assert lines[0].startswith("lagrange-xval: error: x.xml: ") and not out.exists()

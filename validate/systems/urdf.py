@@ -37,6 +37,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import HarnessError
+from .bounds import check_numbers
 
 ROOT = "robot"
 UNBOUNDED = 1e10  # the limits of a continuous joint handed to Pinocchio as revolute, in rad
@@ -176,10 +177,12 @@ def compile_urdf(text: str, source: str) -> Any:
 
 def _compiled(spec: Any, source: str) -> Any:
     try:
-        return spec.compile()
+        model = spec.compile()
     except Exception as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise HarnessError(f"{source}: MuJoCo cannot compile this URDF: {first}") from None
+    check_numbers(model, source)
+    return model
 
 
 def for_pinocchio(text: str, source: str) -> str:
