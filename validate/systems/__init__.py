@@ -21,8 +21,7 @@ from typing import TYPE_CHECKING, Any
 from ..errors import HarnessError, unknown_name
 from ..guard import DEFAULT_TIME_LIMIT, Guard, Stopped, guard_module
 from ..inputs import regular_file
-from . import textform, urdf
-from .bounds import check_numbers, check_text
+from . import bounds, textform, urdf
 from .forms import input_name, normalize
 from .memo import Memo
 from .modelview import ModelView, from_mujoco
@@ -72,7 +71,7 @@ def _model_file(path: Path) -> tuple[str, str]:
 
     try:
         text = regular_file(path, "model file", max_bytes=MAX_MJCF_BYTES).decode()
-        check_text(text, path.name, path.resolve().parent)  # before any parse: DOCTYPE, includes, size
+        bounds.check_text(text, path.name, path.resolve().parent)  # before any parse: DOCTYPE, includes, size
         root = ET.fromstring(text).tag
     except (ET.ParseError, UnicodeDecodeError) as exc:
         raise HarnessError(f"{path.name}: not well-formed XML ({exc}).") from None
@@ -155,8 +154,7 @@ def compile_mjcf(path: Path, overrides: tuple[tuple[str, float], ...] = (), text
     except Exception as exc:  # mujoco raises ValueError with a multi-line message
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise HarnessError(f"{path.name}: not a valid MJCF model: {first}") from None
-    check_numbers(model, path.name)
-    return model
+    return bounds.check_numbers(model, path.name)
 
 
 @dataclass(frozen=True)

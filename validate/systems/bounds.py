@@ -142,8 +142,8 @@ _FIELDS = (  # (MjModel array, the kind of element that holds each row, what it 
 )
 
 
-def check_numbers(model: Any, source: str) -> None:
-    """Refuses a compiled model whose gravity or a number of a body or joint is not finite or exceeds
+def check_numbers(model: Any, source: str) -> Any:
+    """`model`, refused if its gravity or a number of a body or joint is not finite or exceeds
     MAX_MAGNITUDE, naming each such field (the first three) and the element."""
     import mujoco
     import numpy as np
@@ -151,7 +151,7 @@ def check_numbers(model: Any, source: str) -> None:
     bad = _bad("gravity", "option", model.opt.gravity)
     for array, kind, what in _FIELDS:
         rows = {"body": model.nbody, "joint": model.njnt, "dof": model.nv}[kind]
-        values = np.asarray(getattr(model, array), dtype=float).reshape(rows, -1) if rows else []
+        values = np.asarray(getattr(model, array), dtype=float).reshape(rows, -1) if rows else np.zeros((0, 1))
         for i, row in enumerate(values):
             if bad_row := _bad(what, kind, row):
                 owner = int(model.dof_jntid[i]) if kind == "dof" else i
@@ -164,6 +164,7 @@ def check_numbers(model: Any, source: str) -> None:
             f"{source}: {'; '.join(bad[:3])}{more}; every number the dynamics read must be finite and at most "
             f"{MAX_MAGNITUDE:.0e} in size."
         )
+    return model
 
 
 def _bad(what: str, kind: str, row: Any) -> list[str]:

@@ -181,8 +181,7 @@ def _compiled(spec: Any, source: str) -> Any:
     except Exception as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise HarnessError(f"{source}: MuJoCo cannot compile this URDF: {first}") from None
-    check_numbers(model, source)
-    return model
+    return check_numbers(model, source)
 
 
 def for_pinocchio(text: str, source: str) -> str:
