@@ -419,3 +419,114 @@ def test_a_bad_model_in_a_systems_folder_is_one_line(tmp_path, capsys, case, mes
     lines = capsys.readouterr().err.splitlines()
     assert len(lines) == 1 and re.search(message, lines[0]), lines[-3:]
     assert lines[0].startswith("lagrange-xval: error: x.xml: ") and not out.exists()
+
+
+# ---- names with /, :, spaces and Unicode --------------------------------------------------------------
+
+NAMES = {'"link1"': '"upper arm:1"', '"link2"': '"fore/arm"', 'name="theta"': 'name="arm/theta"'}
+NAMES_MODULE = {"link1": "upper arm:1", "link2": "fore/arm"}
+
+
+def _named_system(folder: Path) -> tuple[Path, Path]:
+    """The double pendulum of the notes with a body `upper arm:1`, a body `fore/arm`, a joint `arm/theta`
+    and a joint `φ elbow`: its model and its hand derivation, the keys renamed."""
+    text = (ROOT / "models/double_pendulum_point.xml").read_text()
+    for old, new in {**NAMES, 'name="phi"': 'name="\u03c6 elbow"'}.items():
+        text = text.replace(old, new)
+    module = (ROOT / "equations/double_pendulum_point.py").read_text()
+    for old, new in NAMES_MODULE.items():
+        module = module.replace(old, new)
+    module = module.replace('JOINTS = ("theta", "phi")', 'JOINTS = ("arm/theta", "\u03c6 elbow")')
+    module = module.replace('hinge("theta"', 'hinge("arm/theta"').replace('hinge("phi"', 'hinge("\u03c6 elbow"')
+    (folder / "names.xml").write_text(text)
+    (folder / "names.py").write_text(module)
+    return folder / "names.xml", folder / "names.py"
+
+
+def test_key_parts_keep_a_name_whole():
+    """The kind is a key's first part and the field its last: whatever the name holds stays whole."""
+    from lagrange_xval.validate.systems.modelview import key_parts, names
+
+    assert key_parts("joint/arm/theta/damping") == ("joint", "arm/theta", "damping")
+    assert key_parts("body/upper arm:1/com") == ("body", "upper arm:1", "com")
+    assert key_parts("gravity") is None and key_parts("scale/mass") is None
+    keys = ["gravity", "joint/a/b/type", "joint/a/b/axis", "joint/\u03c6 c/type", "body/a/b/mass"]
+    assert names(keys, "joint", "type") == ["a/b", "\u03c6 c"]
+
+
+def test_names_with_slashes_colons_spaces_and_unicode_pass(tmp_path):
+    """A derivation of a model whose joints and bodies are named `arm/theta`, `φ elbow`, `upper arm:1`
+    and `fore/arm` is read, keyed and judged as the original (it passes); the joints are whole."""
+    model, equations = _named_system(tmp_path)
+    system = lx.System.from_files(model, equations)
+    assert system.model_joints == ("arm/theta", "\u03c6 elbow")
+    assert system.bodies == ("upper arm:1", "fore/arm")
+    result = lx.check(system, n_states=50, probes=1)
+    assert result.passed, result.statement
+
+
+def test_the_text_form_binds_keys_with_such_names(tmp_path):
+    """`m1 = "body/upper arm:1/mass"`: a key with spaces, a colon and a slash in its name is one key."""
+    model, _ = _named_system(tmp_path)
+    (tmp_path / "t.toml").write_text(
+        "\n".join(
+            [
+                'coordinates = ["th", "ph"]',
+                'joints = ["arm/theta", "\u03c6 elbow"]',
+                'T = "m1/2*(l1*dth)^2 + m2/2*((l1*dth)^2 + (l2*(dth + dph))^2 + 2*l1*l2*dth*(dth + dph)*cos(ph))"',
+                'V = "-m1*g*l1*cos(th) - m2*g*(l1*cos(th) + l2*cos(th + ph))"',
+                "[symbols]",
+                'm1 = "body/upper arm:1/mass"',
+                'm2 = "body/fore/arm/mass"',
+                'l1 = "-body/fore/arm/pos[1]"',
+                'l2 = "-body/fore/arm/com[1]"',
+                'g = "-gravity[1]"',
+            ]
+        )
+    )
+    module = textform.module_from_file(tmp_path / "t.toml", model_view(model))
+    assert module.JOINTS == ("arm/theta", "\u03c6 elbow") and module.BODIES == ("upper arm:1", "fore/arm")
+    p = module.parameters(model_view(model))
+    assert (p.m1, p.m2, p.l1, p.l2) == (1.0, 1.0, 1.0, 1.0)
+
+
+def test_lock_takes_a_joint_named_with_a_slash(tmp_path, capsys):
+    """`--lock arm/shoulder` locks that URDF joint (the name was cut at the slash before)."""
+    from lagrange_xval.validate.cli import main
+
+    text = (ROOT / "examples/urdf/spatial_arm.urdf").read_text()
+    (tmp_path / "arm.urdf").write_text(text.replace('"shoulder"', '"arm/shoulder"').replace('"link2"', '"fore arm:2"'))
+    system = lx.System.model_only(tmp_path / "arm.urdf", locked=("arm/shoulder",))
+    assert system.model_joints == ("yaw", "elbow")
+    assert main(["audit", str(tmp_path / "arm.urdf"), "--lock", "arm/shoulder"]) == 0, capsys.readouterr().err
+
+
+def test_replay_paths_escape_names():
+    """A body `fore/arm` is one entity of the recording, not two levels; spaces and colons are escaped."""
+    from lagrange_xval.validate.replay.recording import part
+
+    assert part("fore/arm") == "fore\\/arm" and part("upper arm:1") == "upper\\ arm\\:1"
+
+
+@pytest.mark.parametrize("name", ["_x", ".x", " x"])
+def test_a_system_name_outside_the_rule_is_refused(tmp_path, capsys, name):
+    """`run --systems DIR` with `_x.xml` and `_x.py`: one error line stating the rule, status 2."""
+    from lagrange_xval.validate.cli import main
+
+    folder = tmp_path / "systems"
+    folder.mkdir()
+    shutil.copy(ROOT / "models/simple_pendulum.xml", folder / f"{name}.xml")
+    shutil.copy(ROOT / "equations/simple_pendulum.py", folder / f"{name}.py")
+    assert main(["run", "--systems", str(folder), "--out", str(tmp_path / "out"), "--no-replay"]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1 and f"{name!r} is not a system name" in lines[0], lines
+    assert "not starting with _ or ." in lines[0]
+
+
+def test_new_refuses_a_name_starting_with_underscore(tmp_path, capsys):
+    from lagrange_xval.validate.cli import main
+
+    shutil.copy(ROOT / "models/simple_pendulum.xml", tmp_path / "sp.xml")
+    assert main(["new", "_x", "--model", str(tmp_path / "sp.xml")]) == 2
+    assert "'_x' is not a valid module name" in capsys.readouterr().err
+    assert not (tmp_path / "_x.py").exists()

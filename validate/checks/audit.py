@@ -27,6 +27,7 @@ from ..engines import make_source
 from ..engines.base import Source, engine_of
 from ..errors import HarnessError
 from ..systems import System
+from ..systems.modelview import key_parts
 from .modelsync import mujoco_joint_frames
 from .pointwise import random_states
 
@@ -149,7 +150,8 @@ def _row(key: str, values: dict[str, Any], floor: float) -> dict[str, Any]:
     if agree:
         return row
     row["minority"] = odd
-    name, field = key.split("/")[1], key.split("/")[-1]
+    parts = key_parts(key)
+    name, field = (parts[1], parts[2]) if parts else (key, key)
     if odd is None:
         row["finding"] = f"{name}'s {field}: no two readers agree ({', '.join(LABEL[r] for r in values)})"
         return row

@@ -24,7 +24,7 @@ from ..inputs import regular_file
 from . import bounds, textform, urdf
 from .forms import input_name, normalize
 from .memo import Memo
-from .modelview import ModelView, from_mujoco
+from .modelview import ModelView, from_mujoco, names
 from .overrides import apply_overrides, parse
 
 if TYPE_CHECKING:  # numpy and mujoco are loaded when first used
@@ -170,7 +170,7 @@ class System:
     text: str | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
-
+        bounds.check_system_name(self.name)
         if self.equations is not None:  # None: the model alone (`model_only`), no derivation to check
             object.__setattr__(self, "equations", normalize(self.equations))
 
@@ -226,7 +226,7 @@ class System:
     @property
     def model_joints(self) -> tuple[str, ...]:
         """The model's joints, in the model's order."""
-        return tuple(k.split("/")[1] for k in self.view if k.startswith("joint/") and k.endswith("/type"))
+        return tuple(names(self.view, "joint", "type"))
 
     @property
     def joints(self) -> tuple[str, ...]:
@@ -293,11 +293,7 @@ class System:
             given = getattr(self.equations, "BODIES", None)
             return tuple(given) if given is not None else self._posed_bodies()
         moved = {self.view[f"joint/{j}/body"] for j in self.joints}
-        return tuple(
-            b
-            for b in (k.split("/")[1] for k in self.view if k.startswith("body/") and k.endswith("/mass"))
-            if b in moved
-        )
+        return tuple(b for b in names(self.view, "body", "mass") if b in moved)
 
     def _posed_bodies(self) -> tuple[str, ...]:
         """The bodies a module's body_positions() (or body_rotations()) names, read at q = 0."""
@@ -334,7 +330,7 @@ class System:
     @property
     def actuators(self) -> tuple[str, ...]:
         """The model's actuators, in the model's order."""
-        return tuple(k.split("/")[1] for k in self.view if k.startswith("actuator/") and k.endswith("/joint"))
+        return tuple(names(self.view, "actuator", "joint"))
 
     @property
     def input_matrix(self) -> np.ndarray:
@@ -548,7 +544,7 @@ def pairs_and_lonely(folder: Path) -> tuple[list[tuple[Path, Path]], list[Path]]
     if twice:
         raise HarnessError(f"{folder}: {', '.join(twice)} has both an .xml and a .urdf model; keep one.")
     models = {p.stem: p for p in found}
-    modules = {p.stem: p for p in folder.glob("*.py") if p.stem != "__init__"}  # `_arm` is a system too
+    modules = {p.stem: p for p in folder.glob("*.py") if p.stem != "__init__"}  # `_arm` is refused, by name
     lonely = sorted((models | modules)[n] for n in models.keys() ^ modules.keys())
     paired = sorted(models.keys() & modules.keys())
     if not paired and not lonely:

@@ -124,6 +124,28 @@ def _include(node: ET.Element, source: str, folder: Path | None, sizes: list[int
     return _parse(text, f"{source} (included {shown_name})")
 
 
+MAX_NAME_CHARS = 100
+
+
+def check_system_name(name: str) -> None:
+    """Refuses a system name outside the rule: the stem its files share, 1 to MAX_NAME_CHARS printable
+    characters (spaces, `:` and any Unicode letter are fine), not starting with `_` or `.` (the
+    harness's helpers start so, like equations/_forms.py, and hidden files), without `/` or `\\`."""
+    ok = (
+        0 < len(name) <= MAX_NAME_CHARS
+        and name.isprintable()
+        and name[0] not in "_."
+        and not any(c in name for c in "/\\")
+        and name.strip() == name
+    )
+    if not ok:
+        raise HarnessError(
+            f"{shown(name, 120)!r} is not a system name: a system is named after the stem its files share, 1 to "
+            f"{MAX_NAME_CHARS} printable characters, not starting with _ or . (the harness's helpers and hidden "
+            "files do), without / or \\ or spaces at either end; rename its files."
+        )
+
+
 # ---- the compiled numbers -------------------------------------------------------------------------------
 
 _FIELDS = (  # (MjModel array, the kind of element that holds each row, what it is)

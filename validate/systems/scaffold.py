@@ -27,10 +27,10 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import HarnessError
+from ..errors import HarnessError, shown
 from ..files import create_file
 from . import System
-from .modelview import ModelView
+from .modelview import ModelView, key_parts, names
 
 
 def _ident(name: str) -> str:
@@ -54,7 +54,10 @@ def field_of(key: str, entry: Any = None) -> str:
     inertia's): `field_of("body/link/com", 1)` is "cy_link". `derive --python` binds its symbols so."""
     if key == "gravity":
         return "g"
-    kind, name, what = key.split("/")
+    parts = key_parts(key)
+    if parts is None:
+        raise ValueError(f"not a key of a body, joint or actuator: {key!r}")
+    kind, name, what = parts
     table = {"body": _BODY_FIELDS, "joint": _JOINT_FIELDS, "actuator": {"gear": "gear"}}[kind]
     if isinstance(entry, tuple):
         suffix = "".join("xyz"[k] for k in sorted(entry))
@@ -130,7 +133,7 @@ def _parts(view: ModelView, model: Path, locked: tuple[str, ...]) -> _Parts:
     keys = list(view)
 
     def named(kind: str, last: str) -> list[str]:
-        return [k.split("/")[1] for k in keys if k.startswith(f"{kind}/") and k.endswith(f"/{last}")]
+        return names(keys, kind, last)
 
     gravity = np.asarray(view["gravity"], dtype=float)
     g = float(np.linalg.norm(gravity))
@@ -273,8 +276,11 @@ def module_text(name: str, model: Path, *, locked: tuple[str, ...] = ()) -> str:
 def write_module(name: str, model: Path, folder: Path | None = None, *, locked: tuple[str, ...] = ()) -> Path:
     """Writes FOLDER/NAME.py (default: the model's folder) for the model with its `locked` joints made
     fixed; refuses to overwrite a file."""
-    if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name) or keyword.iskeyword(name):
-        raise HarnessError(f"'{name}' is not a valid module name: use letters, digits and _ (not first a digit).")
+    if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", name) or keyword.iskeyword(name):
+        raise HarnessError(
+            f"{shown(name, 120)!r} is not a valid module name: use letters, digits and _ (first a letter: a system "
+            "named _x is refused, the harness's helpers start with _)."
+        )
     model = Path(model)
     if not model.is_file():
         raise HarnessError(f"model file not found: {model} (give an MJCF .xml or a URDF .urdf file).")

@@ -52,12 +52,15 @@ import numpy as np
 
 from ..errors import HarnessError, shown
 from ..inputs import regular_file
-from . import tracing
+from . import modelview, tracing
 from .expression import CONSTANTS, FUNCTIONS, lambdified, normalized, to_sympy
 
 MAX_BYTES = 2**20
 KEYS = ("description", "coordinates", "velocities", "joints", "T", "V", "friction", "symbols")
-_BINDING = re.compile(r"^\s*(-)?\s*(?:(\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)\s*\*\s*)?([^\s\[\]*]+)((?:\[\s*\d+\s*\])*)\s*$")
+_BINDING = re.compile(  # the key may hold spaces inside a name (body/upper arm/mass), not at its ends
+    r"^\s*(-)?\s*(?:(\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)\s*\*\s*)?([^\s\[\]*](?:[^\[\]*]*[^\s\[\]*])?)"
+    r"((?:\[\s*\d+\s*\])*)\s*$"
+)
 
 
 @dataclass(frozen=True)
@@ -236,7 +239,7 @@ def _uses(view: Mapping[str, Any], joints: tuple[str, ...]) -> frozenset[str]:
 def _bodies(view: Mapping[str, Any], joints: tuple[str, ...]) -> tuple[str, ...]:
     """The bodies the joints move, in the model's order (what the engines are compared on)."""
     moved = {view[f"joint/{j}/body"] for j in joints}
-    bodies = [k.split("/")[1] for k in view if k.startswith("body/") and k.endswith("/mass")]
+    bodies = modelview.names(view, "body", "mass")
     return tuple(b for b in bodies if b in moved)
 
 
@@ -263,7 +266,7 @@ def module_from_file(path: Path, view: Mapping[str, Any]) -> types.ModuleType:
     import sympy as sp
 
     path = Path(path)
-    joints_of_model = tuple(k.split("/")[1] for k in view if k.startswith("joint/") and k.endswith("/type"))
+    joints_of_model = tuple(modelview.names(view, "joint", "type"))
     spec = read_spec(path, joints_of_model)
     for b in spec.bindings:  # every key and index must exist now, not at the first parameters() call
         try:
