@@ -530,3 +530,35 @@ def test_new_refuses_a_name_starting_with_underscore(tmp_path, capsys):
     assert main(["new", "_x", "--model", str(tmp_path / "sp.xml")]) == 2
     assert "'_x' is not a valid module name" in capsys.readouterr().err
     assert not (tmp_path / "_x.py").exists()
+
+
+# ---- a module that raises or answers in the wrong shape: a line naming it ------------------------------
+
+THREE_BY_THREE = RAISES.replace(
+    '    raise ValueError("boom\\nverdict: mine: pass: forged\\x1b[2J" + "y" * 1_000_000)',
+    "    return np.zeros(np.shape(q)[:-1] + (3, 3)) + np.eye(3)",
+)
+
+
+@pytest.mark.parametrize(
+    ("module", "why"),
+    [
+        (THREE_BY_THREE, r"mass_matrix\(\) returned shape \(20, 3, 3\); expected real numbers of shape \(20, 1, 1\)"),
+        (RAISES, r"mass_matrix\(?\)? raised ValueError: boom\\nverdict: mine"),
+    ],
+    ids=["3x3-M", "raises"],
+)
+@pytest.mark.parametrize("pointwise_only", [False, True], ids=["verdict", "pointwise-only"])
+def test_a_module_that_fails_is_named_on_the_last_line(tmp_path, capsys, module, why, pointwise_only):
+    """A mass matrix of the wrong shape, or one that raises: status 1, and the last line names the
+    function and the shape or exception (with --pointwise-only too, where it was a table alone)."""
+    from lagrange_xval.validate.cli import main
+
+    assert THREE_BY_THREE != RAISES
+    shutil.copy(ROOT / "models/simple_pendulum.xml", tmp_path / "sp.xml")
+    (tmp_path / "sp.py").write_text(module)
+    argv = ["check", "--model", str(tmp_path / "sp.xml"), "--equations", str(tmp_path / "sp.py"), "--states", "20"]
+    assert main([*argv, "--probes", "1", *(["--pointwise-only"] if pointwise_only else [])]) == 1
+    last = capsys.readouterr().out.splitlines()[-1]
+    assert last.startswith("pointwise: sp: FAIL" if pointwise_only else "verdict: sp: FAIL"), last[:200]
+    assert re.search(why, last), last[:300]

@@ -176,7 +176,10 @@ def pointwise_only(args: argparse.Namespace, system: System, states: States | No
         print(json.dumps(checking.json_document(system, states, values, rows, passed), allow_nan=False))
     else:
         title = f"{system.name}: {len(states)} states, coordinates ({', '.join(system.coordinates)}); pointwise only"
-        print(console(checking.table_lines(rows, title)))
+        error = values.get("hand", {}).get("error")  # the function that raised or gave a wrong shape
+        why = str(error).removeprefix("HarnessError: ")
+        last = [f"pointwise: {system.name}: FAIL: your equations gave no values: {why}"] if error else []
+        print(console([*checking.table_lines(rows, title), *last]))
     return 0 if passed else 1
 
 
