@@ -19,7 +19,7 @@ from ..dynamics.cache import CACHE_ENV, usable
 from ..dynamics.cachedir import Cache
 from ..engines import make_sources
 from ..engines.base import Source
-from ..errors import HarnessError, console
+from ..errors import HarnessError, console, shown
 from ..guard import DEFAULT_TIME_LIMIT
 from ..inputs import parse_json, regular_file
 from ..parallel import named_executor
@@ -55,7 +55,7 @@ def describe(name: str) -> tuple[bool, list[str]]:
     try:
         lines = system_lines(load(name))
     except Exception as exc:  # noqa: BLE001 - one broken equations module does not hide the others
-        why = str(exc) if isinstance(exc, HarnessError) else f"equations/{name}.py: {type(exc).__name__}: {exc}"
+        why = str(exc) if isinstance(exc, HarnessError) else f"equations/{name}.py: {type(exc).__name__}: {shown(exc)}"
         return False, [f"{name}: BROKEN: {' '.join(why.split())}"]
     return True, lines
 
@@ -87,7 +87,7 @@ def describe_files(model: Path, equations: Path | None) -> tuple[bool, list[str]
     try:
         s = System.from_files(model, equations) if equations is not None else System.model_only(model)
     except Exception as exc:  # noqa: BLE001 - one broken module does not hide the others
-        why = str(exc) if isinstance(exc, HarnessError) else f"{equations}: {type(exc).__name__}: {exc}"
+        why = str(exc) if isinstance(exc, HarnessError) else f"{equations}: {type(exc).__name__}: {shown(exc)}"
         return False, [f"{model.stem}: BROKEN: {' '.join(why.split())}"]
     return True, system_lines(s)
 

@@ -18,7 +18,7 @@ from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
-from ..errors import HarnessError, unknown_name
+from ..errors import HarnessError, shown, unknown_name
 from ..guard import DEFAULT_TIME_LIMIT, Guard, Stopped, guard_module
 from ..inputs import regular_file
 from . import bounds, textform, urdf
@@ -516,7 +516,7 @@ def load_module(path: Path, *, model: Path | None = None, time_limit: float = DE
         raise HarnessError(str(stop)) from None
     except Exception as exc:  # noqa: BLE001 - the user's module failing on import is reported in one line
         sys.modules.pop(name, None)
-        raise HarnessError(f"{path}: importing it raised {type(exc).__name__}: {exc}") from None
+        raise HarnessError(f"{path}: importing it raised {type(exc).__name__}: {shown(exc)}") from None
     return _check_contract(guard_module(module, guard), str(path))
 
 
