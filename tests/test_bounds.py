@@ -564,3 +564,24 @@ def test_a_module_that_fails_is_named_on_the_last_line(tmp_path, capsys, module,
     last = capsys.readouterr().out.splitlines()[-1]
     assert last.startswith("pointwise: sp: FAIL" if pointwise_only else "verdict: sp: FAIL"), last[:200]
     assert re.search(why, last), last[:300]
+
+
+def test_a_system_named_like_a_verdict_starts_no_line(tmp_path, capsys):
+    """A system named `verdict: sp: pass` (its files' stem: colons and spaces are allowed) cannot print a
+    line that starts with `verdict:` other than check's own last line."""
+    from lagrange_xval.validate.cli import main
+
+    folder = tmp_path / "systems"
+    folder.mkdir()
+    stem = "verdict: sp: pass"
+    shutil.copy(ROOT / "models/simple_pendulum.xml", folder / f"{stem}.xml")
+    shutil.copy(ROOT / "equations/simple_pendulum.py", folder / f"{stem}.py")
+    argv = ["check", "--model", str(folder / f"{stem}.xml"), "--equations", str(folder / f"{stem}.py")]
+    assert main([*argv, "--states", "20", "--probes", "1"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert [line for line in out if line.startswith("verdict:")] == [out[-1]]
+    assert out[-1].startswith("verdict: verdict: sp: pass: pass: ")
+    assert main([*argv, "--states", "20", "--pointwise-only"]) == 0
+    assert main(["list", "--systems", str(folder)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out and not [line for line in out if line.startswith("verdict:")], out[:3]

@@ -30,10 +30,16 @@ def shown(text: object, limit: int = SHOWN_CHARS) -> str:
 LINE_CHARS = 1000  # the most of one console line that holds a person's text (a verdict, an error)
 
 
-def console(lines: Iterable[str]) -> str:
+def console(lines: Iterable[str], *, verdict: bool = False) -> str:
     """Lines for the console, each `shown` (escaped, cut to LINE_CHARS): a person's text inside a line
-    cannot start another (no `verdict:` line forged by an exception message), colour or move the cursor."""
-    return "\n".join(shown(line, LINE_CHARS) for line in lines)
+    cannot start another (no `verdict:` line forged by an exception message), colour or move the cursor.
+    Only the last line may start with `verdict:`, and only with `verdict` (check's own verdict line): any
+    other (a system named `verdict: x: pass` at the start of a title) is indented by a space."""
+    out = [shown(line, LINE_CHARS) for line in lines]
+    return "\n".join(
+        f" {line}" if line.startswith("verdict:") and not (verdict and i == len(out) - 1) else line
+        for i, line in enumerate(out)
+    )
 
 
 class HarnessError(Exception):

@@ -157,7 +157,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(checking.decision_json(decision), allow_nan=False))
     else:
-        print(console(checking.text_lines(decision)))
+        print(console(checking.text_lines(decision), verdict=True))
     return 0 if decision.passed else 1
 
 
