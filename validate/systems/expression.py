@@ -318,20 +318,22 @@ class _Parser:
 CHUNK = 64  # the most terms of one sum or product in one line of generated code
 
 
-def lambdified(args: list[Any], exprs: list[Any], *, modules: str = "numpy") -> Any:
-    """`sympy.lambdify(args, exprs)` with common subexpressions, and every sum or product of more than
-    CHUNK terms computed in parts of CHUNK, each a line of its own: Python compiles `a + b + c + ...` as
-    a tree as deep as it has terms, and 3,000 terms pass its recursion limit."""
+def lambdified(args: list[Any], exprs: list[Any], *, common: bool = True) -> Any:
+    """`sympy.lambdify(args, exprs)` in numpy, with common subexpressions (`common`) and every sum or
+    product of more than CHUNK terms computed in parts of CHUNK, each a line of its own: Python compiles
+    `a + b + c + ...` as a tree as deep as it has terms, and 3,000 terms pass its recursion limit."""
+    import functools
+
     import sympy as sp
 
-    return sp.lambdify(args, exprs, modules=modules, dummify=True, cse=_split_cse)
+    return sp.lambdify(args, exprs, modules="numpy", dummify=True, cse=functools.partial(_split_cse, common=common))
 
 
-def _split_cse(exprs: Any) -> tuple[list[tuple[Any, Any]], Any]:
-    """sympy's cse, then every long sum or product split (the `cse` argument of lambdify)."""
+def _split_cse(exprs: Any, *, common: bool) -> tuple[list[tuple[Any, Any]], Any]:
+    """sympy's cse (with `common`), then every long sum or product split (the `cse` argument of lambdify)."""
     import sympy as sp
 
-    replacements, reduced = sp.cse(exprs)
+    replacements, reduced = sp.cse(exprs) if common else ([], list(exprs))
     out: list[tuple[Any, Any]] = []
     for symbol, value in replacements:
         out.append((symbol, _split(value, out)))

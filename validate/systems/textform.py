@@ -216,7 +216,7 @@ class Compiled:
     @classmethod
     def of(cls, exprs: list[Any], args: list[Any]) -> Compiled:
 
-        return cls(tuple(exprs), tuple(args), lambdified(args, exprs))
+        return cls(tuple(exprs), tuple(args), lambdified(args, exprs, common=False))
 
     def __call__(self, values: list[Any]) -> list[Any]:
         traced = [x for x in values if isinstance(x, tracing.Traced)]
