@@ -14,6 +14,7 @@ import subprocess
 import sys
 import tracemalloc
 import types
+import urllib.parse
 import zipfile
 from pathlib import Path
 
@@ -585,3 +586,30 @@ def test_a_system_named_like_a_verdict_starts_no_line(tmp_path, capsys):
     assert main(["list", "--systems", str(folder)]) == 0
     out = capsys.readouterr().out.splitlines()
     assert out and not [line for line in out if line.startswith("verdict:")], out[:3]
+
+
+@pytest.mark.long
+def test_run_writes_every_report_of_a_system_with_such_names(tmp_path):
+    """`run --systems DIR` of a system named `my arm: θ` whose joints and bodies hold `/`, `:`, spaces and
+    Unicode: status 0, the reports, the recording (no rerun path warnings) and markdown image links that
+    resolve."""
+    folder = tmp_path / "systems"
+    folder.mkdir()
+    model, equations = _named_system(tmp_path)
+    stem = "my arm: \u03b8"
+    model.rename(folder / f"{stem}.xml")
+    equations.rename(folder / f"{stem}.py")
+    out = tmp_path / "out"
+    done = subprocess.run(
+        [sys.executable, "-m", "lagrange_xval.validate.cli", "run", "--systems", str(folder), "--out", str(out)]
+        + ["--states", "50", "--probes", "1"],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "WARN" not in done.stderr, done.stderr[-2000:]
+    assert stem in json.loads((out / "results.json").read_text())["systems"]
+    assert (out / f"{stem}.rrd").stat().st_size > 0
+    links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", (out / "report.md").read_text())
+    assert links and all((out / urllib.parse.unquote(link)).is_file() for link in links), links

@@ -8,6 +8,7 @@ import base64
 import re
 from pathlib import Path
 from typing import Any
+from urllib.parse import quote
 
 from ..errors import escaped
 from .document import (
@@ -60,7 +61,7 @@ def _md_blocks(blocks: Any) -> list[str]:
             out += ["| " + " | ".join(_md_cell(c) for c in row) + " |" for row in b.rows]
             out.append("")
         elif isinstance(b, Figure):
-            out += [f"![{b.alt}]({b.path})", "", f"*{b.caption}*", ""]
+            out += [f"![{escaped(b.alt)}]({quote(b.path)})", "", f"*{escaped(b.caption)}*", ""]  # a name with spaces
         elif isinstance(b, Code):
             out += ["```sh", b.text, "```", ""]
         elif isinstance(b, Items):
