@@ -613,3 +613,14 @@ def test_run_writes_every_report_of_a_system_with_such_names(tmp_path):
     assert (out / f"{stem}.rrd").stat().st_size > 0
     links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", (out / "report.md").read_text())
     assert links and all((out / urllib.parse.unquote(link)).is_file() for link in links), links
+
+
+def test_derive_names_coordinates_of_such_joints_as_identifiers(tmp_path, capsys):
+    """`derive --model` of joints `arm/theta` and `φ elbow` writes its equations in arm_theta and φ_elbow
+    (as `new` names them), never `darm/theta`, which reads as a division."""
+    from lagrange_xval.validate.cli import main
+
+    model, _ = _named_system(tmp_path)
+    assert main(["derive", "--model", str(model)]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("coordinates: arm_theta, \u03c6_elbow ") and "darm_theta" in out and "arm/theta" not in out

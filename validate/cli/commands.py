@@ -31,7 +31,7 @@ from ..results import load as load_results
 from ..studies.bench import bench_command
 from ..studies.stress import stress_command
 from ..systems import System, load, pairs_and_lonely, pairs_in, system_names, unpaired
-from ..systems.scaffold import write_module
+from ..systems.scaffold import identifier, write_module
 from . import check as checking
 from . import simulate
 from .audit import cmd_audit
@@ -353,6 +353,8 @@ def cmd_derive(args: argparse.Namespace) -> int:
                 f"({', '.join(joints)}); got {args.coordinates!r}."
             )
         coordinates = names
+    elif len({identifier(c) for c in coordinates}) == len(coordinates):  # joints `arm/theta`: arm_theta
+        coordinates = tuple(identifier(c) for c in coordinates)
     fmt = "latex" if args.latex else "python" if args.python else "text"
     simplify = args.simplify or len(joints) <= SIMPLIFY_MAX_DOF
     how = "simplifying each entry" if simplify else "exact, not simplified (--simplify: minutes)"

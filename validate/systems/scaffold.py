@@ -33,8 +33,8 @@ from . import System
 from .modelview import ModelView, key_parts, names
 
 
-def _ident(name: str) -> str:
-    """A Python identifier from a MuJoCo name."""
+def identifier(name: str) -> str:
+    """A Python identifier from a MuJoCo name (`arm/theta` is `arm_theta`, `φ elbow` is `φ_elbow`)."""
     out = re.sub(r"\W", "_", name)
     out = out if out and not out[0].isdigit() else f"_{out}"
     return f"{out}_" if keyword.iskeyword(out) else out
@@ -63,7 +63,7 @@ def field_of(key: str, entry: Any = None) -> str:
         suffix = "".join("xyz"[k] for k in sorted(entry))
     else:
         suffix = "" if entry is None else "xyz"[entry]
-    return f"{table[what]}{suffix}_{_ident(name)}"
+    return f"{table[what]}{suffix}_{identifier(name)}"
 
 
 def _body_fields(b: str) -> list[tuple[str, str, str]]:
@@ -143,7 +143,7 @@ def _parts(view: ModelView, model: Path, locked: tuple[str, ...]) -> _Parts:
 
 def _docstring(name: str, view: ModelView, parts: _Parts) -> list[str]:
     """The module docstring: its first paragraph is the system's description (the contract's default)."""
-    coords = tuple(_ident(j) for j in parts.joints)
+    coords = tuple(identifier(j) for j in parts.joints)
     lock = f" --lock {','.join(parts.locked)}" if parts.locked else ""
     t = [f'"""{name}: the equations of motion of {parts.model.name}, derived by hand.', ""]
     t.append(f"Written by `lagrange-xval new` from {parts.model}{lock}. Every number is read from the compiled")
@@ -186,7 +186,7 @@ def _header(parts: _Parts) -> list[str]:
         "",
     ]
     t += ["import numpy as np", "from lagrange_xval.forms import not_provided", ""]
-    t.append(f"COORDINATES = {tuple(_ident(j) for j in parts.joints)!r}")
+    t.append(f"COORDINATES = {tuple(identifier(j) for j in parts.joints)!r}")
     t.append(f"JOINTS = {tuple(parts.joints)!r}")
     t.append(f"BODIES = {tuple(parts.bodies)!r}")
     return [*t, f"GRAVITY_DIRECTION = np.array({_vec(parts.down)})"]
@@ -203,7 +203,7 @@ def _parameters(fields: list[tuple[str, str, str]]) -> list[str]:
 
 
 def _body_assumptions(view: ModelView, b: str) -> list[str]:
-    i = _ident(b)
+    i = identifier(b)
     return [
         f'        "body/{b}/parent": {view[f"body/{b}/parent"]!r},',
         f'        "body/{b}/mass": p.m_{i},',
@@ -216,7 +216,7 @@ def _body_assumptions(view: ModelView, b: str) -> list[str]:
 
 
 def _joint_assumptions(view: ModelView, j: str) -> list[str]:
-    i = _ident(j)
+    i = identifier(j)
     return [
         f'        "joint/{j}/type": {view[f"joint/{j}/type"]!r},',
         f'        "joint/{j}/body": {view[f"joint/{j}/body"]!r},',
@@ -238,7 +238,7 @@ def _assumptions(view: ModelView, parts: _Parts) -> list[str]:
     t += [line for j in parts.joints for line in _joint_assumptions(view, j)]
     for a in parts.actuators:
         t.append(f'        "actuator/{a}/joint": {view[f"actuator/{a}/joint"]!r},')
-        t.append(f'        "actuator/{a}/gear": p.gear_{_ident(a)},')
+        t.append(f'        "actuator/{a}/gear": p.gear_{identifier(a)},')
     return [*t, "    }"]
 
 
