@@ -35,6 +35,7 @@ MAX_CHARS = 200_000  # characters of one expression (a 3,000-term V of a 6-link 
 MAX_TERMS = 100_000  # numbers, names and operations of one expression
 MAX_DEPTH = 100  # nested parentheses, calls and exponents
 MAX_DIGITS = 308  # an integer literal of more digits is beyond a double
+MAX_EXPONENT = 1024  # of a power of a symbol: x^1025 overflows a double for any |x| > 2
 FUNCTIONS = {  # the name in the file -> sympy's
     "sin": "sin",
     "cos": "cos",
@@ -206,6 +207,11 @@ class _Parser:
                     f"is not finite: {shown(self.span(start), 100)!r} is about 10^{size:.3g}, beyond double "
                     "precision (|x| from 1e-308 to 1e308)"
                 )
+        elif exponent.is_number and abs(self.real(exponent, start)) > MAX_EXPONENT:
+            raise self.named(
+                f"is not finite: {shown(self.span(start), 100)!r} raises to a power of {float(exponent):.3g}; "
+                f"an exponent is at most {MAX_EXPONENT} in size (past it a double overflows or vanishes)"
+            )
         return self.count(sp.Pow(base, exponent))
 
     def atom(self) -> Any:
@@ -280,8 +286,8 @@ class _Parser:
                 raise self.refuse(token, f"has more than {MAX_DIGITS} digits, beyond double precision")
             return sp.Integer(int(token))
         value = float(token)
-        if not math.isfinite(value):
-            raise self.refuse(token, "is not a finite double (|x| up to 1.8e308)")
+        if not math.isfinite(value) or (value == 0 and any(c in "123456789" for c in token.split("e")[0].lower())):
+            raise self.refuse(token, "is not a double (|x| from 5e-324 to 1.8e308)")
         return sp.Float(value)
 
     def real(self, value: Any, start: int) -> float:
