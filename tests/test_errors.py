@@ -243,10 +243,13 @@ def test_a_closed_or_full_stdout_is_one_line():
     ], proc.stderr
 
 
-def test_stdout_holds_only_the_commands_output_without_home(tmp_path):
-    """heyoka logs on the process's stdout when HOME is unset; `--json` consumers must still get JSON."""
-    env = {k: v for k, v in os.environ.items() if k != "HOME"}
+def test_stdout_holds_only_the_commands_output_when_a_library_logs(tmp_path):
+    """heyoka logs on the process's stdout where its disk cache cannot be written (here: a path under a
+    file; HOME unset turns that cache off instead); `--json` consumers must still get JSON."""
+    (tmp_path / "file").write_text("")
+    env = dict(os.environ)
     code = (
+        f"import heyoka; heyoka.llvm_state.set_diskcache_path({str(tmp_path / 'file' / 'x')!r});"
         "import sys; from lagrange_xval.validate import cli, systems;"
         "from lagrange_xval.validate.dynamics import reference;"
         "from lagrange_xval.validate.dynamics.integrate import time_grid;"

@@ -3,7 +3,43 @@
 from __future__ import annotations
 
 import difflib
+import re
 from collections.abc import Iterable
+
+SHOWN_CHARS = 300  # the most of a person's text (a message, a name, a path) one console line shows
+# C0 and C1 control characters (ESC and CSI start terminal sequences), DEL, the Unicode line and paragraph
+# separators and the bidirectional overrides: none reaches a terminal as it is.
+_CONTROL = re.compile("[\x00-\x1f\x7f-\x9f\u2028\u2029\u202a-\u202e\u2066-\u2069]")
+
+
+def escaped(text: object) -> str:
+    """`text` as data on one line: every control character written as repr writes it (`\\n`, `\\x1b`),
+    so that no text a person controls can start a line, move the cursor or colour the terminal."""
+    return _CONTROL.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"), str(text))
+
+
+def shown(text: object, limit: int = SHOWN_CHARS) -> str:
+    """`text` escaped (`escaped`) and cut to `limit` characters, saying how many were left out: what the
+    console and one-line errors show of a person's text (`--json` keeps it whole)."""
+    out = escaped(text)
+    if len(out) <= limit:
+        return out
+    return f"{out[:limit]}... ({len(out) - limit} more characters)"
+
+
+LINE_CHARS = 1000  # the most of one console line that holds a person's text (a verdict, an error)
+
+
+def console(lines: Iterable[str], *, verdict: bool = False) -> str:
+    """Lines for the console, each `shown` (escaped, cut to LINE_CHARS): a person's text inside a line
+    cannot start another (no `verdict:` line forged by an exception message), colour or move the cursor.
+    Only the last line may start with `verdict:`, and only with `verdict` (check's own verdict line): any
+    other (a system named `verdict: x: pass` at the start of a title) is indented by a space."""
+    out = [shown(line, LINE_CHARS) for line in lines]
+    return "\n".join(
+        f" {line}" if line.startswith("verdict:") and not (verdict and i == len(out) - 1) else line
+        for i, line in enumerate(out)
+    )
 
 
 class HarnessError(Exception):

@@ -28,6 +28,7 @@ from ..engines.readers import read
 from ..errors import HarnessError
 from ..systems import System
 from ..systems.meaning import Reading, fields, urdf_meaning
+from ..systems.modelview import key_parts
 from . import importers
 from .chain import chain, dynamics
 from .features import features
@@ -105,7 +106,8 @@ def _cause(
 def _finding(
     reader: str, key: str, value: Any, reference: Any, fmt: str, found: set[str], names: tuple[str, ...]
 ) -> dict[str, Any]:
-    name, field = key.split("/")[1], key.split("/")[-1]
+    parts = key_parts(key)
+    name, field = (parts[1], parts[2]) if parts else (key, key)
     rotated = field != "inertia" or bool(
         np.allclose(np.linalg.eigvalsh(value), np.linalg.eigvalsh(reference), rtol=1e-6, atol=1e-15)
     )
@@ -166,7 +168,8 @@ def _rows(reference: Reading, readings: dict[str, Reading], fmt: str, found: set
             "agree": not wrong,
             "informational": key.endswith(INFORMATIONAL),
         }
-        names = scope.get(key.split("/")[1], (key.split("/")[1],))
+        name = (key_parts(key) or ("", key, ""))[1]
+        names = scope.get(name, (name,))
         row["misreads"] = [_finding(n, key, values[n], want, fmt, found, names) for n in wrong]
         rows.append(row)
     return rows

@@ -16,7 +16,7 @@ import sys
 from collections.abc import Iterator
 from typing import Any
 
-from ..errors import HarnessError, Terminated
+from ..errors import HarnessError, Terminated, console
 from ..guard import Stopped
 from .commands import COMMANDS
 from .parser import MAX_STATES_FILE_BYTES, build_parser, one_line
@@ -98,7 +98,7 @@ def _plain_logs() -> None:
 
 
 def _error(message: str) -> int:
-    print(f"lagrange-xval: error: {message}", file=sys.stderr)
+    print(console([f"lagrange-xval: error: {message}"]), file=sys.stderr)
     return 2
 
 
@@ -111,7 +111,7 @@ def main(argv: list[str] | None = None) -> int:
         with _stop_on_signals(), _only_own_output():
             return COMMANDS[args.command](args)
     except HarnessError as exc:
-        print(f"lagrange-xval: error: {exc}", file=sys.stderr)
+        print(console([f"lagrange-xval: error: {exc}"]), file=sys.stderr)
         return exc.exit_code
     except Stopped as stop:  # a person's module that hung or tried to exit (validate/guard.py)
         return _error(str(stop))

@@ -10,7 +10,7 @@ import argparse
 import json
 from pathlib import Path
 
-from ..errors import HarnessError
+from ..errors import HarnessError, console
 from ..systems import System, load, system_names
 
 
@@ -37,7 +37,7 @@ def cmd_audit(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(result, indent=1))
     else:
-        print("\n".join(lines(result)))
+        print(console(lines(result)))
     return 0 if result["passed"] else 1
 
 

@@ -19,7 +19,7 @@ from ..dynamics.cache import CACHE_ENV, usable
 from ..dynamics.cachedir import Cache
 from ..engines import make_sources
 from ..engines.base import Source
-from ..errors import HarnessError
+from ..errors import HarnessError, console, shown
 from ..guard import DEFAULT_TIME_LIMIT
 from ..inputs import parse_json, regular_file
 from ..parallel import named_executor
@@ -31,7 +31,7 @@ from ..results import load as load_results
 from ..studies.bench import bench_command
 from ..studies.stress import stress_command
 from ..systems import System, load, pairs_and_lonely, pairs_in, system_names, unpaired
-from ..systems.scaffold import write_module
+from ..systems.scaffold import identifier, write_module
 from . import check as checking
 from . import simulate
 from .audit import cmd_audit
@@ -55,7 +55,7 @@ def describe(name: str) -> tuple[bool, list[str]]:
     try:
         lines = system_lines(load(name))
     except Exception as exc:  # noqa: BLE001 - one broken equations module does not hide the others
-        why = str(exc) if isinstance(exc, HarnessError) else f"equations/{name}.py: {type(exc).__name__}: {exc}"
+        why = str(exc) if isinstance(exc, HarnessError) else f"equations/{name}.py: {type(exc).__name__}: {shown(exc)}"
         return False, [f"{name}: BROKEN: {' '.join(why.split())}"]
     return True, lines
 
@@ -76,9 +76,9 @@ def cmd_list(args: argparse.Namespace) -> int:
         listed = [describe_files(m, e) for m, e in user_files(args) or []]
         lonely = list(getattr(args, "lonely", None) or [])
     for _, lines in listed:
-        print("\n".join(lines))
+        print(console(lines))
     for line in lonely:
-        print(line)
+        print(console([line]))
     return 0 if all(ok for ok, _ in listed) else 1
 
 
@@ -87,7 +87,7 @@ def describe_files(model: Path, equations: Path | None) -> tuple[bool, list[str]
     try:
         s = System.from_files(model, equations) if equations is not None else System.model_only(model)
     except Exception as exc:  # noqa: BLE001 - one broken module does not hide the others
-        why = str(exc) if isinstance(exc, HarnessError) else f"{equations}: {type(exc).__name__}: {exc}"
+        why = str(exc) if isinstance(exc, HarnessError) else f"{equations}: {type(exc).__name__}: {shown(exc)}"
         return False, [f"{model.stem}: BROKEN: {' '.join(why.split())}"]
     return True, system_lines(s)
 
@@ -166,7 +166,7 @@ def cmd_check(args: argparse.Namespace) -> int:
         if constrained is not None:  # the verdict line says when and which constraint, and decides with it
             verdict = "pass" if passed else "FAIL"
             lines[-1] = f"verdict: {system.name}: {verdict}: {decision.statement}; {constrained['statement']}"
-        print("\n".join(lines))
+        print(console(lines, verdict=True))
     return 0 if passed else 1
 
 
@@ -198,7 +198,10 @@ def pointwise_only(args: argparse.Namespace, system: System, states: States | No
         print(json.dumps(checking.json_document(system, states, values, rows, passed), allow_nan=False))
     else:
         title = f"{system.name}: {len(states)} states, coordinates ({', '.join(system.coordinates)}); pointwise only"
-        print("\n".join(checking.table_lines(rows, title)))
+        error = values.get("hand", {}).get("error")  # the function that raised or gave a wrong shape
+        why = str(error).removeprefix("HarnessError: ")
+        last = [f"pointwise: {system.name}: FAIL: your equations gave no values: {why}"] if error else []
+        print(console([*checking.table_lines(rows, title), *last]))
     return 0 if passed else 1
 
 
@@ -244,15 +247,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     write_all(results, args.out, replay=not args.no_replay, rendered=rendered, hint=hint)
     if args.systems or not files:  # the repository's systems were run: say which files were not
         for line in unpaired_lines():
-            print(line)
+            print(console([line]))
     for line in getattr(args, "lonely", None) or []:
-        print(line)
+        print(console([line]))
     verdict = "all systems pass" if results["passed"] else "some systems FAIL"
     print(f"{verdict}; reports in {hint.out}/ (report.html, report.md, results.json)")
     if hint.written and any(s.get("trajectories") for s in results["systems"].values()):
         print(f"replays: {hint.viewer} {hint.out}/<system>.rrd")
-    for line in console_lines(dict(results), f"{hint.out}/report.html"):
-        print(line)
+    print(console(console_lines(dict(results), f"{hint.out}/report.html")))
     return 0 if results["passed"] else 1
 
 
@@ -375,6 +377,8 @@ def cmd_derive(args: argparse.Namespace) -> int:
                 f"({', '.join(joints)}); got {args.coordinates!r}."
             )
         coordinates = names
+    elif len({identifier(c) for c in coordinates}) == len(coordinates):  # joints `arm/theta`: arm_theta
+        coordinates = tuple(identifier(c) for c in coordinates)
     fmt = "latex" if args.latex else "python" if args.python else "text"
     simplify = args.simplify or len(joints) <= SIMPLIFY_MAX_DOF
     how = "simplifying each entry" if simplify else "exact, not simplified (--simplify: minutes)"

@@ -8,6 +8,7 @@ import time
 from collections.abc import Iterator
 from typing import Any
 
+from ..errors import console
 from ..report.findings import is_user, system_headline
 
 
@@ -31,7 +32,8 @@ def reporter() -> Iterator[Any]:
                 if stage == "start":
                     bar.update(task, description=f"validating {name}")
                 else:
-                    bar.console.print(_line(name, result, time.perf_counter() - start))
+                    line = console([_line(name, result, time.perf_counter() - start)])
+                    bar.console.print(line, markup=False, highlight=False, emoji=False)
 
             yield live
     else:
@@ -41,7 +43,7 @@ def reporter() -> Iterator[Any]:
             line = _line(name, result, elapsed) if stage == "done" else f"[{elapsed:6.1f} s] {name}: started"
             # One write with its newline: a signal handled between print's two writes would glue its
             # own line to this one.
-            sys.stderr.write(line + "\n")
+            sys.stderr.write(console([line]) + "\n")
             sys.stderr.flush()
 
         yield plain

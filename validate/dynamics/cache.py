@@ -2,8 +2,12 @@
 on every read.
 
 An entry is one `.npz` file: the arrays, and a JSON header with the schema version, the entry's key
-(a hash of everything the result depends on, the harness's own source included) and an HMAC-SHA256
-signature over the key, the info and every array's dtype, shape and bytes. The signing key is a
+(a hash of everything the result depends on, the harness's own source included), the info, every
+array's dtype, shape and SHA-256, and an HMAC-SHA256 signature over all of that. A read checks the
+header (at most MAX_HEADER_BYTES) and its signature before anything else is inflated, refuses an entry
+whose arrays would pass MAX_ENTRY_BYTES, reads an array only when its own .npy header states the signed
+dtype and shape, and keeps it only when its bytes have the signed digest: a small file claiming
+gigabytes is refused unread. The signing key is a
 secret of the user's (`$XDG_CACHE_HOME/lagrange-xval/key`, else `~/.cache/lagrange-xval/key`: 32
 random bytes, created 0600 on first use); where that cannot be had (no HOME, a folder that cannot be
 written), a random key of this process and its workers, so that nothing cached is kept but nothing
@@ -27,25 +31,30 @@ import functools
 import hashlib
 import hmac
 import json
+import math
 import os
 import stat
 import sys
+import zipfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ..errors import console, shown
 from ..files import create_file, replace_file, stage
 from ..files import folder as open_folder
 from ..systems import PACKAGE_ROOT
 from .cachedir import user_folder
 
-SCHEMA = 3  # bump when an entry's layout or meaning changes (3: signed, no longer checksummed)
+SCHEMA = 4  # bump when an entry's layout or meaning changes (4: the signed header holds each array's shape)
 CACHE_ENV = "LAGRANGE_XVAL_CACHE"
 PROCESS_KEY_ENV = "LAGRANGE_XVAL_PROCESS_KEY"  # a key of this process, handed to its workers (no user key)
 KEY_BYTES = 32
 DEFAULT = "default"  # the `cache_dir` argument meaning "the configured cache"
 HEADER = "__cache__"
+MAX_HEADER_BYTES = 2**20  # the header member (JSON: key, info, manifest); an explanation's info is ~10 kB
+MAX_ENTRY_BYTES = 2**30  # the arrays of one entry, as their signed shapes say (a reference: ~1 MB)
 
 
 def root() -> Path | None:
@@ -78,21 +87,26 @@ def harness_hash() -> str:
     return h.hexdigest()
 
 
-def _signature(key: str, info: dict[str, Any], arrays: dict[str, np.ndarray]) -> str:
-    h = hmac.new(signing_key(), digestmod=hashlib.sha256)
-    h.update(key.encode() + b"\0" + json.dumps(info, sort_keys=True).encode() + b"\0")
+def _manifest(arrays: dict[str, np.ndarray]) -> dict[str, dict[str, Any]]:
+    """Each array's dtype, shape and SHA-256: what the signed header says the entry holds."""
+    out = {}
     for name in sorted(arrays):
         a = np.ascontiguousarray(arrays[name])
-        h.update(f"{name} {a.dtype.str} {a.shape}".encode() + b"\0" + a.tobytes() + b"\0")
-    return h.hexdigest()
+        out[name] = {"dtype": a.dtype.str, "shape": list(a.shape), "sha256": hashlib.sha256(a.tobytes()).hexdigest()}
+    return out
+
+
+def _signature(header: dict[str, Any]) -> str:
+    """HMAC-SHA256 of the header without its signature: the schema, the key, the info and the manifest
+    (every array's dtype, shape and digest), so the header alone says whether the rest can be trusted."""
+    unsigned = {k: v for k, v in header.items() if k != "hmac"}
+    return hmac.new(signing_key(), json.dumps(unsigned, sort_keys=True).encode(), hashlib.sha256).hexdigest()
 
 
 def key_file() -> Path | None:
-    """Where the user's signing key is kept, or None (neither XDG_CACHE_HOME nor HOME is set)."""
-    base = os.environ.get("XDG_CACHE_HOME") or (
-        os.path.join(os.environ["HOME"], ".cache") if os.environ.get("HOME") else ""
-    )
-    return Path(base) / "lagrange-xval" / "key" if os.path.isabs(base) else None
+    """Where the user's signing key is kept, or None (no absolute XDG_CACHE_HOME and no HOME)."""
+    folder = user_folder()
+    return None if folder is None else folder / "key"
 
 
 def _read_key(path: Path) -> bytes | None:
@@ -147,30 +161,32 @@ def _ephemeral() -> bool:
 
 
 def warn(message: str) -> None:
-    print(f"lagrange-xval: warning: {message}", file=sys.stderr, flush=True)
+    print(console([f"lagrange-xval: warning: {message}"]), file=sys.stderr, flush=True)
+
+
+class _Refused(Exception):
+    """An entry that is not what its signed header says, or says more than an entry may hold."""
 
 
 def load(path: Path, key: str) -> tuple[dict[str, np.ndarray], dict[str, Any]] | None:
-    """The arrays and info stored under `key` at `path`, or None (missing, or bad: then one warning)."""
+    """The arrays and info stored under `key` at `path`, or None (missing, or bad: then one warning).
+    The header is read first, within MAX_HEADER_BYTES, and its signature checked; an array is read only
+    when its member's own header states the dtype and shape the signed header does (nothing larger than
+    MAX_ENTRY_BYTES in all), and kept only when its bytes have the signed digest."""
     if not os.path.lexists(path):
         return None
     try:
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | os.O_NONBLOCK)  # a link or FIFO: no
-        with os.fdopen(fd, "rb") as f, np.load(f, allow_pickle=False) as z:
-            header = json.loads(str(z[HEADER]))
-            arrays = {name: z[name] for name in z.files if name != HEADER}
+        with os.fdopen(fd, "rb") as f, zipfile.ZipFile(f) as z:
+            header = json.loads(str(_member(z, HEADER, None)[()]))
+            problem = _problem(header, key)
+            if problem is None:
+                arrays = {name: _member(z, name, spec) for name, spec in header["arrays"].items()}
+    except _Refused as exc:
+        problem = str(exc)
     except Exception as exc:  # noqa: BLE001 - any unreadable entry (truncated zip, a folder, ...) is recomputed
-        warn(f"cache entry {path} is unreadable ({type(exc).__name__}: {exc}); recomputing.")
+        warn(f"cache entry {path} is unreadable ({type(exc).__name__}: {shown(exc)}); recomputing.")
         return None
-    problem = None
-    if not isinstance(header, dict) or header.get("schema") != SCHEMA:
-        problem = f"schema {header.get('schema') if isinstance(header, dict) else '?'}, expected {SCHEMA}"
-    elif header.get("key") != key:
-        problem = "stored under another key"
-    elif not isinstance(header.get("info"), dict) or not hmac.compare_digest(
-        str(header.get("hmac")), _signature(key, header["info"], arrays)
-    ):
-        problem = "signature mismatch: changed after it was written, or not written by this user's harness"
     if problem and not (problem.startswith("signature") and _ephemeral()):  # else: said once, by signing_key
         warn(f"cache entry {path} is not valid ({problem}); recomputing.")
     if problem:
@@ -178,10 +194,63 @@ def load(path: Path, key: str) -> tuple[dict[str, np.ndarray], dict[str, Any]] |
     return arrays, header["info"]
 
 
+def _problem(header: Any, key: str) -> str | None:
+    """Why a header is not to be trusted (schema, key, signature, sizes), or None."""
+    if not isinstance(header, dict) or header.get("schema") != SCHEMA:
+        return f"schema {header.get('schema') if isinstance(header, dict) else '?'}, expected {SCHEMA}"
+    if header.get("key") != key:
+        return "stored under another key"
+    if not isinstance(header.get("info"), dict) or not isinstance(header.get("arrays"), dict):
+        return "signature mismatch: no info or manifest"
+    if not hmac.compare_digest(str(header.get("hmac")), _signature(header)):
+        return "signature mismatch: changed after it was written, or not written by this user's harness"
+    claimed = sum(_nbytes(spec) for spec in header["arrays"].values())
+    if claimed > MAX_ENTRY_BYTES:
+        return f"its arrays would take {claimed:,} bytes, more than an entry may ({MAX_ENTRY_BYTES:,})"
+    return None
+
+
+def _nbytes(spec: dict[str, Any]) -> int:
+    return int(np.dtype(spec["dtype"]).itemsize) * math.prod(int(n) for n in spec["shape"])
+
+
+def _npy_header(m: Any) -> tuple[tuple[int, ...], bool, np.dtype[Any]]:
+    """A .npy member's shape, order and dtype, read without its data (numpy bounds the header's length)."""
+    version = np.lib.format.read_magic(m)
+    if version == (1, 0):
+        return np.lib.format.read_array_header_1_0(m)  # type: ignore[no-any-return]
+    if version == (2, 0):
+        return np.lib.format.read_array_header_2_0(m)  # type: ignore[no-any-return]
+    raise _Refused(f"an array in format {version}, not one numpy.savez writes")
+
+
+def _member(z: zipfile.ZipFile, name: str, spec: dict[str, Any] | None) -> np.ndarray:
+    """The array `name` of the entry, read only after its .npy header states what `spec` (the signed
+    manifest) does; spec None: the header member, a 0-d string of at most MAX_HEADER_BYTES."""
+    with z.open(f"{name}.npy") as m:
+        shape, fortran, dtype = _npy_header(m)
+        if spec is None:
+            if shape != () or dtype.kind != "U" or dtype.itemsize > MAX_HEADER_BYTES:
+                raise _Refused(f"its header is a {dtype} array of shape {shape}, not a string of under 1 MiB")
+        elif dtype.str != spec["dtype"] or list(shape) != list(spec["shape"]) or dtype.hasobject:
+            raise _Refused(
+                f"signature mismatch: array {shown(name, 60)} is {dtype.str} {list(shape)}, "
+                f"signed as {shown(spec['dtype'], 20)} {shown(spec['shape'], 60)}"
+            )
+        size = dtype.itemsize * math.prod(shape)
+        data = m.read(size)
+    if len(data) != size:
+        raise _Refused(f"array {shown(name, 60)} is cut short ({len(data)} of {size} bytes)")
+    if spec is not None and not hmac.compare_digest(hashlib.sha256(data).hexdigest(), str(spec.get("sha256"))):
+        raise _Refused(f"signature mismatch: the bytes of array {shown(name, 60)} are not those signed")
+    return np.frombuffer(data, dtype=dtype).reshape(shape, order="F" if fortran else "C").copy()
+
+
 def store(path: Path, key: str, arrays: dict[str, np.ndarray], info: dict[str, Any]) -> bool:
     """Writes an entry atomically (`files.replace_file`: never through a link), mode 0644; False (and
     one warning per folder) if the cache cannot be written."""
-    header = {"schema": SCHEMA, "key": key, "info": info, "hmac": _signature(key, info, arrays)}
+    header: dict[str, Any] = {"schema": SCHEMA, "key": key, "info": info, "arrays": _manifest(arrays)}
+    header["hmac"] = _signature(header)
     payload: dict[str, Any] = {**arrays, HEADER: np.array(json.dumps(header))}
     try:
         path.parent.mkdir(parents=True, exist_ok=True)

@@ -9,24 +9,48 @@ the folder under its size bound by removing the least recently used entries.
     Cache.off()                  no cache: nothing read, nothing written
     Cache.at("my_cache")         the folder given
     Cache.user()                 the user's cache folder ($XDG_CACHE_HOME/lagrange-xval, else
-                                 ~/.cache/lagrange-xval): never inside the installed package
+                                 ~/.cache/lagrange-xval; a relative XDG_CACHE_HOME is ignored, and
+                                 without HOME there is none: no cache): never inside the installed package
 """
 
 from __future__ import annotations
 
+import functools
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 DEFAULT_MAX_BYTES = 2 * 1024**3  # 2 GiB: a `run` of the notes' systems keeps about 60 MB
 KINDS = ("reference", "chaos", "derive", "explain")  # the folders a cache holds, one per kind of entry
 ENTRY_SUFFIX = ".npz"
 
 
-def user_folder() -> Path:
-    """The user's cache folder for the harness (XDG base directories)."""
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "lagrange-xval"
+def cache_home() -> Path | None:
+    """The user's cache base (XDG base directories): $XDG_CACHE_HOME when it is an absolute path (XDG
+    says a relative one is ignored), else $HOME/.cache when HOME is an absolute path, else None."""
+    xdg = os.environ.get("XDG_CACHE_HOME", "")
+    if os.path.isabs(xdg):
+        return Path(xdg)
+    home = os.environ.get("HOME", "")
+    return Path(home) / ".cache" if os.path.isabs(home) else None
+
+
+def user_folder() -> Path | None:
+    """The user's cache folder for the harness, or None where the user has no cache base (`cache_home`)."""
+    base = cache_home()
+    return None if base is None else base / "lagrange-xval"
+
+
+@functools.cache  # one setting per process
+def heyoka() -> Any:
+    """heyoka, its on-disk JIT cache off where the user has no cache base (HOME unset: heyoka would try
+    the working directory and warn on every compilation, 36 lines in one `run`)."""
+    import heyoka as hy
+
+    if cache_home() is None:
+        hy.llvm_state.set_diskcache_enabled(False)
+    return hy
 
 
 @dataclass(frozen=True)
@@ -46,7 +70,7 @@ class Cache:
 
     @classmethod
     def user(cls, *, max_bytes: int = DEFAULT_MAX_BYTES) -> Cache:
-        return cls(user_folder(), max_bytes)
+        return cls(user_folder(), max_bytes)  # None (no HOME): off
 
     @property
     def enabled(self) -> bool:

@@ -36,6 +36,7 @@ from ..engines.symbolic import derivation_of
 from ..errors import HarnessError
 from ..systems import System, tracing
 from ..systems.memo import Memo
+from .cachedir import heyoka
 from .reference import param_key, symbolic_dynamics
 
 # MuJoCo's RK4 tableau (`mj_RungeKutta(m, d, 4)`), used by the mirrors (mirror.py) and the compiled steps
@@ -60,7 +61,7 @@ def _key(system: System, *what: Any) -> tuple[Any, ...]:
 def derived_ode(system: System) -> list[tuple[Any, Any]]:
     """The model's equations derived symbolically (the "symbolic" source) as a heyoka ODE in the
     joints' coordinates: x = (q_joint, v_joint), a = M^-1 (tau - (C v + G - passive)), tau = par[0:n]."""
-    import heyoka as hy
+    hy = heyoka()
 
     d = derivation_of(system)
     values = parameter_values(d, system.view)
@@ -83,7 +84,7 @@ def taylor_integrator(system: System, tol: float, *, compact: bool = False, sour
     """heyoka's adaptive Taylor integrator in double precision at `tol` of the hand equations (or,
     with source="symbolic", of the derived ones in joint coordinates); tau = par[0:n]. Built once per
     process and reused (its state is set by `taylor_grid`)."""
-    import heyoka as hy
+    hy = heyoka()
 
     if source not in ("hand", "symbolic"):
         raise HarnessError(f"no Taylor integrator of the '{source}' source; valid: hand, symbolic.")
@@ -116,7 +117,7 @@ def taylor_grid(
 
 def compiled_rhs(system: System) -> Callable[[float, Any, Any], np.ndarray]:
     """f(t, y, tau) -> (2n,) [v, a] of the hand equations as one compiled call (a heyoka `cfunc`)."""
-    import heyoka as hy
+    hy = heyoka()
 
     key = _key(system, "cfunc")
 
@@ -137,7 +138,7 @@ def _rk4_expressions(system: System, steps: int) -> tuple[list[Any], list[Any]]:
     the timestep h = par[n]. MuJoCo's `mj_RungeKutta` operation for operation (mirror.py: the stage
     increments accumulated from 0 over the tableau's row, q_i = q + h dq, v_i = v + dv h, the final
     B-weighted sums the same way), so a compiled mirror rounds as the Python one does."""
-    import heyoka as hy
+    hy = heyoka()
 
     dyn = symbolic_dynamics(system)
     n, state, f = dyn.n, list(dyn.state), list(dyn.rhs)
@@ -170,7 +171,7 @@ def _rk4_expressions(system: System, steps: int) -> tuple[list[Any], list[Any]]:
 
 def compiled_rk4(system: System, steps: int) -> Any:
     """A heyoka `cfunc` doing `steps` RK4 steps of the hand equations: cf(y, pars=[tau..., h]) -> y'."""
-    import heyoka as hy
+    hy = heyoka()
 
     if steps < 1:
         raise HarnessError(f"compiled RK4 needs at least one step per call; got {steps}.")

@@ -11,6 +11,7 @@ import numpy as np
 from ..checks.tolerances import TOLERANCES
 from ..errors import HarnessError
 from ..systems import System
+from .cachedir import heyoka
 from .integrate import DEFAULT_BUDGET, Budget, time_grid
 from .reference import TaylorGuard, param_key, symbolic_dynamics
 
@@ -36,7 +37,7 @@ _VAR_INTEGRATORS: dict[tuple[Any, ...], Any] = {}
 
 
 def variational_integrator(system: System, precision: str) -> Any:
-    import heyoka as hy
+    hy = heyoka()
 
     key = (system.name, system.overrides, param_key(system), system.equations, precision)  # the module, not its id
     if key not in _VAR_INTEGRATORS:

@@ -44,6 +44,7 @@ from ..errors import HarnessError, IntegrationStopped, unknown_name
 from ..systems import System, tracing
 from ..systems.forms import accelerations_only
 from . import cache
+from .cachedir import heyoka
 from .integrate import DEFAULT_BUDGET, Budget, Trajectory
 
 CACHE_VERSION = 2  # bump when the cached content changes meaning
@@ -81,7 +82,7 @@ def param_key(system: System) -> tuple[tuple[str, str], ...]:
 
 @functools.lru_cache(maxsize=256)  # one per parameter set: probes and overrides make many
 def _symbolic(name: str, module: types.ModuleType, p: Any, n: int) -> SymbolicDynamics:
-    import heyoka as hy
+    hy = heyoka()
 
     qs = [hy.expression(f"q{i}") for i in range(n)]
     vs = [hy.expression(f"v{i}") for i in range(n)]
@@ -125,7 +126,7 @@ def rhs_check(system: System, *, n_states: int = 64, seed: int = 0) -> float:
 
 @functools.lru_cache(maxsize=256)  # one per SymbolicDynamics, as _symbolic
 def _cfunc(dyn: SymbolicDynamics) -> Any:
-    import heyoka as hy
+    hy = heyoka()
 
     return hy.cfunc(list(dyn.rhs[dyn.n :]), list(dyn.state))
 
@@ -135,7 +136,7 @@ def _cfunc(dyn: SymbolicDynamics) -> Any:
 
 
 def _fp_types() -> dict[str, Any]:
-    import heyoka as hy
+    hy = heyoka()
 
     return {"double": float, "long double": np.longdouble, "quad": hy.real128}
 
@@ -149,7 +150,7 @@ _INTEGRATORS: dict[tuple[Any, ...], Any] = {}
 
 def taylor_integrator(system: System, precision: str, tol: float | None) -> Any:
     """A compiled heyoka integrator for the system (kept for the process; state reset per use)."""
-    import heyoka as hy
+    hy = heyoka()
 
     fp = _fp_types()[precision]
     # the module itself, not its id or name: a mutated module of the same name gets its own integrator
@@ -168,7 +169,7 @@ def taylor_integrator(system: System, precision: str, tol: float | None) -> Any:
 
 
 def _to_fp(x: np.ndarray, precision: str) -> np.ndarray:
-    import heyoka as hy
+    hy = heyoka()
 
     fp = _fp_types()[precision]
     x = np.asarray(x, dtype=float)
@@ -276,7 +277,7 @@ def taylor_solve(
 
 def _difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """|a - b| in float for states of two precisions, without rounding either to double first."""
-    import heyoka as hy
+    hy = heyoka()
 
     def as_quad(x: np.ndarray) -> np.ndarray:
         if x.dtype == np.dtype(hy.real128):
@@ -302,7 +303,7 @@ def cache_key(
     system: System, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t: np.ndarray, *, check: str | None
 ) -> str:
     """Hash of everything the reference depends on."""
-    import heyoka as hy
+    hy = heyoka()
 
     blob = {
         "version": CACHE_VERSION,

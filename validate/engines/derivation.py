@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import HarnessError
+from ..systems.modelview import names
 
 EXACT_TOL = 1e-12  # a structural number within this of a simple exact value (0, 1, sqrt(2)/2, ...) is that value
 
@@ -216,8 +217,7 @@ def axis_rotation(axis: Any, angle: Any) -> Any:
 
 def _bodies_and_joints(view: Any, joints: tuple[str, ...]) -> tuple[list[str], list[str]]:
     """The model's moving bodies and its joints, in model order; each joint must be one of `joints`."""
-    order = [k.split("/")[1] for k in view if k.startswith("body/") and k.endswith("/mass")]
-    all_joints = [k.split("/")[1] for k in view if k.startswith("joint/") and k.endswith("/type")]
+    order, all_joints = names(view, "body", "mass"), names(view, "joint", "type")
     missing = [j for j in joints if j not in all_joints]
     if missing:
         raise HarnessError(f"the model has no joint '{missing[0]}' (joints: {', '.join(all_joints)}).")

@@ -31,6 +31,7 @@ import numpy as np
 
 from ..errors import HarnessError
 from ..systems import System
+from ..systems.modelview import names
 from .base import Kinematics
 
 INSTALL = "pip install 'lagrange-xval[drake]' (requirements.lock pins drake)"
@@ -251,7 +252,7 @@ class DrakeSource:
         self.bodies = [self._body(b) for b in system.bodies]
         # A compared body with the bodies welded to it that MuJoCo fused into it (a URDF's fixed links):
         # one rigid body, as MuJoCo compiled it; a welded body MuJoCo keeps (an MJCF's) stays apart.
-        kept = {k.split("/")[1] for k in system.view if k.startswith("body/") and k.endswith("/parent")}
+        kept = set(names(system.view, "body", "parent"))
         self.groups = [
             [w for w in plant.GetBodiesWeldedTo(b) if w.index() == b.index() or w.name() not in kept]
             for b in self.bodies

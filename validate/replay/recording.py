@@ -25,6 +25,14 @@ THRESHOLD_COLOUR = (200, 200, 200)
 ANCHOR_COLOUR = (230, 230, 230)
 
 
+def part(name: str) -> str:
+    """`name` as one part of an entity path: `/`, `:` and spaces escaped (a body `fore/arm` is one
+    entity, not two levels)."""
+    import rerun as rr
+
+    return str(rr.escape_entity_path_part(str(name)))
+
+
 def plottable(x: np.ndarray) -> np.ndarray:
     """Non-finite samples (a diverged run) become NaN, which the plots leave as gaps."""
     return np.where(np.isfinite(x), x, np.nan)
@@ -58,7 +66,7 @@ def _log_frame(rec: RecordingStream, scene: dict[str, Any], radius: float) -> No
     """The scene's axes (which way is up), description, anchors and the error threshold."""
     import rerun as rr
 
-    root, t = f"/{scene['name']}", scene["t"]
+    root, t = f"/{part(scene['name'])}", scene["t"]
     axis, sign = scene["up"]
     _static(rec, root, getattr(rr.ViewCoordinates, f"RIGHT_HAND_{'XYZ'[axis]}_{'UP' if sign > 0 else 'DOWN'}"))
     _static(rec, f"{root}/description", rr.TextDocument(describe(scene), media_type=rr.MediaType.MARKDOWN))
@@ -82,22 +90,22 @@ def _log_bodies(rec: RecordingStream, scene: dict[str, Any], r: dict[str, Any], 
     """One run's 3D view: centres of mass, links, trails and body axes."""
     import rerun as rr
 
-    base, colour, times = f"/{scene['name']}/{r['key']}", r["colour"], [time_column(r["t"])]
+    base, colour, times = f"/{part(scene['name'])}/{part(r['key'])}", r["colour"], [time_column(r["t"])]
     for b in scene["bodies"]:
-        _static(rec, f"{base}/bodies/{b}", rr.Points3D.from_fields(colors=colour, radii=radius))
-        _send(rec, f"{base}/bodies/{b}", rr.Points3D.columns(positions=r["com"][b]), times)
+        _static(rec, f"{base}/bodies/{part(b)}", rr.Points3D.from_fields(colors=colour, radii=radius))
+        _send(rec, f"{base}/bodies/{part(b)}", rr.Points3D.columns(positions=r["com"][b]), times)
     for b, strips in r["links"].items():
-        _static(rec, f"{base}/links/{b}", rr.LineStrips3D.from_fields(colors=colour, radii=0.25 * radius))
-        _send(rec, f"{base}/links/{b}", rr.LineStrips3D.columns(strips=strips), times)
+        _static(rec, f"{base}/links/{part(b)}", rr.LineStrips3D.from_fields(colors=colour, radii=0.25 * radius))
+        _send(rec, f"{base}/links/{part(b)}", rr.LineStrips3D.columns(strips=strips), times)
     for b, strips in r["trails"].items():
-        _static(rec, f"{base}/trail/{b}", rr.LineStrips3D.from_fields(colors=colour, radii=0.12 * radius))
-        _send(rec, f"{base}/trail/{b}", rr.LineStrips3D.columns(strips=strips), times)
+        _static(rec, f"{base}/trail/{part(b)}", rr.LineStrips3D.from_fields(colors=colour, radii=0.12 * radius))
+        _send(rec, f"{base}/trail/{part(b)}", rr.LineStrips3D.columns(strips=strips), times)
     for b, segments in r["axes"].items():
         shades = [colour, shade(colour, 255, 0.55), shade(colour, 0, 0.45)]  # x, y, z
-        _static(rec, f"{base}/axes/{b}", rr.LineStrips3D.from_fields(colors=shades, radii=0.3 * radius))
+        _static(rec, f"{base}/axes/{part(b)}", rr.LineStrips3D.from_fields(colors=shades, radii=0.3 * radius))
         _send(
             rec,
-            f"{base}/axes/{b}",
+            f"{base}/axes/{part(b)}",
             rr.LineStrips3D.columns(strips=segments.reshape(-1, 2, 3)).partition(np.full(len(r["t"]), 3)),
             times,
         )
@@ -107,10 +115,10 @@ def _log_plots(rec: RecordingStream, scene: dict[str, Any], r: dict[str, Any]) -
     """One run's time series: its coordinates, log10 error and envelope vs hand, and energy change."""
     import rerun as rr
 
-    base, colour, times = f"/{scene['name']}/{r['key']}", r["colour"], [time_column(r["t"])]
+    base, colour, times = f"/{part(scene['name'])}/{part(r['key'])}", r["colour"], [time_column(r["t"])]
     for i, c in enumerate(scene["coordinates"]):
-        _static(rec, f"{base}/q/{c}", rr.SeriesLines(colors=colour, names=f"{r['key']}: {c}"))
-        _send(rec, f"{base}/q/{c}", rr.Scalars.columns(scalars=plottable(r["q"][:, i])), times)
+        _static(rec, f"{base}/q/{part(c)}", rr.SeriesLines(colors=colour, names=f"{r['key']}: {c}"))
+        _send(rec, f"{base}/q/{part(c)}", rr.Scalars.columns(scalars=plottable(r["q"][:, i])), times)
     if r["error"] is not None:
         _static(rec, f"{base}/log10_error", rr.SeriesLines(colors=colour, names=r["key"]))
         _send(rec, f"{base}/log10_error", rr.Scalars.columns(scalars=log10_error(r["error"])), times)
@@ -131,7 +139,7 @@ def _log_exceedance(rec: RecordingStream, scene: dict[str, Any], r: dict[str, An
     (time, text, colour) for the log, or None where it never does."""
     import rerun as rr
 
-    t, base, colour = scene["t"], f"/{scene['name']}/{r['key']}", r["colour"]
+    t, base, colour = scene["t"], f"/{part(scene['name'])}/{part(r['key'])}", r["colour"]
     first_time = r["run"].get("first_exceeds_threshold")
     if first_time is None or r["error"] is None or not np.isfinite(float(first_time)):
         return None
@@ -171,7 +179,7 @@ def log_scene(rec: RecordingStream, scene: dict[str, Any]) -> None:
         events.sort(key=lambda e: e[0])
         _send(
             rec,
-            f"/{scene['name']}/events",
+            f"/{part(scene['name'])}/events",
             rr.TextLog.columns(text=[e[1] for e in events], level=["WARN"] * len(events), color=[e[2] for e in events]),
             [time_column(np.array([e[0] for e in events]))],
         )
@@ -182,10 +190,10 @@ def blueprint(scene: dict[str, Any]) -> Any:
     import rerun.blueprint as rrb
 
     name = scene["name"]
-    root = f"/{name}"
-    keys = [r["key"] for r in scene["runs"]]
+    root = f"/{part(name)}"
+    keys = [part(r["key"]) for r in scene["runs"]]
     spatial = [f"+ {root}/anchors"] + [
-        f"+ {root}/{k}/{part}/**" for k in keys for part in ("bodies", "links", "axes", "trail")
+        f"+ {root}/{k}/{leaf}/**" for k in keys for leaf in ("bodies", "links", "axes", "trail")
     ]
     scale, (up, sign) = scene["scale"], scene["up"]
     position = np.full(3, 2.0 * scale)  # oblique, from above
@@ -203,14 +211,14 @@ def blueprint(scene: dict[str, Any]) -> Any:
     )
 
     q_views = [
-        rrb.TimeSeriesView(name=f"q: {c} ({u})", origin=root, contents=[f"+ {root}/{k}/q/{c}" for k in keys])
+        rrb.TimeSeriesView(name=f"q: {c} ({u})", origin=root, contents=[f"+ {root}/{k}/q/{part(c)}" for k in keys])
         for c, u in zip(scene["coordinates"], scene["units"], strict=True)
     ]
     error_view = rrb.TimeSeriesView(
         name=f"log10 error vs hand (zeros at {np.log10(ERROR_FLOOR):g})",
         origin=root,
         contents=[f"+ {root}/threshold"]
-        + [f"+ {root}/{k}/{part}" for k in keys for part in ("log10_error", "log10_envelope", "exceeds_threshold")],
+        + [f"+ {root}/{k}/{leaf}" for k in keys for leaf in ("log10_error", "log10_envelope", "exceeds_threshold")],
     )
     energy_view = rrb.TimeSeriesView(
         name="energy E(t) - E(0) (J)", origin=root, contents=[f"+ {root}/{k}/energy_change" for k in keys]

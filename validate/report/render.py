@@ -8,7 +8,9 @@ import base64
 import re
 from pathlib import Path
 from typing import Any
+from urllib.parse import quote
 
+from ..errors import escaped
 from .document import (
     MARK_SIGN,
     SUBTITLE,
@@ -38,19 +40,20 @@ def subtitle(results: dict[str, Any]) -> str:
 
 
 def _md_cell(c: Any) -> str:
-    return cell_text(c).replace("|", "\\|").replace("\n", " ")
+    return escaped(cell_text(c)).replace("|", "\\|")
 
 
 def _md_blocks(blocks: Any) -> list[str]:
     out: list[str] = []
     for b in blocks:
         if isinstance(b, Heading):
-            out += ["#" * b.level + " " + b.text, ""]
+            out += ["#" * b.level + " " + escaped(b.text), ""]
         elif isinstance(b, Para):
-            out += [f"*{b.text}*" if b.kind == "missing" else f"**{b.text}**" if b.kind == "finding" else b.text, ""]
+            text = escaped(b.text)  # a person's message inside cannot start a line of its own
+            out += [f"*{text}*" if b.kind == "missing" else f"**{text}**" if b.kind == "finding" else text, ""]
         elif isinstance(b, Table):
             out += [
-                f"{b.title}:",
+                f"{escaped(b.title)}:",
                 "",
                 "| " + " | ".join(b.columns) + " |",
                 "|" + "|".join("---:" if num else "---" for num in b.numeric) + "|",
@@ -58,11 +61,11 @@ def _md_blocks(blocks: Any) -> list[str]:
             out += ["| " + " | ".join(_md_cell(c) for c in row) + " |" for row in b.rows]
             out.append("")
         elif isinstance(b, Figure):
-            out += [f"![{b.alt}]({b.path})", "", f"*{b.caption}*", ""]
+            out += [f"![{escaped(b.alt)}]({quote(b.path)})", "", f"*{escaped(b.caption)}*", ""]  # a name with spaces
         elif isinstance(b, Code):
             out += ["```sh", b.text, "```", ""]
         elif isinstance(b, Items):
-            out += [f"- {i}" for i in b.items] + [""]
+            out += [f"- {escaped(i)}" for i in b.items] + [""]
         elif isinstance(b, Fold):
             out += [f"<details><summary>{b.summary}</summary>", "", *_md_blocks(b.blocks), "</details>", ""]
     return out

@@ -18,14 +18,14 @@ from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
-from ..errors import HarnessError, unknown_name
+from ..errors import HarnessError, shown, unknown_name
 from ..guard import DEFAULT_TIME_LIMIT, Guard, Stopped, guard_module
 from ..inputs import regular_file
-from . import floating, textform, urdf
+from . import bounds, floating, textform, urdf
 from .forms import input_name, normalize
 from .inertia import repair_urdf
 from .memo import Memo
-from .modelview import ModelView, from_mujoco
+from .modelview import ModelView, from_mujoco, names
 from .overrides import apply_overrides, parse
 
 if TYPE_CHECKING:  # numpy and mujoco are loaded when first used
@@ -72,6 +72,7 @@ def _model_file(path: Path) -> tuple[str, str]:
 
     try:
         text = regular_file(path, "model file", max_bytes=MAX_MJCF_BYTES).decode()
+        bounds.check_text(text, path.name, path.resolve().parent)  # before any parse: DOCTYPE, includes, size
         root = ET.fromstring(text).tag
     except (ET.ParseError, UnicodeDecodeError) as exc:
         raise HarnessError(f"{path.name}: not well-formed XML ({exc}).") from None
@@ -152,10 +153,11 @@ def compile_mjcf(path: Path, overrides: tuple[tuple[str, float], ...] = (), text
     mujoco.set_mju_user_warning(_ignore_warning)
     text = mjcf_text(path, overrides, text)
     try:
-        return mujoco.MjModel.from_xml_string(text)
+        model = mujoco.MjModel.from_xml_string(text)
     except Exception as exc:  # mujoco raises ValueError with a multi-line message
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise HarnessError(f"{path.name}: not a valid MJCF model: {first}") from None
+    return bounds.check_numbers(model, path.name)
 
 
 @dataclass(frozen=True)
@@ -172,7 +174,7 @@ class System:
     text: str | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
-
+        bounds.check_system_name(self.name)
         if self.equations is not None:  # None: the model alone (`model_only`), no derivation to check
             object.__setattr__(self, "equations", normalize(self.equations))
 
@@ -239,7 +241,7 @@ class System:
     @property
     def model_joints(self) -> tuple[str, ...]:
         """The model's joints, in the model's order."""
-        return tuple(k.split("/")[1] for k in self.view if k.startswith("joint/") and k.endswith("/type"))
+        return tuple(names(self.view, "joint", "type"))
 
     @property
     def joints(self) -> tuple[str, ...]:
@@ -312,11 +314,7 @@ class System:
             given = getattr(self.equations, "BODIES", None)
             return tuple(given) if given is not None else self._posed_bodies()
         moved = {self.view[f"joint/{j}/body"] for j in self.joints}
-        return tuple(
-            b
-            for b in (k.split("/")[1] for k in self.view if k.startswith("body/") and k.endswith("/mass"))
-            if b in moved
-        )
+        return tuple(b for b in names(self.view, "body", "mass") if b in moved)
 
     def _posed_bodies(self) -> tuple[str, ...]:
         """The bodies a module's body_positions() (or body_rotations()) names, read at q = 0."""
@@ -353,7 +351,7 @@ class System:
     @property
     def actuators(self) -> tuple[str, ...]:
         """The model's actuators, in the model's order."""
-        return tuple(k.split("/")[1] for k in self.view if k.startswith("actuator/") and k.endswith("/joint"))
+        return tuple(names(self.view, "actuator", "joint"))
 
     @property
     def input_matrix(self) -> np.ndarray:
@@ -567,7 +565,7 @@ def load_module(path: Path, *, model: Path | None = None, time_limit: float = DE
         raise HarnessError(str(stop)) from None
     except Exception as exc:  # noqa: BLE001 - the user's module failing on import is reported in one line
         sys.modules.pop(name, None)
-        raise HarnessError(f"{path}: importing it raised {type(exc).__name__}: {exc}") from None
+        raise HarnessError(f"{path}: importing it raised {type(exc).__name__}: {shown(exc)}") from None
     return _check_contract(guard_module(module, guard), str(path))
 
 
@@ -595,7 +593,7 @@ def pairs_and_lonely(folder: Path) -> tuple[list[tuple[Path, Path]], list[Path]]
     if twice:
         raise HarnessError(f"{folder}: {', '.join(twice)} has both an .xml and a .urdf model; keep one.")
     models = {p.stem: p for p in found}
-    modules = {p.stem: p for p in folder.glob("*.py") if p.stem != "__init__"}  # `_arm` is a system too
+    modules = {p.stem: p for p in folder.glob("*.py") if p.stem != "__init__"}  # `_arm` is refused, by name
     lonely = sorted((models | modules)[n] for n in models.keys() ^ modules.keys())
     paired = sorted(models.keys() & modules.keys())
     if not paired and not lonely:

@@ -32,6 +32,7 @@ import numpy as np
 from ...equations._forms import not_provided, stack_matrix, stack_vector
 from ..errors import HarnessError
 from . import hamiltonian, tracing
+from .expression import lambdified
 from .values import real_array
 
 FORMS = {
@@ -364,7 +365,7 @@ def _derive(module: Any, params_type: Any, n: int, numeric_params: tuple[tuple[s
     G = [sp.diff(V, x) for x in qs]
     Cv = [sum(sp.diff(dT_dv[i], qs[j]) * vs[j] for j in range(n)) - sp.diff(T, qs[i]) for i in range(n)]
     flat = [M[i][j] for i in range(n) for j in range(n)] + G + Cv
-    fn = sp.lambdify([*psyms, *qs, *vs], flat, modules="numpy", cse=True)
+    fn = lambdified([*psyms, *qs, *vs], flat)  # cse, and long sums in parts (a 3,000-term V)
     return _Derived(tuple(names), fn, n)
 
 

@@ -21,11 +21,14 @@ defaults of their own), so the compiled MJCF is the single source of numbers. Ke
     joint/<name>/springref       rad (m): where the spring is relaxed; present only where it is not 0
     actuator/<name>/joint        joint name the actuator drives (an unnamed actuator: "actuator#<id>")
     actuator/<name>/gear         transmission ratio (generalized force per unit control)
+
+A name may hold `/`, `:`, spaces and any Unicode (a joint `arm/theta`): the kind is the key's first
+part and the field its last, so a key is split only by `key_parts`, and names are listed by `names`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from typing import Any
 
 import numpy as np
@@ -33,6 +36,26 @@ import numpy as np
 from ..errors import HarnessError, unknown_name
 
 _JOINT_TYPES = {0: "free", 1: "ball", 2: "slide", 3: "hinge"}
+KINDS = ("body", "joint", "actuator")
+
+
+def key_parts(key: str) -> tuple[str, str, str] | None:
+    """(kind, name, field) of a key `kind/<name>/field`, the name whole whatever it holds
+    (`joint/arm/theta/damping` is the joint `arm/theta`); None for `gravity` or any other key."""
+    kind, _, rest = key.partition("/")
+    name, _, field = rest.rpartition("/")
+    return (kind, name, field) if kind in KINDS and name and field else None
+
+
+def names(keys: Iterable[str], kind: str, field: str) -> list[str]:
+    """The names of every `kind` that has `field`, in the keys' order (`names(view, "joint", "type")`:
+    the model's joints)."""
+    out = []
+    for key in keys:
+        parts = key_parts(key)
+        if parts is not None and parts[0] == kind and parts[2] == field:
+            out.append(parts[1])
+    return out
 
 
 class ModelView(Mapping[str, Any]):

@@ -22,6 +22,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from ..errors import HarnessError, unknown_name
+from .modelview import key_parts
 
 PATTERNS = (
     "scale/mass",
@@ -152,7 +153,8 @@ def _set_gear(root: ET.Element, name: str, value: float) -> None:
 
 def _apply(root: ET.Element, key: str, value: float) -> None:
     """One override applied to the parsed model, by the kind of its key."""
-    parts = key.split("/")
+    found = key_parts(key)
+    parts = list(found) if found is not None else key.split("/")  # a name may hold "/"
     if key == "scale/mass":
         _scale_mass(root, key, value)
     elif key == "scale/length":

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import HarnessError
+from .modelview import key_parts
 
 # The keys whose numbers a probe may move (a body's orientation, a joint's axis and the structure keys
 # are the chain's shape, not its parameters: moving one entry of a quaternion or an axis is no model).
@@ -30,7 +31,8 @@ NUDGE = 1e-3  # the relative move that finds which fields follow a number
 def movable(key: str) -> bool:
     """Whether a probe may move the numbers of `key` (gravity and the MOVABLE fields of bodies, joints
     and actuators)."""
-    return key == "gravity" or (key.count("/") == 2 and key.rsplit("/", 1)[1] in MOVABLE)
+    parts = key_parts(key)
+    return key == "gravity" or (parts is not None and parts[2] in MOVABLE)
 
 
 def numeric_fields(params: Any) -> dict[str, float]:

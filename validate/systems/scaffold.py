@@ -27,14 +27,14 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import HarnessError
+from ..errors import HarnessError, shown
 from ..files import create_file
 from . import System
-from .modelview import ModelView
+from .modelview import ModelView, key_parts, names
 
 
-def _ident(name: str) -> str:
-    """A Python identifier from a MuJoCo name."""
+def identifier(name: str) -> str:
+    """A Python identifier from a MuJoCo name (`arm/theta` is `arm_theta`, `φ elbow` is `φ_elbow`)."""
     out = re.sub(r"\W", "_", name)
     out = out if out and not out[0].isdigit() else f"_{out}"
     return f"{out}_" if keyword.iskeyword(out) else out
@@ -54,13 +54,16 @@ def field_of(key: str, entry: Any = None) -> str:
     inertia's): `field_of("body/link/com", 1)` is "cy_link". `derive --python` binds its symbols so."""
     if key == "gravity":
         return "g"
-    kind, name, what = key.split("/")
+    parts = key_parts(key)
+    if parts is None:
+        raise ValueError(f"not a key of a body, joint or actuator: {key!r}")
+    kind, name, what = parts
     table = {"body": _BODY_FIELDS, "joint": _JOINT_FIELDS, "actuator": {"gear": "gear"}}[kind]
     if isinstance(entry, tuple):
         suffix = "".join("xyz"[k] for k in sorted(entry))
     else:
         suffix = "" if entry is None else "xyz"[entry]
-    return f"{table[what]}{suffix}_{_ident(name)}"
+    return f"{table[what]}{suffix}_{identifier(name)}"
 
 
 def _body_fields(b: str) -> list[tuple[str, str, str]]:
@@ -130,7 +133,7 @@ def _parts(view: ModelView, model: Path, locked: tuple[str, ...]) -> _Parts:
     keys = list(view)
 
     def named(kind: str, last: str) -> list[str]:
-        return [k.split("/")[1] for k in keys if k.startswith(f"{kind}/") and k.endswith(f"/{last}")]
+        return names(keys, kind, last)
 
     gravity = np.asarray(view["gravity"], dtype=float)
     g = float(np.linalg.norm(gravity))
@@ -140,7 +143,7 @@ def _parts(view: ModelView, model: Path, locked: tuple[str, ...]) -> _Parts:
 
 def _docstring(name: str, view: ModelView, parts: _Parts) -> list[str]:
     """The module docstring: its first paragraph is the system's description (the contract's default)."""
-    coords = tuple(_ident(j) for j in parts.joints)
+    coords = tuple(identifier(j) for j in parts.joints)
     lock = f" --lock {','.join(parts.locked)}" if parts.locked else ""
     t = [f'"""{name}: the equations of motion of {parts.model.name}, derived by hand.', ""]
     t.append(f"Written by `lagrange-xval new` from {parts.model}{lock}. Every number is read from the compiled")
@@ -183,7 +186,7 @@ def _header(parts: _Parts) -> list[str]:
         "",
     ]
     t += ["import numpy as np", "from lagrange_xval.forms import not_provided", ""]
-    t.append(f"COORDINATES = {tuple(_ident(j) for j in parts.joints)!r}")
+    t.append(f"COORDINATES = {tuple(identifier(j) for j in parts.joints)!r}")
     t.append(f"JOINTS = {tuple(parts.joints)!r}")
     t.append(f"BODIES = {tuple(parts.bodies)!r}")
     return [*t, f"GRAVITY_DIRECTION = np.array({_vec(parts.down)})"]
@@ -200,7 +203,7 @@ def _parameters(fields: list[tuple[str, str, str]]) -> list[str]:
 
 
 def _body_assumptions(view: ModelView, b: str) -> list[str]:
-    i = _ident(b)
+    i = identifier(b)
     return [
         f'        "body/{b}/parent": {view[f"body/{b}/parent"]!r},',
         f'        "body/{b}/mass": p.m_{i},',
@@ -213,7 +216,7 @@ def _body_assumptions(view: ModelView, b: str) -> list[str]:
 
 
 def _joint_assumptions(view: ModelView, j: str) -> list[str]:
-    i = _ident(j)
+    i = identifier(j)
     return [
         f'        "joint/{j}/type": {view[f"joint/{j}/type"]!r},',
         f'        "joint/{j}/body": {view[f"joint/{j}/body"]!r},',
@@ -235,7 +238,7 @@ def _assumptions(view: ModelView, parts: _Parts) -> list[str]:
     t += [line for j in parts.joints for line in _joint_assumptions(view, j)]
     for a in parts.actuators:
         t.append(f'        "actuator/{a}/joint": {view[f"actuator/{a}/joint"]!r},')
-        t.append(f'        "actuator/{a}/gear": p.gear_{_ident(a)},')
+        t.append(f'        "actuator/{a}/gear": p.gear_{identifier(a)},')
     return [*t, "    }"]
 
 
@@ -273,8 +276,11 @@ def module_text(name: str, model: Path, *, locked: tuple[str, ...] = ()) -> str:
 def write_module(name: str, model: Path, folder: Path | None = None, *, locked: tuple[str, ...] = ()) -> Path:
     """Writes FOLDER/NAME.py (default: the model's folder) for the model with its `locked` joints made
     fixed; refuses to overwrite a file."""
-    if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name) or keyword.iskeyword(name):
-        raise HarnessError(f"'{name}' is not a valid module name: use letters, digits and _ (not first a digit).")
+    if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", name) or keyword.iskeyword(name):
+        raise HarnessError(
+            f"{shown(name, 120)!r} is not a valid module name: use letters, digits and _ (first a letter: a system "
+            "named _x is refused, the harness's helpers start with _)."
+        )
     model = Path(model)
     if not model.is_file():
         raise HarnessError(f"model file not found: {model} (give an MJCF .xml or a URDF .urdf file).")

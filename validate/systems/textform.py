@@ -22,10 +22,13 @@ own symbols, and binds each symbol to a key of the compiled model (validate/syst
     ccz = "body/cart/com[2]"
     pz = "body/pole/pos[2]"
 
-Nothing is evaluated: each expression is parsed with `ast` (`^` read as `**`) and only numbers, the
+Nothing is evaluated: each expression is read by validate/systems/expression.py, and only numbers, the
 declared names, + - * / ** (or ^), unary -, pi and the functions in FUNCTIONS are turned into sympy;
 anything else is a one-line HarnessError naming the expression, the offending part and what is
-valid. The file is read against its model (`System.from_files`): the coordinates must be joints of
+valid. Its size, depth and number of terms are bounded, powers of numbers are judged by their size
+before they are computed, and a division by zero or any constant that is not a finite real number is
+named. Names are NFKC-normalised (µ is μ); two declared names that normalise to one are refused,
+naming both spellings. The file is read against its model (`System.from_files`): the coordinates must be joints of
 the model (or `joints` names them), and every key must exist. It becomes an equations module in
 form (d) (validate/systems/forms.py differentiates T and V): `Params` of the symbols, `parameters`
 reading the bound keys, and `assumptions` stating the bound numbers (so that the probes move them)
@@ -35,10 +38,8 @@ its T and V assume; the model's other numbers are taken as they are).
 
 from __future__ import annotations
 
-import ast
 import dataclasses
 import keyword
-import operator
 import re
 import tomllib
 import types
@@ -49,37 +50,17 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import HarnessError
+from ..errors import HarnessError, shown
 from ..inputs import regular_file
-from . import tracing
+from . import modelview, tracing
+from .expression import CONSTANTS, FUNCTIONS, lambdified, normalized, to_sympy
 
 MAX_BYTES = 2**20
-FUNCTIONS = {  # the name in the file -> sympy's
-    "sin": "sin",
-    "cos": "cos",
-    "tan": "tan",
-    "sqrt": "sqrt",
-    "exp": "exp",
-    "log": "log",
-    "asin": "asin",
-    "acos": "acos",
-    "atan": "atan",
-    "atan2": "atan2",
-    "sinh": "sinh",
-    "cosh": "cosh",
-    "tanh": "tanh",
-    "abs": "Abs",
-}
-CONSTANTS = ("pi",)
 KEYS = ("description", "coordinates", "velocities", "joints", "T", "V", "friction", "symbols")
-_OPERATORS: dict[type, Callable[[Any, Any], Any]] = {
-    ast.Add: operator.add,
-    ast.Sub: operator.sub,
-    ast.Mult: operator.mul,
-    ast.Div: operator.truediv,
-    ast.Pow: operator.pow,
-}
-_BINDING = re.compile(r"^\s*(-)?\s*(?:(\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)\s*\*\s*)?([^\s\[\]*]+)((?:\[\s*\d+\s*\])*)\s*$")
+_BINDING = re.compile(  # the key may hold spaces inside a name (body/upper arm/mass), not at its ends
+    r"^\s*(-)?\s*(?:(\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)\s*\*\s*)?([^\s\[\]*](?:[^\[\]*]*[^\s\[\]*])?)"
+    r"((?:\[\s*\d+\s*\])*)\s*$"
+)
 
 
 @dataclass(frozen=True)
@@ -180,7 +161,7 @@ def read_spec(path: Path, joints_of_model: tuple[str, ...]) -> Spec:
     for what, names in (("velocities", velocities), ("joints", joints)):
         if len(names) != len(coordinates):
             raise HarnessError(f"{where}: {len(names)} {what} for {len(coordinates)} coordinates.")
-    _check_names(where, [*coordinates, *velocities, *symbols])
+    plain = _check_names(where, [*coordinates, *velocities, *symbols])
     missing = [j for j in joints if j not in joints_of_model]
     if missing:
         hint = "" if "joints" in data else " (the coordinates are joint names unless joints = [...] says which)"
@@ -190,70 +171,37 @@ def read_spec(path: Path, joints_of_model: tuple[str, ...]) -> Spec:
     description = data.get("description", f"{path.name}: T and V from paper")
     return Spec(
         str(description),
-        coordinates,
-        velocities,
+        plain[: len(coordinates)],
+        plain[len(coordinates) : 2 * len(coordinates)],
         joints,
         _expression_text(data["T"], "T", where),
         _expression_text(data["V"], "V", where),
         None if friction is None else tuple(_expression_text(f, "friction", where) for f in friction),
-        tuple(parse_binding(s, t, where) for s, t in symbols.items()),
+        tuple(parse_binding(normalized(s), t, where) for s, t in symbols.items()),
     )
 
 
-def _check_names(where: str, names: list[str]) -> None:
+def _check_names(where: str, names: list[str]) -> tuple[str, ...]:
+    """The declared names, NFKC-normalised as the expressions read them, each valid and declared once."""
     reserved = set(FUNCTIONS) | set(CONSTANTS)
+    seen: dict[str, str] = {}
     for name in names:
-        if not name.isidentifier() or keyword.iskeyword(name) or name.startswith("_") or name in reserved:
+        plain = normalized(name)
+        if not plain.isidentifier() or keyword.iskeyword(plain) or plain.startswith("_") or plain in reserved:
             raise HarnessError(
-                f"{where}: {name!r} cannot be a symbol (a name of letters, digits and _, not starting with _, "
-                f"not a Python keyword, not {', '.join(sorted(reserved))}); name the coordinates yourself."
+                f"{where}: {shown(name, 100)!r} cannot be a symbol (a name of letters, digits and _, not starting "
+                f"with _, not a Python keyword, not {', '.join(sorted(reserved))}); name the coordinates yourself."
             )
-    twice = sorted({n for n in names if names.count(n) > 1})
-    if twice:
-        raise HarnessError(f"{where}: {twice[0]!r} is declared twice (coordinates, velocities, symbols are distinct).")
-
-
-def to_sympy(text: str, names: Mapping[str, Any], what: str) -> Any:
-    """The sympy expression of `text`, walking its syntax tree with a whitelist (nothing is evaluated)."""
-    try:
-        tree = ast.parse(text.replace("^", "**"), mode="eval")
-    except SyntaxError as exc:
-        raise HarnessError(f'{what} = "{text}": not an expression ({exc.msg}).') from None
-    return _node(tree.body, names, what, text)
-
-
-def _refuse(node: ast.AST, why: str, names: Mapping[str, Any], what: str, text: str) -> HarnessError:
-    valid = (
-        f"numbers, {', '.join(names) or '(no names)'}, + - * / ^, unary -, {', '.join(CONSTANTS)}, "
-        f"and {', '.join(FUNCTIONS)}"
-    )
-    return HarnessError(f'{what} = "{text}": {ast.unparse(node)!r} {why}; valid: {valid}.')
-
-
-def _node(node: ast.AST, names: Mapping[str, Any], what: str, text: str) -> Any:
-    import sympy as sp
-
-    if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)) and not isinstance(node.value, bool):
-        return sp.Integer(node.value) if isinstance(node.value, int) else sp.Float(node.value)
-    if isinstance(node, ast.Name):
-        if node.id in names:
-            return names[node.id]
-        if node.id in CONSTANTS:
-            return sp.pi
-        raise _refuse(node, "is not a declared symbol, coordinate or velocity", names, what, text)
-    if isinstance(node, ast.BinOp) and type(node.op) in _OPERATORS:
-        left, right = _node(node.left, names, what, text), _node(node.right, names, what, text)
-        return _OPERATORS[type(node.op)](left, right)
-    if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
-        inner = _node(node.operand, names, what, text)
-        return -inner if isinstance(node.op, ast.USub) else inner
-    if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in FUNCTIONS:
-        arity = 2 if node.func.id == "atan2" else 1
-        if node.keywords or len(node.args) != arity:
-            raise _refuse(node, f"must have {arity} argument(s), no keywords", names, what, text)
-        args = [_node(a, names, what, text) for a in node.args]
-        return getattr(sp, FUNCTIONS[node.func.id])(*args)
-    raise _refuse(node, "is not allowed", names, what, text)
+        if plain in seen:
+            both = (
+                f"{seen[plain]!r} and {name!r} are one name" if seen[plain] != name else f"{name!r} is declared twice"
+            )
+            raise HarnessError(
+                f"{where}: {both} (names are read NFKC-normalised, as Python reads them: {plain!r}); "
+                "coordinates, velocities and symbols must be distinct."
+            )
+        seen[plain] = name
+    return tuple(seen)
 
 
 @dataclass(frozen=True)
@@ -267,9 +215,8 @@ class Compiled:
 
     @classmethod
     def of(cls, exprs: list[Any], args: list[Any]) -> Compiled:
-        import sympy as sp
 
-        return cls(tuple(exprs), tuple(args), sp.lambdify(args, exprs, modules="numpy", dummify=True))
+        return cls(tuple(exprs), tuple(args), lambdified(args, exprs, common=False))
 
     def __call__(self, values: list[Any]) -> list[Any]:
         traced = [x for x in values if isinstance(x, tracing.Traced)]
@@ -292,7 +239,7 @@ def _uses(view: Mapping[str, Any], joints: tuple[str, ...]) -> frozenset[str]:
 def _bodies(view: Mapping[str, Any], joints: tuple[str, ...]) -> tuple[str, ...]:
     """The bodies the joints move, in the model's order (what the engines are compared on)."""
     moved = {view[f"joint/{j}/body"] for j in joints}
-    bodies = [k.split("/")[1] for k in view if k.startswith("body/") and k.endswith("/mass")]
+    bodies = modelview.names(view, "body", "mass")
     return tuple(b for b in bodies if b in moved)
 
 
@@ -319,7 +266,7 @@ def module_from_file(path: Path, view: Mapping[str, Any]) -> types.ModuleType:
     import sympy as sp
 
     path = Path(path)
-    joints_of_model = tuple(k.split("/")[1] for k in view if k.startswith("joint/") and k.endswith("/type"))
+    joints_of_model = tuple(modelview.names(view, "joint", "type"))
     spec = read_spec(path, joints_of_model)
     for b in spec.bindings:  # every key and index must exist now, not at the first parameters() call
         try:

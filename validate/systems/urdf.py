@@ -37,6 +37,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import HarnessError
+from .bounds import check_numbers
 from .inertia import repair_urdf
 
 ROOT = "robot"
@@ -193,10 +194,11 @@ def compile_urdf(text: str, source: str) -> Any:
 
 def _compiled(spec: Any, source: str) -> Any:
     try:
-        return spec.compile()
+        model = spec.compile()
     except Exception as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise HarnessError(f"{source}: MuJoCo cannot compile this URDF: {first}") from None
+    return check_numbers(model, source)
 
 
 def for_pinocchio(text: str, source: str) -> str:
