@@ -107,7 +107,7 @@ def _finding(
     reader: str, key: str, value: Any, reference: Any, fmt: str, found: set[str], names: tuple[str, ...]
 ) -> dict[str, Any]:
     parts = key_parts(key)
-    name, field = (parts[1], parts[2]) if parts else (key, key)
+    name, field = (parts[1], parts[2]) if parts else (key.split("/")[1], key.split("/")[-1])
     rotated = field != "inertia" or bool(
         np.allclose(np.linalg.eigvalsh(value), np.linalg.eigvalsh(reference), rtol=1e-6, atol=1e-15)
     )
@@ -168,7 +168,7 @@ def _rows(reference: Reading, readings: dict[str, Reading], fmt: str, found: set
             "agree": not wrong,
             "informational": key.endswith(INFORMATIONAL),
         }
-        name = (key_parts(key) or ("", key, ""))[1]
+        name = (key_parts(key) or ("", key.split("/")[1], ""))[1]
         names = scope.get(name, (name,))
         row["misreads"] = [_finding(n, key, values[n], want, fmt, found, names) for n in wrong]
         rows.append(row)

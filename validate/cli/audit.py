@@ -19,12 +19,25 @@ def audited_system(model: Path, locked: tuple[str, ...]) -> System:
     if model.is_file():  # not compiled here: a model outside the harness's scope is still audited
         system = System(name=model.stem, mjcf=model, equations=None, locked=locked)
         system.model_format  # noqa: B018 (a file that is not an MJCF or a URDF fails here, in one line)
+        _numbers_finite(model)
         return system
     if str(model) in system_names():
         if locked:
             raise HarnessError("--lock takes joints of a URDF file; give its path.")
         return load(str(model))
     raise HarnessError(f"no model file '{model}' (nor a system of that name: {', '.join(system_names())}).")
+
+
+def _numbers_finite(model: Path) -> None:
+    """A model MuJoCo compiles with a number that is not finite or overflows (systems/bounds.py) is one
+    error line; one MuJoCo refuses for another reason is audited (each reader's failure is a finding)."""
+    from ..systems import compile_model
+
+    try:
+        compile_model(model)
+    except HarnessError as exc:
+        if "every number the dynamics read must be finite" in str(exc):
+            raise
 
 
 def cmd_audit(args: argparse.Namespace) -> int:

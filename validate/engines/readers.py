@@ -305,9 +305,7 @@ def pinocchio_model(path: Path, text: str, fmt: str) -> Any:
 
     if fmt == "urdf":
         return pin.buildModelFromXML(_model_text(text, fmt))
-    from .pinocchio import one_tree  # the harness's Pinocchio source reads every body tree, so does its reading
-
-    with _as_file(path, one_tree(text)) as name:
+    with _as_file(path, text) as name:
         return pin.buildModelFromMJCF(name)
 
 
