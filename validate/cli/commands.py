@@ -38,6 +38,7 @@ from .audit import cmd_audit
 from .outputs import check_cache_dir, check_out, render_system, write_all, write_reports
 from .parser import MAX_STATES_FILE_BYTES, one_line
 from .progress import reporter
+from .watch import cmd_watch
 
 
 def unpaired_lines() -> list[str]:
@@ -423,6 +424,7 @@ COMMANDS = {
     "list": cmd_list,
     "run": cmd_run,
     "check": cmd_check,
+    "watch": cmd_watch,
     "simulate": cmd_simulate,
     "report": cmd_report,
     "new": cmd_new,
