@@ -18,9 +18,9 @@ from pathlib import Path
 
 import pytest
 from lagrange_xval.validate.checks.decide import decide
-from lagrange_xval.validate.checks.stages import Cancelled, Clock
 from lagrange_xval.validate.cli import main
 from lagrange_xval.validate.cli.watch import Saves
+from lagrange_xval.validate.results.stages import Cancelled, Clock
 from lagrange_xval.validate.systems import PACKAGE_ROOT, System, load, load_module
 
 CLI = [sys.executable, "-m", "lagrange_xval.validate.cli"]
@@ -224,3 +224,55 @@ def _gravity_reads_cart_mass(module) -> bool:
     zero = np.zeros(2)
     r = module.residual(p, np.array([0.0, np.pi / 2]), zero, zero, zero)
     return bool(np.isclose(r[1], -7.0 * 0.5))
+
+
+def _unbounded_caches(path: Path) -> list[str]:
+    """The process-wide caches of one module that can grow without bound: `functools.cache` or
+    `lru_cache(maxsize=None)` on a function that takes arguments, a module-level `Memo()` without a
+    maxsize, and a module-level dict that functions store into by key."""
+    import ast
+
+    tree = ast.parse(path.read_text())
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.FunctionDef) and (node.args.args or node.args.kwonlyargs):
+            for d in node.decorator_list:
+                text = ast.unparse(d)
+                if text in ("functools.cache", "cache") or "maxsize=None" in text:
+                    found.append(f"{path.name}:{node.lineno} @{text} {node.name}")
+    for node in tree.body:
+        target = node.targets[0] if isinstance(node, ast.Assign) else getattr(node, "target", None)
+        value = getattr(node, "value", None)
+        if not isinstance(target, ast.Name) or value is None:
+            continue
+        if isinstance(value, ast.Call) and ast.unparse(value.func) == "Memo" and not value.keywords and not value.args:
+            found.append(f"{path.name}:{node.lineno} {target.id} = Memo()")
+        if isinstance(value, ast.Dict) and not value.keys:
+            stores = [
+                n
+                for n in ast.walk(tree)
+                if isinstance(n, ast.Subscript) and isinstance(n.ctx, ast.Store) and ast.unparse(n.value) == target.id
+            ]
+            if stores:
+                found.append(f"{path.name}:{node.lineno} {target.id}: a dict stored into by key")
+    return found
+
+
+def test_every_process_wide_cache_is_bounded():
+    """A watch runs for hours, one module loaded per save: every cache kept for the process has a
+    bound (a System's own memo goes with the System)."""
+    validate = PACKAGE_ROOT / "validate"
+    found = [line for path in sorted(validate.rglob("*.py")) for line in _unbounded_caches(path)]
+    assert not found, f"unbounded process-wide caches: {found}"
+
+
+def test_the_unbounded_cache_finder_finds_each_kind(tmp_path):
+    module = tmp_path / "m.py"
+    module.write_text(
+        "import functools\n_SEEN = {}\n_MEMO = Memo()\n"
+        "@functools.cache\ndef f(x):\n    _SEEN[x] = 1\n"
+        "@functools.lru_cache(maxsize=None)\ndef g(x):\n    return x\n"
+        "@functools.cache\ndef h():\n    return 1\n"
+    )
+    found = _unbounded_caches(module)
+    assert len(found) == 4 and not any(" h" in x for x in found), found

@@ -26,12 +26,12 @@ from ..engines import make_sources
 from ..engines.base import Source
 from ..errors import HarnessError
 from ..results.schema import Derivation, ModelChecks, Pointwise
+from ..results.stages import Clock, lap
 from ..systems import System
 from . import modelsync, verdict
 from . import pointwise as compare
 from .pointwise import States
 from .probes import DEFAULT_PROBES
-from .stages import Clock, lap
 from .tolerances import TOLERANCES, Tolerances
 
 NO_DERIVATION = "no equations module given: the engines and the model's derived equations are compared"
@@ -105,7 +105,7 @@ def decide(
         states: the states to compare at instead of random ones.
         tolerances: the tiers every comparison is judged against.
         clock: where each stage's wall seconds go ("model checks", "pointwise", "probes", "terms");
-            its cancel event, once set, abandons the verdict at the next of them (checks/stages.py).
+            its cancel event, once set, abandons the verdict at the next of them (results/stages.py).
 
     Returns:
         The Decision. Nothing a derivation computes raises out of here: its exceptions are findings.

@@ -6,7 +6,7 @@ is kept between verdicts; only the person's module is imported again, from its s
 
 Each verdict is `decide` (checks/decide.py), as `check` gives it: the statement line exactly as
 `check` prints its last line, then the failing terms, then the seconds it took, stage by stage. A save
-while a verdict is being computed abandons it at the next stage boundary (checks/stages.py) and the
+while a verdict is being computed abandons it at the next stage boundary (results/stages.py) and the
 saved files are judged again. A module that cannot be imported, or a model that does not compile,
 prints its one-line error and the watch waits for the next save. Ctrl-C ends it (status 130).
 `--once` judges once and exits with `check`'s status (0 pass, 1 fail, 2 an error), for scripts and tests.
@@ -26,9 +26,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..checks.decide import Decision, decide
-from ..checks.stages import Cancelled, Clock
 from ..errors import HarnessError, Terminated
 from ..guard import DEFAULT_TIME_LIMIT, Stopped
+from ..results.stages import Cancelled, Clock
 from ..systems import EQUATIONS_PACKAGE, MODELS_DIR, System, load, pairs_in
 from . import check as checking
 from .parser import one_line

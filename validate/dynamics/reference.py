@@ -43,6 +43,7 @@ from ..engines.hand import HandSource
 from ..errors import HarnessError, IntegrationStopped, unknown_name
 from ..systems import System, tracing
 from ..systems.forms import accelerations_only
+from ..systems.memo import Memo
 from . import cache
 from .integrate import DEFAULT_BUDGET, Budget, Trajectory
 
@@ -79,7 +80,7 @@ def param_key(system: System) -> tuple[tuple[str, str], ...]:
     return tuple((k, float(v).hex()) for k, v in sorted(vars(system.params).items()))
 
 
-@functools.lru_cache(maxsize=256)  # one per parameter set: probes and overrides make many
+@functools.lru_cache(maxsize=64)  # one per parameter set: probes and overrides make many
 def _symbolic(name: str, module: types.ModuleType, p: Any, n: int) -> SymbolicDynamics:
     import heyoka as hy
 
@@ -123,7 +124,7 @@ def rhs_check(system: System, *, n_states: int = 64, seed: int = 0) -> float:
     return float(np.abs(traced - numpy_a).max() / scale)
 
 
-@functools.lru_cache(maxsize=256)  # one per SymbolicDynamics, as _symbolic
+@functools.lru_cache(maxsize=64)  # one per SymbolicDynamics, as _symbolic (compiled code: a few MB each)
 def _cfunc(dyn: SymbolicDynamics) -> Any:
     import heyoka as hy
 
@@ -144,7 +145,7 @@ def _extended_available() -> bool:
     return bool(np.finfo(np.longdouble).eps < 1e-18)  # 80-bit x87 (x86-64 Linux); double elsewhere
 
 
-_INTEGRATORS: dict[tuple[Any, ...], Any] = {}
+_INTEGRATORS = Memo(maxsize=64)  # bounded: one per system, parameter set, precision and tolerance (issue 36)
 
 
 def taylor_integrator(system: System, precision: str, tol: float | None) -> Any:
@@ -154,7 +155,8 @@ def taylor_integrator(system: System, precision: str, tol: float | None) -> Any:
     fp = _fp_types()[precision]
     # the module itself, not its id or name: a mutated module of the same name gets its own integrator
     key = (system.name, system.overrides, param_key(system), system.equations, precision, tol)
-    if key not in _INTEGRATORS:
+
+    def make() -> Any:
         dyn = symbolic_dynamics(system)
         state = np.zeros(2 * dyn.n, dtype=fp) if fp is not hy.real128 else np.array([hy.real128(0)] * 2 * dyn.n)
         pars = np.zeros(dyn.n, dtype=fp) if fp is not hy.real128 else np.array([hy.real128(0)] * dyn.n)
@@ -163,8 +165,9 @@ def taylor_integrator(system: System, precision: str, tol: float | None) -> Any:
         kwargs: dict[str, Any] = {"fp_type": fp, "pars": pars, "compact_mode": True, "opt_level": 1}
         if tol is not None:
             kwargs["tol"] = tol
-        _INTEGRATORS[key] = hy.taylor_adaptive(dyn.ode, state, **kwargs)
-    return _INTEGRATORS[key]
+        return hy.taylor_adaptive(dyn.ode, state, **kwargs)
+
+    return _INTEGRATORS.get(key, make)
 
 
 def _to_fp(x: np.ndarray, precision: str) -> np.ndarray:

@@ -468,7 +468,7 @@ def _check_contract(module: ModuleType, where: str) -> ModuleType:
         raise HarnessError(f"{where}: {exc}") from None
 
 
-@functools.cache  # unbounded by design: one per repository system (and time limit)
+@functools.lru_cache(maxsize=64)  # one per repository system (and time limit)
 def _equations_module(name: str, time_limit: float = DEFAULT_TIME_LIMIT) -> ModuleType:
     where = f"equations/{name}.py"
     guard = Guard(where, time_limit)
