@@ -30,13 +30,16 @@ from .guard import DEFAULT_TIME_LIMIT, Stopped
 from .parallel import completed, executor_for
 from .results import provenance
 from .results.schema import Derivation, ModelChecks, Pointwise, Provenance, RunResults, SystemResult
+from .results.stages import Clock, records
 from .systems import MODELS_DIR, System, load, load_all
 from .systems.units import parameter_keys
 
 READABLE_MAX_DOF = SIMPLIFY_MAX_DOF  # the report's derived equations: simplified (cached), up to this many joints
 
 
-def model_only_result(decision: Decision, *, t_end: float, dt_out: float, cache: Cache | None = None) -> SystemResult:
+def model_only_result(
+    decision: Decision, *, t_end: float, dt_out: float, cache: Cache | None = None, clock: Clock | None = None
+) -> SystemResult:
     """The model alone (no derivation given, e.g. a robot's URDF), after `decide` compared the two
     engines' readings of it and MuJoCo, Pinocchio and the model's equations derived symbolically (up
     to SYMBOLIC_MAX_DOF joints) pointwise: their free runs from 0.5 rad at rest, against MuJoCo's."""
@@ -47,6 +50,7 @@ def model_only_result(decision: Decision, *, t_end: float, dt_out: float, cache:
     why = (
         f"no derivation given: the engines' and the derived equations' free runs, against {against} (information only)"
     )
+    clock = clock or Clock()
     stages: dict[str, Any] = {}
     traj = _stage(
         stages,
@@ -54,13 +58,14 @@ def model_only_result(decision: Decision, *, t_end: float, dt_out: float, cache:
         lambda: divergence_results(
             system, sources, t_end=t_end, dt_out=dt_out, why=why, aba_reference="symbolic" not in sources
         ),
+        clock,
     )
     if system.nv <= READABLE_MAX_DOF and "symbolic" in sources:
-        derived = _stage(stages, "derived equations", lambda: derived_data(system, cache=cache))
+        derived = _stage(stages, "derived equations", lambda: derived_data(system, cache=cache), clock)
     else:
         derived = None
         stages["derived equations"] = f"not run: {system.nv} joints (`lagrange-xval derive --model` prints them)"
-    failed_stages = [k for k, v in stages.items() if str(v).startswith("failed")]
+    failed_stages = [k for k, v in stages.items() if v.startswith("failed")]
     failed = _what_failed(model, point, derivation, None, None, None, failed_stages)
     return {
         **_identity(system),
@@ -76,7 +81,7 @@ def model_only_result(decision: Decision, *, t_end: float, dt_out: float, cache:
         "experiments": None,
         "equivalence": None,
         "chaos": None,
-        "stages": stages,
+        "stages": records(clock.seconds, stages),
         "skipped": skipped_work(system),
         "passed": model["passed"] and point["passed"] and not failed_stages,
     }
@@ -104,9 +109,11 @@ def skipped_work(system: System) -> list[str]:
     return out
 
 
-def _stage(stages: dict[str, Any], name: str, fn: Any) -> Any:
-    """Runs one stage after the verdicts; a failure is recorded (and fails the system), never raised,
-    so the verdicts already computed are always written."""
+def _stage(stages: dict[str, Any], name: str, fn: Any, clock: Clock) -> Any:
+    """Runs one stage after the verdicts, its wall seconds on `clock` (what the stage did not lap
+    itself); a failure is recorded (and fails the system), never raised, so the verdicts already
+    computed are always written."""
+    clock.skip()
     try:
         return fn()
     except KeyboardInterrupt:
@@ -114,6 +121,8 @@ def _stage(stages: dict[str, Any], name: str, fn: Any) -> Any:
     except Exception as exc:  # noqa: BLE001 - recorded as the stage's outcome, reported as a failure
         stages[name] = f"failed: {type(exc).__name__}: {exc}".strip()
         return None
+    finally:
+        clock.lap(name)
 
 
 def run_system(system: System, *, n_states: int, seed: int, **options: Any) -> SystemResult:
@@ -121,7 +130,13 @@ def run_system(system: System, *, n_states: int, seed: int, **options: Any) -> S
     (checks/audit.py; an audit that cannot be made says why under "error")."""
     from .checks.audit import audit_of
 
-    return {**_run_stages(system, n_states=n_states, seed=seed, **options), "audit": audit_of(system, seed=seed)}
+    clock = Clock()
+    result = _run_stages(system, n_states=n_states, seed=seed, clock=clock, **options)
+    clock.skip()
+    audit = audit_of(system, seed=seed)
+    clock.lap("audit")
+    stages = result.get("stages", {})
+    return {**result, "audit": audit, "stages": {**stages, **records({"audit": clock.seconds["audit"]}, {})}}
 
 
 def _run_stages(
@@ -133,17 +148,19 @@ def _run_stages(
     dt_out: float = integrate.DEFAULT_DT_OUT,
     n_probes: int = DEFAULT_PROBES,
     cache: Cache | None = None,
+    clock: Clock | None = None,
 ) -> SystemResult:
     """Everything the harness knows about one system, as plain data. The verdict comes first, from
     `decide` (checks/decide.py: the same function `check` and the API call); the stages after it
     (printed forms, trajectories, chaos, ...) add to the results and never judge the derivation
     again; they run only for a derivation that agrees (else a bounded divergence run). `cache`: where
     references, chaos summaries, derived equations and explanations are kept (None: nowhere)."""
-    decision = decide(system, n_states=n_states, seed=seed, probes=n_probes, cache=cache)
+    clock = clock or Clock()
+    decision = decide(system, n_states=n_states, seed=seed, probes=n_probes, cache=cache, clock=clock)
     if decision.unreadable:
         return _unreadable(decision)
     if decision.model_only:
-        return model_only_result(decision, t_end=t_end, dt_out=dt_out, cache=cache)
+        return model_only_result(decision, t_end=t_end, dt_out=dt_out, cache=cache, clock=clock)
     sources, states, values, probe_set = decision.sources, decision.states, decision.values, decision.probe_set
     model, point, derivation = decision.model_checks, decision.pointwise, decision.derivation
     assert sources is not None and states is not None and probe_set is not None  # decide judged the derivation
@@ -156,12 +173,13 @@ def _run_stages(
             lambda: judge.judge_system(
                 system, states, sources, values=values, n_probes=n_probes, seed=seed, cache=cache
             ),
+            clock,
         )
         or []
     )
-    same = _stage(stages, "equivalence", lambda: equivalence.check_equivalence(system, probe_set.systems()))
+    same = _stage(stages, "equivalence", lambda: equivalence.check_equivalence(system, probe_set.systems()), clock)
     if system.nv <= READABLE_MAX_DOF:
-        derived = _stage(stages, "derived equations", lambda: derived_data(system, cache=cache))
+        derived = _stage(stages, "derived equations", lambda: derived_data(system, cache=cache), clock)
     else:
         derived = None
         stages["derived equations"] = (
@@ -174,9 +192,10 @@ def _run_stages(
         traj = _stage(
             stages,
             "trajectories",
-            lambda: trajectory_results(system, sources, t_end=t_end, dt_out=dt_out, cache=cache),
+            lambda: trajectory_results(system, sources, t_end=t_end, dt_out=dt_out, cache=cache, clock=clock),
+            clock,
         )
-        notes_experiments = _stage(stages, "experiments", lambda: experiments.run_experiments(system))
+        notes_experiments = _stage(stages, "experiments", lambda: experiments.run_experiments(system), clock)
         cross = _stage(
             stages,
             "chaos",
@@ -189,6 +208,7 @@ def _run_stages(
                 mirror_engines=("hand", "pinocchio"),
                 cache_dir=reference_dir(cache),
             ),
+            clock,
         )
         if traj is not None:
             judge_trajectories(traj, cross.get("amplification") if cross else None, stages.get("chaos"))
@@ -211,8 +231,9 @@ def _run_stages(
                 why="information only: the hand derivation disagrees pointwise, so this shows where its motion "
                 "parts from the engines'",
             ),
+            clock,
         )
-    failed_stages = [k for k, v in stages.items() if str(v).startswith("failed")]
+    failed_stages = [k for k, v in stages.items() if v.startswith("failed")]
     traj_ok = traj is None or all(r.get("passed", True) for r in traj["runs"] if r.get("counts"))
     passed = (
         agrees
@@ -237,7 +258,7 @@ def _run_stages(
         "experiments": notes_experiments,
         "equivalence": same,
         "chaos": cross,
-        "stages": stages,
+        "stages": records(clock.seconds, stages),
         "skipped": skipped_work(system),
         "passed": passed,
     }
@@ -313,7 +334,7 @@ def _unreadable(decision: Decision) -> SystemResult:
         "parameters": {},
         "derivation": decision.derivation,
         "variants": [],
-        "stages": {"everything after reading the parameters": f"not run: {why}"},
+        "stages": records({}, {"everything after reading the parameters": f"not run: {why}"}),
         "failed": [f"hand derivation: {decision.statement}"],
         "skipped": [],
         "passed": False,
@@ -378,7 +399,7 @@ def stopped_result(system: System, why: str) -> SystemResult:
             "summary": [],
         },
         "variants": [],
-        "stages": {"everything after the stop": f"not run: {why}"},
+        "stages": records({}, {"everything after the stop": f"not run: {why}"}),
         "failed": [why],
         "skipped": [],
         "passed": False,

@@ -28,6 +28,7 @@ from ..replay import replay_command, shown_path, viewer_command
 from ..report import ReplayHint
 from ..report.findings import console_lines
 from ..results import load as load_results
+from ..results.stages import stage_line
 from ..studies.bench import bench_command
 from ..studies.stress import stress_command
 from ..systems import System, load, pairs_and_lonely, pairs_in, system_names, unpaired
@@ -231,6 +232,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"replays: {hint.viewer} {hint.out}/<system>.rrd")
     for line in console_lines(dict(results), f"{hint.out}/report.html"):
         print(line)
+    if args.verbose:
+        for name, s in sorted(results["systems"].items()):
+            print(f"{name}: stages, wall seconds: {stage_line(s.get('stages') or {})}")
     return 0 if results["passed"] else 1
 
 

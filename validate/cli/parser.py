@@ -250,6 +250,7 @@ def _run_arguments(run: argparse.ArgumentParser) -> None:
     _time_limit_option(run)
     _cache_options(run)
     _executor_option(run, "the systems")
+    run.add_argument("--verbose", action="store_true", help="print each system's stages and their wall seconds, s")
 
 
 def _check_states_options(check: argparse.ArgumentParser) -> None:
