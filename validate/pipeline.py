@@ -149,6 +149,7 @@ def _run_stages(
     n_probes: int = DEFAULT_PROBES,
     cache: Cache | None = None,
     clock: Clock | None = None,
+    drake_run: bool = False,
 ) -> SystemResult:
     """Everything the harness knows about one system, as plain data. The verdict comes first, from
     `decide` (checks/decide.py: the same function `check` and the API call); the stages after it
@@ -192,7 +193,9 @@ def _run_stages(
         traj = _stage(
             stages,
             "trajectories",
-            lambda: trajectory_results(system, sources, t_end=t_end, dt_out=dt_out, cache=cache, clock=clock),
+            lambda: trajectory_results(
+                system, sources, t_end=t_end, dt_out=dt_out, cache=cache, clock=clock, drake_run=drake_run
+            ),
             clock,
         )
         notes_experiments = _stage(stages, "experiments", lambda: experiments.run_experiments(system), clock)
@@ -348,10 +351,12 @@ def _run_one(
     n_probes: int = DEFAULT_PROBES,
     cache: Cache | None = None,
     time_limit: float = DEFAULT_TIME_LIMIT,
+    drake_run: bool = False,
 ) -> SystemResult:
     """One system, by name (picklable, for process pools)."""
 
-    return guarded_run(load(name, time_limit=time_limit), n_states=n_states, seed=seed, n_probes=n_probes, cache=cache)
+    system = load(name, time_limit=time_limit)
+    return guarded_run(system, n_states=n_states, seed=seed, n_probes=n_probes, cache=cache, drake_run=drake_run)
 
 
 def _run_files(
@@ -363,6 +368,7 @@ def _run_files(
     locked: tuple[str, ...] = (),
     cache: Cache | None = None,
     time_limit: float = DEFAULT_TIME_LIMIT,
+    drake_run: bool = False,
 ) -> SystemResult:
     """One system from a model file and an equations file (picklable, for process pools)."""
 
@@ -370,7 +376,7 @@ def _run_files(
         system = System.from_files(model, equations, locked=locked, time_limit=time_limit)
     else:
         system = System.model_only(model, locked=locked)
-    return guarded_run(system, n_states=n_states, seed=seed, n_probes=n_probes, cache=cache)
+    return guarded_run(system, n_states=n_states, seed=seed, n_probes=n_probes, cache=cache, drake_run=drake_run)
 
 
 def guarded_run(system: System, **options: Any) -> SystemResult:
@@ -443,6 +449,7 @@ def run(
     locked: tuple[str, ...] = (),
     cache: Cache | None = None,
     time_limit: float = DEFAULT_TIME_LIMIT,
+    drake_run: bool = False,
 ) -> RunResults:
     """Every system (or those named), each in a worker of `executor` (default: a process pool on
     every core; any `concurrent.futures.Executor` will do, a distributed one included). `files`:
@@ -454,7 +461,8 @@ def run(
     `cache`: the cache every worker keeps its references, summaries and explanations in (None: none),
     handed to them as a value.
     `time_limit`: seconds each call into an equations module may take (validate/guard.py); a module
-    stopped, or a worker process that ends (`os._exit` in a module), fails its own system alone."""
+    stopped, or a worker process that ends (`os._exit` in a module), fails its own system alone.
+    `drake_run`: Drake's information-only free run beside the judged ones (freeruns.trajectory_results)."""
 
     # Unknown names and unreadable files fail here, before any work starts.
     systems = load_all(names, time_limit=time_limit) if names or not files else []
@@ -475,13 +483,11 @@ def run(
         # mirrors step the numpy equations), then more coordinates, then more printed forms.
         order = sorted(systems, key=lambda s: ("damping" not in s.uses, -s.nv, -len(s.variants), s.name))
         meta = out["meta"]
-        futures = {
-            pool.submit(_task, _run_one, (s.name, n_states, seed, n_probes, cache, time_limit), after, meta): s
-            for s in order
-        }
+        common = (n_states, seed, n_probes, cache, time_limit, drake_run)
+        futures = {pool.submit(_task, _run_one, (s.name, *common), after, meta): s for s in order}
         for (model, equations), user in zip(files or [], users, strict=True):
             equations_file = "" if equations is None else str(equations)
-            args = (str(model), equations_file, n_states, seed, n_probes, locked, cache, time_limit)
+            args = (str(model), equations_file, n_states, seed, n_probes, locked, cache, time_limit, drake_run)
             futures[pool.submit(_task, _run_files, args, after, meta)] = user
         for system in futures.values():
             if progress:

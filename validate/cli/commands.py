@@ -217,6 +217,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             locked=locked,
             cache=cache,
             time_limit=args.time_limit,
+            drake_run=args.drake_run,
         )
     cache.trim()
     hint = replay_hint(args.out, written=not args.no_replay)

@@ -251,6 +251,11 @@ def _run_arguments(run: argparse.ArgumentParser) -> None:
     _cache_options(run)
     _executor_option(run, "the systems")
     run.add_argument("--verbose", action="store_true", help="print each system's stages and their wall seconds, s")
+    run.add_argument(
+        "--drake-run",
+        action="store_true",
+        help="also Drake's own free run (information only, not judged; with its estimate ~5 s a double pendulum)",
+    )
 
 
 def _check_states_options(check: argparse.ArgumentParser) -> None:

@@ -157,13 +157,14 @@ def run_trajectories(
     t_end: float = DEFAULT_T_END,
     dt_out: float = DEFAULT_DT_OUT,
     clock: Clock | None = None,
+    drake: bool = True,
 ) -> list[Trajectory]:
     """The sources' free runs from the system's initial state: scipy (SCIPY_DEFAULT) on the hand
     equations, the path a user of scipy takes, and on Pinocchio's ABA (an engine's right-hand side
     called from Python: odeint is its fastest driver, bench); MuJoCo's RK4 at the model's timestep; the
     model's derived equations by the fast path (`accurate_trajectory`); Drake's own integrator
-    (DRAKE_DEFAULT) where the drake source exists. Each run's wall seconds go on `clock` as
-    "trajectories: SOURCE"."""
+    (DRAKE_DEFAULT) where the drake source exists and `drake` asks for it. Each run's wall seconds go
+    on `clock` as "trajectories: SOURCE"."""
     q0, v0 = initial_state(system)
     tau = np.zeros(system.nv)
     t = time_grid(t_end, dt_out)
@@ -176,7 +177,7 @@ def run_trajectories(
     }
     out = []
     for source, run in runs.items():
-        if source in sources:
+        if source in sources and (drake or source != "drake"):
             out.append(run())
             lap(clock, f"trajectories: {source}")
     return out

@@ -60,17 +60,20 @@ def trajectory_results(
     dt_out: float,
     cache: Cache | None = None,
     clock: Clock | None = None,
+    drake_run: bool = False,
 ) -> dict[str, Any]:
     """The three sources' free runs against the reference solution of the hand equations (heyoka's
     Taylor method in long double, kept in `cache`), plus the notes' perturbed start for the divergence.
-    `clock`: the reference's, each run's, the perturbed start's and the error estimates' wall seconds."""
+    `clock`: the reference's, each run's, the perturbed start's and the error estimates' wall seconds.
+    `drake_run`: Drake's own free run too (information only, not judged: DRAKE_NOT_JUDGED; with its
+    estimate it cost ~5 s of a double pendulum's ~25, so it runs on request, `run --drake-run`)."""
 
     q0, v0 = integrate.initial_state(system)
     tau = np.zeros(system.nv)
     t = integrate.time_grid(t_end, dt_out)
     ref, ref_info = reference_trajectory(system, q0, v0, tau, t, cache_dir=reference_dir(cache))
     lap(clock, "trajectories: reference")
-    trajs = fast.run_trajectories(system, sources, t_end=t_end, dt_out=dt_out, clock=clock)
+    trajs = fast.run_trajectories(system, sources, t_end=t_end, dt_out=dt_out, clock=clock, drake=drake_run)
     q0b = q0.copy()
     q0b[-1] += experiments.PERTURBATION
     perturbed = fast.accurate_trajectory(system, sources["hand"], q0b, v0, tau, t)
