@@ -276,3 +276,28 @@ def test_the_unbounded_cache_finder_finds_each_kind(tmp_path):
     )
     found = _unbounded_caches(module)
     assert len(found) == 4 and not any(" h" in x for x in found), found
+
+
+def test_the_api_check_repeated_on_an_unchanged_system_is_not_judged_again(monkeypatch):
+    """`lagrange_xval.check` on the same System and options gives the kept verdict (decide runs once); other
+    options, or a function of the module replaced in place, are judged afresh."""
+    import lagrange_xval as lx
+    from lagrange_xval.validate import api
+
+    calls = []
+    real = api.decide
+
+    def counted(*args, **kwargs):
+        calls.append(kwargs["n_states"])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(api, "decide", counted)
+    system = load("simple_pendulum")
+    first = lx.check(system, n_states=20, probes=1)
+    assert lx.check(system, n_states=20, probes=1) == first and calls == [20]
+    lx.check(system, n_states=21, probes=1)
+    assert calls == [20, 21]
+    original = system.equations.mass_matrix
+    monkeypatch.setattr(system.equations, "mass_matrix", lambda p, q: 2 * original(p, q))
+    wrong = lx.check(system, n_states=20, probes=1)
+    assert calls == [20, 21, 20] and [r.quantity for r in wrong.failures][:1] == ["mass matrix"], wrong.statement
