@@ -301,3 +301,15 @@ def test_the_api_check_repeated_on_an_unchanged_system_is_not_judged_again(monke
     monkeypatch.setattr(system.equations, "mass_matrix", lambda p, q: 2 * original(p, q))
     wrong = lx.check(system, n_states=20, probes=1)
     assert calls == [20, 21, 20] and [r.quantity for r in wrong.failures][:1] == ["mass matrix"], wrong.statement
+
+
+def test_the_command_line_imports_only_what_a_verdict_needs():
+    """`check` and `watch` start without the pipeline, scipy's integrators, the report or the replay: the
+    commands that use them import them."""
+    code = (
+        "import sys, lagrange_xval.validate.cli; "
+        "print(sorted(m for m in ('lagrange_xval.validate.pipeline', 'scipy.integrate', 'matplotlib', 'rerun', "
+        "'jinja2', 'lagrange_xval.validate.report', 'lagrange_xval.validate.studies.bench') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
+    assert out.stdout.strip() == "[]", out.stdout
