@@ -313,3 +313,22 @@ def test_the_command_line_imports_only_what_a_verdict_needs():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
     assert out.stdout.strip() == "[]", out.stdout
+
+
+def test_once_judges_every_system_of_a_folder(tmp_path, capsys):
+    """`watch --systems DIR --once`: each <name>.xml with its <name>.py judged, the status check's for
+    the worst (a wrong one among right ones fails)."""
+    for name in ("cart_pole", "wrong_pole"):
+        shutil.copy(EXAMPLES / "cart_pole.xml", tmp_path / f"{name}.xml")
+        text = (EXAMPLES / "cart_pole.py").read_text()
+        (tmp_path / f"{name}.py").write_text(text if name == "cart_pole" else text.replace(RIGHT, WRONG))
+    assert main(["watch", "--systems", str(tmp_path), "--states", "100", "--probes", "1", "--once"]) == 1
+    verdicts = [line for line in capsys.readouterr().out.splitlines() if line.startswith("verdict: ")]
+    assert [v.split(":")[1:3] for v in verdicts] == [[" cart_pole", " pass"], [" wrong_pole", " FAIL"]], verdicts
+
+
+def test_watch_takes_one_thing_to_watch(cart_pole, capsys):
+    model, equations = cart_pole
+    assert main(["watch", "simple_pendulum", "--model", str(model), "--equations", str(equations), "--once"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("lagrange-xval: error: watch one thing: a SYSTEM, or --model"), err
