@@ -105,3 +105,22 @@ def test_bench_run_time_sums_each_stage_over_the_systems_and_takes_the_median(tm
         "chaos": 2.0,
         "terms": 0.1,
     }
+
+
+def test_a_stored_references_window_check_runs_the_checked_trace_and_agrees_with_the_module():
+    """Reading a cached reference re-integrates every window with the hand equations' traced code (checked
+    against the module first): it gives the module's accelerations, to rounding."""
+    import numpy as np
+    from lagrange_xval.validate.checks.pointwise import random_states
+    from lagrange_xval.validate.dynamics import reference
+    from lagrange_xval.validate.engines.hand import HandSource
+
+    system = load("double_pendulum_point")
+    states = random_states(system, n=200, seed=3)
+    u = np.zeros_like(states.q)
+    f = reference._window_rhs(system, u)
+    assert f.__name__ == "compiled"
+    y = np.hstack([states.q, states.v])
+    module = HandSource(system).forward(states.q, states.v, u)
+    assert np.allclose(f(y)[:, system.nv :], module, rtol=1e-12, atol=1e-12)
+    assert np.array_equal(f(y)[:, : system.nv], states.v)

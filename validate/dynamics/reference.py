@@ -388,9 +388,10 @@ def reference_trajectory(
                 arrays.get("v", np.empty((0, n))),
                 {"steps": stored.get("steps")},
             )
+            rhs = _checked_rhs(system)  # the trace is checked on every read, before the window check uses it
             problem = _content_problem(system, traj, q0, v0, tau, t)
             if problem is None:
-                stored["rhs_check"] = _checked_rhs(system)  # cheap: the trace is checked on every read
+                stored["rhs_check"] = rhs
                 stored.update(cache="hit", cache_file=str(path))
                 stored["timing"]["load_s"] = time.perf_counter() - start
                 return traj, stored
@@ -451,15 +452,12 @@ def window_check(system: System, traj: Trajectory, tau: np.ndarray) -> float:
     WINDOW_CHECK_TOLERANCE / 10 (step doubling; at most WINDOW_CHECK_HALVINGS times), so a stiff model
     (a 1:50 mass ratio: 2.5e-4 s left 5e-5 rad) does not fail the check of the entry just written."""
 
-    hand, n = HandSource(system), system.nv
+    n = system.nv
     x0 = np.hstack([traj.q[:-1], traj.v[:-1]])
     h0 = np.diff(traj.t)[:, None]
     steps = max(1, int(np.ceil(float(h0.max()) / WINDOW_CHECK_STEP)))
     u = np.broadcast_to(np.asarray(tau, dtype=float), (len(x0), n))
-
-    def f(y: np.ndarray) -> np.ndarray:
-        return np.hstack([y[:, n:], hand.forward(y[:, :n], y[:, n:], u)])
-
+    f = _window_rhs(system, u)
     end = _rk4_windows(f, x0, h0 / steps, steps)
     for _ in range(WINDOW_CHECK_HALVINGS):
         steps *= 2
@@ -470,6 +468,31 @@ def window_check(system: System, traj: Trajectory, tau: np.ndarray) -> float:
             break
     stored = np.hstack([traj.q[1:], traj.v[1:]])
     return float(np.abs(end - stored).max())
+
+
+def _window_rhs(system: System, u: np.ndarray) -> Any:
+    """f(y) = (v, a) for rows y = (q, v) at the inputs u (K, n): the hand equations' traced code (a tenth
+    of the numpy module's cost per call; `reference_trajectory` checks the trace against the module
+    before a stored entry is window-checked), or the module itself where the trace cannot stand in
+    (a module that cannot be traced; explicit accelerations, traced at zero input only, with an input)."""
+    n = system.nv
+    try:
+        traced = not (accelerations_only(system.equations) and np.any(u)) and _cfunc(symbolic_dynamics(system))
+    except HarnessError:
+        traced = False
+    if traced:
+        pars = np.ascontiguousarray(u.T)
+
+        def compiled(y: np.ndarray) -> np.ndarray:
+            return np.hstack([y[:, n:], np.asarray(traced(np.ascontiguousarray(y.T), pars=pars)).T])
+
+        return compiled
+    hand = HandSource(system)
+
+    def module(y: np.ndarray) -> np.ndarray:
+        return np.hstack([y[:, n:], hand.forward(y[:, :n], y[:, n:], u)])
+
+    return module
 
 
 def _rk4_windows(f: Any, x: np.ndarray, h: np.ndarray, steps: int) -> np.ndarray:
