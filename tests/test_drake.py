@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from lagrange_xval.validate.checks import pointwise
 from lagrange_xval.validate.checks.decide import decide
+from lagrange_xval.validate.cli import parser as cli_parser
 from lagrange_xval.validate.dynamics import drakerun, estimate, fast, freeruns, integrate
 from lagrange_xval.validate.dynamics.reference import reference_trajectory
 from lagrange_xval.validate.engines import drake as drake_engine
@@ -113,11 +114,23 @@ def test_drakes_free_run_agrees_with_the_reference_within_its_own_threshold(name
 
 
 @needs_drake
+def test_drakes_information_only_run_is_made_only_on_request():
+    """`run --drake-run` asks for Drake's free run (not judged, so not computed unless asked): without it the
+    free runs are the judged ones alone, and no estimate is computed for a run that is not there."""
+    system = load("simple_pendulum")
+    traj = freeruns.trajectory_results(system, make_sources(system), t_end=0.5, dt_out=0.01)
+    assert "drake" not in {r["source"] for r in traj["runs"]}
+    assert {"hand", "mujoco", "pinocchio"} <= {r["source"] for r in traj["runs"]}
+    args = cli_parser.build_parser().parse_args(["run", "--drake-run"])
+    assert args.drake_run and not cli_parser.build_parser().parse_args(["run"]).drake_run
+
+
+@needs_drake
 def test_drakes_run_is_among_runs_free_runs():
-    """`run`'s free runs hold Drake's, measured against the reference and within its own threshold here, but
+    """`run --drake-run`'s free runs hold Drake's, measured against the reference and within its own threshold here, but
     shown as information (its error-controlled integrator's estimate is not a bound: freeruns.DRAKE_NOT_JUDGED)."""
     system = load("double_pendulum_point")
-    traj = freeruns.trajectory_results(system, make_sources(system), t_end=2.0, dt_out=0.01)
+    traj = freeruns.trajectory_results(system, make_sources(system), t_end=2.0, dt_out=0.01, drake_run=True)
     freeruns.judge_trajectories(traj, None)
     drake = [r for r in traj["runs"] if r["source"] == "drake"]
     assert len(drake) == 1 and not drake[0]["counts"] and drake[0]["why_not_counted"] == freeruns.DRAKE_NOT_JUDGED

@@ -57,7 +57,10 @@ def wrong(system, mutation: str):
 
 
 def _failures(result) -> list[str]:
-    return [*result["failed"], *(f"{k}: {v}" for k, v in result["stages"].items() if str(v).startswith("failed"))]
+    from lagrange_xval.validate.results.stages import outcome
+
+    stages = {k: outcome(v) for k, v in result["stages"].items()}
+    return [*result["failed"], *(f"{k}: {v}" for k, v in stages.items() if v.startswith("failed"))]
 
 
 # ----------------------------------------------------------------------------------------------

@@ -21,7 +21,7 @@ ROW_ID = "rerun.controls.RowId"
 
 @pytest.fixture(scope="module")
 def results():
-    return run([SYSTEM], n_states=20, seed=0)
+    return run([SYSTEM], n_states=20, seed=0, drake_run=True)  # every source's run, Drake's too
 
 
 @pytest.fixture(scope="module")

@@ -208,7 +208,7 @@ def test_every_new_system_passes_the_whole_job(name):
         systems.System.from_files(FOLDER / f"{name}.xml", FOLDER / f"{name}.py"), n_states=100, seed=0, n_probes=1
     )
     assert result["passed"], result["failed"]
-    assert not result["stages"], result["stages"]
+    assert not [k for k, v in result["stages"].items() if "outcome" in v], result["stages"]
 
 
 def _without(text: str, names: tuple[str, ...]) -> str:

@@ -151,10 +151,22 @@ def check(
         raise HarnessError(f"n_states must be a positive integer; got {n_states!r}.")
     if not isinstance(probes, int) or probes < 0:
         raise HarnessError(f"probes must be a non-negative integer; got {probes!r}.")
-    decision = decide(system, n_states=n_states, seed=seed, probes=probes, cache=cache, tolerances=tolerances)
+    decision = kept_decision(system, n_states=n_states, seed=seed, probes=probes, cache=cache, tolerances=tolerances)
     if cache is not None:
         cache.trim()
     return result_of(decision)
+
+
+def kept_decision(system: System, *, cache: Cache | None, **options: Any) -> Decision:
+    """`decide`'s Decision, kept with the System (its memo, gone with it): `check` repeated on an unchanged
+    System (the same object, the same functions in its module, the same options) is not judged again.
+    A System is a snapshot already (its model is compiled once); a function of its module replaced in
+    place (a test's monkeypatch) is a different key."""
+    module = system.equations
+    functions = () if module is None else tuple(sorted((k, id(v)) for k, v in vars(module).items() if callable(v)))
+    key = ("lagrange_xval.check", functions, tuple(sorted(options.items())))
+    decision: Decision = system.memo.get(key, lambda: decide(system, cache=cache, **options))
+    return decision
 
 
 def result_of(decision: Decision) -> Result:

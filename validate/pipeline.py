@@ -31,13 +31,16 @@ from .guard import DEFAULT_TIME_LIMIT, Stopped
 from .parallel import completed, executor_for
 from .results import provenance
 from .results.schema import Derivation, ModelChecks, Pointwise, Provenance, RunResults, SystemResult
+from .results.stages import Clock, records
 from .systems import MODELS_DIR, System, load, load_all
 from .systems.units import parameter_keys
 
 READABLE_MAX_DOF = SIMPLIFY_MAX_DOF  # the report's derived equations: simplified (cached), up to this many joints
 
 
-def model_only_result(decision: Decision, *, t_end: float, dt_out: float, cache: Cache | None = None) -> SystemResult:
+def model_only_result(
+    decision: Decision, *, t_end: float, dt_out: float, cache: Cache | None = None, clock: Clock | None = None
+) -> SystemResult:
     """The model alone (no derivation given, e.g. a robot's URDF), after `decide` compared the two
     engines' readings of it and MuJoCo, Pinocchio and the model's equations derived symbolically (up
     to SYMBOLIC_MAX_DOF joints) pointwise: their free runs from 0.5 rad at rest, against MuJoCo's."""
@@ -48,6 +51,7 @@ def model_only_result(decision: Decision, *, t_end: float, dt_out: float, cache:
     why = (
         f"no derivation given: the engines' and the derived equations' free runs, against {against} (information only)"
     )
+    clock = clock or Clock()
     stages: dict[str, Any] = {}
     traj = _stage(
         stages,
@@ -55,13 +59,14 @@ def model_only_result(decision: Decision, *, t_end: float, dt_out: float, cache:
         lambda: divergence_results(
             system, sources, t_end=t_end, dt_out=dt_out, why=why, aba_reference="symbolic" not in sources
         ),
+        clock,
     )
     if system.nv <= READABLE_MAX_DOF and "symbolic" in sources:
-        derived = _stage(stages, "derived equations", lambda: derived_data(system, cache=cache))
+        derived = _stage(stages, "derived equations", lambda: derived_data(system, cache=cache), clock)
     else:
         derived = None
         stages["derived equations"] = f"not run: {system.nv} joints (`lagrange-xval derive --model` prints them)"
-    failed_stages = [k for k, v in stages.items() if str(v).startswith("failed")]
+    failed_stages = [k for k, v in stages.items() if v.startswith("failed")]
     failed = _what_failed(model, point, derivation, None, None, None, failed_stages)
     return {
         **_identity(system),
@@ -77,7 +82,7 @@ def model_only_result(decision: Decision, *, t_end: float, dt_out: float, cache:
         "experiments": None,
         "equivalence": None,
         "chaos": None,
-        "stages": stages,
+        "stages": records(clock.seconds, stages),
         "skipped": skipped_work(system),
         "passed": model["passed"] and point["passed"] and not failed_stages,
     }
@@ -105,9 +110,11 @@ def skipped_work(system: System) -> list[str]:
     return out
 
 
-def _stage(stages: dict[str, Any], name: str, fn: Any) -> Any:
-    """Runs one stage after the verdicts; a failure is recorded (and fails the system), never raised,
-    so the verdicts already computed are always written."""
+def _stage(stages: dict[str, Any], name: str, fn: Any, clock: Clock) -> Any:
+    """Runs one stage after the verdicts, its wall seconds on `clock` (what the stage did not lap
+    itself); a failure is recorded (and fails the system), never raised, so the verdicts already
+    computed are always written."""
+    clock.skip()
     try:
         return fn()
     except KeyboardInterrupt:
@@ -115,6 +122,8 @@ def _stage(stages: dict[str, Any], name: str, fn: Any) -> Any:
     except Exception as exc:  # noqa: BLE001 - recorded as the stage's outcome, reported as a failure
         stages[name] = f"failed: {type(exc).__name__}: {exc}".strip()
         return None
+    finally:
+        clock.lap(name)
 
 
 def run_system(system: System, *, n_states: int, seed: int, **options: Any) -> SystemResult:
@@ -122,7 +131,13 @@ def run_system(system: System, *, n_states: int, seed: int, **options: Any) -> S
     (checks/audit.py; an audit that cannot be made says why under "error")."""
     from .checks.audit import audit_of
 
-    return {**_run_stages(system, n_states=n_states, seed=seed, **options), "audit": audit_of(system, seed=seed)}
+    clock = Clock()
+    result = _run_stages(system, n_states=n_states, seed=seed, clock=clock, **options)
+    clock.skip()
+    audit = audit_of(system, seed=seed)
+    clock.lap("audit")
+    stages = result.get("stages", {})
+    return {**result, "audit": audit, "stages": {**stages, **records({"audit": clock.seconds["audit"]}, {})}}
 
 
 def _run_stages(
@@ -134,17 +149,20 @@ def _run_stages(
     dt_out: float = integrate.DEFAULT_DT_OUT,
     n_probes: int = DEFAULT_PROBES,
     cache: Cache | None = None,
+    clock: Clock | None = None,
+    drake_run: bool = False,
 ) -> SystemResult:
     """Everything the harness knows about one system, as plain data. The verdict comes first, from
     `decide` (checks/decide.py: the same function `check` and the API call); the stages after it
     (printed forms, trajectories, chaos, ...) add to the results and never judge the derivation
     again; they run only for a derivation that agrees (else a bounded divergence run). `cache`: where
     references, chaos summaries, derived equations and explanations are kept (None: nowhere)."""
-    decision = decide(system, n_states=n_states, seed=seed, probes=n_probes, cache=cache)
+    clock = clock or Clock()
+    decision = decide(system, n_states=n_states, seed=seed, probes=n_probes, cache=cache, clock=clock)
     if decision.unreadable:
         return _unreadable(decision)
     if decision.model_only:
-        return model_only_result(decision, t_end=t_end, dt_out=dt_out, cache=cache)
+        return model_only_result(decision, t_end=t_end, dt_out=dt_out, cache=cache, clock=clock)
     sources, states, values, probe_set = decision.sources, decision.states, decision.values, decision.probe_set
     model, point, derivation = decision.model_checks, decision.pointwise, decision.derivation
     assert sources is not None and states is not None and probe_set is not None  # decide judged the derivation
@@ -157,12 +175,13 @@ def _run_stages(
             lambda: judge.judge_system(
                 system, states, sources, values=values, n_probes=n_probes, seed=seed, cache=cache
             ),
+            clock,
         )
         or []
     )
-    same = _stage(stages, "equivalence", lambda: equivalence.check_equivalence(system, probe_set.systems()))
+    same = _stage(stages, "equivalence", lambda: equivalence.check_equivalence(system, probe_set.systems()), clock)
     if system.nv <= READABLE_MAX_DOF:
-        derived = _stage(stages, "derived equations", lambda: derived_data(system, cache=cache))
+        derived = _stage(stages, "derived equations", lambda: derived_data(system, cache=cache), clock)
     else:
         derived = None
         stages["derived equations"] = (
@@ -175,9 +194,12 @@ def _run_stages(
         traj = _stage(
             stages,
             "trajectories",
-            lambda: trajectory_results(system, sources, t_end=t_end, dt_out=dt_out, cache=cache),
+            lambda: trajectory_results(
+                system, sources, t_end=t_end, dt_out=dt_out, cache=cache, clock=clock, drake_run=drake_run
+            ),
+            clock,
         )
-        notes_experiments = _stage(stages, "experiments", lambda: experiments.run_experiments(system))
+        notes_experiments = _stage(stages, "experiments", lambda: experiments.run_experiments(system), clock)
         cross = _stage(
             stages,
             "chaos",
@@ -190,6 +212,7 @@ def _run_stages(
                 mirror_engines=tuple(e for e in ("hand", "pinocchio") if e not in (decision.excluded or {})),
                 cache_dir=reference_dir(cache),
             ),
+            clock,
         )
         if traj is not None:
             judge_trajectories(traj, cross.get("amplification") if cross else None, stages.get("chaos"))
@@ -213,8 +236,9 @@ def _run_stages(
                 why="information only: the hand derivation disagrees pointwise, so this shows where its motion "
                 "parts from the engines'",
             ),
+            clock,
         )
-    failed_stages = [k for k, v in stages.items() if str(v).startswith("failed")]
+    failed_stages = [k for k, v in stages.items() if v.startswith("failed")]
     traj_ok = traj is None or all(r.get("passed", True) for r in traj["runs"] if r.get("counts"))
     passed = (
         agrees
@@ -239,7 +263,7 @@ def _run_stages(
         "experiments": notes_experiments,
         "equivalence": same,
         "chaos": cross,
-        "stages": stages,
+        "stages": records(clock.seconds, stages),
         "skipped": skipped_work(system),
         "passed": passed,
     }
@@ -322,7 +346,7 @@ def _unreadable(decision: Decision) -> SystemResult:
         "parameters": {},
         "derivation": decision.derivation,
         "variants": [],
-        "stages": {"everything after reading the parameters": f"not run: {why}"},
+        "stages": records({}, {"everything after reading the parameters": f"not run: {why}"}),
         "failed": [f"hand derivation: {decision.statement}"],
         "skipped": [],
         "passed": False,
@@ -336,10 +360,12 @@ def _run_one(
     n_probes: int = DEFAULT_PROBES,
     cache: Cache | None = None,
     time_limit: float = DEFAULT_TIME_LIMIT,
+    drake_run: bool = False,
 ) -> SystemResult:
     """One system, by name (picklable, for process pools)."""
 
-    return guarded_run(load(name, time_limit=time_limit), n_states=n_states, seed=seed, n_probes=n_probes, cache=cache)
+    system = load(name, time_limit=time_limit)
+    return guarded_run(system, n_states=n_states, seed=seed, n_probes=n_probes, cache=cache, drake_run=drake_run)
 
 
 def _run_files(
@@ -352,6 +378,7 @@ def _run_files(
     cache: Cache | None = None,
     time_limit: float = DEFAULT_TIME_LIMIT,
     balance_inertia: bool = False,
+    drake_run: bool = False,
 ) -> SystemResult:
     """One system from a model file and an equations file (picklable, for process pools)."""
 
@@ -361,7 +388,7 @@ def _run_files(
         )
     else:
         system = System.model_only(model, locked=locked, balance_inertia=balance_inertia)
-    return guarded_run(system, n_states=n_states, seed=seed, n_probes=n_probes, cache=cache)
+    return guarded_run(system, n_states=n_states, seed=seed, n_probes=n_probes, cache=cache, drake_run=drake_run)
 
 
 def guarded_run(system: System, **options: Any) -> SystemResult:
@@ -390,7 +417,7 @@ def stopped_result(system: System, why: str) -> SystemResult:
             "summary": [],
         },
         "variants": [],
-        "stages": {"everything after the stop": f"not run: {why}"},
+        "stages": records({}, {"everything after the stop": f"not run: {why}"}),
         "failed": [why],
         "skipped": [],
         "passed": False,
@@ -435,6 +462,7 @@ def run(
     cache: Cache | None = None,
     time_limit: float = DEFAULT_TIME_LIMIT,
     balance_inertia: bool = False,
+    drake_run: bool = False,
 ) -> RunResults:
     """Every system (or those named), each in a worker of `executor` (default: a process pool on
     every core; any `concurrent.futures.Executor` will do, a distributed one included). `files`:
@@ -446,7 +474,8 @@ def run(
     `cache`: the cache every worker keeps its references, summaries and explanations in (None: none),
     handed to them as a value.
     `time_limit`: seconds each call into an equations module may take (validate/guard.py); a module
-    stopped, or a worker process that ends (`os._exit` in a module), fails its own system alone."""
+    stopped, or a worker process that ends (`os._exit` in a module), fails its own system alone.
+    `drake_run`: Drake's information-only free run beside the judged ones (freeruns.trajectory_results)."""
 
     # Unknown names and unreadable files fail here, before any work starts.
     systems = load_all(names, time_limit=time_limit) if names or not files else []
@@ -467,13 +496,12 @@ def run(
         # mirrors step the numpy equations), then more coordinates, then more printed forms.
         order = sorted(systems, key=lambda s: ("damping" not in s.uses, -s.nv, -len(s.variants), s.name))
         meta = out["meta"]
-        futures = {
-            pool.submit(_task, _run_one, (s.name, n_states, seed, n_probes, cache, time_limit), after, meta): s
-            for s in order
-        }
+        common = (n_states, seed, n_probes, cache, time_limit, drake_run)
+        futures = {pool.submit(_task, _run_one, (s.name, *common), after, meta): s for s in order}
         for (model, equations), user in zip(files or [], users, strict=True):
             equations_file = "" if equations is None else str(equations)
-            args = (str(model), equations_file, n_states, seed, n_probes, locked, cache, time_limit, balance_inertia)
+            per_file = (locked, cache, time_limit, balance_inertia, drake_run)
+            args = (str(model), equations_file, n_states, seed, n_probes, *per_file)
             futures[pool.submit(_task, _run_files, args, after, meta)] = user
         for system in futures.values():
             if progress:

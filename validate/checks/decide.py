@@ -26,6 +26,7 @@ from ..engines import Sources, make_sources
 from ..engines.base import Source
 from ..errors import HarnessError
 from ..results.schema import Derivation, ModelChecks, Pointwise
+from ..results.stages import Clock, lap
 from ..systems import System
 from . import modelsync, verdict
 from . import pointwise as compare
@@ -106,6 +107,7 @@ def decide(
     cache: Cache | None = None,
     states: States | None = None,
     tolerances: Tolerances = TOLERANCES,
+    clock: Clock | None = None,
 ) -> Decision:
     """The verdict on `system` (module docstring).
 
@@ -117,15 +119,21 @@ def decide(
         cache: where the explanations of wrong entries are kept (None: nowhere).
         states: the states to compare at instead of random ones.
         tolerances: the tiers every comparison is judged against.
+        clock: where each stage's wall seconds go ("model checks", "pointwise", "probes", "terms");
+            its cancel event, once set, abandons the verdict at the next of them (results/stages.py).
 
     Returns:
         The Decision. Nothing a derivation computes raises out of here: its exceptions are findings.
+
+    Raises:
+        Cancelled: the clock's cancel event was set (only with a clock that has one).
     """
     why = _unreadable(system)
     if why:
         return Decision(system, unreadable_derivation(why), unreadable=why)
     sources = make_sources(system)
     model = with_drake(modelsync.check(system, sources["pinocchio"]), sources)
+    lap(clock, "model checks")
     states = states if states is not None else compare.random_states(system, n=n_states, seed=seed)
     values = compare.evaluate(sources, states)  # evaluated once: the judges reuse the engines' values
     point = compare.pointwise_result(values, states, seed=seed, tolerances=tolerances)
@@ -136,13 +144,16 @@ def decide(
         model = set_aside(model, excluded)
         kept = {n: v for n, v in values.items() if n not in excluded}
         point = compare.pointwise_result(kept, states, seed=seed, tolerances=tolerances)
+    lap(clock, "pointwise")
     if system.equations is None:
         return Decision(system, no_derivation(), model, point, states, sources, values, excluded=excluded)
     probe_set = verdict.derivation_probes(system, n_probes=probes, seed=seed)
+    lap(clock, "probes")
     kept = {n: v for n, v in values.items() if n not in excluded}
     derivation = verdict.judge_derivation(
         system, states, judged, probe_set, values=kept, seed=seed, tolerances=tolerances, cache=cache
     )
+    lap(clock, "terms")
     return Decision(system, derivation, model, point, states, sources, values, probe_set, excluded=excluded)
 
 

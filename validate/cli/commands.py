@@ -1,4 +1,8 @@
-"""What each subcommand does with its parsed arguments, and what it prints."""
+"""What each subcommand does with its parsed arguments, and what it prints.
+
+The pipeline, the studies, the report and the replay are imported by the commands that use them:
+`check` and `watch` load only what a verdict needs (scipy's integrators, matplotlib and rerun are not).
+"""
 
 from __future__ import annotations
 
@@ -9,7 +13,7 @@ import os
 import sys
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..checks import modelsync
 from ..checks import pointwise as compare
@@ -23,21 +27,18 @@ from ..errors import HarnessError, console, shown
 from ..guard import DEFAULT_TIME_LIMIT
 from ..inputs import parse_json, regular_file
 from ..parallel import named_executor
-from ..pipeline import reference_dir, run
-from ..replay import replay_command, shown_path, viewer_command
-from ..report import ReplayHint
-from ..report.findings import console_lines
 from ..results import load as load_results
-from ..studies.bench import bench_command
-from ..studies.stress import stress_command
+from ..results.stages import stage_line
 from ..systems import System, load, pairs_and_lonely, pairs_in, system_names, unpaired
 from ..systems.scaffold import identifier, write_module
 from . import check as checking
 from . import simulate
 from .audit import cmd_audit
-from .outputs import check_cache_dir, check_out, render_system, write_all, write_reports
 from .parser import MAX_STATES_FILE_BYTES, one_line
-from .progress import reporter
+from .watch import cmd_watch
+
+if TYPE_CHECKING:
+    from ..report import ReplayHint
 
 
 def unpaired_lines() -> list[str]:
@@ -219,6 +220,10 @@ def cache_of(args: argparse.Namespace) -> Cache:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    from ..pipeline import run
+    from ..report.findings import console_lines
+    from .outputs import check_cache_dir, check_out, render_system, write_all
+    from .progress import reporter
 
     check_out(args.out)  # before hours of work, not after
     check_cache_dir(None if args.no_cache else args.cache_dir, args.out)
@@ -241,6 +246,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             cache=cache,
             time_limit=args.time_limit,
             balance_inertia=args.balance_inertia,
+            drake_run=args.drake_run,
         )
     cache.trim()
     hint = replay_hint(args.out, written=not args.no_replay)
@@ -255,11 +261,17 @@ def cmd_run(args: argparse.Namespace) -> int:
     if hint.written and any(s.get("trajectories") for s in results["systems"].values()):
         print(f"replays: {hint.viewer} {hint.out}/<system>.rrd")
     print(console(console_lines(dict(results), f"{hint.out}/report.html")))
+    if args.verbose:
+        for name, s in sorted(results["systems"].items()):
+            print(f"{name}: stages, wall seconds: {stage_line(s.get('stages') or {})}")
     return 0 if results["passed"] else 1
 
 
 def replay_hint(out: Path, *, written: bool = True) -> ReplayHint:
     """The reports folder and the rerun viewer as a command run from here reaches them."""
+    from ..replay import shown_path, viewer_command
+    from ..report import ReplayHint
+
     return ReplayHint(out=shown_path(out), viewer=viewer_command(), written=written)
 
 
@@ -330,6 +342,7 @@ def absolute_files(files: list[tuple[Path, Path | None]] | None) -> list[tuple[P
 
 
 def cmd_report(args: argparse.Namespace) -> int:
+    from .outputs import write_reports
 
     results = load_results(args.out / "results.json")
     rrd = any(p.suffix == ".rrd" for p in args.out.iterdir()) if args.out.is_dir() else False
@@ -414,11 +427,15 @@ def affordable(n: int) -> None:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
+    from ..replay import replay_command
 
     return replay_command(args.system, args.save, args.results)
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
+    from ..pipeline import reference_dir
+    from ..studies.bench import bench_command
+
     if args.chains:
         from ..studies.chains import chains_command
 
@@ -441,6 +458,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 
 def cmd_stress(args: argparse.Namespace) -> int:
+    from ..studies.stress import stress_command
+
     args.files = user_files(args)
     args.locked = locked_joints(args)
     with named_executor(args.executor) as executor:  # stress keeps no cache: each section computes what it needs
@@ -451,6 +470,7 @@ COMMANDS = {
     "list": cmd_list,
     "run": cmd_run,
     "check": cmd_check,
+    "watch": cmd_watch,
     "simulate": cmd_simulate,
     "report": cmd_report,
     "new": cmd_new,

@@ -19,6 +19,7 @@ from ..guard import DEFAULT_TIME_LIMIT
 from ..parallel import parse_executor
 from ..results import harness_version
 from ..systems import system_names
+from .values import MAX_STATES, path_arg, positive_float, positive_int, probe_count, seed_arg, state_count
 
 DESCRIPTION = (
     "Checks hand-derived Lagrangian equations of motion against MuJoCo, Pinocchio and Drake. For each system "
@@ -52,72 +53,7 @@ HELP_EXAMPLES = (  # every command line the help shows, run as written by tests/
 DEFAULT_SEED = 0
 
 
-MAX_STATES = 100_000  # random states per system: 1e5 evaluate in about a minute; more is a typo
-
-
 MAX_STATES_FILE_BYTES = 64 * 2**20  # a states file is read whole; 64 MiB holds ~500 000 states
-
-
-MAX_SEED = 2**63 - 1
-
-
-def positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
-    if value < 1 or value > MAX_STATES:
-        raise argparse.ArgumentTypeError(f"must be from 1 to {MAX_STATES}, got {value}")
-    return value
-
-
-def state_count(text: str) -> int:
-    """`--states N`: a count on every command; a file name here is pointed to --states-file."""
-    try:
-        int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"'{text}' is not a whole number (--states N is a count of random states; "
-            "a file of states is --states-file FILE)"
-        ) from None
-    return positive_int(text)
-
-
-def probe_count(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
-    if not 0 <= value <= 100:
-        raise argparse.ArgumentTypeError(f"must be from 0 to 100, got {value}")
-    return value
-
-
-def seed_arg(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
-    if not 0 <= value <= MAX_SEED:
-        raise argparse.ArgumentTypeError(f"must be from 0 to 2**63 - 1, got {value}")
-    return value
-
-
-def path_arg(text: str) -> Path:
-    """A path argument; the empty string is refused (Path('') would silently mean '.')."""
-    if not text.strip():
-        raise argparse.ArgumentTypeError("must not be empty (use . for the current folder)")
-    return Path(text)
-
-
-def positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
-    if not (value > 0 and value < float("inf")):
-        raise argparse.ArgumentTypeError(f"must be a positive finite number, got {text}")
-    return value
 
 
 def executor_arg(text: str) -> str:
@@ -280,13 +216,17 @@ def _one_system_argument(parser: argparse.ArgumentParser) -> None:
 
 def _list_arguments(listing: argparse.ArgumentParser) -> None:
     """`list`: the folder of systems to list."""
-    listing.add_argument(
+    _systems_dir_option(listing, "list the systems of this folder of your own", "instead of the repository's")
+
+
+def _systems_dir_option(parser: argparse.ArgumentParser, what: str, then: str) -> None:
+    """`--systems DIR`: a folder of a person's systems."""
+    parser.add_argument(
         "--systems",
         dest="systems_dir",
         type=path_arg,
         metavar="DIR",
-        help="list the systems of this folder of your own (each <name>.xml or <name>.urdf with its <name>.py) "
-        "instead of the repository's",
+        help=f"{what} (each <name>.xml or <name>.urdf with its <name>.py) {then}",
     )
 
 
@@ -316,6 +256,12 @@ def _run_arguments(run: argparse.ArgumentParser) -> None:
     _time_limit_option(run)
     _cache_options(run)
     _executor_option(run, "the systems")
+    run.add_argument("--verbose", action="store_true", help="print each system's stages and their wall seconds, s")
+    run.add_argument(
+        "--drake-run",
+        action="store_true",
+        help="also Drake's own free run (information only, not judged; with its estimate ~5 s a double pendulum)",
+    )
 
 
 def _check_states_options(check: argparse.ArgumentParser) -> None:
@@ -367,6 +313,20 @@ def _check_arguments(check: argparse.ArgumentParser) -> None:
         help="keep the explanations of wrong entries in DIR (default: none; check writes nothing)",
     )
     _time_limit_option(check)
+
+
+def _watch_arguments(watch: argparse.ArgumentParser) -> None:
+    """`watch`: `check`'s system and verdict options, a folder of systems instead, and `--once`."""
+    _one_system_argument(watch)
+    _model_options(watch)
+    _systems_dir_option(watch, "watch every system of this folder", "a save re-judges the system whose file it is")
+    _states_option(watch, "to compare at")
+    _seed_option(watch, "states and probe parameter sets")
+    _probes_option(watch)
+    _time_limit_option(watch)
+    watch.add_argument(
+        "--once", action="store_true", help="judge once and exit with check's status (0 pass, 1 fail, 2 error)"
+    )
 
 
 def _simulate_arguments(sim: argparse.ArgumentParser) -> None:
@@ -563,6 +523,11 @@ COMMANDS: tuple[tuple[str, str, Callable[[argparse.ArgumentParser], None]], ...]
         "check",
         "the verdict on one derivation, as `run` and lagrange_xval.check give it, without trajectories; writes nothing",
         _check_arguments,
+    ),
+    (
+        "watch",
+        "check's verdict again on every save of the equations module or the model, in one warm process (Ctrl-C stops)",
+        _watch_arguments,
     ),
     (
         "simulate",

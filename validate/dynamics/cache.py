@@ -267,7 +267,7 @@ def store(path: Path, key: str, arrays: dict[str, np.ndarray], info: dict[str, A
         return False
 
 
-@functools.cache  # unbounded by design: once per folder and message, of the few folders a run writes
+@functools.lru_cache(maxsize=256)  # once per folder and message, of the few folders a run writes
 def _unwritable(where: Path, message: str) -> None:
     """`message`, once per folder: a cache that cannot be written is one line, not one per entry."""
     warn(message)

@@ -30,13 +30,14 @@ beside them as the path a user of scipy takes; the bench reports how far it is f
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
 
 from ..engines.base import Source, stepped
 from ..errors import HarnessError
+from ..results.stages import Clock, lap
 from ..systems import System
 from .compiled import UNROLLED_MAX_DOF, taylor_grid, taylor_integrator
 from .drakerun import drake_trajectory
@@ -150,20 +151,33 @@ def accurate_trajectory(
 
 
 def run_trajectories(
-    system: System, sources: Mapping[str, Source], *, t_end: float = DEFAULT_T_END, dt_out: float = DEFAULT_DT_OUT
+    system: System,
+    sources: Mapping[str, Source],
+    *,
+    t_end: float = DEFAULT_T_END,
+    dt_out: float = DEFAULT_DT_OUT,
+    clock: Clock | None = None,
+    drake: bool = True,
 ) -> list[Trajectory]:
     """The sources' free runs from the system's initial state: scipy (SCIPY_DEFAULT) on the hand
     equations, the path a user of scipy takes, and on Pinocchio's ABA (an engine's right-hand side
     called from Python: odeint is its fastest driver, bench); MuJoCo's RK4 at the model's timestep; the
     model's derived equations by the fast path (`accurate_trajectory`); Drake's own integrator
-    (DRAKE_DEFAULT) where the drake source exists."""
+    (DRAKE_DEFAULT) where the drake source exists and `drake` asks for it. Each run's wall seconds go
+    on `clock` as "trajectories: SOURCE"."""
     q0, v0 = initial_state(system)
     tau = np.zeros(system.nv)
     t = time_grid(t_end, dt_out)
-    return [
-        *([scipy_trajectory(system, sources["hand"], q0, v0, tau, t, **SCIPY_DEFAULT)] if "hand" in sources else []),
-        mujoco_trajectory(system, stepped(sources["mujoco"]), q0, v0, tau, t, integrator="RK4"),
-        scipy_trajectory(system, sources["pinocchio"], q0, v0, tau, t, **SCIPY_DEFAULT),
-        *([accurate_trajectory(system, sources["symbolic"], q0, v0, tau, t)] if "symbolic" in sources else []),
-        *([drake_trajectory(system, sources["drake"], q0, v0, tau, t)] if "drake" in sources else []),
-    ]
+    runs: dict[str, Callable[[], Trajectory]] = {
+        "hand": lambda: scipy_trajectory(system, sources["hand"], q0, v0, tau, t, **SCIPY_DEFAULT),
+        "mujoco": lambda: mujoco_trajectory(system, stepped(sources["mujoco"]), q0, v0, tau, t, integrator="RK4"),
+        "pinocchio": lambda: scipy_trajectory(system, sources["pinocchio"], q0, v0, tau, t, **SCIPY_DEFAULT),
+        "symbolic": lambda: accurate_trajectory(system, sources["symbolic"], q0, v0, tau, t),
+        "drake": lambda: drake_trajectory(system, sources["drake"], q0, v0, tau, t),
+    }
+    out = []
+    for source, run in runs.items():
+        if source in sources and (drake or source != "drake"):
+            out.append(run())
+            lap(clock, f"trajectories: {source}")
+    return out

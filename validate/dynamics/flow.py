@@ -11,6 +11,7 @@ import numpy as np
 from ..checks.tolerances import TOLERANCES
 from ..errors import HarnessError
 from ..systems import System
+from ..systems.memo import Memo
 from .cachedir import heyoka
 from .integrate import DEFAULT_BUDGET, Budget, time_grid
 from .reference import TaylorGuard, param_key, symbolic_dynamics
@@ -33,18 +34,19 @@ class Flow:
     phi: np.ndarray  # (K, 2n, 2n) dx(t)/dx(0), row-major: phi[k, i, j] = dx_i(t_k) / dx_j(0)
 
 
-_VAR_INTEGRATORS: dict[tuple[Any, ...], Any] = {}
+_VAR_INTEGRATORS = Memo(maxsize=32)  # bounded: one per system, parameter set and precision (issue 36)
 
 
 def variational_integrator(system: System, precision: str) -> Any:
     hy = heyoka()
 
     key = (system.name, system.overrides, param_key(system), system.equations, precision)  # the module, not its id
-    if key not in _VAR_INTEGRATORS:
+
+    def make() -> Any:
         dyn = symbolic_dynamics(system)
         fp = {"double": float, "long double": np.longdouble}[precision]
         vsys = hy.var_ode_sys(dyn.ode, hy.var_args.vars, order=1)
-        _VAR_INTEGRATORS[key] = hy.taylor_adaptive(
+        return hy.taylor_adaptive(
             vsys,
             np.zeros(2 * dyn.n, dtype=fp),
             fp_type=fp,
@@ -52,7 +54,8 @@ def variational_integrator(system: System, precision: str) -> Any:
             compact_mode=True,
             opt_level=1,
         )
-    return _VAR_INTEGRATORS[key]
+
+    return _VAR_INTEGRATORS.get(key, make)
 
 
 def reset_variational(ta: Any, n: int, x0: np.ndarray, tau: np.ndarray, t0: float, tangent: np.ndarray) -> None:

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from ..engines.base import Source
+from ..results.stages import Clock, lap
 from ..systems import System
 from . import estimate, experiments, fast, integrate, trust
 from .cachedir import Cache
@@ -52,23 +53,35 @@ MAX_THRESHOLD = 1e-3  # rad
 
 
 def trajectory_results(
-    system: System, sources: Mapping[str, Source], *, t_end: float, dt_out: float, cache: Cache | None = None
+    system: System,
+    sources: Mapping[str, Source],
+    *,
+    t_end: float,
+    dt_out: float,
+    cache: Cache | None = None,
+    clock: Clock | None = None,
+    drake_run: bool = False,
 ) -> dict[str, Any]:
     """The three sources' free runs against the reference solution of the hand equations (heyoka's
-    Taylor method in long double, kept in `cache`), plus the notes' perturbed start for the divergence."""
+    Taylor method in long double, kept in `cache`), plus the notes' perturbed start for the divergence.
+    `clock`: the reference's, each run's, the perturbed start's and the error estimates' wall seconds.
+    `drake_run`: Drake's own free run too (information only, not judged: DRAKE_NOT_JUDGED; with its
+    estimate it cost ~5 s of a double pendulum's ~25, so it runs on request, `run --drake-run`)."""
 
     q0, v0 = integrate.initial_state(system)
     tau = np.zeros(system.nv)
     t = integrate.time_grid(t_end, dt_out)
     ref, ref_info = reference_trajectory(system, q0, v0, tau, t, cache_dir=reference_dir(cache))
-    trajs = fast.run_trajectories(system, sources, t_end=t_end, dt_out=dt_out)
+    lap(clock, "trajectories: reference")
+    trajs = fast.run_trajectories(system, sources, t_end=t_end, dt_out=dt_out, clock=clock, drake=drake_run)
     q0b = q0.copy()
     q0b[-1] += experiments.PERTURBATION
     perturbed = fast.accurate_trajectory(system, sources["hand"], q0b, v0, tau, t)
     perturbed.stats["label"] = f"{system.coordinates[-1]}0 + {experiments.PERTURBATION:g}"
-    runs = [
-        _run_entry(system, sources, tr, ref, estimate.run_estimate(system, sources, tr, q0, v0, tau)) for tr in trajs
-    ]
+    lap(clock, "trajectories: perturbed start")
+    estimates = [estimate.run_estimate(system, sources, tr, q0, v0, tau) for tr in trajs]
+    lap(clock, "estimates")
+    runs = [_run_entry(system, sources, tr, ref, est) for tr, est in zip(trajs, estimates, strict=True)]
     for run in runs:
         if run["source"] == "drake":  # shown and measured, not judged: see DRAKE_NOT_JUDGED
             run["counts"], run["why_not_counted"] = False, DRAKE_NOT_JUDGED

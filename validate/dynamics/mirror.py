@@ -187,7 +187,7 @@ def _check_sample(q: Any, v: Any, budget: Budget, deadline: float) -> None:
         raise _Blowup(f"wall time {budget.max_wall_s:g} s")
 
 
-@functools.cache  # unbounded by design: two schemes x the few coordinate counts of the systems run
+@functools.lru_cache(maxsize=32)  # two schemes x the few coordinate counts of the systems run
 def _scheme_code(integrator: str, n: int) -> Any:
     """`run(f, q, v, h, steps) -> (q, v)`: `steps` steps of `Stepper.step`'s one-state scheme (RK4 or
     semi-implicit Euler) on Python floats, generated as straight-line code for n coordinates with the

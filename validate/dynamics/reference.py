@@ -43,6 +43,7 @@ from ..engines.hand import HandSource
 from ..errors import HarnessError, IntegrationStopped, unknown_name
 from ..systems import System, tracing
 from ..systems.forms import accelerations_only
+from ..systems.memo import Memo
 from . import cache
 from .cachedir import heyoka
 from .integrate import DEFAULT_BUDGET, Budget, Trajectory
@@ -80,7 +81,7 @@ def param_key(system: System) -> tuple[tuple[str, str], ...]:
     return tuple((k, float(v).hex()) for k, v in sorted(vars(system.params).items()))
 
 
-@functools.lru_cache(maxsize=256)  # one per parameter set: probes and overrides make many
+@functools.lru_cache(maxsize=64)  # one per parameter set: probes and overrides make many
 def _symbolic(name: str, module: types.ModuleType, p: Any, n: int) -> SymbolicDynamics:
     hy = heyoka()
 
@@ -124,7 +125,7 @@ def rhs_check(system: System, *, n_states: int = 64, seed: int = 0) -> float:
     return float(np.abs(traced - numpy_a).max() / scale)
 
 
-@functools.lru_cache(maxsize=256)  # one per SymbolicDynamics, as _symbolic
+@functools.lru_cache(maxsize=64)  # one per SymbolicDynamics, as _symbolic (compiled code: a few MB each)
 def _cfunc(dyn: SymbolicDynamics) -> Any:
     hy = heyoka()
 
@@ -145,7 +146,7 @@ def _extended_available() -> bool:
     return bool(np.finfo(np.longdouble).eps < 1e-18)  # 80-bit x87 (x86-64 Linux); double elsewhere
 
 
-_INTEGRATORS: dict[tuple[Any, ...], Any] = {}
+_INTEGRATORS = Memo(maxsize=64)  # bounded: one per system, parameter set, precision and tolerance (issue 36)
 
 
 def taylor_integrator(system: System, precision: str, tol: float | None) -> Any:
@@ -155,7 +156,8 @@ def taylor_integrator(system: System, precision: str, tol: float | None) -> Any:
     fp = _fp_types()[precision]
     # the module itself, not its id or name: a mutated module of the same name gets its own integrator
     key = (system.name, system.overrides, param_key(system), system.equations, precision, tol)
-    if key not in _INTEGRATORS:
+
+    def make() -> Any:
         dyn = symbolic_dynamics(system)
         state = np.zeros(2 * dyn.n, dtype=fp) if fp is not hy.real128 else np.array([hy.real128(0)] * 2 * dyn.n)
         pars = np.zeros(dyn.n, dtype=fp) if fp is not hy.real128 else np.array([hy.real128(0)] * dyn.n)
@@ -164,8 +166,9 @@ def taylor_integrator(system: System, precision: str, tol: float | None) -> Any:
         kwargs: dict[str, Any] = {"fp_type": fp, "pars": pars, "compact_mode": True, "opt_level": 1}
         if tol is not None:
             kwargs["tol"] = tol
-        _INTEGRATORS[key] = hy.taylor_adaptive(dyn.ode, state, **kwargs)
-    return _INTEGRATORS[key]
+        return hy.taylor_adaptive(dyn.ode, state, **kwargs)
+
+    return _INTEGRATORS.get(key, make)
 
 
 def _to_fp(x: np.ndarray, precision: str) -> np.ndarray:
@@ -386,9 +389,10 @@ def reference_trajectory(
                 arrays.get("v", np.empty((0, n))),
                 {"steps": stored.get("steps")},
             )
+            rhs = _checked_rhs(system)  # the trace is checked on every read, before the window check uses it
             problem = _content_problem(system, traj, q0, v0, tau, t)
             if problem is None:
-                stored["rhs_check"] = _checked_rhs(system)  # cheap: the trace is checked on every read
+                stored["rhs_check"] = rhs
                 stored.update(cache="hit", cache_file=str(path))
                 stored["timing"]["load_s"] = time.perf_counter() - start
                 return traj, stored
@@ -449,15 +453,12 @@ def window_check(system: System, traj: Trajectory, tau: np.ndarray) -> float:
     WINDOW_CHECK_TOLERANCE / 10 (step doubling; at most WINDOW_CHECK_HALVINGS times), so a stiff model
     (a 1:50 mass ratio: 2.5e-4 s left 5e-5 rad) does not fail the check of the entry just written."""
 
-    hand, n = HandSource(system), system.nv
+    n = system.nv
     x0 = np.hstack([traj.q[:-1], traj.v[:-1]])
     h0 = np.diff(traj.t)[:, None]
     steps = max(1, int(np.ceil(float(h0.max()) / WINDOW_CHECK_STEP)))
     u = np.broadcast_to(np.asarray(tau, dtype=float), (len(x0), n))
-
-    def f(y: np.ndarray) -> np.ndarray:
-        return np.hstack([y[:, n:], hand.forward(y[:, :n], y[:, n:], u)])
-
+    f = _window_rhs(system, u)
     end = _rk4_windows(f, x0, h0 / steps, steps)
     for _ in range(WINDOW_CHECK_HALVINGS):
         steps *= 2
@@ -468,6 +469,31 @@ def window_check(system: System, traj: Trajectory, tau: np.ndarray) -> float:
             break
     stored = np.hstack([traj.q[1:], traj.v[1:]])
     return float(np.abs(end - stored).max())
+
+
+def _window_rhs(system: System, u: np.ndarray) -> Any:
+    """f(y) = (v, a) for rows y = (q, v) at the inputs u (K, n): the hand equations' traced code (a tenth
+    of the numpy module's cost per call; `reference_trajectory` checks the trace against the module
+    before a stored entry is window-checked), or the module itself where the trace cannot stand in
+    (a module that cannot be traced; explicit accelerations, traced at zero input only, with an input)."""
+    n = system.nv
+    try:
+        traced = not (accelerations_only(system.equations) and np.any(u)) and _cfunc(symbolic_dynamics(system))
+    except HarnessError:
+        traced = False
+    if traced:
+        pars = np.ascontiguousarray(u.T)
+
+        def compiled(y: np.ndarray) -> np.ndarray:
+            return np.hstack([y[:, n:], np.asarray(traced(np.ascontiguousarray(y.T), pars=pars)).T])
+
+        return compiled
+    hand = HandSource(system)
+
+    def module(y: np.ndarray) -> np.ndarray:
+        return np.hstack([y[:, n:], hand.forward(y[:, :n], y[:, n:], u)])
+
+    return module
 
 
 def _rk4_windows(f: Any, x: np.ndarray, h: np.ndarray, steps: int) -> np.ndarray:

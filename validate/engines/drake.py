@@ -496,7 +496,7 @@ class DrakeSource:
 
     def kinematics(self, q: np.ndarray, v: np.ndarray) -> Kinematics:
         n, nb = len(q), len(self.bodies)
-        cp, cv, op, ov, w = (np.empty((n, nb, 3)) for _ in range(5))
+        cp, op, ov, w = (np.empty((n, nb, 3)) for _ in range(4))
         rot, ke, pe = np.empty((n, nb, 3, 3)), np.empty((n, nb)), np.empty((n, nb))
         plant, ctx = self.plant, self.context
         for i in range(n):
@@ -506,9 +506,9 @@ class DrakeSource:
                 op[i, k], rot[i, k] = X.translation(), X.rotation().matrix()
                 w[i, k], ov[i, k] = V.rotational(), V.translational()
                 mass, cp[i, k] = self._group_com(k)
-                cv[i, k] = ov[i, k] + np.cross(w[i, k], cp[i, k] - op[i, k])
                 ke[i, k] = sum(self._kinetic(b) for b in self.groups[k])
                 pe[i, k] = -mass * self.gravity @ cp[i, k]
+        cv = ov + np.cross(w, cp - op)  # every state at once: one call per state cost 0.1 ms each
         return Kinematics(cp, cv, op, ov, rot, w, ke, pe)
 
     def _kinetic(self, body: Any) -> float:

@@ -15,13 +15,16 @@ from typing import Any
 import numpy as np
 
 from ..systems import System
+from ..systems.memo import Memo
 from .base import Kinematics
 from .derivation import Derivation, derive, parameter_values, structure_key
 from .hand import solve_or_nan
 
 _LOCK = threading.Lock()
-_DERIVED: dict[Any, Derivation] = {}
-_CODE: dict[tuple[Any, str], Any] = {}
+# Bounded (a watch re-judges for hours; issue 36): a model structure's derivation and its code, the least
+# recently used dropped and made again when asked for.
+_DERIVED = Memo(maxsize=32)
+_CODE = Memo(maxsize=128)
 
 
 def derivation_of(system: System, key: Any = None) -> Derivation:
@@ -29,9 +32,8 @@ def derivation_of(system: System, key: Any = None) -> Derivation:
     `key`: its structure_key, if already computed)."""
     key = structure_key(system.view, system.joints) if key is None else key
     with _LOCK:
-        if key not in _DERIVED:
-            _DERIVED[key] = derive(system.view, system.joints)
-        return _DERIVED[key]
+        derivation: Derivation = _DERIVED.get(key, lambda: derive(system.view, system.joints))
+        return derivation
 
 
 def _flat(d: Derivation, part: str) -> tuple[list[Any], list[tuple[str, tuple[int, ...]]]]:
@@ -58,18 +60,18 @@ def _code(d: Derivation, key: Any, part: str) -> Any:
     """numpy code for one part, generated once per structure: f(q..., v..., params...) -> list; for
     "scalar", `math` code of M (row-major) and C v + G - passive at one state, for the integrators."""
     with _LOCK:
-        if (key, part) not in _CODE:
-            import sympy as sp
+        return _CODE.get((key, part), lambda: _generated(d, part))
 
-            args = [*d.q, *d.v, *d.source]
-            if part == "scalar":
-                exprs = [*d.M, *(d.Cv + d.G - d.passive)]
-                _CODE[(key, part)] = (sp.lambdify(args, exprs, modules="math", cse=True), [])
-                return _CODE[(key, part)]
-            exprs, layout = _flat(d, part)
-            fn = sp.lambdify(args, exprs, modules="numpy", cse=True)
-            _CODE[(key, part)] = (fn, layout)
-        return _CODE[(key, part)]
+
+def _generated(d: Derivation, part: str) -> tuple[Any, list[tuple[str, tuple[int, ...]]]]:
+    """`_code`'s (function, layout), generated."""
+    import sympy as sp
+
+    args = [*d.q, *d.v, *d.source]
+    if part == "scalar":
+        return sp.lambdify(args, [*d.M, *(d.Cv + d.G - d.passive)], modules="math", cse=True), []
+    exprs, layout = _flat(d, part)
+    return sp.lambdify(args, exprs, modules="numpy", cse=True), layout
 
 
 class SymbolicSource:

@@ -42,6 +42,7 @@ from typing import Any
 from ..errors import HarnessError
 from ..results import atomic_write
 from ..results import load as load_results
+from ..results.stages import outcome
 from .recording import ERROR_FLOOR, TIMELINE, blueprint, describe, log_scene
 from .scene import build_scene, run_colours, run_keys
 
@@ -137,7 +138,7 @@ def replay_command(system: str, save: Path | None, results_path: Path = DEFAULT_
             f"run `lagrange-xval run {system}` first."
         )
     if not held[system].get("trajectories"):
-        why = held[system].get("stages", {}).get("trajectories") or "no trajectories were recorded"
+        why = outcome(held[system].get("stages", {}).get("trajectories")) or "no trajectories were recorded"
         raise HarnessError(f"{results_path}: {system} has no trajectories to replay ({why}).")
     if save is None:
         _check_display(system)

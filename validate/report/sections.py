@@ -53,6 +53,7 @@ from .findings import (
 from .runs import fmt_g
 from .studies import section_bench, section_stress
 from .system import section_system, shorten
+from .timing import section_timing
 
 
 def variant_worst(v: dict[str, Any]) -> dict[str, Any] | None:
@@ -554,6 +555,7 @@ def build(
         else:
             doc.blocks += done.blocks
             doc.images.update(done.images)
+    section_timing(doc, results)
     section_tolerances(doc, results)
 
     doc.h(2, BENCHMARK)

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from ..results.stages import outcome
 from .document import (
     ERRATA,
     NOT_RUN,
@@ -38,12 +39,12 @@ from .runs import judged_verdict, run_verdict
 
 
 def system_skipped(doc: Document, name: str, s: dict[str, Any]) -> None:
-    stages = s.get("stages") or {}
+    stages = {k: why for k, v in (s.get("stages") or {}).items() if (why := outcome(v))}
     if stages:
         doc.table(
             f"Stages of {name} not run or failed",
             ("stage", "outcome"),
-            [(k, Mark("bad", v) if str(v).startswith("failed") else v) for k, v in sorted(stages.items())],
+            [(k, Mark("bad", v) if v.startswith("failed") else v) for k, v in sorted(stages.items())],
         )
     skipped = s.get("skipped")
     if skipped:

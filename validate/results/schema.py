@@ -8,6 +8,8 @@ pipeline.py). Non-finite numbers are written as strings ("inf", "nan"): JSON has
 
 from typing import Any, NotRequired, TypedDict
 
+from .stages import Stage
+
 # The one definition of the number every comparison is judged by (checks/pointwise.error_row computes
 # it; the README and the report say it in these words).
 SCALED_DEFINITION = (
@@ -181,7 +183,7 @@ class SystemResult(TypedDict, total=False):
     experiments: dict[str, Any] | None
     equivalence: dict[str, Any] | None
     chaos: dict[str, Any] | None
-    stages: dict[str, str]  # a stage not run or failed, and why
+    stages: dict[str, Stage]  # each stage's wall seconds, and why it was not run or failed (results/stages.py)
     skipped: list[str]
     audit: dict[str, Any]  # the model read by MuJoCo, Pinocchio and Drake side by side (checks/audit.py)
     passed: bool

@@ -515,7 +515,7 @@ def _check_contract(module: ModuleType, where: str) -> ModuleType:
         raise HarnessError(f"{where}: {exc}") from None
 
 
-@functools.cache  # unbounded by design: one per repository system (and time limit)
+@functools.lru_cache(maxsize=64)  # one per repository system (and time limit)
 def _equations_module(name: str, time_limit: float = DEFAULT_TIME_LIMIT) -> ModuleType:
     where = f"equations/{name}.py"
     guard = Guard(where, time_limit)
@@ -556,7 +556,8 @@ def load_module(path: Path, *, model: Path | None = None, time_limit: float = DE
     sys.modules[name] = module
     guard = Guard(str(path), time_limit)
     try:
-        guard.call("importing it", spec.loader.exec_module, module)
+        # compiled from the source, never __pycache__ (keyed by whole-second mtime and size: `watch` saves faster)
+        guard.call("importing it", exec, compile(path.read_bytes(), str(path), "exec", dont_inherit=True), vars(module))
     except SyntaxError as exc:
         sys.modules.pop(name, None)
         raise HarnessError(f"{path}:{exc.lineno}: syntax error: {exc.msg}.") from None

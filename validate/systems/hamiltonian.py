@@ -98,7 +98,7 @@ def _check_quadratic(inverse_mass: list[list[Any]], dH_dpm: list[Any], ps: list[
             )
 
 
-@functools.cache  # unbounded by design: one per equations module loaded, parameters symbolic
+@functools.lru_cache(maxsize=64)  # one per equations module loaded (a watch loads one per save), parameters symbolic
 def _symbolic(module: Any, params_type: Any, n: int) -> _Terms | None:
     """The terms with symbolic parameters, or None where the module's code needs numbers for them
     (a shape error of H, such as a term linear in pm, is raised here, once)."""

@@ -331,6 +331,9 @@ def run_time_command(plan: Plan) -> int:
         runs = ", ".join(f"{w:.1f}" for w in walls)
         cpu = statistics.median(r["cpu_s_all"][condition])
         print(f"{condition:14s} median {r['median_s'][condition]:5.1f} s wall (runs: {runs}; CPU {cpu:.1f} s)")
+        split = sorted(r.get("stages_s", {}).get(condition, {}).items(), key=lambda kv: -kv[1])
+        if split:  # each stage summed over the systems (in their workers, side by side: more than the wall)
+            print("    stages, s summed over the systems: " + ", ".join(f"{n} {s:.1f}" for n, s in split))
     bad = [c for c in r["exit_codes"] if c != 0]
     verdict = "meets" if r["passed"] and not bad else "MISSES"
     print(

@@ -5,6 +5,7 @@ default scipy against the fastest, and `lagrange-xval run`'s wall time.
 
 from __future__ import annotations
 
+import json
 import os
 import resource
 import statistics
@@ -332,6 +333,7 @@ def run_wall_times(plan: Plan, *, timeout: float = 900.0) -> dict[str, Any]:
     repeats = plan.run_repeats
     walls: dict[str, list[float]] = {c: [] for c in RUN_CONDITIONS}
     cpus: dict[str, list[float]] = {c: [] for c in RUN_CONDITIONS}
+    stages: dict[str, list[dict[str, float]]] = {c: [] for c in RUN_CONDITIONS}
     codes: list[int] = []
     for _ in range(repeats):
         with tempfile.TemporaryDirectory(prefix="bench-run-") as tmp:
@@ -360,6 +362,7 @@ def run_wall_times(plan: Plan, *, timeout: float = 900.0) -> dict[str, Any]:
                 after = resource.getrusage(resource.RUSAGE_CHILDREN)
                 cpus[condition].append((after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime))
                 codes.append(proc.returncode)
+                stages[condition].append(stage_seconds(out / "results.json"))
     medians = {c: statistics.median(w) for c, w in walls.items()}
     worst = max(medians.values())
     return {
@@ -370,6 +373,7 @@ def run_wall_times(plan: Plan, *, timeout: float = 900.0) -> dict[str, Any]:
         "warm_target": plan.run_warm_target_s,
         "wall_s_all": walls,
         "cpu_s_all": cpus,
+        "stages_s": {c: median_stages(runs) for c, runs in stages.items()},
         "exit_codes": codes,
         "repeats": repeats,
         "conditions": RUN_CONDITIONS,
@@ -378,3 +382,25 @@ def run_wall_times(plan: Plan, *, timeout: float = 900.0) -> dict[str, Any]:
         + "; ".join(f"{c}: {why}" for c, why in RUN_CONDITIONS.items())
         + "; value = the slowest condition's median; CPU = user + system of the process tree",
     }
+
+
+def stage_seconds(results_json: Path) -> dict[str, float]:
+    """Each stage's wall seconds in one run's results.json, summed over its systems ({} if it has none)."""
+    from ...results.stages import seconds_of
+
+    try:
+        systems = json.loads(results_json.read_text()).get("systems", {})
+    except (OSError, ValueError):
+        return {}
+    out: dict[str, float] = {}
+    for s in systems.values():
+        for stage, record in (s.get("stages") or {}).items():
+            if (seconds := seconds_of(record)) is not None:
+                out[stage] = out.get(stage, 0.0) + seconds
+    return out
+
+
+def median_stages(runs: list[dict[str, float]]) -> dict[str, float]:
+    """Per stage, the median over the runs of its seconds (a run without the stage counts 0)."""
+    names = [n for run in runs for n in run]
+    return {n: statistics.median(run.get(n, 0.0) for run in runs) for n in dict.fromkeys(names)}
