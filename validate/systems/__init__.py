@@ -25,7 +25,7 @@ from .forms import input_name, normalize
 from .inertia import repair_urdf
 from .memo import Memo
 from .modelfile import MAX_MJCF_BYTES as MAX_MJCF_BYTES
-from .modelfile import model_file, compile_mjcf, mjcf_text, model_view
+from .modelfile import compile_mjcf, mjcf_text, model_file, model_view
 from .modelfile import compile_model as compile_model
 from .modelview import ModelView, from_mujoco, names
 from .overrides import parse
