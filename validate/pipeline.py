@@ -177,8 +177,9 @@ def _run_stages(
             ),
             clock,
         )
-        or []
-    )
+        if system.variants  # a system with no printed form has no such stage
+        else None
+    ) or []
     same = _stage(stages, "equivalence", lambda: equivalence.check_equivalence(system, probe_set.systems()), clock)
     if system.nv <= READABLE_MAX_DOF:
         derived = _stage(stages, "derived equations", lambda: derived_data(system, cache=cache), clock)

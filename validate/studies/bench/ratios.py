@@ -25,6 +25,7 @@ from ...engines import make_source
 from ...engines.base import Source, stepped
 from ...engines.baselines import raw_mujoco, raw_pinocchio, raw_symbolic
 from ...engines.fastpath import scalar_rhs
+from ...results.stages import seconds_of
 from ...systems import System
 from .baselines import hand_math_rhs, numpy_solve_rhs, raw_hand, raw_pointwise
 from .plan import CONTENDER_DRIVERS, GRID_DRIVERS, Plan
@@ -386,8 +387,6 @@ def run_wall_times(plan: Plan, *, timeout: float = 900.0) -> dict[str, Any]:
 
 def stage_seconds(results_json: Path) -> dict[str, float]:
     """Each stage's wall seconds in one run's results.json, summed over its systems ({} if it has none)."""
-    from ...results.stages import seconds_of
-
     try:
         systems = json.loads(results_json.read_text()).get("systems", {})
     except (OSError, ValueError):
