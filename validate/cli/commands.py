@@ -291,7 +291,8 @@ def user_files(args: argparse.Namespace) -> list[tuple[Path, Path | None]] | Non
 
 def lonely_line(path: Path) -> str:
     """A file of a --systems folder without its partner: not a system, so not checked."""
-    partner = f"{path.stem}.py" if path.suffix != ".py" else f"{path.stem}.xml or {path.stem}.urdf"
+    written = path.suffix in (".py", ".toml")
+    partner = f"{path.stem}.xml or {path.stem}.urdf" if written else f"{path.stem}.py or {path.stem}.toml"
     return f"{path.stem}: not checked: {path} has no {partner} beside it"
 
 

@@ -304,8 +304,8 @@ def _run_arguments(run: argparse.ArgumentParser) -> None:
         dest="systems_dir",
         type=path_arg,
         metavar="DIR",
-        help="a folder of your own systems: each <name>.xml or <name>.urdf with its <name>.py (a file without its "
-        "partner is named and skipped)",
+        help="a folder of your own systems: each <name>.xml or <name>.urdf with its <name>.py or <name>.toml (a "
+        "file without its partner is named and skipped)",
     )
     _time_limit_option(run)
     _cache_options(run)

@@ -524,13 +524,14 @@ def load_module(path: Path, *, model: Path | None = None, time_limit: float = DE
 
 def pairs_in(folder: Path) -> list[tuple[Path, Path]]:
     """(model, equations) of every system in a user's folder: each <name>.xml (MJCF) or <name>.urdf
-    with its <name>.py. A file without its partner is an error naming it: a derivation left unchecked
-    is never silent."""
+    with its <name>.py (or <name>.toml, the text form). A file without its partner is an error naming
+    it: a derivation left unchecked is never silent."""
     pairs, lonely = pairs_and_lonely(folder)
     if lonely:
         names = ", ".join(sorted(p.stem for p in lonely))
         raise HarnessError(
-            f"{folder}: {names} has no partner (each system is <name>.xml or <name>.urdf, and <name>.py)."
+            f"{folder}: {names} has no partner (each system is <name>.xml or <name>.urdf, and <name>.py or "
+            "<name>.toml)."
         )
     return pairs
 
@@ -546,11 +547,19 @@ def pairs_and_lonely(folder: Path) -> tuple[list[tuple[Path, Path]], list[Path]]
     if twice:
         raise HarnessError(f"{folder}: {', '.join(twice)} has both an .xml and a .urdf model; keep one.")
     models = {p.stem: p for p in found}
-    modules = {p.stem: p for p in folder.glob("*.py") if p.stem != "__init__"}  # `_arm` is a system too
+    written = sorted(
+        p for p in folder.iterdir() if p.suffix in (".py", ".toml") and p.is_file() and p.stem != "__init__"
+    )
+    both = sorted({p.stem for p in written if sum(q.stem == p.stem for q in written) > 1})
+    if both:
+        raise HarnessError(f"{folder}: {', '.join(both)} has both a .py and a .toml derivation; keep one.")
+    modules = {p.stem: p for p in written}  # `_arm` is a system too; <name>.toml is the text form
     lonely = sorted((models | modules)[n] for n in models.keys() ^ modules.keys())
     paired = sorted(models.keys() & modules.keys())
     if not paired and not lonely:
-        raise HarnessError(f"{folder}: no system found (each system is <name>.xml or <name>.urdf, and <name>.py).")
+        raise HarnessError(
+            f"{folder}: no system found (each system is <name>.xml or <name>.urdf, and <name>.py or <name>.toml)."
+        )
     return [(models[n], modules[n]) for n in paired], lonely
 
 
