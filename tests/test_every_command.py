@@ -44,3 +44,57 @@ def test_a_systems_folder_pairs_a_model_with_its_text_form(tmp_path, capsys):
     (tmp_path / "cart.py").write_text((EXAMPLES / "cart_pole.py").read_text())
     with pytest.raises(HarnessError, match=r"cart has both a \.py and a \.toml derivation; keep one"):
         pairs_and_lonely(tmp_path)
+
+
+def test_the_bench_baseline_computes_what_a_module_without_energies_provides(tmp_path):
+    """The bench's raw loops (what `bench` times the harness against) skip T and V where the module
+    leaves them out, as the hand source does, instead of raising NotImplementedError."""
+    import numpy as np
+    from lagrange_xval.validate.checks import pointwise as compare
+    from lagrange_xval.validate.studies.bench.baselines import raw_hand
+    from lagrange_xval.validate.systems import System
+
+    system = System.from_files(*without_energies(tmp_path))
+    states = compare.random_states(system, n=8, seed=0)
+    raw = raw_hand(system, states)
+    assert np.isnan(raw["T"]).all() and np.isnan(raw["V"]).all()
+    assert np.isfinite(raw["qacc"]).all() and raw["body_positions"]
+
+
+def test_stress_on_a_module_without_energies_judges_divergence_and_says_what_it_skipped(tmp_path):
+    """Without T and V: no drift, the energy criterion skipped (each said), and the stability search
+    still finds every integrator's boundary from divergence alone, above the bottom of its range."""
+    from dataclasses import replace
+
+    from lagrange_xval.validate.studies import stress
+
+    settings = replace(stress.QUICK, sections=("drift", "stability"))
+    results = stress.run_stress(None, files=[without_energies(tmp_path)], settings=settings)
+    skipped = {s["section"]: s["why"] for s in results["skipped"]}
+    assert skipped == {
+        "drift": "T and V not provided: no energy to follow",
+        "stability (energy criterion)": "T and V not provided: the energy criterion skipped, divergence alone judged",
+    }, skipped
+    rows = results["stability"]
+    assert {r["criterion"] for r in rows} == {"divergence"}
+    for r in rows:
+        if r["engine"] == "mujoco":  # MuJoCo's boundaries lie far above the bottom of the range
+            assert r["max_stable"] is not None and r["max_stable"] > 1e-3, r
+
+
+def test_stress_skip_reasons_are_true():
+    """A damped, driven model is "not conservative" for its damping and inputs, never its gravity; a
+    3-joint system without two bodies named is not "one coordinate"."""
+    from types import SimpleNamespace
+
+    from lagrange_xval.validate.studies import stress
+    from lagrange_xval.validate.studies.stress.conditioning import no_sweep_reason
+    from lagrange_xval.validate.studies.stress.output import prepare, run_section
+    from lagrange_xval.validate.systems import System
+
+    acrobot = System.from_files(EXAMPLES / "acrobot.xml", EXAMPLES / "acrobot.py")
+    done = run_section((acrobot, *prepare(acrobot)), "drift", stress.QUICK)
+    assert [s["why"] for s in done["skipped"]] == ["not conservative (the model has damping and inputs)"]
+    assert no_sweep_reason(SimpleNamespace(nv=1, bodies=("a",))).startswith("one coordinate")
+    three = no_sweep_reason(SimpleNamespace(nv=3, bodies=()))
+    assert "one coordinate" not in three and "fewer than two bodies named" in three, three

@@ -101,7 +101,7 @@ def test_a_summary_row_marks_only_what_its_own_numbers_show():
 def test_an_energy_the_module_leaves_out_is_said_not_provided(tmp_path):
     """A free run's energy change, measured by a derivation without T and V: "T and V not provided",
     never an infinite change."""
-    from lagrange_xval.validate.dynamics.freeruns import energy_missing
+    from lagrange_xval.validate.dynamics.integrate import energy_missing
     from lagrange_xval.validate.engines import make_sources
 
     source = (EXAMPLES / "acrobot.py").read_text()

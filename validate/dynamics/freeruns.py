@@ -110,13 +110,6 @@ def _start_and_reference(
     }
 
 
-def energy_missing(meter: Any) -> str:
-    """ "T not provided" (or V, or both) where the source that measures the energy leaves it out."""
-    gone = set(getattr(meter, "not_provided", ()) or ())
-    names = [x for x, f in (("T", "kinetic_energy"), ("V", "potential_energy")) if f in gone]
-    return f"{' and '.join(names)} not provided" if names else ""
-
-
 def _run_entry(
     system: System, sources: Mapping[str, Source], tr: Any, ref: Any, est: tuple[np.ndarray, str] | None = None
 ) -> dict[str, Any]:
@@ -126,7 +119,7 @@ def _run_entry(
     thr = estimate.threshold(est[0] if est is not None else np.zeros(len(tr.t)))
     meter = sources.get("hand") or sources.get("symbolic") or sources["mujoco"]
     e = integrate.energy(system, meter, tr)
-    missing = energy_missing(meter)
+    missing = integrate.energy_missing(meter)
     run = {
         "source": tr.source,
         "method": tr.method,
