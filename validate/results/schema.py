@@ -165,7 +165,7 @@ class SystemResult(TypedDict, total=False):
     bodies: list[str]
     uses: list[str]
     failed: list[str]  # each failing check in one short phrase
-    statement: str  # the verdict in one sentence, as decide wrote it (checks/decide.Decision.statement)
+    statement: str  # the verdict in one sentence, as `decide` wrote it (checks/decide.py, Decision.statement)
     parameters: dict[str, float]
     parameter_keys: dict[str, dict[str, Any]]  # per parameter: the model keys it sets and their unit
     derived: dict[str, Any] | None  # the model's equations derived symbolically (engines/readable.as_data)

@@ -36,6 +36,7 @@ MODELS_DIR = PACKAGE_ROOT / "models"
 EQUATIONS_PACKAGE = "lagrange_xval.equations"
 MAX_MJCF_BYTES = 16 * 2**20  # the models of the notes are ~3 kB
 MODEL_SUFFIXES = (".xml", ".urdf")  # what a folder of systems is searched for (the format is the root element's)
+PAIR = "<name>.xml or <name>.urdf, and <name>.py or <name>.toml"  # the files of a system in a user's folder
 
 # The contract's one required name (and the dynamics in one form: validate/systems/forms.py). Everything
 # else has a default: COORDINATES and JOINTS the model's joints in order, DESCRIPTION the module's
@@ -523,15 +524,12 @@ def load_module(path: Path, *, model: Path | None = None, time_limit: float = DE
 
 
 def pairs_in(folder: Path) -> list[tuple[Path, Path]]:
-    """(model, equations) of every system in a user's folder: each <name>.xml (MJCF) or <name>.urdf
-    with its <name>.py (or <name>.toml, the text form). A file without its partner is an error naming
-    it: a derivation left unchecked is never silent."""
+    """(model, equations) of every system in a user's folder (each one `PAIR`). A file without its
+    partner is an error naming it: a derivation left unchecked is never silent."""
     pairs, lonely = pairs_and_lonely(folder)
     if lonely:
-        names = ", ".join(sorted(p.stem for p in lonely))
         raise HarnessError(
-            f"{folder}: {names} has no partner (each system is <name>.xml or <name>.urdf, and <name>.py or "
-            "<name>.toml)."
+            f"{folder}: {', '.join(sorted(p.stem for p in lonely))} has no partner (each system is {PAIR})."
         )
     return pairs
 
@@ -547,19 +545,14 @@ def pairs_and_lonely(folder: Path) -> tuple[list[tuple[Path, Path]], list[Path]]
     if twice:
         raise HarnessError(f"{folder}: {', '.join(twice)} has both an .xml and a .urdf model; keep one.")
     models = {p.stem: p for p in found}
-    written = sorted(
-        p for p in folder.iterdir() if p.suffix in (".py", ".toml") and p.is_file() and p.stem != "__init__"
-    )
-    both = sorted({p.stem for p in written if sum(q.stem == p.stem for q in written) > 1})
-    if both:
+    written = sorted(p for p in folder.iterdir() if p.suffix in (".py", ".toml") and p.stem != "__init__")
+    if both := sorted({p.stem for p in written if sum(q.stem == p.stem for q in written) > 1}):
         raise HarnessError(f"{folder}: {', '.join(both)} has both a .py and a .toml derivation; keep one.")
-    modules = {p.stem: p for p in written}  # `_arm` is a system too; <name>.toml is the text form
+    modules = {p.stem: p for p in written if p.is_file()}  # `_arm` is a system too; .toml: the text form
     lonely = sorted((models | modules)[n] for n in models.keys() ^ modules.keys())
     paired = sorted(models.keys() & modules.keys())
     if not paired and not lonely:
-        raise HarnessError(
-            f"{folder}: no system found (each system is <name>.xml or <name>.urdf, and <name>.py or <name>.toml)."
-        )
+        raise HarnessError(f"{folder}: no system found (each system is {PAIR}).")
     return [(models[n], modules[n]) for n in paired], lonely
 
 
