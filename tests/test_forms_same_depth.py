@@ -1,0 +1,85 @@
+"""Every form judged to the same depth (issue 34): one slip, written into the acrobot of examples/ in
+each form it can take, is named at the same entry and in the person's symbols: explicit accelerations
+taking tau, explicit accelerations taking the actuators' controls u (mapped back to forces with the
+model's M), and the energies (the slip named in V, with the entry of G it changes after it). A gear
+left out of a u form is named at the actuator's column of B."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import lagrange_xval as lx
+import pytest
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+SOURCE = (EXAMPLES / "acrobot.py").read_text()
+L_FOR_LC = ("(p.m1 * p.lc1 + p.m2 * p.l1)", "(p.m1 * p.lc1 + p.m2 * p.lc1)")  # in G1 and in V alike
+
+
+def explicit_tau() -> str:
+    return SOURCE
+
+
+def explicit_u() -> str:
+    """qacc(p, q, v, u): the elbow motor's control, tau = (0, gear u) written out."""
+    out = SOURCE.replace(
+        "def qacc(p: Params, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:",
+        "def qacc(p: Params, q: np.ndarray, v: np.ndarray, u: np.ndarray) -> np.ndarray:",
+    ).replace(
+        "    f1 = tau[..., 0] - p.b1 * w1",
+        "    tau = stack_vector([0.0 * u[..., 0], p.gear * u[..., 0]])\n    f1 = tau[..., 0] - p.b1 * w1",
+    )
+    out = out.replace("    g: float  # m/s^2\n", "    g: float  # m/s^2\n    gear: float\n")
+    out = out.replace(
+        '        g=float(-model["gravity"][2]),\n',
+        '        g=float(-model["gravity"][2]),\n        gear=float(model["actuator/elbow_motor/gear"]),\n',
+    )
+    return out.replace('"actuator/elbow_motor/gear": NAN,', '"actuator/elbow_motor/gear": p.gear,')
+
+
+def energies() -> str:
+    """Form (d): T and V alone, the damping as `passive` (qacc cut out)."""
+    start, end = SOURCE.index("def qacc("), SOURCE.index("def kinetic_energy(")
+    passive = (
+        "def passive(p: Params, q: np.ndarray, v: np.ndarray) -> np.ndarray:\n"
+        "    return stack_vector([-p.b1 * v[..., 0], -p.b2 * v[..., 1]])\n\n\n"
+    )
+    return SOURCE[:start] + passive + SOURCE[end:]
+
+
+FORMS = {"explicit_tau": explicit_tau, "explicit_u": explicit_u, "energies": energies}
+
+
+def system_of(folder: Path, name: str, text: str, *, gear: float = 1.0) -> lx.System:
+    (folder / f"{name}.py").write_text(text)
+    xml = (EXAMPLES / "acrobot.xml").read_text()
+    assert xml.count('gear="1"') == 1
+    (folder / f"{name}.xml").write_text(xml.replace('gear="1"', f'gear="{gear:g}"'))
+    return lx.System.from_files(folder / f"{name}.xml", folder / f"{name}.py")
+
+
+@pytest.mark.parametrize("form", sorted(FORMS))
+def test_each_form_is_right_as_written(form, tmp_path):
+    assert lx.check(system_of(tmp_path, form, FORMS[form]()), n_states=60, probes=2).passed
+
+
+@pytest.mark.parametrize("form", sorted(FORMS))
+def test_l_for_lc_is_named_at_the_same_entry_in_every_form(form, tmp_path):
+    text = FORMS[form]()
+    where = "-" if form == "energies" else "G1 = "  # the slip goes into V, or into the G the qacc solves with
+    old = where + L_FOR_LC[0]
+    assert text.count(old) == 1, (form, old)
+    wrong = text.replace(old, where + L_FOR_LC[1])
+    statement = lx.check(system_of(tmp_path, form, wrong), n_states=60, probes=2).statement
+    slip = "yours has lc1 where expected has l1"
+    if form == "energies":  # named where it was made, in V, with the entry of G it changes after it
+        assert f"V: {slip}" in statement and "it changes G[theta1]" in statement, statement
+    else:
+        assert f"G[theta1]: {slip}" in statement, statement
+
+
+def test_a_gear_left_out_of_a_u_form_is_named_at_its_actuator(tmp_path):
+    text = explicit_u().replace("p.gear * u[..., 0]", "u[..., 0]")
+    result = lx.check(system_of(tmp_path, "geared", text, gear=2.0), n_states=60, probes=2)
+    assert not result.passed
+    assert "B[theta2, elbow_motor]: yours is 1/2 of the model's: the gear 2" in result.statement, result.statement
