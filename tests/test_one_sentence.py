@@ -112,3 +112,16 @@ def test_an_energy_the_module_leaves_out_is_said_not_provided(tmp_path):
     assert energy_missing(make_sources(system)["hand"]) == "T and V not provided"
     whole = lx.System.from_files(EXAMPLES / "acrobot.xml", EXAMPLES / "acrobot.py")
     assert energy_missing(make_sources(whole)["hand"]) == ""
+
+
+def test_a_model_alone_gets_the_same_sentence_from_check_and_run(wrong, tmp_path, capsys):
+    """No derivation: `check` and `run` say which sources were compared and that they agree, in one
+    sentence (decide's)."""
+    model = str(wrong / "acrobot_l_for_lc.xml")
+    assert main(["check", "--model", model, "--states", "40"]) == 0
+    last = capsys.readouterr().out.splitlines()[-1]
+    prefix = "verdict: acrobot_l_for_lc: pass: "
+    assert last.startswith(prefix + "no derivation given; MuJoCo, Pinocchio"), last
+    args = ["run", "--model", model, "--states", "40", "--out", str(tmp_path / "out"), "--no-replay", "--no-cache"]
+    assert main(args) == 0
+    assert capsys.readouterr().out.splitlines()[-1] == f"  pass acrobot_l_for_lc: {last[len(prefix) :]}"

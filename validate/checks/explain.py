@@ -158,6 +158,37 @@ def _entry_slips(expanded: Any, terms: list[Any], params: list[Any]) -> list[Can
     return out
 
 
+def literal_slips(expected: Any, params: list[Any], values: list[dict[Any, float]]) -> list[Candidate]:
+    """A parameter typed in as a number: the entry with one parameter replaced by its model value (a
+    literal equal to it hides the slip at the model's values; a probe shows it) or by a number typed
+    into parameters() (`values[1]`: any of them, for any parameter of the entry)."""
+    import sympy as sp
+
+    expanded = sp.expand(expected)
+    present = [p for p in params if expanded.has(p)]
+    numbers = [(p, float(values[0][p])) for p in present if p in values[0]]
+    numbers += [(p, float(x)) for p in present for x in dict.fromkeys(values[1].values()) if x != values[0].get(p)]
+    return [
+        Candidate(
+            expanded.xreplace({p: sp.Float(x)}) - expanded,
+            "literal",
+            f"uses {x:.6g} where the model's {p} belongs",
+            Fraction(1),
+        )
+        for p, x in numbers
+    ]
+
+
+def _typed_values(system: System) -> dict[str, float]:
+    """The numbers typed into the system's parameters() (checks/words.py), {} where none or unknown."""
+    from .words import typed_numbers
+
+    try:
+        return typed_numbers(system) if system.equations is not None else {}
+    except Exception:  # noqa: BLE001 - a candidate source, never a failure
+        return {}
+
+
 def candidates(expected: Any, q: list[Any], params: list[Any], rates: tuple[Any, ...] = ()) -> list[Candidate]:
     """The single-slip differences from `expected`, most specific first: slips in one term, then
     slips across the whole entry, then each term on its own (lost, doubled, sign, wrong number)."""
@@ -225,6 +256,7 @@ class _Samples:
             ps.append(np.array([[values[p] for p in derivation.source]] * len(st.q)))
             self.states.append((s, st))
         self.q, self.v, self.p = np.concatenate(qs), np.concatenate(vs), np.concatenate(ps)
+        self.typed = _typed_values(systems[0])
         self.args = [*symbols["q"], *symbols["v"], *derivation.source]
         half = np.zeros(len(self.q), dtype=bool)
         half[::2] = True
@@ -439,6 +471,7 @@ def _fit(
     """The simplest candidate difference that reproduces D, or why none does."""
     params = list(samples.args[2 * len(symbols["q"]) :])
     found = candidates(expected, symbols["q"], params, tuple(symbols["v"]))
+    found += literal_slips(expected, params, [dict(zip(params, samples.p[0], strict=True)), samples.typed])
     if not found:
         return {"explained": False, "statement": "expected 0: yours has terms where the model has none"}
     B = samples.evaluate([c.basis for c in found])

@@ -282,10 +282,10 @@ def system_headline(s: dict[str, Any]) -> tuple[bool | None, str]:
     `decide` wrote it (the sentence `check` and the API show; never recomposed here), labelled with
     whose derivation it is, then what failed after the verdict; a model alone, what was compared."""
     d = s.get("derivation") or {}
-    statement = str(s.get("statement") or d.get("statement") or "")
-    if has_derivation(s) and statement:
+    statement = str(s.get("statement") or (d.get("statement") if has_derivation(s) else "") or "")
+    if statement:
         later = after_verdict(s) if s.get("passed") is False else []
-        text = f"{derivation_label(s)}: {statement}"
+        text = f"{derivation_label(s)}: {statement}" if has_derivation(s) else statement
         if later:
             text += f"; after the verdict, {'; '.join(later[:2])}" + (
                 f" (and {len(later) - 2} more)" if len(later) > 2 else ""
@@ -295,7 +295,7 @@ def system_headline(s: dict[str, Any]) -> tuple[bool | None, str]:
 
 
 def _model_alone_headline(s: dict[str, Any]) -> tuple[bool | None, str]:
-    """(passed, one line) of a model run alone (or of results without a statement)."""
+    """(passed, one line) of results without a statement (written before decide's was kept)."""
     failed = list(s.get("failed") or [])
     if s.get("passed") is False:
         if failed:

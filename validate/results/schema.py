@@ -132,6 +132,7 @@ class Derivation(TypedDict, total=False):
     first_disagreeing_term: str
     failing_terms: list[str]
     hidden_by_model_values: bool
+    typed_numbers: dict[str, float]  # fields parameters() returns without reading the model (g = 9.81)
     terms: list[TermRow]
     summary: list[dict[str, Any]]  # per term and engine: rows, worst scaled error, tolerance
     probes: list[dict[str, Any]]  # index, label, the parameters changed
