@@ -98,3 +98,23 @@ def test_stress_skip_reasons_are_true():
     assert no_sweep_reason(SimpleNamespace(nv=1, bodies=("a",))).startswith("one coordinate")
     three = no_sweep_reason(SimpleNamespace(nv=3, bodies=()))
     assert "one coordinate" not in three and "fewer than two bodies named" in three, three
+
+
+def test_derive_predicts_a_spatial_model_and_python_before_working(tmp_path):
+    """A 7-joint spatial chain (as the Panda with its fingers locked) is refused at once with its
+    prediction, --python more so; the planar chain of 7 is not (its prediction is under the budget)."""
+    from lagrange_xval.validate.cli.commands import affordable, is_spatial
+    from lagrange_xval.validate.studies.chains import chain_mjcf
+    from lagrange_xval.validate.systems import System
+
+    views = {}
+    for kind in ("planar", "spatial"):
+        (tmp_path / f"{kind}.xml").write_text(chain_mjcf(7, kind))
+        system = System.model_only(tmp_path / f"{kind}.xml")
+        views[kind] = (system.view, tuple(system.joints))
+    assert not is_spatial(*views["planar"]) and is_spatial(*views["spatial"])
+    affordable(7, spatial=False)
+    with pytest.raises(HarnessError, match=r"7 joints: .* about 137 s .* x8 for a spatial model\), over the 120 s"):
+        affordable(7, spatial=True)
+    with pytest.raises(HarnessError, match=r"about 453 s .* x3.3 for --python"):
+        affordable(7, spatial=True, python=True)

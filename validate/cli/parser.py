@@ -174,10 +174,7 @@ def _model_options(parser: argparse.ArgumentParser) -> None:
         "--model", type=path_arg, metavar="PATH", help="your own model, MJCF .xml or URDF .urdf (with --equations)"
     )
     parser.add_argument(
-        "--equations",
-        type=path_arg,
-        metavar="PATH",
-        help="your own equations: a module, .py, or the text form, .toml (with --model)",
+        "--equations", type=path_arg, metavar="PATH", help="your own equations, .py or .toml (with --model)"
     )
     _lock_option(parser)
 
