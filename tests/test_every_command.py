@@ -118,3 +118,31 @@ def test_derive_predicts_a_spatial_model_and_python_before_working(tmp_path):
         affordable(7, spatial=True)
     with pytest.raises(HarnessError, match=r"about 453 s .* x3.3 for --python"):
         affordable(7, spatial=True, python=True)
+
+
+ROTATED = """<mujoco model="rotated">
+  <compiler angle="radian"/>
+  <option gravity="0 -9.81 0"/>
+  <worldbody>
+    <body name="arm" pos="0 0 0" quat="{w} {x} 0 0">
+      <joint name="hinge" type="hinge" axis="0 0 1"/>
+      <inertial pos="0.3 0 0" mass="1.5" diaginertia="0.01 0.02 0.03"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+@pytest.mark.parametrize("fmt", [[], ["--python"]])
+def test_derive_rounds_rotation_noise_and_says_so(tmp_path, capsys, fmt):
+    """A body turned by pi/2 + 2e-11 about x (an rpy angle written to 11 digits), gravity along -y: its
+    rotation's 2e-11 entries (which would put a 2e-11 term in G) are 0 in the derived equations, and the
+    header says how many entries were rounded."""
+    import math
+
+    half = (math.pi / 2 + 2e-11) / 2
+    (tmp_path / "rotated.xml").write_text(ROTATED.format(w=repr(math.cos(half)), x=repr(math.sin(half))))
+    assert main(["derive", "--model", str(tmp_path / "rotated.xml"), *fmt]) == 0
+    out = capsys.readouterr().out
+    assert "rotation entries within 1e-10 of 0 or +-1 rounded to them (" in out, out[:600]
+    assert "e-11" not in out and "e-12" not in out, out
