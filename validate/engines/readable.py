@@ -297,11 +297,11 @@ def _local_names(e: Equations) -> dict[Any, Any]:
 
     import sympy as sp
 
-    taken = {"p", "q", "v", "np", "stack_matrix", "stack_vector", *e.reads}
+    taken = {"p", "q", "v", "np", "stack_matrix", "stack_vector", *e.reads}  # and names starting cse_ (below)
     out: dict[Any, Any] = {}
     for sym in (*e.q, *e.v):
         name = re.sub(r"\W", "_", str(sym))
-        name = name if name.isidentifier() else f"_{name}"
+        name = name if name.isidentifier() and not name.startswith("cse_") else f"_{name}"
         while name in taken:
             name += "_"
         taken.add(name)
@@ -334,6 +334,9 @@ def _function(e: Equations, spec: tuple[str, str, str, tuple[str, ...], str], na
     for name in sorted(str(s) for s in used if str(s) in e.reads):
         key, entry, sign = e.reads[name]
         out.append(f"    {name} = {'-' if sign < 0 else ''}p.{field_of(key, entry)}")
+    # common subexpressions first, each computed once (a 7-joint arm's expanded entries ran to 96 MB)
+    shared, exprs = sp.cse(exprs, symbols=sp.numbered_symbols("cse_"), order="none")
+    out += [f"    {sym} = {code(value)}" for sym, value in shared]
     if shape == "(n, n)":
         rows = ("[" + ", ".join(code(exprs[i * n + j]) for j in range(n)) + "]" for i in range(n))
         body = "stack_matrix([" + ", ".join(rows) + "])"
