@@ -83,3 +83,19 @@ def test_a_gear_left_out_of_a_u_form_is_named_at_its_actuator(tmp_path):
     result = lx.check(system_of(tmp_path, "geared", text, gear=2.0), n_states=60, probes=2)
     assert not result.passed
     assert "B[theta2, elbow_motor]: yours is 1/2 of the model's: the gear 2" in result.statement, result.statement
+
+
+SIGN = {  # the elbow's gravity with its sign flipped: in the G the qacc solves with, or in V
+    "explicit_tau": ("G2 = p.m2 * p.lc2 * p.g * s12", "G2 = -p.m2 * p.lc2 * p.g * s12", "G[theta2]: yours"),
+    "explicit_u": ("G2 = p.m2 * p.lc2 * p.g * s12", "G2 = -p.m2 * p.lc2 * p.g * s12", "G[theta2]: yours"),
+    "energies": ("- p.m2 * p.lc2 * p.g * np.cos(th1 + th2)", "+ p.m2 * p.lc2 * p.g * np.cos(th1 + th2)", "V: yours"),
+}
+
+
+@pytest.mark.parametrize("form", sorted(FORMS))
+def test_a_sign_slip_is_named_as_a_sign_in_every_form(form, tmp_path):
+    old, new, entry = SIGN[form]
+    text = FORMS[form]()
+    assert text.count(old) == 1, (form, old)
+    statement = lx.check(system_of(tmp_path, form, text.replace(old, new)), n_states=60, probes=2).statement
+    assert f"{entry} has the term" in statement and "with the wrong sign" in statement, statement
