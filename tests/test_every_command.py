@@ -116,7 +116,7 @@ def test_derive_predicts_a_spatial_model_and_python_before_working(tmp_path):
     affordable(7, spatial=False)
     with pytest.raises(HarnessError, match=r"7 joints: .* about 137 s .* x8 for a spatial model\), over the 120 s"):
         affordable(7, spatial=True)
-    with pytest.raises(HarnessError, match=r"about 453 s .* x3.3 for --python"):
+    with pytest.raises(HarnessError, match=r"about 165 s .* x1.2 for --python"):
         affordable(7, spatial=True, python=True)
 
 

@@ -39,9 +39,11 @@ DERIVE_BUDGET = 120.0  # s: `derive` refuses a model predicted to take longer (u
 
 # A spatial model (joint axes not all parallel, or a body frame rotated) costs more than the planar
 # chains measured: the UR5 (6 joints) took 37 s against 6.8 s predicted, the Panda with its fingers
-# locked (7) 135 s against 17 s (issue 34), so 8x; `--python` then took 441 s on the Panda, 3.3x more.
+# locked (7) 135 s against 17 s (issue 34), so 8x. `--python` took 441 s on the Panda when it printed the
+# expanded entries (96 MB); with each function's common subexpressions (engines/readable.py) it took 98 s
+# of CPU against 90 s for the derivation alone (492 KB), so 1.2x.
 SPATIAL_FACTOR = 8.0
-PYTHON_FACTOR = 3.3
+PYTHON_FACTOR = 1.2
 
 
 def predicted_derive_s(n: int, *, spatial: bool = False, python: bool = False) -> float:
