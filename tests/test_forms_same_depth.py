@@ -1,7 +1,8 @@
 """Every form judged to the same depth (issue 34): one slip, written into the acrobot of examples/ in
 each form it can take, is named at the same entry and in the person's symbols: explicit accelerations
 taking tau, explicit accelerations taking the actuators' controls u (mapped back to forces with the
-model's M), and the energies (the slip named in V, with the entry of G it changes after it). A gear
+model's M), and the energies in Python and in the TOML text form (the slip named in V, with the entry
+of G it changes after it). A gear
 left out of a u form is named at the actuator's column of B."""
 
 from __future__ import annotations
@@ -47,15 +48,46 @@ def energies() -> str:
     return SOURCE[:start] + passive + SOURCE[end:]
 
 
-FORMS = {"explicit_tau": explicit_tau, "explicit_u": explicit_u, "energies": energies}
+KINETIC = (
+    "((Ic1 + m1*lc1^2 + m2*l1^2 + Ic2 + m2*lc2^2 + 2*m2*l1*lc2*cos(theta2))*dtheta1^2"
+    " + 2*(Ic2 + m2*lc2^2 + m2*l1*lc2*cos(theta2))*dtheta1*dtheta2 + (Ic2 + m2*lc2^2)*dtheta2^2)/2"
+)
+TEXT = f"""\
+coordinates = ["theta1", "theta2"]
+joints = ["shoulder", "elbow"]
+T = "{KINETIC}"
+V = "-(p.m1 * p.lc1 + p.m2 * p.l1) * p.g * cos(theta1) - p.m2 * p.lc2 * p.g * cos(theta1 + theta2)"
+friction = ["-b1*dtheta1", "-b2*dtheta2"]
+[symbols]
+m1 = "body/link1/mass"
+m2 = "body/link2/mass"
+l1 = "-body/link2/pos[2]"
+lc1 = "-body/link1/com[2]"
+lc2 = "-body/link2/com[2]"
+Ic1 = "body/link1/inertia[1][1]"
+Ic2 = "body/link2/inertia[1][1]"
+b1 = "joint/shoulder/damping"
+b2 = "joint/elbow/damping"
+g = "-gravity[2]"
+"""
+
+
+def text_form() -> str:
+    """The energies from paper as the TOML text form (the same V, written with the module's spelling
+    of the slip's factors so that one replacement plants it in every form)."""
+    return TEXT.replace("p.", "")
+
+
+FORMS = {"explicit_tau": explicit_tau, "explicit_u": explicit_u, "energies": energies, "text": text_form}
 
 
 def system_of(folder: Path, name: str, text: str, *, gear: float = 1.0) -> lx.System:
-    (folder / f"{name}.py").write_text(text)
+    suffix = "toml" if text.startswith("coordinates = ") else "py"
+    (folder / f"{name}.{suffix}").write_text(text)
     xml = (EXAMPLES / "acrobot.xml").read_text()
     assert xml.count('gear="1"') == 1
     (folder / f"{name}.xml").write_text(xml.replace('gear="1"', f'gear="{gear:g}"'))
-    return lx.System.from_files(folder / f"{name}.xml", folder / f"{name}.py")
+    return lx.System.from_files(folder / f"{name}.xml", folder / f"{name}.{suffix}")
 
 
 @pytest.mark.parametrize("form", sorted(FORMS))
@@ -66,13 +98,14 @@ def test_each_form_is_right_as_written(form, tmp_path):
 @pytest.mark.parametrize("form", sorted(FORMS))
 def test_l_for_lc_is_named_at_the_same_entry_in_every_form(form, tmp_path):
     text = FORMS[form]()
-    where = "-" if form == "energies" else "G1 = "  # the slip goes into V, or into the G the qacc solves with
-    old = where + L_FOR_LC[0]
+    where = "-" if form in ("energies", "text") else "G1 = "  # into V, or into the G the qacc solves with
+    slip = [x.replace("p.", "") for x in L_FOR_LC] if form == "text" else L_FOR_LC
+    old = where + slip[0]
     assert text.count(old) == 1, (form, old)
-    wrong = text.replace(old, where + L_FOR_LC[1])
+    wrong = text.replace(old, where + slip[1])
     statement = lx.check(system_of(tmp_path, form, wrong), n_states=60, probes=2).statement
     slip = "yours has lc1 where expected has l1"
-    if form == "energies":  # named where it was made, in V, with the entry of G it changes after it
+    if form in ("energies", "text"):  # named where it was made, in V, with the entry of G it changes after it
         assert f"V: {slip}" in statement and "it changes G[theta1]" in statement, statement
     else:
         assert f"G[theta1]: {slip}" in statement, statement
@@ -89,6 +122,7 @@ SIGN = {  # the elbow's gravity with its sign flipped: in the G the qacc solves 
     "explicit_tau": ("G2 = p.m2 * p.lc2 * p.g * s12", "G2 = -p.m2 * p.lc2 * p.g * s12", "G[theta2]: yours"),
     "explicit_u": ("G2 = p.m2 * p.lc2 * p.g * s12", "G2 = -p.m2 * p.lc2 * p.g * s12", "G[theta2]: yours"),
     "energies": ("- p.m2 * p.lc2 * p.g * np.cos(th1 + th2)", "+ p.m2 * p.lc2 * p.g * np.cos(th1 + th2)", "V: yours"),
+    "text": ("- m2 * lc2 * g * cos(theta1 + theta2)", "+ m2 * lc2 * g * cos(theta1 + theta2)", "V: yours"),
 }
 
 
