@@ -133,3 +133,22 @@ def test_a_sign_slip_is_named_as_a_sign_in_every_form(form, tmp_path):
     assert text.count(old) == 1, (form, old)
     statement = lx.check(system_of(tmp_path, form, text.replace(old, new)), n_states=60, probes=2).statement
     assert f"{entry} has the term" in statement and "with the wrong sign" in statement, statement
+
+
+def test_a_doubled_gear_in_an_implicit_residual_with_u_is_named_at_its_actuator(tmp_path):
+    """examples/cart_pole's residual taking the cart motor's control u, with u doubled: the actuation
+    is named at B[x, motor_x] as an explicit u form's is."""
+    source = (EXAMPLES / "cart_pole.py").read_text()
+    edits = [
+        ("a: np.ndarray, tau: np.ndarray) -> np.ndarray:", "a: np.ndarray, u: np.ndarray) -> np.ndarray:"),
+        ("+ p.kx * dx - tau[..., 0]", "+ p.kx * dx - 2 * u[..., 0]"),
+        ("- p.mp * p.g * lc * s - tau[..., 1]", "- p.mp * p.g * lc * s"),
+    ]
+    for old, new in edits:
+        assert source.count(old) == 1, old
+        source = source.replace(old, new)
+    (tmp_path / "cart.py").write_text(source)
+    (tmp_path / "cart.xml").write_text((EXAMPLES / "cart_pole.xml").read_text())
+    result = lx.check(lx.System.from_files(tmp_path / "cart.xml", tmp_path / "cart.py"), n_states=60, probes=2)
+    assert "actuation disagrees" in result.statement
+    assert "B[x, motor_x]: yours is 2 times the model's (gear 1, actuator/motor_x/gear)" in result.statement

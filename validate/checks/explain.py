@@ -460,7 +460,7 @@ def explain(
             user = force_part(part, index) if u_form and part in FORCES else _user_part(part, index)
             items.append((term, label, entry, user))
     out = explain_entries(system, probe_systems, items, seed=seed, cache=cache)
-    if u_form and "actuation" in terms:
+    if system.inputs == "u" and written_form(system.equations) in ("b", "c") and "actuation" in terms:
         out += actuation_explanations(system, probe_systems, seed=seed)
     return out
 

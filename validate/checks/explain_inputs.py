@@ -13,9 +13,10 @@ A slip in one force keeps its entries a simple difference from the expected ones
 has l1 where expected has lc1"). A slip in the mass matrix of an under-actuated module (M cannot be
 read back from M^-1 B) changes every force mapped back, and is said to be no single slip.
 
-Actuation is explained numerically, column by column: the person's B = M (d qacc / d u) against the
-model's (each actuator's gear on its joint): "B[elbow, elbow_motor]: yours is 0.5 times the model's
-(gear 2 of actuator/elbow_motor/gear): the gear is left out".
+Actuation is explained numerically, column by column: the person's B = M (d qacc / d u) (of an
+implicit residual r(p, q, v, a, u): -(d r / d u)) against the model's (each actuator's gear on its
+joint): "B[theta2, elbow_motor]: yours is 1/2 of the model's: the gear 2 (actuator/elbow_motor/gear) is
+left out (u enters as tau = u)".
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ import numpy as np
 from ..engines import make_source
 from ..results.schema import Explanation
 from ..systems import System
+from ..systems.forms import written_form
 from .pointwise import random_states
 
 User = Callable[[System, np.ndarray, np.ndarray], np.ndarray]
@@ -85,7 +87,7 @@ def actuation_explanations(system: System, probe_systems: list[System], *, seed:
     for s in [system, *probe_systems]:
         q = random_states(s, n=8, seed=seed).q
         with np.errstate(all="ignore"):
-            mine = np.einsum("nij,njk->nik", _engine_mass(s, q), _response(s, q))
+            mine = _input_columns(s, q)
         for k, actuator in enumerate(s.actuators):
             if any(e["entry"].endswith(f", {actuator}]") for e in out):
                 continue
@@ -93,6 +95,20 @@ def actuation_explanations(system: System, probe_systems: list[System], *, seed:
             if found is not None:
                 out.append({**found, "at_model": s is system})
     return out
+
+
+def _input_columns(system: System, q: np.ndarray) -> np.ndarray:
+    """The person's B (N, n, nu): M (d qacc / d u) for explicit accelerations, -(d residual / d u) for
+    an implicit residual."""
+    if written_form(system.equations) == "c":
+        return np.einsum("nij,njk->nik", _engine_mass(system, q), _response(system, q))
+    r, p = system.equations.ORIGINAL.residual, system.params
+    zero = np.zeros_like(q)
+    nu = system.input_matrix.shape[1]
+    u0 = np.zeros((len(q), nu))
+    r0 = np.asarray(r(p, q, zero, zero, u0), dtype=float)
+    cols = [r0 - np.asarray(r(p, q, zero, zero, u0 + np.eye(nu)[k]), dtype=float) for k in range(nu)]
+    return np.stack(cols, axis=-1)
 
 
 def _column(system: System, B: np.ndarray, mine: np.ndarray, k: int, actuator: str) -> Explanation | None:
