@@ -72,7 +72,7 @@ def test_a_model_alone_gives_one_verdict_through_the_api_check_and_run(tmp_path,
     run = _cli_run(capsys, tmp_path / "out", "--model", str(model))
     assert api.passed and status == 0 and cli["passed"] is True, api.statement
     assert {r.check for r in api.rows} == {"pointwise"}
-    assert cli["verdict"]["statement"] == api.statement == run["derivation"]["statement"]
+    assert cli["verdict"]["statement"] == api.statement == run["statement"]  # decide's sentence, kept in results
     assert run["derivation"]["verdict"] == cli["verdict"]["derivation"] == "not applicable"
     assert run["pointwise"]["passed"] is True
 

@@ -230,13 +230,15 @@ def test_failing_results_show_the_failure_mark(results: dict[str, Any]) -> None:
     """A failing row shows ✗ in the summary, pointwise table and the headline."""
     r = json.loads(dumps(results))
     s = r["systems"][SYSTEM]
-    s["pointwise"]["rows"][0].update(passed=False, scaled=1e-3)
+    row = s["pointwise"]["rows"][0]
+    row.update(passed=False, scaled=1e-3)
     s["passed"] = False
+    s["statement"] += f"; but pointwise {row['quantity']} {row['pair']} disagrees"  # as decide says it
     r["passed"] = False
     files = report.render(r)
     md, html = files["report.md"].decode(), files["report.html"].decode()
-    assert f"**✗ {SYSTEM} fails: pointwise {s['pointwise']['rows'][0]['quantity']} disagrees (" in md, md[:600]
-    assert f"| {SYSTEM} | hand derivation | hand | ✗ FAIL |" in md
+    assert f"**✗ {SYSTEM} fails: the hand derivation: {s['statement']}" in md, md[:600]
+    assert f"| {SYSTEM} | hand derivation | hand | ✗ FAIL | {row['quantity']} | {row['pair']} |" in md
     assert '<div class="verdict bad"' in html and '<span class="mark bad">✗ FAIL</span>' in html
 
 

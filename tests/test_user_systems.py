@@ -91,7 +91,9 @@ def test_run_on_a_model_and_equations_outside_the_repository(tmp_path):
         timeout=600,
     )
     assert run.returncode == 1, run.stderr[-2000:]
-    assert "my_cart: FAIL; your derivation: gravity disagrees (hand~" in run.stderr, run.stderr[-2000:]
+    assert "my_cart: FAIL; your derivation: gravity disagrees at the model's parameters; G[theta]" in run.stderr, (
+        run.stderr[-2000:]
+    )
     assert {p.name for p in (tmp_path / "out").iterdir()} >= {"report.html", "report.md", "results.json", "my_cart.rrd"}
 
 
@@ -127,7 +129,9 @@ def test_run_systems_folder(tmp_path):
         timeout=600,
     )
     assert more.returncode == 0 and "pendulum: pass" in more.stderr, more.stderr[-2000:]
-    assert "lonely: not checked: " in more.stdout and "lonely.xml has no lonely.py beside it" in more.stdout
+    assert (
+        "lonely: not checked: " in more.stdout and "lonely.xml has no lonely.py or lonely.toml beside it" in more.stdout
+    )
 
 
 def test_check_and_simulate_take_a_model_and_equations(tmp_path):

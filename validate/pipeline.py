@@ -71,6 +71,7 @@ def model_only_result(
     return {
         **_identity(system),
         "failed": failed,
+        "statement": decision.statement,
         "parameters": {},
         "timestep": float(stepped(sources["mujoco"]).m.opt.timestep),
         "model_checks": model,
@@ -220,8 +221,7 @@ def _run_stages(
             set_aside_runs(traj, decision.excluded or {})
     else:
         why = (
-            "not run: the hand derivation already disagrees with the engines "
-            f"({derivation.get('first_disagreeing_term') or 'model checks or pointwise'}); the reference, chaos and "
+            f"not run: {_not_agreeing(decision)}; the reference, chaos and "
             "the perturbation experiments are built on the hand equations, so they would only amplify the same mistake"
         )
         for name in ("reference trajectory", "chaos and mirrors", "perturbation experiments"):
@@ -234,8 +234,8 @@ def _run_stages(
                 sources,
                 t_end=t_end,
                 dt_out=dt_out,
-                why="information only: the hand derivation disagrees pointwise, so this shows where its motion "
-                "parts from the engines'",
+                why=f"information only: {_not_agreeing(decision)}, so this shows where its motion parts from "
+                "the engines'",
             ),
             clock,
         )
@@ -252,6 +252,7 @@ def _run_stages(
     return {
         **_identity(system),
         "failed": failed,
+        "statement": decision.statement,
         "parameters": {k: float(v) for k, v in probing.param_fields(system.params).items()},
         "parameter_keys": parameter_keys(system),
         "timestep": float(stepped(sources["mujoco"]).m.opt.timestep),
@@ -275,6 +276,17 @@ def set_aside_runs(traj: dict[str, Any], excluded: Mapping[str, str]) -> None:
     for run in traj["runs"]:
         if run.get("source") in excluded:
             run["counts"], run["why_not_counted"] = False, f"information only: {excluded[run['source']]}"
+
+
+def _not_agreeing(decision: Decision) -> str:
+    """Why the derivation's verdict is not a pass, in the words its own numbers support: the first
+    disagreeing term, and whether the model's own values show it or only a probe does."""
+    d = decision.derivation
+    if d.get("verdict") != "disagrees":
+        return "the model checks or the engines pointwise disagree, so the verdict is not a pass"
+    term = d.get("first_disagreeing_term") or "a term"
+    where = "at a probe parameter set only" if d.get("hidden_by_model_values") else "at the model's parameters"
+    return f"the derivation's {term} disagrees with the engines {where}"
 
 
 def _what_failed(
@@ -349,6 +361,7 @@ def _unreadable(decision: Decision) -> SystemResult:
         "variants": [],
         "stages": records({}, {"everything after reading the parameters": f"not run: {why}"}),
         "failed": [f"hand derivation: {decision.statement}"],
+        "statement": decision.statement,
         "skipped": [],
         "passed": False,
     }
@@ -420,6 +433,7 @@ def stopped_result(system: System, why: str) -> SystemResult:
         "variants": [],
         "stages": records({}, {"everything after the stop": f"not run: {why}"}),
         "failed": [why],
+        "statement": why,
         "skipped": [],
         "passed": False,
     }

@@ -28,7 +28,7 @@ from ..errors import HarnessError
 from ..results.schema import Derivation, ModelChecks, Pointwise
 from ..results.stages import Clock, lap
 from ..systems import System
-from . import modelsync, verdict
+from . import modelsync, verdict, words
 from . import pointwise as compare
 from .pointwise import States
 from .probes import DEFAULT_PROBES
@@ -70,10 +70,13 @@ class Decision:
 
     @property
     def statement(self) -> str:
-        """The verdict in one sentence: the derivation's statement, with what else failed."""
+        """The verdict in one sentence: the derivation's statement (for a model alone, which sources
+        were compared and whether they agree), with what else failed."""
         text = str(self.derivation.get("statement", ""))
         if self.model_checks is None or self.pointwise is None:
             return text
+        if self.model_only:
+            text = model_alone_statement(self.pointwise)
         if self.model_checks["mismatches"]:
             key = self.model_checks["mismatches"][0]["key"]
             if self.model_only:
@@ -95,7 +98,21 @@ class Decision:
         left = self.model_checks.get("left_out", [])
         if left:
             text += f" (left out, as no equation of motion contains them: {'; '.join(left)})"
-        return text
+        typed = words.typed_note(dict(self.derivation.get("typed_numbers") or {}))
+        return f"{text}; {typed}" if typed else text
+
+
+SOURCE_WORDS = {"mujoco": "MuJoCo", "pinocchio": "Pinocchio", "drake": "Drake", "symbolic": "the derived equations"}
+
+
+def model_alone_statement(point: Pointwise) -> str:
+    """ "no derivation given; MuJoCo, Pinocchio and Drake agree on the model and its dynamics": the
+    sources the pointwise comparison holds, in that order, and whether every pair agrees."""
+    held = {x for r in point["rows"] for x in str(r["pair"]).split("~")}
+    names = [w for k, w in SOURCE_WORDS.items() if k in held]
+    listed = ", ".join(names[:-1]) + f" and {names[-1]}" if len(names) > 1 else "".join(names) or "no source"
+    verb = "agree" if point["passed"] else "are compared"
+    return f"no derivation given; {listed} {verb} on the model and its dynamics"
 
 
 def decide(
@@ -153,6 +170,9 @@ def decide(
     derivation = verdict.judge_derivation(
         system, states, judged, probe_set, values=kept, seed=seed, tolerances=tolerances, cache=cache
     )
+    typed = _typed(system)
+    if typed:
+        derivation["typed_numbers"] = typed
     lap(clock, "terms")
     return Decision(system, derivation, model, point, states, sources, values, probe_set, excluded=excluded)
 
@@ -188,6 +208,14 @@ def with_drake(model: ModelChecks, sources: Mapping[str, Source]) -> ModelChecks
     lines = [f"Drake: {line}" for line in getattr(sources.get("drake"), "alignments", [])]
     lines += [f"Drake left out: {why}" for why in getattr(sources, "skipped", {}).values()]
     return {**model, "alignments": [*model["alignments"], *lines]} if lines else model
+
+
+def _typed(system: System) -> dict[str, float]:
+    """The numbers parameters() returns without reading the model (checks/words.py `typed_numbers`)."""
+    try:
+        return words.typed_numbers(system)
+    except Exception:  # noqa: BLE001 - a note, never a failed verdict
+        return {}
 
 
 def _unreadable(system: System) -> str:

@@ -44,7 +44,9 @@ from ..engines.readable import in_coordinates, tidy, transformed
 from ..engines.symbolic import derivation_of
 from ..results.schema import Explanation
 from ..systems import System
+from ..systems.forms import written_form
 from ..systems.values import real_array
+from .explain_inputs import actuation_explanations, force_part, mass_identifiable
 from .pointwise import random_states
 
 PARTS = {
@@ -55,6 +57,7 @@ PARTS = {
     "kinetic energy": "T",
     "potential energy": "V",
 }
+FORCES = ("M", "G", "Cv", "passive")  # the parts an explicit u form gives as accelerations (explain_inputs.py)
 STATES_PER_MODEL = 16  # per model (the system's and each probe's): half fit, half held back
 FIT_RTOL = 1e-8  # a fit's residual at the held-back states, relative to the entry's scale
 MAX_CANDIDATES = 800
@@ -155,6 +158,37 @@ def _entry_slips(expanded: Any, terms: list[Any], params: list[Any]) -> list[Can
     return out
 
 
+def literal_slips(expected: Any, params: list[Any], values: list[dict[Any, float]]) -> list[Candidate]:
+    """A parameter typed in as a number: the entry with one parameter replaced by its model value (a
+    literal equal to it hides the slip at the model's values; a probe shows it) or by a number typed
+    into parameters() (`values[1]`: any of them, for any parameter of the entry)."""
+    import sympy as sp
+
+    expanded = sp.expand(expected)
+    present = [p for p in params if expanded.has(p)]
+    numbers = [(p, float(values[0][p])) for p in present if p in values[0]]
+    numbers += [(p, float(x)) for p in present for x in dict.fromkeys(values[1].values()) if x != values[0].get(p)]
+    return [
+        Candidate(
+            expanded.xreplace({p: sp.Float(x)}) - expanded,
+            "literal",
+            f"uses {x:.6g} where the model's {p} belongs",
+            Fraction(1),
+        )
+        for p, x in numbers
+    ]
+
+
+def _typed_values(system: System) -> dict[str, float]:
+    """The numbers typed into the system's parameters() (checks/words.py), {} where none or unknown."""
+    from .words import typed_numbers
+
+    try:
+        return typed_numbers(system) if system.equations is not None else {}
+    except Exception:  # noqa: BLE001 - a candidate source, never a failure
+        return {}
+
+
 def candidates(expected: Any, q: list[Any], params: list[Any], rates: tuple[Any, ...] = ()) -> list[Candidate]:
     """The single-slip differences from `expected`, most specific first: slips in one term, then
     slips across the whole entry, then each term on its own (lost, doubled, sign, wrong number)."""
@@ -222,6 +256,7 @@ class _Samples:
             ps.append(np.array([[values[p] for p in derivation.source]] * len(st.q)))
             self.states.append((s, st))
         self.q, self.v, self.p = np.concatenate(qs), np.concatenate(vs), np.concatenate(ps)
+        self.typed = _typed_values(systems[0])
         self.args = [*symbols["q"], *symbols["v"], *derivation.source]
         half = np.zeros(len(self.q), dtype=bool)
         half[::2] = True
@@ -411,16 +446,23 @@ def explain(
     (`cache`: where records are kept, None for nowhere)."""
     d = derivation_of(system)
     coordinates = tuple(system.coordinates)
+    u_form = system.inputs == "u" and written_form(system.equations) == "c"  # M^-1 times each force
+    if u_form and terms and mass_identifiable(system):
+        terms = ["mass matrix", *terms]  # not judged apart, but read back from B (d qacc / d u)^-1
     items = []
-    for term in terms:
+    for term in dict.fromkeys(terms):
         part = PARTS.get(term)
-        if part is None:
+        if part is None or (u_form and part == "M" and not mass_identifiable(system)):
             continue
         expr = transformed(d, coordinates, system.joint_map, part)
         for index, label in _entries(part, system.nv, coordinates):
             entry = expr[index] if len(index) == 2 else expr[index[0]] if index else expr
-            items.append((term, label, entry, _user_part(part, index)))
-    return explain_entries(system, probe_systems, items, seed=seed, cache=cache)
+            user = force_part(part, index) if u_form and part in FORCES else _user_part(part, index)
+            items.append((term, label, entry, user))
+    out = explain_entries(system, probe_systems, items, seed=seed, cache=cache)
+    if system.inputs == "u" and written_form(system.equations) in ("b", "c") and "actuation" in terms:
+        out += actuation_explanations(system, probe_systems, seed=seed)
+    return out
 
 
 def _fit(
@@ -429,6 +471,7 @@ def _fit(
     """The simplest candidate difference that reproduces D, or why none does."""
     params = list(samples.args[2 * len(symbols["q"]) :])
     found = candidates(expected, symbols["q"], params, tuple(symbols["v"]))
+    found += literal_slips(expected, params, [dict(zip(params, samples.p[0], strict=True)), samples.typed])
     if not found:
         return {"explained": False, "statement": "expected 0: yours has terms where the model has none"}
     B = samples.evaluate([c.basis for c in found])
@@ -485,3 +528,22 @@ def sp_str(c: Fraction, basis: Any) -> str:
     import sympy as sp
 
     return sp.sstr(sp.Rational(c.numerator, c.denominator) * basis)
+
+
+CHANGED_BY = {"kinetic energy": "mass matrix", "potential energy": "gravity"}  # the entries an energy's slip moves
+
+
+def statement_tail(explanations: list[Explanation], *, at_model: bool) -> str:
+    """ "; <entry>: <what it lacks>" that a verdict's statement ends with: the first explained entry,
+    one that differs at the model's own values first (where the derivation is wrong there); a slip in
+    an energy (T or V) first of all, since that is where the person made it, with the entries of M (or
+    G) it changes after it. "" where nothing is explained."""
+    explained = [e for e in explanations if e.get("explained")]
+    seen = [e for e in explained if e.get("at_model", True) or not at_model] or explained
+    energy = [e for e in seen if e.get("term") in CHANGED_BY]
+    if not (energy or seen):
+        return ""
+    first = (energy or seen)[0]
+    tail = f"; {first['entry']}: {first['statement']}"
+    changed = [e["entry"] for e in explanations if energy and e.get("term") == CHANGED_BY[str(first["term"])]]
+    return tail + (f"; it changes {', '.join(changed)}" if changed else "")

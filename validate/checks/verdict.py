@@ -37,7 +37,7 @@ from ..systems.forms import accelerations_only, not_provided_in, written_form
 from ..systems.values import real_array
 from . import probes as probing
 from . import words
-from .explain import explain
+from .explain import explain, statement_tail
 from .inputs import acceleration_rows, actuation_rows, ignored_torques
 from .modelsync import equations_vs_model
 from .pointwise import States, force_scale, random_states
@@ -475,10 +475,7 @@ def _disagreement(
         result["statement"] = f"{first} disagrees at the model's parameters"
         if "error" in worst:
             result["statement"] += f": {worst['error']}"
-    explained_ = [e for e in result.get("explanations", []) if e.get("explained")]  # seen at the model's values first:
-    first_explained = next(iter([e for e in explained_ if e.get("at_model", True) or not at_model] or explained_), None)
-    if first_explained:
-        result["statement"] += f"; {first_explained['entry']}: {first_explained['statement']}"
+    result["statement"] += statement_tail(result.get("explanations", []), at_model=at_model)
 
 
 def _not_spd_note(result: Derivation, all_notes: dict[int, dict[str, Any]]) -> None:

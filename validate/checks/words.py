@@ -23,7 +23,7 @@ import numpy as np
 from ..engines.derivation import parameter_values
 from ..engines.symbolic import derivation_of
 from ..systems import System
-from ..systems.reads import knobs
+from ..systems.reads import knobs, numeric_fields
 
 # The parts of the model's own equations a term of a derivation is made of (explicit accelerations
 # carry M^-1 in each term).
@@ -143,4 +143,25 @@ def assumption_hint(labels: list[str], term: str) -> str:
         f"(a probe moves only what parameters() reads); if your formulas assume it (a uniform rod's m l^2/12, "
         f'a centre of mass at l/2), state it in assumptions(p), e.g. {{"{key}": ...}} with NaN for the '
         "entries they do not fix"
+    )
+
+
+def typed_numbers(system: System) -> dict[str, float]:
+    """{field: value} of the numbers parameters() returns without reading them from the model (g = 9.81,
+    a length typed in): no model number moves them, so no probe can, and nothing checks them against
+    the model. Zero fields are left out (an offset of 0 is rarely a number read wrong)."""
+    base = numeric_fields(system.params)
+    followed = {f for k in knobs(system.equations.parameters, system.view) for f in k.fields}
+    return {f: v for f, v in base.items() if f not in followed and v != 0.0}
+
+
+def typed_note(typed: dict[str, float]) -> str:
+    """The clause a verdict adds, pass or FAIL, for the numbers typed into parameters()."""
+    if not typed:
+        return ""
+    shown = ", ".join(f"{f} = {v:.6g}" for f, v in list(typed.items())[:6]) + (" ..." if len(typed) > 6 else "")
+    return (
+        f"parameters() does not read {shown} from the model (typed in: no probe moves "
+        f"{'it' if len(typed) == 1 else 'them'}, so nothing checks {'it' if len(typed) == 1 else 'them'} "
+        "against the model's numbers)"
     )

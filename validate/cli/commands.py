@@ -329,7 +329,8 @@ def user_files(args: argparse.Namespace) -> list[tuple[Path, Path | None]] | Non
 
 def lonely_line(path: Path) -> str:
     """A file of a --systems folder without its partner: not a system, so not checked."""
-    partner = f"{path.stem}.py" if path.suffix != ".py" else f"{path.stem}.xml or {path.stem}.urdf"
+    written = path.suffix in (".py", ".toml")
+    partner = f"{path.stem}.xml or {path.stem}.urdf" if written else f"{path.stem}.py or {path.stem}.toml"
     return f"{path.stem}: not checked: {path} has no {partner} beside it"
 
 
@@ -381,7 +382,7 @@ def cmd_derive(args: argparse.Namespace) -> int:
     system = one_system(args)  # --model alone: the model's joints, in order, as the coordinates
     view, joints, coordinates, joint_map = system.view, system.joints, system.coordinates, system.joint_map
     if not args.force:
-        affordable(len(joints))
+        affordable(len(joints), spatial=is_spatial(view, tuple(joints)), python=bool(args.python))
     if args.coordinates:
         names = tuple(x.strip() for x in args.coordinates.split(","))
         if len(names) != len(joints) or not all(n.isidentifier() for n in names) or len(set(names)) != len(names):
@@ -412,18 +413,34 @@ def configured_cache() -> Cache:
     return Cache.at(value) if value else Cache.off()
 
 
-def affordable(n: int) -> None:
+def affordable(n: int, *, spatial: bool = False, python: bool = False) -> None:
     """Refuses a derivation predicted to exceed the budget (validate/studies/chains.py's cost model),
     before it starts: a symbolic derivation cannot be interrupted midway."""
-    from ..studies.chains import DERIVE_BUDGET, GROWTH, MEASURED, predicted_derive_s
+    from ..studies.chains import DERIVE_BUDGET, GROWTH, MEASURED, PYTHON_FACTOR, SPATIAL_FACTOR, predicted_derive_s
 
-    predicted = predicted_derive_s(n)
+    predicted = predicted_derive_s(n, spatial=spatial, python=python)
     if predicted > DERIVE_BUDGET:
+        extra = (f", x{SPATIAL_FACTOR:g} for a spatial model" if spatial else "") + (
+            f", x{PYTHON_FACTOR:g} for --python" if python else ""
+        )
         raise HarnessError(
             f"{n} joints: the symbolic derivation is predicted to take about {predicted:.3g} s (it grows about as "
-            f"n^{GROWTH}; {MEASURED[0]} joints took {MEASURED[1]:g} s), over the {DERIVE_BUDGET:g} s budget; "
-            "--force derives it anyway."
+            f"n^{GROWTH}; {MEASURED[0]} planar joints took {MEASURED[1]:g} s{extra}), over the {DERIVE_BUDGET:g} s "
+            "budget; --force derives it anyway."
         )
+
+
+def is_spatial(view: Any, joints: tuple[str, ...]) -> bool:
+    """Joint axes not all parallel, or a body frame rotated: what makes a derivation cost more than a
+    planar chain's (validate/studies/chains.py SPATIAL_FACTOR)."""
+    import numpy as np
+
+    axes = [np.asarray(view[f"joint/{j}/axis"], dtype=float) for j in joints if f"joint/{j}/axis" in view]
+    unit = [a / (np.linalg.norm(a) or 1.0) for a in axes]
+    turned = any(
+        not np.allclose(np.abs(np.asarray(view[k], dtype=float)), [1, 0, 0, 0]) for k in view if k.endswith("/quat")
+    )
+    return turned or any(abs(abs(float(u @ unit[0])) - 1.0) > 1e-9 for u in unit[1:])
 
 
 def cmd_replay(args: argparse.Namespace) -> int:

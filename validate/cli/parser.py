@@ -110,7 +110,7 @@ def _model_options(parser: argparse.ArgumentParser) -> None:
         "--model", type=path_arg, metavar="PATH", help="your own model, MJCF .xml or URDF .urdf (with --equations)"
     )
     parser.add_argument(
-        "--equations", type=path_arg, metavar="PATH", help="your own equations module, .py (with --model)"
+        "--equations", type=path_arg, metavar="PATH", help="your own equations, .py or .toml (with --model)"
     )
     _lock_option(parser)
 
@@ -250,8 +250,8 @@ def _run_arguments(run: argparse.ArgumentParser) -> None:
         dest="systems_dir",
         type=path_arg,
         metavar="DIR",
-        help="a folder of your own systems: each <name>.xml or <name>.urdf with its <name>.py (a file without its "
-        "partner is named and skipped)",
+        help="a folder of your own systems: each <name>.xml or <name>.urdf with its <name>.py or <name>.toml (a "
+        "file without its partner is named and skipped)",
     )
     _time_limit_option(run)
     _cache_options(run)

@@ -130,7 +130,9 @@ def _run_entry(
     threshold (dynamics/estimate.py); without one (runs not judged), the floor."""
     err = integrate.error_against(tr, ref)
     thr = estimate.threshold(est[0] if est is not None else np.zeros(len(tr.t)))
-    e = integrate.energy(system, sources.get("hand") or sources.get("symbolic") or sources["mujoco"], tr)
+    meter = sources.get("hand") or sources.get("symbolic") or sources["mujoco"]
+    e = integrate.energy(system, meter, tr)
+    missing = integrate.energy_missing(meter)
     run = {
         "source": tr.source,
         "method": tr.method,
@@ -142,9 +144,15 @@ def _run_entry(
         "max_error_vs_hand": float(np.nanmax(err)) if np.isfinite(err).any() else float("inf"),
         "threshold": thr,
         "first_exceeds_threshold": integrate.first_exceeding(tr.t, np.nan_to_num(err, nan=np.inf), thr),
-        "energy_drift": float(np.nanmax(np.abs(e - e[0]))) if np.isfinite(e).any() else float("inf"),
+        "energy_drift": None
+        if missing
+        else float(np.nanmax(np.abs(e - e[0])))
+        if np.isfinite(e).any()
+        else float("inf"),
         "counts": True,
     }
+    if missing:
+        run["energy_missing"] = missing
     if est is not None:
         run["error_estimate"], run["estimate_how"] = est[0], est[1]
     if "label" in tr.stats:

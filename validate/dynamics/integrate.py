@@ -560,6 +560,13 @@ def energy(system: System, hand: Any, traj: Trajectory) -> np.ndarray:
     return kin + pot
 
 
+def energy_missing(meter: Any) -> str:
+    """ "T not provided" (or V, or both) where the source that measures the energy leaves it out."""
+    gone = set(getattr(meter, "not_provided", ()) or ())
+    names = [x for x, f in (("T", "kinetic_energy"), ("V", "potential_energy")) if f in gone]
+    return f"{' and '.join(names)} not provided" if names else ""
+
+
 def error_against(traj: Trajectory, ref: Trajectory) -> np.ndarray:
     """max over coordinates of |q - q_ref| at each sample, rad."""
     return np.abs(traj.q - ref.q).max(axis=1)

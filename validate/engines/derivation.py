@@ -37,6 +37,9 @@ import numpy as np
 from ..errors import HarnessError
 from ..systems.modelview import names
 
+# a body frame's rotation entry within this of 0 or +-1 is that number: the float noise of a URDF's rpy
+# angles (the UR5's pi/2 leaves 4.9e-12 in two entries of a rotation, and then in every term after it)
+ROTATION_ROUND = 1e-10
 EXACT_TOL = 1e-12  # a structural number within this of a simple exact value (0, 1, sqrt(2)/2, ...) is that value
 
 
@@ -66,6 +69,7 @@ class Derivation:
     parameters: dict[Any, str] = field(default_factory=dict)  # symbol -> what it is (model key and unit)
     source: dict[Any, tuple[str, Any]] = field(default_factory=dict)  # symbol -> (model key, entry)
     signs: dict[Any, int] = field(default_factory=dict)  # symbol -> sign of the model's number (symbols are > 0)
+    rounded: int = 0  # rotation entries within ROTATION_ROUND of 0 or +-1 made exact (said in derive's header)
 
 
 def _clean(name: str) -> str:
@@ -103,6 +107,7 @@ class _Params:
         self.meaning: dict[Any, str] = {}
         self.sign: dict[Any, int] = {}
         self.structure: list[Any] = []
+        self.rounded = 0  # rotation entries made exact (`rotation`)
 
     def read(self, key: str, entry: Any = None) -> float:
         x = np.asarray(self.view[key], dtype=float)
@@ -154,6 +159,22 @@ class _Params:
                 x = 0.0
             out[i, j] = out[j, i] = self.scalar(f"I_{body}_{'xyz'[i]}{'xyz'[j]}", key, (i, j), "kg m^2", value=x)
         return out
+
+    def rotation(self, R: Any) -> Any:
+        """A body frame's rotation with each numeric entry within ROTATION_ROUND of 0 or +-1 made that
+        number (counted in `rounded`)."""
+        import sympy as sp
+
+        def clean(x: Any) -> Any:
+            if not x.is_Number or x in (0, 1, -1):
+                return x
+            for target in (0, 1, -1):
+                if abs(float(x) - target) <= ROTATION_ROUND:
+                    self.rounded += 1
+                    return sp.Integer(target)
+            return x
+
+        return R.applyfunc(clean)
 
     def fixed(self, name: str, values: Any) -> Any:
         """Structural numbers, exact: they are part of the structure key."""
@@ -264,7 +285,7 @@ def _body_frame(
     pos = P.vector(f"l_{_clean(b)}", f"body/{b}/pos", "m")
     quat = P.fixed(f"quat {b}", view[f"body/{b}/quat"])
     x = x + R * pos
-    R = R * _quat_matrix(*quat)
+    R = R * P.rotation(_quat_matrix(*quat))
     Jw = Jw.copy()
     for j in joints:
         x, R = _through_joint(view, P, j, q[index[j]], index[j], x, R, Jw)
@@ -401,5 +422,6 @@ def derive(view: Any, joints: tuple[str, ...]) -> Derivation:
         parameters=P.meaning,
         source=P.source,
         signs=P.sign,
+        rounded=P.rounded,
         **out,
     )

@@ -122,6 +122,13 @@ class HandSource:
         """The optional functions the derivation leaves out (their quantities are not checked)."""
         return not_provided_in(self.eq)
 
+    def potential(self, q: np.ndarray) -> np.ndarray:
+        """V alone (NaN where the derivation does not provide it): a grid's minimum without its T."""
+        shape = np.shape(q)[:-1]
+        if "potential_energy" in self.not_provided:
+            return np.full(shape, np.nan)
+        return real_array("potential_energy()", self.eq.potential_energy(self.p, q), shape)
+
     def energies(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """T and V; NaN where the derivation does not provide them (never compared then)."""
         missing = self.not_provided

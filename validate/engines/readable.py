@@ -39,6 +39,7 @@ class Equations:
     parameters: dict[str, str]  # symbol name -> model key and unit
     reads: dict[str, tuple[str, Any, int]] = field(default_factory=dict)  # symbol name -> (key, entry, sign)
     simplified: bool = True  # False: exact as derived (printed with common subexpressions), not simplified
+    rounded: int = 0  # rotation entries rounded to 0 or +-1 (engines/derivation.py ROTATION_ROUND)
 
 
 def tidy(expr: Any, q: list[Any]) -> Any:
@@ -141,8 +142,21 @@ def equations(
         parameters={str(s): meaning for s, meaning in d.parameters.items()},
         reads={str(s): (key, entry, d.signs.get(s, 1)) for s, (key, entry) in d.source.items()},
         simplified=simplify,
+        rounded=getattr(d, "rounded", 0),
     )
     return out
+
+
+def rounding_note(e: Equations) -> list[str]:
+    """The header line saying which rotation entries were rounded (none: no line)."""
+    from .derivation import ROTATION_ROUND
+
+    if not e.rounded:
+        return []
+    return [
+        f"rotation entries within {ROTATION_ROUND:g} of 0 or +-1 rounded to them ({e.rounded}): the float noise "
+        "of the model's rpy angles"
+    ]
 
 
 def _rows(e: Equations) -> list[Any]:
@@ -184,6 +198,7 @@ def as_text(e: Equations, fmt: str = "text") -> str:
     if not e.simplified and fmt == "text":
         return _exact_text(e)
     lines.append(f"coordinates: {', '.join(e.coordinates)} (velocities d<name>, accelerations dd<name>)")
+    lines += rounding_note(e)
     lines.append(f"T = {show(e.T)}")
     lines.append(f"V = {show(e.V)}")
     for i in range(n):
@@ -222,6 +237,7 @@ def _exact_text(e: Equations) -> str:
     lines = [
         f"coordinates: {', '.join(e.coordinates)} (velocities d<name>, accelerations dd<name>)",
         "exact, not simplified: common subexpressions first, then the terms in them",
+        *rounding_note(e),
     ]
     lines += [f"{sym} = {sp.sstr(value)}" for sym, value in shared]
     lines += [f"{name} = {sp.sstr(value)}" for (name, _), value in zip(named, reduced, strict=True)]
@@ -281,11 +297,11 @@ def _local_names(e: Equations) -> dict[Any, Any]:
 
     import sympy as sp
 
-    taken = {"p", "q", "v", "np", "stack_matrix", "stack_vector", *e.reads}
+    taken = {"p", "q", "v", "np", "stack_matrix", "stack_vector", *e.reads}  # and names starting cse_ (below)
     out: dict[Any, Any] = {}
     for sym in (*e.q, *e.v):
         name = re.sub(r"\W", "_", str(sym))
-        name = name if name.isidentifier() else f"_{name}"
+        name = name if name.isidentifier() and not name.startswith("cse_") else f"_{name}"
         while name in taken:
             name += "_"
         taken.add(name)
@@ -318,6 +334,9 @@ def _function(e: Equations, spec: tuple[str, str, str, tuple[str, ...], str], na
     for name in sorted(str(s) for s in used if str(s) in e.reads):
         key, entry, sign = e.reads[name]
         out.append(f"    {name} = {'-' if sign < 0 else ''}p.{field_of(key, entry)}")
+    # common subexpressions first, each computed once (a 7-joint arm's expanded entries ran to 96 MB)
+    shared, exprs = sp.cse(exprs, symbols=sp.numbered_symbols("cse_"), order="none")
+    out += [f"    {sym} = {code(value)}" for sym, value in shared]
     if shape == "(n, n)":
         rows = ("[" + ", ".join(code(exprs[i * n + j]) for j in range(n)) + "]" for i in range(n))
         body = "stack_matrix([" + ", ".join(rows) + "])"
@@ -333,6 +352,7 @@ def as_python(e: Equations) -> str:
     the Params fields of the module `lagrange-xval new` writes (systems/scaffold.field_of)."""
     n = len(e.q)
     lines = [PYTHON_HEADER.format(n=n, coordinates=", ".join(e.coordinates)).rstrip("\n")]
+    lines[1:1] = [f"# {line}" for line in rounding_note(e)]  # after the header's first line
     names = _local_names(e)
     for spec in _FUNCTIONS:
         lines += _function(e, spec, names)

@@ -268,51 +268,34 @@ def agreeing_forms(results: dict[str, Any]) -> list[tuple[str, str, str]]:
     ]
 
 
-def derivation_reason(d: dict[str, Any], owner: str = "yours") -> str:
-    """The first explained difference of a wrong derivation, or that no single slip reproduces its
-    differences (where it has some)."""
-    explanations = d.get("explanations") or []
-    for e in explanations:
-        if e.get("explained") and e.get("statement"):
-            return f"{e.get('entry')}: {whose(one_line_statement(e['statement']), owner)}"
-    return f"{NO_SLIP} ({len(explanations)} entries differ)" if explanations else ""
+IN_THE_STATEMENT = ("hand derivation: ", "model checks: ", "pointwise: ")  # `failed` phrases the verdict says
 
 
-def _hidden_note(d: dict[str, Any]) -> str:
-    """What the console line and the headline add where the model's own values hide the mistake, and
-    where it may be an unstated assumption."""
-    out = ""
-    if d.get("hidden_by_model_values"):
-        exposed = d.get("exposed_by") or []
-        out += " [hidden by the model's values; a probe shows it" + (
-            f": it shows when {' or '.join(exposed)} alone changes]" if exposed else "]"
-        )
-    unstated = d.get("unstated_assumptions") or []
-    if unstated:
-        out += (
-            f"; may be an unstated assumption: parameters() does not read {', '.join(unstated[:3])}"
-            " (state it in assumptions())"
-        )
-    return out
+def after_verdict(s: dict[str, Any]) -> list[str]:
+    """What failed in the stages `run` adds after the verdict (trajectories, equivalence, a stage that
+    raised): the phrases of `failed` that the verdict's statement does not already say."""
+    return [f for f in s.get("failed") or [] if not str(f).startswith(IN_THE_STATEMENT)]
 
 
 def system_headline(s: dict[str, Any]) -> tuple[bool | None, str]:
-    """(passed, one line) of a system: for a failing one the failing term and pair first, and why;
-    for a passing one what was judged."""
+    """(passed, one line) of a system. With a derivation the line is the verdict's statement as
+    `decide` wrote it (the sentence `check` and the API show; never recomposed here), labelled with
+    whose derivation it is, then what failed after the verdict; a model alone, what was compared."""
     d = s.get("derivation") or {}
-    who = derivation_label(s)
-    if d.get("verdict") == "disagrees":
-        term = d.get("first_disagreeing_term") or "a term"
-        where = where_worst(d, prefix="hand")
-        # where the term depends on a number parameters() does not read, no slip of yours explains it
-        reason = "" if d.get("unstated_assumptions") else derivation_reason(d, "yours" if is_user(s) else who)
-        text = f"{who}: {term} disagrees" + (f" ({where})" if where else "")
-        error = (d.get("worst_term") or {}).get("error")
-        if reason or error:
-            text += f"; {reason or shorten(str(error))}"
-        elif d.get("statement") and term == "parameters":
-            text = f"{who}: {shorten(d['statement'])}"
-        return False, text + _hidden_note(d)
+    statement = str(s.get("statement") or (d.get("statement") if has_derivation(s) else "") or "")
+    if statement:
+        later = after_verdict(s) if s.get("passed") is False else []
+        text = f"{derivation_label(s)}: {statement}" if has_derivation(s) else statement
+        if later:
+            text += f"; after the verdict, {'; '.join(later[:2])}" + (
+                f" (and {len(later) - 2} more)" if len(later) > 2 else ""
+            )
+        return s.get("passed"), text
+    return _model_alone_headline(s)
+
+
+def _model_alone_headline(s: dict[str, Any]) -> tuple[bool | None, str]:
+    """(passed, one line) of results without a statement (written before decide's was kept)."""
     failed = list(s.get("failed") or [])
     if s.get("passed") is False:
         if failed:
@@ -325,15 +308,11 @@ def system_headline(s: dict[str, Any]) -> tuple[bool | None, str]:
                 f"> {_float(r.get('tolerance')):g})" + (f", and {len(bad) - 1} more" if len(bad) > 1 else "")
             )
         return False, "fails (see its section)"
-    if d.get("verdict") == "agrees":
-        checked = d.get("checked") or {}
-        probes = checked.get("probes")
-        at = f"the model's parameters and {probes} probe sets" if probes else "the model's parameters"
-        return (s.get("passed") is True or None), f"{who} agrees with the engines in every term, at {at}"
     if not has_derivation(s):  # the model alone
         verb = "agree" if s.get("passed") else "disagree"
         return s.get("passed"), f"no derivation given; {sources_text(s)} {verb} on the model and its dynamics"
-    return s.get("passed"), f"{who}: {d.get('verdict') or 'not judged'}"
+    d = s.get("derivation") or {}
+    return s.get("passed"), f"{derivation_label(s)}: {d.get('verdict') or 'not judged'}"
 
 
 MODEL_ONLY = "no derivation given: the engines' readings of the model and their dynamics compared"

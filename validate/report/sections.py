@@ -249,29 +249,41 @@ def section_provenance(doc: Document, results: dict[str, Any]) -> None:
 
 
 def derivation_row(name: str, s: dict[str, Any]) -> tuple[Any, ...]:
-    prow = s.get("pointwise", {}).get("rows", [])
-    d = s.get("derivation") or {}
+    """One system's row: the term (or pointwise pair) that fails, with its numbers; where none fails
+    but the system does (a model check, a stage after the verdict), that failure in words and no
+    numbers; where all pass, the term closest to its tolerance. The mark is the row's own."""
     label = derivation_label(s).removeprefix("the ") if has_derivation(s) else "the model alone"
     kind = "hand" if has_derivation(s) else "engines"
-    term: Any
-    pair: Any
-    if d.get("summary"):
-        failing = [r for r in d["summary"] if not r.get("passed")]
-        w = (
-            failing[0]
-            if failing
-            else max(
-                d["summary"],
-                key=lambda r: as_float(r.get("worst_scaled")) / max(as_float(r.get("tolerance")), 1e-300),
-            )
-        )
+    summary = (s.get("derivation") or {}).get("summary") or []
+    prow = (s.get("pointwise") or {}).get("rows", [])
+    failing = [r for r in summary if r.get("passed") is False]
+    bad = [r for r in prow if r.get("passed") is False]
+    ok: bool | None = s.get("passed")
+    if failing:
+        w = failing[0]
+        term, pair, err, tol = w.get("term"), f"hand~{w.get('engine')}", w.get("worst_scaled"), w.get("tolerance")
+        ok = False
+    elif bad:
+        w = max(bad, key=ratio)
+        term, pair, err, tol = w.get("quantity"), w.get("pair"), w.get("scaled"), w.get("tolerance")
+        ok = False
+    elif ok is False:
+        term, pair, err, tol = _failure_words(s), None, None, None
+    elif summary:
+        w = max(summary, key=lambda r: as_float(r.get("worst_scaled")) / max(as_float(r.get("tolerance")), 1e-300))
         term, pair, err, tol = w.get("term"), f"hand~{w.get('engine')}", w.get("worst_scaled"), w.get("tolerance")
     elif prow:
         w = max(prow, key=ratio)
         term, pair, err, tol = w.get("quantity"), w.get("pair"), w.get("scaled"), w.get("tolerance")
     else:
         term = pair = err = tol = None
-    return (name, label, kind, pass_mark(s.get("passed")), term, pair, Num(err), Num(tol, short=True))
+    return (name, label, kind, pass_mark(ok), term, pair, Num(err), Num(tol, short=True))
+
+
+def _failure_words(s: dict[str, Any]) -> str:
+    """What failed where no term and no pointwise pair does: the first phrase of `failed`."""
+    failed = list(s.get("failed") or [])
+    return str(failed[0]) if failed else "see its section"
 
 
 def form_row(name: str, v: dict[str, Any]) -> tuple[Any, ...]:

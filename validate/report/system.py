@@ -334,7 +334,7 @@ def section_trajectories(doc: Document, name: str, s: dict[str, Any], tr: dict[s
                 fmt_stats(r.get("stats")),
                 Num(r.get("max_error_vs_hand"), unit="rad"),
                 first_above(r, tr),
-                Num(r.get("energy_drift"), unit="J"),
+                r["energy_missing"] if r.get("energy_missing") else Num(r.get("energy_drift"), unit="J"),
                 run_verdict(r, tr),
             )
             for r in runs

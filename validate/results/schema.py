@@ -138,6 +138,7 @@ class Derivation(TypedDict, total=False):
     first_disagreeing_term: str
     failing_terms: list[str]
     hidden_by_model_values: bool
+    typed_numbers: dict[str, float]  # fields parameters() returns without reading the model (g = 9.81)
     terms: list[TermRow]
     summary: list[dict[str, Any]]  # per term and engine: rows, worst scaled error, tolerance
     probes: list[dict[str, Any]]  # index, label, the parameters changed
@@ -171,6 +172,7 @@ class SystemResult(TypedDict, total=False):
     bodies: list[str]
     uses: list[str]
     failed: list[str]  # each failing check in one short phrase
+    statement: str  # the verdict in one sentence, as `decide` wrote it (checks/decide.py, Decision.statement)
     parameters: dict[str, float]
     parameter_keys: dict[str, dict[str, Any]]  # per parameter: the model keys it sets and their unit
     derived: dict[str, Any] | None  # the model's equations derived symbolically (engines/readable.as_data)

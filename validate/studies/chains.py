@@ -37,11 +37,21 @@ MEASURED = (6, 6.8)  # (n, s): the largest of those measurements, the base of th
 DERIVE_BUDGET = 120.0  # s: `derive` refuses a model predicted to take longer (unless --force)
 
 
-def predicted_derive_s(n: int) -> float:
+# A spatial model (joint axes not all parallel, or a body frame rotated) costs more than the planar
+# chains measured: the UR5 (6 joints) took 37 s against 6.8 s predicted, the Panda with its fingers
+# locked (7) 135 s against 17 s (issue 34), so 8x. `--python` took 441 s on the Panda when it printed the
+# expanded entries (96 MB); with each function's common subexpressions (engines/readable.py) it took 98 s
+# of CPU against 90 s for the derivation alone (492 KB), so 1.2x.
+SPATIAL_FACTOR = 8.0
+PYTHON_FACTOR = 1.2
+
+
+def predicted_derive_s(n: int, *, spatial: bool = False, python: bool = False) -> float:
     """The predicted time of the symbolic derivation of an n-joint chain and its code (s): the
-    measured n = 6, grown as n^GROWTH."""
+    measured n = 6, grown as n^GROWTH; times SPATIAL_FACTOR for a spatial model, PYTHON_FACTOR more
+    for `derive --python`."""
     n0, seconds = MEASURED
-    return seconds * (n / n0) ** GROWTH
+    return seconds * (n / n0) ** GROWTH * (SPATIAL_FACTOR if spatial else 1.0) * (PYTHON_FACTOR if python else 1.0)
 
 
 def chain_mjcf(n: int, kind: str, seed: int = 0) -> str:

@@ -38,6 +38,7 @@ PACKAGE_ROOT = Path(__file__).resolve().parents[2]
 MODELS_DIR = PACKAGE_ROOT / "models"
 EQUATIONS_PACKAGE = "lagrange_xval.equations"
 MODEL_SUFFIXES = (".xml", ".urdf")  # what a folder of systems is searched for (the format is the root element's)
+PAIR = "<name>.xml or <name>.urdf, and <name>.py or <name>.toml"  # the files of a system in a user's folder
 
 # The contract's one required name (and the dynamics in one form: validate/systems/forms.py). Everything
 # else has a default: COORDINATES and JOINTS the model's joints in order, DESCRIPTION the module's
@@ -477,14 +478,12 @@ def load_module(path: Path, *, model: Path | None = None, time_limit: float = DE
 
 
 def pairs_in(folder: Path) -> list[tuple[Path, Path]]:
-    """(model, equations) of every system in a user's folder: each <name>.xml (MJCF) or <name>.urdf
-    with its <name>.py. A file without its partner is an error naming it: a derivation left unchecked
-    is never silent."""
+    """(model, equations) of every system in a user's folder (each one `PAIR`). A file without its
+    partner is an error naming it: a derivation left unchecked is never silent."""
     pairs, lonely = pairs_and_lonely(folder)
     if lonely:
-        names = ", ".join(sorted(p.stem for p in lonely))
         raise HarnessError(
-            f"{folder}: {names} has no partner (each system is <name>.xml or <name>.urdf, and <name>.py)."
+            f"{folder}: {', '.join(sorted(p.stem for p in lonely))} has no partner (each system is {PAIR})."
         )
     return pairs
 
@@ -500,11 +499,14 @@ def pairs_and_lonely(folder: Path) -> tuple[list[tuple[Path, Path]], list[Path]]
     if twice:
         raise HarnessError(f"{folder}: {', '.join(twice)} has both an .xml and a .urdf model; keep one.")
     models = {p.stem: p for p in found}
-    modules = {p.stem: p for p in folder.glob("*.py") if p.stem != "__init__"}  # `_arm` is refused, by name
+    written = sorted(p for p in folder.iterdir() if p.suffix in (".py", ".toml") and p.stem != "__init__")
+    if both := sorted({p.stem for p in written if sum(q.stem == p.stem for q in written) > 1}):
+        raise HarnessError(f"{folder}: {', '.join(both)} has both a .py and a .toml derivation; keep one.")
+    modules = {p.stem: p for p in written if p.is_file()}  # `_arm` is refused, by name; .toml: the text form
     lonely = sorted((models | modules)[n] for n in models.keys() ^ modules.keys())
     paired = sorted(models.keys() & modules.keys())
     if not paired and not lonely:
-        raise HarnessError(f"{folder}: no system found (each system is <name>.xml or <name>.urdf, and <name>.py).")
+        raise HarnessError(f"{folder}: no system found (each system is {PAIR}).")
     return [(models[n], modules[n]) for n in paired], lonely
 
 

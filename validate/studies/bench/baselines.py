@@ -18,6 +18,7 @@ from ...checks.pointwise import States
 from ...engines.base import Source
 from ...engines.baselines import raw_mujoco, raw_pinocchio, raw_symbolic
 from ...systems import System
+from ...systems.forms import not_provided_in
 
 
 def hand_math_rhs(p: Any) -> Callable[[float, Any], list[float]]:
@@ -80,17 +81,23 @@ def raw_hand(system: System, states: States) -> dict[str, Any]:
     bias = np.asarray(eq.bias(p, q, v), dtype=float)
     passive = np.asarray(eq.passive(p, q, v), dtype=float)
     qacc = np.linalg.solve(M, (tau + passive - bias)[..., None])[..., 0]
-    return {
+    out = {
         "M": M,
         "bias": bias,
         "passive": passive,
         "qacc": qacc,
         "tau_inverse": np.einsum("...ij,...j->...i", M, qacc) + bias - passive,
-        "T": eq.kinetic_energy(p, q, v),
-        "V": eq.potential_energy(p, q),
-        "body_positions": eq.body_positions(p, q),
-        "body_rotations": eq.body_rotations(p, q),
     }
+    # what the module leaves out is not computed (the hand source fills NaN for T and V, as here)
+    missing = set(not_provided_in(eq))
+    nan = np.full(q.shape[:-1], np.nan)
+    out["T"] = nan if "kinetic_energy" in missing else eq.kinetic_energy(p, q, v)
+    out["V"] = nan if "potential_energy" in missing else eq.potential_energy(p, q)
+    if "body_positions" not in missing:
+        out["body_positions"] = eq.body_positions(p, q)
+    if "body_rotations" not in missing:
+        out["body_rotations"] = eq.body_rotations(p, q)
+    return out
 
 
 def raw_pointwise(system: System, sources: Mapping[str, Source], states: States) -> dict[str, Any]:

@@ -11,7 +11,12 @@ to at most SERIES_POINTS points, so the report can plot them without the raw run
   stability       The largest timestep at which each MuJoCo integrator and each fixed-step mirror stays
                   stable for `stability_t_end` from the notes' q0 with every speed (in the notes'
                   coordinates) set to s rad/s: bisection on log(dt) in DT_RANGE until the bracket's
-                  ratio is below BISECTION_RATIO, under each criterion below.
+                  ratio is below BISECTION_RATIO, under each criterion below (each run made once and
+                  judged under both). The bottom of the range is raised where a run would take more
+                  than the settings' steps (MuJoCo) or steps and seconds at its measured cost (a mirror
+                  on the person's numpy equations): "<dt" then means unstable there, not searched below.
+                  A module without T or V gets no drift and no energy criterion (divergence alone),
+                  each said under "skipped".
   conditioning    Sweeps of a mass (or, where the masses do not enter M, an inertia) ratio between the
                   first and the last body, pushing cond(M) from 1 to ~1e12; at every point cond(M) over
                   the sampled states and the disagreement of the sources in q'' and tau_inverse

@@ -28,12 +28,14 @@ def equilibrated_cond(M: np.ndarray) -> np.ndarray:
     return np.linalg.cond(M * d[..., :, None] * d[..., None, :])
 
 
-def worst_configuration(system: System, hand: Source) -> np.ndarray:
-    """The q (rad) with the largest cond(M): the best point of a grid, refined by Nelder-Mead on log cond."""
+def worst_configuration(system: System, hand: Source, search: tuple[int, int] = (65, 4000)) -> np.ndarray:
+    """The q (rad) with the largest cond(M): the best point of a grid, refined by Nelder-Mead on log cond.
+    `search`: (grid points per coordinate up to 3 joints, 9 beyond; Nelder-Mead's most iterations)."""
     from scipy.optimize import minimize  # heavy: loaded when first used
 
     n = system.nv
-    g = np.linspace(-np.pi, np.pi, 65 if n <= 3 else 9)
+    points, iterations = search
+    g = np.linspace(-np.pi, np.pi, points if n <= 3 else 9)
     grid = np.stack(np.meshgrid(*[g] * n, indexing="ij"), axis=-1).reshape(-1, n)
     with np.errstate(all="ignore"):
         cond = np.linalg.cond(hand.mass_matrix(grid))
@@ -43,14 +45,19 @@ def worst_configuration(system: System, hand: Source) -> np.ndarray:
         c = float(np.linalg.cond(hand.mass_matrix(q[None]))[0])
         return -math.log(c) if np.isfinite(c) else -800.0
 
-    res = minimize(neg_log_cond, start, method="Nelder-Mead", options={"xatol": 1e-13, "fatol": 1e-13, "maxiter": 4000})
+    res = minimize(
+        neg_log_cond, start, method="Nelder-Mead", options={"xatol": 1e-13, "fatol": 1e-13, "maxiter": iterations}
+    )
     return res.x if res.fun <= neg_log_cond(start) else start
 
 
-def conditioning_states(system: System, hand: Source, *, n: int, seed: int) -> tuple[compare.States, np.ndarray]:
-    """compare.random_states plus TARGETED_STATES approaching the worst configuration, and that q."""
+def conditioning_states(
+    system: System, hand: Source, *, n: int, seed: int, search: tuple[int, int] = (65, 4000)
+) -> tuple[compare.States, np.ndarray]:
+    """compare.random_states plus TARGETED_STATES approaching the worst configuration (found by
+    `worst_configuration` with `search`), and that q."""
     states = compare.random_states(system, n=n, seed=seed)
-    q_worst = worst_configuration(system, hand)
+    q_worst = worst_configuration(system, hand, search)
     rng = np.random.default_rng(seed + 1)
     dist = np.logspace(*TARGET_DISTANCES, TARGETED_STATES)
     u = rng.normal(size=(TARGETED_STATES, system.nv))
@@ -110,7 +117,17 @@ def conditioning_sweeps(system: System, hand: Source) -> list[Sweep]:
     return [Sweep(f"{kind} {last}/{first}", kind, last, first), Sweep(f"{kind} {first}/{last}", kind, first, last)]
 
 
-def conditioning_point(system: System, *, n_states: int, seed: int) -> dict[str, Any]:
+def no_sweep_reason(system: System) -> str:
+    """Why `conditioning_sweeps` has no sweep for `system`, in its own terms."""
+    if system.nv < 2:
+        return "one coordinate: M is a scalar, cond(M) = 1"
+    named = ", ".join(system.bodies) or "none"
+    return f"fewer than two bodies named (BODIES: {named}): no first and last body to sweep a mass ratio between"
+
+
+def conditioning_point(
+    system: System, *, n_states: int, seed: int, search: tuple[int, int] = (65, 4000)
+) -> dict[str, Any]:
     """cond(M) and the sources' disagreement in q'' and tau_inverse at one parameter set.
 
     Besides compare.compare's rows (their `scaled` error, `tolerance` and verdict), each row gets the
@@ -119,7 +136,7 @@ def conditioning_point(system: System, *, n_states: int, seed: int) -> dict[str,
     per-state error / (kappa eps) over the states whose error exceeds rtol (`c_state` for kappa =
     cond(M), `c_state_eq` for the equilibrated cond; 0 if none does), and over all states (`c_state_all`)."""
     sources = make_sources(system)
-    states, q_worst = conditioning_states(system, sources["hand"], n=n_states, seed=seed)
+    states, q_worst = conditioning_states(system, sources["hand"], n=n_states, seed=seed, search=search)
     values = compare.evaluate(sources, states)
     M = values["mujoco" if "mujoco" in values else "hand"]["M"]  # compare.compare's reference
     cond, cond_eq = np.linalg.cond(M), equilibrated_cond(M)
@@ -176,6 +193,7 @@ def conditioning_rows(system: System, sources: Mapping[str, Source], settings: S
                     system.derive(overrides=(*system.overrides, *extra)),
                     n_states=settings.cond_states,
                     seed=settings.seed,
+                    search=(settings.worst_grid, settings.worst_iterations),
                 )
             except HarnessError as exc:
                 out.append({**base, "quantity": None, "pair": None, "refused": str(exc)})

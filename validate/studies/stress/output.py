@@ -11,6 +11,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ...dynamics.integrate import energy_missing
 from ...engines import Sources, make_sources
 from ...errors import HarnessError
 from ...guard import DEFAULT_TIME_LIMIT
@@ -18,7 +19,7 @@ from ...parallel import completed
 from ...results import atomic_write, dumps, provenance
 from ...systems import System, from_key, key_of, load, system_names
 from ...systems.overrides import parse
-from .conditioning import conditioning_rows, conditioning_summary, proposed_solve_tier
+from .conditioning import conditioning_rows, conditioning_summary, no_sweep_reason, proposed_solve_tier
 from .energy import conservative, drift_rows
 from .runs import minimum_potential, quiet_mujoco_warnings
 from .settings import (
@@ -144,6 +145,8 @@ LOCAL = threading.local()
 def prepare(system: System) -> tuple[Sources, float]:
     """A system's sources and the smallest potential on its grid (shared by its sections)."""
     sources = make_sources(system)
+    if energy_missing(sources["hand"]):  # no V to take the minimum of: the energy criterion is skipped
+        return sources, float("nan")
     return sources, minimum_potential(system, sources["hand"])
 
 
@@ -167,22 +170,27 @@ def run_section(prepared: tuple[System, Sources, float], section: str, settings:
     t0 = time.perf_counter()
     rows: list[dict[str, Any]] = []
     skipped: list[dict[str, Any]] = []
+    missing = energy_missing(sources["hand"])
     if section == "drift":
-        if conservative(s):
+        if missing:
+            skipped.append({"system": s.name, "section": section, "why": f"{missing}: no energy to follow"})
+        elif conservative(s):
             rows = drift_rows(s, sources, settings, V_min=V_min)
         else:
-            skipped.append(
-                {"system": s.name, "section": section, "why": f"not conservative (uses {', '.join(sorted(s.uses))})"}
-            )
+            why = " and ".join(w for u, w in (("damping", "damping"), ("actuation", "inputs")) if u in s.uses)
+            skipped.append({"system": s.name, "section": section, "why": f"not conservative (the model has {why})"})
     elif section == "stability":
         rows = stability_rows(s, sources, settings, V_min=V_min)
+        if missing:
+            why = f"{missing}: the energy criterion skipped, divergence alone judged"
+            skipped.append({"system": s.name, "section": "stability (energy criterion)", "why": why})
     elif section == "conditioning":
         rows = conditioning_rows(s, sources, settings)
         if not rows:
-            skipped.append({"system": s.name, "section": section, "why": "one coordinate: M is a scalar, cond(M) = 1"})
+            skipped.append({"system": s.name, "section": section, "why": no_sweep_reason(s)})
     elif section == "stiff_friction":
         if "damping" in s.uses:
-            rows = stiff_rows(s, settings)
+            rows = stiff_rows(s, settings, V_min)
         else:
             skipped.append({"system": s.name, "section": section, "why": "no joint damping"})
     else:
@@ -310,8 +318,9 @@ def stability_table(rows: list[dict[str, Any]], longest: dict[str, int], console
     speeds = sorted({r["speed"] for r in rows})
     criteria = sorted({r["criterion"] for r in rows}, key=lambda c: c == "divergence")
     table = Table(
-        title=f"Largest stable timestep (s) over {rows[0]['t_end']:g} s, bisection on "
-        f"log dt in [{DT_RANGE[0]:g}, {DT_RANGE[1]:g}]; v0 = speed on every coordinate; "
+        title=f"Largest stable timestep (s) over {rows[0]['t_end']:g} s, bisection on log dt in "
+        + ", ".join(f"[{lo:g}, {hi:g}] ({engine})" for engine, (lo, hi) in ranges(rows).items())
+        + f" (< x: unstable at the bottom, not searched below); v0 = speed on every coordinate; "
         f"criteria: {' / '.join(criteria)}"
     )
     for col in ("system", "engine", "integrator", *[f"{s:g} rad/s" for s in speeds]):
@@ -328,6 +337,11 @@ def stability_table(rows: list[dict[str, Any]], longest: dict[str, int], console
             *[" / ".join(by_speed.get(s, {}).get(c, "-") for c in criteria) for s in speeds],
         )
     console.print(table)
+
+
+def ranges(rows: list[dict[str, Any]]) -> dict[str, tuple[float, float]]:
+    """Each engine's search range (the bottom raised where a run would take too many steps)."""
+    return {r["engine"]: (float(r.get("range", DT_RANGE)[0]), float(r.get("range", DT_RANGE)[1])) for r in rows}
 
 
 def stable_cell(r: dict[str, Any]) -> str:
@@ -405,7 +419,8 @@ def stiff_table(rows: list[dict[str, Any]], longest: dict[str, int], console: Co
     cells: dict[tuple[str, str, str, str], dict[float, str]] = {}
     for r in rows:
         key = (r["system"], f"{r['damping_factor']:g}", r["engine"], r["integrator"])
-        cells.setdefault(key, {})[r["timestep"]] = f"{r['max_error']:.0e}" if r["stable"] else "UNSTABLE"
+        cell = "not run" if r["stable"] is None else f"{r['max_error']:.0e}" if r["stable"] else "UNSTABLE"
+        cells.setdefault(key, {})[r["timestep"]] = cell
     for key, by_dt in cells.items():
         table.add_row(*key, *[by_dt.get(d, "-") for d in dts])
     console.print(table)

@@ -78,6 +78,18 @@ class Settings:
     stiff_t_end: float = 2.0  # s: at 1000x the notes' damping the motion dies within ~10 ms
     stiff_sample: float = 0.1  # s, a multiple of every stiff timestep
     sections: tuple[str, ...] = ("drift", "stability", "conditioning", "stiff_friction")
+    # the most steps one stability run may take (the search's bottom is raised to stability_t_end / this):
+    mujoco_trial_steps: int = 1_000_000  # MuJoCo's C loop: ~1-10 us a step on 1-3 joints
+    mirror_trial_steps: int = 100_000  # a mirror: compiled RK4 ~1 us a step; Python Euler ~20-50 us
+    # a mirror steps the person's numpy equations: its cost per step (measured on 10 steps before the
+    # search) times the steps may not pass this; an explicit-accelerations module rebuilt into M and
+    # bias costs ~7 ms a step, so a 2 s run at 1 ms would take 14 s
+    mirror_trial_seconds: float = 10.0
+    # the worst-conditioned configuration: a grid of this many points per coordinate (up to 3 joints;
+    # 9 beyond), then at most this many Nelder-Mead iterations (65^3 states of a 3-joint arm's numpy
+    # M take ~3 s a sweep point)
+    worst_grid: int = 65
+    worst_iterations: int = 4000
 
 
 FULL = Settings()
@@ -89,6 +101,12 @@ QUICK = Settings(
     ratios=tuple(10.0**k for k in range(0, 13, 3)),
     cond_states=200,
     stiff_timesteps=(1e-3, 5e-3, 2e-2, 1e-1),
+    stability_t_end=2.0,
+    mujoco_trial_steps=100_000,
+    mirror_trial_steps=10_000,
+    mirror_trial_seconds=1.0,
+    worst_grid=17,
+    worst_iterations=300,
 )
 
 

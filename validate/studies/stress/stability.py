@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
 
-from ...dynamics.integrate import initial_state, scipy_trajectory, time_grid
+from ...dynamics.integrate import energy_missing, initial_state, scipy_trajectory, time_grid
 from ...dynamics.mirror import eulerdamp_active
 from ...engines import make_sources
 from ...engines.base import Source
@@ -24,6 +25,7 @@ from .settings import (
     MUJOCO_INTEGRATORS,
     NO_EULERDAMP,
     SAMPLES_PER_RUN,
+    Run,
     Settings,
 )
 
@@ -44,6 +46,27 @@ def stability_trial(
     growth: float = GROWTH,
 ) -> dict[str, Any]:
     """One run at one timestep: stable or not, and why."""
+    run, E = trial_run(
+        system, sources, engine, integrator, q0, v0, tau, timestep=timestep, t_end=t_end, eulerdamp=eulerdamp
+    )
+    return judged(run, E, timestep=timestep, V_min=V_min, growth=growth)
+
+
+def trial_run(
+    system: System,
+    sources: Mapping[str, Source],
+    engine: str,
+    integrator: str,
+    q0: Any,
+    v0: Any,
+    tau: Any,
+    *,
+    timestep: float,
+    t_end: float,
+    eulerdamp: bool = True,
+) -> tuple[Run, np.ndarray | None]:
+    """One stability run and its energy E = T + V by the hand equations (None where the module leaves
+    T or V out: then divergence alone is judged)."""
     steps = max(1, math.ceil(t_end / timestep - 1e-9))
     run = simulate(
         system,
@@ -55,12 +78,31 @@ def stability_trial(
         tau,
         timestep=timestep,
         t_end=t_end,
-        sample_steps=max(1, math.ceil(steps / SAMPLES_PER_RUN)),
+        sample_steps=sample_steps(engine, steps),
         eulerdamp=eulerdamp,
     )
-    c = classify_energy(
-        run.t, run_energy(sources["hand"], run), V_min=V_min, failure=run.failure, t_fail=run.t_fail, growth=growth
-    )
+    return run, None if energy_missing(sources["hand"]) else run_energy(sources["hand"], run)
+
+
+def sample_steps(engine: str, steps: int) -> int:
+    """Steps between the state checks of a stability run (SAMPLES_PER_RUN a run); a mirror's a multiple
+    of MIRROR_BLOCK, so that its compiled RK4 is the same function at every timestep tried."""
+    every = max(1, math.ceil(steps / SAMPLES_PER_RUN))
+    return every if engine == "mujoco" else MIRROR_BLOCK * math.ceil(every / MIRROR_BLOCK)
+
+
+def judged(run: Run, E: np.ndarray | None, *, timestep: float, V_min: float, growth: float) -> dict[str, Any]:
+    """A stability run judged under one criterion (`growth`; without an energy, divergence alone)."""
+    if E is None:
+        stable = run.failure is None
+        return {
+            "timestep": timestep,
+            "stable": stable,
+            "reason": run.failure,
+            "t_fail": run.t_fail,
+            "relative_max": None,
+        }
+    c = classify_energy(run.t, E, V_min=V_min, failure=run.failure, t_fail=run.t_fail, growth=growth)
     return {
         "timestep": timestep,
         "stable": c["class"] != "unstable",
@@ -110,37 +152,45 @@ def criterion_name(growth: float) -> str:
     return f"energy x{1 + growth:g}"
 
 
+def search_range(engine: str, settings: Settings, step_cost: float = 0.0) -> tuple[float, float]:
+    """DT_RANGE, its bottom raised to where one run of `stability_t_end` takes the settings' most steps
+    for this engine (MuJoCo's C loop, or a mirror's compiled or Python steps), and for a mirror also
+    where it would cost more than `mirror_trial_seconds` at `step_cost` (s a step)."""
+    most = settings.mujoco_trial_steps if engine == "mujoco" else settings.mirror_trial_steps
+    if engine != "mujoco" and step_cost > 0:
+        most = min(most, max(1, int(settings.mirror_trial_seconds / step_cost)))
+    return min(DT_RANGE[1], max(DT_RANGE[0], settings.stability_t_end / most)), DT_RANGE[1]
+
+
+MIRROR_BLOCK = 10  # a mirror run's steps per sample are a multiple of this: one compiled RK4 per system
+
+
+def mirror_step_cost(system: System, sources: Mapping[str, Source], integrator: str, v0: Any, steps: int = 10) -> float:
+    """Seconds one mirror step of `integrator` takes on the person's equations (from q0 at v0): what
+    bounds how far down its search goes (`search_range`). The compiled RK4 is built first."""
+    q0, _ = initial_state(system)
+    tau = np.zeros(system.nv)
+    simulate(system, sources, "mirror", integrator, q0, v0, tau, timestep=1e-3, t_end=steps * 1e-3, sample_steps=steps)
+    start = time.perf_counter()
+    simulate(system, sources, "mirror", integrator, q0, v0, tau, timestep=1e-3, t_end=steps * 1e-3, sample_steps=steps)
+    return (time.perf_counter() - start) / steps
+
+
 def stability_rows(
     system: System, sources: Mapping[str, Source], settings: Settings, *, V_min: float
 ) -> list[dict[str, Any]]:
-    """Per speed, engine, integrator and criterion (settings.growth_factors): the bisection's result."""
+    """Per speed, engine, integrator and criterion (settings.growth_factors; divergence alone where the
+    module leaves out its energies): the bisection's result (`searches`)."""
     q0, _ = initial_state(system)
-    tau = np.zeros(system.nv)
     rows = []
     runs = [("mujoco", i) for i in MUJOCO_INTEGRATORS] + [("mirror", i) for i in MIRROR_INTEGRATORS]
+    growths = [math.inf] if energy_missing(sources["hand"]) else list(settings.growth_factors)
     for speed in settings.speeds:
         v0 = np.full(system.nv, float(speed))
         for engine, integrator in runs:
-            for growth in settings.growth_factors:
-
-                def trial(
-                    dt: float, e: str = engine, i: str = integrator, v: np.ndarray = v0, g: float = growth
-                ) -> dict[str, Any]:
-                    return stability_trial(
-                        system,
-                        sources,
-                        e,
-                        i,
-                        q0,
-                        v,
-                        tau,
-                        timestep=dt,
-                        t_end=settings.stability_t_end,
-                        V_min=V_min,
-                        growth=g,
-                    )
-
-                found = max_stable_timestep(trial)
+            for growth, found in zip(
+                growths, searches(system, sources, engine, integrator, v0, settings, growths, V_min), strict=True
+            ):
                 rows.append(
                     {
                         "system": system.name,
@@ -152,7 +202,6 @@ def stability_rows(
                         "q0": q0,
                         "v0": v0,
                         "t_end": settings.stability_t_end,
-                        "range": list(DT_RANGE),
                         "bisection_ratio": BISECTION_RATIO,
                         **found,
                     }
@@ -160,26 +209,78 @@ def stability_rows(
     return rows
 
 
-def stiff_rows(system: System, settings: Settings) -> list[dict[str, Any]]:
-    """Every integrator at every timestep on the system with its joint damping times each factor."""
+def searches(
+    system: System,
+    sources: Mapping[str, Source],
+    engine: str,
+    integrator: str,
+    v0: np.ndarray,
+    settings: Settings,
+    growths: list[float],
+    V_min: float,
+) -> list[dict[str, Any]]:
+    """The bisection under each criterion of `growths`, from the system's q0 at speeds v0; a run at a
+    timestep is made once and judged under every criterion."""
+    q0, _ = initial_state(system)
+    tau = np.zeros(system.nv)
+    made: dict[float, tuple[Run, np.ndarray | None]] = {}
+
+    def run_at(dt: float) -> tuple[Run, np.ndarray | None]:
+        if dt not in made:
+            made[dt] = trial_run(
+                system, sources, engine, integrator, q0, v0, tau, timestep=dt, t_end=settings.stability_t_end
+            )
+        return made[dt]
+
+    cost = mirror_step_cost(system, sources, integrator, v0) if engine == "mirror" else 0.0
+    out = []
+    for growth in growths:
+
+        def trial(dt: float, g: float = growth) -> dict[str, Any]:
+            return judged(*run_at(dt), timestep=dt, V_min=V_min, growth=g)
+
+        found = max_stable_timestep(trial, dt_range=search_range(engine, settings, cost))
+        out.append({**found, "range": list(search_range(engine, settings, cost)), "step_cost_s": cost or None})
+    return out
+
+
+def stiff_rows(system: System, settings: Settings, V_min: float | None = None) -> list[dict[str, Any]]:
+    """Every integrator at every timestep on the system with its joint damping times each factor
+    (a mirror run that would cost more than `mirror_trial_seconds` is listed as not run, with why).
+    `V_min`: the system's smallest potential, which damping does not change (None: found here)."""
     q0, v0 = initial_state(system)
     tau = np.zeros(system.nv)
     t = time_grid(settings.stiff_t_end, settings.stiff_sample)
     rows = []
+    if V_min is None:
+        hand = make_sources(system)["hand"]
+        V_min = float("nan") if energy_missing(hand) else minimum_potential(system, hand)
     for factor in settings.damping_factors:
         extra = tuple((f"joint/{j}/damping", float(system.view[f"joint/{j}/damping"]) * factor) for j in system.joints)
         damped = system.derive(overrides=(*system.overrides, *extra))
         sources = make_sources(damped)
-        V_min = minimum_potential(damped, sources["hand"])
         ref = scipy_trajectory(damped, sources["hand"], q0, v0, tau, t, method="DOP853", rtol=1e-12, atol=1e-12)
         runs = [("mujoco", i, True) for i in MUJOCO_INTEGRATORS] + [("mirror", "Euler", True)]
         if eulerdamp_active(damped):
             runs.append(("mujoco", NO_EULERDAMP, False))
+        cost = mirror_step_cost(damped, sources, "Euler", v0)
+        base = {"system": system.name, "damping_factor": float(factor), "t_end": settings.stiff_t_end}
+        base["damping"] = {j: float(damped.view[f"joint/{j}/damping"]) for j in system.joints}
+        base["reference"] = ref.method
         for engine, integrator, eulerdamp in runs:
             for dt in settings.stiff_timesteps:
                 steps = round(settings.stiff_sample / dt)
                 if steps < 1 or not math.isclose(steps * dt, settings.stiff_sample, rel_tol=1e-9):
                     raise HarnessError(f"stiff timestep {dt} must divide the sample step {settings.stiff_sample}.")
+                row = {**base, "engine": engine, "integrator": integrator, "eulerdamp": eulerdamp, "timestep": dt}
+                total = settings.stiff_t_end / dt
+                if engine == "mirror" and cost * total > settings.mirror_trial_seconds:
+                    why = (
+                        f"not run: {total:.0f} steps at {cost * 1e3:.2g} ms a step would take about "
+                        f"{cost * total:.0f} s, more than {settings.mirror_trial_seconds:g} s"
+                    )
+                    rows.append({**row, "stable": None, "reason": why, "t_fail": None, "max_error": None})
+                    continue
                 run = simulate(
                     damped,
                     sources,
@@ -193,29 +294,23 @@ def stiff_rows(system: System, settings: Settings) -> list[dict[str, Any]]:
                     sample_steps=steps,
                     eulerdamp=eulerdamp,
                 )
-                c = classify_energy(
-                    run.t, run_energy(sources["hand"], run), V_min=V_min, failure=run.failure, t_fail=run.t_fail
-                )
-                k = len(run.t)
-                err = np.abs(run.q - ref.q[:k]).max(axis=1) if k else np.array([np.inf])
-                stable = c["class"] != "unstable"
-                rows.append(
-                    {
-                        "system": system.name,
-                        "damping_factor": float(factor),
-                        "damping": {j: float(damped.view[f"joint/{j}/damping"]) for j in system.joints},
-                        "engine": engine,
-                        "integrator": integrator,
-                        "eulerdamp": eulerdamp,
-                        "timestep": dt,
-                        "t_end": settings.stiff_t_end,
-                        "stable": stable,
-                        "reason": None if stable else c["reason"],
-                        "t_fail": c["t_fail"],
-                        "max_error": float(err.max()) if stable else None,
-                        "final_error": float(err[-1]) if stable else None,
-                        "reference": ref.method,
-                        "energy_relative_max": c["relative_max"],
-                    }
-                )
+                E = None if energy_missing(sources["hand"]) else run_energy(sources["hand"], run)
+                rows.append({**row, **_stiff_outcome(run, E, ref, V_min=V_min, timestep=dt)})
     return rows
+
+
+def _stiff_outcome(run: Run, E: np.ndarray | None, ref: Any, *, V_min: float, timestep: float) -> dict[str, Any]:
+    """A stiff-friction run judged: stable or not (by its energy, or by divergence alone without one),
+    and its error against the reference."""
+    verdict = judged(run, E, timestep=timestep, V_min=V_min, growth=GROWTH)
+    k = len(run.t)
+    err = np.abs(run.q - ref.q[:k]).max(axis=1) if k else np.array([np.inf])
+    stable = verdict["stable"]
+    return {
+        "stable": stable,
+        "reason": verdict["reason"],
+        "t_fail": verdict["t_fail"],
+        "max_error": float(err.max()) if stable else None,
+        "final_error": float(err[-1]) if stable else None,
+        "energy_relative_max": verdict["relative_max"],
+    }
