@@ -257,7 +257,8 @@ def describe(exc: BaseException) -> str:
     """An exception from a hand source as one phrase, naming the person's function where it was
     raised inside one ("mass_matrix raised ZeroDivisionError: division by zero")."""
     name = getattr(exc, "_lagrange_xval_function", None)
-    text = f"{type(exc).__name__}: {exc}".strip()
+    said = str(exc).strip()
+    text = f"{type(exc).__name__}: {said}" if said else type(exc).__name__
     return f"{name} raised {text}" if name else text
 
 
