@@ -114,8 +114,8 @@ def pack(value: Any, blobs: list[bytes], hook: Callable[[Any], Any] | None = Non
     if isinstance(value, np.ndarray):
         if value.dtype == object:
             return {"O": list(value.shape), "v": [pack(x, blobs, hook) for x in value.ravel()]}
-        if value.dtype.str not in DTYPES:
-            return {"R": f"array of {value.dtype}"}
+        if value.dtype.str not in DTYPES:  # strings, dates, records: their kind and shape, for the message
+            return {"K": value.dtype.kind, "s": list(value.shape)}
         blobs.append(np.ascontiguousarray(value).tobytes())
         return {"A": len(blobs) - 1, "d": value.dtype.str, "s": list(value.shape)}
     if isinstance(value, (list, tuple)):
@@ -155,6 +155,8 @@ def unpack(data: Any, blobs: list[bytes], hook: Callable[[dict[str, Any]], Any] 
             return out
     if "A" in data:
         return _array(data, blobs)
+    if "K" in data:
+        return _kind_only(data)
     if "O" in data:
         import numpy as np
 
@@ -171,6 +173,18 @@ def unpack(data: Any, blobs: list[bytes], hook: Callable[[dict[str, Any]], Any] 
     if "R" in data:
         return Opaque(escape(str(data["R"]), 80))
     raise ValueError(f"unknown tag {sorted(data)[:3]}")
+
+
+_KIND_DTYPES = {"U": "U1", "S": "S1", "M": "M8[s]", "m": "m8[s]", "V": "V1", "c": "c16"}
+
+
+def _kind_only(data: dict[str, Any]) -> Any:
+    """An array of a kind that is not numbers, as that kind and shape without its contents (a view of
+    one element: no memory), so that the reader names what it is (values.real_array)."""
+    import numpy as np
+
+    kind = _KIND_DTYPES.get(str(data["K"]), "V1")
+    return np.broadcast_to(np.zeros((), dtype=kind), tuple(int(k) for k in data["s"]))
 
 
 def _key(k: Any) -> Any:
