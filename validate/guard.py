@@ -1,15 +1,15 @@
-"""A guard around every call into an equations module in this process: a time limit, no exit, nothing on stdout.
+"""A guard around each call into an equations module in this process: a time limit, no exit, no stdout.
 
 A person's own module (a file given with `--equations`, `--systems` or `System.from_files`) is run in a
 worker process of its own instead (validate/worker.py): a guard in the process can be switched off by
 the code it guards (an ignored or blocked SIGALRM, one long C call). This guard serves the repository's
 own modules (`equations/`, part of the harness), and `Stopped` and `describe` serve both.
 
-An equations module may loop, sleep, call `sys.exit` or `os._exit`, or print. Every call into it (its import, `parameters`, `assumptions`, the dynamics, the optional
-functions and the printed forms' functions) goes through `call`, which
+An equations module may loop, sleep, call `sys.exit` or `os._exit`, or print. Every call into it (its
+import, `parameters`, `assumptions`, the dynamics, the optional functions and the printed forms'
+functions) goes through `call`, which
 
-- enforces a time limit per call (`DEFAULT_TIME_LIMIT`, `--time-limit SECONDS`, `time_limit=` of
-  `System.from_files` and `load`): SIGALRM, armed with `signal.setitimer`, raises `Stopped` inside
+- enforces a time limit per call (`DEFAULT_TIME_LIMIT`, `--time-limit SECONDS`, `time_limit=` of `load`): SIGALRM, armed with `signal.setitimer`, raises `Stopped` inside
   the person's Python (a `time.sleep` is interrupted too), repeating every `REPEAT` s while the call
   goes on; a module that swallows even these (a bare `except:` in a loop) past `GRACE` more seconds
   has the process ended with one line on stderr (status 2; in `run`, its own worker: its system fails);
@@ -25,7 +25,8 @@ a failing row). After a stop the module is spent: every later call raises the sa
 so a module that sleeps in every function costs one time limit, not one per call.
 
 Why in-process for the repository's modules: the harness calls the dynamics thousands of times per
-system (batched states, probes, traced code, per-step mirrors); its own modules need no worker. What a guard in the process cannot catch (a process ended from C, a signal
+system (batched states, probes, traced code, per-step mirrors); its own modules need no worker. What a
+guard in the process cannot catch (a process ended from C, a signal
 sent to itself, `posix._exit`) `run` catches one level up:
 each system runs in a worker process of its own (validate/parallel.py `executor_for`), so a worker
 that dies fails its own system alone (pipeline.run). The alarm works in a process's main thread,

@@ -249,10 +249,19 @@ def _read(fd: int, n: int, deadline: float | None) -> bytes:
 # ----------------------------------------------------------------------------------------------
 # The worker, seen from the parent
 
-BOOT = (
-    "import sys; sys.path[:0] = [p for p in sys.argv[3:] if p not in sys.path];"
-    "from lagrange_xval.validate.systems.child import main; main(int(sys.argv[1]), int(sys.argv[2]))"
-)
+# The worker's first lines: the package `lagrange_xval` stands as an empty package over its own folder, so
+# that the worker imports its side (systems/child.py) and the contract's helpers (`lagrange_xval.forms`)
+# without the public API, the checks and the engines (the judge; 0.6 s of imports).
+BOOT = """
+import importlib.util, sys, types
+sys.path[:0] = [p for p in sys.argv[3:] if p not in sys.path]
+spec = importlib.util.find_spec("lagrange_xval")
+package = types.ModuleType("lagrange_xval")
+package.__path__, package.__spec__ = list(spec.submodule_search_locations), spec
+sys.modules["lagrange_xval"] = package
+from lagrange_xval.validate.systems.child import main
+main(int(sys.argv[1]), int(sys.argv[2]))
+"""
 _LIVE: weakref.WeakSet[ModuleWorker] = weakref.WeakSet()
 
 
@@ -352,7 +361,8 @@ class ModuleWorker:
             except (ValueError, KeyError, TypeError, IndexError, OverflowError, RecursionError) as exc:
                 self._stop(f"{name}: the module's worker sent what is not data ({escape(str(exc), 120)})")
         if "exit" in header:
-            self._stop(f"{name} called {'os._exit' if header['exit'] == 'os' else 'sys.exit'}({escape(str(header.get('code', '')), 40)})")
+            how = "os._exit" if header["exit"] == "os" else "sys.exit"
+            self._stop(f"{name} called {how}({escape(str(header.get('code', '')), 40)})")
         kind, text = str(header.get("raised", "Exception")), str(header.get("message", ""))
         raise _exception(name, kind, text, header.get("harness", False))
 
@@ -397,7 +407,10 @@ def _plain_hook(blobs: list[bytes], value: Any) -> Any:
         return {"M": 1}
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         hook = functools.partial(_plain_hook, blobs)
-        return {"C": type(value).__name__, "f": [[f.name, pack(getattr(value, f.name), blobs, hook)] for f in dataclasses.fields(value)]}
+        return {
+            "C": type(value).__name__,
+            "f": [[f.name, pack(getattr(value, f.name), blobs, hook)] for f in dataclasses.fields(value)],
+        }
     return None
 
 

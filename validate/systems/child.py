@@ -211,9 +211,11 @@ def _call(rfd: int, wfd: int, header: dict[str, Any], blobs: list[bytes], out: l
     backend = _tree(header["backend"]) if header.get("backend") else None
     args = [unpack(a, blobs, _Decoder(rfd, wfd, backend, blobs)) for a in header["args"]]
     if backend is not None:
+        import numpy as np
+
         from .tracing import TracedArray
 
-        args = [a.view(TracedArray) if getattr(a, "dtype", None) == object else a for a in args]
+        args = [a.view(TracedArray) if isinstance(a, np.ndarray) and a.dtype == object else a for a in args]
     result = fn(*args)
     encoder = _Encoder(out)
     packed = pack(result, out, encoder)
