@@ -11,8 +11,9 @@ functions) goes through `call`, which
 
 - enforces a time limit per call (`DEFAULT_TIME_LIMIT`, `--time-limit SECONDS`, `time_limit=` of
   `load`): SIGALRM, armed with `signal.setitimer`, raises `Stopped` inside the module's Python (a
-  `time.sleep` is interrupted too), repeating every `REPEAT` s while the call goes on; a module that swallows even these (a bare `except:` in a loop) past `GRACE` more seconds
-  has the process ended with one line on stderr (status 2; in `run`, its own worker: its system fails);
+  `time.sleep` is interrupted too), repeating every `REPEAT` s while the call goes on; a module that
+  swallows even these (a bare `except:` in a loop) past `GRACE` more seconds has the process ended
+  with one line on stderr (status 2; in `run`, its own worker: its system fails);
 - turns `sys.exit` (SystemExit) and `os._exit` (replaced while the person's code runs) into `Stopped`,
   naming the function: "mass_matrix called sys.exit(0)";
 - sends what the person's code prints to stderr (`sys.stdout` is stderr while it runs; the command
