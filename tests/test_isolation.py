@@ -228,3 +228,24 @@ def test_escape_keeps_text_on_one_line_and_cut() -> None:
     long = escape("x" * 1000, 10)
     assert long.startswith("x" * 10 + "...") and "990 more characters" in long
     assert os.linesep not in escape("line\r\nline")
+
+
+def test_a_forked_copy_of_the_harness_gets_a_worker_of_its_own(tmp_path: Path) -> None:
+    """A process forked after a module was loaded starts its own worker on its first call (never
+    talking on, or killing, the parent's); the parent's worker still answers after."""
+    system = lx.System.from_files(*_system(tmp_path, "shared"), time_limit=30)
+    eq, p = system.equations, system.params
+    expected = eq.mass_matrix(p, np.zeros(1))
+    read, write = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # pragma: no cover - the forked copy
+        try:
+            same = np.array_equal(eq.mass_matrix(p, np.zeros(1)), expected)
+            os.write(write, b"1" if same and eq.WORKER._proc.pid != os.getpid() else b"0")
+            eq.WORKER.close()
+        finally:
+            os._exit(0)
+    os.waitpid(pid, 0)
+    assert os.read(read, 1) == b"1"
+    np.testing.assert_array_equal(eq.mass_matrix(p, np.zeros(1)), expected)
+    eq.WORKER.close()

@@ -283,8 +283,15 @@ class ModuleWorker:
         self.left = self.time_limit or float("inf")
         self.stopped: str | None = None
         self.calls = 0
+        self.description: Any = None
+        self.description_blobs: list[bytes] = []
+        self._start()
+
+    def _start(self) -> None:
+        """The worker process started and the module imported in it (within the budget)."""
         to_child, self._send = os.pipe()
         self._receive, from_child = os.pipe()
+        self._owner = os.getpid()
         self._proc = subprocess.Popen(
             [sys.executable, "-c", BOOT, str(to_child), str(from_child), *sys.path],
             pass_fds=(to_child, from_child),
@@ -296,7 +303,7 @@ class ModuleWorker:
         os.close(from_child)
         _LIVE.add(self)
         raw = _Raw()
-        self.description: Any = self.request({"op": "import", "path": self.path}, "importing it", unpack_hook=raw)
+        self.description = self.request({"op": "import", "path": self.path}, "importing it", unpack_hook=raw)
         self.description_blobs = raw.blobs  # the description is decoded by its reader (systems/proxy.py)
 
     def call(self, name: str, *args: Any, model: Mapping[str, Any] | None = None) -> Any:
@@ -320,6 +327,11 @@ class ModuleWorker:
         """One request answered within what is left of the budget (model lookups served meanwhile)."""
         if self.stopped is not None:
             raise Stopped(self.where, self.stopped)
+        if self._owner != os.getpid():  # a forked copy of the harness: a worker of its own, never the parent's
+            for fd in (self._send, self._receive):
+                with contextlib.suppress(OSError):
+                    os.close(fd)
+            self._start()
         self.calls += 1
         start = time.monotonic()
         try:
@@ -382,7 +394,7 @@ class ModuleWorker:
     def close(self) -> None:
         """The worker and everything in its process group ended (SIGTERM, then SIGKILL); idempotent."""
         proc = self._proc
-        if proc.returncode is None:
+        if proc.returncode is None and self._owner == os.getpid():  # a forked copy never kills the parent's
             _kill_group(proc, graceful=self.stopped is not None)
         for fd in (self._send, self._receive):
             with contextlib.suppress(OSError):

@@ -154,6 +154,10 @@ def _describe(module: Any) -> dict[str, Any]:
     for key, value in vars(module).items():
         if key.isupper() and not key.startswith("_") and not inspect.ismodule(value):
             data[key] = _with_paths(value, key)
+    params = getattr(module, "Params", None)  # the parameters' class: its fields (a Hamiltonian is checked by it)
+    if isinstance(params, type) and dataclasses.is_dataclass(params):
+        _STATE.classes[params.__name__] = params
+        data["Params"] = {"fields": [f.name for f in dataclasses.fields(params)], "class": params.__name__}
     return {"functions": functions, "data": data, "doc": module.__doc__, "name": module.__name__}
 
 

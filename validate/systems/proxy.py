@@ -54,7 +54,8 @@ def worker_module(path: Path, time_limit: float) -> types.ModuleType:
         if exc.kind == "SyntaxError":
             line, _, msg = exc.message.partition(":")
             raise HarnessError(f"{path}:{line}: syntax error: {msg}.") from None
-        raise HarnessError(f"{path}: importing it raised {exc.kind}: {exc}") from None
+        said = f"{exc.kind}: {exc}" if str(exc) else exc.kind
+        raise HarnessError(f"{path}: importing it raised {said}") from None
     return _stand_in(worker, worker.description, Path(path))
 
 
@@ -75,6 +76,9 @@ def _stand_in(worker: ModuleWorker, raw: Any, path: Path) -> types.ModuleType:
         for name, value in dict(described.get(part) or {}).items():
             if isinstance(name, str) and name.isidentifier() and (part == "functions" or name.isupper()):
                 setattr(module, name, value)
+    params = dict(described.get("data") or {}).get("Params")
+    if isinstance(params, dict) and all(isinstance(f, str) and f.isidentifier() for f in params.get("fields", [])):
+        module.Params = _record_class(str(params.get("class", "Params")), tuple(params["fields"]))  # type: ignore[attr-defined]
     module.GUARD = worker  # type: ignore[attr-defined]  # its time_limit travels with the system's key
     module.WORKER = worker  # type: ignore[attr-defined]
     return module
