@@ -249,3 +249,41 @@ def test_a_forked_copy_of_the_harness_gets_a_worker_of_its_own(tmp_path: Path) -
     assert os.read(read, 1) == b"1"
     np.testing.assert_array_equal(eq.mass_matrix(p, np.zeros(1)), expected)
     eq.WORKER.close()
+
+
+def test_an_import_that_raises_keyboard_interrupt_is_a_one_line_refusal(tmp_path: Path) -> None:
+    """KeyboardInterrupt raised while the module is imported: refused in one line naming it, never
+    taken for the person's Ctrl-C."""
+    model, equations = _system(tmp_path, "interrupted", at_import="raise KeyboardInterrupt")
+    proc = _check(model, equations)
+    assert proc.returncode == 2, proc.stderr
+    assert "importing it raised KeyboardInterrupt" in _error_line(proc) and "Traceback" not in proc.stderr
+
+
+@pytest.mark.parametrize("where", ["main", "thread"])
+def test_the_worker_dies_with_a_harness_killed_outright(tmp_path: Path, where: str) -> None:
+    """A process that loaded a module (from its main thread, or from a thread that has ended since) and
+    is then killed with SIGKILL takes the module's worker with it, even in the middle of a call."""
+    _, equations = _system(tmp_path, "orphan", "time.sleep(1000)")
+    script = (
+        "import sys, threading, time\n"
+        "from lagrange_xval.validate.worker import ModuleWorker\n"
+        "box = []\n"
+        "start = lambda: box.append(ModuleWorker(sys.argv[1], 100))\n"
+        "thread = threading.Thread(target=start)\n"
+        "start() if sys.argv[2] == 'main' else (thread.start(), thread.join())\n"
+        "print(box[0]._proc.pid, flush=True)\n"
+        "box[0].call('mass_matrix', None, 0.0)\n"
+    )
+    proc = subprocess.Popen(
+        [*CLI[:1], "-c", script, str(equations), where], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True
+    )
+    try:
+        assert proc.stdout is not None
+        pid = int(proc.stdout.readline())
+        time.sleep(0.5)  # inside mass_matrix's sleep
+        assert _alive(pid)
+    finally:
+        proc.kill()
+        proc.wait()
+    _none_left([pid])

@@ -9,18 +9,22 @@ match their length, numbers, strings, lists and dicts, and the names of exceptio
 cut message (`escape`). The parent compares, decides and prints with its own numpy.
 
 The parent keeps the watchdog. The time limit is per system: one budget for every call into the
-module, its import included (`DEFAULT_TIME_LIMIT`, `--time-limit SECONDS`). A worker that does not
-answer within what is left of it is ended with its whole process group (SIGTERM, then SIGKILL after
-`GRACE` s) and the call raises `Stopped` ("mass_matrix did not return within 30 s (the time limit per
-system; ...)"); so does a worker that ends (a crash, a signal, `os._exit` from a thread) and a call of
-`sys.exit`/`os._exit` inside a function. After a stop the worker is spent: every later call raises the
-same `Stopped` at once. The worker is in a session of its own (the person's Ctrl-C reaches the command,
-never the module), dies with its parent (PR_SET_PDEATHSIG), and is killed, with whatever it forked,
-when closed or when the command exits: no thread, atexit handler or child of the module outlives the
-verdict.
+module, its import included, each call's wall time less `LATENCY` (`DEFAULT_TIME_LIMIT`,
+`--time-limit SECONDS`). A worker that does not answer within what is left of it is ended with its
+whole process group (SIGTERM, then SIGKILL after `GRACE` s) and the call raises `Stopped`
+("mass_matrix did not return within 30 s (the time limit per system; ...)"); so does a worker that
+ends (a crash, a signal, `os._exit` from a thread) and a call of `sys.exit`/`os._exit` inside a
+function. After a stop the worker is spent: every later call raises the same `Stopped` at once. The
+worker is in a session of its own (the person's Ctrl-C reaches the command, never the module), dies
+with its parent (PR_SET_PDEATHSIG, and a thread watching for it), and is killed, with whatever it
+forked, when closed or when the command exits: no thread, atexit handler or child of the module
+outlives the verdict.
 
-Cost: one worker per module for its whole life, one round trip per call (about 0.1 ms plus the arrays'
-bytes); the harness batches states, so a `check` of 1000 states makes a few dozen calls.
+Cost: one worker per module for its whole life (about 0.5 s to start and import), one round trip per
+call (0.15 ms for a small array here, 0.3 ms for one state of a form-(c) module, against 0.02 ms for the
+call in-process; milliseconds on a loaded machine, which is why each call's first `LATENCY` s are not
+charged to the budget). The harness batches states, so a `check` makes about 80 calls; the proxy
+(systems/proxy.py) answers a call repeated on the same bytes from the last few answers.
 
     worker = ModuleWorker("my_arm.py", time_limit=30.0)
     M = worker.call("mass_matrix", params, q)      # the functions by their path in the module
@@ -39,6 +43,7 @@ import signal
 import struct
 import subprocess
 import sys
+import threading
 import time
 import weakref
 from collections.abc import Callable, Mapping
@@ -49,6 +54,10 @@ from .guard import DEFAULT_TIME_LIMIT, Stopped
 
 HINT = "the time limit per system; --time-limit SECONDS sets it"
 GRACE = 1.0  # s between SIGTERM and SIGKILL
+# s of each call's wall time not charged to the budget: the pipe's round trip, which on a loaded machine
+# is milliseconds (measured 1 ms a call at load 8 on 2 cores), is the harness's cost, not the module's;
+# per-step mirrors make ~10^4 calls per system
+LATENCY = 0.005
 MAX_MESSAGE = 300  # characters of a module's exception message shown (escaped)
 MAX_HEADER = 256 * 2**20  # bytes of one message's JSON part from the worker
 MAX_BLOB = 2**31  # bytes of one array from the worker
@@ -231,19 +240,31 @@ def receive(fd: int, deadline: float | None = None) -> tuple[Any, list[bytes]]:
     return header, blobs
 
 
+_BUFFERS: dict[int, bytearray] = {}  # what was read from each pipe ahead of the part asked for
+
+
 def _read(fd: int, n: int, deadline: float | None) -> bytes:
-    chunks, left = [], n
-    while left:
+    """n bytes from `fd`, read ahead in chunks (one read for a whole small message, not one per part)."""
+    buf = _BUFFERS.setdefault(fd, bytearray())
+    while len(buf) < n:
         if deadline is not None:
             wait = deadline - time.monotonic()
             if wait <= 0 or not select.select([fd], [], [], wait)[0]:
                 raise TimeoutError
-        chunk = os.read(fd, min(left, 1 << 22))
+        chunk = os.read(fd, max(n - len(buf), 1 << 16))
         if not chunk:
             raise EOFError
-        chunks.append(chunk)
-        left -= len(chunk)
-    return b"".join(chunks)
+        buf += chunk
+    out = bytes(buf[:n])
+    del buf[:n]
+    return out
+
+
+def forget(fd: int) -> None:
+    """`fd` closed: what was read ahead from it is dropped (its number will be reused)."""
+    _BUFFERS.pop(fd, None)
+    with contextlib.suppress(OSError):
+        os.close(fd)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -254,13 +275,13 @@ def _read(fd: int, n: int, deadline: float | None) -> bytes:
 # without the public API, the checks and the engines (the judge; 0.6 s of imports).
 BOOT = """
 import importlib.util, sys, types
-sys.path[:0] = [p for p in sys.argv[3:] if p not in sys.path]
+sys.path[:0] = [p for p in sys.argv[5:] if p not in sys.path]
 spec = importlib.util.find_spec("lagrange_xval")
 package = types.ModuleType("lagrange_xval")
 package.__path__, package.__spec__ = list(spec.submodule_search_locations), spec
 sys.modules["lagrange_xval"] = package
 from lagrange_xval.validate.systems.child import main
-main(int(sys.argv[1]), int(sys.argv[2]))
+main(int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3]), sys.argv[4] == "1")
 """
 _LIVE: weakref.WeakSet[ModuleWorker] = weakref.WeakSet()
 
@@ -292,8 +313,9 @@ class ModuleWorker:
         to_child, self._send = os.pipe()
         self._receive, from_child = os.pipe()
         self._owner = os.getpid()
+        main = threading.current_thread() is threading.main_thread()
         self._proc = subprocess.Popen(
-            [sys.executable, "-c", BOOT, str(to_child), str(from_child), *sys.path],
+            [sys.executable, "-c", BOOT, str(to_child), str(from_child), str(os.getpid()), str(int(main)), *sys.path],
             pass_fds=(to_child, from_child),
             stdin=subprocess.DEVNULL,
             stdout=sys.stderr.fileno() if _has_fileno(sys.stderr) else subprocess.DEVNULL,
@@ -329,15 +351,14 @@ class ModuleWorker:
             raise Stopped(self.where, self.stopped)
         if self._owner != os.getpid():  # a forked copy of the harness: a worker of its own, never the parent's
             for fd in (self._send, self._receive):
-                with contextlib.suppress(OSError):
-                    os.close(fd)
+                forget(fd)
             self._start()
         self.calls += 1
         start = time.monotonic()
         try:
             send(self._send, message, blobs)
             while True:
-                header, got = receive(self._receive, start + self.left)
+                header, got = receive(self._receive, start + self.left + LATENCY)
                 if "get" not in header:
                     break
                 self._lookup(model, header)
@@ -347,8 +368,12 @@ class ModuleWorker:
             self._stop(self._ended(name))
         except (ValueError, KeyError, TypeError, OverflowError) as exc:
             self._stop(f"{name}: the module's worker sent what is not data ({escape(str(exc), 120)})")
+        except BaseException:  # Ctrl-C, SIGTERM: a request cut in the middle leaves the pipe out of step
+            self.stopped = f"{name} was interrupted"
+            self.close()
+            raise
         finally:
-            self.left -= time.monotonic() - start
+            self.left -= max(0.0, time.monotonic() - start - LATENCY)
         return self._answer(name, header, got, unpack_hook)
 
     def _lookup(self, model: Mapping[str, Any] | None, header: dict[str, Any]) -> None:
@@ -388,17 +413,17 @@ class ModuleWorker:
 
     def _stop(self, why: str) -> None:
         self.stopped = why
-        self.close()
+        self.close(graceful=True)
         raise Stopped(self.where, why)
 
-    def close(self) -> None:
-        """The worker and everything in its process group ended (SIGTERM, then SIGKILL); idempotent."""
+    def close(self, *, graceful: bool = False) -> None:
+        """The worker and everything in its process group ended (`graceful`: SIGTERM, then SIGKILL after
+        GRACE s; else SIGKILL at once); idempotent."""
         proc = self._proc
         if proc.returncode is None and self._owner == os.getpid():  # a forked copy never kills the parent's
-            _kill_group(proc, graceful=self.stopped is not None)
+            _kill_group(proc, graceful=graceful)
         for fd in (self._send, self._receive):
-            with contextlib.suppress(OSError):
-                os.close(fd)
+            forget(fd)
         self._send = self._receive = -1
         if self.stopped is None:
             self.stopped = "the module's worker was closed"

@@ -66,9 +66,9 @@ class _State:
 _STATE = _State()
 
 
-def main(rfd: int, wfd: int) -> None:
+def main(rfd: int, wfd: int, parent: int = 0, main_thread: bool = True) -> None:
     """Serve the parent until the pipe closes."""
-    _die_with_parent()
+    _die_with_parent(parent or os.getppid(), main_thread)
     os.dup2(2, 1)  # what the module prints goes to stderr
     sys.stdout = sys.stderr
     signal.signal(signal.SIGINT, signal.default_int_handler)
@@ -81,14 +81,26 @@ def main(rfd: int, wfd: int) -> None:
         _serve(rfd, wfd, header, blobs)
 
 
-def _die_with_parent() -> None:
-    try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass
-    if os.getppid() == 1:
+def _die_with_parent(parent: int, main_thread: bool) -> None:
+    """This process ended when its parent ends, even in the middle of a call: PR_SET_PDEATHSIG where the
+    parent started it from its main thread (the signal follows the starting thread), and a thread that
+    looks for the parent every second (a forked copy or a thread of the parent may have started it)."""
+    import threading
+    import time
+
+    if main_thread:
+        try:
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(1.0)
         _REAL_EXIT(0)
+
+    threading.Thread(target=watch, daemon=True, name="lagrange-xval-parent-watch").start()
 
 
 def _serve(rfd: int, wfd: int, header: dict[str, Any], blobs: list[bytes]) -> None:
