@@ -287,3 +287,21 @@ def test_the_worker_dies_with_a_harness_killed_outright(tmp_path: Path, where: s
         proc.kill()
         proc.wait()
     _none_left([pid])
+
+
+FORGED_ARRAY = (  # a whole message in the protocol's framing: an array of dtype object, 8 bytes
+    "(lambda j: __import__('struct').pack('!II', len(j), 1) + j + __import__('struct').pack('!Q', 8) + bytes(8))"
+    '(b\'{"ok":{"A":0,"d":"|O8","s":[1]}}\')'
+)
+
+
+@pytest.mark.parametrize("forged", ["b'\\xff' * 16", FORGED_ARRAY], ids=["huge_header", "object_array"])
+def test_a_module_writing_on_the_pipe_is_refused_in_one_line(tmp_path: Path, forged: str) -> None:
+    """A module that writes its own bytes on the worker's pipe (a header claiming gigabytes, an array of
+    Python objects): one line saying the worker sent what is not data, status 2; nothing is unpickled."""
+    body = f"os.write(int(sys.argv[2]), {forged})\n    time.sleep(1000)"
+    proc, took = _timed_check(*_system(tmp_path, "forger", body))
+    assert proc.returncode == 2, proc.stderr
+    line = _error_line(proc)
+    assert "mass_matrix" in line and ("is not data" in line or "did not return" in line), line
+    assert took < ENDS_WITHIN
