@@ -305,3 +305,18 @@ def test_a_module_writing_on_the_pipe_is_refused_in_one_line(tmp_path: Path, for
     line = _error_line(proc)
     assert "mass_matrix" in line and ("is not data" in line or "did not return" in line), line
     assert took < ENDS_WITHIN
+
+
+def test_a_module_that_allocates_without_bound_fails_alone(tmp_path: Path) -> None:
+    """With the worker's address space limited to 1 GiB, a mass_matrix allocating 2 GiB raises
+    MemoryError in its worker: the module's failure, named; the command is unharmed."""
+    body = "np.ones(2 * 2**30 // 8)"
+    model, equations = _system(tmp_path, "greedy", body)
+    start = time.monotonic()
+    proc = subprocess.run(
+        [*CLI, "check", "--model", str(model), "--equations", str(equations), "--states", "5", "--probes", "0"],
+        capture_output=True, text=True, timeout=TIMEOUT, env={**os.environ, "LAGRANGE_XVAL_WORKER_MEMORY": str(2**30)},
+    )  # fmt: skip
+    assert proc.returncode == 1, proc.stderr
+    assert "mass_matrix() raised MemoryError" in proc.stdout.strip().splitlines()[-1], proc.stdout[-2000:]
+    assert time.monotonic() - start < ENDS_WITHIN

@@ -66,6 +66,7 @@ MAX_BLOBS = 100_000
 DTYPES = frozenset(
     {"|b1", "|i1", "|u1"} | {f"{e}{k}{n}" for e in "<>" for k in "iuf" for n in (2, 4, 8)} | {"<c8", "<c16"}
 )
+MEMORY_ENV = "LAGRANGE_XVAL_WORKER_MEMORY"  # bytes of address space a worker may use (default below)
 _HEAD = struct.Struct("!II")
 _LEN = struct.Struct("!Q")
 
@@ -275,13 +276,13 @@ def forget(fd: int) -> None:
 # without the public API, the checks and the engines (the judge; 0.6 s of imports).
 BOOT = """
 import importlib.util, sys, types
-sys.path[:0] = [p for p in sys.argv[5:] if p not in sys.path]
+sys.path[:0] = [p for p in sys.argv[6:] if p not in sys.path]
 spec = importlib.util.find_spec("lagrange_xval")
 package = types.ModuleType("lagrange_xval")
 package.__path__, package.__spec__ = list(spec.submodule_search_locations), spec
 sys.modules["lagrange_xval"] = package
 from lagrange_xval.validate.systems.child import main
-main(int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3]), sys.argv[4] == "1")
+main(int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3]), sys.argv[4] == "1", int(sys.argv[5]))
 """
 _LIVE: weakref.WeakSet[ModuleWorker] = weakref.WeakSet()
 
@@ -315,7 +316,17 @@ class ModuleWorker:
         self._owner = os.getpid()
         main = threading.current_thread() is threading.main_thread()
         self._proc = subprocess.Popen(
-            [sys.executable, "-c", BOOT, str(to_child), str(from_child), str(os.getpid()), str(int(main)), *sys.path],
+            [
+                sys.executable,
+                "-c",
+                BOOT,
+                str(to_child),
+                str(from_child),
+                str(os.getpid()),
+                str(int(main)),
+                str(memory_limit()),
+                *sys.path,
+            ],
             pass_fds=(to_child, from_child),
             stdin=subprocess.DEVNULL,
             stdout=sys.stderr.fileno() if _has_fileno(sys.stderr) else subprocess.DEVNULL,
@@ -477,6 +488,20 @@ class _Records:
         fields = {str(k): unpack(v, self.blobs, self) for k, v in data["f"]}
         cls = dataclasses.make_dataclass(str(data["C"]) if str(data["C"]).isidentifier() else "Record", list(fields))
         return cls(**fields)
+
+
+def memory_limit() -> int:
+    """The worker's address space limit (RLIMIT_AS), bytes: `LAGRANGE_XVAL_WORKER_MEMORY` where set, else
+    half the machine's memory, at most 16 GiB: a module that allocates without bound raises MemoryError
+    (its own failure) instead of taking the machine."""
+    given = os.environ.get(MEMORY_ENV, "").strip()
+    if given.isdigit() and int(given) > 0:
+        return int(given)
+    try:
+        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError):
+        return 16 * 2**30
+    return min(total // 2, 16 * 2**30)
 
 
 def _exception(name: str, kind: str, text: str, harness: bool) -> Exception:

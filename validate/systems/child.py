@@ -66,9 +66,16 @@ class _State:
 _STATE = _State()
 
 
-def main(rfd: int, wfd: int, parent: int = 0, main_thread: bool = True) -> None:
-    """Serve the parent until the pipe closes."""
+def main(rfd: int, wfd: int, parent: int = 0, main_thread: bool = True, memory: int = 0) -> None:
+    """Serve the parent until the pipe closes; `memory`: the address space limit, bytes (0: none)."""
     _die_with_parent(parent or os.getppid(), main_thread)
+    if memory > 0:
+        import resource
+
+        try:
+            resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
+        except (ValueError, OSError):
+            pass
     os.dup2(2, 1)  # what the module prints goes to stderr
     sys.stdout = sys.stderr
     signal.signal(signal.SIGINT, signal.default_int_handler)
