@@ -318,6 +318,7 @@ class ModuleWorker:
         self._proc = subprocess.Popen(
             [
                 sys.executable,
+                *(["-B"] if sys.dont_write_bytecode else []),  # the parent's -B: nothing written beside the module
                 "-c",
                 BOOT,
                 str(to_child),
