@@ -320,3 +320,13 @@ def test_a_module_that_allocates_without_bound_fails_alone(tmp_path: Path) -> No
     assert proc.returncode == 1, proc.stderr
     assert "mass_matrix() raised MemoryError" in proc.stdout.strip().splitlines()[-1], proc.stdout[-2000:]
     assert time.monotonic() - start < ENDS_WITHIN
+
+
+def test_each_check_of_the_api_has_the_whole_time_limit(tmp_path: Path) -> None:
+    """lagrange_xval.check on a system whose budget an earlier check spent: the limit is per check (as it
+    is per command), so the second check has all of it again."""
+    system = lx.System.from_files(*_system(tmp_path, "again"), time_limit=10)
+    assert lx.check(system, n_states=5, probes=0).passed
+    system.equations.WORKER.left = -1.0  # as if the first check had spent it all, and more
+    result = lx.check(system, n_states=5, probes=0)
+    assert result.passed, result.statement

@@ -340,6 +340,11 @@ class ModuleWorker:
         self.description = self.request({"op": "import", "path": self.path}, "importing it", unpack_hook=raw)
         self.description_blobs = raw.blobs  # the description is decoded by its reader (systems/proxy.py)
 
+    def renew(self) -> None:
+        """The whole budget again (a new check of the same system in the API); a stopped worker stays stopped."""
+        if self.stopped is None:
+            self.left = self.time_limit or float("inf")
+
     def call(self, name: str, *args: Any, model: Mapping[str, Any] | None = None) -> Any:
         """The module's function at `name` ("mass_matrix", "VARIANTS.2.residual") called on `args`
         (arrays, numbers, the Params the worker gave, `MODEL` where the model view goes); `model` answers
