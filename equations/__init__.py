@@ -75,6 +75,7 @@ force of the inputs (motors where the MJCF has actuators, otherwise an applied j
 controls. The dynamics are traced with symbolic values for the fast path, the Taylor reference and
 form (d): write them with numpy arithmetic and elementary functions (np.sin, np.cos, np.sqrt, ...;
 np.abs, np.sign, np.where, np.minimum, np.maximum; `@`, np.einsum and np.cross work), not
-np.linalg. Every call into a module (its import included) has a time limit, 30 s by default, and may
-not end the process (sys.exit, os._exit) nor print to stdout (validate/guard.py).
+np.linalg. A module given as a file runs in a worker process of its own, within one time limit for its
+import and all its calls (30 s by default; validate/worker.py); it may not end the process (sys.exit,
+os._exit) nor print to stdout, and whatever it raises is its own failure, named.
 """

@@ -13,8 +13,8 @@ import pytest
 
 VALIDATE = Path(__file__).resolve().parents[1] / "validate"
 # Modules every layer may use: errors, input checks, safe file creation, the executor, the guard around a
-# person's code, and the tolerance numbers.
-FOUNDATION = {"errors", "inputs", "files", "parallel", "guard", "checks.tolerances"}
+# person's code, the worker a person's module runs in, and the tolerance numbers.
+FOUNDATION = {"errors", "inputs", "files", "parallel", "guard", "worker", "checks.tolerances"}
 # A module may import its own package and the layers below its own (the data flows one way:
 # systems -> engines -> dynamics -> checks -> pipeline and studies -> cli).
 LAYER = {

@@ -214,11 +214,11 @@ def test_derive_refuses_a_chain_predicted_past_its_budget(tmp_path: Path) -> Non
 
 
 def test_a_module_that_swallows_every_stop_is_ended(tmp_path: Path) -> None:
-    """A loop with a bare `except:` swallows each Stopped; past the grace the process ends, status 2."""
+    """A loop with a bare `except:` has nothing to swallow: its worker is killed at the limit, status 2."""
     body = "while True:\n        try:\n            time.sleep(1000)\n        except BaseException:\n            pass"
     proc = _check(*_system(tmp_path, "stubborn", body))
     assert proc.returncode == 2, proc.stderr
-    assert "mass_matrix did not return within 2 s" in proc.stderr and "would not stop" in proc.stderr
+    assert "mass_matrix did not return within 2 s (the time limit per system" in _error_line(proc)
 
 
 def test_the_guard_restores_someone_elses_alarm() -> None:

@@ -119,6 +119,9 @@ def _stop_is_a_verdict(fn: Callable[..., Result]) -> Callable[..., Result]:
 
     @functools.wraps(fn)
     def guarded(system: System | str, **options: Any) -> Result:
+        worker = getattr(getattr(system, "equations", None), "WORKER", None)
+        if worker is not None:  # a person's module in its worker: the time limit is per check, as per command
+            worker.renew()
         try:
             return fn(system, **options)
         except Stopped as stop:

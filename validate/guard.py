@@ -1,14 +1,19 @@
-"""A guard around every call into a person's code: a time limit, no exit, nothing on stdout.
+"""A guard around each call into an equations module in this process: a time limit, no exit, no stdout.
 
-An equations module is the person's own Python: it may loop, sleep, call `sys.exit` or `os._exit`,
-or print. Every call into it (its import, `parameters`, `assumptions`, the dynamics, the optional
-functions and the printed forms' functions) goes through `call`, which
+A person's own module (a file given with `--equations`, `--systems` or `System.from_files`) is run in a
+worker process of its own instead (validate/worker.py): a guard in the process can be switched off by
+the code it guards (an ignored or blocked SIGALRM, one long C call). This guard serves the repository's
+own modules (`equations/`, part of the harness), and `Stopped` and `describe` serve both.
+
+An equations module may loop, sleep, call `sys.exit` or `os._exit`, or print. Every call into it (its
+import, `parameters`, `assumptions`, the dynamics, the optional functions and the printed forms'
+functions) goes through `call`, which
 
 - enforces a time limit per call (`DEFAULT_TIME_LIMIT`, `--time-limit SECONDS`, `time_limit=` of
-  `System.from_files` and `load`): SIGALRM, armed with `signal.setitimer`, raises `Stopped` inside
-  the person's Python (a `time.sleep` is interrupted too), repeating every `REPEAT` s while the call
-  goes on; a module that swallows even these (a bare `except:` in a loop) past `GRACE` more seconds
-  has the process ended with one line on stderr (status 2; in `run`, its own worker: its system fails);
+  `load`): SIGALRM, armed with `signal.setitimer`, raises `Stopped` inside the module's Python (a
+  `time.sleep` is interrupted too), repeating every `REPEAT` s while the call goes on; a module that
+  swallows even these (a bare `except:` in a loop) past `GRACE` more seconds has the process ended
+  with one line on stderr (status 2; in `run`, its own worker: its system fails);
 - turns `sys.exit` (SystemExit) and `os._exit` (replaced while the person's code runs) into `Stopped`,
   naming the function: "mass_matrix called sys.exit(0)";
 - sends what the person's code prints to stderr (`sys.stdout` is stderr while it runs; the command
@@ -20,9 +25,9 @@ finding (`run`: the system fails and the others' results are kept; `check`: one 
 a failing row). After a stop the module is spent: every later call raises the same `Stopped` at once,
 so a module that sleeps in every function costs one time limit, not one per call.
 
-Why in-process and not a child process per call: the harness calls the dynamics thousands of times
-per system (batched states, probes, traced code, per-step mirrors); a process boundary per call would
-cost more than the calls. What a guard in the process cannot catch (a process ended from C, a signal
+Why in-process for the repository's modules: the harness calls the dynamics thousands of times per
+system (batched states, probes, traced code, per-step mirrors); its own modules need no worker. What a
+guard in the process cannot catch (a process ended from C, a signal
 sent to itself, `posix._exit`) `run` catches one level up:
 each system runs in a worker process of its own (validate/parallel.py `executor_for`), so a worker
 that dies fails its own system alone (pipeline.run). The alarm works in a process's main thread,
@@ -257,7 +262,8 @@ def describe(exc: BaseException) -> str:
     """An exception from a hand source as one phrase, naming the person's function where it was
     raised inside one ("mass_matrix raised ZeroDivisionError: division by zero")."""
     name = getattr(exc, "_lagrange_xval_function", None)
-    text = f"{type(exc).__name__}: {exc}".strip()
+    said = str(exc).strip()
+    text = f"{type(exc).__name__}: {said}" if said else type(exc).__name__
     return f"{name} raised {text}" if name else text
 
 

@@ -89,8 +89,8 @@ def hand_terms(system: System, states: States) -> tuple[dict[str, np.ndarray], d
             with np.errstate(all="ignore"):
                 arr = _shaped(f"{fname}()", fn(), shape)
         except Exception as exc:  # noqa: BLE001 - the user's code: its failure is the finding
-            said = str(exc) if isinstance(exc, HarnessError) else f"{fname}() raised {type(exc).__name__}: {exc}"
-            errors[term] = said.strip()
+            said = f"{fname}() raised {type(exc).__name__}: {exc}".strip().removesuffix(":")  # KeyboardInterrupt
+            errors[term] = str(exc).strip() if isinstance(exc, HarnessError) else said
             return None
         if not np.all(np.isfinite(arr)):
             bad = int(np.argwhere(~np.isfinite(arr.reshape(N, -1)))[0][0])

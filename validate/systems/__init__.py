@@ -18,7 +18,7 @@ from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
-from ..errors import HarnessError, shown, unknown_name
+from ..errors import HarnessError, unknown_name
 from ..guard import DEFAULT_TIME_LIMIT, Guard, Stopped, guard_module
 from . import bounds, floating, textform, urdf
 from .forms import input_name, normalize
@@ -442,11 +442,8 @@ def load_module(path: Path, *, model: Path | None = None, time_limit: float = DE
     same stem never share a module); a missing file, a syntax error or an exception while importing
     it, and a module that lacks part of the contract, are one-line HarnessErrors. A `.toml` file is
     equations as text, read against `model` (validate/systems/textform.py). The import and every call
-    into the module are guarded (validate/guard.py): `time_limit` seconds each, no exit, no stdout."""
-    import hashlib
-    import importlib.util
-    import sys
-
+    into the module run in a worker process of its own (validate/worker.py, systems/proxy.py), within
+    one budget of `time_limit` seconds for all of them."""
     path = Path(path)
     if not path.is_file():
         raise HarnessError(f"equations file not found: {path} (give a Python module, .py, or a .toml file).")
@@ -454,27 +451,14 @@ def load_module(path: Path, *, model: Path | None = None, time_limit: float = DE
         if model is None:
             raise HarnessError(f"{path}: equations as text are read against their model; give the model file too.")
         return _check_contract(textform.module_from_file(path, model_view(model)), str(path))
-    digest = hashlib.sha256(str(path.resolve()).encode()).hexdigest()[:12]
-    name = f"lagrange_xval_user_{path.stem}_{digest}"
-    spec = importlib.util.spec_from_file_location(name, path)
-    if spec is None or spec.loader is None:
-        raise HarnessError(f"{path}: not a Python module (give a .py file).")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    guard = Guard(str(path), time_limit)
+    from .proxy import worker_module
+
+    module = worker_module(path, time_limit)
     try:
-        # compiled from the source, never __pycache__ (keyed by whole-second mtime and size: `watch` saves faster)
-        guard.call("importing it", exec, compile(path.read_bytes(), str(path), "exec", dont_inherit=True), vars(module))
-    except SyntaxError as exc:
-        sys.modules.pop(name, None)
-        raise HarnessError(f"{path}:{exc.lineno}: syntax error: {exc.msg}.") from None
-    except Stopped as stop:
-        sys.modules.pop(name, None)
-        raise HarnessError(str(stop)) from None
-    except Exception as exc:  # noqa: BLE001 - the user's module failing on import is reported in one line
-        sys.modules.pop(name, None)
-        raise HarnessError(f"{path}: importing it raised {type(exc).__name__}: {shown(exc)}") from None
-    return _check_contract(guard_module(module, guard), str(path))
+        return _check_contract(module, str(path))
+    except BaseException:
+        module.WORKER.close()
+        raise
 
 
 def pairs_in(folder: Path) -> list[tuple[Path, Path]]:
