@@ -46,6 +46,7 @@ import sys
 import threading
 import time
 import weakref
+from collections import OrderedDict
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -93,15 +94,18 @@ class Raised(Exception):  # noqa: N818 - the module's exception, by name: not on
         return self.message
 
 
-_KINDS: dict[str, type[Raised]] = {}
+_KINDS: OrderedDict[str, type[Raised]] = OrderedDict()  # one class per exception name, the newest 256 kept
+KINDS_KEPT = 256
 
 
 def raised(function: str, kind: str, message: str) -> Raised:
     """The `Raised` for an exception named `kind` (an identifier, else "Exception") out of `function`."""
     kind = kind if kind.isidentifier() and len(kind) <= 80 else "Exception"
-    if kind not in _KINDS:
-        _KINDS[kind] = type(kind, (Raised,), {"__module__": "lagrange_xval.user"})
-    return _KINDS[kind](function, kind, message)
+    cls = _KINDS.pop(kind, None) or type(kind, (Raised,), {"__module__": "lagrange_xval.user"})
+    _KINDS[kind] = cls
+    while len(_KINDS) > KINDS_KEPT:
+        _KINDS.popitem(last=False)
+    return cls(function, kind, message)
 
 
 # ----------------------------------------------------------------------------------------------

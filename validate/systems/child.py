@@ -25,6 +25,7 @@ from collections.abc import Iterator, Mapping
 from typing import Any
 
 from ..worker import pack, receive, send, unpack
+from .memo import Memo
 
 _REAL_EXIT = os._exit
 CONTRACT = (
@@ -390,15 +391,16 @@ class Node:
         return Node("neg", self)
 
 
-_TREES: dict[str, Any] = {}
+_TREES = Memo(maxsize=64)  # one backend per name the parent traces for
 
 
 def _tree(name: str) -> Any:
     """The tree backend, named after the parent's (its refusals say what the trace was for)."""
-    if name not in _TREES:
-        from .tracing import Backend
+    from .tracing import Backend
 
-        _TREES[name] = Backend(
+    return _TREES.get(
+        name,
+        lambda: Backend(
             str(name),
             lambda x: Node("c", float(x)),
             lambda fn: lambda *a: Node(fn, *a),
@@ -406,5 +408,5 @@ def _tree(name: str) -> Any:
             lambda op, a, b: Node(op, a, b),
             lambda c, a, b: Node("select", c, a, b),
             lambda op, cs: Node(op, *cs),
-        )
-    return _TREES[name]
+        ),
+    )

@@ -30,6 +30,7 @@ from ..errors import HarnessError
 from ..guard import Stopped
 from ..worker import ModuleWorker, Raised, escape, pack, unpack
 from . import tracing
+from .memo import Memo
 
 FORMS_MODULE = "lagrange_xval.equations._forms"
 MAX_NODES = 5_000_000
@@ -121,17 +122,16 @@ def _printed_form(name: str, where: str, fields: dict[str, Any]) -> Any:
     return form
 
 
-_RECORDS: dict[tuple[str, tuple[str, ...]], Any] = {}
+_RECORDS = Memo(maxsize=256)  # one stand-in class per (name, fields) a module's Params has
 
 
 def _record_class(name: str, fields: tuple[str, ...]) -> Any:
     """A frozen dataclass of these fields, standing in for the module's own (its Params): the harness
     reads, replaces and traces its fields; the worker rebuilds the module's class from them."""
-    key = (name, fields)
-    if key not in _RECORDS:
-        safe = name if name.isidentifier() else "Params"
-        _RECORDS[key] = dataclasses.make_dataclass(safe, [(f, Any) for f in fields], frozen=True)
-    return _RECORDS[key]
+    safe = name if name.isidentifier() else "Params"
+    return _RECORDS.get(
+        (name, fields), lambda: dataclasses.make_dataclass(safe, [(f, Any) for f in fields], frozen=True)
+    )
 
 
 def stand_in_function(worker: ModuleWorker, path: str, names: list[str], not_provided: bool) -> Callable[..., Any]:
