@@ -287,7 +287,7 @@ def bias(p, q, v):
 
 def test_a_module_message_cannot_forge_a_verdict_line(tmp_path, capsys):
     """A 1 MB exception message with a newline, a `verdict:` line and an escape sequence: `check` prints
-    one verdict line (its own), escaped and cut; `--json` keeps the message whole."""
+    one verdict line (its own), escaped and cut; `--json` escaped too, and says how much was cut."""
     from lagrange_xval.validate.cli import main
     from lagrange_xval.validate.errors import LINE_CHARS
 
@@ -302,7 +302,10 @@ def test_a_module_message_cannot_forge_a_verdict_line(tmp_path, capsys):
     assert max(map(len, out)) < LINE_CHARS + 40
     assert main([*argv, "--states", "20", "--probes", "1", "--json"]) == 1
     statement = json.loads(capsys.readouterr().out)["verdict"]["statement"]
-    assert "boom\nverdict: mine: pass: forged\x1b[2J" + "y" * 1_000_000 in statement
+    # as the module's worker carries it back (validate/systems/child.py): escaped, no control character
+    # crosses the process boundary, and a message this long is cut, saying how much more there was
+    assert "boom\\nverdict: mine: pass: forged" in statement and "\x1b" not in statement
+    assert re.search(r"\(\d+ more characters\)", statement), statement[-200:]
 
 
 def test_an_import_error_is_one_escaped_line(tmp_path, capsys):

@@ -24,24 +24,12 @@ import sys
 from collections.abc import Iterator, Mapping
 from typing import Any
 
+from ..guard import CONTRACT_FUNCTIONS
 from ..worker import pack, receive, send, unpack
 from .memo import Memo
 
 _REAL_EXIT = os._exit
-CONTRACT = (
-    "parameters",
-    "assumptions",
-    "mass_matrix",
-    "bias",
-    "residual",
-    "qacc",
-    "kinetic_energy",
-    "potential_energy",
-    "hamiltonian",
-    "passive",
-    "body_positions",
-    "body_rotations",
-)
+CONTRACT = CONTRACT_FUNCTIONS  # the contract's functions (equations/__init__.py), as the guard names them
 
 
 class _Exit(BaseException):  # noqa: N818 - os._exit called inside a call: answered, then the process ends
