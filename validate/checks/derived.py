@@ -56,7 +56,9 @@ def derived_text(
     return str(
         _cached(
             _what(view, joints, coordinates, joint_map, fmt) + ("" if simplify else " exact"),
-            lambda: as_text(equations(derive(view, joints), tuple(coordinates), joint_map, simplify=simplify), fmt),
+            lambda: as_text(
+                equations(derive(view, joints, readable=True), tuple(coordinates), joint_map, simplify=simplify), fmt
+            ),
             cache,
         )
     )

@@ -101,8 +101,9 @@ class _Params:
     """Symbols for the model's numbers: where each is read (model key, entry), and the structure the
     derivation leaves exact (zero patterns, signs, axes, orientations)."""
 
-    def __init__(self, view: Any) -> None:
+    def __init__(self, view: Any, *, readable: bool = False) -> None:
         self.view = view
+        self.readable = readable
         self.source: dict[Any, tuple[str, Any]] = {}  # symbol -> (model key, entry index or None)
         self.meaning: dict[Any, str] = {}
         self.sign: dict[Any, int] = {}
@@ -164,6 +165,9 @@ class _Params:
         """A body frame's rotation with each numeric entry within ROTATION_ROUND of 0 or +-1 made that
         number (counted in `rounded`)."""
         import sympy as sp
+
+        if not self.readable:
+            return R
 
         def clean(x: Any) -> Any:
             if not x.is_Number or x in (0, 1, -1):
@@ -380,11 +384,13 @@ def _coriolis(M: Any, q: list[Any], v: list[Any]) -> Any:
     return C
 
 
-def derive(view: Any, joints: tuple[str, ...]) -> Derivation:
-    """The equations of motion of the model `view` in the coordinates of `joints` (one per joint)."""
+def derive(view: Any, joints: tuple[str, ...], *, readable: bool = False) -> Derivation:
+    """The equations of motion of the model `view` in the coordinates of `joints` (one per joint).
+    `readable`: rotation entries within ROTATION_ROUND of 0 or +-1 made exact, for a person to read (never
+    for the symbolic source: the rounding changes the model by up to ROTATION_ROUND)."""
     import sympy as sp
 
-    P = _Params(view)
+    P = _Params(view, readable=readable)
     order, all_joints = _bodies_and_joints(view, joints)
     q = [sp.Symbol(_clean(j), real=True) for j in joints]
     v = [sp.Symbol(f"d{_clean(j)}", real=True) for j in joints]

@@ -19,6 +19,7 @@ from ..errors import HarnessError
 from ..systems import System
 from ..systems.urdf import for_pinocchio
 from .base import Kinematics
+from .readers import failure
 
 # ABA in Pinocchio's local convention, per state. Its C++ batch (`abaInParallel`) runs the world
 # convention only, whose spatial inertias about the world origin lose accuracy with the lever arms:
@@ -33,9 +34,8 @@ def build_model(system: System) -> Any:
     if system.reads_urdf:
         try:
             model = pin.buildModelFromXML(for_pinocchio(system.urdf_text(), system.mjcf.name))
-        except Exception as exc:
-            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            raise HarnessError(f"{system.mjcf.name}: Pinocchio cannot build the model: {first}") from None
+        except Exception as exc:  # the library's own error, named with its likely cause (engines/readers.py)
+            raise failure("pinocchio", system.mjcf.name, exc) from None
         model.gravity.linear = np.array(system.view["gravity"], dtype=float)
         return model
     xml = one_tree(system.mjcf_xml())
@@ -44,9 +44,8 @@ def build_model(system: System) -> Any:
         with os.fdopen(fd, "w") as f:
             f.write(xml)
         model = pin.buildModelFromMJCF(path)
-    except Exception as exc:
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise HarnessError(f"{system.mjcf.name}: Pinocchio cannot build the model: {first}") from None
+    except Exception as exc:  # the library's own error, named with its likely cause (engines/readers.py)
+        raise failure("pinocchio", system.mjcf.name, exc, xml) from None
     finally:
         os.unlink(path)
     model.gravity.linear = np.array(system.view["gravity"], dtype=float)

@@ -76,6 +76,7 @@ def urdf_defects(root: ET.Element) -> list[tuple[str, str, ET.Element]]:
     return out
 
 
+NOISE = 1e-15  # kg m^2: a tensor no entry of which is larger is zero written with rounding noise
 MINVAL = 1e-15  # MuJoCo's mjMINVAL: a moving body's mass and principal moments must exceed it
 BOUND_MASS, BOUND_INERTIA = 1e-9, 1e-12  # kg, kg m^2: what a moving link below it is given (boundmass, boundinertia)
 
@@ -144,6 +145,10 @@ def repair_urdf(text: str) -> tuple[str, list[str]]:
             lines.append(f"link '{link}': {why}; its inertia dropped (MuJoCo's reading of a massless link)")
             continue
         fixed = repaired(tensor(element))
+        if fixed is None and float(np.abs(tensor(element)).max()) <= NOISE:
+            _isotropic(element, 0.0)  # rounding noise around a zero tensor (1e-35): a point mass
+            lines.append(f"link '{link}': {why}; rounding noise around zero, made 0")
+            continue
         if fixed is None:
             lines.append(f"link '{link}': {why}; no valid tensor has its trace: read as written")
             continue
