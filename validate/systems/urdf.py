@@ -283,8 +283,9 @@ def alignments(text: str, source: str) -> list[str]:
         elif tr.joint not in joints:
             out.append(f"transmission of '{tr.actuator}' on joint '{tr.joint}', which the file lacks, ignored")
         else:
+            called = "" if name == tr.actuator else f" '{name}' (its actuator's name is taken twice)"
             out.append(
-                f"transmission of '{tr.actuator}' on joint '{tr.joint}' made a MuJoCo motor '{name}', gear {tr.gear:g}"
+                f"transmission of '{tr.actuator}' on joint '{tr.joint}' made a MuJoCo motor{called}, gear {tr.gear:g}"
             )
     out += coupled_transmissions(text, source)
     out.append(
