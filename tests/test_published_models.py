@@ -164,3 +164,20 @@ def test_check_constraints_says_when_and_which_constraint_acts(tmp_path, capsys)
     assert "agrees with the equations until 0.5" in last and "when joint 'theta' reaches its range" in last, last
     assert main(["check", "--model", str(model), "--states", "20", "--constraints"]) == 2
     assert "give --equations" in capsys.readouterr().err
+
+
+def test_output_step_is_a_whole_number_of_the_models_steps():
+    """gymnasium's inverted pendulum steps at 0.02 s: its runs are sampled every step, not every 0.01 s."""
+    from lagrange_xval.validate.dynamics.integrate import output_step
+
+    assert output_step(0.01, 0.002) == 0.01
+    assert output_step(0.01, 0.02) == pytest.approx(0.02)
+    assert output_step(0.01, 0.003) == pytest.approx(0.012)
+
+
+@pytest.mark.long
+def test_run_on_a_published_model_stepping_at_its_own_timestep(tmp_path, capsys):
+    """`run --model inverted_pendulum.xml` (timestep 0.02 s, a range, a control range): every stage runs."""
+    out = tmp_path / "out"
+    args = ["run", "--model", str(_assets() / "inverted_pendulum.xml"), "--out", str(out), "--no-replay"]
+    assert main(args) == 0, capsys.readouterr().out[-600:]
