@@ -41,10 +41,12 @@ def test_constraints_are_listed_and_switched_off_not_refused():
 
 def test_free_joints_become_slides_and_hinges_every_reader_shares():
     """ant.xml's free joint: six one-coordinate joints in the same body, listed; unnamed bodies named."""
-    text, lines = floating.convert((_assets() / "ant.xml").read_text())
-    model = mujoco.MjModel.from_xml_string(text)
+    converted = floating.convert((_assets() / "ant.xml").read_text())
+    model = mujoco.MjModel.from_xml_string(converted.text)
     assert model.nq == model.nv == 14
-    assert any("free joint 'root'" in line for line in lines) and any("body#" in line for line in lines)
+    assert any("free joint 'root'" in line for line in converted.lines)
+    assert any("body#" in line for line in converted.lines)
+    assert converted.middle == {"root_ry"}  # the chart's singular angle, kept off +-pi/2 in random states
 
 
 @pytest.mark.parametrize("name", ["inverted_pendulum.xml", "inverted_double_pendulum.xml", "hopper.xml", "point.xml"])
@@ -166,13 +168,13 @@ def test_check_constraints_says_when_and_which_constraint_acts(tmp_path, capsys)
     assert "give --equations" in capsys.readouterr().err
 
 
-def test_output_step_is_a_whole_number_of_the_models_steps():
+def test_the_output_grid_is_a_whole_number_of_the_models_steps():
     """gymnasium's inverted pendulum steps at 0.02 s: its runs are sampled every step, not every 0.01 s."""
-    from lagrange_xval.validate.dynamics.integrate import output_step
+    from lagrange_xval.validate.dynamics.integrate import output_grid
 
-    assert output_step(0.01, 0.002) == 0.01
-    assert output_step(0.01, 0.02) == pytest.approx(0.02)
-    assert output_step(0.01, 0.003) == pytest.approx(0.012)
+    assert output_grid(10.0, 0.01, 0.002) == (10.0, 0.01)
+    assert output_grid(10.0, 0.01, 0.02) == pytest.approx((10.0, 0.02))
+    assert output_grid(10.0, 0.01, 0.003) == pytest.approx((0.012 * 833, 0.012))
 
 
 @pytest.mark.long

@@ -159,8 +159,7 @@ def _run_stages(
     again; they run only for a derivation that agrees (else a bounded divergence run). `cache`: where
     references, chaos summaries, derived equations and explanations are kept (None: nowhere)."""
     clock = clock or Clock()
-    dt_out = integrate.output_step(dt_out, float(system.mujoco_model().opt.timestep))
-    t_end = dt_out * max(1, round(t_end / dt_out))  # a whole number of samples
+    t_end, dt_out = integrate.output_grid(t_end, dt_out, float(system.mujoco_model().opt.timestep))
     decision = decide(system, n_states=n_states, seed=seed, probes=n_probes, cache=cache, clock=clock)
     if decision.unreadable:
         return _unreadable(decision)

@@ -20,7 +20,7 @@ from ..engines.base import Source, engine_of
 from ..engines.frames import mujoco_joint_frames
 from ..results.schema import Mismatch, ModelChecks
 from ..systems import System
-from ..systems.modelview import quat_to_mat
+from ..systems.modelview import quat_to_mat, welded
 
 LEFT_OUT = ("/frictionloss",)  # keys of forces every comparison leaves out: what a derivation assumes of them is moot
 RTOL = 1e-12  # both sides are the same compiled numbers, possibly through a few operations
@@ -115,24 +115,18 @@ def pinocchio_vs_mujoco(system: System, pin_source: Source) -> list[Mismatch]:
     pn = engine_of(pin_source, PinocchioSource)  # a MappedSource's engine: its model is the same
     model, view = pn.model, system.view
     rows: list[Mismatch] = []
-    moved = {view[f"joint/{j}/body"] for j in system.model_joints}
-    welded: dict[str, list[str]] = {}
-    for key in view:
-        if key.startswith("body/") and key.endswith("/parent"):
-            body = key[len("body/") : -len("/parent")]
-            if body not in moved:
-                welded.setdefault(view[key], []).append(body)
+    carried = welded(view)
     for body, jid, fid in zip(system.bodies, pn.joint_of_body, pn.frames, strict=True):
         # Pinocchio keeps one inertia per joint, in the joint's frame, with the bodies welded to it
         # added; MuJoCo one per body, in the body's frame: both brought to the body's frame and content.
         inertia = model.inertias[jid]
         R, p = model.frames[fid].placement.rotation, model.frames[fid].placement.translation
-        mass, com, rot = _rigid(view, body, welded)
+        mass, com, rot = _rigid(view, body, carried)
         # welded bodies' centres move the sum's: it carries the rounding of their distances
         extent = max(
             [
                 float(np.abs(view[f"body/{c}/pos"]).max() + np.abs(view[f"body/{c}/com"]).max())
-                for c in welded.get(body, [])
+                for c in carried.get(body, [])
             ]
             + [0.0]
         )

@@ -53,14 +53,14 @@ def initial_state(system: System) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)
 
 
-def output_step(dt_out: float, timestep: float) -> float:
-    """`dt_out`, or where the model's own timestep does not divide it (a published model stepping at
-    0.02 s), the smallest whole multiple of the timestep at least as long: MuJoCo's runs are sampled
-    every whole number of steps."""
+def output_grid(t_end: float, dt_out: float, timestep: float) -> tuple[float, float]:
+    """(t_end, dt_out) for a model stepping at `timestep`: `dt_out`, or where the timestep does not
+    divide it (a published model stepping at 0.02 s), the smallest whole multiple of the timestep at
+    least as long (MuJoCo's runs are sampled every whole number of steps); t_end a whole number of them."""
     steps = dt_out / timestep
-    if steps >= 1 and np.isclose(steps, round(steps), rtol=1e-9, atol=0.0):
-        return dt_out
-    return float(timestep * max(1, int(np.ceil(steps - 1e-9))))
+    if not (steps >= 1 and np.isclose(steps, round(steps), rtol=1e-9, atol=0.0)):
+        dt_out = float(timestep * max(1, int(np.ceil(steps - 1e-9))))
+    return dt_out * max(1, round(t_end / dt_out)), dt_out
 
 
 def time_grid(t_end: float, dt_out: float) -> np.ndarray:

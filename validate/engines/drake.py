@@ -70,7 +70,7 @@ def parse(system: System) -> tuple[Any, list[str]]:
     text, kind = (without_geometry(system.urdf_text()), "urdf") if system.reads_urdf else (system.mjcf_xml(), "xml")
     named = [] if system.reads_urdf else _named(text, system.name)
     text = named[0] if named else text
-    text, dropped = _unconstrained(text, "joint/mimic" if system.reads_urdf else "equality")
+    text, dropped = _unconstrained(text, system.reads_urdf)
     log, handler = logging.getLogger("drake"), _Collect()
     log.addHandler(handler)
     propagate, log.propagate = log.propagate, False
@@ -87,24 +87,24 @@ def parse(system: System) -> tuple[Any, list[str]]:
     return plant, named[1:] + dropped + warnings
 
 
-def _unconstrained(text: str, path: str) -> tuple[str, list[str]]:
-    """The model without its coupling constraints (a URDF's <mimic>, an MJCF's <equality>): the harness
-    leaves constraints out of every comparison (systems/scope.py), and Drake's continuous-mode plant
-    refuses them outright."""
+def _unconstrained(text: str, urdf: bool) -> tuple[str, list[str]]:
+    """The model without its coupling constraints (a URDF joint's <mimic>, an MJCF's <equality>): the
+    harness leaves constraints out of every comparison (systems/scope.py), and Drake's continuous-mode
+    plant refuses them outright."""
     import xml.etree.ElementTree as ET
 
-    if path.split("/")[-1] not in text:
+    tag = "mimic" if urdf else "equality"
+    if tag not in text:
         return text, []
     root = ET.fromstring(text)
-    parent_tag, tag = path.split("/") if "/" in path else ("mujoco", path)
-    removed = 0
-    for parent in [root] if parent_tag == root.tag else list(root.iter(parent_tag)):
-        for child in parent.findall(tag):
-            parent.remove(child)
-            removed += 1
+    parents = root.iter("joint") if urdf else [root]
+    found = [(parent, child) for parent in parents for child in parent.findall(tag)]
+    for parent, child in found:
+        parent.remove(child)
+    removed = len(found)
     if not removed:
         return text, []
-    what = "<mimic> coupling(s)" if tag == "mimic" else "<equality> section(s)"
+    what = "<mimic> coupling(s)" if urdf else "<equality> section(s)"
     line = f"{removed} {what} removed before Drake reads the model (constraints are left out of every comparison)"
     return ET.tostring(root, encoding="unicode"), [line]
 

@@ -17,6 +17,7 @@ import pinocchio as pin
 
 from ..errors import HarnessError
 from ..systems import System
+from ..systems.modelview import welded
 from ..systems.urdf import for_pinocchio
 from .base import Kinematics
 from .readers import failure
@@ -186,9 +187,7 @@ class PinocchioSource:
         except where bodies without a joint are welded to the body (Pinocchio adds them to the joint's
         inertia and keeps no inertia per body): there the body's own centre, as compiled, in its frame."""
         view = self.system.view
-        moved = {str(view[f"joint/{j}/body"]) for j in self.system.model_joints}
-        parents = [k[len("body/") : -len("/parent")] for k in view if k.startswith("body/") and k.endswith("/parent")]
-        carrying = {str(view[f"body/{b}/parent"]) for b in parents if b not in moved}
+        carrying = welded(view)
         out = []
         for b, jid, fid in zip(self.system.bodies, self.joint_of_body, self.frames, strict=True):
             if b in carrying:

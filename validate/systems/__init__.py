@@ -207,7 +207,7 @@ class System:
             if jid >= 0 and m.jnt_limited[jid] and m.jnt_range[jid][0] < m.jnt_range[jid][1]:
                 out[i] = m.jnt_range[jid]
         if self.model_format != "urdf":  # a free or ball joint's middle angle, away from its chart's singularity
-            chart = floating.middle_angles(self._file_read[1])
+            chart = self._floating.middle
             for i, j in enumerate(self.joints):
                 if j in chart:
                     out[i] = np.clip(out[i], -floating.CHART_LIMIT, floating.CHART_LIMIT)
@@ -316,6 +316,11 @@ class System:
         return self._file_read
 
     @functools.cached_property
+    def _floating(self) -> floating.Converted:
+        """The MJCF file's free and ball joints as slides and hinges, converted once (systems/floating.py)."""
+        return floating.convert(self._file_read[1])
+
+    @functools.cached_property
     def _file_read(self) -> tuple[str, str]:
         return model_file(self.mjcf)
 
@@ -330,7 +335,7 @@ class System:
         """What the harness does so that the engines' readings of a model agree: for an MJCF its free and
         ball joints in one coordinate per degree of freedom (systems/floating.py), for a URDF urdf.py's."""
         if self.model_format != "urdf":
-            return floating.convert(self._file_read[1])[1]
+            return self._floating.lines
         locked = [f"joint(s) {', '.join(self.locked)} locked at zero (made fixed) in the URDF both engines read"]
         return (locked if self.locked else []) + urdf.alignments(self.urdf_text(), self.mjcf.name)
 

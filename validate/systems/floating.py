@@ -19,10 +19,12 @@ a ball `ball#<k>`, by its order in the file).
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+from typing import NamedTuple
 
 SLIDES = (("tx", "1 0 0"), ("ty", "0 1 0"), ("tz", "0 0 1"))
 HINGES = (("rz", "0 0 1"), ("ry", "0 1 0"), ("rx", "1 0 0"))
 KEPT = ("damping", "armature", "stiffness", "frictionloss", "group")  # what each part keeps
+CHART_LIMIT = 1.2  # rad: the middle angle's range random states are drawn in (cos 1.2 = 0.36: M stays well posed)
 ZEROED = ("damping", "armature", "stiffness", "frictionloss", "ref", "springref")
 
 
@@ -74,14 +76,25 @@ def _name_unnamed(root: ET.Element) -> list[str]:
     return [f"unnamed bodies and joints called by MuJoCo's ids: {', '.join(named)}"] if named else []
 
 
-def convert(text: str) -> tuple[str, list[str]]:
+class Converted(NamedTuple):
+    """What `convert` made: the text every reader parses, one line per change, and the middle hinge
+    (`_ry`) of each converted joint, whose chart is singular at +-pi/2 (the first and last hinges align,
+    M loses rank): random states keep it within +-CHART_LIMIT."""
+
+    text: str
+    lines: list[str]
+    middle: frozenset[str] = frozenset()
+
+
+def convert(text: str) -> Converted:
     """The MJCF with its free and ball joints as slides and hinges (module docstring) and its unnamed
     bodies and joints named by MuJoCo's ids, and one line per change; the text unchanged where it needs none."""
     if "free" not in text and "ball" not in text and not _unnamed(text):
-        return text, []
+        return Converted(text, [])
     root = ET.fromstring(text)
     lines: list[str] = _name_unnamed(root)
     count = {"free": 0, "ball": 0}
+    middle: set[str] = set()
     for body in root.iter("body"):
         for i, element in reversed(list(enumerate(body))):
             kind = _kind(element)
@@ -90,6 +103,7 @@ def convert(text: str) -> tuple[str, list[str]]:
             count[kind] += 1
             name = element.get("name") or f"{kind}#{count[kind]}"
             parts = _parts(element, kind, name)
+            middle.add(f"{name}_ry")
             body.remove(element)
             for k, part in enumerate(parts):
                 body.insert(i + k, part)
@@ -98,19 +112,6 @@ def convert(text: str) -> tuple[str, list[str]]:
                 f"{', '.join(p.get('name', '') for p in parts)} (slides along and hinges about the body's axes, "
                 "intrinsic Z-Y-X angles; the same body and freedom, one coordinate per degree of freedom)"
             )
-    return (ET.tostring(root, encoding="unicode"), lines) if lines else (text, [])
-
-
-CHART_LIMIT = 1.2  # rad: the middle angle's range random states are drawn in (cos 1.2 = 0.36: M stays well posed)
-
-
-def middle_angles(text: str) -> set[str]:
-    """The middle hinge (`_ry`) of every converted free or ball joint: the chart is singular where it
-    reaches +-pi/2 (the first and last hinges align, M loses rank), so random states keep it within
-    +-CHART_LIMIT."""
-    if "free" not in text and "ball" not in text:
-        return set()
-    converted, _ = convert(text)
-    names = {j.get("name", "") for j in ET.fromstring(converted).iter("joint")}
-    originals = {n[: -len("_ry")] for n in names if n.endswith("_ry") and n[: -len("_ry")] + "_rz" in names}
-    return {f"{n}_ry" for n in originals if f"{n}_rx" in names}
+    if not lines:
+        return Converted(text, [])
+    return Converted(ET.tostring(root, encoding="unicode"), lines, frozenset(middle))

@@ -58,6 +58,17 @@ def names(keys: Iterable[str], kind: str, field: str) -> list[str]:
     return out
 
 
+def welded(view: Mapping[str, Any]) -> dict[str, list[str]]:
+    """The bodies no joint moves, by the body they are welded to (their parent): what a reader that keeps
+    one inertia per joint (Pinocchio) adds to that body's."""
+    moved = {str(view[f"joint/{j}/body"]) for j in names(view, "joint", "body")}
+    out: dict[str, list[str]] = {}
+    for body in names(view, "body", "parent"):
+        if body not in moved:
+            out.setdefault(str(view[f"body/{body}/parent"]), []).append(body)
+    return out
+
+
 class ModelView(Mapping[str, Any]):
     """Read-only mapping from the keys above to values; an unknown key names the close ones."""
 
