@@ -527,7 +527,7 @@ def _fit(
 def sp_str(c: Fraction, basis: Any) -> str:
     import sympy as sp
 
-    return sp.sstr(sp.Rational(c.numerator, c.denominator) * basis)
+    return str(sp.sstr(sp.Rational(c.numerator, c.denominator) * basis))
 
 
 CHANGED_BY = {"kinetic energy": "mass matrix", "potential energy": "gravity"}  # the entries an energy's slip moves

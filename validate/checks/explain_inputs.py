@@ -76,7 +76,7 @@ def force_part(part: str, index: tuple[int, ...]) -> User:
 def mass_identifiable(system: System) -> bool:
     """M can be read back from M^-1 B: every coordinate actuated, B square and invertible."""
     B = system.input_matrix
-    return B.shape[0] == B.shape[1] and np.linalg.matrix_rank(B) == B.shape[0]
+    return bool(B.shape[0] == B.shape[1] and np.linalg.matrix_rank(B) == B.shape[0])
 
 
 def actuation_explanations(system: System, probe_systems: list[System], *, seed: int = 0) -> list[Explanation]:
@@ -101,7 +101,7 @@ def _input_columns(system: System, q: np.ndarray) -> np.ndarray:
     """The person's B (N, n, nu): M (d qacc / d u) for explicit accelerations, -(d residual / d u) for
     an implicit residual."""
     if written_form(system.equations) == "c":
-        return np.einsum("nij,njk->nik", _engine_mass(system, q), _response(system, q))
+        return np.asarray(np.einsum("nij,njk->nik", _engine_mass(system, q), _response(system, q)))
     r, p = system.equations.ORIGINAL.residual, system.params
     zero = np.zeros_like(q)
     nu = system.input_matrix.shape[1]

@@ -28,7 +28,7 @@ RTOL = 1e-12  # both sides are the same compiled numbers, possibly through a few
 
 def _same(expected: Any, actual: Any, floor: float = 0.0) -> bool:
     if isinstance(expected, str) or isinstance(actual, str):
-        return expected == actual
+        return bool(expected == actual)
     e, a = np.asarray(expected, dtype=float), np.asarray(actual, dtype=float)
     if e.shape != a.shape:
         return False

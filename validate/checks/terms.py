@@ -48,6 +48,11 @@ def frictionless_params(system: System) -> Any:
     return system.equations.parameters(ModelView(values, system.view.source + " (no friction)"))
 
 
+def _solve(M: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """M^-1 x at every state: M (N, n, n), x (N, n)."""
+    return np.asarray(np.linalg.solve(M, x[..., None])[..., 0])
+
+
 class EngineTerms:
     """The engines' primitives at the sample states, computed once per system."""
 
@@ -70,7 +75,7 @@ class EngineTerms:
             G = src.bias(q, zero)
             bias = known["bias"] if known else src.bias(q, v)
             passive = known["passive"] if known else src.passive(q, v)
-            solve = lambda x, M=M: np.linalg.solve(M, x[..., None])[..., 0]  # noqa: E731
+            solve = functools.partial(_solve, M)
             self.by_engine[name] = {
                 "M": M,
                 "G": G,
@@ -174,7 +179,7 @@ def engine_quantity(
         if kind == "potential_energy":
             return terms.energies[engine][1]
         if kind == "lagrangian":
-            return terms.energies[engine][0] - terms.energies[engine][1]
+            return np.asarray(terms.energies[engine][0] - terms.energies[engine][1])
         raise ValueError(f"quantity {quantity} needs a body")
     k = system.bodies.index(which)
     simple = {
@@ -188,16 +193,16 @@ def engine_quantity(
         "potential_energy": kin.potential_energy,
     }
     if kind in simple:
-        return simple[kind][:, k]
+        return np.asarray(simple[kind][:, k])
     if kind in ("translational_kinetic_energy", "rotational_kinetic_energy"):
-        trans = (
+        trans = np.asarray(
             0.5
             * system.view[f"body/{which}/mass"]
             * np.einsum("ni,ni->n", kin.com_velocity[:, k], kin.com_velocity[:, k])
         )
         return trans if kind.startswith("translational") else kin.kinetic_energy[:, k] - trans
     if kind == "com_speed_squared":
-        return np.einsum("ni,ni->n", kin.com_velocity[:, k], kin.com_velocity[:, k])
+        return np.asarray(np.einsum("ni,ni->n", kin.com_velocity[:, k], kin.com_velocity[:, k]))
     if kind == "angular_velocity_body":
-        return np.einsum("nji,nj->ni", kin.rotation[:, k], kin.angular_velocity[:, k])
+        return np.asarray(np.einsum("nji,nj->ni", kin.rotation[:, k], kin.angular_velocity[:, k]))
     raise ValueError(f"unknown derivation-step quantity {quantity}")
