@@ -31,7 +31,7 @@ from ..dynamics.cachedir import Cache
 from ..engines import SYMBOLIC_MAX_DOF, make_sources
 from ..engines.base import Source
 from ..errors import HarnessError
-from ..results.schema import Derivation, Explanation, TermRow
+from ..results.schema import Derivation, Explanation, TermRow, TermSummary, WorstTerm
 from ..systems import System
 from ..systems.forms import accelerations_only, not_provided_in, written_form
 from ..systems.values import real_array
@@ -459,9 +459,8 @@ def _disagreement(
     worst = max((r for r in failing if r["term"] == first), key=lambda r: r["scaled"])
     result["first_disagreeing_term"] = first
     result["failing_terms"] = [t for t in HAND_TERMS if any(r["term"] == t for r in failing)]
-    result["worst_term"] = {
-        k: worst.get(k) for k in ("term", "engine", "probe", "max_abs", "scaled", "tolerance", "worst_state", "error")
-    }
+    keys = ("term", "engine", "probe", "max_abs", "scaled", "tolerance", "worst_state", "error")
+    result["worst_term"] = cast(WorstTerm, {k: worst.get(k) for k in keys})  # absent ones as None, as written
     explained = _explanations(system, probe_set.systems(), result["failing_terms"], seed, cache)
     if explained:
         result["explanations"] = _in_your_words(system, explained)
@@ -573,10 +572,10 @@ def exposing_fields(system: System, term: str, *, tolerances: Tolerances = TOLER
     return out
 
 
-def summarise(rows: list[TermRow]) -> list[dict[str, Any]]:
+def summarise(rows: list[TermRow]) -> list[TermSummary]:
     """Per term: passed, the worst scaled error (engine and probe), the tolerance it was judged with
     (the smallest relative change of the term the check could have seen) and the term's scale."""
-    out = []
+    out: list[TermSummary] = []
     for term in HAND_TERMS:
         mine = [r for r in rows if r["term"] == term]
         if not mine:

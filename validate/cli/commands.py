@@ -260,7 +260,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     print(f"{verdict}; reports in {hint.out}/ (report.html, report.md, results.json)")
     if hint.written and any(s.get("trajectories") for s in results["systems"].values()):
         print(f"replays: {hint.viewer} {hint.out}/<system>.rrd")
-    print(console(console_lines(dict(results), f"{hint.out}/report.html")))
+    print(console(console_lines(results, f"{hint.out}/report.html")))
     if args.verbose:
         for name, s in sorted(results["systems"].items()):
             print(f"{name}: stages, wall seconds: {stage_line(s.get('stages') or {})}")

@@ -19,13 +19,14 @@ import tempfile
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from ..errors import HarnessError
 from ..files import folder, new_file
 from ..replay import render_system as render_rrd
 from ..report import ReplayHint, render, system_section
 from ..results import dumps
+from ..results.schema import ReportInput, SystemResult
 
 OPTIONAL_RESULTS = {"bench": "bench.json", "stress": "stress.json", "chains": "chains.json"}  # bench, stress
 CACHE_FOLDER = ".cache"
@@ -100,7 +101,7 @@ def check_cache_dir(cache_dir: Path | None, out: Path) -> None:
         )
 
 
-def with_optional_results(results: Mapping[str, Any], out: Path) -> dict[str, Any]:
+def with_optional_results(results: Mapping[str, Any], out: Path) -> ReportInput:
     """The results plus the benchmark and stress results found in the reports folder, for rendering."""
     import json
 
@@ -112,7 +113,7 @@ def with_optional_results(results: Mapping[str, Any], out: Path) -> dict[str, An
                 merged[key] = json.loads(path.read_text())
             except (OSError, ValueError):
                 pass  # a damaged optional file: its section says "not run"
-    return merged
+    return cast(ReportInput, merged)  # results.json's shape (results/schema.py), and the studies found beside it
 
 
 def write_reports(results: Mapping[str, Any], out: Path, *, hint: ReplayHint | None = None) -> None:
@@ -130,9 +131,7 @@ class SystemFiles:
     rrd: bytes | None  # its rerun recording (None: no trajectories, or replays not asked for)
 
 
-def render_system(
-    name: str, result: dict[str, Any], meta: dict[str, Any], *, replay: bool = True
-) -> SystemFiles | None:
+def render_system(name: str, result: SystemResult, meta: dict[str, Any], *, replay: bool = True) -> SystemFiles | None:
     """A system's report section and recording, from its results alone: `run` calls this in the
     worker that computed them, so rendering overlaps the other systems' work. None if rendering
     fails (the final render then tries again in the parent and reports the failure there)."""

@@ -10,6 +10,7 @@ from typing import Any
 
 from ..errors import console
 from ..report.findings import is_user, system_headline
+from ..results.schema import SystemResult
 
 
 @contextlib.contextmanager
@@ -49,7 +50,7 @@ def reporter() -> Iterator[Any]:
         yield plain
 
 
-def _line(name: str, result: dict[str, Any], elapsed: float) -> str:
+def _line(name: str, result: SystemResult, elapsed: float) -> str:
     """One line per system: the verdict on its derivation first (a failing one with the failing term,
     the pair and why), then the printed forms of the notes, if it has any."""
     variants = result.get("variants", [])

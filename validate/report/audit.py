@@ -7,6 +7,7 @@ from __future__ import annotations
 import re
 from typing import Any
 
+from ..results.schema import SystemResult
 from .document import Items
 
 LABEL = {"mujoco": "MuJoCo", "pinocchio": "Pinocchio", "drake": "Drake"}
@@ -21,7 +22,7 @@ def _offline(line: str) -> str:
     return re.sub(r"https?://\S+", "(its web page)", REPORTED.sub(r"[\1]", line))
 
 
-def audit_section(doc: Any, name: str, s: dict[str, Any]) -> None:
+def audit_section(doc: Any, name: str, s: SystemResult) -> None:
     """A short paragraph, the findings as items, and one table of max |M_a - M_b| per reader pair."""
     a = s.get("audit")
     if not a:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -281,7 +282,7 @@ def as_float(x: Any) -> float:
         return math.nan
 
 
-def ratio(row: dict[str, Any], key: str = "scaled") -> float:
+def ratio(row: Mapping[str, object], key: str = "scaled") -> float:
     """Error in units of its tolerance: the ordering used to pick a worst row."""
     e, tol = as_float(row.get(key)), as_float(row.get("tolerance"))
     if math.isnan(e):

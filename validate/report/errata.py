@@ -7,11 +7,12 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..results.schema import Derivation, Explanation, RunResults
 from .document import ERRATA, Document, Num, verdict_mark
 from .findings import form_anchor, form_reason, form_term, where_worst, whose
 
 
-def variant_row(name: str, v: dict[str, Any]) -> tuple[Any, ...]:
+def variant_row(name: str, v: Derivation) -> tuple[Any, ...]:
     w = v.get("worst_term") if v.get("verdict") == "disagrees" else None
     return (
         name,
@@ -29,7 +30,7 @@ def variant_row(name: str, v: dict[str, Any]) -> tuple[Any, ...]:
 COLUMNS = ("system", "printed form", "notes eqs", "kind", "verdict", "term", "worst against", "scaled error", "at")
 
 
-def section_errata(doc: Document, results: dict[str, Any]) -> None:
+def section_errata(doc: Document, results: RunResults) -> None:
     doc.h(2, ERRATA)
     systems = results.get("systems", {})
     forms = [(name, v) for name, s in sorted(systems.items()) for v in s.get("variants", [])]
@@ -70,7 +71,7 @@ def section_errata(doc: Document, results: dict[str, Any]) -> None:
         form_details(doc, name, v)
 
 
-def form_details(doc: Document, name: str, v: dict[str, Any]) -> None:
+def form_details(doc: Document, name: str, v: Derivation) -> None:
     """One wrong printed form: its term, where it is worst, its reason, the transcription note and
     every symbolic difference."""
     form = str(v.get("name"))
@@ -99,7 +100,7 @@ def form_details(doc: Document, name: str, v: dict[str, Any]) -> None:
         doc.fold(f"Symbolic differences from the model's own equations ({len(explained)} entries)", inner)
 
 
-def differences(doc: Document, name: str, form: str, explained: list[dict[str, Any]]) -> None:
+def differences(doc: Document, name: str, form: str, explained: list[Explanation]) -> None:
     """The symbolic differences of a wrong printed form and the symbols they use."""
     owner = "the notes' form"
     doc.table(

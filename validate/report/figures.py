@@ -8,6 +8,7 @@ import io
 import math
 from typing import Any
 
+from ..results.schema import ComparisonRow
 from .document import FIG_DPI, MAX_PLOT_POINTS, PAIR_COLOURS, SOURCE_STYLE, as_float, sci
 
 
@@ -130,7 +131,7 @@ def series(values: Any) -> Any:
         )
 
 
-def pointwise_figure(name: str, rows: list[dict[str, Any]]) -> bytes:
+def pointwise_figure(name: str, rows: list[ComparisonRow]) -> bytes:
     """Scaled error of every quantity and source pair on a log axis, tolerance marked."""
     import numpy as np
 

@@ -11,6 +11,8 @@ import re
 from dataclasses import dataclass
 from typing import Any
 
+from ..results.schema import ComparisonRow, Derivation, RunResults, SystemResult, TermSummary
+
 GENERIC_TERMS = ("value", "acceleration")  # the judge's names for "the whole form": never shown as a term
 REASON_CHARS = 150  # a one-line reason: longer statements are cut (the whole one is in the details)
 CHAOS_LAMBDA = 0.05  # 1/s: a largest Lyapunov exponent below this is no evidence of chaos over the runs
@@ -20,7 +22,7 @@ def slug(text: str) -> str:
     return re.sub(r"[^a-z0-9]+", "-", str(text).lower()).strip("-")
 
 
-def is_user(s: dict[str, Any]) -> bool:
+def is_user(s: SystemResult) -> bool:
     """A system the user brought (any folder), not one of the repository's systems of the notes."""
     origin = s.get("origin")
     if origin in ("notes", "user"):
@@ -28,19 +30,19 @@ def is_user(s: dict[str, Any]) -> bool:
     return not str(s.get("mjcf", "")).startswith("models/")
 
 
-def has_derivation(s: dict[str, Any]) -> bool:
+def has_derivation(s: SystemResult) -> bool:
     """An equations module was given (a run of the model alone has none)."""
     d = s.get("derivation") or {}
     return bool(d) and d.get("kind") != "none"
 
 
-def derivation_label(s: dict[str, Any]) -> str:
+def derivation_label(s: SystemResult) -> str:
     if not has_derivation(s):
         return "no derivation"
     return "your derivation" if is_user(s) else "the hand derivation"
 
 
-def has_actuators(s: dict[str, Any]) -> bool:
+def has_actuators(s: SystemResult) -> bool:
     return "actuation" in (s.get("uses") or [])
 
 
@@ -53,13 +55,32 @@ SOURCE_NAMES = {
 }
 
 
-def compared_sources(s: dict[str, Any]) -> list[str]:
+def pointwise_rows(s: SystemResult) -> list[ComparisonRow]:
+    """The system's pointwise rows ([] where it has none)."""
+    pw = s.get("pointwise")
+    return pw.get("rows", []) if pw else []
+
+
+Cells = tuple[object, object, object, object]  # a summary row's term, pair, scaled error and tolerance
+
+
+def term_cells(w: TermSummary) -> Cells:
+    """A derivation's term as the summary table shows it."""
+    return w.get("term"), f"hand~{w.get('engine')}", w.get("worst_scaled"), w.get("tolerance")
+
+
+def pair_cells(w: ComparisonRow) -> Cells:
+    """A pointwise pair as the summary table shows it."""
+    return w.get("quantity"), w.get("pair"), w.get("scaled"), w.get("tolerance")
+
+
+def compared_sources(s: SystemResult) -> list[str]:
     """The sources the pointwise comparison holds, in the order hand, MuJoCo, Pinocchio, Drake, symbolic."""
-    names = {x for r in (s.get("pointwise") or {}).get("rows", []) for x in str(r.get("pair", "")).split("~")}
+    names = {x for r in pointwise_rows(s) for x in str(r.get("pair", "")).split("~")}
     return [n for n in ("hand", "mujoco", "pinocchio", "drake", "symbolic") if n in names]
 
 
-def sources_text(s: dict[str, Any]) -> str:
+def sources_text(s: SystemResult) -> str:
     """ "MuJoCo, Pinocchio and the derived equations": the sources compared, the derivation by its label."""
     label = derivation_label(s)
     names = [label if n == "hand" else SOURCE_NAMES[n] for n in compared_sources(s)]
@@ -77,16 +98,16 @@ def whose(text: Any, owner: str) -> str:
     return re.sub(r"\byours\b", owner, str(text)).replace("your numbers", "its numbers")
 
 
-def form_owner(s: dict[str, Any] | None = None) -> str:
+def form_owner(s: SystemResult | None = None) -> str:
     """Who printed a form: the notes for the repository's systems."""
     return "the printed form" if s is not None and is_user(s) else "the notes' form"
 
 
-def is_damped(s: dict[str, Any]) -> bool:
+def is_damped(s: SystemResult) -> bool:
     return "damping" in (s.get("uses") or [])
 
 
-def is_driven(s: dict[str, Any]) -> bool:
+def is_driven(s: SystemResult) -> bool:
     """Inputs that do work along the trajectories (a nonzero tau)."""
     tau = (s.get("trajectories") or {}).get("tau") or []
     try:
@@ -95,7 +116,7 @@ def is_driven(s: dict[str, Any]) -> bool:
         return False
 
 
-def chaos_facts(s: dict[str, Any]) -> dict[str, Any] | None:
+def chaos_facts(s: SystemResult) -> dict[str, Any] | None:
     """Whether the motion from the system's start is chaotic, with the numbers that say so; None when
     the results hold no chaos study. Chaotic: the largest Lyapunov exponent is at least CHAOS_LAMBDA
     and the initial state's own rounding grows to the horizon tolerance within the study's time."""
@@ -116,7 +137,7 @@ def chaos_facts(s: dict[str, Any]) -> dict[str, Any] | None:
     }
 
 
-def is_chaotic(s: dict[str, Any]) -> bool:
+def is_chaotic(s: SystemResult) -> bool:
     facts = chaos_facts(s)
     return bool(facts and facts["chaotic"])
 
@@ -133,7 +154,7 @@ def base_name(form: str) -> str:
     return re.sub(r"(\s*,?\s*\(\d+\)(-\(\d+\))?)+$", "", form).strip() or form
 
 
-def form_term(v: dict[str, Any]) -> str:
+def form_term(v: Derivation) -> str:
     """The term of a wrong printed form that disagrees, in the judge's term list; where the judge
     judged the form as a whole ("value" of a derivation step, "acceleration" of an explicit form),
     the quantity the form computes and the entry that disagrees."""
@@ -180,7 +201,7 @@ def one_line_statement(statement: str) -> str:
 NO_SLIP = "no single slip reproduces it"
 
 
-def form_reason(v: dict[str, Any], owner: str = "the notes' form") -> str:
+def form_reason(v: Derivation, owner: str = "the notes' form") -> str:
     """The one-line reason of a wrong printed form: its first explained symbolic difference (with the
     entry, where the term does not already name it), "yours" named as `owner`; else the plain statement
     that no single slip reproduces it. The transcription note is apart (`form_note`)."""
@@ -195,12 +216,12 @@ def form_reason(v: dict[str, Any], owner: str = "the notes' form") -> str:
     return NO_SLIP
 
 
-def form_note(v: dict[str, Any]) -> str:
+def form_note(v: Derivation) -> str:
     """The transcription note of a printed form (how it was read from the notes), not a reason."""
     return " ".join(str(v.get("note") or "").split())
 
 
-def where_worst(v: dict[str, Any], prefix: str = "printed") -> str:
+def where_worst(v: Derivation, prefix: str = "printed") -> str:
     """Where a wrong form (or derivation) is worst: the pair and the parameter set."""
     w = v.get("worst_term") or {}
     engine = w.get("engine")
@@ -237,7 +258,7 @@ def form_anchor(system: str, form: str) -> str:
     return f"wrong-{slug(system)}-{slug(form)}"
 
 
-def wrong_forms(results: dict[str, Any]) -> list[Finding]:
+def wrong_forms(results: RunResults) -> list[Finding]:
     out = []
     for name, s in sorted(results.get("systems", {}).items()):
         for v in s.get("variants", []):
@@ -258,7 +279,7 @@ def wrong_forms(results: dict[str, Any]) -> list[Finding]:
     return out
 
 
-def agreeing_forms(results: dict[str, Any]) -> list[tuple[str, str, str]]:
+def agreeing_forms(results: RunResults) -> list[tuple[str, str, str]]:
     """(system, form, verdict) of every printed form that does not disagree."""
     return [
         (name, str(v.get("name")), str(v.get("verdict")))
@@ -271,13 +292,13 @@ def agreeing_forms(results: dict[str, Any]) -> list[tuple[str, str, str]]:
 IN_THE_STATEMENT = ("hand derivation: ", "model checks: ", "pointwise: ")  # `failed` phrases the verdict says
 
 
-def after_verdict(s: dict[str, Any]) -> list[str]:
+def after_verdict(s: SystemResult) -> list[str]:
     """What failed in the stages `run` adds after the verdict (trajectories, equivalence, a stage that
     raised): the phrases of `failed` that the verdict's statement does not already say."""
     return [f for f in s.get("failed") or [] if not str(f).startswith(IN_THE_STATEMENT)]
 
 
-def system_headline(s: dict[str, Any]) -> tuple[bool | None, str]:
+def system_headline(s: SystemResult) -> tuple[bool | None, str]:
     """(passed, one line) of a system. With a derivation the line is the verdict's statement as
     `decide` wrote it (the sentence `check` and the API show; never recomposed here), labelled with
     whose derivation it is, then what failed after the verdict; a model alone, what was compared."""
@@ -294,13 +315,13 @@ def system_headline(s: dict[str, Any]) -> tuple[bool | None, str]:
     return _model_alone_headline(s)
 
 
-def _model_alone_headline(s: dict[str, Any]) -> tuple[bool | None, str]:
+def _model_alone_headline(s: SystemResult) -> tuple[bool | None, str]:
     """(passed, one line) of results without a statement (written before decide's was kept)."""
     failed = list(s.get("failed") or [])
     if s.get("passed") is False:
         if failed:
             return False, "; ".join(failed[:2])
-        bad = [r for r in (s.get("pointwise") or {}).get("rows", []) if r.get("passed") is False]
+        bad = [r for r in pointwise_rows(s) if r.get("passed") is False]
         if bad:
             r = bad[0]
             return False, (
@@ -318,7 +339,7 @@ def _model_alone_headline(s: dict[str, Any]) -> tuple[bool | None, str]:
 MODEL_ONLY = "no derivation given: the engines' readings of the model and their dynamics compared"
 
 
-def forms_tally(results: dict[str, Any]) -> tuple[int, int, int]:
+def forms_tally(results: RunResults) -> tuple[int, int, int]:
     """(printed forms, wrong, not judged)."""
     variants = [v for s in results.get("systems", {}).values() for v in s.get("variants", [])]
     wrong = sum(1 for v in variants if v.get("verdict") == "disagrees")
@@ -326,7 +347,7 @@ def forms_tally(results: dict[str, Any]) -> tuple[int, int, int]:
     return len(variants), wrong, other
 
 
-def console_lines(results: dict[str, Any], report: str = "report.html") -> list[str]:
+def console_lines(results: RunResults, report: str = "report.html") -> list[str]:
     """The last lines of `run`: the verdict on each derivation, then every wrong printed form with
     its term and reason (plain text, one line each)."""
     systems = results.get("systems", {})

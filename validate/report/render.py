@@ -11,6 +11,7 @@ from typing import Any
 from urllib.parse import quote
 
 from ..errors import escaped
+from ..results.schema import ReportInput, RunResults
 from .document import (
     MARK_SIGN,
     SUBTITLE,
@@ -33,7 +34,7 @@ from .findings import has_derivation
 from .sections import HIDDEN, ReplayHint, build, header
 
 
-def subtitle(results: dict[str, Any]) -> str:
+def subtitle(results: RunResults) -> str:
     """The report's subtitle: the models' when no system of these results has a derivation."""
     systems = results.get("systems", {}).values()
     return SUBTITLE if not systems or any(has_derivation(s) for s in systems) else SUBTITLE_MODELS
@@ -71,7 +72,7 @@ def _md_blocks(blocks: Any) -> list[str]:
     return out
 
 
-def render_markdown(doc: Document, results: dict[str, Any]) -> str:
+def render_markdown(doc: Document, results: RunResults) -> str:
     head = header(results)
     out = [
         f"# {TITLE}",
@@ -141,7 +142,7 @@ def _env() -> Any:
     return _ENV
 
 
-def render_html(doc: Document, results: dict[str, Any]) -> str:
+def render_html(doc: Document, results: RunResults) -> str:
     head = header(results)
     toc = [(b.anchor, b.text) for b in doc.blocks if isinstance(b, Heading) and b.level == 2]
     return (
@@ -161,7 +162,7 @@ def render_html(doc: Document, results: dict[str, Any]) -> str:
 
 
 def render(
-    results: dict[str, Any], sections: dict[str, Document] | None = None, *, hint: ReplayHint | None = None
+    results: ReportInput, sections: dict[str, Document] | None = None, *, hint: ReplayHint | None = None
 ) -> dict[str, bytes]:
     """Every report file, {name relative to the reports folder: contents}; `sections` as for `build`;
     `hint`: where the recordings were written and the viewer that opens them (the README's set-up by

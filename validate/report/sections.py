@@ -5,9 +5,16 @@ replay) and `build`, which puts every section in order.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
-from ..results.schema import SCALED_DEFINITION
+from ..results.schema import (
+    SCALED_DEFINITION,
+    Derivation,
+    ReportInput,
+    RunResults,
+    SystemResult,
+    WorstTerm,
+)
 from .chains import section_chains
 from .document import (
     BENCHMARK,
@@ -37,6 +44,7 @@ from .errata import section_errata
 from .findings import (
     MODEL_ONLY,
     SOURCE_NAMES,
+    Cells,
     Finding,
     agreeing_forms,
     and_join,
@@ -47,7 +55,10 @@ from .findings import (
     has_derivation,
     is_chaotic,
     is_user,
+    pair_cells,
+    pointwise_rows,
     system_headline,
+    term_cells,
     wrong_forms,
 )
 from .runs import fmt_g
@@ -56,17 +67,18 @@ from .system import section_system, shorten
 from .timing import section_timing
 
 
-def variant_worst(v: dict[str, Any]) -> dict[str, Any] | None:
+def variant_worst(v: Derivation) -> WorstTerm | None:
     if v.get("worst_term"):
         return v["worst_term"]
     terms = v.get("terms") or []
     if not terms:
         return None
     w = max(terms, key=ratio)
-    return {k: w.get(k) for k in ("term", "engine", "parameters", "max_abs", "scaled", "tolerance", "pair")}
+    keys = ("term", "engine", "parameters", "max_abs", "scaled", "tolerance", "pair")
+    return cast(WorstTerm, {k: w.get(k) for k in keys})  # absent ones as None
 
 
-def variant_tolerance(v: dict[str, Any], worst: dict[str, Any] | None) -> Any:
+def variant_tolerance(v: Derivation, worst: WorstTerm | None) -> Any:
     if worst is None:
         return None
     if worst.get("tolerance") is not None:
@@ -77,7 +89,7 @@ def variant_tolerance(v: dict[str, Any], worst: dict[str, Any] | None) -> Any:
     return None
 
 
-def counts(results: dict[str, Any]) -> dict[str, int]:
+def counts(results: RunResults) -> dict[str, int]:
     systems = results.get("systems", {})
     variants = [v for s in systems.values() for v in s.get("variants", [])]
     return {
@@ -92,7 +104,7 @@ def counts(results: dict[str, Any]) -> dict[str, int]:
 HIDDEN = "the notes' parameter values hide it; a probe shows it"
 
 
-def verdict_line(results: dict[str, Any]) -> tuple[bool, str, str]:
+def verdict_line(results: RunResults) -> tuple[bool, str, str]:
     """(passed, headline, detail) for the top of the report: the derivations' verdict first, then the
     printed forms; a failing system is named with its failing term and pair."""
     c = counts(results)
@@ -145,7 +157,7 @@ def verdict_line(results: dict[str, Any]) -> tuple[bool, str, str]:
     return passed, (head if not passed else head[0].upper() + head[1:]), detail + "."
 
 
-def system_statuses(results: dict[str, Any]) -> list[tuple[str, str, Mark, str]]:
+def system_statuses(results: RunResults) -> list[tuple[str, str, Mark, str]]:
     """(name, anchor, verdict mark, one-line detail) of every system, for the top of the report."""
     out = []
     for name, s in sorted(results.get("systems", {}).items()):
@@ -174,7 +186,7 @@ class Header:
     statuses_title: str = "Derivations, each judged term by term against the engines"
 
 
-def header(results: dict[str, Any]) -> Header:
+def header(results: RunResults) -> Header:
     passed, head, detail = verdict_line(results)
     n, wrong, _ = forms_tally(results)
     agreeing = agreeing_forms(results)
@@ -193,7 +205,7 @@ def header(results: dict[str, Any]) -> Header:
     )
 
 
-def statuses_title(results: dict[str, Any]) -> str:
+def statuses_title(results: RunResults) -> str:
     systems = results.get("systems", {}).values()
     given = sum(1 for s in systems if has_derivation(s))
     if given == len(systems):
@@ -203,7 +215,7 @@ def statuses_title(results: dict[str, Any]) -> str:
     return "Systems: each derivation judged term by term against the engines; each model alone, its engines compared"
 
 
-def cached_line(results: dict[str, Any]) -> str:
+def cached_line(results: RunResults) -> str:
     """Which results were loaded from the cache (validate/dynamics/cache.py) rather than computed in this run."""
     hits = []
     for name, s in sorted(results.get("systems", {}).items()):
@@ -221,7 +233,7 @@ def cached_line(results: dict[str, Any]) -> str:
     return "; ".join(hits) if hits else "nothing: every result computed in this run"
 
 
-def section_provenance(doc: Document, results: dict[str, Any]) -> None:
+def section_provenance(doc: Document, results: RunResults) -> None:
     meta = results.get("meta", {})
     doc.h(2, PROVENANCE)
     doc.p(
@@ -248,45 +260,41 @@ def section_provenance(doc: Document, results: dict[str, Any]) -> None:
     doc.table("Package versions", ("package", "version"), [(k, str(v)) for k, v in sorted(versions.items())])
 
 
-def derivation_row(name: str, s: dict[str, Any]) -> tuple[Any, ...]:
+def derivation_row(name: str, s: SystemResult) -> tuple[Any, ...]:
     """One system's row: the term (or pointwise pair) that fails, with its numbers; where none fails
     but the system does (a model check, a stage after the verdict), that failure in words and no
     numbers; where all pass, the term closest to its tolerance. The mark is the row's own."""
     label = derivation_label(s).removeprefix("the ") if has_derivation(s) else "the model alone"
     kind = "hand" if has_derivation(s) else "engines"
     summary = (s.get("derivation") or {}).get("summary") or []
-    prow = (s.get("pointwise") or {}).get("rows", [])
+    prow = pointwise_rows(s)
     failing = [r for r in summary if r.get("passed") is False]
     bad = [r for r in prow if r.get("passed") is False]
     ok: bool | None = s.get("passed")
+    cells: Cells = (None, None, None, None)
     if failing:
-        w = failing[0]
-        term, pair, err, tol = w.get("term"), f"hand~{w.get('engine')}", w.get("worst_scaled"), w.get("tolerance")
-        ok = False
+        cells, ok = term_cells(failing[0]), False
     elif bad:
-        w = max(bad, key=ratio)
-        term, pair, err, tol = w.get("quantity"), w.get("pair"), w.get("scaled"), w.get("tolerance")
-        ok = False
+        cells, ok = pair_cells(max(bad, key=ratio)), False
     elif ok is False:
-        term, pair, err, tol = _failure_words(s), None, None, None
+        cells = (_failure_words(s), None, None, None)
     elif summary:
-        w = max(summary, key=lambda r: as_float(r.get("worst_scaled")) / max(as_float(r.get("tolerance")), 1e-300))
-        term, pair, err, tol = w.get("term"), f"hand~{w.get('engine')}", w.get("worst_scaled"), w.get("tolerance")
+        cells = term_cells(
+            max(summary, key=lambda r: as_float(r.get("worst_scaled")) / max(as_float(r.get("tolerance")), 1e-300))
+        )
     elif prow:
-        w = max(prow, key=ratio)
-        term, pair, err, tol = w.get("quantity"), w.get("pair"), w.get("scaled"), w.get("tolerance")
-    else:
-        term = pair = err = tol = None
+        cells = pair_cells(max(prow, key=ratio))
+    term, pair, err, tol = cells
     return (name, label, kind, pass_mark(ok), term, pair, Num(err), Num(tol, short=True))
 
 
-def _failure_words(s: dict[str, Any]) -> str:
+def _failure_words(s: SystemResult) -> str:
     """What failed where no term and no pointwise pair does: the first phrase of `failed`."""
     failed = list(s.get("failed") or [])
     return str(failed[0]) if failed else "see its section"
 
 
-def form_row(name: str, v: dict[str, Any]) -> tuple[Any, ...]:
+def form_row(name: str, v: Derivation) -> tuple[Any, ...]:
     w = variant_worst(v)
     engine = (w or {}).get("engine")
     wrong = v.get("verdict") == "disagrees"
@@ -305,7 +313,7 @@ def form_row(name: str, v: dict[str, Any]) -> tuple[Any, ...]:
 SUMMARY_COLUMNS = ("system", "form", "kind", "verdict", "term (worst)", "pair", "scaled error", "tolerance")
 
 
-def section_summary(doc: Document, results: dict[str, Any]) -> None:
+def section_summary(doc: Document, results: RunResults) -> None:
     doc.h(2, SUMMARY)
     forms = any(s.get("variants") for s in results.get("systems", {}).values())
     systems = results.get("systems", {}).values()
@@ -347,7 +355,7 @@ def section_summary(doc: Document, results: dict[str, Any]) -> None:
         doc.fold(f"{len(passing)} printed forms agree with the engines or were not judged", inner)
 
 
-def section_tolerances(doc: Document, results: dict[str, Any]) -> None:
+def section_tolerances(doc: Document, results: RunResults) -> None:
     doc.h(2, TOLERANCE_TIERS)
     tiers = results.get("tolerances") or {}
     used: dict[str, set[str]] = {}
@@ -376,10 +384,10 @@ def section_tolerances(doc: Document, results: dict[str, Any]) -> None:
     )
 
 
-def trajectory_reason(results: dict[str, Any]) -> str:
+def trajectory_reason(results: RunResults) -> str:
     """Why the trajectory threshold is what it is, from the runs these results hold: their integrators,
     duration, judged interval and largest error (nothing hard-coded)."""
-    trs = {n: s["trajectories"] for n, s in sorted(results.get("systems", {}).items()) if s.get("trajectories")}
+    trs = {n: tr for n, s in sorted(results.get("systems", {}).items()) if (tr := s.get("trajectories"))}
     runs = [r for tr in trs.values() for r in tr.get("runs", []) if r.get("counts", True) and not r.get("label")]
     if not runs:
         return "Not used in these results: no trajectory run was judged."
@@ -408,7 +416,7 @@ def trajectory_reason(results: dict[str, Any]) -> str:
     )
 
 
-def section_limitations(doc: Document, results: dict[str, Any]) -> None:
+def section_limitations(doc: Document, results: ReportInput) -> None:
     doc.h(2, LIMITATIONS)
     doc.p("What these results do not show:")
     systems = results.get("systems", {})
@@ -502,7 +510,7 @@ class ReplayHint:
     written: bool = True  # False: run with --no-replay
 
 
-def section_replay(doc: Document, results: dict[str, Any], hint: ReplayHint | None = None) -> None:
+def section_replay(doc: Document, results: RunResults, hint: ReplayHint | None = None) -> None:
     hint = hint or ReplayHint()
     doc.h(2, REPLAY)
     names = sorted(n for n, s in results.get("systems", {}).items() if s.get("trajectories"))
@@ -542,16 +550,16 @@ def section_replay(doc: Document, results: dict[str, Any], hint: ReplayHint | No
     )
 
 
-def system_section(name: str, s: dict[str, Any]) -> Document:
+def system_section(name: str, s: SystemResult) -> Document:
     """One system's section alone (blocks and images): a pure function of that system's results, so
     it can be rendered in the worker that computed them while others still run."""
     doc = Document()
-    section_system(doc, name, to_plain(s), {})
+    section_system(doc, name, to_plain(s))
     return doc
 
 
 def build(
-    results: dict[str, Any], sections: dict[str, Document] | None = None, hint: ReplayHint | None = None
+    results: ReportInput, sections: dict[str, Document] | None = None, hint: ReplayHint | None = None
 ) -> Document:
     """The whole report as blocks and images (the results must already be plain: see `to_plain`);
     `sections`: systems' sections already rendered from these results (`system_section`). The
@@ -563,7 +571,7 @@ def build(
     for name, s in sorted(results.get("systems", {}).items()):
         done = (sections or {}).get(name)
         if done is None:
-            section_system(doc, name, s, results)
+            section_system(doc, name, s)
         else:
             doc.blocks += done.blocks
             doc.images.update(done.images)

@@ -7,7 +7,7 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from ..results.schema import SCALED_DEFINITION
+from ..results.schema import SCALED_DEFINITION, ComparisonRow, SystemResult
 from .audit import audit_section
 from .document import (
     NOT_RUN,
@@ -50,7 +50,7 @@ from .system_parts import (
 from .trust import trust_section
 
 
-def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[str, Any]) -> None:
+def section_system(doc: Document, name: str, s: SystemResult) -> None:
     """The system's heading and verdict, then its details folded (closed by default)."""
     doc.h(2, f"System {name}", f"system-{slug(name)}")
     mark = pass_mark(s.get("passed"))
@@ -65,7 +65,7 @@ def section_system(doc: Document, name: str, s: dict[str, Any], results: dict[st
     doc.fold(f"Details of {name}: {', '.join(detail_parts(s))}", inner)
 
 
-def detail_parts(s: dict[str, Any]) -> list[str]:
+def detail_parts(s: SystemResult) -> list[str]:
     parts = ["model", "model checks"]
     parts += ["the derivation's terms"] if has_derivation(s) else []
     parts += ["derived equations"] if s.get("derived") else []
@@ -75,7 +75,7 @@ def detail_parts(s: dict[str, Any]) -> list[str]:
     return parts
 
 
-def system_details(doc: Document, name: str, s: dict[str, Any]) -> None:
+def system_details(doc: Document, name: str, s: SystemResult) -> None:
     section_model(doc, name, s)
     section_model_checks(doc, name, s)
     system_derived(doc, name, s)
@@ -101,7 +101,7 @@ def system_details(doc: Document, name: str, s: dict[str, Any]) -> None:
     system_skipped(doc, name, s)
 
 
-def section_model(doc: Document, name: str, s: dict[str, Any]) -> None:
+def section_model(doc: Document, name: str, s: SystemResult) -> None:
     doc.h(3, "Model", f"{slug(name)}-model")
     equations = f"{derivation_label(s)} `{s.get('equations')}`; " if has_derivation(s) and s.get("equations") else ""
     doc.p(
@@ -137,7 +137,7 @@ def section_model(doc: Document, name: str, s: dict[str, Any]) -> None:
     )
 
 
-def section_model_checks(doc: Document, name: str, s: dict[str, Any]) -> None:
+def section_model_checks(doc: Document, name: str, s: SystemResult) -> None:
     mc = s.get("model_checks")
     doc.h(3, "Model checks", f"{slug(name)}-model-checks")
     if not mc:
@@ -202,7 +202,7 @@ def section_model_checks(doc: Document, name: str, s: dict[str, Any]) -> None:
 POINTWISE_COLUMNS = ("quantity", "pair", "tier", "max abs", "scale", "scaled", "tolerance", "verdict")
 
 
-def pointwise_row(r: dict[str, Any]) -> tuple[Any, ...]:
+def pointwise_row(r: ComparisonRow) -> tuple[Any, ...]:
     return (
         r.get("quantity"),
         r.get("pair"),
@@ -215,9 +215,9 @@ def pointwise_row(r: dict[str, Any]) -> tuple[Any, ...]:
     )
 
 
-def worst_per_quantity(rows: list[dict[str, Any]]) -> list[tuple[Any, ...]]:
+def worst_per_quantity(rows: list[ComparisonRow]) -> list[tuple[Any, ...]]:
     """One line per quantity: how many pairs agree, and the pair closest to (or furthest past) its tolerance."""
-    by: dict[str, list[dict[str, Any]]] = {}
+    by: dict[str, list[ComparisonRow]] = {}
     for r in rows:
         by.setdefault(str(r.get("quantity")), []).append(r)
     out = []
@@ -237,7 +237,7 @@ def worst_per_quantity(rows: list[dict[str, Any]]) -> list[tuple[Any, ...]]:
     return out
 
 
-def section_pointwise(doc: Document, name: str, s: dict[str, Any]) -> None:
+def section_pointwise(doc: Document, name: str, s: SystemResult) -> None:
     pw = s.get("pointwise")
     doc.h(3, "Pointwise agreement", f"{slug(name)}-pointwise")
     if not pw:
@@ -274,11 +274,12 @@ def section_pointwise(doc: Document, name: str, s: dict[str, Any]) -> None:
                 (
                     r["quantity"],
                     r["pair"],
-                    vec(r["worst_state"].get("q", [])),
-                    vec(r["worst_state"].get("v", [])),
-                    vec(r["worst_state"].get("tau", [])),
+                    vec(w.get("q", [])),
+                    vec(w.get("v", [])),
+                    vec(w.get("tau", [])),
                 )
                 for r in failing
+                if (w := r["worst_state"])
             ],
         )
     if rows:
@@ -293,7 +294,7 @@ def section_pointwise(doc: Document, name: str, s: dict[str, Any]) -> None:
         )
 
 
-def reference_text(s: dict[str, Any], tr: dict[str, Any]) -> str:
+def reference_text(s: SystemResult, tr: dict[str, Any]) -> str:
     """The reference of the trajectory runs and why it is that one, from the system's facts."""
     ref = re.sub(r" \((the hand derivation|your derivation)[^()]*\)$", "", str(tr.get("reference")))
     if not has_derivation(s):
@@ -303,7 +304,7 @@ def reference_text(s: dict[str, Any], tr: dict[str, Any]) -> str:
     return ref
 
 
-def section_trajectories(doc: Document, name: str, s: dict[str, Any], tr: dict[str, Any]) -> None:
+def section_trajectories(doc: Document, name: str, s: SystemResult, tr: dict[str, Any]) -> None:
     t = series(tr.get("t", []))
     thr = as_float(tr.get("threshold"))
     runs = tr["runs"]
@@ -404,14 +405,14 @@ def judged_max(values: Any, t: Any, until: Any) -> float | None:
     return float(x.max()) if len(x) else None
 
 
-def energy_source(s: dict[str, Any]) -> str:
+def energy_source(s: SystemResult) -> str:
     """Whose T + V the runs' energies are (the pipeline's order: the derivation, the derived equations, MuJoCo)."""
     if has_derivation(s):
         return derivation_label(s)
     return "the derived equations" if "symbolic" in compared_sources(s) else "MuJoCo"
 
 
-def energy_text(s: dict[str, Any]) -> str:
+def energy_text(s: SystemResult) -> str:
     if is_damped(s):
         return (
             "the joints' viscous friction dissipates energy, so E falls; every source should fall along the same curve"

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from ..results.schema import Explanation, SystemResult
 from ..results.stages import outcome
 from .document import (
     ERRATA,
@@ -38,7 +39,7 @@ from .findings import (
 from .runs import judged_verdict, run_verdict
 
 
-def system_skipped(doc: Document, name: str, s: dict[str, Any]) -> None:
+def system_skipped(doc: Document, name: str, s: SystemResult) -> None:
     stages = {k: why for k, v in (s.get("stages") or {}).items() if (why := outcome(v))}
     if stages:
         doc.table(
@@ -51,7 +52,7 @@ def system_skipped(doc: Document, name: str, s: dict[str, Any]) -> None:
         doc.table(f"Work {name} does not need, skipped", ("skipped",), [(x,) for x in skipped])
 
 
-def system_derived(doc: Document, name: str, s: dict[str, Any]) -> None:
+def system_derived(doc: Document, name: str, s: SystemResult) -> None:
     """The model's own equations of motion, derived symbolically: the fourth source, readable."""
     d = s.get("derived")
     doc.h(3, "Equations of motion derived from the model", f"{slug(name)}-derived")
@@ -89,7 +90,7 @@ def symbol_row(symbol: str, meaning: str) -> tuple[str, str]:
     return (f"`{symbol} = {reading or meaning}`", unit if reading else "–")
 
 
-def system_derivation(doc: Document, name: str, s: dict[str, Any]) -> None:
+def system_derivation(doc: Document, name: str, s: SystemResult) -> None:
     """The hand derivation's verdict: every term, at the model's parameters and at every probe."""
     d = s.get("derivation")
     if not d:
@@ -202,7 +203,7 @@ def system_derivation(doc: Document, name: str, s: dict[str, Any]) -> None:
         doc.p(f"Probe not built: {problem}", "missing")
 
 
-def differences_table(doc: Document, name: str, explanations: list[dict[str, Any]], owner: str = "yours") -> None:
+def differences_table(doc: Document, name: str, explanations: list[Explanation], owner: str = "yours") -> None:
     doc.table(
         f"Symbolic differences of {name}'s derivation",
         ("entry", "difference from the model's equations", "expected", "parameters"),
@@ -218,7 +219,7 @@ def differences_table(doc: Document, name: str, explanations: list[dict[str, Any
     )
 
 
-def system_equivalence(doc: Document, name: str, s: dict[str, Any]) -> None:
+def system_equivalence(doc: Document, name: str, s: SystemResult) -> None:
     eq = s.get("equivalence")
     if not eq:
         return
@@ -266,7 +267,7 @@ def system_equivalence(doc: Document, name: str, s: dict[str, Any]) -> None:
     doc.fold(f"All {len(rows)} rows, by parameter set", every)
 
 
-def system_chaos(doc: Document, name: str, s: dict[str, Any]) -> None:
+def system_chaos(doc: Document, name: str, s: SystemResult) -> None:
     cx = s.get("chaos")
     if not cx:
         doc.p(f"Chaos and integrator cross-validation: {NOT_RUN}.", "missing")
@@ -390,7 +391,7 @@ def system_chaos(doc: Document, name: str, s: dict[str, Any]) -> None:
         doc.items(short)
 
 
-def same_run(s: dict[str, Any], integrator: str, free_run: dict[str, Any]) -> dict[str, Any] | None:
+def same_run(s: SystemResult, integrator: str, free_run: dict[str, Any]) -> dict[str, Any] | None:
     """The trajectory table's MuJoCo run when it is this integrator's free run (same integrator and
     timestep, from the same start): its verdict is then stated once, in the trajectory table's words."""
     tr = s.get("trajectories") or {}
@@ -425,16 +426,16 @@ def _experiment_intro(doc: Document, ex: dict[str, Any], notes: Any) -> None:
     )
 
 
-def _separation_table(doc: Document, name: str, s: dict[str, Any], notes: Any, t_end: float) -> None:
+def _separation_table(doc: Document, name: str, s: SystemResult, notes: Any, t_end: float) -> None:
     """Every form's separation and departure times beside its verdict; the wrong forms named below."""
-    ex = s["experiments"]
+    ex = s.get("experiments") or {}  # the callers hold experiments
     verdicts = {v.get("name"): v.get("verdict") for v in s.get("variants", [])}
     of_notes = "notes' " if notes else ""
 
     def form_verdict(form: str) -> Any:
         if form == "hand derivation":
             return verdict_mark((s.get("derivation") or {}).get("verdict", ""))
-        return verdict_mark(verdicts.get(form, "–"))
+        return verdict_mark(str(verdicts.get(form, "–")))  # as the table prints it
 
     def integration(r: dict[str, Any]) -> str:
         status = str(r.get("status", ""))
@@ -465,10 +466,10 @@ def _separation_table(doc: Document, name: str, s: dict[str, Any], notes: Any, t
         )
 
 
-def _separation_finding(doc: Document, name: str, s: dict[str, Any], notes: Any, t_end: float) -> bool:
+def _separation_finding(doc: Document, name: str, s: SystemResult, notes: Any, t_end: float) -> bool:
     """What the hand derivation's runs at rtol 1e-3 and 1e-6 say about separation; whether the loose
     solver's own error parts the starts first (False where either run is missing)."""
-    ex = s["experiments"]
+    ex = s.get("experiments") or {}  # the callers hold experiments
     by_rtol = {r["rtol"]: r for r in ex.get("runs", []) if r["form"] == "hand derivation"}
     loose, tight = by_rtol.get(1e-3), by_rtol.get(1e-6)
     if not (loose and tight):
@@ -529,7 +530,7 @@ def _experiment_figure_section(doc: Document, name: str, ex: dict[str, Any], not
     )
 
 
-def system_experiments(doc: Document, name: str, s: dict[str, Any]) -> None:
+def system_experiments(doc: Document, name: str, s: SystemResult) -> None:
     """The notes' (or a perturbation) experiment: what it is, when the starts separate, the finding, the figure."""
     ex = s.get("experiments")
     if not ex:

@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any
-
+from ..results.schema import RunResults
 from ..results.stages import ordered, seconds_of
 from .document import Document
 
@@ -13,7 +12,7 @@ TIMING = "Where the time went"
 SHOWN = {"printed forms": "VARIANTS"}
 
 
-def section_timing(doc: Document, results: dict[str, Any]) -> None:
+def section_timing(doc: Document, results: RunResults) -> None:
     """One row per stage (in the order the stages ran), one column per system, wall seconds; folded.
     Nothing when no system recorded its stages' seconds (results written before they did)."""
     systems = sorted(results.get("systems", {}).items())

@@ -11,7 +11,7 @@ import sys
 from collections.abc import Iterable, Mapping
 from importlib import metadata
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -19,7 +19,7 @@ from ..errors import HarnessError
 from ..files import replace_files
 from ..inputs import parse_json, regular_file
 from ..systems import PACKAGE_ROOT
-from .schema import Provenance
+from .schema import Provenance, RunResults
 
 PACKAGES = ("lagrange-xval", "numpy", "scipy", "mujoco", "pin", "rerun-sdk", "matplotlib", "jinja2")
 
@@ -134,7 +134,7 @@ def _dumps(x: Any, depth: int) -> str:
 MAX_RESULTS_BYTES = 512 * 2**20  # results.json of the five systems is ~30 MB
 
 
-def load(path: Path) -> dict[str, Any]:
+def load(path: Path) -> RunResults:
     """The results `run` wrote, checked for the layout the reports are rendered from."""
 
     path = Path(path)
@@ -146,7 +146,7 @@ def load(path: Path) -> dict[str, Any]:
         raise HarnessError(
             f"{path} is not a results file of `lagrange-xval run` ({problem}); rerun `lagrange-xval run`."
         )
-    return results  # type: ignore[no-any-return]
+    return cast(RunResults, results)  # its top checked here, the rest as `run` wrote it
 
 
 def schema_problem(results: Any) -> str | None:

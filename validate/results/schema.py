@@ -127,6 +127,35 @@ class Explanation(TypedDict, total=False):
     symbols: dict[str, str]  # each parameter named in the statement: its model key and unit
 
 
+class TermSummary(TypedDict):
+    """One term of a derivation over every engine and probe (checks/verdict.summarise)."""
+
+    term: str
+    passed: bool
+    worst_scaled: float
+    engine: str
+    probe: int | None
+    tolerance: float  # the largest the term was judged with
+    scale: float
+    rows: int
+
+
+class WorstTerm(TypedDict, total=False):
+    """The worst row of the first disagreeing term (a TermRow's fields; a printed form's: with `pair` and
+    `parameters`, without `probe`)."""
+
+    term: str
+    engine: str
+    probe: int | None
+    pair: str
+    parameters: str
+    max_abs: float
+    scaled: float
+    tolerance: float
+    worst_state: WorstState | None
+    error: str
+
+
 class Derivation(TypedDict, total=False):
     """The verdict on a derivation (the hand one or a printed form), term by term."""
 
@@ -140,13 +169,13 @@ class Derivation(TypedDict, total=False):
     hidden_by_model_values: bool
     typed_numbers: dict[str, float]  # fields parameters() returns without reading the model (g = 9.81)
     terms: list[TermRow]
-    summary: list[dict[str, Any]]  # per term and engine: rows, worst scaled error, tolerance
+    summary: list[TermSummary]  # per term: rows, worst scaled error, tolerance
     probes: list[dict[str, Any]]  # index, label, the parameters changed
     probe_problems: list[str]  # probes that could not be built, and why
     held_at_zero: list[str]  # parameters zero in the model: the terms they scale are not tested
     checked: dict[str, int]  # states at the model, per probe, probes, evaluations
     notes: dict[str, Any]  # per probe: what the terms could not check there
-    worst_term: dict[str, Any]
+    worst_term: WorstTerm
     exposed_by: list[str]  # the parameters that alone expose a mistake hidden by the model's values
     unstated_assumptions: list[str]  # model numbers the failing term depends on that parameters() does not read
     mass_matrix_not_spd: dict[str, Any]
@@ -155,6 +184,10 @@ class Derivation(TypedDict, total=False):
     reason: str  # why not applicable
     not_checked: list[str]  # terms whose functions the derivation does not provide
     explanations: list[Explanation]  # each disagreeing entry as a symbolic difference (checks/explain.py)
+    # a printed form of the notes (checks/judge.py)
+    notes_equations: list[str]  # the notes' equation numbers it transcribes
+    note: str  # what the transcription says of it
+    assumes: str  # the parameter equalities it needs ("m1 = m2")
 
 
 class SystemResult(TypedDict, total=False):
@@ -180,7 +213,7 @@ class SystemResult(TypedDict, total=False):
     model_checks: ModelChecks
     pointwise: Pointwise
     derivation: Derivation
-    variants: list[dict[str, Any]]
+    variants: list[Derivation]  # the printed forms of the notes (checks/judge.py)
     trajectories: dict[str, Any] | None
     experiments: dict[str, Any] | None
     equivalence: dict[str, Any] | None
@@ -198,6 +231,16 @@ class RunResults(TypedDict):
     tolerances: dict[str, Any]
     systems: dict[str, SystemResult]
     passed: bool
+
+
+class ReportInput(RunResults, total=False):
+    """What the report is rendered from: results.json, with the results of `bench`, `stress` and the chain
+    study found beside it (cli/outputs.with_optional_results)."""
+
+    bench: dict[str, Any]
+    stress: dict[str, Any]
+    chains: dict[str, Any]
+    skipped: str
 
 
 class CheckData(TypedDict, total=False):
