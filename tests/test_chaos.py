@@ -9,6 +9,7 @@ from lagrange_xval.validate.dynamics import chaos
 from lagrange_xval.validate.dynamics.integrate import initial_state, mujoco_trajectory, time_grid
 from lagrange_xval.validate.dynamics.reference import reference_trajectory
 from lagrange_xval.validate.engines import make_sources
+from lagrange_xval.validate.systems.start import Scheme
 
 NOTES_START = (np.array([0.0, 3.0]), np.zeros(2))  # theta = 0, phi = 3, at rest (the notes' ode45 run)
 _sources: dict[str, dict] = {}
@@ -88,7 +89,7 @@ def test_envelope_bounds_mujoco_rk4_and_the_judge_can_fail(point):
     assert out["prediction_mismatch"] < 1e-2, (out["error_at"], out["predicted_at"])
     env = chaos.error_envelope(
         chaos.flow(point, q0, v0, tau, t),
-        window_errors=chaos.window_errors(point, src, "mujoco", ref, tau, integrator="RK4", timestep=1e-3),
+        window_errors=chaos.window_errors(point, src, "mujoco", ref, tau, Scheme("RK4", 1e-3)),
         floor=chaos.rounding_floor(ref),
     )
     wrong = mujoco_trajectory(point, src["mujoco"], q0 + [0.0, 1e-7], v0, tau, t, integrator="RK4")

@@ -21,6 +21,7 @@ from lagrange_xval.validate.engines import make_sources
 from lagrange_xval.validate.studies.bench import runners
 from lagrange_xval.validate.studies.bench.plan import CONTENDER_DRIVERS, FULL, GRID_DRIVERS, QUICK
 from lagrange_xval.validate.systems import System, load, system_names
+from lagrange_xval.validate.systems.start import Start
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = sorted(ROOT.glob("examples/*.xml"))
@@ -106,7 +107,7 @@ def test_drakes_free_run_agrees_with_the_reference_within_its_own_threshold(name
     ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=None)
     run = drakerun.drake_trajectory(system, sources["drake"], q0, v0, tau, t)
     assert run.source == "drake" and run.method == "Drake runge_kutta3 accuracy 1e-08" and run.stats["status"] == "ok"
-    est, how = estimate.run_estimate(system, sources, run, q0, v0, tau)
+    est, how = estimate.run_estimate(system, sources, run, Start.of(q0, v0, tau))
     assert "against 1e-09" in how
     err = np.abs(run.q - ref.q).max(axis=1)
     assert np.all(err <= estimate.threshold(est)), float(err.max())

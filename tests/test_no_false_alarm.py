@@ -20,6 +20,7 @@ from lagrange_xval.validate.dynamics import chaos, estimate, freeruns, integrate
 from lagrange_xval.validate.dynamics.reference import WINDOW_CHECK_TOLERANCE, reference_trajectory, window_check
 from lagrange_xval.validate.engines import make_sources
 from lagrange_xval.validate.errors import HarnessError
+from lagrange_xval.validate.systems.start import Start
 
 from .mutations import MUTATIONS, load_mutated
 
@@ -133,7 +134,7 @@ def test_richardson_estimate_tracks_mujoco_rk4_error():
     t = integrate.time_grid(10.0, 0.01)
     ref, _ = reference_trajectory(system, q0, v0, tau, t)
     run = integrate.mujoco_trajectory(system, sources["mujoco"], q0, v0, tau, t)
-    est, how = estimate.mujoco_estimate(system, sources["mujoco"], run, q0, v0, tau)
+    est, how = estimate.mujoco_estimate(system, sources["mujoco"], run, Start.of(q0, v0, tau))
     err = integrate.error_against(run, ref)
     assert 0.8 < err.max() / est.max() < 1.2, (err.max(), est.max(), how)
     assert err.max() > estimate.FLOOR and np.all(err <= estimate.threshold(est))

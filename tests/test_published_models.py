@@ -12,6 +12,7 @@ import mujoco
 import pytest
 from lagrange_xval.validate.cli import main
 from lagrange_xval.validate.systems import System, floating, scope
+from lagrange_xval.validate.systems.start import Start
 
 EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "gymnasium" / "inverted_double_pendulum.py"
 
@@ -131,7 +132,7 @@ def test_scipys_error_estimate_bounds_its_error_at_an_extreme_ratio(tmp_path):
     pin = make_source(system, "pinocchio")
     o = SCIPY_DEFAULT
     run = scipy_trajectory(system, pin, q0, v0, tau, t, method=o["method"], rtol=o["rtol"], atol=o["atol"])
-    estimate, how = scipy_estimate(system, pin, run, q0, v0, tau)
+    estimate, how = scipy_estimate(system, pin, run, Start.of(q0, v0, tau))
     error = np.abs(run.q - ref.q).max(axis=1)
     assert "DOP853" in how
     assert np.all(error <= threshold(estimate)), float((error / threshold(estimate)).max())

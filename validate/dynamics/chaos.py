@@ -51,6 +51,7 @@ from ..engines.base import Source, stepped
 from ..errors import unknown_name
 from ..systems import System
 from ..systems.forms import accelerations_only
+from ..systems.start import Scheme, Start
 from .flow import DEFAULT_TOLERANCE as DEFAULT_TOLERANCE
 from .flow import SAFETY as SAFETY
 from .flow import Flow as Flow
@@ -100,18 +101,11 @@ JACOBIAN_STEP = 1e-6  # central differences of the accelerations, relative to ma
 
 
 def _run(
-    system: System,
-    sources: Mapping[str, Source],
-    engine: str,
-    q0: np.ndarray,
-    v0: np.ndarray,
-    tau: np.ndarray,
-    t: np.ndarray,
-    *,
-    integrator: str,
-    timestep: float,
+    system: System, sources: Mapping[str, Source], engine: str, start: Start, t: np.ndarray, scheme: Scheme
 ) -> Trajectory:
     """A free run: MuJoCo stepping (engine "mujoco") or the mirror of its scheme on another source."""
+    q0, v0, tau = start.q0, start.v0, start.tau
+    integrator, timestep = scheme.integrator, scheme.timestep
     if engine == "mujoco":
         return mujoco_trajectory(
             system, stepped(sources["mujoco"]), q0, v0, tau, t, integrator=integrator, timestep=timestep
@@ -125,11 +119,10 @@ def window_errors(
     engine: str,
     ref: Trajectory,
     tau: np.ndarray,
-    *,
-    integrator: str,
-    timestep: float,
+    scheme: Scheme,
 ) -> np.ndarray:
     """(K-1, 2n): the run restarted from the reference at each sample, minus the reference one sample later."""
+    integrator, timestep = scheme.integrator, scheme.timestep
     dt_out = float(ref.t[1] - ref.t[0])
     steps = round(dt_out / timestep)
     q, v = ref.q[:-1], ref.v[:-1]
@@ -168,9 +161,9 @@ def free_run_check(
     dt = float(timestep or system.mujoco_model().opt.timestep)
     if ref is None:
         ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=cache_dir)
-    run = _run(system, sources, engine, q0, v0, tau, t, integrator=integrator, timestep=dt)
+    run = _run(system, sources, engine, Start(q0, v0, tau), t, Scheme(integrator, dt))
     err = np.abs(run.q - ref.q).max(axis=1)
-    w = window_errors(system, sources, engine, ref, tau, integrator=integrator, timestep=dt)
+    w = window_errors(system, sources, engine, ref, tau, Scheme(integrator, dt))
     fl = flow(system, q0, v0, tau, t)
     env = error_envelope(fl, window_errors=w, floor=rounding_floor(ref))
     return _free_run_entry(engine, integrator, dt, t, err, w, env, predicted_error(fl, w), tolerance)
@@ -229,11 +222,11 @@ def pair_check(
     dt = float(timestep or system.mujoco_model().opt.timestep)
     if ref is None:
         ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=cache_dir)
-    run_a = _run(system, sources, a, q0, v0, tau, t, integrator=integrator, timestep=dt)
-    run_b = _run(system, sources, b, q0, v0, tau, t, integrator=integrator, timestep=dt)
+    run_a = _run(system, sources, a, Start(q0, v0, tau), t, Scheme(integrator, dt))
+    run_b = _run(system, sources, b, Start(q0, v0, tau), t, Scheme(integrator, dt))
     err = np.abs(run_a.q - run_b.q).max(axis=1)
-    w = window_errors(system, sources, a, ref, tau, integrator=integrator, timestep=dt) - window_errors(
-        system, sources, b, ref, tau, integrator=integrator, timestep=dt
+    w = window_errors(system, sources, a, ref, tau, Scheme(integrator, dt)) - window_errors(
+        system, sources, b, ref, tau, Scheme(integrator, dt)
     )
     env = error_envelope(flow(system, q0, v0, tau, t), window_errors=w, floor=rounding_floor(ref))
     return {
@@ -365,7 +358,7 @@ def convergence_order(
     ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=cache_dir, check=check)
     errors = []
     for dt in dts:
-        run = _run(system, sources, engine, q0, v0, tau, t, integrator=integrator, timestep=dt)
+        run = _run(system, sources, engine, Start(q0, v0, tau), t, Scheme(integrator, dt))
         errors.append(float(np.abs(run.q - ref.q).max()))
     usable = [(dt, e) for dt, e in zip(dts, errors, strict=True) if e > 0 and np.isfinite(e)]  # a diverged run: NaN
     order = (
@@ -414,7 +407,7 @@ def energy_drift(
     dt = float(timestep or system.mujoco_model().opt.timestep)
     if ref is None:
         ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=cache_dir)
-    run = _run(system, sources, engine, q0, v0, tau, t, integrator=integrator, timestep=dt)
+    run = _run(system, sources, engine, Start(q0, v0, tau), t, Scheme(integrator, dt))
     e_run, e_ref = energy(system, sources["hand"], run), energy(system, sources["hand"], ref)
     diff = e_run - e_ref
     scale = float(np.max(np.abs(e_ref)) or 1.0)
@@ -488,8 +481,8 @@ def crossvalidate(
     for integrator in integrators:
         runs, windows = {}, {}
         for engine in ("mujoco", *mirror_engines):
-            runs[engine] = _run(system, sources, engine, q0, v0, tau, t, integrator=integrator, timestep=dt)
-            windows[engine] = window_errors(system, sources, engine, ref, tau, integrator=integrator, timestep=dt)
+            runs[engine] = _run(system, sources, engine, Start(q0, v0, tau), t, Scheme(integrator, dt))
+            windows[engine] = window_errors(system, sources, engine, ref, tau, Scheme(integrator, dt))
         err = np.abs(runs["mujoco"].q - ref.q).max(axis=1)
         env = error_envelope(fl, window_errors=windows["mujoco"], floor=floor, transfer=g)
         entry: dict[str, Any] = {

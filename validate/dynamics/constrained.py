@@ -20,6 +20,7 @@ import numpy as np
 from ..engines.base import SteppedSource
 from ..engines.constraints import constrained_run
 from ..systems import System
+from ..systems.start import Start
 from .estimate import threshold
 from .integrate import initial_state, time_grid
 from .reference import reference_trajectory
@@ -43,7 +44,9 @@ def until_constraint(
     integrator = {0: "Euler", 1: "RK4", 2: "implicit", 3: "implicitfast"}.get(int(source.m.opt.integrator), "Euler")
     run = Trajectory("mujoco", f"MuJoCo {integrator}", t[: len(q)].copy(), q, np.zeros_like(q), {})
     estimate = (
-        mujoco_estimate(system, source, run, q0, v0, tau, integrator=integrator)[0] if len(q) > 1 else np.zeros(1)
+        mujoco_estimate(system, source, run, Start.of(q0, v0, tau), integrator=integrator)[0]
+        if len(q) > 1
+        else np.zeros(1)
     )
     bound = threshold(estimate)
     # judged while the run's own threshold stays below TRUST: beyond, it cannot tell equations apart (trust.py)

@@ -36,6 +36,7 @@ import numpy as np
 from ..checks.tolerances import TOLERANCES
 from ..engines.base import Source, SteppedSource, stepped
 from ..systems import System
+from ..systems.start import Start
 from .drakerun import DRAKE_DEFAULT, drake_trajectory
 from .flow import SAFETY as FLOW_SAFETY
 from .integrate import SCIPY_DEFAULT, Trajectory, mujoco_trajectory, scipy_trajectory
@@ -59,10 +60,11 @@ def rule() -> str:
 
 
 def mujoco_estimate(
-    system: System, source: SteppedSource, tr: Trajectory, q0: Any, v0: Any, tau: Any, *, integrator: str = "RK4"
+    system: System, source: SteppedSource, tr: Trajectory, start: Start, *, integrator: str = "RK4"
 ) -> tuple[np.ndarray, str]:
     """(K,) rad: the Richardson estimate of a MuJoCo run's error at its model timestep, and how."""
     dt = float(source.m.opt.timestep)
+    q0, v0, tau = start.q0, start.v0, start.tau
     half = mujoco_trajectory(system, source, q0, v0, tau, tr.t, integrator=integrator, timestep=dt / 2)
     p = ORDER[integrator]
     factor = 2.0**p / (2.0**p - 1.0)
@@ -71,11 +73,12 @@ def mujoco_estimate(
 
 
 def scipy_estimate(
-    system: System, source: Source, tr: Trajectory, q0: Any, v0: Any, tau: Any, *, opts: dict[str, Any] | None = None
+    system: System, source: Source, tr: Trajectory, start: Start, *, opts: dict[str, Any] | None = None
 ) -> tuple[np.ndarray, str]:
     """(K,) rad: a scipy run's error estimated from CHECK_METHOD at a tenth of its tolerances (module
     docstring). A check run that stops early (budget, blow-up) gives NaN samples: no estimate there (the floor)."""
     o = dict(opts or SCIPY_DEFAULT)
+    q0, v0, tau = start.q0, start.v0, start.tau
     fine = scipy_trajectory(
         system, source, q0, v0, tau, tr.t, method=CHECK_METHOD, rtol=o["rtol"] / FINER, atol=o["atol"] / FINER
     )
@@ -88,12 +91,11 @@ def scipy_estimate(
     )
 
 
-def drake_estimate(
-    system: System, source: Source, tr: Trajectory, q0: Any, v0: Any, tau: Any
-) -> tuple[np.ndarray, str]:
+def drake_estimate(system: System, source: Source, tr: Trajectory, start: Start) -> tuple[np.ndarray, str]:
     """(K,) rad: a Drake error-controlled run's error estimated from the same scheme at a tenth of its
     target accuracy (DRAKE_DEFAULT's), as scipy's; a check run that stops gives no estimate there."""
     o = DRAKE_DEFAULT
+    q0, v0, tau = start.q0, start.v0, start.tau
     fine = drake_trajectory(
         system, source, q0, v0, tau, tr.t, scheme=o["scheme"], accuracy=o["accuracy"] / FINER, max_step=o["max_step"]
     )
@@ -103,16 +105,14 @@ def drake_estimate(
     return est, how
 
 
-def run_estimate(
-    system: System, sources: Mapping[str, Source], tr: Trajectory, q0: Any, v0: Any, tau: Any
-) -> tuple[np.ndarray, str]:
+def run_estimate(system: System, sources: Mapping[str, Source], tr: Trajectory, start: Start) -> tuple[np.ndarray, str]:
     """The error estimate of one of `fast.run_trajectories`' runs, by how it was made."""
     if tr.source == "mujoco":
-        return mujoco_estimate(system, stepped(sources["mujoco"]), tr, q0, v0, tau, integrator=tr.method.split()[1])
+        return mujoco_estimate(system, stepped(sources["mujoco"]), tr, start, integrator=tr.method.split()[1])
     if tr.source == "drake":
-        return drake_estimate(system, sources["drake"], tr, q0, v0, tau)
+        return drake_estimate(system, sources["drake"], tr, start)
     if tr.method.startswith("scipy"):
-        return scipy_estimate(system, sources[tr.source], tr, q0, v0, tau)
+        return scipy_estimate(system, sources[tr.source], tr, start)
     return np.zeros(len(tr.t)), f"none: {tr.method} is accurate to ~1e-14 rad over 10 s (bench), below the floor"
 
 
@@ -125,11 +125,12 @@ ABA_METHOD, ABA_RTOL = "DOP853", 1e-12  # the reference of a chain with no symbo
 
 
 def aba_reference(
-    system: System, source: Source, q0: Any, v0: Any, tau: Any, t: np.ndarray
+    system: System, source: Source, start: Start, t: np.ndarray
 ) -> tuple[Trajectory, Trajectory, dict[str, Any]]:
     """The reference of a chain with no symbolic source (no equations the Taylor method can trace):
     Pinocchio's ABA by scipy's ABA_METHOD at ABA_RTOL, and its check, the same at half the tolerances;
     info["agreement_q"] (rad) is the two runs' largest difference, the reference's stated accuracy."""
+    q0, v0, tau = start.q0, start.v0, start.tau
     ref = scipy_trajectory(system, source, q0, v0, tau, t, method=ABA_METHOD, rtol=ABA_RTOL, atol=ABA_RTOL)
     half = ABA_RTOL / 2
     check = scipy_trajectory(system, source, q0, v0, tau, t, method=ABA_METHOD, rtol=half, atol=half)

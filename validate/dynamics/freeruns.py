@@ -11,11 +11,13 @@ from typing import Any
 
 import numpy as np
 
-from ..engines.base import Source
+from ..engines.base import OneStateSource, Source, one_state
 from ..results.stages import Clock, lap
 from ..systems import System
+from ..systems.start import Start
 from . import estimate, experiments, fast, integrate, trust
 from .cachedir import Cache
+from .integrate import Trajectory
 from .reference import reference_trajectory
 
 # Drake's free run is error-controlled (runge_kutta3 at a target accuracy), whose error does not scale with
@@ -68,8 +70,8 @@ def trajectory_results(
     `drake_run`: Drake's own free run too (information only, not judged: DRAKE_NOT_JUDGED; with its
     estimate it cost ~5 s of a double pendulum's ~25, so it runs on request, `run --drake-run`)."""
 
-    q0, v0 = integrate.initial_state(system)
-    tau = np.zeros(system.nv)
+    start = Start.at_rest(*integrate.initial_state(system))
+    q0, v0, tau = start.q0, start.v0, start.tau
     t = integrate.time_grid(t_end, dt_out)
     ref, ref_info = reference_trajectory(system, q0, v0, tau, t, cache_dir=reference_dir(cache))
     lap(clock, "trajectories: reference")
@@ -79,7 +81,7 @@ def trajectory_results(
     perturbed = fast.accurate_trajectory(system, sources["hand"], q0b, v0, tau, t)
     perturbed.stats["label"] = f"{system.coordinates[-1]}0 + {experiments.PERTURBATION:g}"
     lap(clock, "trajectories: perturbed start")
-    estimates = [estimate.run_estimate(system, sources, tr, q0, v0, tau) for tr in trajs]
+    estimates = [estimate.run_estimate(system, sources, tr, start) for tr in trajs]
     lap(clock, "estimates")
     runs = [_run_entry(system, sources, tr, ref, est) for tr, est in zip(trajs, estimates, strict=True)]
     for run in runs:
@@ -97,7 +99,7 @@ def trajectory_results(
     )
     info = {k: v for k, v in ref_info.items() if np.isscalar(v) or isinstance(v, str)}
     return {
-        **_start_and_reference((q0, v0, tau), (t_end, dt_out, t), reference, info),
+        **_start_and_reference(start, (t_end, dt_out, t), reference, info),
         "threshold_rule": estimate.rule(),
         "safety": estimate.SAFETY,
         "runs": runs,
@@ -105,15 +107,15 @@ def trajectory_results(
 
 
 def _start_and_reference(
-    start: tuple[np.ndarray, np.ndarray, np.ndarray], grid: tuple[float, float, np.ndarray], reference: str, info: Any
+    start: Start, grid: tuple[float, float, np.ndarray], reference: str, info: dict[str, Any]
 ) -> dict[str, Any]:
     """What every free-run record starts with: the start (q0, v0, tau), the grid (t_end, dt_out, t),
     the reference and the threshold."""
-    (q0, v0, tau), (t_end, dt_out, t) = start, grid
+    t_end, dt_out, t = grid
     return {
-        "q0": q0,
-        "v0": v0,
-        "tau": tau,
+        "q0": start.q0,
+        "v0": start.v0,
+        "tau": start.tau,
         "t_end": t_end,
         "dt_out": dt_out,
         "t": t,
@@ -214,8 +216,7 @@ def divergence_results(
     MuJoCo's, as information (where the wrong equations part from the engines), never a verdict.
     `aba_reference` (a chain with no symbolic source): against Pinocchio's ABA integrated by DOP853 at
     rtol 1e-12 and checked at half the tolerance (dynamics/estimate.py `aba_reference`) instead."""
-    q0, v0 = integrate.initial_state(system)
-    tau = np.zeros(system.nv)
+    start = Start.at_rest(*integrate.initial_state(system))
     t = integrate.time_grid(t_end, dt_out)
     trajs = fast.run_trajectories(system, sources, t_end=t_end, dt_out=dt_out)
     ref = next(tr for tr in trajs if tr.source == "mujoco")
@@ -223,13 +224,10 @@ def divergence_results(
     info: dict[str, Any] = {"method": ref.method}
     trusted: dict[str, Any] | None = None
     if aba_reference:
-        ref, check, info = estimate.aba_reference(system, sources["pinocchio"], q0, v0, tau, t)
+        ref, check, info = estimate.aba_reference(system, sources["pinocchio"], start, t)
         reference = f"{info['method']}; agrees with {info['check']} to {info['agreement_q']:.1e} rad"
-        runs = [
-            _run_entry(system, sources, tr, ref, estimate.run_estimate(system, sources, tr, q0, v0, tau))
-            for tr in trajs
-        ]
-        trusted = trust_of(sources["pinocchio"], runs, ref, check, q0, v0, tau)
+        runs = [_run_entry(system, sources, tr, ref, estimate.run_estimate(system, sources, tr, start)) for tr in trajs]
+        trusted = trust_of(one_state(sources["pinocchio"]), runs, ref, check, start)
     else:
         runs = [_run_entry(system, sources, tr, ref) for tr in trajs]
     for run in runs:
@@ -237,21 +235,21 @@ def divergence_results(
         run["why_not_counted"] = why
     return {
         **({"trust": trusted} if trusted is not None else {}),
-        **_start_and_reference((q0, v0, tau), (t_end, dt_out, t), reference, info),
+        **_start_and_reference(start, (t_end, dt_out, t), reference, info),
         "information_only": why,
         "runs": runs,
     }
 
 
 def trust_of(
-    pinocchio: Any, runs: list[dict[str, Any]], ref: Any, check: Any, q0: Any, v0: Any, tau: Any
+    pinocchio: OneStateSource, runs: list[dict[str, Any]], ref: Trajectory, check: Trajectory, start: Start
 ) -> dict[str, Any]:
     """Which engine departs from the reference, from when, and whether it is expected
     (dynamics/trust.py): the reference's own horizon, the Lyapunov exponent and predictability horizon,
     and each run's trusted interval with one sentence."""
     t = np.asarray(ref.t)
     limit = trust.reference_until(ref, check)
-    rate = trust.lyapunov(pinocchio, np.asarray(q0, float), np.asarray(v0, float), np.asarray(tau, float), float(t[-1]))
+    rate = trust.lyapunov(pinocchio, start, float(t[-1]))
     for run in runs:
         run["trust"] = trust.run_trust(run, t, limit)
         run["trust_statement"] = trust.statement(run.get("label") or run["method"], run["trust"], float(t[-1]))

@@ -25,6 +25,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from ..engines.base import OneStateSource
+from ..systems.start import Start
 from . import estimate
 from .integrate import Trajectory
 
@@ -48,10 +49,10 @@ def reference_until(ref: Trajectory, check: Trajectory) -> float:
     return float(ref.t[-1]) if hit is None else hit
 
 
-def lyapunov(source: OneStateSource, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, t_end: float) -> float:
+def lyapunov(source: OneStateSource, start: Start, t_end: float) -> float:
     """The largest Lyapunov exponent (1/s) by Benettin's method on the source's right-hand side."""
-    f = source.rhs(tau)
-    x = np.concatenate([q0, v0]).astype(float)
+    f = source.rhs(start.tau)
+    x = np.concatenate([start.q0, start.v0]).astype(float)
     rng = np.random.default_rng(0)
     d = rng.normal(size=x.shape)
     y = x + DELTA0 * d / np.linalg.norm(d)
