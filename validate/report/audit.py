@@ -5,10 +5,9 @@ warnings and each reading's consequence on M and G."""
 from __future__ import annotations
 
 import re
-from typing import Any
 
 from ..results.schema import SystemResult
-from .document import Items
+from .document import Document, Items
 
 LABEL = {"mujoco": "MuJoCo", "pinocchio": "Pinocchio", "drake": "Drake"}
 MAX_ITEMS = 30  # findings listed in the report; results.json keeps every one
@@ -22,7 +21,7 @@ def _offline(line: str) -> str:
     return re.sub(r"https?://\S+", "(its web page)", REPORTED.sub(r"[\1]", line))
 
 
-def audit_section(doc: Any, name: str, s: SystemResult) -> None:
+def audit_section(doc: Document, name: str, s: SystemResult) -> None:
     """A short paragraph, the findings as items, and one table of max |M_a - M_b| per reader pair."""
     a = s.get("audit")
     if not a:

@@ -8,7 +8,7 @@ import io
 import math
 from typing import Any
 
-from ..results.schema import ComparisonRow
+from ..results.schema import ComparisonRow, FreeRun
 from .document import FIG_DPI, MAX_PLOT_POINTS, PAIR_COLOURS, SOURCE_STYLE, as_float, sci
 
 
@@ -183,19 +183,19 @@ def pointwise_figure(name: str, rows: list[ComparisonRow]) -> bytes:
         return png(fig)
 
 
-def run_label(run: dict[str, Any]) -> str:
+def run_label(run: FreeRun) -> str:
     """A run's legend entry: its source, and its own label where one source has several runs."""
     return f"{run['source']} ({run['label']})" if run.get("label") else run["source"]
 
 
-def run_style(run: dict[str, Any]) -> tuple[str, Any, float]:
+def run_style(run: FreeRun) -> tuple[str, Any, float]:
     """Colour, line style and width: by source, green dash-dot for a labelled extra run (a perturbed start)."""
     if run.get("label"):
         return "#7c3aed", (0, (6, 2, 1, 2)), 1.2  # not a source's colour: a perturbed start is no source
     return SOURCE_STYLE.get(run["source"], ("#6b7280", "-", 1.2))
 
 
-def trajectory_figure(name: str, coords: list[str], t: Any, runs: list[dict[str, Any]]) -> bytes:
+def trajectory_figure(name: str, coords: list[str], t: Any, runs: list[FreeRun]) -> bytes:
     """q against t, every source overlaid, one panel per coordinate."""
     k = stride(len(t))
     tt = t[::k]
@@ -215,7 +215,7 @@ def trajectory_figure(name: str, coords: list[str], t: Any, runs: list[dict[str,
         return png(fig)
 
 
-def error_figure(name: str, t: Any, runs: list[dict[str, Any]], threshold: float, reference: str) -> bytes:
+def error_figure(name: str, t: Any, runs: list[FreeRun], threshold: float, reference: str) -> bytes:
     """log10 of the distance to the reference trajectory, threshold marked."""
     import numpy as np
 
@@ -253,7 +253,7 @@ def error_figure(name: str, t: Any, runs: list[dict[str, Any]], threshold: float
         return png(fig)
 
 
-def energy_figure(name: str, t: Any, runs: list[dict[str, Any]]) -> bytes:
+def energy_figure(name: str, t: Any, runs: list[FreeRun]) -> bytes:
     """E(t) - E(0) of every source (the hand equations' energy along each trajectory)."""
     k = stride(len(t))
     tt = t[::k]

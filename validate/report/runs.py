@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..results.schema import FreeRun, Trajectories
 from .document import Mark, as_float, is_number, pass_mark, sci
 
 
@@ -30,12 +31,12 @@ def judged_verdict(passed: Any, until: Any, t_end: Any, why: str, error: Any = N
     return Mark("na" if large else "ok", text)
 
 
-def judged_why(tr: dict[str, Any]) -> str:
+def judged_why(tr: Trajectories) -> str:
     """The reason a run is judged only part-way, short: the clause before the first colon."""
     return str(tr.get("judged_because") or "").split(":")[0]
 
 
-def run_verdict(run: dict[str, Any], tr: dict[str, Any]) -> Any:
+def run_verdict(run: FreeRun, tr: Trajectories) -> Any:
     """A trajectory run's verdict as the table shows it: what interval was judged, or information only."""
     if not run.get("counts", True):
         return "information only"

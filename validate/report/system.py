@@ -7,7 +7,7 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from ..results.schema import SCALED_DEFINITION, ComparisonRow, SystemResult
+from ..results.schema import SCALED_DEFINITION, ComparisonRow, FreeRun, SystemResult, Trajectories
 from .audit import audit_section
 from .document import (
     NOT_RUN,
@@ -294,7 +294,7 @@ def section_pointwise(doc: Document, name: str, s: SystemResult) -> None:
         )
 
 
-def reference_text(s: SystemResult, tr: dict[str, Any]) -> str:
+def reference_text(s: SystemResult, tr: Trajectories) -> str:
     """The reference of the trajectory runs and why it is that one, from the system's facts."""
     ref = re.sub(r" \((the hand derivation|your derivation)[^()]*\)$", "", str(tr.get("reference")))
     if not has_derivation(s):
@@ -304,7 +304,7 @@ def reference_text(s: SystemResult, tr: dict[str, Any]) -> str:
     return ref
 
 
-def section_trajectories(doc: Document, name: str, s: SystemResult, tr: dict[str, Any]) -> None:
+def section_trajectories(doc: Document, name: str, s: SystemResult, tr: Trajectories) -> None:
     t = series(tr.get("t", []))
     thr = as_float(tr.get("threshold"))
     runs = tr["runs"]
@@ -425,7 +425,7 @@ def energy_text(s: SystemResult) -> str:
     return f"the system is conservative ({inputs}), so each curve is that source's drift and should stay near 0."
 
 
-def first_above(run: dict[str, Any], tr: dict[str, Any]) -> str:
+def first_above(run: FreeRun, tr: Trajectories) -> str:
     """When a run first passes the threshold, and why where it is expected."""
     first = run.get("first_exceeds_threshold")
     if first is None:

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ..results.schema import Explanation, SystemResult
+from ..results.schema import Explanation, FreeRun, SystemResult
 from ..results.stages import outcome
 from .document import (
     ERRATA,
@@ -391,7 +391,7 @@ def system_chaos(doc: Document, name: str, s: SystemResult) -> None:
         doc.items(short)
 
 
-def same_run(s: SystemResult, integrator: str, free_run: dict[str, Any]) -> dict[str, Any] | None:
+def same_run(s: SystemResult, integrator: str, free_run: dict[str, Any]) -> FreeRun | None:
     """The trajectory table's MuJoCo run when it is this integrator's free run (same integrator and
     timestep, from the same start): its verdict is then stated once, in the trajectory table's words."""
     tr = s.get("trajectories") or {}

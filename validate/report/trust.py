@@ -3,13 +3,12 @@ results' `trajectories.trust` (validate/dynamics/trust.py) and each run's `trust
 
 from __future__ import annotations
 
-from typing import Any
-
+from ..results.schema import Trajectories
 from .document import Document, Items
 from .runs import fmt_g
 
 
-def trust_section(doc: Document, tr: dict[str, Any]) -> None:
+def trust_section(doc: Document, tr: Trajectories) -> None:
     """The reference's own horizon, the Lyapunov exponent and predictability horizon, and one line per
     engine; nothing where the results hold no trust analysis."""
     found = tr.get("trust")

@@ -1,9 +1,10 @@
 """The shape of the results: what `run` writes to results.json, what `check` returns, what the
 reports and replays read. One provenance block (`meta`) for every results file (run, bench, stress).
 
-Typed where the harness decides the shape; the long time series and the chaos study stay plain
-mappings (`dict[str, Any]`), their keys documented where they are made (dynamics/chaos.py,
-pipeline.py). Non-finite numbers are written as strings ("inf", "nan"): JSON has none.
+Typed where the harness decides the shape, and read by the report through these types (mypy checks every
+key it reads); the chaos study, the experiments and the equivalence stay plain mappings (`dict[str, Any]`),
+their keys documented where they are made (dynamics/chaos.py, pipeline.py). Non-finite numbers are written
+as strings ("inf", "nan"): JSON has none.
 """
 
 from typing import Any, NotRequired, TypedDict
@@ -190,6 +191,69 @@ class Derivation(TypedDict, total=False):
     assumes: str  # the parameter equalities it needs ("m1 = m2")
 
 
+Number = float | str  # a JSON number; "inf" and "nan" as strings (JSON has none)
+
+
+class TrustSummary(TypedDict):
+    """Which engine departs from the reference, from when, and whether it is expected
+    (dynamics/freeruns.trust_of, for a chain with no symbolic source)."""
+
+    reference_until: float  # s: the reference agrees with itself at half its tolerance until then
+    lyapunov_exponent: Number  # 1/s
+    predictability_horizon: Number | None  # s; None: no exponential growth of errors
+    trust_rule: str
+    horizon_rule: str
+
+
+class FreeRun(TypedDict, total=False):
+    """One free run against the reference (dynamics/freeruns._run_entry, judged by judge_trajectories)."""
+
+    source: str  # "hand", "mujoco", "pinocchio", "symbolic", "drake"
+    method: str  # "MuJoCo RK4", "scipy DOP853 rtol 1e-10", ...
+    label: str  # a run from another start (the perturbed one)
+    stats: dict[str, Any]
+    q: list[list[Number]]  # (K, n) rad
+    v: list[list[Number]]  # (K, n) rad/s
+    energy: list[Number]  # (K,) J, by the hand equations (or the first source that has them)
+    energy_drift: Number | None  # J: max |E - E0|; None where the meter has no energies
+    energy_missing: str
+    error_vs_hand: list[Number]  # (K,) rad: the largest coordinate's distance to the reference
+    max_error_vs_hand: Number
+    threshold: list[Number]  # (K,) rad: the run's own threshold
+    error_estimate: list[Number]  # (K,) rad
+    estimate_how: str
+    first_exceeds_threshold: float | None  # s
+    counts: bool  # False: shown as information, not judged
+    why_not_counted: str
+    passed: bool  # absent: not judged
+    judged_until: float  # s
+    judged_because: str
+    threshold_at_judged_end: float
+    trust: dict[str, Any]  # dynamics/trust.run_trust
+    trust_statement: str
+
+
+class Trajectories(TypedDict, total=False):
+    """The free runs `run` judges (dynamics/freeruns.py), from one start on one grid."""
+
+    q0: list[float]
+    v0: list[float]
+    tau: list[float]
+    t_end: float  # s
+    dt_out: float  # s
+    t: list[float]  # (K,) s
+    reference: str
+    reference_info: dict[str, Any]
+    threshold: float  # rad: the floor under every run's own threshold
+    threshold_rule: str
+    safety: float
+    runs: list[FreeRun]
+    information_only: str  # why no run is judged (a derivation that disagrees, a model alone)
+    trust: TrustSummary
+    judged_until: float  # s
+    judged_because: str
+
+
 class SystemResult(TypedDict, total=False):
     """Everything the harness knows about one system (pipeline.run_system)."""
 
@@ -214,7 +278,7 @@ class SystemResult(TypedDict, total=False):
     pointwise: Pointwise
     derivation: Derivation
     variants: list[Derivation]  # the printed forms of the notes (checks/judge.py)
-    trajectories: dict[str, Any] | None
+    trajectories: Trajectories | None
     experiments: dict[str, Any] | None
     equivalence: dict[str, Any] | None
     chaos: dict[str, Any] | None
