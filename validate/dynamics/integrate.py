@@ -526,13 +526,14 @@ def mujoco_trajectory(
     went unstable (a warning, after which MuJoCo resets the state, or a non-finite state) raises
     Diverged naming the interval: its samples are never data."""
     from ..engines.mujoco import free_run
+    from ..systems.start import Scheme, Start
 
     dt = float(timestep or source.m.opt.timestep)
     dt_out = t[1] - t[0] if len(t) > 1 else dt
     steps = round(dt_out / dt)
     if steps < 1 or not np.isclose(steps * dt, dt_out, rtol=1e-9, atol=0.0):
         raise HarnessError(f"MuJoCo timestep {dt} must divide the output step {dt_out}.")
-    q, v, clock, raised = free_run(source, q0, v0, tau, len(t), steps, integrator=integrator, timestep=dt)
+    q, v, clock, raised = free_run(source, Start(q0, v0, tau), len(t), steps, Scheme(integrator, dt))
     # The first sample whose clock fell behind or whose state is not finite, or the last if only a
     # warning counter says so (checked once, after the loop: per sample it cost a tenth of the stepping).
     behind = np.abs(clock - (clock[0] + np.arange(len(t)) * steps * dt)) > 0.5 * dt

@@ -50,6 +50,7 @@ from ..engines.base import Source, SteppedSource, stepped
 from ..engines.hand import HandSource, solve_or_nan
 from ..errors import HarnessError, unknown_name
 from ..systems import System
+from ..systems.start import Scheme
 from .compiled import RK4_A, RK4_B, RK4_STEPS_PER_CALL, UNROLLED_MAX_DOF, compiled_rk4, rk4_plan
 from .integrate import DEFAULT_BUDGET, EQUATION_ERRORS, MUJOCO_INTEGRATORS, Budget, Trajectory
 
@@ -451,7 +452,7 @@ def mujoco_steps(
     from ..engines import mujoco as engine
 
     _check_integrator(integrator)
-    return engine.step_states(source, q, v, tau, integrator=integrator, timestep=timestep, steps=steps)
+    return engine.step_states(source, q, v, tau, Scheme(integrator, timestep), steps=steps)
 
 
 def lockstep(

@@ -16,6 +16,7 @@ import numpy as np
 from ..errors import HarnessError, unknown_name
 from ..systems import System
 from ..systems.scope import joint_actuators
+from ..systems.start import Scheme, Start
 from .base import INTEGRATOR_ENUMS, MUJOCO_INTEGRATORS, Kinematics, SteppedSource, batch_threads
 
 # What a batch sets per state with one mj_setState call (in this order in a state row).
@@ -354,17 +355,16 @@ def step_states(
     q: np.ndarray,
     v: np.ndarray,
     tau: np.ndarray,
+    stepping: Scheme,
     *,
-    integrator: str,
-    timestep: float,
     steps: int = 1,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """`steps` calls of `mj_step` from each of N states, (N, n). A state from which MuJoCo warns
-    (and resets) gives NaN rows, never the reset state as data."""
+    """`steps` calls of `mj_step` of `stepping` from each of N states, (N, n). A state from which MuJoCo
+    warns (and resets) gives NaN rows, never the reset state as data."""
     m, d = source.m, source.d
     tau = np.broadcast_to(np.asarray(tau, dtype=float), np.shape(q))
     q_out, v_out = np.empty(np.shape(q)), np.empty(np.shape(v))
-    with scheme(m, integrator, timestep):
+    with scheme(m, stepping.integrator, stepping.timestep):
         for i in range(len(q)):
             mujoco.mj_resetData(m, d)
             source.set_state(q[i], v[i], tau[i])
@@ -376,16 +376,17 @@ def step_states(
 
 
 def free_run(
-    source: SteppedSource, q0: Any, v0: Any, tau: Any, samples: int, steps: int, *, integrator: str, timestep: float
+    source: SteppedSource, start: Start, samples: int, steps: int, stepping: Scheme
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[tuple[str, int]]]:
-    """One run from (q0, v0): `samples` states (the first is the start) `steps` steps apart.
+    """One run from `start`: `samples` states (the first is the start) `steps` steps of `stepping` apart.
 
     Returns q, v (samples, n), MuJoCo's own clock at each sample (a reset after a warning sets it back
     to zero) and the warnings raised; the caller decides which samples are data."""
     m, d = source.m, source.d
+    q0, v0, tau = start.q0, start.v0, start.tau
     n = len(np.atleast_1d(q0))
     q, v, clock = np.empty((samples, n)), np.empty((samples, n)), np.empty(samples)
-    with scheme(m, integrator, timestep):
+    with scheme(m, stepping.integrator, stepping.timestep):
         mujoco.mj_resetData(m, d)
         source.set_state(q0, v0, tau)
         q[0], v[0], clock[0] = q0, v0, d.time

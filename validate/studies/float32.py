@@ -50,6 +50,7 @@ from ..engines.base import engine_of, one_state, stepped
 from ..guard import DEFAULT_TIME_LIMIT
 from ..results import atomic_write, dumps, provenance
 from ..systems import System, load_all, system_names
+from ..systems.start import Scheme, Start
 from ..systems.urdf import robots_folder
 from .chains import chain_mjcf
 
@@ -204,13 +205,10 @@ def trajectory_row(system: System, warp: Any, *, horizon: float, cache_dir: Any 
     q_warp = run["q"][0]
     q_c, _, _, raised = engine_mujoco.free_run(
         stepped(make_source(system, "mujoco")),
-        q0,
-        v0,
-        tau,
+        Start(q0, v0, tau),
         len(t),
         steps,
-        integrator=warp.integrator,
-        timestep=warp.timestep,
+        Scheme(warp.integrator, warp.timestep),
     )
     ref = _reference_run(system, q0, v0, t, cache_dir)
     n_steps = steps * (len(t) - 1)
