@@ -149,12 +149,15 @@ class Fold:
     """Blocks folded under a one-line summary (HTML <details>, closed by default)."""
 
     summary: str
-    blocks: tuple[Any, ...]
+    blocks: tuple[Block, ...]
+
+
+Block = Heading | Para | Table | Figure | Code | Items | Fold  # what a document is made of
 
 
 @dataclass
 class Document:
-    blocks: list[Any] = field(default_factory=list)
+    blocks: list[Block] = field(default_factory=list)
     images: dict[str, bytes] = field(default_factory=dict)
 
     def h(self, level: int, text: str, anchor: str | None = None) -> None:
@@ -204,7 +207,7 @@ def sci(x: Any, digits: int = 2) -> str:
         try:
             x = float(x)  # JSON stores inf and nan as strings
         except ValueError:
-            return x
+            return str(x)
     if not is_number(x):
         return str(x)
     x = float(x)
@@ -226,7 +229,7 @@ def num_text(c: Num) -> str:
         try:
             x = float(x)
         except ValueError:
-            return x
+            return str(x)
     if not is_number(x) or not math.isfinite(x) or x == 0:
         return sci(x, c.digits)
     if not c.short:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import base64
 import re
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 from urllib.parse import quote
@@ -17,6 +18,7 @@ from .document import (
     SUBTITLE,
     SUBTITLE_MODELS,
     TITLE,
+    Block,
     Code,
     Document,
     Figure,
@@ -44,7 +46,7 @@ def _md_cell(c: Any) -> str:
     return escaped(cell_text(c)).replace("|", "\\|")
 
 
-def _md_blocks(blocks: Any) -> list[str]:
+def _md_blocks(blocks: Iterable[Block]) -> list[str]:
     out: list[str] = []
     for b in blocks:
         if isinstance(b, Heading):
@@ -145,7 +147,7 @@ def _env() -> Any:
 def render_html(doc: Document, results: RunResults) -> str:
     head = header(results)
     toc = [(b.anchor, b.text) for b in doc.blocks if isinstance(b, Heading) and b.level == 2]
-    return (
+    return str(
         _env()
         .get_template("report.html.j2")
         .render(

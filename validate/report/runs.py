@@ -4,18 +4,18 @@ judged beyond (why)" or "agrees over the whole run (t s)".
 
 from __future__ import annotations
 
-from typing import Any
-
 from ..results.schema import FreeRun, Trajectories
 from .document import Mark, as_float, is_number, pass_mark, sci
 
 
-def fmt_g(x: Any) -> str:
+def fmt_g(x: object) -> str:
     """A setting (a time step, a duration) as written: 0.01, 10."""
     return f"{x:g}" if is_number(x) else sci(x)
 
 
-def judged_verdict(passed: Any, until: Any, t_end: Any, why: str, error: Any = None, tolerance: Any = None) -> Any:
+def judged_verdict(
+    passed: bool | None, until: object, t_end: object, why: str, error: object = None, tolerance: object = None
+) -> Mark:
     """The one wording of a run's verdict, wherever the run appears: "agrees until t s; not judged beyond
     (why)" or "agrees over the whole run (t s)"; a pass mark only where the error shown is within the
     tolerance (a run judged part-way whose whole-run error is past it gets no mark)."""
@@ -36,7 +36,7 @@ def judged_why(tr: Trajectories) -> str:
     return str(tr.get("judged_because") or "").split(":")[0]
 
 
-def run_verdict(run: FreeRun, tr: Trajectories) -> Any:
+def run_verdict(run: FreeRun, tr: Trajectories) -> Mark | str:
     """A trajectory run's verdict as the table shows it: what interval was judged, or information only."""
     if not run.get("counts", True):
         return "information only"

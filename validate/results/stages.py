@@ -17,7 +17,7 @@ import threading
 import time
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, TypedDict
+from typing import TypedDict
 
 # The order stages run in (results.json's keys are sorted: tables and lines are put back in this order).
 ORDER = (
@@ -107,19 +107,19 @@ def records(seconds: Mapping[str, float], notes: Mapping[str, str]) -> dict[str,
     return out
 
 
-def outcome(stage: Any) -> str:
+def outcome(stage: Stage | str | None) -> str:
     """Why a stage did not run or failed ("" when it ran); results written before the stages had seconds
     held the outcome as the stage's whole value."""
     return stage if isinstance(stage, str) else str((stage or {}).get("outcome", ""))
 
 
-def seconds_of(stage: Any) -> float | None:
+def seconds_of(stage: Stage | str | None) -> float | None:
     """A stage's wall seconds, or None (not run, or results written before the stages had seconds)."""
     value = None if isinstance(stage, str) else (stage or {}).get("seconds")
     return None if value is None else float(value)
 
 
-def stage_line(stages: Mapping[str, Any]) -> str:
+def stage_line(stages: Mapping[str, Stage | str]) -> str:
     """`model checks 0.02 s, pointwise 0.05 s, ...` (`run --verbose`), with the total."""
     timed = [(name, s) for name in ordered(stages) if (s := seconds_of(stages[name])) is not None]
     total = sum(s for _, s in timed)
