@@ -105,6 +105,8 @@ def _serve(rfd: int, wfd: int, header: dict[str, Any], blobs: list[bytes]) -> No
     try:
         if header["op"] == "import":
             answer = _import(header["path"], reply_blobs)
+        elif header["op"] == "batch":
+            answer = _batch(rfd, wfd, header, blobs, reply_blobs)
         else:
             answer = _call(rfd, wfd, header, blobs, reply_blobs)
     except _Exit as exc:
@@ -137,7 +139,7 @@ def _raised(exc: BaseException, header: dict[str, Any]) -> dict[str, Any]:
     if backend and isinstance(exc, Exception) and not type(exc).__name__ == "NotApplicable":
         said = text if isinstance(exc, HarnessError) else tracing.describe(exc, header["name"], _tree(backend))
         return {"raised": type(exc).__name__, "message": said[:2000], "harness": True}
-    return {"raised": type(exc).__name__, "message": text[:100_000]}
+    return {"raised": type(exc).__name__, "message": text[:100_000], "function": header.get("name")}
 
 
 def _import(path: str, blobs: list[bytes]) -> dict[str, Any]:
@@ -219,6 +221,16 @@ def _resolve(path: str) -> Any:
     for part in rest:
         obj = obj[int(part)] if part.isdigit() else getattr(obj, part)
     return obj
+
+
+def _batch(rfd: int, wfd: int, header: dict[str, Any], blobs: list[bytes], out: list[bytes]) -> dict[str, Any]:
+    """Several calls on numbers in one round trip (a step's passive, bias and mass matrix): their answers
+    in order; the first that raises ends the batch, the function named in `header` for the answer."""
+    answers = []
+    for name, args in header["calls"]:
+        header["name"] = name
+        answers.append(_call(rfd, wfd, {"name": name, "args": args}, blobs, out)["ok"])
+    return {"ok": {"L": answers}}
 
 
 def _call(rfd: int, wfd: int, header: dict[str, Any], blobs: list[bytes], out: list[bytes]) -> dict[str, Any]:

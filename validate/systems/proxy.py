@@ -26,6 +26,8 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..errors import HarnessError
 from ..guard import Stopped
 from ..worker import ModuleWorker, Raised, escape, pack, unpack
@@ -46,11 +48,12 @@ _LOGICAL = frozenset({"and", "or", "not"})
 OPERATIONS = frozenset({"c", "p", "neg", "select", "arctan2", *_ARITHMETIC, *tracing.UNARY, *_COMPARE, *_LOGICAL})
 
 
-def worker_module(path: Path, time_limit: float) -> types.ModuleType:
+def worker_module(path: Path, time_limit: float, *, where: str | None = None) -> types.ModuleType:
     """The module at `path`, imported in a worker of its own, as a stand-in module; a syntax error,
-    an exception on import and a stopped import are one-line HarnessErrors."""
+    an exception on import and a stopped import are one-line HarnessErrors. `where`: how messages name
+    it (default the path)."""
     try:
-        worker = ModuleWorker(path, time_limit, where=str(path))
+        worker = ModuleWorker(path, time_limit, where=where or str(path))
     except Stopped as stop:
         raise HarnessError(str(stop)) from None
     except Raised as exc:
@@ -145,6 +148,7 @@ def stand_in_function(worker: ModuleWorker, path: str, names: list[str], not_pro
 
     fn.__name__ = fn.__qualname__ = path.rsplit(".", 1)[-1]
     fn.__signature__ = signature  # type: ignore[attr-defined]
+    fn.in_worker = (worker, path)  # type: ignore[attr-defined]  # for `together`
     if not_provided:
         fn.not_provided = True  # type: ignore[attr-defined]
     return fn
@@ -162,6 +166,21 @@ def invoke(worker: ModuleWorker, path: str, args: tuple[Any, ...], label: str | 
     if backend is not None or encoder.model is not None:
         return worker.request(message, label or path, blobs, model=encoder.model, unpack_hook=decoder)
     return _recent(worker, (path, json.dumps(packed), *blobs), lambda: worker.request(message, label or path, blobs))
+
+
+def together(calls: list[tuple[Any, tuple[Any, ...]]]) -> list[Any] | None:
+    """[fn(*args) for fn, args in calls] in one round trip to the worker when every fn is a stand-in of one
+    worker called on numbers (a step's passive, bias and mass matrix: one call, not three); else None
+    (the caller calls them one by one)."""
+    targets = [getattr(fn, "in_worker", None) for fn, _ in calls]
+    if not targets or None in targets or len({id(t[0]) for t in targets if t}) != 1:
+        return None
+    plain = (np.ndarray, float, int)
+    if not all(isinstance(a, plain) or dataclasses.is_dataclass(a) for _, args in calls for a in args):
+        return None
+    worker = targets[0][0]  # type: ignore[index]
+    paths = [t[1] for t in targets if t]
+    return worker.batch([(p, args) for p, (_, args) in zip(paths, calls, strict=True)], ", ".join(paths))
 
 
 RECENT = 4  # answers kept per worker: a per-step mirror asks bias and passive at the same states in a row
