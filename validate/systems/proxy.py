@@ -169,18 +169,21 @@ def invoke(worker: ModuleWorker, path: str, args: tuple[Any, ...], label: str | 
 
 
 def together(calls: list[tuple[Any, tuple[Any, ...]]]) -> list[Any] | None:
-    """[fn(*args) for fn, args in calls] in one round trip to the worker when every fn is a stand-in of one
-    worker called on numbers (a step's passive, bias and mass matrix: one call, not three); else None
+    """[fn(*args) for fn, args in calls], the stand-ins of one worker called on numbers in one round trip
+    (a step's passive, bias and mass matrix: one request, not three; a function of the harness, such as
+    the zero friction of a module without passive, called here); None where fewer than two are stand-ins
     (the caller calls them one by one)."""
     targets = [getattr(fn, "in_worker", None) for fn, _ in calls]
-    if not targets or None in targets or len({id(t[0]) for t in targets if t}) != 1:
-        return None
+    remote = [i for i, t in enumerate(targets) if t is not None]
+    workers = {id(targets[i][0]) for i in remote}  # type: ignore[index]
     plain = (np.ndarray, float, int)
-    if not all(isinstance(a, plain) or dataclasses.is_dataclass(a) for _, args in calls for a in args):
+    numbers = all(isinstance(a, plain) or dataclasses.is_dataclass(a) for i in remote for a in calls[i][1])
+    if len(remote) < 2 or len(workers) != 1 or not numbers:
         return None
-    worker = targets[0][0]  # type: ignore[index]
-    paths = [t[1] for t in targets if t]
-    return worker.batch([(p, args) for p, (_, args) in zip(paths, calls, strict=True)], ", ".join(paths))
+    worker = targets[remote[0]][0]  # type: ignore[index]
+    paths = [targets[i][1] for i in remote]  # type: ignore[index]
+    answers = iter(worker.batch([(p, calls[i][1]) for p, i in zip(paths, remote, strict=True)], ", ".join(paths)))
+    return [next(answers) if t is not None else fn(*args) for t, (fn, args) in zip(targets, calls, strict=True)]
 
 
 RECENT = 4  # answers kept per worker: a per-step mirror asks bias and passive at the same states in a row
