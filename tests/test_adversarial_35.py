@@ -10,6 +10,7 @@ tests/test_guard.py (time limits).
 from __future__ import annotations
 
 import json
+import os
 import re
 import shutil
 import subprocess
@@ -65,6 +66,27 @@ def test_the_text_form_is_evaluated_in_its_worker(tmp_path: Path) -> None:
     worker.close()
     with pytest.raises(Stopped, match="tp.toml"):
         module.potential_energy(p, q + 1)
+
+
+def test_a_forked_copy_of_the_harness_evaluates_a_text_form_in_a_worker_of_its_own(tmp_path: Path) -> None:
+    """The text form's code has no file: a process forked after loading it imports it again from its
+    text in a worker of its own, with the same numbers."""
+    model, toml = _text_system(tmp_path)
+    module = textform.module_from_file(toml, model_view(model), time_limit=30.0)
+    p, q = module.parameters(model_view(model)), np.array([[0.4]])
+    expected = module.potential_energy(p, q)
+    read, write = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # pragma: no cover - the forked copy
+        try:
+            os.write(write, b"1" if np.array_equal(module.potential_energy(p, q), expected) else b"0")
+            module.WORKER.close()
+        finally:
+            os._exit(0)
+    os.waitpid(pid, 0)
+    assert os.read(read, 1) == b"1"
+    assert np.array_equal(module.potential_energy(p, q), expected)
+    module.WORKER.close()
 
 
 def test_a_text_form_takes_the_time_limit_of_its_system(tmp_path: Path) -> None:

@@ -298,13 +298,21 @@ class ModuleWorker:
         path: the module's file (.py).
         time_limit: seconds for every call into the module together, its import included (0: none).
         where: how messages name the module (default: the path).
+        source: the module's text, where it is not read from `path` (the text form's generated code).
 
     Raises (from the constructor and `call`): `Stopped` when the module hangs past the budget, exits or
     ends its process; `Raised` when a function raises (its type's name and escaped message).
     """
 
-    def __init__(self, path: str | Path, time_limit: float = DEFAULT_TIME_LIMIT, *, where: str | None = None) -> None:
-        self.path, self.where = str(path), where or str(path)
+    def __init__(
+        self,
+        path: str | Path,
+        time_limit: float = DEFAULT_TIME_LIMIT,
+        *,
+        where: str | None = None,
+        source: str | None = None,
+    ) -> None:
+        self.path, self.where, self.source = str(path), where or str(path), source
         self.time_limit = float(time_limit)
         self.left = self.time_limit or float("inf")
         self.stopped: str | None = None
@@ -341,7 +349,8 @@ class ModuleWorker:
         os.close(from_child)
         _LIVE.add(self)
         raw = _Raw()
-        self.description = self.request({"op": "import", "path": self.path}, "importing it", unpack_hook=raw)
+        message = {"op": "import", "path": self.path, "source": self.source}
+        self.description = self.request(message, "importing it", unpack_hook=raw)
         self.description_blobs = raw.blobs  # the description is decoded by its reader (systems/proxy.py)
 
     def renew(self) -> None:

@@ -104,7 +104,7 @@ def _serve(rfd: int, wfd: int, header: dict[str, Any], blobs: list[bytes]) -> No
     _STATE.calling = True
     try:
         if header["op"] == "import":
-            answer = _import(header["path"], reply_blobs)
+            answer = _import(header["path"], reply_blobs, header.get("source"))
         elif header["op"] == "batch":
             answer = _batch(rfd, wfd, header, blobs, reply_blobs)
         else:
@@ -142,21 +142,37 @@ def _raised(exc: BaseException, header: dict[str, Any]) -> dict[str, Any]:
     return {"raised": type(exc).__name__, "message": text[:100_000], "function": header.get("name")}
 
 
-def _import(path: str, blobs: list[bytes]) -> dict[str, Any]:
+def _import(path: str, blobs: list[bytes], source: str | None = None) -> dict[str, Any]:
     import hashlib
 
     name = "lagrange_xval_user_" + hashlib.sha256(path.encode()).hexdigest()[:12]
-    spec = importlib.util.spec_from_file_location(name, path)
-    if spec is None or spec.loader is None:
-        raise ImportError(f"{path}: not a Python module")
-    module = importlib.util.module_from_spec(spec)
+    module = _new_module(name, path, source is not None)
     sys.modules[name] = module
     # compiled from the source, never __pycache__ (keyed by whole-second mtime and size: `watch` saves faster)
-    with open(path, "rb") as f:
-        code = compile(f.read(), path, "exec", dont_inherit=True)
+    if source is None:
+        with open(path, "rb") as f:
+            text = f.read()
+    else:
+        text = source.encode()
+    code = compile(text, path, "exec", dont_inherit=True)
     exec(code, vars(module))  # noqa: S102 - the person's own module, in this worker alone
     _STATE.module = module
     return {"ok": pack(_describe(module), blobs, _Describer(blobs))}
+
+
+def _new_module(name: str, path: str, generated: bool) -> Any:
+    """An empty module for the file at `path`, or for code the parent generated (the text form's, whose
+    file is the TOML)."""
+    import types
+
+    if generated:
+        module = types.ModuleType(name)
+        module.__file__ = path
+        return module
+    spec = importlib.util.spec_from_file_location(name, path)
+    if spec is None or spec.loader is None:
+        raise ImportError(f"{path}: not a Python module")
+    return importlib.util.module_from_spec(spec)
 
 
 def _describe(module: Any) -> dict[str, Any]:

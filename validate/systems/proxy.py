@@ -48,12 +48,12 @@ _LOGICAL = frozenset({"and", "or", "not"})
 OPERATIONS = frozenset({"c", "p", "neg", "select", "arctan2", *_ARITHMETIC, *tracing.UNARY, *_COMPARE, *_LOGICAL})
 
 
-def worker_module(path: Path, time_limit: float, *, where: str | None = None) -> types.ModuleType:
-    """The module at `path`, imported in a worker of its own, as a stand-in module; a syntax error,
-    an exception on import and a stopped import are one-line HarnessErrors. `where`: how messages name
-    it (default the path)."""
+def worker_module(path: Path, time_limit: float, *, source: str | None = None) -> types.ModuleType:
+    """The module at `path` (or of `source`, standing in as the module of `path`), imported in a worker
+    of its own, as a stand-in module; a syntax error, an exception on import and a stopped import are
+    one-line HarnessErrors."""
     try:
-        worker = ModuleWorker(path, time_limit, where=where or str(path))
+        worker = ModuleWorker(path, time_limit, where=str(path), source=source)
     except Stopped as stop:
         raise HarnessError(str(stop)) from None
     except Raised as exc:

@@ -270,7 +270,9 @@ def module_from_file(
         lambdified([*params, *qs], [V], common=False),
         None if friction is None else lambdified([*params, *qs, *vs], friction, common=False),
     )
-    module = _in_worker(path, source, time_limit)
+    from .proxy import worker_module
+
+    module = worker_module(path, time_limit, source=source)  # the code has no file: a forked copy imports it again
     Params = dataclasses.make_dataclass("Params", [(f, float) for f in fields], frozen=True)
     module.__doc__ = f"{spec.description} (equations as text: {path.name})"
     attributes: dict[str, Any] = {
@@ -285,19 +287,4 @@ def module_from_file(
         "EXPRESSIONS": {"T": T, "V": V, **({} if friction is None else {"friction": tuple(friction)})},
     }
     module.__dict__.update(attributes)
-    return module
-
-
-def _in_worker(path: Path, source: str, time_limit: float) -> types.ModuleType:
-    """The module of `source` imported in a worker of its own (its file gone once imported), standing in
-    as the module of `path`."""
-    import tempfile
-
-    from .proxy import worker_module
-
-    with tempfile.TemporaryDirectory(prefix="lagrange-xval-text-") as folder:
-        code = Path(folder) / "text_form.py"
-        code.write_text(source, encoding="utf-8")
-        module = worker_module(code, time_limit, where=str(path))
-    module.__file__ = str(path)
     return module
