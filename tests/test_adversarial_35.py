@@ -206,3 +206,17 @@ def test_run_stops_a_busy_loop_at_the_limit_per_system(tmp_path: Path) -> None:
     results = json.loads((out / "results.json").read_text())["systems"]
     assert results["good"]["passed"] is True and results["busy"]["passed"] is False
     assert "mass_matrix did not return within 2 s (the time limit per system" in results["busy"]["failed"][0]
+
+
+def test_audit_of_a_urdf_with_a_mass_of_1e308_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A URDF whose masses are 1e308 (their products overflow): status 2, one error line naming each body's
+    mass, no numpy warning and no NaN difference."""
+    from lagrange_xval.validate.cli import main
+
+    text = (ROOT / "examples/urdf/spatial_arm.urdf").read_text()
+    (tmp_path / "big.urdf").write_text(re.sub(r'<mass value="[^"]*"', '<mass value="1e308"', text))
+    assert main(["audit", str(tmp_path / "big.urdf")]) == 2
+    captured = capsys.readouterr()
+    lines = captured.err.splitlines()
+    assert len(lines) == 1 and "body 'link1' mass (1e+308) exceeds 1e+100" in lines[0], captured.err[-2000:]
+    assert "nan" not in captured.out.lower()
