@@ -220,3 +220,34 @@ def test_audit_of_a_urdf_with_a_mass_of_1e308_is_one_line(tmp_path: Path, capsys
     lines = captured.err.splitlines()
     assert len(lines) == 1 and "body 'link1' mass (1e+308) exceeds 1e+100" in lines[0], captured.err[-2000:]
     assert "nan" not in captured.out.lower()
+
+
+class _OneByOne:
+    """A hand source asked function by function (no batch): the reference of the batched step."""
+
+    def __init__(self, source: HandSource) -> None:
+        self.source = source
+
+    def mass_matrix(self, q: np.ndarray) -> np.ndarray:
+        return self.source.mass_matrix(q)
+
+    def bias(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return self.source.bias(q, v)
+
+    def passive(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return self.source.passive(q, v)
+
+
+def test_an_implicit_mirror_step_asks_m_passive_and_bias_together(tmp_path: Path) -> None:
+    """MuJoCo's implicit scheme mirrored on a worker's module: M, passive and bias in one request (and the
+    velocity derivative's bias in another), the same bits as asking one by one."""
+    from lagrange_xval.validate.dynamics.mirror import Stepper
+
+    system = System.from_files(*_system(tmp_path, "pend"))
+    source, worker = HandSource(system), system.equations.WORKER
+    q, v, tau = np.array([[0.3], [0.9]]), np.array([[0.5], [-1.0]]), np.array([[0.2], [0.0]])
+    before = worker.calls
+    batched = Stepper(system, source, integrator="implicit", timestep=0.01).step(q, v, tau)
+    assert worker.calls == before + 2  # M, passive and bias; then bias at the shifted velocities
+    alone = Stepper(system, _OneByOne(source), integrator="implicit", timestep=0.01).step(q, v, tau)  # type: ignore[arg-type]
+    assert all(np.array_equal(a, b) for a, b in zip(batched, alone, strict=True))

@@ -110,10 +110,10 @@ class HandSource:
         if self.accelerations_only:
             with np.errstate(all="ignore"):
                 return np.asarray(self.eq.ORIGINAL.qacc(self.p, q, v, self.controls(tau)), dtype=float)
-        passive, bias, m = self._passive_bias_mass(q, v)
+        passive, bias, m = self.passive_bias_mass(q, v)
         return solve_or_nan(m, tau + passive - bias)
 
-    def _passive_bias_mass(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def passive_bias_mass(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """passive, bias and M at (q, v): in one round trip to the module's worker where it has one."""
         from ..systems.proxy import together
 
