@@ -163,6 +163,7 @@ def _repository_model(case: str, folder: Path) -> str:
         ("absolute-include", r"an include must be a relative path inside the model's folder"),
         ("urdf", r"models/simple_pendulum.xml: a repository model is MJCF \(root <mujoco>\), this one is <robot>"),
     ],
+    ids=["malformed", "entity-bomb", "xxe", "absolute-include", "urdf"],
 )
 def test_check_of_a_repository_system_whose_model_cannot_be_read_is_one_line(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, case: str, message: str
