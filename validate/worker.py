@@ -298,13 +298,21 @@ class ModuleWorker:
         path: the module's file (.py).
         time_limit: seconds for every call into the module together, its import included (0: none).
         where: how messages name the module (default: the path).
+        source: the module's text, where it is not read from `path` (the text form's generated code).
 
     Raises (from the constructor and `call`): `Stopped` when the module hangs past the budget, exits or
     ends its process; `Raised` when a function raises (its type's name and escaped message).
     """
 
-    def __init__(self, path: str | Path, time_limit: float = DEFAULT_TIME_LIMIT, *, where: str | None = None) -> None:
-        self.path, self.where = str(path), where or str(path)
+    def __init__(
+        self,
+        path: str | Path,
+        time_limit: float = DEFAULT_TIME_LIMIT,
+        *,
+        where: str | None = None,
+        source: str | None = None,
+    ) -> None:
+        self.path, self.where, self.source = str(path), where or str(path), source
         self.time_limit = float(time_limit)
         self.left = self.time_limit or float("inf")
         self.stopped: str | None = None
@@ -341,7 +349,8 @@ class ModuleWorker:
         os.close(from_child)
         _LIVE.add(self)
         raw = _Raw()
-        self.description = self.request({"op": "import", "path": self.path}, "importing it", unpack_hook=raw)
+        message = {"op": "import", "path": self.path, "source": self.source}
+        self.description = self.request(message, "importing it", unpack_hook=raw)
         self.description_blobs = raw.blobs  # the description is decoded by its reader (systems/proxy.py)
 
     def renew(self) -> None:
@@ -357,6 +366,18 @@ class ModuleWorker:
         packed = [pack(a, blobs, functools.partial(_plain_hook, blobs)) for a in args]
         message = {"op": "call", "name": name, "args": packed, "backend": None}
         return self.request(message, name, blobs, model=model, unpack_hook=_Records())
+
+    def batch(self, calls: list[tuple[str, tuple[Any, ...]]], name: str) -> list[Any]:
+        """Several calls on numbers (`call`'s arguments, no model view) in one round trip, their answers
+        in order; `name` says what the batch is for in a stop ("passive, bias and mass_matrix")."""
+        blobs: list[bytes] = []
+        hook = functools.partial(_plain_hook, blobs)
+        packed = [[path, [pack(a, blobs, hook) for a in args]] for path, args in calls]
+        message = {"op": "batch", "name": name, "calls": packed, "backend": None}
+        out = self.request(message, name, blobs, unpack_hook=_Records())
+        if not isinstance(out, list) or len(out) != len(calls):
+            self._stop(f"{name}: the module's worker sent what is not data (a batch of {len(calls)} answers)")
+        return out
 
     def request(
         self,
@@ -395,7 +416,7 @@ class ModuleWorker:
             raise
         finally:
             self.left -= max(0.0, time.monotonic() - start - LATENCY)
-        return self._answer(name, header, got, unpack_hook)
+        return self._answer(name, header, got, unpack_hook, batch=message.get("op") == "batch")
 
     def _lookup(self, model: Mapping[str, Any] | None, header: dict[str, Any]) -> None:
         key = header["get"]
@@ -410,7 +431,9 @@ class ModuleWorker:
             reply = {"value": pack(model[key], blobs)}
         send(self._send, reply, blobs)
 
-    def _answer(self, name: str, header: dict[str, Any], blobs: list[bytes], unpack_hook: Any) -> Any:
+    def _answer(
+        self, name: str, header: dict[str, Any], blobs: list[bytes], unpack_hook: Any, *, batch: bool = False
+    ) -> Any:
         if "ok" in header:
             try:
                 if hasattr(unpack_hook, "prepare"):
@@ -422,6 +445,8 @@ class ModuleWorker:
             how = "os._exit" if header["exit"] == "os" else "sys.exit"
             self._stop(f"{name} called {how}({escape(str(header.get('code', '')), 40)})")
         kind, text = str(header.get("raised", "Exception")), str(header.get("message", ""))
+        function = header.get("function")  # in a batch: the function that raised
+        name = escape(function, 80) if batch and isinstance(function, str) else name
         raise _exception(name, kind, text, header.get("harness", False))
 
     def _ended(self, name: str) -> str:

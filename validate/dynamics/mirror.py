@@ -68,6 +68,16 @@ def _force(source: Source, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.
     return tau + source.passive(q, v) - source.bias(q, v)
 
 
+def _mass_and_force(source: Source, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """M (N, n, n) and f = tau + passive - bias (N, n): in one round trip to a person's module's worker
+    where the source asks it so (engines/hand.py `passive_bias_mass`)."""
+    both = getattr(source, "passive_bias_mass", None)
+    if both is None:
+        return source.mass_matrix(q), _force(source, q, v, tau)
+    passive, bias, m = both(q, v)
+    return m, tau + passive - bias
+
+
 def force_velocity_jacobian(
     source: Source, q: np.ndarray, v: np.ndarray, *, bias: bool = True, step: float = DERIVATIVE_STEP
 ) -> np.ndarray:
@@ -158,8 +168,7 @@ class Stepper:
             a = self._accel(q, v, tau)
         else:
             self.evaluations += len(q)
-            m = self.source.mass_matrix(q)
-            f = _force(self.source, q, v, tau)
+            m, f = _mass_and_force(self.source, q, v, tau)
             if self.integrator == "Euler":
                 d = -np.diagonal(force_velocity_jacobian(self.source, q, v, bias=False), axis1=-2, axis2=-1)
                 lhs = m + h * d[..., None] * np.eye(q.shape[-1])

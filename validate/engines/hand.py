@@ -110,8 +110,24 @@ class HandSource:
         if self.accelerations_only:
             with np.errstate(all="ignore"):
                 return np.asarray(self.eq.ORIGINAL.qacc(self.p, q, v, self.controls(tau)), dtype=float)
-        rhs = tau + self.passive(q, v) - self.bias(q, v)
-        return solve_or_nan(self.mass_matrix(q), rhs)
+        passive, bias, m = self.passive_bias_mass(q, v)
+        return solve_or_nan(m, tau + passive - bias)
+
+    def passive_bias_mass(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """passive, bias and M at (q, v): in one round trip to the module's worker where it has one."""
+        from ..systems.proxy import together
+
+        got = together(
+            [(self.eq.passive, (self.p, q, v)), (self.eq.bias, (self.p, q, v)), (self.eq.mass_matrix, (self.p, q))]
+        )
+        if got is None:
+            return self.passive(q, v), self.bias(q, v), self.mass_matrix(q)
+        n, both = self.system.nv, np.broadcast_shapes(np.shape(q), np.shape(v))
+        return (
+            real_array("passive()", got[0], both),
+            real_array("bias()", got[1], both),
+            real_array("mass_matrix()", got[2], (*np.shape(q)[:-1], n, n)),
+        )
 
     def inverse(self, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
         """tau = M a + bias - passive."""

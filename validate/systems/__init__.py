@@ -455,10 +455,11 @@ def load_module(path: Path, *, model: Path | None = None, time_limit: float = DE
     if path.suffix == ".toml":
         if model is None:
             raise HarnessError(f"{path}: equations as text are read against their model; give the model file too.")
-        return _check_contract(textform.module_from_file(path, model_view(model)), str(path))
-    from .proxy import worker_module
+        module = textform.module_from_file(path, model_view(model), time_limit=time_limit)
+    else:
+        from .proxy import worker_module
 
-    module = worker_module(path, time_limit)
+        module = worker_module(path, time_limit)
     try:
         return _check_contract(module, str(path))
     except BaseException:
@@ -510,8 +511,20 @@ def load(name: str, overrides: tuple[tuple[str, float], ...] = (), *, time_limit
         if name in lonely["equations without model"]:
             raise HarnessError(f"equations/{name}.py has no models/{name}.xml, so '{name}' is not a system yet.")
         raise unknown_name("system", name, names)
+    _repository_model(name)
     module = _equations_module(name, float(time_limit))
     return System(name=name, mjcf=MODELS_DIR / f"{name}.xml", equations=module, overrides=overrides)
+
+
+def _repository_model(name: str) -> None:
+    """models/<name>.xml read and bounded before anything is judged (malformed, a DOCTYPE, an include
+    by absolute path: one line naming the cause, as for --model), and MJCF: a repository model is."""
+    root, _ = model_file(MODELS_DIR / f"{name}.xml")
+    if root != "mujoco":
+        raise HarnessError(
+            f"models/{name}.xml: a repository model is MJCF (root <mujoco>), this one is <{root}>; "
+            "check it with --model FILE --equations FILE, or in a folder of your own (run --systems DIR)."
+        )
 
 
 def load_all(names: list[str] | None = None, *, time_limit: float = DEFAULT_TIME_LIMIT) -> list[System]:

@@ -104,7 +104,9 @@ def _serve(rfd: int, wfd: int, header: dict[str, Any], blobs: list[bytes]) -> No
     _STATE.calling = True
     try:
         if header["op"] == "import":
-            answer = _import(header["path"], reply_blobs)
+            answer = _import(header["path"], reply_blobs, header.get("source"))
+        elif header["op"] == "batch":
+            answer = _batch(rfd, wfd, header, blobs, reply_blobs)
         else:
             answer = _call(rfd, wfd, header, blobs, reply_blobs)
     except _Exit as exc:
@@ -137,24 +139,40 @@ def _raised(exc: BaseException, header: dict[str, Any]) -> dict[str, Any]:
     if backend and isinstance(exc, Exception) and not type(exc).__name__ == "NotApplicable":
         said = text if isinstance(exc, HarnessError) else tracing.describe(exc, header["name"], _tree(backend))
         return {"raised": type(exc).__name__, "message": said[:2000], "harness": True}
-    return {"raised": type(exc).__name__, "message": text[:100_000]}
+    return {"raised": type(exc).__name__, "message": text[:100_000], "function": header.get("name")}
 
 
-def _import(path: str, blobs: list[bytes]) -> dict[str, Any]:
+def _import(path: str, blobs: list[bytes], source: str | None = None) -> dict[str, Any]:
     import hashlib
 
     name = "lagrange_xval_user_" + hashlib.sha256(path.encode()).hexdigest()[:12]
-    spec = importlib.util.spec_from_file_location(name, path)
-    if spec is None or spec.loader is None:
-        raise ImportError(f"{path}: not a Python module")
-    module = importlib.util.module_from_spec(spec)
+    module = _new_module(name, path, source is not None)
     sys.modules[name] = module
     # compiled from the source, never __pycache__ (keyed by whole-second mtime and size: `watch` saves faster)
-    with open(path, "rb") as f:
-        code = compile(f.read(), path, "exec", dont_inherit=True)
+    if source is None:
+        with open(path, "rb") as f:
+            text = f.read()
+    else:
+        text = source.encode()
+    code = compile(text, path, "exec", dont_inherit=True)
     exec(code, vars(module))  # noqa: S102 - the person's own module, in this worker alone
     _STATE.module = module
     return {"ok": pack(_describe(module), blobs, _Describer(blobs))}
+
+
+def _new_module(name: str, path: str, generated: bool) -> Any:
+    """An empty module for the file at `path`, or for code the parent generated (the text form's, whose
+    file is the TOML)."""
+    import types
+
+    if generated:
+        module = types.ModuleType(name)
+        module.__file__ = path
+        return module
+    spec = importlib.util.spec_from_file_location(name, path)
+    if spec is None or spec.loader is None:
+        raise ImportError(f"{path}: not a Python module")
+    return importlib.util.module_from_spec(spec)
 
 
 def _describe(module: Any) -> dict[str, Any]:
@@ -219,6 +237,16 @@ def _resolve(path: str) -> Any:
     for part in rest:
         obj = obj[int(part)] if part.isdigit() else getattr(obj, part)
     return obj
+
+
+def _batch(rfd: int, wfd: int, header: dict[str, Any], blobs: list[bytes], out: list[bytes]) -> dict[str, Any]:
+    """Several calls on numbers in one round trip (a step's passive, bias and mass matrix): their answers
+    in order; the first that raises ends the batch, the function named in `header` for the answer."""
+    answers = []
+    for name, args in header["calls"]:
+        header["name"] = name
+        answers.append(_call(rfd, wfd, {"name": name, "args": args}, blobs, out)["ok"])
+    return {"ok": {"L": answers}}
 
 
 def _call(rfd: int, wfd: int, header: dict[str, Any], blobs: list[bytes], out: list[bytes]) -> dict[str, Any]:

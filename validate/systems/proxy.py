@@ -26,6 +26,8 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..errors import HarnessError
 from ..guard import Stopped
 from ..worker import ModuleWorker, Raised, escape, pack, unpack
@@ -46,11 +48,12 @@ _LOGICAL = frozenset({"and", "or", "not"})
 OPERATIONS = frozenset({"c", "p", "neg", "select", "arctan2", *_ARITHMETIC, *tracing.UNARY, *_COMPARE, *_LOGICAL})
 
 
-def worker_module(path: Path, time_limit: float) -> types.ModuleType:
-    """The module at `path`, imported in a worker of its own, as a stand-in module; a syntax error,
-    an exception on import and a stopped import are one-line HarnessErrors."""
+def worker_module(path: Path, time_limit: float, *, source: str | None = None) -> types.ModuleType:
+    """The module at `path` (or of `source`, standing in as the module of `path`), imported in a worker
+    of its own, as a stand-in module; a syntax error, an exception on import and a stopped import are
+    one-line HarnessErrors."""
     try:
-        worker = ModuleWorker(path, time_limit, where=str(path))
+        worker = ModuleWorker(path, time_limit, where=str(path), source=source)
     except Stopped as stop:
         raise HarnessError(str(stop)) from None
     except Raised as exc:
@@ -145,6 +148,7 @@ def stand_in_function(worker: ModuleWorker, path: str, names: list[str], not_pro
 
     fn.__name__ = fn.__qualname__ = path.rsplit(".", 1)[-1]
     fn.__signature__ = signature  # type: ignore[attr-defined]
+    fn.in_worker = (worker, path)  # type: ignore[attr-defined]  # for `together`
     if not_provided:
         fn.not_provided = True  # type: ignore[attr-defined]
     return fn
@@ -162,6 +166,24 @@ def invoke(worker: ModuleWorker, path: str, args: tuple[Any, ...], label: str | 
     if backend is not None or encoder.model is not None:
         return worker.request(message, label or path, blobs, model=encoder.model, unpack_hook=decoder)
     return _recent(worker, (path, json.dumps(packed), *blobs), lambda: worker.request(message, label or path, blobs))
+
+
+def together(calls: list[tuple[Any, tuple[Any, ...]]]) -> list[Any] | None:
+    """[fn(*args) for fn, args in calls], the stand-ins of one worker called on numbers in one round trip
+    (a step's passive, bias and mass matrix: one request, not three; a function of the harness, such as
+    the zero friction of a module without passive, called here); None where fewer than two are stand-ins
+    (the caller calls them one by one)."""
+    targets = [getattr(fn, "in_worker", None) for fn, _ in calls]
+    remote = [i for i, t in enumerate(targets) if t is not None]
+    workers = {id(targets[i][0]) for i in remote}  # type: ignore[index]
+    plain = (np.ndarray, float, int)
+    numbers = all(isinstance(a, plain) or dataclasses.is_dataclass(a) for i in remote for a in calls[i][1])
+    if len(remote) < 2 or len(workers) != 1 or not numbers:
+        return None
+    worker = targets[remote[0]][0]  # type: ignore[index]
+    paths = [targets[i][1] for i in remote]  # type: ignore[index]
+    answers = iter(worker.batch([(p, calls[i][1]) for p, i in zip(paths, remote, strict=True)], ", ".join(paths)))
+    return [next(answers) if t is not None else fn(*args) for t, (fn, args) in zip(targets, calls, strict=True)]
 
 
 RECENT = 4  # answers kept per worker: a per-step mirror asks bias and passive at the same states in a row

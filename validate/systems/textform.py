@@ -51,8 +51,9 @@ from typing import Any
 import numpy as np
 
 from ..errors import HarnessError, shown
+from ..guard import DEFAULT_TIME_LIMIT
 from ..inputs import regular_file
-from . import modelview, tracing
+from . import modelview, textcode
 from .expression import CONSTANTS, FUNCTIONS, lambdified, normalized, to_sympy
 
 MAX_BYTES = 2**20
@@ -204,29 +205,6 @@ def _check_names(where: str, names: list[str]) -> tuple[str, ...]:
     return tuple(seen)
 
 
-@dataclass(frozen=True)
-class Compiled:
-    """sympy expressions in (params, q, v) and their numpy code: numbers through the numpy code,
-    sympy-traced values by substitution (form d traces the energies again)."""
-
-    exprs: tuple[Any, ...]
-    args: tuple[Any, ...]
-    fn: Callable[..., Any]
-
-    @classmethod
-    def of(cls, exprs: list[Any], args: list[Any]) -> Compiled:
-
-        return cls(tuple(exprs), tuple(args), lambdified(args, exprs, common=False))
-
-    def __call__(self, values: list[Any]) -> list[Any]:
-        traced = [x for x in values if isinstance(x, tracing.Traced)]
-        if traced and traced[0].backend.name == "sympy":
-            backend = traced[0].backend
-            sub = {a: tracing.unwrap(x, backend) for a, x in zip(self.args, values, strict=True)}
-            return [tracing.Traced(e.xreplace(sub), backend) for e in self.exprs]
-        return list(self.fn(*values))
-
-
 def _uses(view: Mapping[str, Any], joints: tuple[str, ...]) -> frozenset[str]:
     found = {
         "gravity": any(float(x) != 0.0 for x in view["gravity"]),
@@ -256,13 +234,12 @@ def _assumptions(view: Mapping[str, Any], bindings: tuple[Binding, ...]) -> Call
     return assumptions
 
 
-def _columns(x: Any, n: int) -> list[Any]:
-    x = np.asarray(x)
-    return [x[..., i] for i in range(n)]
-
-
-def module_from_file(path: Path, view: Mapping[str, Any]) -> types.ModuleType:
-    """The equations module (form d) a TOML file describes, read against the model `view`."""
+def module_from_file(
+    path: Path, view: Mapping[str, Any], *, time_limit: float = DEFAULT_TIME_LIMIT
+) -> types.ModuleType:
+    """The equations module (form d) a TOML file describes, read against the model `view`. The expressions
+    are read here (bounded, nothing evaluated); their numpy code is imported and called in a worker
+    process within `time_limit` seconds for all its calls (systems/textcode.py), like a person's module."""
     import sympy as sp
 
     path = Path(path)
@@ -286,21 +263,17 @@ def module_from_file(path: Path, view: Mapping[str, Any]) -> types.ModuleType:
         else [to_sympy(f, names, f"{path.name}: friction[{i}]") for i, f in enumerate(spec.friction)]
     )
     fields = [b.symbol for b in spec.bindings]
+    source = textcode.module_source(
+        fields,
+        n,
+        lambdified([*params, *qs, *vs], [T], common=False),
+        lambdified([*params, *qs], [V], common=False),
+        None if friction is None else lambdified([*params, *qs, *vs], friction, common=False),
+    )
+    from .proxy import worker_module
+
+    module = worker_module(path, time_limit, source=source)  # the code has no file: a forked copy imports it again
     Params = dataclasses.make_dataclass("Params", [(f, float) for f in fields], frozen=True)
-    kinetic = Compiled.of([T], [*params, *qs, *vs])
-    potential = Compiled.of([V], [*params, *qs])
-
-    def kinetic_energy(p: Any, q: Any, v: Any) -> Any:
-        """T of the file."""
-        zero = np.zeros(np.broadcast_shapes(np.shape(q), np.shape(v))[:-1])
-        return kinetic([*(getattr(p, f) for f in fields), *_columns(q, n), *_columns(v, n)])[0] + zero
-
-    def potential_energy(p: Any, q: Any) -> Any:
-        """V of the file."""
-        return potential([*(getattr(p, f) for f in fields), *_columns(q, n)])[0] + np.zeros(np.shape(q)[:-1])
-
-    module = types.ModuleType(f"lagrange_xval_text_{path.stem}")
-    module.__file__ = str(path)
     module.__doc__ = f"{spec.description} (equations as text: {path.name})"
     attributes: dict[str, Any] = {
         "DESCRIPTION": spec.description,
@@ -311,19 +284,7 @@ def module_from_file(path: Path, view: Mapping[str, Any]) -> types.ModuleType:
         "Params": Params,
         "parameters": lambda model: Params(**{b.symbol: b.read(model) for b in spec.bindings}),
         "assumptions": _assumptions(view, spec.bindings),
-        "kinetic_energy": kinetic_energy,
-        "potential_energy": potential_energy,
         "EXPRESSIONS": {"T": T, "V": V, **({} if friction is None else {"friction": tuple(friction)})},
     }
-    if friction is not None:
-        forces = Compiled.of(friction, [*params, *qs, *vs])
-
-        def passive(p: Any, q: Any, v: Any) -> Any:
-            """The file's friction forces, one per coordinate."""
-            zero = np.zeros(np.broadcast_shapes(np.shape(q), np.shape(v))[:-1])
-            rows = forces([*(getattr(p, f) for f in fields), *_columns(q, n), *_columns(v, n)])
-            return np.stack([np.asarray(r + zero) for r in rows], axis=-1)
-
-        attributes["passive"] = passive
     module.__dict__.update(attributes)
     return module
