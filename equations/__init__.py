@@ -5,14 +5,14 @@ A module needs only `parameters(model)` and its dynamics in one form; everything
 (shapes: `q`, `v`, `tau` are `(..., n)`; functions broadcast over leading axes):
 
     parameters(model) -> Params        REQUIRED: a dataclass of the numbers the derivation uses, read
-                                       from the compiled model (a Mapping: validate/systems/modelview.py);
-                                       the probes move each number it reads (validate/systems/reads.py)
+                                       from the compiled model (a Mapping: validate/model/modelview.py);
+                                       the probes move each number it reads (validate/handwritten/reads.py)
     DESCRIPTION: str                   optional: one paragraph (default: the docstring's first paragraph)
     COORDINATES: tuple[str, ...]       optional: the generalized coordinates, in order (default: the
                                        model's joints, in the model's order; a free joint `root` is six:
                                        root_tx, root_ty, root_tz slides along the body's axes, then
                                        root_rz, root_ry, root_rx hinges, intrinsic Z-Y-X angles; a ball
-                                       joint the three hinges: validate/systems/floating.py)
+                                       joint the three hinges: validate/model/floating.py)
     JOINTS: tuple[str, ...]            optional: the model joint that measures each coordinate, same sign
                                        and zero (default: COORDINATES where they name joints, else the
                                        model's joints)
@@ -27,7 +27,7 @@ A module needs only `parameters(model)` and its dynamics in one form; everything
                                        a uniform rod's inertia m l^2 / 12) keeps those while the numbers
                                        parameters() reads move; stating none, they move alone
     The physics a scene uses (gravity, joint damping, actuators) is read from the model.
-    the dynamics, in ONE of five forms (validate/systems/forms.py derives the rest from it; the first
+    the dynamics, in ONE of five forms (validate/handwritten/forms.py derives the rest from it; the first
     of a, b, c, d, e a module defines is the one it is written in):
       (a) mass_matrix(p, q) -> (..., n, n) and bias(p, q, v) -> (..., n), C(q, v) v + G(q)
       (b) residual(p, q, v, a, tau) -> (..., n)  M a + bias - passive - tau, the implicit equations
@@ -35,7 +35,7 @@ A module needs only `parameters(model)` and its dynamics in one form; everything
           In (b) and (c), a last parameter named `u` instead of `tau` takes the actuators' controls, in
           the model's actuator order (tau = B u through each actuator's gear on its joint): inputs on
           the actuated coordinates only, as published equations have them. Explicit accelerations with
-          u give M^-1 B, not M: they are judged in accelerations (validate/checks/verdict.py)
+          u give M^-1 B, not M: they are judged in accelerations (validate/verdict/verdict.py)
       (d) kinetic_energy and potential_energy only (below): M, G and C v are differentiated from them
       (e) hamiltonian(p, q, pm) -> (...)  H = pm^T M^-1(q) pm / 2 + V(q), pm = M v the generalized
                                        momenta (..., n): M^-1 = d2H/dpm2 and V = H(q, 0), traced with
@@ -67,7 +67,7 @@ A module needs only `parameters(model)` and its dynamics in one form; everything
 forces as expressions in the person's own symbols, each symbol bound to a model key
 (`mc = "body/cart/mass"`, `g = "-gravity[2]"`, `lc = "body/pole/com[2]"`), read against its model
 by `System.from_files(model, "x.toml")` or `run --model X --equations x.toml` and checked as form
-(d); the coordinates are the model's joints unless named (validate/systems/textform.py).
+(d); the coordinates are the model's joints unless named (validate/handwritten/textform.py).
 
 The equations of motion are M(q) a + bias(q, v) = tau + passive(q, v), with tau the generalized
 force of the inputs (motors where the MJCF has actuators, otherwise an applied joint torque); forms
@@ -76,6 +76,6 @@ controls. The dynamics are traced with symbolic values for the fast path, the Ta
 form (d): write them with numpy arithmetic and elementary functions (np.sin, np.cos, np.sqrt, ...;
 np.abs, np.sign, np.where, np.minimum, np.maximum; `@`, np.einsum and np.cross work), not
 np.linalg. A module given as a file runs in a worker process of its own, within one time limit for its
-import and all its calls (30 s by default; validate/worker.py); it may not end the process (sys.exit,
+import and all its calls (30 s by default; validate/handwritten/worker.py); it may not end the process (sys.exit,
 os._exit) nor print to stdout, and whatever it raises is its own failure, named.
 """

@@ -55,7 +55,7 @@ class Params:
 
 
 def parameters(model: Any) -> Params:
-    """Reads the parameters from the compiled MJCF (see validate/systems/modelview.py for the keys)."""
+    """Reads the parameters from the compiled MJCF (see validate/model/modelview.py for the keys)."""
     return Params(
         m1=model["body/link1/mass"],
         m2=model["body/link2/mass"],

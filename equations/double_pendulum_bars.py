@@ -73,7 +73,7 @@ NOTES_EXPERIMENT = "the Modelica simulation's start, theta = 0, phi = 3, at rest
 
 # The notes' printed forms assume one mass, one length with the centres of mass at mid-length and
 # one central inertia (m = m1 = m2, l = l1 = 2 c1 = 2 c2, Izz = I1 = I2): their probes keep these
-# equalities while every other parameter moves (validate/checks/probes.py).
+# equalities while every other parameter moves (validate/verdict/probes.py).
 PRINTED_FORMS_ASSUME = ({"m1": 1.0, "m2": 1.0}, {"l1": 1.0, "c1": 2.0, "c2": 2.0}, {"I1": 1.0, "I2": 1.0})
 
 
@@ -105,7 +105,7 @@ class Params:
 
 
 def parameters(model: Any) -> Params:
-    """Reads the parameters from the compiled MJCF (see validate/systems/modelview.py for the keys)."""
+    """Reads the parameters from the compiled MJCF (see validate/model/modelview.py for the keys)."""
     return Params(
         m1=model["body/link1/mass"],
         m2=model["body/link2/mass"],

@@ -47,7 +47,7 @@ NOTES_EXPERIMENT = "section 1: ode45 from theta = 0, phi = 3 and from phi = 3.01
 NOTES_SEPARATION = 7.0  # s: "after about 7 s" the two responses stop resembling each other (read by eye)
 
 # The notes' printed forms assume one mass and one length (m = m1 = m2, l = l1 = l2): their probes
-# keep these equalities while every other parameter moves (validate/checks/probes.py).
+# keep these equalities while every other parameter moves (validate/verdict/probes.py).
 PRINTED_FORMS_ASSUME = ({"m1": 1.0, "m2": 1.0}, {"l1": 1.0, "l2": 1.0})
 
 
@@ -73,7 +73,7 @@ class Params:
 
 
 def parameters(model: Any) -> Params:
-    """Reads the parameters from the compiled MJCF (see validate/systems/modelview.py for the keys)."""
+    """Reads the parameters from the compiled MJCF (see validate/model/modelview.py for the keys)."""
     return Params(
         m1=model["body/link1/mass"],
         m2=model["body/link2/mass"],

@@ -70,7 +70,7 @@ class Params:
 
 
 def parameters(model: Any) -> Params:
-    """Reads the parameters from the compiled MJCF (see validate/systems/modelview.py for the keys)."""
+    """Reads the parameters from the compiled MJCF (see validate/model/modelview.py for the keys)."""
     inner = model["body/inner/inertia"]
     return Params(
         I1zz=model["body/outer/inertia"][2, 2],

@@ -46,7 +46,7 @@ class Params:
 
 
 def parameters(model: Any) -> Params:
-    """Reads the parameters from the compiled MJCF (see validate/systems/modelview.py for the keys)."""
+    """Reads the parameters from the compiled MJCF (see validate/model/modelview.py for the keys)."""
     return Params(
         m=model["body/link/mass"],
         l=-model["body/link/com"][1],

@@ -9,11 +9,11 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.checks import pointwise as compare
-from lagrange_xval.validate.dynamics.cache import CACHE_ENV
-from lagrange_xval.validate.dynamics.cachedir import Cache
-from lagrange_xval.validate.engines import make_sources
+from lagrange_xval import systems
+from lagrange_xval.core.cache import CACHE_ENV
+from lagrange_xval.core.cachedir import Cache
+from lagrange_xval.sources import make_sources
+from lagrange_xval.verdict import pointwise as compare
 
 SYSTEMS = systems.system_names()
 N_STATES = 1000
@@ -78,7 +78,7 @@ def cli_run(tmp_path_factory: pytest.TempPathFactory):
         if args not in done:
             folder = tmp_path_factory.mktemp("run")
             proc = subprocess.run(
-                [sys.executable, "-m", "lagrange_xval.validate.cli", "run", *args, "--out", "out"],
+                [sys.executable, "-m", "lagrange_xval.cli", "run", *args, "--out", "out"],
                 cwd=folder,
                 capture_output=True,
                 text=True,

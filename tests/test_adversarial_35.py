@@ -19,11 +19,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.engines.hand import HandSource
-from lagrange_xval.validate.guard import Stopped
-from lagrange_xval.validate.systems import System, load_module, model_view, textform
-from lagrange_xval.validate.worker import Raised
+from lagrange_xval import systems
+from lagrange_xval.core.guard import Stopped
+from lagrange_xval.handwritten import textform
+from lagrange_xval.handwritten.worker import Raised
+from lagrange_xval.sources.hand import HandSource
+from lagrange_xval.systems import System, load_module, model_view
 
 from tests.test_guard import CLI, LIMIT, ROOT, TIMEOUT, _system
 
@@ -171,7 +172,7 @@ def test_check_of_a_repository_system_whose_model_cannot_be_read_is_one_line(
     """`check SYSTEM` on a repository model that is malformed, holds an entity bomb or an external entity,
     includes a file by absolute path, or is a URDF: status 2 and one error line naming the cause (not a
     failing verdict, status 1)."""
-    from lagrange_xval.validate.cli import main
+    from lagrange_xval.cli import main
 
     models = tmp_path / "models"
     models.mkdir()
@@ -212,7 +213,7 @@ def test_run_stops_a_busy_loop_at_the_limit_per_system(tmp_path: Path) -> None:
 def test_audit_of_a_urdf_with_a_mass_of_1e308_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """A URDF whose masses are 1e308 (their products overflow): status 2, one error line naming each body's
     mass, no numpy warning and no NaN difference."""
-    from lagrange_xval.validate.cli import main
+    from lagrange_xval.cli import main
 
     text = (ROOT / "examples/urdf/spatial_arm.urdf").read_text()
     (tmp_path / "big.urdf").write_text(re.sub(r'<mass value="[^"]*"', '<mass value="1e308"', text))
@@ -242,7 +243,7 @@ class _OneByOne:
 def test_an_implicit_mirror_step_asks_m_passive_and_bias_together(tmp_path: Path) -> None:
     """MuJoCo's implicit scheme mirrored on a worker's module: M, passive and bias in one request (and the
     velocity derivative's bias in another), the same bits as asking one by one."""
-    from lagrange_xval.validate.dynamics.mirror import Stepper
+    from lagrange_xval.dynamics.mirror import Stepper
 
     system = System.from_files(*_system(tmp_path, "pend"))
     source, worker = HandSource(system), system.equations.WORKER

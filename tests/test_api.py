@@ -9,8 +9,8 @@ from pathlib import Path
 
 import lagrange_xval as lx
 import pytest
+from lagrange_xval import systems
 from lagrange_xval.testing import assert_equations_match, systems_in
-from lagrange_xval.validate import systems
 
 from .mutations import MUTATIONS, mutated_source
 

@@ -64,8 +64,8 @@ def _imports(name: str, path: Path) -> list[tuple[str, str, int]]:
             if node.level - 1 > len(package):
                 continue  # above validate (the equations package)
             target = ".".join([*base, *(node.module.split(".") if node.module else [])])
-        elif node.module and node.module.startswith("lagrange_xval.validate"):
-            target = node.module.removeprefix("lagrange_xval.validate").lstrip(".")
+        elif node.module and node.module.startswith("lagrange_xval"):
+            target = node.module.removeprefix("lagrange_xval").lstrip(".")
         else:
             continue
         for alias in node.names:

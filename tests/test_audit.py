@@ -1,6 +1,6 @@
 """The model audit (issues 29, 33): each reader of a file judged against what the file means.
 
-One planted case per catalogue entry (validate/checks/importers.py), each in the reader that shows it
+One planted case per catalogue entry (validate/audit/importers.py), each in the reader that shows it
 on the installed versions (MuJoCo 4.0.0, Pinocchio 4.1.0, Drake 1.51.1); the few faults no installed
 reader shows any more (MuJoCo's URDF importer once dropped rotations) are planted in MuJoCo's input
 only. Correct but tricky models must stay quiet. Faults that need a real robot are planted in copies of
@@ -15,11 +15,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from lagrange_xval.validate.checks import audit, importers
-from lagrange_xval.validate.cli import main
-from lagrange_xval.validate.errors import HarnessError
-from lagrange_xval.validate.systems import System, load
-from lagrange_xval.validate.systems.urdf import robots_folder
+from lagrange_xval.audit import audit, importers
+from lagrange_xval.cli import main
+from lagrange_xval.core.errors import HarnessError
+from lagrange_xval.model.urdf import robots_folder
+from lagrange_xval.systems import System, load
 
 ROOT = Path(__file__).resolve().parents[1]
 ROBOTS = robots_folder() or ROOT / "example-robot-data not installed"
@@ -291,11 +291,11 @@ def test_correct_but_tricky_models_stay_quiet(tmp_path, text, fmt):
 
 
 def test_the_chain_dynamics_equal_mujocos_own(tmp_path):
-    """checks/chain.py on MuJoCo's reading of a tree with rotations, a slide and armature gives MuJoCo's
+    """audit/chain.py on MuJoCo's reading of a tree with rotations, a slide and armature gives MuJoCo's
     own M and bias (qfrc_bias) to 1e-12: the two-file audit's numbers are right."""
     import mujoco
-    from lagrange_xval.validate.checks.chain import chain, dynamics
-    from lagrange_xval.validate.engines.readers import read
+    from lagrange_xval.audit.chain import chain, dynamics
+    from lagrange_xval.sources.readers import read
 
     text = mjcf(
         world='<body name="a" pos="0 0 1" euler="10 20 30"><joint name="j" axis="0 1 0" pos="0.1 0 0" armature="0.1"/>'
@@ -336,7 +336,7 @@ def _saved(tmp_path: Path, text: str, name: str) -> Path:
 
 
 def test_a_urdf_and_the_mjcf_mujoco_writes_from_it_agree(tmp_path):
-    from lagrange_xval.validate.checks import twofiles
+    from lagrange_xval.audit import twofiles
 
     a = tmp_path / "arm.urdf"
     a.write_text(urdf())
@@ -348,7 +348,7 @@ def test_a_urdf_and_the_mjcf_mujoco_writes_from_it_agree(tmp_path):
 
 def test_a_dropped_fixed_joint_rpy_names_the_link_behind_the_phantom_torque(tmp_path):
     """B is the MJCF of a copy whose tool joint lost its rpy: the gravity torque gap is named with the link."""
-    from lagrange_xval.validate.checks import twofiles
+    from lagrange_xval.audit import twofiles
 
     a = tmp_path / "arm.urdf"
     a.write_text(urdf())
@@ -362,8 +362,8 @@ def test_a_dropped_fixed_joint_rpy_names_the_link_behind_the_phantom_torque(tmp_
 @pytest.mark.skipif(not ROBOTS.is_dir() and os.environ.get("CI") != "true", reason="example-robot-data missing")
 def test_the_ur5_and_the_mjcf_mujoco_writes_from_it_agree(tmp_path):
     """A real robot: MuJoCo's 6 significant digits stay within the agreement tolerance."""
-    from lagrange_xval.validate.checks import twofiles
-    from lagrange_xval.validate.systems.urdf import without_geometry
+    from lagrange_xval.audit import twofiles
+    from lagrange_xval.model.urdf import without_geometry
 
     a = tmp_path / "ur5.urdf"
     a.write_text(without_geometry(UR5.read_text()))
@@ -372,7 +372,7 @@ def test_the_ur5_and_the_mjcf_mujoco_writes_from_it_agree(tmp_path):
 
 
 def test_two_files_differing_in_a_joints_damping_name_the_joint(tmp_path):
-    from lagrange_xval.validate.checks import twofiles
+    from lagrange_xval.audit import twofiles
 
     a = tmp_path / "arm.urdf"
     a.write_text(urdf(j1='<dynamics damping="0.5"/>'))
@@ -482,7 +482,7 @@ def test_a_misreading_reader_is_set_aside_and_named_in_the_verdict(tmp_path):
     """The acrobot of an RL suite (geom mass from a default class): Pinocchio reads 8.38 kg; MuJoCo and
     Drake agree with the MJCF, so Pinocchio is excluded, named with field and cause, and the model passes
     on the sources that agree; the verdict of a model alone speaks of no derivation."""
-    from lagrange_xval.validate.checks.decide import decide
+    from lagrange_xval.verdict.decide import decide
 
     path = tmp_path / "acrobot.xml"
     path.write_text(ACROBOT)
@@ -494,7 +494,7 @@ def test_a_misreading_reader_is_set_aside_and_named_in_the_verdict(tmp_path):
     ), statement
     assert "excluded" in statement and "derivation assumes" not in statement
     assert decision.passed and all("pinocchio" not in r["pair"] for r in decision.pointwise["rows"])
-    from lagrange_xval.validate.cli.check import verdict_data
+    from lagrange_xval.cli.check import verdict_data
 
     assert verdict_data(decision)["excluded"] == dict(decision.excluded)
 
@@ -502,7 +502,7 @@ def test_a_misreading_reader_is_set_aside_and_named_in_the_verdict(tmp_path):
 def test_run_shows_a_set_aside_readers_trajectory_without_judging_it():
     """`run` (pipeline.set_aside_runs): the trajectory of a reader the verdict set aside counts for nothing
     and says why; the others are judged as before."""
-    from lagrange_xval.validate.pipeline import set_aside_runs
+    from lagrange_xval.stages.pipeline import set_aside_runs
 
     traj = {"runs": [{"source": "pinocchio", "counts": True}, {"source": "mujoco", "counts": True}]}
     set_aside_runs(traj, {"pinocchio": "Pinocchio misreads upper_arm's mass (...): excluded"})

@@ -13,11 +13,11 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 import pytest
-from lagrange_xval.validate.checks import pointwise as compare
-from lagrange_xval.validate.engines import make_source
-from lagrange_xval.validate.engines import mujoco as mj_engine
-from lagrange_xval.validate.engines.base import batch_threads
-from lagrange_xval.validate.systems import System
+from lagrange_xval.sources import make_source
+from lagrange_xval.sources import mujoco as mj_engine
+from lagrange_xval.sources.base import batch_threads
+from lagrange_xval.systems import System
+from lagrange_xval.verdict import pointwise as compare
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 N = mj_engine.BATCH_MIN_STATES + 44  # above the batch threshold, not a multiple of the thread count

@@ -12,13 +12,13 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.checks import pointwise as compare
-from lagrange_xval.validate.engines import make_sources
-from lagrange_xval.validate.engines.fastpath import scalar_rhs
-from lagrange_xval.validate.errors import HarnessError
-from lagrange_xval.validate.studies import bench
-from lagrange_xval.validate.studies.bench import FULL, QUICK
+from lagrange_xval import systems
+from lagrange_xval.core.errors import HarnessError
+from lagrange_xval.sources import make_sources
+from lagrange_xval.sources.fastpath import scalar_rhs
+from lagrange_xval.studies import bench
+from lagrange_xval.studies.bench import FULL, QUICK
+from lagrange_xval.verdict import pointwise as compare
 
 ROW_KEYS = {
     "system", "method", "engine", "driver", "scheme", "setting", "value", "atol", "status", "message", "error_2s",

@@ -1,7 +1,7 @@
 """Inputs a person controls cannot exhaust the harness or forge its output: the text form's expressions
-are bounded (validate/systems/expression.py), names are data, cache entries are verified before they are
+are bounded (validate/handwritten/expression.py), names are data, cache entries are verified before they are
 inflated, models are refused above a stated size, and what is shown of a person's text is escaped and cut
-(validate/errors.py `shown`)."""
+(validate/core/errors.py `shown`)."""
 
 from __future__ import annotations
 
@@ -21,9 +21,10 @@ from pathlib import Path
 import lagrange_xval as lx
 import numpy as np
 import pytest
-from lagrange_xval.validate.dynamics import cache
-from lagrange_xval.validate.errors import HarnessError, escaped, shown
-from lagrange_xval.validate.systems import model_view, textform
+from lagrange_xval.core import cache
+from lagrange_xval.core.errors import HarnessError, escaped, shown
+from lagrange_xval.handwritten import textform
+from lagrange_xval.systems import model_view
 
 ROOT = Path(__file__).resolve().parents[1]
 V = "mc*g*(h + ccz) + mp*g*(h + pz + lc*cos(theta))"
@@ -211,8 +212,8 @@ def test_a_signed_entry_reads_back_whole(tmp_path):
 def test_a_relative_xdg_cache_home_is_ignored(tmp_path, monkeypatch):
     """XDG says a relative XDG_CACHE_HOME is ignored: the cache and its key go under $HOME/.cache, and
     `derive` (which caches in the user's folder) creates nothing in the working directory."""
-    from lagrange_xval.validate.cli import main
-    from lagrange_xval.validate.dynamics.cachedir import user_folder
+    from lagrange_xval.cli import main
+    from lagrange_xval.core.cachedir import user_folder
 
     work, home = tmp_path / "work", tmp_path / "home"
     work.mkdir()
@@ -234,7 +235,7 @@ def test_without_home_run_says_so_once(tmp_path):
     env = {k: v for k, v in os.environ.items() if k not in ("HOME", "XDG_CACHE_HOME", cache.CACHE_ENV)}
     env.pop(cache.PROCESS_KEY_ENV, None)
     done = subprocess.run(
-        [sys.executable, "-m", "lagrange_xval.validate.cli", "run", "simple_pendulum", "--no-replay"]
+        [sys.executable, "-m", "lagrange_xval.cli", "run", "simple_pendulum", "--no-replay"]
         + ["--out", str(tmp_path / "out")],
         env=env,
         cwd=tmp_path,
@@ -288,8 +289,8 @@ def bias(p, q, v):
 def test_a_module_message_cannot_forge_a_verdict_line(tmp_path, capsys):
     """A 1 MB exception message with a newline, a `verdict:` line and an escape sequence: `check` prints
     one verdict line (its own), escaped and cut; `--json` escaped too, and says how much was cut."""
-    from lagrange_xval.validate.cli import main
-    from lagrange_xval.validate.errors import LINE_CHARS
+    from lagrange_xval.cli import main
+    from lagrange_xval.core.errors import LINE_CHARS
 
     shutil.copy(ROOT / "models/simple_pendulum.xml", tmp_path / "sp.xml")
     (tmp_path / "sp.py").write_text(RAISES)
@@ -302,7 +303,7 @@ def test_a_module_message_cannot_forge_a_verdict_line(tmp_path, capsys):
     assert max(map(len, out)) < LINE_CHARS + 40
     assert main([*argv, "--states", "20", "--probes", "1", "--json"]) == 1
     statement = json.loads(capsys.readouterr().out)["verdict"]["statement"]
-    # as the module's worker carries it back (validate/systems/child.py): escaped, no control character
+    # as the module's worker carries it back (validate/handwritten/child.py): escaped, no control character
     # crosses the process boundary, and a message this long is cut, saying how much more there was
     assert "boom\\nverdict: mine: pass: forged" in statement and "\x1b" not in statement
     assert re.search(r"\(\d+ more characters\)", statement), statement[-200:]
@@ -311,7 +312,7 @@ def test_a_module_message_cannot_forge_a_verdict_line(tmp_path, capsys):
 def test_an_import_error_is_one_escaped_line(tmp_path, capsys):
     """A module whose import raises a 100 kB message of many lines and escape codes: one error line, the
     message escaped and cut to a few hundred characters, status 2."""
-    from lagrange_xval.validate.cli import main
+    from lagrange_xval.cli import main
 
     shutil.copy(ROOT / "models/simple_pendulum.xml", tmp_path / "sp.xml")
     (tmp_path / "sp.py").write_text('raise RuntimeError("a\\nverdict: sp: pass\\x1b]0;title\\x07" + "z" * 100_000)\n')
@@ -348,7 +349,7 @@ def test_a_huge_model_is_refused_before_it_is_compiled(tmp_path, capsys, monkeyp
     """10,000 joints (written out, or two nested <replicate count=100>) are one error line naming the
     limits, status 2, and MuJoCo never compiles the model."""
     import mujoco
-    from lagrange_xval.validate.cli import main
+    from lagrange_xval.cli import main
 
     def never(*args, **kwargs):
         raise AssertionError("compiled")
@@ -373,7 +374,7 @@ def test_a_huge_model_is_refused_before_it_is_compiled(tmp_path, capsys, monkeyp
 def test_a_number_that_is_not_finite_is_named(tmp_path, capsys, old, new, message, command):
     """Non-finite gravity, an infinite axis, a mass whose products overflow: one error line naming the
     field and the element, status 2 (not status 1 with numpy's overflow warnings and NaN differences)."""
-    from lagrange_xval.validate.cli import main
+    from lagrange_xval.cli import main
 
     text = (ROOT / "models/simple_pendulum.xml").read_text()
     assert text.count(old) == 1
@@ -408,7 +409,7 @@ def test_a_bad_model_in_a_systems_folder_is_one_line(tmp_path, capsys, case, mes
     """`run --systems DIR` of a folder whose model is malformed, holds an entity bomb or an external
     entity, or includes a file by absolute path or outside its folder: status 2, one error line naming
     the cause, nothing written."""
-    from lagrange_xval.validate.cli import main
+    from lagrange_xval.cli import main
 
     text = (ROOT / "models/simple_pendulum.xml").read_text()
     head = text.index("<mujoco")
@@ -455,7 +456,7 @@ def _named_system(folder: Path) -> tuple[Path, Path]:
 
 def test_key_parts_keep_a_name_whole():
     """The kind is a key's first part and the field its last: whatever the name holds stays whole."""
-    from lagrange_xval.validate.systems.modelview import key_parts, names
+    from lagrange_xval.model.modelview import key_parts, names
 
     assert key_parts("joint/arm/theta/damping") == ("joint", "arm/theta", "damping")
     assert key_parts("body/upper arm:1/com") == ("body", "upper arm:1", "com")
@@ -502,7 +503,7 @@ def test_the_text_form_binds_keys_with_such_names(tmp_path):
 
 def test_lock_takes_a_joint_named_with_a_slash(tmp_path, capsys):
     """`--lock arm/shoulder` locks that URDF joint (the name was cut at the slash before)."""
-    from lagrange_xval.validate.cli import main
+    from lagrange_xval.cli import main
 
     text = (ROOT / "examples/urdf/spatial_arm.urdf").read_text()
     (tmp_path / "arm.urdf").write_text(text.replace('"shoulder"', '"arm/shoulder"').replace('"link2"', '"fore arm:2"'))
@@ -513,7 +514,7 @@ def test_lock_takes_a_joint_named_with_a_slash(tmp_path, capsys):
 
 def test_replay_paths_escape_names():
     """A body `fore/arm` is one entity of the recording, not two levels; spaces and colons are escaped."""
-    from lagrange_xval.validate.replay.recording import part
+    from lagrange_xval.replay.recording import part
 
     assert part("fore/arm") == "fore\\/arm" and part("upper arm:1") == "upper\\ arm\\:1"
 
@@ -521,7 +522,7 @@ def test_replay_paths_escape_names():
 @pytest.mark.parametrize("name", ["_x", ".x", " x"])
 def test_a_system_name_outside_the_rule_is_refused(tmp_path, capsys, name):
     """`run --systems DIR` with `_x.xml` and `_x.py`: one error line stating the rule, status 2."""
-    from lagrange_xval.validate.cli import main
+    from lagrange_xval.cli import main
 
     folder = tmp_path / "systems"
     folder.mkdir()
@@ -534,7 +535,7 @@ def test_a_system_name_outside_the_rule_is_refused(tmp_path, capsys, name):
 
 
 def test_new_refuses_a_name_starting_with_underscore(tmp_path, capsys):
-    from lagrange_xval.validate.cli import main
+    from lagrange_xval.cli import main
 
     shutil.copy(ROOT / "models/simple_pendulum.xml", tmp_path / "sp.xml")
     assert main(["new", "_x", "--model", str(tmp_path / "sp.xml")]) == 2
@@ -562,7 +563,7 @@ THREE_BY_THREE = RAISES.replace(
 def test_a_module_that_fails_is_named_on_the_last_line(tmp_path, capsys, module, why, pointwise_only):
     """A mass matrix of the wrong shape, or one that raises: status 1, and the last line names the
     function and the shape or exception (with --pointwise-only too, where it was a table alone)."""
-    from lagrange_xval.validate.cli import main
+    from lagrange_xval.cli import main
 
     assert THREE_BY_THREE != RAISES
     shutil.copy(ROOT / "models/simple_pendulum.xml", tmp_path / "sp.xml")
@@ -577,7 +578,7 @@ def test_a_module_that_fails_is_named_on_the_last_line(tmp_path, capsys, module,
 def test_a_system_named_like_a_verdict_starts_no_line(tmp_path, capsys):
     """A system named `verdict: sp: pass` (its files' stem: colons and spaces are allowed) cannot print a
     line that starts with `verdict:` other than check's own last line."""
-    from lagrange_xval.validate.cli import main
+    from lagrange_xval.cli import main
 
     folder = tmp_path / "systems"
     folder.mkdir()
@@ -608,7 +609,7 @@ def test_run_writes_every_report_of_a_system_with_such_names(tmp_path):
     equations.rename(folder / f"{stem}.py")
     out = tmp_path / "out"
     done = subprocess.run(
-        [sys.executable, "-m", "lagrange_xval.validate.cli", "run", "--systems", str(folder), "--out", str(out)]
+        [sys.executable, "-m", "lagrange_xval.cli", "run", "--systems", str(folder), "--out", str(out)]
         + ["--states", "50", "--probes", "1"],
         capture_output=True,
         text=True,
@@ -625,7 +626,7 @@ def test_run_writes_every_report_of_a_system_with_such_names(tmp_path):
 def test_derive_names_coordinates_of_such_joints_as_identifiers(tmp_path, capsys):
     """`derive --model` of joints `arm/theta` and `φ elbow` writes its equations in arm_theta and φ_elbow
     (as `new` names them), never `darm/theta`, which reads as a division."""
-    from lagrange_xval.validate.cli import main
+    from lagrange_xval.cli import main
 
     model, _ = _named_system(tmp_path)
     assert main(["derive", "--model", str(model)]) == 0

@@ -13,11 +13,11 @@ import sys
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.dynamics import chaos, experiments, integrate, mirror, reference
-from lagrange_xval.validate.engines import fastpath, make_source
-from lagrange_xval.validate.engines.hand import HandSource
-from lagrange_xval.validate.errors import IntegrationStopped
+from lagrange_xval import systems
+from lagrange_xval.core.errors import IntegrationStopped
+from lagrange_xval.dynamics import chaos, experiments, integrate, mirror, reference
+from lagrange_xval.sources import fastpath, make_source
+from lagrange_xval.sources.hand import HandSource
 
 PACKAGE = "lagrange_xval.equations"
 _fresh = itertools.count()
@@ -255,9 +255,9 @@ def test_generated_code_is_not_shared_with_a_mutated_module_of_the_same_name():
 def test_lockstep_mujoco_side_never_reports_a_reset_state():
     """A state from which MuJoCo warns and resets gives NaN rows in the lockstep, not zeros as data."""
     import numpy as np
-    from lagrange_xval.validate import systems
-    from lagrange_xval.validate.dynamics import mirror
-    from lagrange_xval.validate.engines import make_source
+    from lagrange_xval import systems
+    from lagrange_xval.dynamics import mirror
+    from lagrange_xval.sources import make_source
 
     source = make_source(systems.load("double_pendulum_point"), "mujoco")
     q = np.array([[0.1, 0.2], [0.1, 0.2]])

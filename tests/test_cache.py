@@ -10,10 +10,11 @@ import zipfile
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.dynamics import cache, chaos, reference
-from lagrange_xval.validate.dynamics.integrate import time_grid
-from lagrange_xval.validate.errors import HarnessError
+from lagrange_xval import systems
+from lagrange_xval.core import cache
+from lagrange_xval.core.errors import HarnessError
+from lagrange_xval.dynamics import chaos, reference
+from lagrange_xval.dynamics.integrate import time_grid
 
 POINT = systems.load("double_pendulum_point")
 START = (np.array([0.0, 3.0]), np.zeros(2), np.zeros(2))
@@ -264,7 +265,7 @@ def test_a_zip_bomb_of_a_header_is_not_trusted(tmp_path, capsys):
 def test_run_uses_the_cache_dir_and_the_report_says_what_came_from_it(tmp_path, capsys):
     """`--cache-dir` holds the entries (not the checkout, not OUT); a second run loads them and its
     report names them; the setting does not outlive the command."""
-    from lagrange_xval.validate.cli import main
+    from lagrange_xval.cli import main
 
     before = os.environ.get(cache.CACHE_ENV)
     args = ["run", "simple_pendulum", "--states", "10", "--no-replay", "--out", str(tmp_path / "r")]
@@ -284,7 +285,7 @@ def test_no_cache_turns_reading_and_writing_off(tmp_path):
     default is OUT/.cache."""
     import argparse
 
-    from lagrange_xval.validate.cli.commands import cache_of
+    from lagrange_xval.cli.commands import cache_of
 
     before = os.environ.get(cache.CACHE_ENV)
     off = cache_of(argparse.Namespace(no_cache=True, cache_dir=None, out=tmp_path))

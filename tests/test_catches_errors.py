@@ -5,11 +5,11 @@ from __future__ import annotations
 import types
 
 import numpy as np
-from lagrange_xval.equations._forms import Implicit, stack_vector
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.checks import judge
-from lagrange_xval.validate.checks import pointwise as compare
-from lagrange_xval.validate.engines import make_sources
+from lagrange_xval import systems
+from lagrange_xval.forms import Implicit, stack_vector
+from lagrange_xval.sources import make_sources
+from lagrange_xval.verdict import judge
+from lagrange_xval.verdict import pointwise as compare
 
 
 def _with(system, **replaced):

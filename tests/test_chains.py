@@ -9,8 +9,8 @@ import tempfile
 from pathlib import Path
 
 import pytest
-from lagrange_xval.validate.studies import chains
-from lagrange_xval.validate.systems import System
+from lagrange_xval.studies import chains
+from lagrange_xval.systems import System
 
 
 @pytest.fixture(scope="module")
@@ -55,8 +55,8 @@ def test_generated_chains_are_valid_models(kind):
 
 def test_the_report_shows_the_study(small):
     """Rendered from the study's own results: the plots, the slopes, where the symbolic source runs."""
-    from lagrange_xval.validate.report.chains import section_chains
-    from lagrange_xval.validate.report.document import Document
+    from lagrange_xval.report.chains import section_chains
+    from lagrange_xval.report.document import Document
 
     doc = Document()
     section_chains(doc, small)

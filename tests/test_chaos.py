@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.dynamics import chaos
-from lagrange_xval.validate.dynamics.integrate import initial_state, mujoco_trajectory, time_grid
-from lagrange_xval.validate.dynamics.reference import reference_trajectory
-from lagrange_xval.validate.engines import make_sources
-from lagrange_xval.validate.systems.start import Scheme
+from lagrange_xval import systems
+from lagrange_xval.dynamics import chaos
+from lagrange_xval.dynamics.integrate import initial_state, mujoco_trajectory, time_grid
+from lagrange_xval.dynamics.reference import reference_trajectory
+from lagrange_xval.model.start import Scheme
+from lagrange_xval.sources import make_sources
 
 NOTES_START = (np.array([0.0, 3.0]), np.zeros(2))  # theta = 0, phi = 3, at rest (the notes' ode45 run)
 _sources: dict[str, dict] = {}

@@ -8,10 +8,10 @@ import sys
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.cli import main
+from lagrange_xval import systems
+from lagrange_xval.cli import main
 
-CLI = [sys.executable, "-m", "lagrange_xval.validate.cli"]
+CLI = [sys.executable, "-m", "lagrange_xval.cli"]
 
 
 def run_cli(*args, cwd=None):
@@ -145,7 +145,7 @@ def test_bad_input_is_one_line_nonzero_and_writes_nothing(tmp_path, case):
 
 
 def test_malformed_mjcf_is_one_line(tmp_path):
-    from lagrange_xval.validate.errors import HarnessError
+    from lagrange_xval.core.errors import HarnessError
 
     bad = tmp_path / "broken.xml"
     bad.write_text("<mujoco><worldbody><body name='a'><joint type='hinge'/></body></worldbody>")

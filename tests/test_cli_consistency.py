@@ -12,8 +12,8 @@ import types
 from importlib import metadata
 
 import pytest
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.cli import main, parser
+from lagrange_xval import systems
+from lagrange_xval.cli import main, parser
 
 
 def _commands() -> dict[str, argparse.ArgumentParser]:
@@ -181,7 +181,7 @@ def test_the_readme_command_table_uses_the_options_that_exist():
     left in the README fails here)."""
     import re
 
-    from lagrange_xval.validate.systems import PACKAGE_ROOT
+    from lagrange_xval.systems import PACKAGE_ROOT
 
     commands = _commands()
     rows = [
@@ -210,7 +210,7 @@ def test_every_example_in_the_help_runs_as_written(capsys):
     """Each command line the help shows is in the help verbatim and runs: `list` runs; `run` parses;
     a `stress --set` example's overrides apply to every system it names (or to every system when it
     names none), exactly as `stress` applies them before any work."""
-    from lagrange_xval.validate.systems.overrides import parse
+    from lagrange_xval.model.overrides import parse
 
     text = " ".join(_all_help().split())
     for example in parser.HELP_EXAMPLES:
@@ -226,7 +226,7 @@ def test_every_example_in_the_help_runs_as_written(capsys):
 
 
 def test_the_help_and_the_readme_say_the_same_durations_and_sources():
-    from lagrange_xval.validate.systems import PACKAGE_ROOT
+    from lagrange_xval.systems import PACKAGE_ROOT
 
     readme = (PACKAGE_ROOT / "README.md").read_text()
     rows = {line.split("`")[1]: line for line in readme.splitlines() if line.startswith("| `lagrange-xval ")}

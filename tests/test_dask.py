@@ -10,10 +10,10 @@ from dataclasses import replace
 
 import pytest
 from distributed import Client, LocalCluster
-from lagrange_xval.validate.cli import main
-from lagrange_xval.validate.errors import HarnessError
-from lagrange_xval.validate.parallel import named_executor, parse_executor
-from lagrange_xval.validate.studies import bench, stress
+from lagrange_xval.cli import main
+from lagrange_xval.core.errors import HarnessError
+from lagrange_xval.core.parallel import named_executor, parse_executor
+from lagrange_xval.studies import bench, stress
 
 DP = "double_pendulum_point"
 PLAN = replace(bench.FULL, repeats=2, budget=60.0, min_timed=0.0)  # a short sweep
@@ -116,7 +116,7 @@ def test_the_commands_refuse_a_bad_executor_before_any_work(command, capsys, tmp
 def test_the_scaling_study_on_a_local_dask_cluster_equals_the_in_process_run(cluster_executor):
     """The planar and spatial chains as two tasks on the cluster: the same models, the same agreement
     and the same sizes as one after the other in this process (times per state aside)."""
-    from lagrange_xval.validate.studies import chains
+    from lagrange_xval.studies import chains
 
     def measured(result):
         return [

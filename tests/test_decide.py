@@ -1,5 +1,5 @@
 """One verdict path: `lagrange_xval.check`, the `check` command and `run` give the same verdict on
-the same system (checks/decide.py), and `lagrange_xval.check` writes nothing."""
+the same system (verdict/decide.py), and `lagrange_xval.check` writes nothing."""
 
 from __future__ import annotations
 
@@ -11,10 +11,10 @@ from pathlib import Path
 
 import lagrange_xval as lx
 import pytest
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.cli import main
-from lagrange_xval.validate.dynamics.cachedir import Cache
-from lagrange_xval.validate.systems import PACKAGE_ROOT
+from lagrange_xval import systems
+from lagrange_xval.cli import main
+from lagrange_xval.core.cachedir import Cache
+from lagrange_xval.systems import PACKAGE_ROOT
 
 from .mutations import MUTATIONS, mutated_source
 

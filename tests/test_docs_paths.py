@@ -9,7 +9,7 @@ import re
 from pathlib import Path
 
 import pytest
-from lagrange_xval.validate.cli import parser
+from lagrange_xval.cli import parser
 
 ROOT = Path(__file__).resolve().parents[1]
 SUBPACKAGES = ("systems", "engines", "checks", "dynamics", "studies", "results", "report", "replay", "cli", "public")
@@ -47,9 +47,9 @@ def _sources() -> dict[str, str]:
 
 
 def test_the_path_finder_sees_paths_and_skips_patterns():
-    text = "see validate/systems/modelview.py, `equations/<name>.py`, checks/explain.explain and tests/x.py."
-    assert path_tokens(text) == ["validate/systems/modelview.py", "checks/explain.explain", "tests/x.py"]
-    assert exists("checks/explain.explain") and exists("validate/systems/modelview.py")
+    text = "see validate/model/modelview.py, `equations/<name>.py`, verdict/explain.explain and tests/x.py."
+    assert path_tokens(text) == ["validate/model/modelview.py", "verdict/explain.explain", "tests/x.py"]
+    assert exists("verdict/explain.explain") and exists("validate/model/modelview.py")
     assert not exists("tests/x.py") and not exists("validate/modelview.py")
 
 

@@ -11,17 +11,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from lagrange_xval.validate.checks import pointwise
-from lagrange_xval.validate.checks.decide import decide
-from lagrange_xval.validate.cli import parser as cli_parser
-from lagrange_xval.validate.dynamics import drakerun, estimate, fast, freeruns, integrate
-from lagrange_xval.validate.dynamics.reference import reference_trajectory
-from lagrange_xval.validate.engines import drake as drake_engine
-from lagrange_xval.validate.engines import make_sources
-from lagrange_xval.validate.studies.bench import runners
-from lagrange_xval.validate.studies.bench.plan import CONTENDER_DRIVERS, FULL, GRID_DRIVERS, QUICK
-from lagrange_xval.validate.systems import System, load, system_names
-from lagrange_xval.validate.systems.start import Start
+from lagrange_xval.cli import parser as cli_parser
+from lagrange_xval.dynamics import drakerun, estimate, fast, freeruns, integrate
+from lagrange_xval.dynamics.reference import reference_trajectory
+from lagrange_xval.model.start import Start
+from lagrange_xval.sources import drake as drake_engine
+from lagrange_xval.sources import make_sources
+from lagrange_xval.studies.bench import runners
+from lagrange_xval.studies.bench.plan import CONTENDER_DRIVERS, FULL, GRID_DRIVERS, QUICK
+from lagrange_xval.systems import System, load, system_names
+from lagrange_xval.verdict import pointwise
+from lagrange_xval.verdict.decide import decide
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = sorted(ROOT.glob("examples/*.xml"))

@@ -10,12 +10,12 @@ import sys
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import cli, systems
-from lagrange_xval.validate.cli import main
-from lagrange_xval.validate.dynamics import integrate
-from lagrange_xval.validate.engines import make_source
+from lagrange_xval import cli, systems
+from lagrange_xval.cli import main
+from lagrange_xval.dynamics import integrate
+from lagrange_xval.sources import make_source
 
-CLI = [sys.executable, "-m", "lagrange_xval.validate.cli"]
+CLI = [sys.executable, "-m", "lagrange_xval.cli"]
 
 
 def _one_error_line(capsys, *expected):
@@ -250,9 +250,9 @@ def test_stdout_holds_only_the_commands_output_when_a_library_logs(tmp_path):
     env = dict(os.environ)
     code = (
         f"import heyoka; heyoka.llvm_state.set_diskcache_path({str(tmp_path / 'file' / 'x')!r});"
-        "import sys; from lagrange_xval.validate import cli, systems;"
-        "from lagrange_xval.validate.dynamics import reference;"
-        "from lagrange_xval.validate.dynamics.integrate import time_grid;"
+        "import sys; from lagrange_xval import cli, systems;"
+        "from lagrange_xval.dynamics import reference;"
+        "from lagrange_xval.dynamics.integrate import time_grid;"
         "s = systems.load('simple_pendulum');"
         "cli.COMMANDS['list'] = lambda a: (reference.reference_trajectory(s, [0.5], [0.0], [0.0], time_grid(1, 0.1),"
         " cache_dir=None, check=None), print('{\"ok\": true}'), 0)[-1];"

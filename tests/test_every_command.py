@@ -9,9 +9,10 @@ import textwrap
 from pathlib import Path
 
 import pytest
-from lagrange_xval.validate.cli import main
-from lagrange_xval.validate.errors import HarnessError
-from lagrange_xval.validate.systems import pairs_and_lonely, textform
+from lagrange_xval.cli import main
+from lagrange_xval.core.errors import HarnessError
+from lagrange_xval.handwritten import textform
+from lagrange_xval.systems import pairs_and_lonely
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -50,9 +51,9 @@ def test_the_bench_baseline_computes_what_a_module_without_energies_provides(tmp
     """The bench's raw loops (what `bench` times the harness against) skip T and V where the module
     leaves them out, as the hand source does, instead of raising NotImplementedError."""
     import numpy as np
-    from lagrange_xval.validate.checks import pointwise as compare
-    from lagrange_xval.validate.studies.bench.baselines import raw_hand
-    from lagrange_xval.validate.systems import System
+    from lagrange_xval.studies.bench.baselines import raw_hand
+    from lagrange_xval.systems import System
+    from lagrange_xval.verdict import pointwise as compare
 
     system = System.from_files(*without_energies(tmp_path))
     states = compare.random_states(system, n=8, seed=0)
@@ -66,7 +67,7 @@ def test_stress_on_a_module_without_energies_judges_divergence_and_says_what_it_
     still finds every integrator's boundary from divergence alone, above the bottom of its range."""
     from dataclasses import replace
 
-    from lagrange_xval.validate.studies import stress
+    from lagrange_xval.studies import stress
 
     settings = replace(stress.QUICK, sections=("drift", "stability"))
     results = stress.run_stress(None, files=[without_energies(tmp_path)], settings=settings)
@@ -87,10 +88,10 @@ def test_stress_skip_reasons_are_true():
     3-joint system without two bodies named is not "one coordinate"."""
     from types import SimpleNamespace
 
-    from lagrange_xval.validate.studies import stress
-    from lagrange_xval.validate.studies.stress.conditioning import no_sweep_reason
-    from lagrange_xval.validate.studies.stress.output import prepare, run_section
-    from lagrange_xval.validate.systems import System
+    from lagrange_xval.studies import stress
+    from lagrange_xval.studies.stress.conditioning import no_sweep_reason
+    from lagrange_xval.studies.stress.output import prepare, run_section
+    from lagrange_xval.systems import System
 
     acrobot = System.from_files(EXAMPLES / "acrobot.xml", EXAMPLES / "acrobot.py")
     done = run_section((acrobot, *prepare(acrobot)), "drift", stress.QUICK)
@@ -103,9 +104,9 @@ def test_stress_skip_reasons_are_true():
 def test_derive_predicts_a_spatial_model_and_python_before_working(tmp_path):
     """A 7-joint spatial chain (as the Panda with its fingers locked) is refused at once with its
     prediction, --python more so; the planar chain of 7 is not (its prediction is under the budget)."""
-    from lagrange_xval.validate.cli.commands import affordable, is_spatial
-    from lagrange_xval.validate.studies.chains import chain_mjcf
-    from lagrange_xval.validate.systems import System
+    from lagrange_xval.cli.commands import affordable, is_spatial
+    from lagrange_xval.studies.chains import chain_mjcf
+    from lagrange_xval.systems import System
 
     views = {}
     for kind in ("planar", "spatial"):
@@ -154,10 +155,10 @@ def test_derive_python_of_a_spatial_chain_is_short_and_computes_the_engines_dyna
     import runpy
 
     import numpy as np
-    from lagrange_xval.validate.engines import make_source
-    from lagrange_xval.validate.studies.chains import chain_mjcf
-    from lagrange_xval.validate.systems import System
-    from lagrange_xval.validate.systems.scaffold import module_text
+    from lagrange_xval.sources import make_source
+    from lagrange_xval.studies.chains import chain_mjcf
+    from lagrange_xval.systems import System
+    from lagrange_xval.systems.scaffold import module_text
 
     model = tmp_path / "chain4.xml"
     model.write_text(chain_mjcf(4, "spatial"))

@@ -8,10 +8,10 @@ import pathlib
 import shutil
 
 import pytest
-from lagrange_xval.validate.checks import explain as explaining
-from lagrange_xval.validate.checks.verdict import derivation_probes
-from lagrange_xval.validate.dynamics.cachedir import Cache
-from lagrange_xval.validate.systems import System
+from lagrange_xval.core.cachedir import Cache
+from lagrange_xval.systems import System
+from lagrange_xval.verdict import explain as explaining
+from lagrange_xval.verdict.verdict import derivation_probes
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 RIGHT = "m22 = p.m2 * p.c2**2 + p.I2"

@@ -8,12 +8,12 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.dynamics import compiled, fast, integrate, mirror
-from lagrange_xval.validate.dynamics.reference import reference_trajectory
-from lagrange_xval.validate.engines import make_source, make_sources
-from lagrange_xval.validate.engines.hand import HandSource
-from lagrange_xval.validate.studies.bench import FULL, checks
+from lagrange_xval import systems
+from lagrange_xval.dynamics import compiled, fast, integrate, mirror
+from lagrange_xval.dynamics.reference import reference_trajectory
+from lagrange_xval.sources import make_source, make_sources
+from lagrange_xval.sources.hand import HandSource
+from lagrange_xval.studies.bench import FULL, checks
 
 from .test_budgets import FRICTION_SIGN, assert_kept_until_stop, mutated, start
 
@@ -206,7 +206,7 @@ def test_a_check_timed_again_beside_its_fastest_run_takes_the_ratio_of_the_pair(
 
 
 def test_paired_timings_time_the_check_and_the_sweeps_run_in_one_task():
-    from lagrange_xval.validate.studies import bench
+    from lagrange_xval.studies import bench
 
     spec = {**bench.taylor_spec(1e-15), "method": "hand heyoka Taylor (double)"}
     out = checks.paired_timings(

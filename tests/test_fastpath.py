@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import numpy as np
-from lagrange_xval.equations._forms import Explicit, Implicit
-from lagrange_xval.validate.engines import fastpath
-from lagrange_xval.validate.engines.hand import HandSource
+from lagrange_xval.forms import Explicit, Implicit
+from lagrange_xval.sources import fastpath
+from lagrange_xval.sources.hand import HandSource
 
 
 def _numpy_path(system, variant):

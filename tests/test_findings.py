@@ -14,12 +14,12 @@ from typing import Any
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import report
-from lagrange_xval.validate.report import findings
-from lagrange_xval.validate.report.document import to_plain
-from lagrange_xval.validate.results.schema import SCALED_DEFINITION
-from lagrange_xval.validate.systems import PACKAGE_ROOT
-from lagrange_xval.validate.systems.urdf import robots_folder
+from lagrange_xval import report
+from lagrange_xval.model.urdf import robots_folder
+from lagrange_xval.report import findings
+from lagrange_xval.report.document import to_plain
+from lagrange_xval.results.schema import SCALED_DEFINITION
+from lagrange_xval.systems import PACKAGE_ROOT
 
 EXAMPLES = PACKAGE_ROOT / "examples"
 NOTES = ["double_pendulum_point", "gimbal", "simple_pendulum"]
@@ -35,7 +35,7 @@ def user_folder(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="module")
 def results(user_folder) -> dict[str, Any]:
-    from lagrange_xval.validate.pipeline import run
+    from lagrange_xval.stages.pipeline import run
 
     files = [(user_folder / "my_cart_pole.xml", user_folder / "my_cart_pole.py")]
     return run(NOTES, n_states=50, seed=0, files=files)
@@ -195,7 +195,7 @@ def test_a_run_of_user_systems_alone_says_nothing_of_the_notes(tmp_path, user_fo
     shutil.copy(user_folder / "my_cart_pole.xml", tmp_path / "my_cart.xml")
     out = tmp_path / "deep" / "out"
     run = subprocess.run(
-        [sys.executable, "-m", "lagrange_xval.validate.cli", "run", "--model", "my_cart.xml"]
+        [sys.executable, "-m", "lagrange_xval.cli", "run", "--model", "my_cart.xml"]
         + ["--equations", "my_cart.py", "--out", "deep/out", "--states", "60", "--probes", "2"],
         cwd=tmp_path,
         capture_output=True,
@@ -246,7 +246,7 @@ def test_verdicts_say_what_was_judged(results, files):
 
 
 def test_scaled_has_one_definition_in_code_readme_and_report(files):
-    from lagrange_xval.validate.checks.pointwise import States, error_row
+    from lagrange_xval.verdict.pointwise import States, error_row
 
     readme = " ".join((PACKAGE_ROOT / "README.md").read_text().split())
     assert SCALED_DEFINITION in readme
@@ -303,7 +303,7 @@ def legend_problems(fig: Any) -> list[str]:
 
 
 def test_legends_lie_inside_their_figures_and_off_the_data(results, monkeypatch):
-    from lagrange_xval.validate.report import figures, studies, system_parts
+    from lagrange_xval.report import figures, studies, system_parts
 
     problems: list[str] = []
     real = figures.png
@@ -336,7 +336,7 @@ def test_legends_lie_inside_their_figures_and_off_the_data(results, monkeypatch)
 
 
 def test_long_and_developer_tables_stay_out_of_the_way():
-    from lagrange_xval.validate.report import studies
+    from lagrange_xval.report import studies
 
     stiff = [
         {
@@ -438,7 +438,7 @@ def one_verdict_per_run(md: str) -> list[str]:
 @pytest.fixture(scope="module")
 def model_alone() -> dict[str, Any]:
     """A repository MJCF run as a model alone (no derivation), and the UR5 where it is installed."""
-    from lagrange_xval.validate.pipeline import run
+    from lagrange_xval.stages.pipeline import run
 
     files: list[tuple[Path, Path | None]] = [(PACKAGE_ROOT / "models" / "double_pendulum_point.xml", None)]
     robots = robots_folder()
@@ -478,7 +478,7 @@ def test_the_notes_and_a_users_systems_say_only_what_is_true_of_them(results, fi
 def test_a_wrong_user_module_gets_a_reason_and_no_notes_wording(tmp_path, user_folder):
     """A user's module with a slip in gravity: the headline names the term and why; "yours" is the
     person's; no sentence speaks of the notes or of printed forms."""
-    from lagrange_xval.validate.pipeline import run
+    from lagrange_xval.stages.pipeline import run
 
     source = (user_folder / "my_cart_pole.py").read_text()
     old = "- p.mp * p.g * lc * s - tau[..., 1]"
@@ -494,7 +494,7 @@ def test_a_wrong_user_module_gets_a_reason_and_no_notes_wording(tmp_path, user_f
 
 def test_differences_no_single_slip_reproduces_are_said_once():
     """An energies-only module with a mistake: not "(not explained)" once per entry, one plain sentence."""
-    from lagrange_xval.validate.report.system_parts import system_derivation
+    from lagrange_xval.report.system_parts import system_derivation
 
     s = {
         "origin": "user",

@@ -12,13 +12,13 @@ import types
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.checks import pointwise as compare
-from lagrange_xval.validate.checks import verdict
-from lagrange_xval.validate.dynamics.reference import rhs_check
-from lagrange_xval.validate.engines import make_sources
-from lagrange_xval.validate.errors import HarnessError
-from lagrange_xval.validate.systems import forms
+from lagrange_xval import systems
+from lagrange_xval.core.errors import HarnessError
+from lagrange_xval.dynamics.reference import rhs_check
+from lagrange_xval.handwritten import forms
+from lagrange_xval.sources import make_sources
+from lagrange_xval.verdict import pointwise as compare
+from lagrange_xval.verdict import verdict
 
 SHARED = (
     "DESCRIPTION",

@@ -1,5 +1,5 @@
-"""Forms (e) and (f): a Hamiltonian H(q, pm) (validate/systems/hamiltonian.py) and the energies as
-text in a TOML file (validate/systems/textform.py), each checked through the public API from a
+"""Forms (e) and (f): a Hamiltonian H(q, pm) (validate/handwritten/hamiltonian.py) and the energies as
+text in a TOML file (validate/handwritten/textform.py), each checked through the public API from a
 folder of the user's own; a mistake in either is found in the term it is in, and a Hamiltonian or
 an expression of the wrong shape is a one-line error.
 """
@@ -13,9 +13,9 @@ from pathlib import Path
 import lagrange_xval as lx
 import numpy as np
 import pytest
-from lagrange_xval.validate.errors import HarnessError
-from lagrange_xval.validate.systems import hamiltonian, textform
-from lagrange_xval.validate.systems.forms import written_form
+from lagrange_xval.core.errors import HarnessError
+from lagrange_xval.handwritten import hamiltonian, textform
+from lagrange_xval.handwritten.forms import written_form
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -24,7 +24,7 @@ HAMILTONIAN = '''"""Double pendulum, point bobs, relative angles: H = pm^T M^-1 
 from dataclasses import dataclass
 
 import numpy as np
-from lagrange_xval.equations._forms import body, hinge, planar_inertia
+from lagrange_xval.forms import body, hinge, planar_inertia
 
 DESCRIPTION = "Double pendulum as its Hamiltonian."
 COORDINATES = ("theta", "phi")
@@ -80,7 +80,7 @@ def hamiltonian(p, q, pm):
 
 
 def _docstring_example() -> str:
-    """The TOML example of validate/systems/textform.py's docstring, as a person would copy it: the
+    """The TOML example of validate/handwritten/textform.py's docstring, as a person would copy it: the
     cart-pole of examples/cart_pole.py (theta from the upright, the rod's centre of mass at l/2), its
     energies on paper; V counts from the world origin's height, as the engines do."""
     lines = (textform.__doc__ or "").splitlines()
@@ -242,7 +242,7 @@ def test_a_bad_text_file_is_one_line(tmp_path, mistake, message):
 
 def test_equations_as_text_run_end_to_end(tmp_path):
     """`run --model cp.xml --equations cp.toml` writes the reports and exits 0."""
-    from lagrange_xval.validate.cli import main
+    from lagrange_xval.cli import main
 
     _text_system(tmp_path)
     out = tmp_path / "reports"
@@ -257,7 +257,7 @@ def test_equations_as_text_run_end_to_end(tmp_path):
 @pytest.mark.parametrize("form", ["hamiltonian", "text"])
 def test_the_new_forms_trace_for_the_fast_path(tmp_path, form):
     """The derived M, bias and friction trace symbolically (fast path and Taylor reference) to round-off."""
-    from lagrange_xval.validate.dynamics.reference import rhs_check
+    from lagrange_xval.dynamics.reference import rhs_check
 
     system = _hamiltonian_system(tmp_path) if form == "hamiltonian" else _text_system(tmp_path)
     assert rhs_check(system) < 1e-12

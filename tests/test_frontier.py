@@ -9,14 +9,14 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.dynamics import compiled
-from lagrange_xval.validate.dynamics.integrate import time_grid
-from lagrange_xval.validate.dynamics.mirror import mirror_trajectory
-from lagrange_xval.validate.engines.fastpath import scalar_rhs
-from lagrange_xval.validate.studies import bench
-from lagrange_xval.validate.studies.bench import FULL, QUICK
-from lagrange_xval.validate.studies.bench.analysis import errors_against
+from lagrange_xval import systems
+from lagrange_xval.dynamics import compiled
+from lagrange_xval.dynamics.integrate import time_grid
+from lagrange_xval.dynamics.mirror import mirror_trajectory
+from lagrange_xval.sources.fastpath import scalar_rhs
+from lagrange_xval.studies import bench
+from lagrange_xval.studies.bench import FULL, QUICK
+from lagrange_xval.studies.bench.analysis import errors_against
 
 DP = "double_pendulum_point"
 
@@ -158,8 +158,8 @@ def test_frontier_ratio_compares_the_default_path_with_the_fastest_at_equal_erro
 
 
 def test_the_report_names_the_fastest_method_at_each_eps():
-    from lagrange_xval.validate.report.document import Document
-    from lagrange_xval.validate.report.studies import frontier_section
+    from lagrange_xval.report.document import Document
+    from lagrange_xval.report.studies import frontier_section
 
     rows = [
         _row("hand odeint", "odeint", "hand", 1e-9, 4.0, 5e-10),

@@ -1,4 +1,4 @@
-"""A person's equations module cannot hang, exit or fool the harness (issue 28, validate/guard.py):
+"""A person's equations module cannot hang, exit or fool the harness (issue 28, validate/core/guard.py):
 a call that does not return within the time limit, `sys.exit` and `os._exit` are one-line findings
 naming the function; what a module prints never reaches stdout; the other systems' results are kept;
 SIGTERM stops a run whatever the module is doing.
@@ -19,10 +19,10 @@ from pathlib import Path
 
 import lagrange_xval as lx
 import pytest
-from lagrange_xval.validate.errors import HarnessError
+from lagrange_xval.core.errors import HarnessError
 
 ROOT = Path(__file__).resolve().parents[1]
-CLI = [sys.executable, "-m", "lagrange_xval.validate.cli"]
+CLI = [sys.executable, "-m", "lagrange_xval.cli"]
 LIMIT = "2"
 TIMEOUT = 120  # s: a command that hangs fails the test instead of the suite
 
@@ -203,7 +203,7 @@ def test_sigterm_stops_a_run_of_one_blocked_system(tmp_path: Path) -> None:
 
 def test_derive_refuses_a_chain_predicted_past_its_budget(tmp_path: Path) -> None:
     """`derive --model` on a 50-joint chain refuses within seconds, naming the size and --force."""
-    from lagrange_xval.validate.studies.chains import chain_mjcf
+    from lagrange_xval.studies.chains import chain_mjcf
 
     model = tmp_path / "chain50.xml"
     model.write_text(chain_mjcf(50, "planar"))
@@ -223,7 +223,7 @@ def test_a_module_that_swallows_every_stop_is_ended(tmp_path: Path) -> None:
 
 def test_the_guard_restores_someone_elses_alarm() -> None:
     """A handler and timer of SIGALRM set before a guarded call (pytest-timeout's) are there after it."""
-    from lagrange_xval.validate.guard import Guard, guarded
+    from lagrange_xval.core.guard import Guard, guarded
 
     def theirs(signum: int, frame: object) -> None:
         raise AssertionError("their alarm fired during the test")
@@ -243,7 +243,7 @@ def test_a_stop_survives_pickling() -> None:
     """A Stopped raised in a worker reaches the parent with its file and reason."""
     import pickle
 
-    from lagrange_xval.validate.guard import Stopped
+    from lagrange_xval.core.guard import Stopped
 
     stop = pickle.loads(pickle.dumps(Stopped("mine.py", "bias called sys.exit(1)")))
     assert (stop.where, stop.why, str(stop)) == (
@@ -272,7 +272,7 @@ def test_one_process_per_task_and_a_dying_task_fails_alone() -> None:
     alone with BrokenProcessPool."""
     from concurrent.futures.process import BrokenProcessPool
 
-    from lagrange_xval.validate.parallel import executor_for
+    from lagrange_xval.core.parallel import executor_for
 
     with executor_for(None, tasks=1, isolated=True) as pool:
         futures = [pool.submit(_pid, i) for i in range(3)]
@@ -290,7 +290,7 @@ def test_one_process_per_task_and_a_dying_task_fails_alone() -> None:
 def test_derive_of_a_chain_beyond_three_joints_is_exact_with_common_subexpressions(tmp_path: Path) -> None:
     """Beyond three joints `derive` does not simplify (minutes on a 6-joint arm): it says so on stderr
     and prints the exact equations with their common subexpressions, every term of M, C v and G named."""
-    from lagrange_xval.validate.studies.chains import chain_mjcf
+    from lagrange_xval.studies.chains import chain_mjcf
 
     model = tmp_path / "chain4.xml"
     model.write_text(chain_mjcf(4, "spatial"))
@@ -328,7 +328,7 @@ def test_bench_and_stress_take_the_time_limit(tmp_path: Path, command: str) -> N
 
 def test_a_persons_time_limit_travels_to_the_workers(tmp_path: Path) -> None:
     """bench's and stress's workers find a person's system by its key: its time limit comes with it."""
-    from lagrange_xval.validate.systems import from_key, key_of
+    from lagrange_xval.systems import from_key, key_of
 
     system = lx.System.from_files(*_system(tmp_path, "limited"), time_limit=3.5)
     assert from_key(key_of(system)).equations.GUARD.time_limit == 3.5

@@ -1,4 +1,4 @@
-"""A person's module runs in a worker process the judge can always stop (issue 35, validate/worker.py):
+"""A person's module runs in a worker process the judge can always stop (issue 35, validate/handwritten/worker.py):
 a module that switches the alarm off, blocks in one C call, forks, leaves threads or atexit handlers,
 ends its process from a thread, patches numpy, raises anything or forges a verdict line gets the right
 verdict or one error line, the right status, ends within its time limit and a few seconds, and leaves
@@ -19,8 +19,8 @@ from pathlib import Path
 import lagrange_xval as lx
 import numpy as np
 import pytest
-from lagrange_xval.validate.guard import Stopped
-from lagrange_xval.validate.worker import ModuleWorker, escape
+from lagrange_xval.core.guard import Stopped
+from lagrange_xval.handwritten.worker import ModuleWorker, escape
 
 from tests.test_guard import CLI, LIMIT, TIMEOUT, _check, _error_line, _system
 
@@ -135,7 +135,7 @@ def test_a_module_that_patches_numpy_cannot_change_the_verdict(tmp_path: Path) -
         ("raise type('Boom', (BaseException,), {})('out of the blue')", "mass_matrix() raised Boom: out of the blue"),
         ("raise type('Quit', (SystemExit,), {})(0)", "mass_matrix called sys.exit(0)"),
         (
-            "from lagrange_xval.validate.guard import Stopped\n    raise Stopped('harness', 'all checks passed')",
+            "from lagrange_xval.core.guard import Stopped\n    raise Stopped('harness', 'all checks passed')",
             "mass_matrix() raised Stopped: harness: all checks passed",
         ),
     ],
@@ -267,7 +267,7 @@ def test_the_worker_dies_with_a_harness_killed_outright(tmp_path: Path, where: s
     _, equations = _system(tmp_path, "orphan", "time.sleep(1000)")
     script = (
         "import sys, threading, time\n"
-        "from lagrange_xval.validate.worker import ModuleWorker\n"
+        "from lagrange_xval.handwritten.worker import ModuleWorker\n"
         "box = []\n"
         "start = lambda: box.append(ModuleWorker(sys.argv[1], 100))\n"
         "thread = threading.Thread(target=start)\n"

@@ -5,9 +5,9 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.checks import modelsync
-from lagrange_xval.validate.engines import make_source
+from lagrange_xval import systems
+from lagrange_xval.sources import make_source
+from lagrange_xval.verdict import modelsync
 
 
 def test_every_model_has_equations_and_every_equations_module_a_model():
@@ -77,7 +77,7 @@ def test_equations_modules_import_no_engine():
     """equations/ is numpy only: the hand derivation must not borrow an engine's numbers."""
     for name in systems.system_names() + ["_forms"]:
         text = (systems.PACKAGE_ROOT / "equations" / f"{name}.py").read_text()
-        for engine in ("mujoco", "pinocchio", "scipy", "lagrange_xval.validate"):
+        for engine in ("mujoco", "pinocchio", "scipy", "lagrange_xval"):
             assert f"import {engine}" not in text and f"from {engine}" not in text, f"{name}.py imports {engine}"
 
 
@@ -94,7 +94,7 @@ def test_a_changed_parameter_is_caught_by_the_sync_check(tmp_path):
 
 def test_mujoco_computes_only_what_the_scene_uses(system):
     """Disable flags match USES: nothing the scene does not need is computed."""
-    from lagrange_xval.validate.pipeline import NEVER_USED, OPTIONAL
+    from lagrange_xval.stages.pipeline import NEVER_USED, OPTIONAL
 
     m = system.mujoco_model()
     bits = {

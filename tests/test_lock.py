@@ -7,9 +7,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from lagrange_xval.validate.cli import main
-from lagrange_xval.validate.cli.parser import build_parser
-from lagrange_xval.validate.systems import System, from_key, key_of
+from lagrange_xval.cli import main
+from lagrange_xval.cli.parser import build_parser
+from lagrange_xval.systems import System, from_key, key_of
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 ARM = EXAMPLES / "urdf" / "spatial_arm.urdf"

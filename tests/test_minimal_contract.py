@@ -398,7 +398,7 @@ def test_gym_acrobot_passes_every_stage_of_run(tmp_path):
     import sys
 
     system = _system(tmp_path, "acrobot", GYM_ACROBOT)
-    cmd = [sys.executable, "-m", "lagrange_xval.validate.cli", "run", "--model", str(system.mjcf)]
+    cmd = [sys.executable, "-m", "lagrange_xval.cli", "run", "--model", str(system.mjcf)]
     cmd += ["--equations", str(tmp_path / "mine.py"), "--out", str(tmp_path / "out"), "--states", "60"]
     run = subprocess.run([*cmd, "--probes", "1", "--no-replay"], capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stdout[-1500:] + run.stderr[-1500:]

@@ -12,14 +12,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.checks import pointwise as compare
-from lagrange_xval.validate.dynamics import chaos
-from lagrange_xval.validate.dynamics.integrate import initial_state, mujoco_trajectory, time_grid
-from lagrange_xval.validate.dynamics.mirror import INTEGRATORS, Stepper, eulerdamp_active, lockstep, mirror_trajectory
-from lagrange_xval.validate.dynamics.reference import reference_trajectory
-from lagrange_xval.validate.engines import make_sources
-from lagrange_xval.validate.engines.hand import HandSource
+from lagrange_xval import systems
+from lagrange_xval.dynamics import chaos
+from lagrange_xval.dynamics.integrate import initial_state, mujoco_trajectory, time_grid
+from lagrange_xval.dynamics.mirror import INTEGRATORS, Stepper, eulerdamp_active, lockstep, mirror_trajectory
+from lagrange_xval.dynamics.reference import reference_trajectory
+from lagrange_xval.sources import make_sources
+from lagrange_xval.sources.hand import HandSource
+from lagrange_xval.verdict import pointwise as compare
 
 SYSTEMS = systems.system_names()
 _sources: dict[str, dict] = {}
@@ -90,7 +90,7 @@ def test_lockstep_tells_the_schemes_apart():
     system = systems.load("double_pendulum_point")
     src = sources_of(system)
     states = compare.random_states(system, n=50, seed=12)
-    from lagrange_xval.validate.dynamics.mirror import mirror_steps, mujoco_steps
+    from lagrange_xval.dynamics.mirror import mirror_steps, mujoco_steps
 
     for mirrored, stepped in [("RK4", "Euler"), ("Euler", "implicit"), ("implicit", "implicitfast")]:
         qm, vm = mirror_steps(system, src["hand"], states.q, states.v, states.tau, integrator=mirrored, timestep=1e-3)

@@ -21,7 +21,7 @@ import pkgutil
 
 import numpy as np
 import pytest
-from lagrange_xval.validate.systems import load
+from lagrange_xval.systems import load
 from scipy.integrate import solve_ivp
 
 from tests import mutations as mu

@@ -10,8 +10,8 @@ import sys
 from pathlib import Path
 
 import pytest
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.cli import main
+from lagrange_xval import systems
+from lagrange_xval.cli import main
 
 from .test_robots import ROBOTS, needs_robots
 
@@ -106,7 +106,7 @@ def test_a_wrong_filling_is_caught(folder):
 
 def _derive_python(model: Path, *lock: str) -> str:
     done = subprocess.run(
-        [sys.executable, "-m", "lagrange_xval.validate.cli", "derive", "--model", str(model), "--python", *lock],
+        [sys.executable, "-m", "lagrange_xval.cli", "derive", "--model", str(model), "--python", *lock],
         capture_output=True,
         text=True,
         timeout=600,

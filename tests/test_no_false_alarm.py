@@ -12,15 +12,16 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
-from lagrange_xval.validate import pipeline, systems
-from lagrange_xval.validate.checks import pointwise as compare
-from lagrange_xval.validate.checks import probes as probing
-from lagrange_xval.validate.checks import verdict
-from lagrange_xval.validate.dynamics import chaos, estimate, freeruns, integrate
-from lagrange_xval.validate.dynamics.reference import WINDOW_CHECK_TOLERANCE, reference_trajectory, window_check
-from lagrange_xval.validate.engines import make_sources
-from lagrange_xval.validate.errors import HarnessError
-from lagrange_xval.validate.systems.start import Start
+from lagrange_xval import systems
+from lagrange_xval.core.errors import HarnessError
+from lagrange_xval.dynamics import chaos, estimate, freeruns, integrate
+from lagrange_xval.dynamics.reference import WINDOW_CHECK_TOLERANCE, reference_trajectory, window_check
+from lagrange_xval.model.start import Start
+from lagrange_xval.sources import make_sources
+from lagrange_xval.stages import pipeline
+from lagrange_xval.verdict import pointwise as compare
+from lagrange_xval.verdict import probes as probing
+from lagrange_xval.verdict import verdict
 
 from .mutations import MUTATIONS, load_mutated
 
@@ -58,7 +59,7 @@ def wrong(system, mutation: str):
 
 
 def _failures(result) -> list[str]:
-    from lagrange_xval.validate.results.stages import outcome
+    from lagrange_xval.results.stages import outcome
 
     stages = {k: outcome(v) for k, v in result["stages"].items()}
     return [*result["failed"], *(f"{k}: {v}" for k, v in stages.items() if v.startswith("failed"))]

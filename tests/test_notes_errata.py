@@ -7,10 +7,10 @@ change in the judge, the engines or a transcription that flips one is noticed.
 from __future__ import annotations
 
 import pytest
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.checks import judge
-from lagrange_xval.validate.checks import pointwise as compare
-from lagrange_xval.validate.engines import make_sources
+from lagrange_xval import systems
+from lagrange_xval.sources import make_sources
+from lagrange_xval.verdict import judge
+from lagrange_xval.verdict import pointwise as compare
 
 # (system, printed form) -> (verdict, first disagreeing term); every other form agrees.
 DISAGREE = {

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import lagrange_xval as lx
 import pytest
-from lagrange_xval.validate.cli import main
-from lagrange_xval.validate.report.sections import derivation_row
+from lagrange_xval.cli import main
+from lagrange_xval.report.sections import derivation_row
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -101,8 +101,8 @@ def test_a_summary_row_marks_only_what_its_own_numbers_show():
 def test_an_energy_the_module_leaves_out_is_said_not_provided(tmp_path):
     """A free run's energy change, measured by a derivation without T and V: "T and V not provided",
     never an infinite change."""
-    from lagrange_xval.validate.dynamics.integrate import energy_missing
-    from lagrange_xval.validate.engines import make_sources
+    from lagrange_xval.dynamics.integrate import energy_missing
+    from lagrange_xval.sources import make_sources
 
     source = (EXAMPLES / "acrobot.py").read_text()
     start, end = source.index("def kinetic_energy("), source.index("def body_positions(")

@@ -5,8 +5,8 @@ from __future__ import annotations
 import os
 
 import pytest
-from lagrange_xval.validate.cli import main, outputs
-from lagrange_xval.validate.errors import HarnessError
+from lagrange_xval.cli import main, outputs
+from lagrange_xval.core.errors import HarnessError
 
 OLD = {
     "results.json": "old results",

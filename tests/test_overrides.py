@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import pytest
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.checks import modelsync
-from lagrange_xval.validate.checks import pointwise as compare
-from lagrange_xval.validate.engines import make_sources
-from lagrange_xval.validate.errors import HarnessError
-from lagrange_xval.validate.systems import overrides
+from lagrange_xval import systems
+from lagrange_xval.core.errors import HarnessError
+from lagrange_xval.model import overrides
+from lagrange_xval.sources import make_sources
+from lagrange_xval.verdict import modelsync
+from lagrange_xval.verdict import pointwise as compare
 
 CASES = {
     "double_pendulum_point": (("body/link2/mass", 3.0), ("scale/length", 1.3)),

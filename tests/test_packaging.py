@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from lagrange_xval.validate.cli.commands import COMMANDS
+from lagrange_xval.cli.commands import COMMANDS
 
 ROOT = Path(__file__).resolve().parents[1]
 SCANNED = ("validate", "equations")
@@ -239,8 +239,8 @@ def test_the_built_wheel_installs_whole_and_every_command_runs(tmp_path):
     work = tmp_path / "work"
     work.mkdir()
     imports = (
-        "import importlib, pkgutil, lagrange_xval, lagrange_xval.validate as v\n"
-        "for m in pkgutil.walk_packages(v.__path__, 'lagrange_xval.validate.'):\n"
+        "import importlib, pkgutil, lagrange_xval, lagrange_xval as v\n"
+        "for m in pkgutil.walk_packages(v.__path__, 'lagrange_xval.'):\n"
         "    if not m.name.endswith('__main__'): importlib.import_module(m.name)\n"
         "import lagrange_xval.testing, lagrange_xval.forms, lagrange_xval.equations\n"
         "print(lagrange_xval.__file__)\n"

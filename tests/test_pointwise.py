@@ -9,9 +9,9 @@ from __future__ import annotations
 import itertools
 
 import pytest
-from lagrange_xval.validate.checks import pointwise as compare
-from lagrange_xval.validate.checks.tolerances import QUANTITY_TIER
-from lagrange_xval.validate.engines import SOURCE_NAMES
+from lagrange_xval.core.tolerances import QUANTITY_TIER
+from lagrange_xval.sources import SOURCE_NAMES
+from lagrange_xval.verdict import pointwise as compare
 
 from .conftest import evaluated
 
@@ -45,7 +45,7 @@ def test_mass_matrix_is_symmetric_positive_definite(system):
 def test_solve_tier_grows_with_conditioning_but_not_below_its_floor():
     """An ill-conditioned state gets cond(M)-scaled room; a well-conditioned one keeps the tier."""
     import numpy as np
-    from lagrange_xval.validate.checks.tolerances import TOLERANCES
+    from lagrange_xval.core.tolerances import TOLERANCES
 
     solve = TOLERANCES.solve
     assert solve.at(1.0) == solve.rtol

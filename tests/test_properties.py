@@ -11,9 +11,9 @@ import functools
 import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.checks import pointwise as compare
-from lagrange_xval.validate.engines import make_sources
+from lagrange_xval import systems
+from lagrange_xval.sources import make_sources
+from lagrange_xval.verdict import pointwise as compare
 
 PROPERTY_SETTINGS = settings(
     max_examples=12, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture]

@@ -10,9 +10,10 @@ from pathlib import Path
 
 import mujoco
 import pytest
-from lagrange_xval.validate.cli import main
-from lagrange_xval.validate.systems import System, floating, scope
-from lagrange_xval.validate.systems.start import Start
+from lagrange_xval.cli import main
+from lagrange_xval.model import floating, scope
+from lagrange_xval.model.start import Start
+from lagrange_xval.systems import System
 
 EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "gymnasium" / "inverted_double_pendulum.py"
 
@@ -103,7 +104,7 @@ def test_a_model_with_armature_and_springs_passes_alone(tmp_path, capsys):
 
 def _extreme(tmp_path: Path) -> System:
     """The absolute-angle double pendulum with a 50 kg bob on a 0.1 m rod below a 2 m rod."""
-    from lagrange_xval.validate.systems import load
+    from lagrange_xval.systems import load
 
     notes = load("double_pendulum_absolute")
     text = notes.mjcf.read_text()
@@ -120,10 +121,10 @@ def test_scipys_error_estimate_bounds_its_error_at_an_extreme_ratio(tmp_path):
     """odeint's error against the reference stays within 10 x its own estimate (the threshold) on Pinocchio's
     ABA where the check run is DOP853 (odeint's own check run at rtol/10 was as far off as the run)."""
     import numpy as np
-    from lagrange_xval.validate.dynamics.estimate import scipy_estimate, threshold
-    from lagrange_xval.validate.dynamics.integrate import SCIPY_DEFAULT, scipy_trajectory
-    from lagrange_xval.validate.dynamics.reference import reference_trajectory
-    from lagrange_xval.validate.engines import make_source
+    from lagrange_xval.dynamics.estimate import scipy_estimate, threshold
+    from lagrange_xval.dynamics.integrate import SCIPY_DEFAULT, scipy_trajectory
+    from lagrange_xval.dynamics.reference import reference_trajectory
+    from lagrange_xval.sources import make_source
 
     system = _extreme(tmp_path)
     t = np.linspace(0.0, 10.0, 1001)
@@ -153,7 +154,7 @@ def test_a_right_derivation_passes_at_an_extreme_ratio(tmp_path, capsys):
 def test_check_constraints_says_when_and_which_constraint_acts(tmp_path, capsys):
     """`check --constraints`: the model as published (a range on theta, limits on) runs in MuJoCo and
     agrees with the notes' derivation until theta reaches its range, which the verdict names."""
-    from lagrange_xval.validate.systems import load
+    from lagrange_xval.systems import load
 
     notes = load("double_pendulum_point")
     text = notes.mjcf.read_text().replace(' constraint="disable" limit="disable"', "", 1)
@@ -171,7 +172,7 @@ def test_check_constraints_says_when_and_which_constraint_acts(tmp_path, capsys)
 
 def test_the_output_grid_is_a_whole_number_of_the_models_steps():
     """gymnasium's inverted pendulum steps at 0.02 s: its runs are sampled every step, not every 0.01 s."""
-    from lagrange_xval.validate.dynamics.integrate import output_grid
+    from lagrange_xval.dynamics.integrate import output_grid
 
     assert output_grid(10.0, 0.01, 0.002) == (10.0, 0.01)
     assert output_grid(10.0, 0.01, 0.02) == pytest.approx((10.0, 0.02))

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from lagrange_xval.validate.systems import PACKAGE_ROOT
+from lagrange_xval.systems import PACKAGE_ROOT
 
 
 def _commands():

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.dynamics import reference
-from lagrange_xval.validate.dynamics.integrate import initial_state, scipy_trajectory, time_grid
-from lagrange_xval.validate.engines.hand import HandSource
-from lagrange_xval.validate.errors import HarnessError
+from lagrange_xval import systems
+from lagrange_xval.core.errors import HarnessError
+from lagrange_xval.dynamics import reference
+from lagrange_xval.dynamics.integrate import initial_state, scipy_trajectory, time_grid
+from lagrange_xval.sources.hand import HandSource
 
 SYSTEMS = systems.system_names()
 NOTES_START = (np.array([0.0, 3.0]), np.zeros(2))  # the notes' ode45 experiment: theta = 0, phi = 3, at rest

@@ -9,11 +9,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import replay, systems
-from lagrange_xval.validate.cli import main
-from lagrange_xval.validate.errors import HarnessError
-from lagrange_xval.validate.pipeline import run
-from lagrange_xval.validate.results import dumps
+from lagrange_xval import replay, systems
+from lagrange_xval.cli import main
+from lagrange_xval.core.errors import HarnessError
+from lagrange_xval.results import dumps
+from lagrange_xval.stages.pipeline import run
 
 SYSTEM = "double_pendulum_point"
 ROW_ID = "rerun.controls.RowId"
@@ -289,7 +289,7 @@ def results_file(results, tmp_path_factory) -> Path:
 def test_replay_command_saves_a_readable_file(tmp_path, capsys, results_file, monkeypatch):
     """`replay SYSTEM --save FILE` writes an .rrd from the run's results that rerun reads back, with
     every source's bodies, and runs nothing."""
-    monkeypatch.setattr("lagrange_xval.validate.pipeline.run", lambda *a, **k: pytest.fail("ran the pipeline"))
+    monkeypatch.setattr("lagrange_xval.stages.pipeline.run", lambda *a, **k: pytest.fail("ran the pipeline"))
     path = tmp_path / "x.rrd"
     assert replay.replay_command(SYSTEM, save=path, results_path=results_file) == 0
     assert str(path) in capsys.readouterr().out
@@ -329,7 +329,7 @@ def test_no_display_says_to_save(monkeypatch, tmp_path, results_file):
     monkeypatch.setattr(replay.sys, "platform", "linux")
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
-    monkeypatch.setattr("lagrange_xval.validate.pipeline.run", lambda *a, **k: pytest.fail("ran the pipeline"))
+    monkeypatch.setattr("lagrange_xval.stages.pipeline.run", lambda *a, **k: pytest.fail("ran the pipeline"))
     with pytest.raises(HarnessError, match="--save"):
         replay.replay_command(SYSTEM, save=None, results_path=results_file)
 
@@ -358,8 +358,8 @@ def test_replay_of_ones_own_system_works_from_another_folder(tmp_path, monkeypat
     another folder: the results name the files absolutely."""
     import shutil
 
-    from lagrange_xval.validate.cli import main
-    from lagrange_xval.validate.systems import load
+    from lagrange_xval.cli import main
+    from lagrange_xval.systems import load
 
     source = load("simple_pendulum")
     (tmp_path / "mine").mkdir()

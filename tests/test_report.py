@@ -18,15 +18,15 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from lagrange_xval.validate import report
-from lagrange_xval.validate.results import dumps
+from lagrange_xval import report
+from lagrange_xval.results import dumps
 
 SYSTEM = "double_pendulum_point"
 
 
 @pytest.fixture(scope="module")
 def results() -> dict[str, Any]:
-    from lagrange_xval.validate.pipeline import run
+    from lagrange_xval.stages.pipeline import run
 
     return run([SYSTEM], n_states=50, seed=0)
 
@@ -151,7 +151,7 @@ def test_chaos_and_experiments_sections_state_the_findings(files: dict[str, byte
 
 def test_bench_and_stress_sections_render_their_files(results: dict[str, Any], tmp_path: Path) -> None:
     """bench.json and stress.json in the reports folder become the Benchmark and Stress sections."""
-    from lagrange_xval.validate.cli.outputs import with_optional_results
+    from lagrange_xval.cli.outputs import with_optional_results
 
     (tmp_path / "bench.json").write_text(
         json.dumps(
@@ -446,7 +446,7 @@ def test_report_in_headless_chromium(results: dict[str, Any], files: dict[str, b
     png = shot.read_bytes()
     assert png.startswith(b"\x89PNG") and int.from_bytes(png[16:20], "big") == 1280
     # issue 17: the first screen (1280 x 900) shows every wrong printed form with its term and reason
-    from lagrange_xval.validate.report import findings
+    from lagrange_xval.report import findings
 
     wrong = findings.wrong_forms(report.document.to_plain(results))
     assert wrong, "double_pendulum_point prints wrong forms"
@@ -470,7 +470,7 @@ HEIGHT_BUDGET = 15_000  # CSS px at 1280 px wide, every fold closed: a report on
 @pytest.fixture(scope="module")
 def default_files() -> dict[str, bytes]:
     """The report of the default run (every system of the notes), at fewer states."""
-    from lagrange_xval.validate.pipeline import run
+    from lagrange_xval.stages.pipeline import run
 
     return report.render(run(None, n_states=50, seed=0))
 
@@ -505,7 +505,7 @@ def test_the_default_report_reads_in_a_few_minutes(default_files: dict[str, byte
 def test_the_trajectory_tiers_reason_is_made_of_the_numbers_used(results: dict[str, Any]) -> None:
     """Issue 26: the stated reason names the runs' own integrators, threshold and largest error, read
     from the results (another threshold or integrator in the results, another sentence)."""
-    from lagrange_xval.validate.report.document import to_plain
+    from lagrange_xval.report.document import to_plain
 
     changed = copy.deepcopy(to_plain(results))
     tr = changed["systems"][SYSTEM]["trajectories"]

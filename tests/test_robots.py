@@ -13,11 +13,11 @@ import sys
 from pathlib import Path
 
 import pytest
-from lagrange_xval.validate.checks import modelsync, pointwise
-from lagrange_xval.validate.engines import SYMBOLIC_MAX_DOF, make_sources
-from lagrange_xval.validate.errors import HarnessError
-from lagrange_xval.validate.systems import System
-from lagrange_xval.validate.systems.urdf import robots_folder
+from lagrange_xval.core.errors import HarnessError
+from lagrange_xval.model.urdf import robots_folder
+from lagrange_xval.sources import SYMBOLIC_MAX_DOF, make_sources
+from lagrange_xval.systems import System
+from lagrange_xval.verdict import modelsync, pointwise
 
 ROBOTS = robots_folder()
 needs_robots = pytest.mark.skipif(
@@ -83,7 +83,7 @@ def test_run_on_a_robot_urdf_alone_end_to_end(tmp_path, cli_run):
     assert (out / "ur5_robot.rrd").stat().st_size > 0
     bad = subprocess.run(
         [
-            *(sys.executable, "-m", "lagrange_xval.validate.cli", "simulate", "--model", str(ROBOTS / ARMS[0][0])),
+            *(sys.executable, "-m", "lagrange_xval.cli", "simulate", "--model", str(ROBOTS / ARMS[0][0])),
             *("--source", "mujoco", "--q0", "0", "--v0", "0", "--t-end", "1", "--dt-out", "0.1", "--out", "x.csv"),
         ],
         cwd=tmp_path,

@@ -11,10 +11,10 @@ import sys
 
 import psutil
 import pytest
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.checks import modelsync
-from lagrange_xval.validate.cli import main
-from lagrange_xval.validate.engines import make_source
+from lagrange_xval import systems
+from lagrange_xval.cli import main
+from lagrange_xval.sources import make_source
+from lagrange_xval.verdict import modelsync
 
 POINT = systems.load("double_pendulum_point")
 
@@ -163,7 +163,7 @@ def test_check_fails_a_model_that_differs_from_what_the_derivation_assumes(tmp_p
     """The model checks come first: a model the derivation does not describe is the verdict (exit 1, the
     key named on the verdict line), as in run and the API."""
     s = _variant(tmp_path, 'pos="0 -1 0" mass="1"', 'pos="0.1 -1 0" mass="1"')  # bob off the rod
-    from lagrange_xval.validate import cli
+    from lagrange_xval import cli
 
     monkeypatch.setattr(cli.commands, "load", lambda name, overrides=(), **_: s)  # the name the CLI resolves systems by
     assert main(["check", "double_pendulum_point", "--states", "5"]) == 1
@@ -229,7 +229,7 @@ def _start_run(out):
     """`run` in its own process group, returned once its first progress line says the work is under way
     (the pool's workers started), with that line and the workers' processes."""
     proc = subprocess.Popen(
-        [sys.executable, "-m", "lagrange_xval.validate.cli", "run", "--out", str(out)],
+        [sys.executable, "-m", "lagrange_xval.cli", "run", "--out", str(out)],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -287,7 +287,7 @@ def test_workers_exit_when_the_parent_is_killed(tmp_path):
 def test_a_worker_signalled_before_its_initializer_ran_stays_quiet():
     """A worker forked with the CLI's handlers (the signal came before its initializer): SIGINT is the
     parent's to report, SIGTERM ends the worker by the signal, without a traceback."""
-    from lagrange_xval.validate.cli import _handlers
+    from lagrange_xval.cli import _handlers
 
     interrupt, terminate = _handlers(os.getpid())
     r, w = os.pipe()
@@ -317,7 +317,7 @@ def test_completed_gives_each_future_once_as_it_finishes():
     import threading
     from concurrent.futures import Future, ThreadPoolExecutor
 
-    from lagrange_xval.validate.parallel import completed
+    from lagrange_xval.core.parallel import completed
 
     early: Future[int] = Future()
     early.set_result(-1)

@@ -12,12 +12,12 @@ import subprocess
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import cli, systems
-from lagrange_xval.validate.cli import main
-from lagrange_xval.validate.dynamics import cache
-from lagrange_xval.validate.errors import HarnessError
-from lagrange_xval.validate.files import replace_files
-from lagrange_xval.validate.results import atomic_write_many
+from lagrange_xval import cli, systems
+from lagrange_xval.cli import main
+from lagrange_xval.core import cache
+from lagrange_xval.core.errors import HarnessError
+from lagrange_xval.core.files import replace_files
+from lagrange_xval.results import atomic_write_many
 
 from tests.test_errors import CLI, _one_error_line, _simulate
 

@@ -6,9 +6,9 @@ from __future__ import annotations
 from typing import Any
 
 import pytest
-from lagrange_xval.validate import pipeline, systems
-from lagrange_xval.validate.results import provenance
-from lagrange_xval.validate.results.schema import (
+from lagrange_xval import systems
+from lagrange_xval.results import provenance
+from lagrange_xval.results.schema import (
     ComparisonRow,
     Derivation,
     Mismatch,
@@ -18,6 +18,7 @@ from lagrange_xval.validate.results.schema import (
     SystemResult,
     TermRow,
 )
+from lagrange_xval.stages import pipeline
 
 from .mutations import MUTATIONS, load_mutated
 

@@ -9,10 +9,10 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 import pytest
-from lagrange_xval.equations._forms import planar_inertia
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.errors import HarnessError
-from lagrange_xval.validate.systems import modelview, set_values
+from lagrange_xval import systems
+from lagrange_xval.core.errors import HarnessError
+from lagrange_xval.forms import planar_inertia
+from lagrange_xval.model import modelview, set_values
 
 SYSTEMS = systems.system_names()
 RTOL = 1e-13  # the contract: what is written compiles back to 1e-13 of the array's largest entry

@@ -11,9 +11,9 @@ from importlib import metadata
 
 import numpy as np
 import pytest
-from lagrange_xval.validate.cli import main
-from lagrange_xval.validate.cli import simulate as sim
-from lagrange_xval.validate.dynamics import integrate
+from lagrange_xval.cli import main
+from lagrange_xval.cli import simulate as sim
+from lagrange_xval.dynamics import integrate
 
 
 def _simulate(out, *, source="hand", t_end="0.5", dt_out="0.01", system="double_pendulum_point", **state):
@@ -78,7 +78,7 @@ def test_simulate_csv_has_a_commented_header_with_the_same_facts(tmp_path):
 
 
 def test_a_slide_coordinate_is_in_metres(tmp_path):
-    from lagrange_xval.validate.systems import PACKAGE_ROOT
+    from lagrange_xval.systems import PACKAGE_ROOT
 
     out = tmp_path / "cart.json"
     files = ["--model", str(PACKAGE_ROOT / "examples/cart_pole.xml"), "--equations",

@@ -6,12 +6,12 @@ audit), a stage not run says why, and the report folds them into one table."""
 from __future__ import annotations
 
 import pytest
-from lagrange_xval.validate import pipeline
-from lagrange_xval.validate.report.document import Document, to_plain
-from lagrange_xval.validate.report.render import render_markdown
-from lagrange_xval.validate.report.timing import TIMING, section_timing
-from lagrange_xval.validate.results.stages import Clock, outcome, records, seconds_of, stage_line
-from lagrange_xval.validate.systems import load
+from lagrange_xval.report.document import Document, to_plain
+from lagrange_xval.report.render import render_markdown
+from lagrange_xval.report.timing import TIMING, section_timing
+from lagrange_xval.results.stages import Clock, outcome, records, seconds_of, stage_line
+from lagrange_xval.stages import pipeline
+from lagrange_xval.systems import load
 
 VERDICT = ("model checks", "pointwise", "probes", "terms")
 AFTER = ("equivalence", "derived equations", "experiments", "chaos", "audit", "estimates")
@@ -85,7 +85,7 @@ def test_bench_run_time_sums_each_stage_over_the_systems_and_takes_the_median(tm
     median over the repeats (a run without the stage counts 0; results without seconds give none)."""
     import json
 
-    from lagrange_xval.validate.studies.bench.ratios import median_stages, stage_seconds
+    from lagrange_xval.studies.bench.ratios import median_stages, stage_seconds
 
     path = tmp_path / "results.json"
     path.write_text(
@@ -111,9 +111,9 @@ def test_a_stored_references_window_check_runs_the_checked_trace_and_agrees_with
     """Reading a cached reference re-integrates every window with the hand equations' traced code (checked
     against the module first): it gives the module's accelerations, to rounding."""
     import numpy as np
-    from lagrange_xval.validate.checks.pointwise import random_states
-    from lagrange_xval.validate.dynamics import reference
-    from lagrange_xval.validate.engines.hand import HandSource
+    from lagrange_xval.dynamics import reference
+    from lagrange_xval.sources.hand import HandSource
+    from lagrange_xval.verdict.pointwise import random_states
 
     system = load("double_pendulum_point")
     states = random_states(system, n=200, seed=3)

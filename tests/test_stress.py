@@ -8,12 +8,12 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.dynamics.integrate import initial_state, mujoco_trajectory
-from lagrange_xval.validate.dynamics.mirror import mirror_trajectory
-from lagrange_xval.validate.engines import make_sources
-from lagrange_xval.validate.errors import HarnessError
-from lagrange_xval.validate.studies import stress
+from lagrange_xval import systems
+from lagrange_xval.core.errors import HarnessError
+from lagrange_xval.dynamics.integrate import initial_state, mujoco_trajectory
+from lagrange_xval.dynamics.mirror import mirror_trajectory
+from lagrange_xval.sources import make_sources
+from lagrange_xval.studies import stress
 
 EPS = np.finfo(float).eps
 _cache: dict[str, tuple] = {}
@@ -315,7 +315,7 @@ def test_the_summary_tables_keep_whole_system_names():
     "double_pendulum..."."""
     import io
 
-    from lagrange_xval.validate.studies.stress.output import print_summary
+    from lagrange_xval.studies.stress.output import print_summary
     from rich.console import Console
 
     names = ("double_pendulum_absolute", "double_pendulum_bars", "double_pendulum_point")

@@ -13,7 +13,7 @@ import pytest
 
 STUDIES = Path(__file__).resolve().parents[1] / "validate" / "studies"
 MODULES = sorted(STUDIES.rglob("*.py"))
-# engines/mujoco.py, pinocchio.py, warp.py and drake.py load their engine when imported: they wait until used.
+# sources/mujoco.py, pinocchio.py, warp.py and drake.py load their engine when imported: they wait until used.
 LAZY_ENGINE_MODULES = {"mujoco", "pinocchio", "warp", "drake"}
 # The engine libraries' own names: calling them is the adapters' job (engines/).
 ENGINE_LIBRARIES = {"mujoco", "pinocchio"}
@@ -40,7 +40,7 @@ def test_studies_modules_were_found():
 @pytest.mark.parametrize("path", MODULES, ids=lambda p: str(p.relative_to(STUDIES)))
 def test_the_harness_is_imported_at_the_top(path):
     """Inside a function, a studies module imports only a third-party library or an engine module
-    that loads its engine (engines/mujoco.py, engines/pinocchio.py); every other harness module is
+    that loads its engine (sources/mujoco.py, sources/pinocchio.py); every other harness module is
     imported at the top, where a reader sees what the module depends on."""
     bad = []
     for node in _function_imports(ast.parse(path.read_text())):

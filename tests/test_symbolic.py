@@ -14,13 +14,13 @@ import sys
 import numpy as np
 import pytest
 import sympy as sp
-from lagrange_xval.validate.checks import pointwise
-from lagrange_xval.validate.checks.explain import PARTS, explain
-from lagrange_xval.validate.checks.verdict import derivation_probes
-from lagrange_xval.validate.engines import make_source
-from lagrange_xval.validate.engines.readable import equations
-from lagrange_xval.validate.engines.symbolic import SymbolicSource, derivation_of
-from lagrange_xval.validate.systems import System, load, system_names
+from lagrange_xval.sources import make_source
+from lagrange_xval.sources.symbolic import SymbolicSource, derivation_of
+from lagrange_xval.symbolic.readable import equations
+from lagrange_xval.systems import System, load, system_names
+from lagrange_xval.verdict import pointwise
+from lagrange_xval.verdict.explain import PARTS, explain
+from lagrange_xval.verdict.verdict import derivation_probes
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
@@ -154,7 +154,7 @@ def test_a_wrong_symbolic_derivation_is_named_a_harness_bug(monkeypatch):
 
 def _cli(*args: str, cwd: pathlib.Path = ROOT) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [sys.executable, "-m", "lagrange_xval.validate.cli", *args],
+        [sys.executable, "-m", "lagrange_xval.cli", *args],
         cwd=cwd,
         capture_output=True,
         text=True,
@@ -175,7 +175,7 @@ def test_derive_prints_every_repository_system(name):
 def test_derive_python_output_computes_the_engines_mass_matrix(tmp_path):
     """`derive --model X --python` is importable code: the dynamics and energies of the module `new`
     writes for X, in its Params; with the model's numbers it gives MuJoCo's M, bias and energies."""
-    from lagrange_xval.validate.systems.scaffold import module_text
+    from lagrange_xval.systems.scaffold import module_text
 
     model = EXAMPLES / "acrobot.xml"
     done = _cli("derive", "--model", str(model), "--python")
@@ -317,7 +317,7 @@ def test_every_catalogued_mistake_is_explained(m):
 def test_the_notes_errata_are_explained_as_the_errata_table_says():
     """The wrong printed derivation steps of the notes, explained symbolically: what each note on the
     transcription says in words, the explanation says in the model's symbols."""
-    from lagrange_xval.validate.checks import judge
+    from lagrange_xval.verdict import judge
 
     expected = {
         # "eq 9 prints sin(theta) without l"
@@ -346,8 +346,8 @@ def test_the_notes_errata_are_explained_as_the_errata_table_says():
 def test_long_chains_leave_the_symbolic_source_out(tmp_path):
     """Beyond SYMBOLIC_MAX_DOF joints the derivation would take minutes: the source is left out and
     the others still compare (a 7-link planar chain written here, its module from `new`)."""
-    from lagrange_xval.validate.engines import SYMBOLIC_MAX_DOF, make_sources
-    from lagrange_xval.validate.systems.scaffold import write_module
+    from lagrange_xval.sources import SYMBOLIC_MAX_DOF, make_sources
+    from lagrange_xval.systems.scaffold import write_module
 
     n = SYMBOLIC_MAX_DOF + 1  # planar links
     body = ""
@@ -392,7 +392,7 @@ def test_the_symbol_table_substituted_back_gives_the_engines_m_and_bias(model):
     """Issue 26: each symbol of the derived equations' table is the model's number read as the table
     says, sign included (`c_link1 = -body/link1/com[2]`); substituted so into M and C v + G the
     results' text gives MuJoCo's mass matrix and bias."""
-    from lagrange_xval.validate.engines.readable import as_data
+    from lagrange_xval.symbolic.readable import as_data
 
     system = System.model_only(ROOT / model)
     data = as_data(equations(derivation_of(system), system.coordinates, system.joint_map))

@@ -14,10 +14,10 @@ from pathlib import Path
 import lagrange_xval as lx
 import numpy as np
 import pytest
-from lagrange_xval.validate.dynamics import reference
-from lagrange_xval.validate.engines import fastpath
-from lagrange_xval.validate.errors import HarnessError
-from lagrange_xval.validate.systems.values import real_array
+from lagrange_xval.core.errors import HarnessError
+from lagrange_xval.dynamics import reference
+from lagrange_xval.handwritten.values import real_array
+from lagrange_xval.sources import fastpath
 
 ROOT = Path(__file__).resolve().parents[1]
 MASS = "    return stack_matrix([[p.m * p.l**2 + p.I + np.zeros(np.shape(q)[:-1])]])"
@@ -69,7 +69,7 @@ def test_branches_trace_to_the_numpy_values(tmp_path):
     assert reference.rhs_check(system, n_states=32) < 1e-12
     rhs = fastpath.scalar_rhs(system)
     y, tau = np.array([0.7, -1.3]), [0.2]
-    from lagrange_xval.validate.engines.hand import HandSource
+    from lagrange_xval.sources.hand import HandSource
 
     numpy_a = HandSource(system).forward(y[None, :1], y[None, 1:], np.array([tau]))[0]
     assert np.allclose(rhs(0.0, y, tau)[1:], numpy_a, rtol=1e-13, atol=0.0)
@@ -82,7 +82,7 @@ def test_simulate_from_the_hand_source(tmp_path):
     args = ["--model", str(tmp_path / "branchy.xml"), "--equations", str(tmp_path / "branchy.py")]
     args += ["--source", "hand", "--q0", "1", "--v0", "0.5", "--t-end", "1", "--dt-out", "0.5", "--out", str(out)]
     done = subprocess.run(
-        [sys.executable, "-m", "lagrange_xval.validate.cli", "simulate", *args], capture_output=True, text=True
+        [sys.executable, "-m", "lagrange_xval.cli", "simulate", *args], capture_output=True, text=True
     )
     assert done.returncode == 0, done.stderr
     assert done.stderr == "", done.stderr

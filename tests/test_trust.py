@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from lagrange_xval.validate.dynamics import freeruns, trust
-from lagrange_xval.validate.engines import make_sources
-from lagrange_xval.validate.systems import MODELS_DIR, System
+from lagrange_xval.dynamics import freeruns, trust
+from lagrange_xval.sources import make_sources
+from lagrange_xval.systems import MODELS_DIR, System
 
 T = np.linspace(0.0, 2.0, 201)
 

@@ -17,10 +17,10 @@ from pathlib import Path
 import lagrange_xval as lx
 import numpy as np
 import pytest
-from lagrange_xval.validate.checks import modelsync
-from lagrange_xval.validate.engines.pinocchio import PinocchioSource
-from lagrange_xval.validate.errors import HarnessError
-from lagrange_xval.validate.systems import System, pairs_in
+from lagrange_xval.core.errors import HarnessError
+from lagrange_xval.sources.pinocchio import PinocchioSource
+from lagrange_xval.systems import System, pairs_in
+from lagrange_xval.verdict import modelsync
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 URDF = EXAMPLES / "urdf" / "spatial_arm.urdf"
@@ -160,7 +160,7 @@ def test_a_folder_pairs_urdf_files_too(tmp_path):
 
 def _cli(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [sys.executable, "-m", "lagrange_xval.validate.cli", *args],
+        [sys.executable, "-m", "lagrange_xval.cli", *args],
         cwd=cwd,
         capture_output=True,
         text=True,
@@ -199,7 +199,7 @@ def test_new_writes_a_module_for_a_urdf(tmp_path):
 
 def test_random_states_stay_inside_the_joints_stated_limits(arm):
     """The URDF's <limit lower upper> narrows the draw (never its forces: limits are not compared)."""
-    from lagrange_xval.validate.checks.pointwise import random_states
+    from lagrange_xval.verdict.pointwise import random_states
 
     ranges = arm.joint_ranges
     assert ranges[0].tolist() == [float("-inf"), float("inf")]  # the continuous yaw

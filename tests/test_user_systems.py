@@ -14,9 +14,9 @@ from pathlib import Path
 
 import lagrange_xval as lx
 import pytest
+from lagrange_xval import systems
+from lagrange_xval.handwritten.forms import written_form
 from lagrange_xval.testing import systems_in
-from lagrange_xval.validate import systems
-from lagrange_xval.validate.systems.forms import written_form
 
 FOLDER = Path(__file__).resolve().parents[1] / "examples"
 FORMS = {"furuta_pendulum": "d", "cart_pole": "b", "acrobot": "c", "spatial_arm": "a"}
@@ -83,7 +83,7 @@ def test_run_on_a_model_and_equations_outside_the_repository(tmp_path):
     (tmp_path / "my_cart.py").write_text(source.replace(old, "- p.mp * p.g * p.l * s - tau[..., 1]"))
     shutil.copy(FOLDER / "cart_pole.xml", tmp_path / "my_cart.xml")
     run = subprocess.run(
-        [sys.executable, "-m", "lagrange_xval.validate.cli", "run", "--model", "my_cart.xml"]
+        [sys.executable, "-m", "lagrange_xval.cli", "run", "--model", "my_cart.xml"]
         + ["--equations", "my_cart.py", "--out", "out", "--states", "100", "--probes", "2"],
         cwd=tmp_path,
         capture_output=True,
@@ -104,13 +104,13 @@ def test_run_systems_folder(tmp_path):
     import subprocess
     import sys
 
-    from lagrange_xval.validate import systems
+    from lagrange_xval import systems
 
     source = systems.load("simple_pendulum")
     (tmp_path / "mine").mkdir()
     shutil.copy(source.mjcf, tmp_path / "mine" / "pendulum.xml")
     shutil.copy(source.equations.__file__, tmp_path / "mine" / "pendulum.py")  # imports lagrange_xval.forms
-    command = [sys.executable, "-m", "lagrange_xval.validate.cli", "run", "--systems", "mine", "--out", "out"]
+    command = [sys.executable, "-m", "lagrange_xval.cli", "run", "--systems", "mine", "--out", "out"]
     ok = subprocess.run(
         command + ["--states", "50", "--probes", "1", "--no-replay"],
         cwd=tmp_path,
@@ -145,7 +145,7 @@ def test_check_and_simulate_take_a_model_and_equations(tmp_path):
     files = ["--model", "acro.xml", "--equations", "acro.py"]
 
     def cli(*args: str) -> subprocess.CompletedProcess[str]:
-        command = [sys.executable, "-m", "lagrange_xval.validate.cli", *args]
+        command = [sys.executable, "-m", "lagrange_xval.cli", *args]
         return subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=600)
 
     checked = cli("check", *files, "--states", "20", "--json")
@@ -181,7 +181,7 @@ def test_check_and_simulate_take_a_model_and_equations(tmp_path):
 def test_a_system_is_found_again_by_its_key_in_another_process():
     """bench and stress workers find a person's system by its files (systems.key_of / from_key), and a
     repository system by its name."""
-    from lagrange_xval.validate.systems import from_key, key_of
+    from lagrange_xval.systems import from_key, key_of
 
     own = systems.System.from_files(FOLDER / "acrobot.xml", FOLDER / "acrobot.py")
     key = key_of(own)
@@ -194,7 +194,7 @@ def test_a_system_is_found_again_by_its_key_in_another_process():
 
 @pytest.mark.parametrize("command", ["bench", "stress"])
 def test_bench_and_stress_take_model_and_equations_together(command, capsys):
-    from lagrange_xval.validate.cli import main
+    from lagrange_xval.cli import main
 
     assert main([command, "--model", str(FOLDER / "acrobot.xml")]) == 2
     assert "--model and --equations go together" in capsys.readouterr().err
@@ -206,7 +206,7 @@ def test_every_new_system_passes_the_whole_job(name):
     """Verdicts, trajectories, chaos and the mirrors of MuJoCo's integrators: a 3-DOF damped arm (whose
     flow contracts phase volume until Phi is singular in double precision) and explicit accelerations
     under Euler's implicit damping included."""
-    from lagrange_xval.validate.pipeline import run_system
+    from lagrange_xval.stages.pipeline import run_system
 
     result = run_system(
         systems.System.from_files(FOLDER / f"{name}.xml", FOLDER / f"{name}.py"), n_states=100, seed=0, n_probes=1
@@ -235,7 +235,7 @@ def test_optional_functions_left_out_are_not_checked_never_failed(tmp_path):
     whole job; what it leaves out is listed as not checked, in the derivation and the pointwise check."""
     import json
 
-    from lagrange_xval.validate.cli import main
+    from lagrange_xval.cli import main
 
     left_out = ("kinetic_energy", "potential_energy", "body_positions", "body_rotations", "VARIANTS")
     shutil.copy(FOLDER / "acrobot.xml", tmp_path / "acrobot.xml")
@@ -298,7 +298,7 @@ def test_a_copied_repository_module_is_checked_from_any_folder(tmp_path, monkeyp
 def test_the_public_forms_module_documents_every_helper_it_exports():
     """lagrange_xval.forms re-exports the implementation (no second copy) and its docstring names each helper."""
     import lagrange_xval.forms as forms
-    from lagrange_xval.equations import _forms
+    from lagrange_xval import forms as _forms
 
     assert forms.__all__ and forms.__doc__
     for name in forms.__all__:

@@ -13,13 +13,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from lagrange_xval.validate.checks import pointwise
-from lagrange_xval.validate.checks.tolerances import SCALE_ALSO_BY
-from lagrange_xval.validate.cli import main
-from lagrange_xval.validate.engines import SOURCE_NAMES, make_source, make_sources
-from lagrange_xval.validate.errors import HarnessError
-from lagrange_xval.validate.studies.float32 import COLUMNS, EPS32, FLOAT32, QUANTITIES, run_float32
-from lagrange_xval.validate.systems import System, load, system_names
+from lagrange_xval.cli import main
+from lagrange_xval.core.errors import HarnessError
+from lagrange_xval.core.tolerances import SCALE_ALSO_BY
+from lagrange_xval.sources import SOURCE_NAMES, make_source, make_sources
+from lagrange_xval.studies.float32 import COLUMNS, EPS32, FLOAT32, QUANTITIES, run_float32
+from lagrange_xval.systems import System, load, system_names
+from lagrange_xval.verdict import pointwise
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 INSTALLED = importlib.util.find_spec("mujoco_warp") is not None and importlib.util.find_spec("warp") is not None

@@ -17,13 +17,13 @@ import time
 from pathlib import Path
 
 import pytest
-from lagrange_xval.validate.checks.decide import decide
-from lagrange_xval.validate.cli import main
-from lagrange_xval.validate.cli.watch import Saves
-from lagrange_xval.validate.results.stages import Cancelled, Clock
-from lagrange_xval.validate.systems import PACKAGE_ROOT, System, load, load_module
+from lagrange_xval.cli import main
+from lagrange_xval.cli.watch import Saves
+from lagrange_xval.results.stages import Cancelled, Clock
+from lagrange_xval.systems import PACKAGE_ROOT, System, load, load_module
+from lagrange_xval.verdict.decide import decide
 
-CLI = [sys.executable, "-m", "lagrange_xval.validate.cli"]
+CLI = [sys.executable, "-m", "lagrange_xval.cli"]
 EXAMPLES = PACKAGE_ROOT / "examples"
 RIGHT = "- p.mp * p.g * lc * s"  # cart_pole.py's gravity in the theta row
 WRONG = "- p.mc * p.g * lc * s"  # the cart's mass in its place: the same length, so the same file size
@@ -282,7 +282,7 @@ def test_the_api_check_repeated_on_an_unchanged_system_is_not_judged_again(monke
     """`lagrange_xval.check` on the same System and options gives the kept verdict (decide runs once); other
     options, or a function of the module replaced in place, are judged afresh."""
     import lagrange_xval as lx
-    from lagrange_xval.validate import api
+    from lagrange_xval import api
 
     calls = []
     real = api.decide
@@ -307,9 +307,9 @@ def test_the_command_line_imports_only_what_a_verdict_needs():
     """`check` and `watch` start without the pipeline, scipy's integrators, the report or the replay: the
     commands that use them import them."""
     code = (
-        "import sys, lagrange_xval.validate.cli; "
-        "print(sorted(m for m in ('lagrange_xval.validate.pipeline', 'scipy.integrate', 'matplotlib', 'rerun', "
-        "'jinja2', 'lagrange_xval.validate.report', 'lagrange_xval.validate.studies.bench') if m in sys.modules))"
+        "import sys, lagrange_xval.cli; "
+        "print(sorted(m for m in ('lagrange_xval.stages.pipeline', 'scipy.integrate', 'matplotlib', 'rerun', "
+        "'jinja2', 'lagrange_xval.report', 'lagrange_xval.studies.bench') if m in sys.modules))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
     assert out.stdout.strip() == "[]", out.stdout

@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from lagrange_xval.validate import pipeline, systems
-from lagrange_xval.validate.checks import equivalence, verdict
-from lagrange_xval.validate.checks import pointwise as compare
-from lagrange_xval.validate.engines import make_sources
+from lagrange_xval import systems
+from lagrange_xval.sources import make_sources
+from lagrange_xval.stages import equivalence, pipeline
+from lagrange_xval.verdict import pointwise as compare
+from lagrange_xval.verdict import verdict
 
 from .mutations import MUTATIONS, load_mutated
 

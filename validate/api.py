@@ -7,9 +7,9 @@
     result.assert_ok()          # AssertionError naming the term, the pair, the worst state and probe
 
 `check` gives the verdict `lagrange-xval check` and `lagrange-xval run` give, from the same function
-(`decide`, validate/checks/decide.py), short of trajectories: the model checks, every quantity of
+(`decide`, validate/verdict/decide.py), short of trajectories: the model checks, every quantity of
 the sources pointwise, and every term of the derivation at the model's parameters and at the probe
-parameter sets (validate/checks/verdict.py).
+parameter sets (validate/verdict/verdict.py).
 """
 
 from __future__ import annotations
@@ -21,14 +21,14 @@ from typing import Any
 
 import numpy as np
 
-from .checks.decide import Decision, decide
-from .checks.probes import DEFAULT_PROBES
-from .checks.tolerances import TOLERANCES, Tolerances
-from .dynamics.cachedir import Cache
-from .errors import HarnessError
-from .guard import Stopped
+from .core.cachedir import Cache
+from .core.errors import HarnessError
+from .core.guard import Stopped
+from .core.tolerances import TOLERANCES, Tolerances
 from .results.schema import CheckData, ComparisonRow, TermRow, WorstState
 from .systems import System, load
+from .verdict.decide import Decision, decide
+from .verdict.probes import DEFAULT_PROBES
 
 __all__ = ["Cache", "Result", "Row", "System", "check", "load", "result_of"]
 
@@ -114,7 +114,7 @@ def _row(check: str, r: ComparisonRow | TermRow, quantity: str, *, probe: int | 
 
 
 def _stop_is_a_verdict(fn: Callable[..., Result]) -> Callable[..., Result]:
-    """`check`, where an equations module stopped (it hung or tried to exit: validate/guard.py) is a
+    """`check`, where an equations module stopped (it hung or tried to exit: validate/core/guard.py) is a
     failing result naming the function, not an exception."""
 
     @functools.wraps(fn)
@@ -144,7 +144,7 @@ def check(
 ) -> Result:
     """The verdict on `system`'s derivation (a System, or the name of a repository system): model
     checks, pointwise agreement of the sources at `n_states` seeded states, and every term of the
-    derivation at the model's parameters and at `probes` probe parameter sets (checks/decide.py, the
+    derivation at the model's parameters and at `probes` probe parameter sets (verdict/decide.py, the
     verdict `lagrange-xval check` and `run` give). Writes nothing unless given a `cache`
     (`Cache.at(folder)` or `Cache.user()`), where explanations of wrong entries are then kept."""
 

@@ -16,8 +16,8 @@ import sys
 from collections.abc import Iterator
 from typing import Any
 
-from ..errors import HarnessError, Terminated, console
-from ..guard import Stopped
+from ..core.errors import HarnessError, Terminated, console
+from ..core.guard import Stopped
 from .commands import COMMANDS
 from .parser import MAX_STATES_FILE_BYTES, build_parser, one_line
 
@@ -113,7 +113,7 @@ def main(argv: list[str] | None = None) -> int:
     except HarnessError as exc:
         print(console([f"lagrange-xval: error: {exc}"]), file=sys.stderr)
         return exc.exit_code
-    except Stopped as stop:  # a person's module that hung or tried to exit (validate/guard.py)
+    except Stopped as stop:  # a person's module that hung or tried to exit (validate/core/guard.py)
         return _error(str(stop))
     except Terminated:
         print("lagrange-xval: terminated; nothing half-written (previous reports are intact).", file=sys.stderr)

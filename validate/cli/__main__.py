@@ -1,4 +1,4 @@
-"""`python -m lagrange_xval.validate.cli`: the command line."""
+"""`python -m lagrange_xval.cli`: the command line."""
 
 import sys
 

@@ -1,7 +1,7 @@
 """`lagrange-xval audit MODEL [MODEL_B] [--lock JOINTS] [--json]`: the model audit in one screen.
 
-One file (validate/checks/audit.py): MuJoCo, Pinocchio and Drake each judged against what the format
-means, each misreading named with its known cause. Two files of one robot (validate/checks/twofiles.py):
+One file (validate/audit/audit.py): MuJoCo, Pinocchio and Drake each judged against what the format
+means, each misreading named with its known cause. Two files of one robot (validate/audit/twofiles.py):
 matched by name, compared by their inertial fields, kinematics, gravity torques, M and bias."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import argparse
 import json
 from pathlib import Path
 
-from ..errors import HarnessError, console
+from ..core.errors import HarnessError, console
 from ..systems import System, load, system_names
 
 
@@ -29,7 +29,7 @@ def audited_system(model: Path, locked: tuple[str, ...]) -> System:
 
 
 def _numbers_finite(model: Path) -> None:
-    """A model MuJoCo compiles with a number that is not finite or overflows (systems/bounds.py) is one
+    """A model MuJoCo compiles with a number that is not finite or overflows (model/bounds.py) is one
     error line; one MuJoCo refuses for another reason is audited (each reader's failure is a finding)."""
     from ..systems import compile_model
 
@@ -44,7 +44,7 @@ def cmd_audit(args: argparse.Namespace) -> int:
     """Prints the audit; status 1 when a reader differs in a field the dynamics use (or the two files differ)."""
     if args.other is not None:
         return _two_files(args)
-    from ..checks.audit import audit, lines
+    from ..audit.audit import audit, lines
 
     result = audit(audited_system(args.model, tuple(args.lock or ())))
     if args.json:
@@ -55,7 +55,7 @@ def cmd_audit(args: argparse.Namespace) -> int:
 
 
 def _two_files(args: argparse.Namespace) -> int:
-    from ..checks.twofiles import compare, lines
+    from ..audit.twofiles import compare, lines
 
     if args.lock:
         raise HarnessError("--lock takes one model's joints; with two files, give each file as it is.")

@@ -7,11 +7,11 @@ from typing import Any
 
 import numpy as np
 
-from ..checks.decide import Decision
-from ..checks.pointwise import States
 from ..results import to_jsonable
 from ..results.schema import ComparisonRow, Mismatch
 from ..systems import System
+from ..verdict.decide import Decision
+from ..verdict.pointwise import States
 
 QUANTITIES = ("M", "bias", "qacc", "tau_inverse", "T", "V")  # each state's quantities in the JSON
 

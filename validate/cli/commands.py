@@ -15,22 +15,22 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..checks import modelsync
-from ..checks import pointwise as compare
-from ..checks.decide import Decision, decide
-from ..checks.pointwise import States, validate_states
-from ..dynamics.cache import CACHE_ENV, usable
-from ..dynamics.cachedir import Cache
-from ..engines import make_sources
-from ..engines.base import Source
-from ..errors import HarnessError, console, shown
-from ..guard import DEFAULT_TIME_LIMIT
-from ..inputs import parse_json, regular_file
-from ..parallel import named_executor
+from ..core.cache import CACHE_ENV, usable
+from ..core.cachedir import Cache
+from ..core.errors import HarnessError, console, shown
+from ..core.guard import DEFAULT_TIME_LIMIT
+from ..core.inputs import parse_json, regular_file
+from ..core.parallel import named_executor
 from ..results import load as load_results
 from ..results.stages import stage_line
+from ..sources import make_sources
+from ..sources.base import Source
 from ..systems import System, load, pairs_and_lonely, pairs_in, system_names, unpaired
 from ..systems.scaffold import identifier, write_module
+from ..verdict import modelsync
+from ..verdict import pointwise as compare
+from ..verdict.decide import Decision, decide
+from ..verdict.pointwise import States, validate_states
 from . import check as checking
 from . import simulate
 from .audit import cmd_audit
@@ -144,7 +144,7 @@ def require_same_model(system: System, sources: Mapping[str, Source]) -> None:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    """The verdict `lagrange_xval.check` and `run` give (checks/decide.py): the pointwise table, the
+    """The verdict `lagrange_xval.check` and `run` give (verdict/decide.py): the pointwise table, the
     terms and the verdict line last, or one JSON object; status 0 when the verdict passes.
     `--pointwise-only`: the sources compared at the states alone, no verdict on the derivation."""
     system = one_system(args)
@@ -175,7 +175,7 @@ def with_constraints(decision: Decision) -> dict[str, Any]:
     """`check --constraints`: the model's constrained run against the equations until the first
     constraint acts (validate/dynamics/constrained.py); needs a derivation that reads its model."""
     from ..dynamics.constrained import until_constraint
-    from ..engines.base import stepped
+    from ..sources.base import stepped
 
     if decision.system.equations is None or decision.sources is None:
         raise HarnessError(
@@ -220,8 +220,8 @@ def cache_of(args: argparse.Namespace) -> Cache:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from ..pipeline import run
     from ..report.findings import console_lines
+    from ..stages.pipeline import run
     from .outputs import check_cache_dir, check_out, render_system, write_all
     from .progress import reporter
 
@@ -373,7 +373,7 @@ def cmd_derive(args: argparse.Namespace) -> int:
     """Prints the model's equations of motion, derived symbolically, in the coordinates' names; the
     text is kept in the cache (`derive` kind), keyed by the model's structure, the names, the format
     and the harness's code."""
-    from ..checks.derived import SIMPLIFY_MAX_DOF, derived_text
+    from ..stages.derived import SIMPLIFY_MAX_DOF, derived_text
 
     if args.equations is not None and args.model is None:
         raise HarnessError("--equations needs --model: the model whose equations are derived.")
@@ -450,7 +450,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    from ..pipeline import reference_dir
+    from ..stages.pipeline import reference_dir
     from ..studies.bench import bench_command
 
     if args.chains:

@@ -21,8 +21,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, cast
 
-from ..errors import HarnessError
-from ..files import folder, new_file
+from ..core.errors import HarnessError
+from ..core.files import folder, new_file
 from ..replay import render_system as render_rrd
 from ..report import ReplayHint, render, system_section
 from ..results import dumps

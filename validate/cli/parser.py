@@ -14,9 +14,9 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..errors import HarnessError
-from ..guard import DEFAULT_TIME_LIMIT
-from ..parallel import parse_executor
+from ..core.errors import HarnessError
+from ..core.guard import DEFAULT_TIME_LIMIT
+from ..core.parallel import parse_executor
 from ..results import harness_version
 from ..systems import system_names
 from .values import MAX_STATES, path_arg, positive_float, positive_int, probe_count, seed_arg, state_count

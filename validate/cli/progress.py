@@ -8,7 +8,7 @@ import time
 from collections.abc import Iterator
 from typing import Any
 
-from ..errors import console
+from ..core.errors import console
 from ..report.findings import is_user, system_headline
 from ..results.schema import SystemResult
 

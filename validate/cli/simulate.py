@@ -16,13 +16,13 @@ from typing import Any
 
 import numpy as np
 
-from ..checks.pointwise import validate_states
+from ..core.errors import HarnessError
 from ..dynamics import integrate
-from ..engines import make_source
-from ..engines.base import stepped
-from ..errors import HarnessError
 from ..results import atomic_write, harness_version
+from ..sources import make_source
+from ..sources.base import stepped
 from ..systems import MODELS_DIR, System
+from ..verdict.pointwise import validate_states
 
 # What one number of the trajectory costs in memory while `simulate` runs: the integrator's output,
 # the trajectory's copies of q and v, and the table written from them (about three float64 arrays:

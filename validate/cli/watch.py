@@ -4,7 +4,7 @@ One warm process: MuJoCo, Pinocchio, Drake, heyoka and sympy are imported once, 
 compiles and caches (models of the probe parameter sets, traced code, explanations of wrong entries)
 is kept between verdicts; only the person's module is imported again, from its source, on each save.
 
-Each verdict is `decide` (checks/decide.py), as `check` gives it: the statement line exactly as
+Each verdict is `decide` (verdict/decide.py), as `check` gives it: the statement line exactly as
 `check` prints its last line, then the failing terms, then the seconds it took, stage by stage. A save
 while a verdict is being computed abandons it at the next stage boundary (results/stages.py) and the
 saved files are judged again. A module that cannot be imported, or a model that does not compile,
@@ -12,7 +12,7 @@ prints its one-line error and the watch waits for the next save. Ctrl-C ends it 
 `--once` judges once and exits with `check`'s status (0 pass, 1 fail, 2 an error), for scripts and tests.
 
 Saves are seen by `watchfiles` (a thread watching the files' folders, each save debounced) and handed
-to the main thread, which computes the verdicts: the guard's time limit (validate/guard.py) needs it.
+to the main thread, which computes the verdicts: the guard's time limit (validate/core/guard.py) needs it.
 """
 
 from __future__ import annotations
@@ -25,11 +25,11 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..checks.decide import Decision, decide
-from ..errors import HarnessError, Terminated
-from ..guard import DEFAULT_TIME_LIMIT, Stopped
+from ..core.errors import HarnessError, Terminated
+from ..core.guard import DEFAULT_TIME_LIMIT, Stopped
 from ..results.stages import Cancelled, Clock
 from ..systems import EQUATIONS_PACKAGE, MODELS_DIR, System, load, pairs_in
+from ..verdict.decide import Decision, decide
 from . import check as checking
 from .parser import one_line
 

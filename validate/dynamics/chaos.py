@@ -47,11 +47,11 @@ from typing import Any
 
 import numpy as np
 
-from ..engines.base import Source, stepped
-from ..errors import unknown_name
+from ..core.errors import unknown_name
+from ..handwritten.forms import accelerations_only
+from ..model.start import Scheme, Start
+from ..sources.base import Source, stepped
 from ..systems import System
-from ..systems.forms import accelerations_only
-from ..systems.start import Scheme, Start
 from .flow import DEFAULT_TOLERANCE as DEFAULT_TOLERANCE
 from .flow import SAFETY as SAFETY
 from .flow import Flow as Flow

@@ -11,12 +11,12 @@ module by `reference.rhs_check`.
                      systems the unrolled code runs 1.6-1.8x faster (measured on double_pendulum_point,
                      0.27 vs 0.49 ms over 10 s at tol 1e-12) and compiles in 0.1-0.4 s (not timed).
                      With `source="symbolic"`: the same on the model's own equations derived
-                     symbolically (engines/symbolic.py; sympy's expressions turned into heyoka's by
+                     symbolically (sources/symbolic.py; sympy's expressions turned into heyoka's by
                      `heyoka.from_sympy`), in the joints' coordinates (`JOINT_MAP` applied on the way
                      in and out by `taylor_grid`'s caller).
   compiled_rhs       a = M^-1 f as a `cfunc` called once per state from Python. Measured on
                      double_pendulum_point: 2.5-2.7 us a call against 1.9 us for the generated `math`
-                     code (engines/fastpath.py): the call from Python costs more than the arithmetic,
+                     code (sources/fastpath.py): the call from Python costs more than the arithmetic,
                      so a compiled right-hand side does not speed up scipy's drivers (the bench shows it).
   compiled_rk4       `k` steps of classic RK4 (MuJoCo's tableau, mirror.py) composed into one `cfunc`:
                      one Python call per k steps, the arithmetic compiled. k is the steps per output
@@ -31,12 +31,13 @@ from typing import Any
 
 import numpy as np
 
-from ..engines.derivation import parameter_values
-from ..engines.symbolic import derivation_of
-from ..errors import HarnessError
-from ..systems import System, tracing
-from ..systems.memo import Memo
-from .cachedir import heyoka
+from ..core.cachedir import heyoka
+from ..core.errors import HarnessError
+from ..core.memo import Memo
+from ..handwritten import tracing
+from ..sources.symbolic import derivation_of
+from ..symbolic.derivation import parameter_values
+from ..systems import System
 from .reference import param_key, symbolic_dynamics
 
 # MuJoCo's RK4 tableau (`mj_RungeKutta(m, d, 4)`), used by the mirrors (mirror.py) and the compiled steps

@@ -1,7 +1,7 @@
 """`check --constraints`: the model's own constrained motion against the equations, up to the first
 constraint that acts.
 
-Every other comparison switches the model's constraints off (systems/scope.py): a derivation of the
+Every other comparison switches the model's constraints off (model/scope.py): a derivation of the
 chain has none of their forces. On request, MuJoCo runs the model as published (its ranges, contacts,
 equality constraints and dry friction switched back on, its own integrator and timestep) from the start
 the trajectories use, until the first constraint row appears in its solver (`d.nefc > 0`): a joint
@@ -17,10 +17,10 @@ from typing import Any
 
 import numpy as np
 
-from ..engines.base import SteppedSource
-from ..engines.constraints import constrained_run
+from ..model.start import Start
+from ..sources.base import SteppedSource
+from ..sources.constraints import constrained_run
 from ..systems import System
-from ..systems.start import Start
 from .estimate import threshold
 from .integrate import initial_state, time_grid
 from .reference import reference_trajectory

@@ -1,4 +1,4 @@
-"""Drake's own free run: its integrator on its continuous plant (engines/drake.py `free_run`), in the
+"""Drake's own free run: its integrator on its continuous plant (sources/drake.py `free_run`), in the
 equations' coordinates, as a Trajectory."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from ..engines.base import Source, engine_of
+from ..sources.base import Source, engine_of
 from ..systems import System
 from .integrate import Trajectory
 
@@ -35,14 +35,14 @@ def drake_trajectory(
     accuracy: float | None = DRAKE_DEFAULT["accuracy"],
     max_step: float = DRAKE_DEFAULT["max_step"],
 ) -> Trajectory:
-    """Drake's own free run of its continuous plant (engines/drake.py `free_run`) on the grid `t`, in the
+    """Drake's own free run of its continuous plant (sources/drake.py `free_run`) on the grid `t`, in the
     equations' coordinates (a JOINT_MAP applied outside Drake). Never raises for what Drake's integrator
     meets: stats["status"] and ["reason"] say where it stopped, the samples after are NaN."""
     q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
     A = system.joint_map
     if A is not None:  # q_notes = A q_joint; the inputs' work: tau_joint = A^T tau_notes
         q0, v0, tau = np.linalg.solve(A, q0), np.linalg.solve(A, v0), A.T @ tau
-    from ..engines.drake import DrakeSource
+    from ..sources.drake import DrakeSource
 
     inner = engine_of(source, DrakeSource)  # a MappedSource's engine: the map is applied here
     q, v, stats = inner.free_run(q0, v0, tau, t, scheme=scheme, accuracy=accuracy, max_step=max_step)

@@ -33,10 +33,10 @@ from typing import Any
 
 import numpy as np
 
-from ..checks.tolerances import TOLERANCES
-from ..engines.base import Source, SteppedSource, stepped
+from ..core.tolerances import TOLERANCES
+from ..model.start import Start
+from ..sources.base import Source, SteppedSource, stepped
 from ..systems import System
-from ..systems.start import Start
 from .drakerun import DRAKE_DEFAULT, drake_trajectory
 from .flow import SAFETY as FLOW_SAFETY
 from .integrate import SCIPY_DEFAULT, Trajectory, mujoco_trajectory, scipy_trajectory

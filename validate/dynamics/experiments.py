@@ -22,9 +22,9 @@ from typing import Any
 
 import numpy as np
 
-from ...equations._forms import Explicit, Implicit, NotApplicable
-from ..engines.fastpath import scalar_rhs
-from ..engines.hand import HandSource
+from ..forms import Explicit, Implicit, NotApplicable
+from ..sources.fastpath import scalar_rhs
+from ..sources.hand import HandSource
 from ..systems import System
 from .fast import accurate_trajectory
 from .integrate import DEFAULT_BUDGET, Budget, first_exceeding, initial_state, integrate_rhs, outcome, time_grid

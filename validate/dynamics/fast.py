@@ -35,9 +35,9 @@ from typing import Any
 
 import numpy as np
 
-from ..engines.base import Source, stepped
-from ..errors import HarnessError
+from ..core.errors import HarnessError
 from ..results.stages import Clock, lap
+from ..sources.base import Source, stepped
 from ..systems import System
 from .compiled import UNROLLED_MAX_DOF, taylor_grid, taylor_integrator
 from .drakerun import drake_trajectory

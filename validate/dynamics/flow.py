@@ -8,11 +8,11 @@ from typing import Any
 
 import numpy as np
 
-from ..checks.tolerances import TOLERANCES
-from ..errors import HarnessError
+from ..core.cachedir import heyoka
+from ..core.errors import HarnessError
+from ..core.memo import Memo
+from ..core.tolerances import TOLERANCES
 from ..systems import System
-from ..systems.memo import Memo
-from .cachedir import heyoka
 from .integrate import DEFAULT_BUDGET, Budget, time_grid
 from .reference import TaylorGuard, param_key, symbolic_dynamics
 

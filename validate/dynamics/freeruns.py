@@ -11,12 +11,12 @@ from typing import Any
 
 import numpy as np
 
-from ..engines.base import OneStateSource, Source, one_state
+from ..core.cachedir import Cache
+from ..model.start import Start
 from ..results.stages import Clock, lap
+from ..sources.base import OneStateSource, Source, one_state
 from ..systems import System
-from ..systems.start import Start
 from . import estimate, experiments, fast, integrate, trust
-from .cachedir import Cache
 from .integrate import Trajectory
 from .reference import reference_trajectory
 

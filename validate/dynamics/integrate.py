@@ -14,9 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from ..engines.base import MUJOCO_INTEGRATORS as MUJOCO_INTEGRATORS  # re-exported: dynamics names them
-from ..engines.base import Source, SteppedSource
-from ..errors import HarnessError, unknown_name
+from ..core.errors import HarnessError, unknown_name
+from ..sources.base import MUJOCO_INTEGRATORS as MUJOCO_INTEGRATORS  # re-exported: dynamics names them
+from ..sources.base import Source, SteppedSource
 from ..systems import System
 
 DEFAULT_T_END = 10.0  # s
@@ -28,7 +28,7 @@ SCIPY_DEFAULT: dict[str, Any] = {"method": "odeint", "rtol": 1e-11, "atol": 1e-1
 
 def mujoco_integrator(name: str) -> Any:
     """MuJoCo's enum value for an integrator name; an unknown name lists the valid ones."""
-    from ..engines.mujoco import integrator_enum
+    from ..sources.mujoco import integrator_enum
 
     return integrator_enum(name)
 
@@ -525,8 +525,8 @@ def mujoco_trajectory(
     """MuJoCo stepping its own integrator; samples every round(dt_out / timestep) steps. A run that
     went unstable (a warning, after which MuJoCo resets the state, or a non-finite state) raises
     Diverged naming the interval: its samples are never data."""
-    from ..engines.mujoco import free_run
-    from ..systems.start import Scheme, Start
+    from ..model.start import Scheme, Start
+    from ..sources.mujoco import free_run
 
     dt = float(timestep or source.m.opt.timestep)
     dt_out = t[1] - t[0] if len(t) > 1 else dt

@@ -10,10 +10,10 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import HarnessError, unknown_name
+from ..core import cache
+from ..core.errors import HarnessError, unknown_name
 from ..results import dumps
 from ..systems import System
-from . import cache
 from .flow import (
     DEFAULT_TOLERANCE,
     amplification,
@@ -131,7 +131,7 @@ def chaos_summary(
 ) -> dict[str, Any]:
     """Lyapunov exponent (two methods), amplification at 2 s and 10 s, and horizons, for one start.
 
-    Cached beside the reference solutions (validate/dynamics/cache.py: verified on every read), keyed by
+    Cached beside the reference solutions (validate/core/cache.py: verified on every read), keyed by
     everything the numbers depend on (system, parameters, the harness's and the equations' source,
     start, input, grid, tolerance); a loaded summary must also be consistent in itself
     (`_summary_problem`). `cache` in the result says "hit", "miss" or "off"."""

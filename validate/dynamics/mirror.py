@@ -46,11 +46,11 @@ from typing import Any
 
 import numpy as np
 
-from ..engines.base import Source, SteppedSource, stepped
-from ..engines.hand import HandSource, solve_or_nan
-from ..errors import HarnessError, unknown_name
+from ..core.errors import HarnessError, unknown_name
+from ..model.start import Scheme
+from ..sources.base import Source, SteppedSource, stepped
+from ..sources.hand import HandSource, solve_or_nan
 from ..systems import System
-from ..systems.start import Scheme
 from .compiled import RK4_A, RK4_B, RK4_STEPS_PER_CALL, UNROLLED_MAX_DOF, compiled_rk4, rk4_plan
 from .integrate import DEFAULT_BUDGET, EQUATION_ERRORS, MUJOCO_INTEGRATORS, Budget, Trajectory
 
@@ -70,7 +70,7 @@ def _force(source: Source, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.
 
 def _mass_and_force(source: Source, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """M (N, n, n) and f = tau + passive - bias (N, n): in one round trip to a person's module's worker
-    where the source asks it so (engines/hand.py `passive_bias_mass`)."""
+    where the source asks it so (sources/hand.py `passive_bias_mass`)."""
     both = getattr(source, "passive_bias_mass", None)
     if both is None:
         return source.mass_matrix(q), _force(source, q, v, tau)
@@ -102,7 +102,7 @@ def force_velocity_jacobian(
 
 def eulerdamp_active(system: System) -> bool:
     """Whether MuJoCo's Euler treats joint damping implicitly for this model (flags and damping)."""
-    from ..engines import mujoco as engine
+    from ..sources import mujoco as engine
 
     return engine.eulerdamp_active(system.mujoco_model())
 
@@ -458,7 +458,7 @@ def mujoco_steps(
 ) -> tuple[np.ndarray, np.ndarray]:
     """`steps` calls of `mj_step` from each of N states (the MuJoCo side of a lockstep), (N, n). A
     state from which MuJoCo warns (and resets) gives NaN rows, never the reset state as data."""
-    from ..engines import mujoco as engine
+    from ..sources import mujoco as engine
 
     _check_integrator(integrator)
     return engine.step_states(source, q, v, tau, Scheme(integrator, timestep), steps=steps)

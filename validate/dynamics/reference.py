@@ -9,13 +9,13 @@ is reported as the reference's measured accuracy (`info["agreement_q"]`).
 
 The Taylor integrator needs the right-hand side as symbolic expressions. Nothing here is specific
 to a system: the equations module's own `mass_matrix`, `bias` and `passive` are called with arrays
-of heyoka variables (validate/systems/tracing.py: numpy object arrays, `np.sin` on them calls the element's
+of heyoka variables (validate/handwritten/tracing.py: numpy object arrays, `np.sin` on them calls the element's
 `.sin()`), and a ← M⁻¹ (tau + passive − bias) is formed by symbolic elimination (M is symmetric
 positive definite, so no pivoting is needed). The module runs unmodified. The trace is
 validated on every call against the numpy source (`info["rhs_check"]`: traced accelerations vs
 `HandSource.forward` at random states, relative to their range).
 
-Results are cached on disk (validate/dynamics/cache.py: `.npz` named by a hash of everything that determines
+Results are cached on disk (validate/core/cache.py: `.npz` named by a hash of everything that determines
 them: system, overrides, parameters, the harness's and the equations' source, initial state, input,
 time grid, heyoka version and precisions), so a second run only loads arrays. A loaded entry is
 verified (checksum, key, schema), then checked like a fresh one: the trace against the numpy module
@@ -38,18 +38,19 @@ from typing import Any
 
 import numpy as np
 
-from ...equations import _forms as forms
-from ..engines.hand import HandSource
-from ..errors import HarnessError, IntegrationStopped, unknown_name
-from ..systems import System, tracing
-from ..systems.forms import accelerations_only
-from ..systems.memo import Memo
-from . import cache
-from .cachedir import heyoka
+from .. import forms
+from ..core import cache
+from ..core.cachedir import heyoka
+from ..core.errors import HarnessError, IntegrationStopped, unknown_name
+from ..core.memo import Memo
+from ..handwritten import tracing
+from ..handwritten.forms import accelerations_only
+from ..sources.hand import HandSource
+from ..systems import System
 from .integrate import DEFAULT_BUDGET, Budget, Trajectory
 
 CACHE_VERSION = 2  # bump when the cached content changes meaning
-DEFAULT_CACHE_DIR = cache.DEFAULT  # the configured cache (validate/dynamics/cache.py), "reference" folder
+DEFAULT_CACHE_DIR = cache.DEFAULT  # the configured cache (validate/core/cache.py), "reference" folder
 PRIMARY = "long double"
 CHECK = "quad"
 RHS_CHECK_TOLERANCE = 1e-12  # relative; the trace reproduces the numpy equations to a few ulps (~1e-15)

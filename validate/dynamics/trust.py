@@ -24,8 +24,8 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ..engines.base import OneStateSource
-from ..systems.start import Start
+from ..model.start import Start
+from ..sources.base import OneStateSource
 from . import estimate
 from .integrate import Trajectory
 

@@ -39,7 +39,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from ..errors import HarnessError
+from ..core.errors import HarnessError
 from ..results import atomic_write
 from ..results import load as load_results
 from ..results.stages import outcome

@@ -11,9 +11,9 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import HarnessError
+from ..core.errors import HarnessError
+from ..handwritten.forms import not_provided_in
 from ..systems import System, load, system_names
-from ..systems.forms import not_provided_in
 
 TRAIL_SECONDS = 1.0  # s of the tip's path drawn behind it
 

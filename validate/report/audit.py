@@ -1,4 +1,4 @@
-"""The report's model-audit section (checks/audit.py's results): three readers of the model, each
+"""The report's model-audit section (audit/audit.py's results): three readers of the model, each
 judged against what the file means, the findings (each misreading with its known cause), the readers'
 warnings and each reading's consequence on M and G."""
 

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import quote
 
-from ..errors import escaped
+from ..core.errors import escaped
 from ..results.schema import ReportInput, RunResults
 from .document import (
     MARK_SIGN,

@@ -216,7 +216,7 @@ def statuses_title(results: RunResults) -> str:
 
 
 def cached_line(results: RunResults) -> str:
-    """Which results were loaded from the cache (validate/dynamics/cache.py) rather than computed in this run."""
+    """Which results were loaded from the cache (validate/core/cache.py) rather than computed in this run."""
     hits = []
     for name, s in sorted(results.get("systems", {}).items()):
         chaos = s.get("chaos") or {}

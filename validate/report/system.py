@@ -159,7 +159,7 @@ def section_model_checks(doc: Document, name: str, s: SystemResult) -> None:
         "Pinocchio and MuJoCo read them (pinocchio~mujoco)."
     )
     if mc.get("defects"):
-        doc.p("Defects of the file, each a finding (systems/inertia.py says how each was repaired and for whom):")
+        doc.p("Defects of the file, each a finding (model/inertia.py says how each was repaired and for whom):")
         doc.blocks.append(Items(tuple(mc["defects"])))
     if mc.get("left_out"):
         doc.p(

@@ -15,9 +15,9 @@ from typing import Any, cast
 
 import numpy as np
 
-from ..errors import HarnessError
-from ..files import replace_files
-from ..inputs import parse_json, regular_file
+from ..core.errors import HarnessError
+from ..core.files import replace_files
+from ..core.inputs import parse_json, regular_file
 from ..systems import PACKAGE_ROOT
 from .schema import Provenance, RunResults
 

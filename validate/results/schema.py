@@ -11,7 +11,7 @@ from typing import Any, NotRequired, TypedDict
 
 from .stages import Stage
 
-# The one definition of the number every comparison is judged by (checks/pointwise.error_row computes
+# The one definition of the number every comparison is judged by (verdict/pointwise.error_row computes
 # it; the README and the report say it in these words).
 SCALED_DEFINITION = (
     "`scaled` is the largest `|a - b|` over the states divided by the largest magnitude the quantity takes "
@@ -37,7 +37,7 @@ class Provenance(TypedDict):
 
 class WorstState(TypedDict, total=False):
     """Where a row is worst: the state (q, v, tau); for a printed form's "printed parameters" row
-    (no state), the printed number and the compiled one (checks/judge.py)."""
+    (no state), the printed number and the compiled one (verdict/judge.py)."""
 
     q: list[float]
     v: list[float]
@@ -129,7 +129,7 @@ class Explanation(TypedDict, total=False):
 
 
 class TermSummary(TypedDict):
-    """One term of a derivation over every engine and probe (checks/verdict.summarise)."""
+    """One term of a derivation over every engine and probe (verdict/verdict.summarise)."""
 
     term: str
     passed: bool
@@ -184,8 +184,8 @@ class Derivation(TypedDict, total=False):
     disagrees_where: str
     reason: str  # why not applicable
     not_checked: list[str]  # terms whose functions the derivation does not provide
-    explanations: list[Explanation]  # each disagreeing entry as a symbolic difference (checks/explain.py)
-    # a printed form of the notes (checks/judge.py)
+    explanations: list[Explanation]  # each disagreeing entry as a symbolic difference (verdict/explain.py)
+    # a printed form of the notes (verdict/judge.py)
     notes_equations: list[str]  # the notes' equation numbers it transcribes
     note: str  # what the transcription says of it
     assumes: str  # the parameter equalities it needs ("m1 = m2")
@@ -269,22 +269,22 @@ class SystemResult(TypedDict, total=False):
     bodies: list[str]
     uses: list[str]
     failed: list[str]  # each failing check in one short phrase
-    statement: str  # the verdict in one sentence, as `decide` wrote it (checks/decide.py, Decision.statement)
+    statement: str  # the verdict in one sentence, as `decide` wrote it (verdict/decide.py, Decision.statement)
     parameters: dict[str, float]
     parameter_keys: dict[str, dict[str, Any]]  # per parameter: the model keys it sets and their unit
-    derived: dict[str, Any] | None  # the model's equations derived symbolically (engines/readable.as_data)
+    derived: dict[str, Any] | None  # the model's equations derived symbolically (symbolic/readable.as_data)
     timestep: float
     model_checks: ModelChecks
     pointwise: Pointwise
     derivation: Derivation
-    variants: list[Derivation]  # the printed forms of the notes (checks/judge.py)
+    variants: list[Derivation]  # the printed forms of the notes (verdict/judge.py)
     trajectories: Trajectories | None
     experiments: dict[str, Any] | None
     equivalence: dict[str, Any] | None
     chaos: dict[str, Any] | None
     stages: dict[str, Stage]  # each stage's wall seconds, and why it was not run or failed (results/stages.py)
     skipped: list[str]
-    audit: dict[str, Any]  # the model read by MuJoCo, Pinocchio and Drake side by side (checks/audit.py)
+    audit: dict[str, Any]  # the model read by MuJoCo, Pinocchio and Drake side by side (audit/audit.py)
     passed: bool
 
 

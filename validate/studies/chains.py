@@ -21,12 +21,12 @@ from typing import Any
 
 import numpy as np
 
-from ..checks import pointwise
-from ..engines import make_source
-from ..engines.base import Source
-from ..engines.derivation import derive
 from ..results import atomic_write
+from ..sources import make_source
+from ..sources.base import Source
+from ..symbolic.derivation import derive
 from ..systems import System
+from ..verdict import pointwise
 
 FULL_NS = (2, 3, 4, 5, 6, 8, 10, 12, 15, 20, 25, 30)
 QUICK_NS = (2, 3, 4, 6, 10, 20, 30)
@@ -40,7 +40,7 @@ DERIVE_BUDGET = 120.0  # s: `derive` refuses a model predicted to take longer (u
 # A spatial model (joint axes not all parallel, or a body frame rotated) costs more than the planar
 # chains measured: the UR5 (6 joints) took 37 s against 6.8 s predicted, the Panda with its fingers
 # locked (7) 135 s against 17 s (issue 34), so 8x. `--python` took 441 s on the Panda when it printed the
-# expanded entries (96 MB); with each function's common subexpressions (engines/readable.py) it took 98 s
+# expanded entries (96 MB); with each function's common subexpressions (symbolic/readable.py) it took 98 s
 # of CPU against 90 s for the derivation alone (492 KB), so 1.2x.
 SPATIAL_FACTOR = 8.0
 PYTHON_FACTOR = 1.2

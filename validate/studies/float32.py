@@ -4,12 +4,12 @@ float64 error and the float32 rounding one would expect.
 What is measured, per system (the repository's pendulums, generated spatial n-link chains from
 studies/chains.py, UR5 and Panda from example-robot-data when installed):
 
-  pointwise, at `n_states` seeded random states (checks/pointwise.random_states), batched as that many
+  pointwise, at `n_states` seeded random states (verdict/pointwise.random_states), batched as that many
   Warp worlds: M, bias, passive, qacc (at tau) and tau_inverse (at the reference's accelerations) from
   MuJoCo Warp (float32), C MuJoCo (float64) and the reference: the hand derivation where the system
   has one, else Pinocchio. Each error is the max absolute difference over states and entries and
   `scaled` = that over the term's scale (the largest magnitude C MuJoCo gives the term over the
-  states, and for tau_inverse and passive at least that of bias, as checks/tolerances.SCALE_ALSO_BY).
+  states, and for tau_inverse and passive at least that of bias, as core/tolerances.SCALE_ALSO_BY).
   The expected float32 rounding is eps32 x scale, times max cond(M) for qacc (FLOAT32 below), and
   each Warp error is also given in those units (`eps32_units`).
 
@@ -41,17 +41,17 @@ from typing import Any
 
 import numpy as np
 
-from ..checks import pointwise
-from ..checks.tolerances import SCALE_ALSO_BY
+from ..core.guard import DEFAULT_TIME_LIMIT
+from ..core.tolerances import SCALE_ALSO_BY
 from ..dynamics.integrate import initial_state, time_grid
 from ..dynamics.reference import DEFAULT_CACHE_DIR, reference_trajectory
-from ..engines import make_source
-from ..engines.base import engine_of, one_state, stepped
-from ..guard import DEFAULT_TIME_LIMIT
+from ..model.start import Scheme, Start
+from ..model.urdf import robots_folder
 from ..results import atomic_write, dumps, provenance
+from ..sources import make_source
+from ..sources.base import engine_of, one_state, stepped
 from ..systems import System, load_all, system_names
-from ..systems.start import Scheme, Start
-from ..systems.urdf import robots_folder
+from ..verdict import pointwise
 from .chains import chain_mjcf
 
 EPS32 = 2.0**-23  # float32 unit roundoff (x2), 1.19e-7
@@ -192,8 +192,8 @@ def _reference_run(system: System, q0: np.ndarray, v0: np.ndarray, t: np.ndarray
 
 def trajectory_row(system: System, warp: Any, *, horizon: float, cache_dir: Any = DEFAULT_CACHE_DIR) -> dict[str, Any]:
     """Warp's own run against C MuJoCo's (same integrator and timestep) and the reference (module docstring)."""
-    from ..engines import mujoco as engine_mujoco
-    from ..engines import warp as engine_warp
+    from ..sources import mujoco as engine_mujoco
+    from ..sources import warp as engine_warp
 
     q0, v0 = initial_state(system)
     tau = np.zeros(system.nv)
@@ -261,7 +261,7 @@ def system_result(
     system: System, *, n_states: int, horizon: float | None, cache_dir: Any = DEFAULT_CACHE_DIR
 ) -> dict[str, Any]:
     """One system's pointwise rows, its trajectory row (None without a horizon) and first-call times."""
-    from ..engines import warp as warp_engine  # loads Warp
+    from ..sources import warp as warp_engine  # loads Warp
 
     start = time.perf_counter()
     warp = make_source(system, "warp")
@@ -301,7 +301,7 @@ def run_float32(
         n_states: pointwise states (Warp worlds) per system.
         horizon: trajectory length, s (default HORIZON; quick QUICK_HORIZON; 0 for none).
     """
-    from ..engines import warp as engine_warp
+    from ..sources import warp as engine_warp
 
     start = time.perf_counter()
     names = list(names) if names else (list(QUICK_SYSTEMS) if quick and not own else None)

@@ -1,7 +1,7 @@
 """The systems registry: `models/<name>.xml` paired with `equations/<name>.py` by file stem.
 
 Nothing lists systems by hand: they are discovered. The compiled model (MJCF, or a URDF read by
-both engines: validate/systems/urdf.py) is the only source of numbers; `System.params` is what the
+both engines: validate/model/urdf.py) is the only source of numbers; `System.params` is what the
 equations module reads from it.
 """
 
@@ -18,17 +18,18 @@ from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
-from ..errors import HarnessError, unknown_name
-from ..guard import DEFAULT_TIME_LIMIT, Guard, Stopped, guard_module
-from . import bounds, floating, textform, urdf
-from .forms import input_name, normalize
-from .inertia import repair_urdf
-from .memo import Memo
-from .modelfile import MAX_MJCF_BYTES as MAX_MJCF_BYTES
-from .modelfile import compile_mjcf, mjcf_text, model_file, model_view
-from .modelfile import compile_model as compile_model
-from .modelview import ModelView, from_mujoco, names
-from .overrides import parse
+from ..core.errors import HarnessError, unknown_name
+from ..core.guard import DEFAULT_TIME_LIMIT, Guard, Stopped, guard_module
+from ..core.memo import Memo
+from ..handwritten import textform
+from ..handwritten.forms import input_name, normalize
+from ..model import bounds, floating, urdf
+from ..model.inertia import repair_urdf
+from ..model.modelfile import MAX_MJCF_BYTES as MAX_MJCF_BYTES
+from ..model.modelfile import compile_mjcf, mjcf_text, model_file, model_view
+from ..model.modelfile import compile_model as compile_model
+from ..model.modelview import ModelView, from_mujoco, names
+from ..model.overrides import parse
 
 if TYPE_CHECKING:  # numpy and mujoco are loaded when first used
     import mujoco
@@ -40,7 +41,7 @@ EQUATIONS_PACKAGE = "lagrange_xval.equations"
 MODEL_SUFFIXES = (".xml", ".urdf")  # what a folder of systems is searched for (the format is the root element's)
 PAIR = "<name>.xml or <name>.urdf, and <name>.py or <name>.toml"  # the files of a system in a user's folder
 
-# The contract's one required name (and the dynamics in one form: validate/systems/forms.py). Everything
+# The contract's one required name (and the dynamics in one form: validate/handwritten/forms.py). Everything
 # else has a default: COORDINATES and JOINTS the model's joints in order, DESCRIPTION the module's
 # docstring, BODIES none (pose checks "not provided"), assumptions() none (the probes move what
 # parameters() reads); the physics a scene uses is read from the model.
@@ -76,7 +77,7 @@ class System:
     equations: Any  # the equations module (form a after normalize), or None for the model alone
     overrides: tuple[tuple[str, float], ...] = ()
     locked: tuple[str, ...] = ()  # URDF joints made fixed (urdf.lock), a named step listed in the alignments
-    balance_inertia: bool = False  # every reader given the repaired inertia of a defective link (systems/inertia.py)
+    balance_inertia: bool = False  # every reader given the repaired inertia of a defective link (model/inertia.py)
     # The MJCF text to use instead of the file's (a probe's edited copy); `mjcf` still names the file.
     text: str | None = field(default=None, repr=False)
 
@@ -118,7 +119,7 @@ class System:
         """A system from any model file (MJCF or URDF) and any equations module file (named after the
         module's file stem unless `name` is given); both are checked before anything is computed.
         `locked`: URDF joints made fixed, a named step listed in the alignments. `time_limit`: seconds
-        each call into the module (and its import) may take (validate/guard.py)."""
+        each call into the module (and its import) may take (validate/core/guard.py)."""
         model, equations = Path(model), Path(equations)
         if not model.is_file():
             raise HarnessError(f"model file not found: {model} (give an MJCF .xml or a URDF .urdf file).")
@@ -135,7 +136,7 @@ class System:
 
     def with_overrides(self, **values: float) -> System:
         """A copy with parameter overrides, by key (`"body/link1/mass"`) or as keyword arguments with
-        `__` for `/` (`body__link1__mass=1.5`); see validate/systems/overrides.py for the keys."""
+        `__` for `/` (`body__link1__mass=1.5`); see validate/model/overrides.py for the keys."""
 
         items = [f"{k.replace('__', '/')}={v!r}" for k, v in values.items()]
         return self.derive(overrides=self.overrides + parse(items))
@@ -227,7 +228,7 @@ class System:
         """The bodies a module's body_positions() (or body_rotations()) names, read at q = 0."""
         import numpy as np
 
-        from .forms import provided
+        from ..handwritten.forms import provided
 
         for name in ("body_positions", "body_rotations"):
             fn = getattr(self.equations, name, None)
@@ -252,7 +253,7 @@ class System:
     @property
     def inputs(self) -> str:
         """ "u" where the derivation takes the actuators' controls, "tau" where a generalized force on
-        every coordinate (validate/systems/forms.py `input_name`)."""
+        every coordinate (validate/handwritten/forms.py `input_name`)."""
         return "tau" if self.equations is None else input_name(self.equations)
 
     @property
@@ -304,7 +305,7 @@ class System:
 
     @property
     def defects(self) -> list[str]:
-        """The file's defective inertias (systems/inertia.py), one line per link: stated in the verdict."""
+        """The file's defective inertias (model/inertia.py), one line per link: stated in the verdict."""
         if self.model_format != "urdf":
             return []
         lines = repair_urdf(self._file()[1])[1]
@@ -317,7 +318,7 @@ class System:
 
     @functools.cached_property
     def _floating(self) -> floating.Converted:
-        """The MJCF file's free and ball joints as slides and hinges, converted once (systems/floating.py)."""
+        """The MJCF file's free and ball joints as slides and hinges, converted once (model/floating.py)."""
         return floating.convert(self._file_read[1])
 
     @functools.cached_property
@@ -333,7 +334,7 @@ class System:
     @property
     def alignments(self) -> list[str]:
         """What the harness does so that the engines' readings of a model agree: for an MJCF its free and
-        ball joints in one coordinate per degree of freedom (systems/floating.py), for a URDF urdf.py's."""
+        ball joints in one coordinate per degree of freedom (model/floating.py), for a URDF urdf.py's."""
         if self.model_format != "urdf":
             return self._floating.lines
         locked = [f"joint(s) {', '.join(self.locked)} locked at zero (made fixed) in the URDF both engines read"]
@@ -346,7 +347,7 @@ class System:
     @property
     def left_out(self) -> list[str]:
         """The constraints of the model (limits, contacts, equality, friction loss) and the passive forces
-        only MuJoCo computes, one line per kind: switched off in every comparison (systems/scope.py)."""
+        only MuJoCo computes, one line per kind: switched off in every comparison (model/scope.py)."""
         return self._compiled[1]
 
     @functools.cached_property
@@ -357,7 +358,10 @@ class System:
     def _compiled(self) -> tuple[mujoco.MjModel, list[str], int]:
         """The MjModel, compiled, checked for what no source could compare and with its constraints
         switched off; what was left out; and the disable flags as published."""
-        from .scope import refusals, unconstrained  # reads the compiled model with mujoco: loaded when first needed
+        from ..model.scope import (  # reads the compiled model with mujoco: loaded when first needed
+            refusals,
+            unconstrained,
+        )
 
         if self.locked and self.text is None and self.model_format != "urdf":
             raise HarnessError(f"{self.mjcf.name}: --lock takes joints of a URDF model (an MJCF states its own).")
@@ -395,7 +399,7 @@ class System:
     @functools.cached_property
     def params(self) -> Any:
         """The equations module's `parameters(view)`, checked finite, read once."""
-        from .reads import numeric_fields
+        from ..handwritten.reads import numeric_fields
 
         params = self.equations.parameters(self.view)
         bad = [k for k, x in numeric_fields(params).items() if not math.isfinite(x)]
@@ -412,7 +416,7 @@ class System:
 
 
 def _check_contract(module: ModuleType, where: str) -> ModuleType:
-    """The module, brought to form (a) (validate/systems/forms.py) once it is known to meet the contract."""
+    """The module, brought to form (a) (validate/handwritten/forms.py) once it is known to meet the contract."""
 
     missing = [a for a in REQUIRED_ATTRIBUTES if not callable(getattr(module, a, None))]
     if missing:
@@ -446,8 +450,8 @@ def load_module(path: Path, *, model: Path | None = None, time_limit: float = DE
     """An equations module from any file, executed under a name of its own (so two files with the
     same stem never share a module); a missing file, a syntax error or an exception while importing
     it, and a module that lacks part of the contract, are one-line HarnessErrors. A `.toml` file is
-    equations as text, read against `model` (validate/systems/textform.py). The import and every call
-    into the module run in a worker process of its own (validate/worker.py, systems/proxy.py), within
+    equations as text, read against `model` (validate/handwritten/textform.py). The import and every call
+    into the module run in a worker process of its own (validate/handwritten/worker.py, handwritten/proxy.py), within
     one budget of `time_limit` seconds for all of them."""
     path = Path(path)
     if not path.is_file():
@@ -457,7 +461,7 @@ def load_module(path: Path, *, model: Path | None = None, time_limit: float = DE
             raise HarnessError(f"{path}: equations as text are read against their model; give the model file too.")
         module = textform.module_from_file(path, model_view(model), time_limit=time_limit)
     else:
-        from .proxy import worker_module
+        from ..handwritten.proxy import worker_module
 
         module = worker_module(path, time_limit)
     try:
@@ -502,7 +506,7 @@ def pairs_and_lonely(folder: Path) -> tuple[list[tuple[Path, Path]], list[Path]]
 
 def load(name: str, overrides: tuple[tuple[str, float], ...] = (), *, time_limit: float = DEFAULT_TIME_LIMIT) -> System:
     """The system called `name`; an unknown name lists the valid ones and the closest. `time_limit`:
-    seconds each call into its equations module may take (validate/guard.py)."""
+    seconds each call into its equations module may take (validate/core/guard.py)."""
     names = system_names()
     if name not in names:
         lonely = unpaired()

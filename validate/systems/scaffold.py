@@ -27,10 +27,10 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import HarnessError, shown
-from ..files import create_file
+from ..core.errors import HarnessError, shown
+from ..core.files import create_file
+from ..model.modelview import ModelView, key_parts, names
 from . import System
-from .modelview import ModelView, key_parts, names
 
 
 def identifier(name: str) -> str:

@@ -92,7 +92,7 @@ def _kind(key: str) -> str:
 def _read_keys(system: System) -> dict[str, dict[str, Any]]:
     """{Params field: {"keys": the model numbers parameters() reads for it, "unit": theirs}} (a field
     that one number alone moves in proportion has that number's unit; else unknown)."""
-    from .reads import knobs
+    from ..handwritten.reads import knobs
 
     try:
         found = knobs(system.equations.parameters, system.view)

@@ -57,7 +57,7 @@ Modules: plan (the Plan value: what is swept, budgets, targets; FULL and QUICK),
 run in a worker), analysis
 (errors, rows, Pareto fronts, the sweep), baselines (what the ratios are measured against: the
 hand-written right-hand side and the minimal pointwise calls; MuJoCo's and Pinocchio's raw loops
-live in engines/baselines.py), ratios (the fast-harness ratios and the default path against the
+live in sources/baselines.py), ratios (the fast-harness ratios and the default path against the
 fastest method at equal error, `frontier_ratios`), output (run_bench, bench.json, the command),
 tables (the console summary).
 """

@@ -12,8 +12,8 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import HarnessError
-from ...parallel import completed
+from ...core.errors import HarnessError
+from ...core.parallel import completed
 from .plan import ERROR_TIMES, Plan
 from .runners import execute
 

@@ -15,7 +15,7 @@ thing at least as accurately:
                        MuJoCo's RK4 at the model's timestep on the same equations (the hand mirror: the
                        compiled RK4 contender; Pinocchio's: the sweep's Pinocchio mirror);
   the mirror's windows one window (dt_out) from each reference sample: MuJoCo's own windows
-                       (mj_step from each state, engines/mujoco.py), timed in the same task.
+                       (mj_step from each state, sources/mujoco.py), timed in the same task.
 
 Timings taken minutes apart differ by whatever else the machine did meanwhile, so each check and the
 run chosen for it are then timed again side by side in one task (`paired_timings`, alternating) and the
@@ -41,7 +41,7 @@ from ...dynamics.fast import accurate_trajectory
 from ...dynamics.integrate import SCIPY_DEFAULT, scipy_trajectory, time_grid
 from ...dynamics.mirror import mirror_steps, mirror_trajectory, mujoco_steps
 from ...dynamics.reference import DEFAULT_CACHE_DIR, reference_trajectory
-from ...engines.base import stepped
+from ...sources.base import stepped
 from .plan import GRID_DRIVERS, Plan
 from .ratios import interleaved_medians
 from .runners import CacheDir, case_for, execute, resources

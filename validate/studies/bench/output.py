@@ -10,10 +10,10 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from ...core.errors import HarnessError
+from ...core.guard import DEFAULT_TIME_LIMIT
+from ...core.parallel import completed, executor_for
 from ...dynamics.reference import DEFAULT_CACHE_DIR
-from ...errors import HarnessError
-from ...guard import DEFAULT_TIME_LIMIT
-from ...parallel import completed, executor_for
 from ...results import atomic_write, dumps, provenance
 from ...systems import System, key_of, load_all, system_names
 from .analysis import pareto_front, sweep, time_to_epsilon

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from ...dynamics.integrate import SCIPY_DEFAULT
-from ...engines import drake as drake_engine  # imports no pydrake: `unavailable` looks it up
-from ...engines.base import MUJOCO_INTEGRATORS  # every one is swept
+from ...sources import drake as drake_engine  # imports no pydrake: `unavailable` looks it up
+from ...sources.base import MUJOCO_INTEGRATORS  # every one is swept
 
 ERROR_TIMES = (2.0, 10.0)  # s: the samples of the rows' "error_2s" and "error_10s"
 
@@ -191,7 +191,7 @@ def step_spec(engine: str, driver: str, scheme: str, timestep: float, *, batch: 
 
 
 def _drake_sweeps(accuracies: tuple[float, ...], timesteps: tuple[float, ...]) -> list[Sweep]:
-    """Drake's integrators on its continuous plant (engines/drake.py `free_run`): its error-controlled RK3
+    """Drake's integrators on its continuous plant (sources/drake.py `free_run`): its error-controlled RK3
     at target accuracies, and fixed-step RK2 and explicit Euler."""
     fixed = [Sweep("drake", "drake", scheme, "timestep", timesteps) for scheme in ("runge_kutta2", "explicit_euler")]
     return [Sweep("drake", "drake", "runge_kutta3", "accuracy", accuracies), *fixed]

@@ -19,14 +19,14 @@ from typing import Any
 
 import numpy as np
 
-from ...checks import pointwise as compare
 from ...dynamics.integrate import source_rhs
-from ...engines import make_source
-from ...engines.base import Source, stepped
-from ...engines.baselines import raw_mujoco, raw_pinocchio, raw_symbolic
-from ...engines.fastpath import scalar_rhs
 from ...results.stages import seconds_of
+from ...sources import make_source
+from ...sources.base import Source, stepped
+from ...sources.baselines import raw_mujoco, raw_pinocchio, raw_symbolic
+from ...sources.fastpath import scalar_rhs
 from ...systems import System
+from ...verdict import pointwise as compare
 from .baselines import hand_math_rhs, numpy_solve_rhs, raw_hand, raw_pointwise
 from .plan import CONTENDER_DRIVERS, GRID_DRIVERS, Plan
 from .runners import case_for, resources
@@ -174,7 +174,7 @@ def flags_ratio(name: str, plan: Plan, *, reps: int) -> list[dict[str, Any]]:
     """Per integrator of the plan's `flag_integrators`: CPU time per mj_step (`flag_steps` of them) at the
     MJCF's timestep from the system's start, with the model's disable flags and with `disableflags = 0`,
     interleaved (a worker task)."""
-    from ...engines import mujoco as engine  # imports MuJoCo: loaded when first used
+    from ...sources import mujoco as engine  # imports MuJoCo: loaded when first used
 
     system, sources = resources(name)
     src = stepped(sources["mujoco"])
@@ -327,7 +327,7 @@ RUN_CONDITIONS = {
 
 
 def run_wall_times(plan: Plan, *, timeout: float = 900.0) -> dict[str, Any]:
-    """`python -m lagrange_xval.validate.cli run` (all systems, reports and replays) timed as
+    """`python -m lagrange_xval.cli run` (all systems, reports and replays) timed as
     subprocesses one after another, with nothing else of the bench running: per repeat (the plan's
     `run_repeats`), three runs into new folders, one per condition of RUN_CONDITIONS (fresh machine,
     cold cache, warm cache), against the plan's `run_target_s` and `run_warm_target_s`."""
@@ -347,7 +347,7 @@ def run_wall_times(plan: Plan, *, timeout: float = 900.0) -> dict[str, Any]:
                     [
                         sys.executable,
                         "-m",
-                        "lagrange_xval.validate.cli",
+                        "lagrange_xval.cli",
                         "run",
                         "--out",
                         str(out),
@@ -378,7 +378,7 @@ def run_wall_times(plan: Plan, *, timeout: float = 900.0) -> dict[str, Any]:
         "exit_codes": codes,
         "repeats": repeats,
         "conditions": RUN_CONDITIONS,
-        "how": "wall time of `python -m lagrange_xval.validate.cli run --out <new folder> --cache-dir <folder>` "
+        "how": "wall time of `python -m lagrange_xval.cli run --out <new folder> --cache-dir <folder>` "
         f"(every system, reports and rerun replays), {repeats} repeats of three runs one after another: "
         + "; ".join(f"{c}: {why}" for c, why in RUN_CONDITIONS.items())
         + "; value = the slowest condition's median; CPU = user + system of the process tree",

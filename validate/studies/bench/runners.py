@@ -16,16 +16,16 @@ from typing import Any
 
 import numpy as np
 
+from ...core.errors import HarnessError
 from ...dynamics.chaos import chaos_summary
 from ...dynamics.compiled import compiled_rhs, compiled_rk4, rk4_grid, rk4_plan, taylor_grid, taylor_integrator
 from ...dynamics.drakerun import drake_trajectory
 from ...dynamics.integrate import SCIPY_DEFAULT, initial_state, scipy_trajectory, time_grid
 from ...dynamics.mirror import mirror_trajectory
 from ...dynamics.reference import DEFAULT_CACHE_DIR, reference_trajectory
-from ...engines import Sources, make_sources
-from ...engines.base import OneStateSource, Source, SteppedSource, one_state, stepped
-from ...engines.fastpath import scalar_rhs
-from ...errors import HarnessError
+from ...sources import Sources, make_sources
+from ...sources.base import OneStateSource, Source, SteppedSource, one_state, stepped
+from ...sources.fastpath import scalar_rhs
 from ...systems import System, from_key, key_of
 from .plan import CHECK_EVERY, ERROR_TIMES, SCIPY_DRIVERS, Plan
 
@@ -275,7 +275,7 @@ def run_mujoco(
     The model's integrator and timestep are set for the run and restored after it. A run that sets
     any of MuJoCo's bad-state warnings (MuJoCo then resets the state and carries on) has diverged.
     """
-    from ...engines import mujoco as engine  # imports MuJoCo: loaded when first used
+    from ...sources import mujoco as engine  # imports MuJoCo: loaded when first used
 
     dt_out = float(t[1] - t[0])
     steps = round(dt_out / timestep)
@@ -392,9 +392,9 @@ def run_rollout(
     timestep: float,
     batch: int,
 ) -> dict[str, Any]:
-    """MuJoCo's `rollout` of `batch` copies of the start (engines/mujoco.rollout_run); the row's time is
+    """MuJoCo's `rollout` of `batch` copies of the start (sources/mujoco.rollout_run); the row's time is
     the batch's CPU time divided by `batch` (per trajectory), its samples those of the first copy."""
-    from ...engines import mujoco as engine  # imports MuJoCo: loaded when first used
+    from ...sources import mujoco as engine  # imports MuJoCo: loaded when first used
 
     steps = round(float(t[1] - t[0]) / timestep)
     out = engine.rollout_run(

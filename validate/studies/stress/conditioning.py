@@ -11,13 +11,13 @@ from typing import Any
 
 import numpy as np
 
-from ...checks import pointwise as compare
-from ...checks.tolerances import TOLERANCES
-from ...engines import make_sources
-from ...engines.base import Source
-from ...engines.hand import HandSource
-from ...errors import HarnessError
+from ...core.errors import HarnessError
+from ...core.tolerances import TOLERANCES
+from ...sources import make_sources
+from ...sources.base import Source
+from ...sources.hand import HandSource
 from ...systems import System
+from ...verdict import pointwise as compare
 from .settings import EPS, FIT_FROM_COND, MAX_FACTOR, PROPOSAL_MARGIN, TARGET_DISTANCES, TARGETED_STATES, Settings
 
 

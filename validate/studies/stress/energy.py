@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from ...dynamics.integrate import initial_state
-from ...engines.base import Source
+from ...sources.base import Source
 from ...systems import System
 from .runs import downsample, run_energy, simulate
 from .settings import (

@@ -11,14 +11,14 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ...core.errors import HarnessError
+from ...core.guard import DEFAULT_TIME_LIMIT
+from ...core.parallel import completed
 from ...dynamics.integrate import energy_missing
-from ...engines import Sources, make_sources
-from ...errors import HarnessError
-from ...guard import DEFAULT_TIME_LIMIT
-from ...parallel import completed
+from ...model.overrides import parse
 from ...results import atomic_write, dumps, provenance
+from ...sources import Sources, make_sources
 from ...systems import System, from_key, key_of, load, system_names
-from ...systems.overrides import parse
 from .conditioning import conditioning_rows, conditioning_summary, no_sweep_reason, proposed_solve_tier
 from .energy import conservative, drift_rows
 from .runs import minimum_potential, quiet_mujoco_warnings

@@ -1,4 +1,4 @@
-"""Long runs: MuJoCo (through engines/mujoco.py) or the mirror on the hand equations, sampled, stopping
+"""Long runs: MuJoCo (through sources/mujoco.py) or the mirror on the hand equations, sampled, stopping
 at the first warning or non-finite state; their energy, downsampled for the results.
 """
 
@@ -10,16 +10,16 @@ from typing import Any
 
 import numpy as np
 
+from ...core.errors import HarnessError, unknown_name
 from ...dynamics.mirror import mirror_trajectory
-from ...engines.base import Source, stepped
-from ...errors import HarnessError, unknown_name
+from ...sources.base import Source, stepped
 from ...systems import System
 from .settings import MIRROR_INTEGRATORS, MUJOCO_INTEGRATORS, SERIES_POINTS, Run
 
 
 def quiet_mujoco_warnings() -> Any:
-    """MuJoCo's warnings collected instead of printed (engines/mujoco.py `collected_warnings`)."""
-    from ...engines import mujoco as engine  # imports MuJoCo: loaded when first used
+    """MuJoCo's warnings collected instead of printed (sources/mujoco.py `collected_warnings`)."""
+    from ...sources import mujoco as engine  # imports MuJoCo: loaded when first used
 
     return engine.collected_warnings()
 
@@ -57,7 +57,7 @@ def simulate(
     qs, vs, ts = [q0], [v0], [0.0]
     failure, t_fail = None, None
     if engine == "mujoco":
-        from ...engines import mujoco as mj  # imports MuJoCo
+        from ...sources import mujoco as mj  # imports MuJoCo
 
         done_q, done_v, failure, k_fail = mj.sampled_run(
             stepped(sources["mujoco"]),

@@ -7,8 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...engines.base import MUJOCO_INTEGRATORS as MUJOCO_INTEGRATORS  # defined once, there
-from ...systems.set_values import MJ_MINVAL as MJ_MINVAL  # mjMINVAL: the smallest mass or inertia MuJoCo compiles
+from ...model.set_values import MJ_MINVAL as MJ_MINVAL  # mjMINVAL: the smallest mass or inertia MuJoCo compiles
+from ...sources.base import MUJOCO_INTEGRATORS as MUJOCO_INTEGRATORS  # defined once, there
 
 EPS = float(np.finfo(float).eps)
 

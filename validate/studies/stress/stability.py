@@ -9,11 +9,11 @@ from typing import Any
 
 import numpy as np
 
+from ...core.errors import HarnessError
 from ...dynamics.integrate import energy_missing, initial_state, scipy_trajectory, time_grid
 from ...dynamics.mirror import eulerdamp_active
-from ...engines import make_sources
-from ...engines.base import Source
-from ...errors import HarnessError
+from ...sources import make_sources
+from ...sources.base import Source
 from ...systems import System
 from .energy import classify_energy
 from .runs import minimum_potential, run_energy, simulate

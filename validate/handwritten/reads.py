@@ -1,0 +1,171 @@
+"""Which model numbers a derivation's `parameters(model)` reads, and which of its fields each one moves.
+
+A person's module reads its parameters from the compiled model by key (`model["body/pole/mass"]`,
+`2 * model["body/pole/com"][2]`). Recording the keys it asks for, and then moving each number of
+each key on its own to see which fields follow, tells the harness two things without any
+declaration: the model numbers a probe may move (each independently, at full precision, so that
+`parameters()` reads them back), and the person's name for a model number (`l` for
+`body/pole/com[2]`, with the factor 2), so that a diagnosis can speak the person's words.
+
+    knobs(parameters, view) -> [Knob(key, index, value, fields, gains)]
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..core.errors import HarnessError
+from ..model.modelview import key_parts
+
+# The keys whose numbers a probe may move (a body's orientation, a joint's axis and the structure keys
+# are the chain's shape, not its parameters: moving one entry of a quaternion or an axis is no model).
+MOVABLE = ("mass", "com", "inertia", "pos", "damping", "armature", "gear")
+NUDGE = 1e-3  # the relative move that finds which fields follow a number
+
+
+def movable(key: str) -> bool:
+    """Whether a probe may move the numbers of `key` (gravity and the MOVABLE fields of bodies, joints
+    and actuators)."""
+    parts = key_parts(key)
+    return key == "gravity" or (parts is not None and parts[2] in MOVABLE)
+
+
+def numeric_fields(params: Any) -> dict[str, float]:
+    """The numeric fields of what `parameters()` returned (a dataclass), by name."""
+    if not dataclasses.is_dataclass(params) or isinstance(params, type):
+        raise HarnessError(f"parameters() must return a dataclass instance; got {type(params).__name__}.")
+    out = {}
+    for f in dataclasses.fields(params):
+        value = getattr(params, f.name)
+        if isinstance(value, (int, float, np.floating, np.integer)) and not isinstance(value, bool):
+            out[f.name] = float(value)
+    return out
+
+
+class Recorder(Mapping[str, Any]):
+    """A model view that remembers which keys were read, in order."""
+
+    def __init__(self, view: Mapping[str, Any]) -> None:
+        self.view = view
+        self.read: list[str] = []
+
+    def __getitem__(self, key: str) -> Any:
+        value = self.view[key]
+        if key not in self.read:
+            self.read.append(key)
+        return value
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.view)
+
+    def __len__(self) -> int:
+        return len(self.view)
+
+
+class Overlay(Mapping[str, Any]):
+    """A model view with some keys replaced (what `parameters()` would read from an edited model)."""
+
+    def __init__(self, view: Mapping[str, Any], replaced: Mapping[str, Any]) -> None:
+        self.view, self.replaced = view, replaced
+
+    def __getitem__(self, key: str) -> Any:
+        return self.replaced[key] if key in self.replaced else self.view[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.view)
+
+    def __len__(self) -> int:
+        return len(self.view)
+
+
+@dataclass(frozen=True)
+class Knob:
+    """One model number that `parameters()` reads: `key[index]` (an inertia's (i, j) stands for its
+    symmetric pair too), its value, the fields that follow it and d field / d number for each."""
+
+    key: str
+    index: tuple[int, ...]
+    value: float
+    fields: tuple[str, ...]
+    gains: tuple[float, ...]
+
+    @property
+    def label(self) -> str:
+        """`body/pole/com[2]`, as a person indexes it."""
+        return self.key + "".join(f"[{i}]" for i in self.index)
+
+    def moved(self, value: float) -> np.ndarray | float:
+        """The key's value with this number set to `value` (entries of other numbers NaN: left as they are)."""
+        if not self.index:
+            return value
+        shape = (3, 3) if self.key.endswith("/inertia") else (4,) if self.key.endswith("/quat") else (3,)
+        out = np.full(shape, np.nan)
+        out[self.index] = value
+        if len(self.index) == 2:
+            out[self.index[::-1]] = value
+        return out
+
+
+def edited(view: Mapping[str, Any], knob: Knob, value: float) -> dict[str, Any]:
+    """{key: the key's full value with knob's number set to `value`}."""
+    current = view[knob.key]
+    if not knob.index:
+        return {knob.key: value}
+    arr = np.array(current, dtype=float)
+    arr[knob.index] = value
+    if len(knob.index) == 2:
+        arr[knob.index[::-1]] = value
+    return {knob.key: arr}
+
+
+def _indices(key: str, value: Any) -> list[tuple[int, ...]]:
+    arr = np.asarray(value, dtype=float)
+    if key.endswith("/inertia"):
+        return [(i, j) for i in range(3) for j in range(i, 3)]
+    return [tuple(int(i) for i in idx) for idx in np.ndindex(arr.shape)]
+
+
+def _read_keys(parameters: Callable[[Any], Any], view: Mapping[str, Any]) -> tuple[list[str], dict[str, float]]:
+    recorder = Recorder(view)
+    base = numeric_fields(parameters(recorder))
+    return recorder.read, base
+
+
+def knobs(parameters: Callable[[Any], Any], view: Mapping[str, Any]) -> list[Knob]:
+    """Every non-zero movable number that `parameters()` reads and that some numeric field follows."""
+    keys, base = _read_keys(parameters, view)
+    out = []
+    for key in keys:
+        if not movable(key) or isinstance(view[key], str):
+            continue
+        arr = np.asarray(view[key], dtype=float)
+        for index in _indices(key, arr):
+            value = float(arr[index]) if index else float(arr)
+            if value == 0.0 or not np.isfinite(value):
+                continue
+            probe = Knob(key, index, value, (), ())
+            nudged = value * (1.0 + NUDGE)
+            moved = numeric_fields(parameters(Overlay(view, edited(view, probe, nudged))))
+            follow = [k for k in base if moved.get(k) != base[k]]
+            if follow:
+                gains = tuple((moved[k] - base[k]) / (nudged - value) for k in follow)
+                out.append(Knob(key, index, value, tuple(follow), gains))
+    return out
+
+
+def names_of(knob_list: list[Knob]) -> dict[str, str]:
+    """{model number label: the person's field name}, where one field alone follows the number: the
+    person's word for `body/link2/mass` (`m2`), with the factor where it is not 1 (`l/2` for
+    `body/pole/com[2]` where the person reads `l = 2 * com[2]`; `-g` for `gravity[2]`)."""
+    out = {}
+    for k in knob_list:
+        if len(k.fields) == 1:
+            gain = k.gains[0]
+            sign, size = ("-" if gain < 0 else ""), abs(gain)
+            out[k.label] = sign + k.fields[0] + ("" if abs(size - 1.0) < 1e-9 else f"/{size:.6g}")
+    return out

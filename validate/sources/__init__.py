@@ -1,0 +1,191 @@
+"""The sources of dynamics behind one interface: the hand equations, MuJoCo, Pinocchio, the model's own
+equations derived symbolically (symbolic/derivation.py, sources/symbolic.py), and Drake (sources/drake.py,
+a third independent reader of the model file; left out, with the reason, where pydrake is missing or
+its parser refuses the model).
+
+Every source works on batches of states in the notes' coordinates: `q`, `v`, `tau`, `a` are
+(N, n) arrays, and each method returns arrays with a leading N axis. Engines are imported lazily.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, Generic, TypeVar
+
+import numpy as np
+
+from ..core.errors import HarnessError, unknown_name
+from ..systems import System
+from .base import Kinematics, OneStateSource, PosedSource, RightHandSide, Source, SteppedSource
+from .hand import HandSource
+
+__all__ = [
+    "SOURCE_NAMES",
+    "SYMBOLIC_MAX_DOF",
+    "Kinematics",
+    "MappedSource",
+    "Source",
+    "Sources",
+    "make_source",
+    "make_sources",
+]
+
+SOURCE_NAMES = ("hand", "mujoco", "pinocchio", "symbolic", "drake")
+
+
+class Sources(dict[str, Source]):
+    """The sources of a system by name, and `skipped`: each source left out, with why."""
+
+    skipped: dict[str, str]
+
+
+S = TypeVar("S", bound=Source, covariant=True)
+
+
+class MappedSource(Generic[S]):
+    """An engine source seen through a linear coordinate map q_notes = A q_joints.
+
+    Velocities and accelerations map like q; generalized forces map covariantly (the power
+    tau_notes . v_notes = tau_joints . v_joints), so tau_joints = A^T tau_notes and
+    M_notes = A^-T M_joints A^-1. Energies and body kinematics do not depend on coordinates.
+    """
+
+    def __init__(self, inner: S, A: np.ndarray) -> None:
+        self.inner, self.A, self.Ainv = inner, A, np.linalg.inv(A)
+        self.name = inner.name
+
+    def __getattr__(self, attr: str) -> Any:  # .m, .d, .model, ...
+        return getattr(self.inner, attr)
+
+    def _j(self, x: np.ndarray) -> np.ndarray:  # notes -> joints, for q, v, a
+        return x @ self.Ainv.T
+
+    def _force(self, f: np.ndarray) -> np.ndarray:  # joint forces -> notes forces
+        return f @ self.Ainv
+
+    def mass_matrix(self, q: np.ndarray) -> np.ndarray:
+        return self.Ainv.T @ self.inner.mass_matrix(self._j(q)) @ self.Ainv
+
+    def bias(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return self._force(self.inner.bias(self._j(q), self._j(v)))
+
+    def passive(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return self._force(self.inner.passive(self._j(q), self._j(v)))
+
+    def forward(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        return self.inner.forward(self._j(q), self._j(v), tau @ self.A) @ self.A.T
+
+    def inverse(self, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
+        return self._force(self.inner.inverse(self._j(q), self._j(v), self._j(a)))
+
+    def energies(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return self.inner.energies(self._j(q), self._j(v))
+
+    def body_positions(self, q: np.ndarray) -> np.ndarray:
+        return self.inner.body_positions(self._j(q))
+
+    def body_rotations(self: MappedSource[PosedSource], q: np.ndarray) -> np.ndarray:
+        return self.inner.body_rotations(self._j(q))
+
+    def kinematics(self: MappedSource[PosedSource], q: np.ndarray, v: np.ndarray) -> Kinematics:
+        return self.inner.kinematics(self._j(q), self._j(v))
+
+    def rhs(self: MappedSource[OneStateSource], tau: np.ndarray) -> RightHandSide:
+        """The inner source's right-hand side, seen in the notes' coordinates."""
+        inner = self.inner.rhs(self.A.T @ tau)
+        n, A, Ainv = len(tau), self.A, self.Ainv
+
+        def f(t: float, y: np.ndarray) -> np.ndarray:
+            dy = inner(t, np.concatenate([Ainv @ y[:n], Ainv @ y[n:]]))
+            return np.concatenate([A @ dy[:n], A @ dy[n:]])
+
+        return f
+
+    def evaluate(
+        self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray | None = None, **options: Any
+    ) -> dict[str, np.ndarray]:
+        a = None if a_ref is None else self._j(a_ref)
+        out = self.inner.evaluate(self._j(q), self._j(v), tau @ self.A, a, **options)
+        out["M"] = self.Ainv.T @ out["M"] @ self.Ainv
+        for k in ("bias", "passive", "tau_inverse"):
+            out[k] = self._force(out[k])
+        out["qacc"] = out["qacc"] @ self.A.T
+        return out
+
+    def set_state(
+        self: MappedSource[SteppedSource], q: np.ndarray, v: np.ndarray, tau: np.ndarray | None = None
+    ) -> None:
+        self.inner.set_state(self.Ainv @ q, self.Ainv @ v, None if tau is None else self.A.T @ tau)
+
+    def get_state(self: MappedSource[SteppedSource]) -> tuple[np.ndarray, np.ndarray]:
+        q, v = self.inner.get_state()
+        return self.A @ q, self.A @ v
+
+
+def make_source(system: System, name: str) -> Source:
+    """The source called `name` for `system` ("hand", "mujoco", "pinocchio", "symbolic" or "drake").
+
+    Engines read joint coordinates; where the notes' coordinates are a linear map of them
+    (`JOINT_MAP` in the equations module), the engine sources are wrapped in that map.
+    """
+    if name == "hand":
+        return HandSource(system)
+    if name == "mujoco":  # the engines are imported here, when first asked for: they are heavy
+        from .mujoco import MujocoSource
+
+        engine: Source = MujocoSource(system)
+    elif name == "pinocchio":
+        from .pinocchio import PinocchioSource
+
+        engine = PinocchioSource(system)
+    elif name == "drake":
+        from .drake import DrakeSource, unavailable
+
+        if unavailable():
+            raise HarnessError(f"the drake source: {unavailable()}")
+        engine = DrakeSource(system)
+    elif name == "symbolic":
+        from .symbolic import SymbolicSource  # sympy: loaded when first asked for
+
+        engine = SymbolicSource(system)
+    elif name == "warp":  # MuJoCo Warp, float32: asked for by name only (studies/float32.py), never a default
+        from .warp import WarpSource
+
+        engine = WarpSource(system)
+    else:
+        raise unknown_name("source", name, SOURCE_NAMES)
+    A = system.joint_map
+    return engine if A is None else MappedSource(engine, A)
+
+
+# Beyond this many joints the symbolic source is left out: a 6-joint arm took 16 s (UR5, axis-aligned
+# frames) to 2 min (Kinova, SO-100: frames at general angles) to derive and generate code for.
+SYMBOLIC_MAX_DOF = 4
+
+
+def make_sources(system: System) -> Sources:
+    """Every source for `system`; the symbolic one only for chains of at most SYMBOLIC_MAX_DOF joints;
+    Drake where pydrake is installed and its parser reads the model (else in `skipped`, with why)."""
+    skip = {"symbolic"} if system.nv > SYMBOLIC_MAX_DOF else set()
+    if system.equations is None:  # the model alone: no hand derivation
+        skip.add("hand")
+    out = Sources((n, make_source(system, n)) for n in SOURCE_NAMES if n not in skip | {"drake"})
+    out.skipped = {}
+    try:
+        out["drake"] = make_source(system, "drake")
+    except HarnessError as exc:  # a third reader is an addition: its absence is stated, never fatal
+        out.skipped["drake"] = str(exc)
+    return out
+
+
+if TYPE_CHECKING:  # mypy checks every engine against the protocols it answers (nothing runs here)
+    from .drake import DrakeSource
+    from .mujoco import MujocoSource
+    from .pinocchio import PinocchioSource
+    from .symbolic import SymbolicSource
+    from .warp import WarpSource
+
+    _SOURCES: tuple[type[Source], ...] = (HandSource, MujocoSource, PinocchioSource, SymbolicSource, DrakeSource)
+    _WITH_WARP: tuple[type[Source], ...] = (WarpSource, MappedSource)
+    _POSED: tuple[type[PosedSource], ...] = (MujocoSource, PinocchioSource, SymbolicSource, DrakeSource)
+    _ONE_STATE: tuple[type[OneStateSource], ...] = (HandSource, PinocchioSource, SymbolicSource)
+    _STEPPED: tuple[type[SteppedSource], ...] = (MujocoSource,)

@@ -1,0 +1,265 @@
+"""Pointwise comparison of the three sources at seeded random states.
+
+Results are long-format rows: one per (quantity, pair of sources), sorted, with the worst state.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..core.errors import HarnessError
+from ..core.guard import describe
+from ..core.tolerances import QUANTITY_TIER, SCALE_ALSO_BY, TOLERANCES, Tolerances
+from ..results.schema import ComparisonRow, Pointwise, WorstState
+from ..sources import make_sources
+from ..sources.base import Source
+from ..systems import System
+
+Q_RANGE = np.pi  # rad: q uniform in [-pi, pi]
+V_RANGE = 10.0  # rad/s: v uniform in [-10, 10]
+TAU_RANGE = 1.0  # N m: tau uniform in [-1, 1] where the system is actuated
+
+# The largest magnitudes a user state may have. Beyond them double precision has nothing left to
+# compare: v^2 terms pass 1e8 times the gravity terms and the tiers would judge rounding noise.
+LIMITS = {"q": (1e4, "rad"), "v": (1e4, "rad/s"), "tau": (1e6, "N m")}
+
+
+@dataclass(frozen=True)
+class States:
+    q: np.ndarray  # (N, n) rad
+    v: np.ndarray  # (N, n) rad/s
+    tau: np.ndarray  # (N, n) N m
+
+    def __len__(self) -> int:
+        return len(self.q)
+
+    def state(self, i: int) -> WorstState:
+        return {"q": self.q[i].tolist(), "v": self.v[i].tolist(), "tau": self.tau[i].tolist()}
+
+
+def random_states(system: System, *, n: int, seed: int) -> States:
+    """N seeded states, inside the joints' stated limits; tau is random only where the scene is actuated."""
+    rng = np.random.default_rng(seed)
+    nv = system.nv
+    ranges = system.joint_ranges  # a joint's stated limits narrow the draw (a real arm's, say)
+    lo, hi = np.maximum(-Q_RANGE, ranges[:, 0]), np.minimum(Q_RANGE, ranges[:, 1])
+    q = rng.uniform(lo, hi, (n, nv))
+    v = rng.uniform(-V_RANGE, V_RANGE, (n, nv))
+    if system.inputs == "u":  # the actuators' controls: tau = B u, in the range of the inputs only
+        B = system.input_matrix
+        tau = rng.uniform(-TAU_RANGE, TAU_RANGE, (n, B.shape[1])) @ B.T
+    else:
+        tau = rng.uniform(-TAU_RANGE, TAU_RANGE, (n, nv)) if "actuation" in system.uses else np.zeros((n, nv))
+    return States(q, v, tau)
+
+
+def validate_states(system: System, q: Any, v: Any, tau: Any | None = None) -> States:
+    """Checks user-given states: shapes (N, n) and finite values; errors name the problem."""
+    n = system.nv
+    arrays: dict[str, np.ndarray] = {}
+    for name, x in (("q", q), ("v", v), ("tau", tau)):
+        if x is None:
+            x = np.zeros_like(arrays["q"])
+        try:
+            arr = np.asarray(x, dtype=float)
+        except (TypeError, ValueError):
+            raise HarnessError(f"{name} must be numbers; got {x!r}.") from None
+        if arr.ndim == 1:
+            arr = arr[None]
+        if arr.ndim != 2 or arr.shape[1] != n:
+            raise HarnessError(
+                f"{name} must have {n} values per state ({', '.join(system.coordinates)}) for {system.name}; "
+                f"got shape {arr.shape[1:] if arr.ndim == 2 else arr.shape}."
+            )
+        if not np.all(np.isfinite(arr)):
+            bad = int(np.argwhere(~np.isfinite(arr))[0][0])
+            raise HarnessError(f"{name} of state {bad} is not finite ({arr[bad].tolist()}); give finite numbers.")
+        limit, unit = LIMITS[name]
+        if np.abs(arr).max(initial=0.0) > limit:
+            bad = int(np.argwhere(np.abs(arr) > limit)[0][0])
+            raise HarnessError(
+                f"{name} of state {bad} is {arr[bad].tolist()}; the harness accepts |{name}| <= {limit:g} {unit}."
+            )
+        arrays[name] = arr
+    if not (len(arrays["q"]) == len(arrays["v"]) == len(arrays["tau"])):
+        raise HarnessError("q, v and tau must describe the same number of states.")
+    return States(arrays["q"], arrays["v"], arrays["tau"])
+
+
+def evaluate(sources: Mapping[str, Source], states: States) -> dict[str, dict[str, np.ndarray]]:
+    """Every quantity from every source: {source: {quantity: (N, ...) array}}.
+
+    `qacc` is the forward dynamics at the given tau; `tau_inverse` is each source's inverse
+    dynamics at the hand source's accelerations (so it should give back tau); without a hand source
+    (the model alone), at MuJoCo's.
+    """
+    q, v, tau = states.q, states.v, states.tau
+    engines = {name: src for name, src in sources.items() if name != "hand"}
+    if "hand" not in sources:  # the model alone: the engines' inverse dynamics at MuJoCo's accelerations
+        first = engines.get("mujoco") or next(iter(engines.values()))
+        a_ref = np.nan_to_num(first.forward(q, v, tau))
+        return {name: src.evaluate(q, v, tau, a_ref) for name, src in engines.items()}
+    try:
+        with np.errstate(all="ignore"):
+            hand = sources["hand"].evaluate(q, v, tau)  # its inverse dynamics at its own accelerations
+    except Exception as exc:  # noqa: BLE001 - a derivation that raises is judged term by term (verdict.py)
+        hand = None
+        error = describe(exc)  # "mass_matrix raised ZeroDivisionError: division by zero"
+    if hand is None:
+        # Every quantity NaN, so each pointwise row fails; validate/verdict/verdict.py names the function.
+        shapes = {k: np.shape(x) for k, x in next(iter(engines.values())).evaluate(q, v, tau, q * 0).items()}
+        hand = {k: np.full(shape, np.nan) for k, shape in shapes.items()}
+        hand["error"] = error  # type: ignore[assignment]
+    a_hand = np.nan_to_num(hand["qacc"])
+    out = {"hand": hand}
+    for name, src in engines.items():
+        out[name] = src.evaluate(q, v, tau, a_hand)
+    return out
+
+
+def error_row(
+    quantity: str,
+    pair: str,
+    a: np.ndarray,
+    b: np.ndarray,
+    states: States,
+    *,
+    tier: str,
+    tolerances: Tolerances = TOLERANCES,
+    min_scale: float = 0.0,
+    cond: np.ndarray | None = None,
+) -> ComparisonRow:
+    """One row: the max absolute error, the max error relative to each state's magnitude, `scaled`
+    (results.schema.SCALED_DEFINITION: the max absolute error divided by the largest magnitude either
+    source gives the quantity over the states, or `min_scale` if larger; what the tier judges), and the
+    worst state."""
+    with np.errstate(all="ignore"):  # inf and NaN from a wrong derivation are judged, never warned about
+        n = len(states)
+        diff = np.abs(a - b).reshape(n, -1)
+        mag = np.maximum(np.abs(a), np.abs(b)).reshape(n, -1)
+        per_state = diff.max(axis=1)
+        scale = max(float(mag.max()) if mag.size else 0.0, min_scale)
+        scale = scale if scale > 0 else 1.0
+        rel = per_state / np.maximum(mag.max(axis=1), np.finfo(float).tiny)
+        worst = int(np.argmax(per_state))
+        t = getattr(tolerances, tier)
+        # Per-state tolerances where the tier scales with the mass matrix's conditioning.
+        tol = np.full(n, t.rtol) if cond is None or t.cond_factor is None else np.array([t.at(c) for c in cond])
+        rtol = float(tol.max())
+        scaled = float(per_state.max() / scale)
+        finite = bool(np.all(np.isfinite(diff)))
+        passed = finite and bool(np.all(per_state / scale <= tol))
+    row: ComparisonRow = {
+        "quantity": quantity,
+        "pair": pair,
+        "max_abs": float(per_state.max()),
+        "max_rel": float(rel.max()),
+        "scale": scale,
+        "scaled": scaled if finite else float("inf"),
+        "tier": tier,
+        "tolerance": rtol,
+        "passed": passed,
+        "worst_state": states.state(worst),
+    }
+    if cond is not None:
+        row["cond_max"] = float(np.max(cond))
+    return row
+
+
+def force_scale(M: np.ndarray, v: np.ndarray) -> float:
+    """A physical scale of the generalized forces at these states (N m): max ||M(q)||_2 x max |v|^2,
+    the size the velocity terms C(q, v) v can take. It stays meaningful where the velocity terms
+    themselves vanish at every state (a sample at gimbal lock, where they are ~1e-17 and the sample's
+    own magnitude would judge rounding noise: 0.8 of it between MuJoCo and Pinocchio)."""
+    if not len(M):
+        return 0.0
+    return float(np.linalg.norm(M, ord=2, axis=(-2, -1)).max() * np.max(np.abs(v)) ** 2)
+
+
+# The quantities scaled at least by `force_scale`: forces, and inverse dynamics (a difference of them).
+FORCE_QUANTITIES = ("bias", "passive", "tau_inverse")
+
+
+def compare(
+    values: dict[str, dict[str, np.ndarray]],
+    states: States,
+    *,
+    tolerances: Tolerances = TOLERANCES,
+    reference: str = "mujoco",
+) -> list[ComparisonRow]:
+    """Rows for every quantity and every pair of sources, sorted by quantity then pair."""
+    rows: list[ComparisonRow] = []
+    names = sorted(values)
+    cond = np.linalg.cond(values[reference]["M"]) if reference in values else None
+    forces = force_scale(values[reference]["M"], states.v) if reference in values else 0.0
+    for quantity, tier in QUANTITY_TIER.items():
+        for a, b in itertools.combinations(names, 2):
+            if quantity not in values[a] or quantity not in values[b] or np.size(values[a][quantity]) == 0:
+                continue  # a quantity the derivation does not provide (or no body to pose): not checked
+            also = [values[s][k] for k in SCALE_ALSO_BY.get(quantity, ()) for s in (a, b) if k in values[s]]
+            min_scale = max((float(np.abs(x).max()) for x in also), default=0.0)
+            min_scale = max(min_scale, forces) if quantity in FORCE_QUANTITIES else min_scale
+            rows.append(
+                error_row(
+                    quantity,
+                    f"{a}~{b}",
+                    values[a][quantity],
+                    values[b][quantity],
+                    states,
+                    tier=tier,
+                    tolerances=tolerances,
+                    min_scale=min_scale,
+                    cond=cond,
+                )
+            )
+    return sorted(rows, key=lambda r: (r["quantity"], r["pair"]))
+
+
+def pointwise(
+    system: System,
+    *,
+    n: int,
+    seed: int,
+    sources: Mapping[str, Source] | None = None,
+    tolerances: Tolerances = TOLERANCES,
+) -> Pointwise:
+    """The pointwise check of one system at `n` seeded states."""
+
+    sources = sources or make_sources(system)
+    states = random_states(system, n=n, seed=seed)
+    return pointwise_result(evaluate(sources, states), states, seed=seed, tolerances=tolerances)
+
+
+def harness_bugs(rows: list[ComparisonRow]) -> list[str]:
+    """Quantities where the symbolic derivation disagrees with both engines while they agree with
+    each other: the model's own equations were derived wrongly, a bug of the harness, not a finding
+    about the equations being checked."""
+    passed = {(r["quantity"], r["pair"]): r["passed"] for r in rows}
+    return [
+        f"{quantity}: the model's equations derived symbolically disagree with MuJoCo and Pinocchio, which agree "
+        "with each other: a bug of the harness (symbolic/derivation.py), not of the equations checked"
+        for quantity in QUANTITY_TIER
+        if passed.get((quantity, "mujoco~pinocchio"))
+        and passed.get((quantity, "mujoco~symbolic")) is False
+        and passed.get((quantity, "pinocchio~symbolic")) is False
+    ]
+
+
+def pointwise_result(
+    values: dict[str, dict[str, np.ndarray]], states: States, *, seed: int, tolerances: Tolerances = TOLERANCES
+) -> Pointwise:
+    """The pointwise check's result from already evaluated quantities (see `evaluate`)."""
+    rows = compare(values, states, tolerances=tolerances)
+    out: Pointwise = {"n_states": len(states), "seed": seed, "rows": rows, "passed": all(r["passed"] for r in rows)}
+    bugs = harness_bugs(rows)
+    if bugs:
+        out["harness_bugs"] = bugs
+    skipped = sorted(q for q in QUANTITY_TIER if any(q not in v for v in values.values()))
+    if skipped:
+        out["not_checked"] = [f"{q} (not provided by the derivation)" for q in skipped]
+    return out
