@@ -1,6 +1,6 @@
 """Spong's acrobot with Drake's parameters: a double pendulum driven at the elbow only.
 
-Symbols (all read from models/acrobot.xml; the values are Drake's AcrobotParameters defaults,
+Symbols (all read from examples/acrobot.xml; the values are Drake's AcrobotParameters defaults,
 drake/multibody/benchmarks/acrobot/make_acrobot_plant.h, after Spong 1994):
 
     m1, m2     link masses, kg                                           (Drake: 1, 1)
@@ -66,7 +66,7 @@ class Params:
 
 
 def parameters(model: Any) -> Params:
-    """Reads the parameters from the compiled MJCF (see validate/modelview.py for the keys)."""
+    """Reads the parameters from the compiled MJCF (see validate/model/modelview.py for the keys)."""
     return Params(
         m1=float(model["body/link1/mass"]),
         m2=float(model["body/link2/mass"]),

@@ -4,7 +4,7 @@ Contract form: an implicit residual. `residual(p, q, v, a, tau)` returns
 M(q) a + C(q, v) v + G(q) - passive(q, v) - tau row by row, in generalized-force units (N for the
 x row, N m for the theta row); the harness reads M and the bias forces from it.
 
-Symbols (all read from models/cart_pole.xml):
+Symbols (all read from examples/cart_pole.xml):
 
     mc                      cart mass, kg
     ccx, ccy, ccz           cart centre of mass in the cart frame, m (it only translates: these
@@ -78,7 +78,7 @@ class Params:
 
 
 def parameters(model: Any) -> Params:
-    """Reads the parameters from the compiled MJCF (see validate/modelview.py for the keys)."""
+    """Reads the parameters from the compiled MJCF (see validate/model/modelview.py for the keys)."""
     cc, pole = model["body/cart/com"], model["body/pole/pos"]
     return Params(
         mc=model["body/cart/mass"],

@@ -3,7 +3,7 @@
 Contract form: energies only. The module gives T(q, v) and V(q) (and the damping); the harness
 derives M(q) = d^2 T / dv^2 and the bias forces C(q, v) v + G(q) from the Lagrangian L = T - V.
 
-Symbols (all read from models/furuta_pendulum.xml):
+Symbols (all read from examples/furuta_pendulum.xml):
 
     h                    height of the arm's pivot above the world origin, m
     m1                   arm mass, kg
@@ -89,7 +89,7 @@ class Params:
 
 
 def parameters(model: Any) -> Params:
-    """Reads the parameters from the compiled MJCF (see validate/modelview.py for the keys)."""
+    """Reads the parameters from the compiled MJCF (see validate/model/modelview.py for the keys)."""
     c1, c2 = model["body/arm/com"], model["body/pendulum/com"]
     I1, I2 = model["body/arm/inertia"], model["body/pendulum/inertia"]
     return Params(

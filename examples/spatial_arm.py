@@ -2,7 +2,7 @@
 
 The notes' section-3 method (rotation matrices, angular velocities in body frames, T from the
 body-frame inertia, eqs 47-75) applied to a chain that leaves the plane. Symbols (all read from
-models/spatial_arm.xml; i = 1, 2, 3 for link1, link2, link3):
+examples/spatial_arm.xml; i = 1, 2, 3 for link1, link2, link3):
 
     h0                    height of link1's origin (the yaw axis' anchor) above the world origin, m
     m_i                   link masses, kg
@@ -106,7 +106,7 @@ class Params:
 
 
 def parameters(model: Any) -> Params:
-    """Reads the parameters from the compiled MJCF (see validate/modelview.py for the keys)."""
+    """Reads the parameters from the compiled MJCF (see validate/model/modelview.py for the keys)."""
     c1, c2, c3 = (model[f"body/link{i}/com"] for i in (1, 2, 3))
     d1, d2 = model["body/link2/pos"], model["body/link3/pos"]
     I2, I3 = model["body/link2/inertia"], model["body/link3/inertia"]

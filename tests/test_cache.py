@@ -194,13 +194,14 @@ def test_a_cache_that_cannot_be_written_costs_a_warning_not_the_result(tmp_path,
 
 def test_the_key_covers_the_harness_source(tmp_path, monkeypatch):
     """Editing any harness file (the tracing code that builds the reference, say) changes every key."""
-    for package in ("validate", "equations"):
-        shutil.copytree(systems.PACKAGE_ROOT / package, tmp_path / package)
-    monkeypatch.setattr(cache, "PACKAGE_ROOT", tmp_path)
+    copies = {package: tmp_path / package for package in cache.SOURCE_DIRS}
+    for package, folder in cache.SOURCE_DIRS.items():
+        shutil.copytree(folder, copies[package])
+    monkeypatch.setattr(cache, "SOURCE_DIRS", copies)
     cache.harness_hash.cache_clear()
     try:
         before = reference.cache_key(POINT, *START, GRID, check=None)
-        tracing = tmp_path / "validate" / "systems" / "tracing.py"
+        tracing = tmp_path / "validate" / "handwritten" / "tracing.py"
         tracing.write_text(tracing.read_text() + "\n# changed\n")
         cache.harness_hash.cache_clear()
         after = reference.cache_key(POINT, *START, GRID, check=None)

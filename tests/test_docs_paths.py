@@ -4,19 +4,22 @@ and comments), the README and the command line's help name is a file or folder o
 from __future__ import annotations
 
 import argparse
+import ast
 import functools
+import io
 import re
+import tokenize
 from pathlib import Path
 
 import pytest
 from lagrange_xval.cli import parser
 
 ROOT = Path(__file__).resolve().parents[1]
-SUBPACKAGES = ("systems", "engines", "checks", "dynamics", "studies", "results", "report", "replay", "cli", "public")
+SUBPACKAGES = tuple(sorted(p.name for p in (ROOT / "validate").iterdir() if (p / "__init__.py").exists()))
 # `validate/...`, `equations/...`, `models/...`, `examples/...`, `tests/...` from the checkout's top, and
 # `checks/...` and the other subpackages from validate/ (as the docstrings name them). A pattern
 # (`equations/<name>.py`, `models/{name}.xml`, `*.py`) stops the match before its placeholder.
-TOKEN = re.compile(rf"(?<![\w/.-])((?:validate|equations|models|examples|tests|{'|'.join(SUBPACKAGES)})/[\w./-]*\w)")
+TOKEN = re.compile(rf"(?<![\w/.'\"-])((?:validate|equations|models|examples|tests|{'|'.join(SUBPACKAGES)})/[\w./-]*\w)")
 EXTENSIONS = {"py", "xml", "urdf", "toml", "json", "md", "j2", "html", "csv", "rrd", "npz"}
 
 
@@ -37,10 +40,28 @@ def _help_texts() -> str:
     return "\n".join([top.format_help(), *(p.format_help() for p in sub.choices.values())])
 
 
+THIS = Path(__file__).resolve()
+
+
+def _prose(path: Path) -> str:
+    """A Python file's docstrings and comments."""
+    text = path.read_text()
+    docs = [
+        ast.get_docstring(node) or ""
+        for node in ast.walk(ast.parse(text))
+        if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef)
+    ]
+    comments = [t.string for t in tokenize.generate_tokens(io.StringIO(text).readline) if t.type == tokenize.COMMENT]
+    return "\n".join(docs + comments)
+
+
 @functools.cache
 def _sources() -> dict[str, str]:
-    files = [*sorted((ROOT / "validate").rglob("*.py")), *sorted((ROOT / "equations").rglob("*.py"))]
+    files = [*sorted(p for folder in ("validate", "equations") for p in (ROOT / folder).rglob("*.py"))]
     out = {str(p.relative_to(ROOT)): p.read_text() for p in files}
+    # examples/ and tests/: what they say (docstrings and comments), not the made-up paths their code tests with
+    for folder in ("examples", "tests"):
+        out |= {str(p.relative_to(ROOT)): _prose(p) for p in sorted((ROOT / folder).rglob("*.py")) if p != THIS}
     out["README.md"] = (ROOT / "README.md").read_text()
     out["lagrange-xval --help"] = _help_texts()
     return out

@@ -26,7 +26,7 @@ def toml_example() -> str:
 
 
 def without_energies(folder: Path, name: str = "acro") -> tuple[Path, Path]:
-    """examples/acrobot (explicit accelerations) with kinetic_energy and potential_energy cut out."""
+    """examples/acrobot.py (explicit accelerations) with kinetic_energy and potential_energy cut out."""
     source = (EXAMPLES / "acrobot.py").read_text()
     start, end = source.index("def kinetic_energy("), source.index("def body_positions(")
     (folder / f"{name}.py").write_text(source[:start] + source[end:])

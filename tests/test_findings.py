@@ -1,7 +1,7 @@
 """Issue 17: the report and the console lead with what is wrong and why, and say only what is true of
 the system they describe. Rendered for a chaotic system of the notes with wrong printed forms
 (double_pendulum_point), a damped one (gimbal), a non-chaotic one (simple_pendulum) and a user's
-own system (examples/cart_pole copied to a temporary folder)."""
+own system (examples/cart_pole.py copied to a temporary folder)."""
 
 from __future__ import annotations
 

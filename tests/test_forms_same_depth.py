@@ -136,7 +136,7 @@ def test_a_sign_slip_is_named_as_a_sign_in_every_form(form, tmp_path):
 
 
 def test_a_doubled_gear_in_an_implicit_residual_with_u_is_named_at_its_actuator(tmp_path):
-    """examples/cart_pole's residual taking the cart motor's control u, with u doubled: the actuation
+    """examples/cart_pole.py's residual taking the cart motor's control u, with u doubled: the actuation
     is named at B[x, motor_x] as an explicit u form's is."""
     source = (EXAMPLES / "cart_pole.py").read_text()
     edits = [

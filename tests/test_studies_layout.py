@@ -1,5 +1,5 @@
 """The shape of validate/studies (bench and stress): the harness's own modules imported at the top of
-each module, the engine libraries only through engines/, and no copy of an engine adapter.
+each module, the engine libraries only through sources/, and no copy of an engine adapter.
 
 Read from the source with `ast` (nothing is imported), so a violation names the file and line.
 """
@@ -15,7 +15,7 @@ STUDIES = Path(__file__).resolve().parents[1] / "validate" / "studies"
 MODULES = sorted(STUDIES.rglob("*.py"))
 # sources/mujoco.py, pinocchio.py, warp.py and drake.py load their engine when imported: they wait until used.
 LAZY_ENGINE_MODULES = {"mujoco", "pinocchio", "warp", "drake"}
-# The engine libraries' own names: calling them is the adapters' job (engines/).
+# The engine libraries' own names: calling them is the adapters' job (sources/).
 ENGINE_LIBRARIES = {"mujoco", "pinocchio"}
 
 
@@ -46,7 +46,7 @@ def test_the_harness_is_imported_at_the_top(path):
     for node in _function_imports(ast.parse(path.read_text())):
         if isinstance(node, ast.ImportFrom) and node.level:
             names = {a.name for a in node.names}
-            engine_only = (node.module or "").split(".")[-1] == "engines" and names <= LAZY_ENGINE_MODULES
+            engine_only = (node.module or "").split(".")[-1] == "sources" and names <= LAZY_ENGINE_MODULES
             if not engine_only:
                 bad.append(f"{_where(path, node)} imports from {'.' * node.level}{node.module} inside a function")
         elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith("lagrange_xval"):
@@ -57,7 +57,7 @@ def test_the_harness_is_imported_at_the_top(path):
 @pytest.mark.parametrize("path", MODULES, ids=lambda p: str(p.relative_to(STUDIES)))
 def test_no_engine_library_is_called_outside_the_engines(path):
     """No `import mujoco` or `import pinocchio` (nor `getattr(source, "inner", ...)` to reach an
-    adapter's engine objects): the studies go through engines/."""
+    adapter's engine objects): the studies go through sources/."""
     text = path.read_text()
     bad = []
     for node in ast.walk(ast.parse(text)):

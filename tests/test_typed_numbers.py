@@ -13,7 +13,7 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
 def without_assumptions(folder: Path, old: str, new: str) -> lx.System:
-    """examples/acrobot with assumptions() cut out (its probes follow what parameters() reads) and
+    """examples/acrobot.py with assumptions() cut out (its probes follow what parameters() reads) and
     `old` in parameters() replaced by the literal `new`."""
     source = (EXAMPLES / "acrobot.py").read_text()
     start, end = source.index("def assumptions("), source.index("def _inertia_terms(")

@@ -1,7 +1,54 @@
-"""The kinds of printed forms a system module can transcribe, and small helpers (numpy only).
+"""What an equations module imports: the helpers for writing the dynamics, and the kinds of printed forms.
 
-Equations modules import these by their public name, `lagrange_xval.forms` (validate/forms.py
-documents each); this file is their implementation, numpy only, imported by the harness itself.
+    from lagrange_xval.forms import body, hinge, not_provided, rot_z, stack_matrix, stack_vector
+
+Every repository module (equations/*.py, examples/*.py) imports them by this name, so a copy of one
+works from any folder. All are numpy only and broadcast over leading axes; they keep symbolic
+entries (object arrays) as they are, so dynamics written with them can be traced by the harness.
+
+Building arrays from scalar expressions:
+    stack_vector([a, b, ...]) -> (..., n)             broadcastable scalars or arrays stacked on a last axis
+    stack_matrix([[a, b], [c, d]]) -> (..., r, c)     the same for the rows of a matrix (M, a rotation)
+    rot_x(angle), rot_y(angle), rot_z(angle) -> (..., 3, 3)   rotation by `angle` (rad) about x, y or z
+
+What the derivation assumes of the compiled model (the entries of `assumptions(p)`, key -> value):
+    body(name, parent=, mass=, com=, inertia=, pos=, quat=)   one body's keys ("body/<name>/mass", ...)
+    hinge(name, body=, axis=, pos=, damping=)                 one hinge joint's keys, with no armature,
+                                                              friction loss or spring
+    planar_inertia(izz) -> (3, 3)                             a body turning about z only: Izz, the
+                                                              rest NaN (a component not depended on)
+    NAN                                                       float("nan"): "the derivation does not
+                                                              depend on this component"
+
+Functions not written yet:
+    @not_provided                      decorates a stub (`lagrange-xval new` writes them): it raises if
+                                       called, and the harness counts it as absent, never as an answer
+
+The notes' printed forms (VARIANTS, each judged against MuJoCo and Pinocchio):
+    Implicit(name, notes_equations, residual, row_scale, ...)   printed implicit equations, one row each
+    Explicit(name, notes_equations, acceleration, ...)          printed accelerations a(p, q, v, tau)
+                                                                (kind "matlab" for a Matlab function)
+    DerivationStep(name, notes_equations, quantity, evaluate)   a printed intermediate result (a centre
+                                                                of mass, an energy, a rotation) compared
+                                                                with the engines' kinematics or energies
+    Variant                                                     any of the three (a type alias)
+    NotApplicable                                               raised by a printed form evaluated where
+                                                                its stated assumptions do not hold
+    common(symbol, **values) -> float                           the notes' one symbol for parameters the
+                                                                printed forms assume equal (m for m1 and
+                                                                m2); NotApplicable where they differ
+
+The contract itself:
+    EquationsModule                                             the Protocol a module meets: `parameters(model)`
+                                                                and the dynamics in one of the forms listed in
+                                                                equations/__init__.py (the other names optional)
+
+    >>> import numpy as np
+    >>> from lagrange_xval.forms import rot_z, stack_vector
+    >>> stack_vector([np.zeros(4), 1.0]).shape
+    (4, 2)
+    >>> np.round(rot_z(np.pi / 2) @ [1.0, 0.0, 0.0], 12).tolist()
+    [0.0, 1.0, 0.0]
 
 A variant is one printed form of the notes, transcribed as printed. The harness judges each by
 comparing it with MuJoCo and Pinocchio; nothing here says which forms are right.
@@ -11,9 +58,29 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
+
+__all__ = [
+    "NAN",
+    "DerivationStep",
+    "EquationsModule",
+    "Explicit",
+    "Implicit",
+    "NotApplicable",
+    "Variant",
+    "body",
+    "common",
+    "hinge",
+    "not_provided",
+    "planar_inertia",
+    "rot_x",
+    "rot_y",
+    "rot_z",
+    "stack_matrix",
+    "stack_vector",
+]
 
 NAN = float("nan")
 
@@ -181,3 +248,13 @@ def not_provided(fn: Callable[..., Any]) -> Callable[..., Any]:
     stub.__name__, stub.__doc__ = fn.__name__, fn.__doc__
     stub.not_provided = True  # type: ignore[attr-defined]
     return stub
+
+
+@runtime_checkable
+class EquationsModule(Protocol):
+    """What the harness asks of an equations module (a Python module, or a stand-in for one: a text form's,
+    a worker's proxy): `parameters(model)`, the numbers the derivation uses read from the compiled model.
+    Everything else (COORDINATES, the dynamics in one of five forms, the energies, the printed forms) is
+    optional and read by name; equations/__init__.py lists each name and its shape."""
+
+    def parameters(self, model: Mapping[str, Any]) -> Any: ...

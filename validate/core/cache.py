@@ -41,11 +41,11 @@ from typing import Any
 
 import numpy as np
 
-from ..systems import PACKAGE_ROOT
 from .cachedir import user_folder
 from .errors import console, shown
 from .files import create_file, replace_file, stage
 from .files import folder as open_folder
+from .package import SOURCE_DIRS
 
 SCHEMA = 4  # bump when an entry's layout or meaning changes (4: the signed header holds each array's shape)
 CACHE_ENV = "LAGRANGE_XVAL_CACHE"
@@ -80,10 +80,9 @@ def folder(cache_dir: Any, kind: str) -> Path | None:
 def harness_hash() -> str:
     """SHA-256 of the harness's and the equations' source files: any code change is a new key."""
     h = hashlib.sha256()
-    for package in ("validate", "equations"):
-        base = PACKAGE_ROOT / package
+    for package, base in sorted(SOURCE_DIRS.items()):
         for path in sorted(base.rglob("*.py")):
-            h.update(str(path.relative_to(PACKAGE_ROOT)).encode() + b"\0" + path.read_bytes() + b"\0")
+            h.update(f"{package}/{path.relative_to(base)}".encode() + b"\0" + path.read_bytes() + b"\0")
     return h.hexdigest()
 
 

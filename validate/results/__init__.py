@@ -18,8 +18,20 @@ import numpy as np
 from ..core.errors import HarnessError
 from ..core.files import replace_files
 from ..core.inputs import parse_json, regular_file
-from ..systems import PACKAGE_ROOT
+from ..core.package import PACKAGE_ROOT
 from .schema import Provenance, RunResults
+
+__all__ = [
+    "MAX_RESULTS_BYTES",
+    "atomic_write",
+    "atomic_write_many",
+    "dumps",
+    "harness_version",
+    "load",
+    "provenance",
+    "schema_problem",
+    "to_jsonable",
+]
 
 PACKAGES = ("lagrange-xval", "numpy", "scipy", "mujoco", "pin", "rerun-sdk", "matplotlib", "jinja2")
 

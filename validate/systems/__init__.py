@@ -21,6 +21,9 @@ from typing import TYPE_CHECKING, Any
 from ..core.errors import HarnessError, unknown_name
 from ..core.guard import DEFAULT_TIME_LIMIT, Guard, Stopped, guard_module
 from ..core.memo import Memo
+from ..core.package import EQUATIONS_PACKAGE as EQUATIONS_PACKAGE
+from ..core.package import MODELS_DIR as MODELS_DIR
+from ..core.package import PACKAGE_ROOT as PACKAGE_ROOT
 from ..handwritten import textform
 from ..handwritten.forms import input_name, normalize
 from ..model import bounds, floating, urdf
@@ -35,9 +38,6 @@ if TYPE_CHECKING:  # numpy and mujoco are loaded when first used
     import mujoco
     import numpy as np
 
-PACKAGE_ROOT = Path(__file__).resolve().parents[2]
-MODELS_DIR = PACKAGE_ROOT / "models"
-EQUATIONS_PACKAGE = "lagrange_xval.equations"
 MODEL_SUFFIXES = (".xml", ".urdf")  # what a folder of systems is searched for (the format is the root element's)
 PAIR = "<name>.xml or <name>.urdf, and <name>.py or <name>.toml"  # the files of a system in a user's folder
 
@@ -46,6 +46,25 @@ PAIR = "<name>.xml or <name>.urdf, and <name>.py or <name>.toml"  # the files of
 # docstring, BODIES none (pose checks "not provided"), assumptions() none (the probes move what
 # parameters() reads); the physics a scene uses is read from the model.
 REQUIRED_ATTRIBUTES = ("parameters",)
+
+__all__ = [
+    "EQUATIONS_PACKAGE",
+    "MODELS_DIR",
+    "PACKAGE_ROOT",
+    "System",
+    "compile_mjcf",
+    "compile_model",
+    "from_key",
+    "key_of",
+    "load",
+    "load_all",
+    "load_module",
+    "model_view",
+    "pairs_and_lonely",
+    "pairs_in",
+    "system_names",
+    "unpaired",
+]
 
 
 def model_stems() -> set[str]:
@@ -119,7 +138,14 @@ class System:
         """A system from any model file (MJCF or URDF) and any equations module file (named after the
         module's file stem unless `name` is given); both are checked before anything is computed.
         `locked`: URDF joints made fixed, a named step listed in the alignments. `time_limit`: seconds
-        each call into the module (and its import) may take (validate/core/guard.py)."""
+        each call into the module (and its import) may take (validate/core/guard.py).
+
+            >>> from lagrange_xval import System
+            >>> from lagrange_xval.core.package import EQUATIONS_DIR, MODELS_DIR
+            >>> pendulum = System.from_files(MODELS_DIR / "simple_pendulum.xml", EQUATIONS_DIR / "simple_pendulum.py")
+            >>> pendulum.name, pendulum.coordinates, pendulum.nv
+            ('simple_pendulum', ('theta',), 1)
+        """
         model, equations = Path(model), Path(equations)
         if not model.is_file():
             raise HarnessError(f"model file not found: {model} (give an MJCF .xml or a URDF .urdf file).")
