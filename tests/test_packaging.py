@@ -13,11 +13,11 @@ import functools
 import importlib.util
 import os
 import re
+import runpy
 import shutil
 import subprocess
 import sys
 import sysconfig
-import runpy
 import tomllib
 import zipfile
 from importlib import metadata
