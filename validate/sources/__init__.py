@@ -9,6 +9,7 @@ Every source works on batches of states in the notes' coordinates: `q`, `v`, `ta
 
 from __future__ import annotations
 
+import importlib
 from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
 import numpy as np
@@ -22,6 +23,7 @@ __all__ = [
     "SOURCE_NAMES",
     "SYMBOLIC_MAX_DOF",
     "Kinematics",
+    "REGISTRY",
     "MappedSource",
     "Source",
     "Sources",
@@ -121,40 +123,34 @@ class MappedSource(Generic[S]):
         return self.A @ q, self.A @ v
 
 
+# Each source's module and class, imported when first asked for (the engines are heavy). "warp" (MuJoCo
+# Warp, float32) is asked for by name only (studies/float32.py), never a default source.
+REGISTRY: dict[str, tuple[str, str]] = {
+    "hand": ("hand", "HandSource"),
+    "mujoco": ("mujoco", "MujocoSource"),
+    "pinocchio": ("pinocchio", "PinocchioSource"),
+    "symbolic": ("symbolic", "SymbolicSource"),  # sympy: loaded when first asked for
+    "drake": ("drake", "DrakeSource"),
+    "warp": ("warp", "WarpSource"),
+}
+
+
 def make_source(system: System, name: str) -> Source:
-    """The source called `name` for `system` ("hand", "mujoco", "pinocchio", "symbolic" or "drake").
+    """The source called `name` for `system` (a key of REGISTRY: "hand", "mujoco", "pinocchio",
+    "symbolic", "drake" or "warp").
 
     Engines read joint coordinates; where the notes' coordinates are a linear map of them
     (`JOINT_MAP` in the equations module), the engine sources are wrapped in that map.
     """
-    if name == "hand":
-        return HandSource(system)
-    if name == "mujoco":  # the engines are imported here, when first asked for: they are heavy
-        from .mujoco import MujocoSource
-
-        engine: Source = MujocoSource(system)
-    elif name == "pinocchio":
-        from .pinocchio import PinocchioSource
-
-        engine = PinocchioSource(system)
-    elif name == "drake":
-        from .drake import DrakeSource, unavailable
-
-        if unavailable():
-            raise HarnessError(f"the drake source: {unavailable()}")
-        engine = DrakeSource(system)
-    elif name == "symbolic":
-        from .symbolic import SymbolicSource  # sympy: loaded when first asked for
-
-        engine = SymbolicSource(system)
-    elif name == "warp":  # MuJoCo Warp, float32: asked for by name only (studies/float32.py), never a default
-        from .warp import WarpSource
-
-        engine = WarpSource(system)
-    else:
+    if name not in REGISTRY:
         raise unknown_name("source", name, SOURCE_NAMES)
+    module_name, class_name = REGISTRY[name]
+    module = importlib.import_module(f".{module_name}", __package__)
+    if why := getattr(module, "unavailable", str)():  # an engine that is not installed says so
+        raise HarnessError(f"the {name} source: {why}")
+    engine: Source = getattr(module, class_name)(system)
     A = system.joint_map
-    return engine if A is None else MappedSource(engine, A)
+    return engine if A is None or name == "hand" else MappedSource(engine, A)
 
 
 # Beyond this many joints the symbolic source is left out: a 6-joint arm took 16 s (UR5, axis-aligned

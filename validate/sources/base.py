@@ -41,7 +41,23 @@ class Kinematics:
 class Source(Protocol):
     """What every source answers (hand, mujoco, pinocchio, symbolic, drake, warp, and a `MappedSource` of
     any of them), batched: `q`, `v`, `tau`, `a` are (N, n) arrays in the notes' coordinates and every
-    result has a leading N axis."""
+    result has a leading N axis.
+
+    Adding a source (as scipy's `OdeSolver` lists what a new solver must do):
+        1. A class in its own module of sources/, whose constructor takes the `System` and raises
+           HarnessError (one line: what the engine cannot read, and why) where it cannot build the chain.
+        2. Implement every method below in the notes' coordinates (the model's joints in order, or
+           `System.joints`): M(q), bias = C(q, v) v + G(q), passive (damping, springs at springref),
+           forward and inverse dynamics, T and V (V zero at the world origin's height), the bodies' centres
+           of mass in the world frame; `evaluate` returns them all at once for a batch.
+        3. Answer `PosedSource` too if the engine gives body frames, `OneStateSource` if it has a one-state
+           right-hand side for integrators, `SteppedSource` if it steps its own scheme.
+        4. Register it in sources/__init__.py `REGISTRY` (module and class), and add it to
+           `SOURCE_NAMES` if every system should be compared with it (else it is asked for by name).
+        5. Import the engine library only inside the module (tests/test_architecture.py holds that only
+           sources/, model/ and systems/ import an engine), and list it in the mypy check at the end of
+           sources/__init__.py.
+    """
 
     name: str
     system: System
