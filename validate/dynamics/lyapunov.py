@@ -63,35 +63,14 @@ def lyapunov_exponent(
     steps = round(t_end / interval)
     if steps < 1 or not np.isclose(steps * interval, t_end, rtol=1e-9, atol=0.0):
         raise HarnessError(f"t_end ({t_end}) must be a whole multiple of interval ({interval}).")
-    logs = np.zeros(2 * n)
-    running = []
     guard = TaylorGuard(DEFAULT_BUDGET, n)  # one budget for the whole run
     label = f"heyoka Lyapunov exponent ({method}), double"
     if method == "variational":
-        ta = variational_integrator(system, "double")
-        reset_variational(ta, n, x0, tau, 0.0, np.eye(2 * n))
-        for k in range(1, steps + 1):
-            guard.check(ta.propagate_until(k * interval, callback=guard)[0], ta, source="hand", method=label)
-            qmat, rmat = np.linalg.qr(ta.state[2 * n :].reshape(2 * n, 2 * n))
-            logs += np.log(np.abs(np.diag(rmat)))
-            ta.state[2 * n :] = qmat.ravel()
-            running.append(logs[0] / (k * interval))
+        logs, running = _variational_logs(system, x0, tau, steps=steps, interval=interval, guard=guard, label=label)
     elif method == "two trajectories":
-        ta = taylor_integrator(system, "double", None)
-        ta.pars[:] = tau
-        x, y = x0.copy(), x0 + d0 * np.ones(2 * n) / np.sqrt(2 * n)
-        for k in range(1, steps + 1):
-            ends = []
-            for state in (x, y):
-                ta.time = (k - 1) * interval
-                ta.state[:] = state
-                guard.check(ta.propagate_until(k * interval, callback=guard)[0], ta, source="hand", method=label)
-                ends.append(ta.state.copy())
-            x, sep = ends[0], ends[1] - ends[0]
-            dist = float(np.linalg.norm(sep))
-            logs[0] += np.log(dist / d0)
-            y = x + sep * (d0 / dist)
-            running.append(logs[0] / (k * interval))
+        logs, running = _two_trajectory_logs(
+            system, x0, tau, steps=steps, interval=interval, d0=d0, guard=guard, label=label
+        )
     else:
         raise unknown_name("Lyapunov method", method, ("variational", "two trajectories"))
     running_arr = np.array(running)
@@ -111,6 +90,59 @@ def lyapunov_exponent(
     else:
         out["d0"] = d0
     return out
+
+
+def _variational_logs(
+    system: System, x0: np.ndarray, tau: np.ndarray, *, steps: int, interval: float, guard: TaylorGuard, label: str
+) -> tuple[np.ndarray, list[float]]:
+    """The variational method: the summed logs of R's diagonal (the whole spectrum times t) after
+    `steps` QR restarts of Phi, and the running largest exponent after each."""
+    n = system.nv
+    logs = np.zeros(2 * n)
+    running = []
+    ta = variational_integrator(system, "double")
+    reset_variational(ta, n, x0, tau, 0.0, np.eye(2 * n))
+    for k in range(1, steps + 1):
+        guard.check(ta.propagate_until(k * interval, callback=guard)[0], ta, source="hand", method=label)
+        qmat, rmat = np.linalg.qr(ta.state[2 * n :].reshape(2 * n, 2 * n))
+        logs += np.log(np.abs(np.diag(rmat)))
+        ta.state[2 * n :] = qmat.ravel()
+        running.append(logs[0] / (k * interval))
+    return logs, running
+
+
+def _two_trajectory_logs(
+    system: System,
+    x0: np.ndarray,
+    tau: np.ndarray,
+    *,
+    steps: int,
+    interval: float,
+    d0: float,
+    guard: TaylorGuard,
+    label: str,
+) -> tuple[np.ndarray, list[float]]:
+    """The two-trajectory method: the summed log growth of the separation in logs[0] (the rest stay
+    zero) after `steps` pull-backs to d0, and the running largest exponent after each."""
+    n = system.nv
+    logs = np.zeros(2 * n)
+    running = []
+    ta = taylor_integrator(system, "double", None)
+    ta.pars[:] = tau
+    x, y = x0.copy(), x0 + d0 * np.ones(2 * n) / np.sqrt(2 * n)
+    for k in range(1, steps + 1):
+        ends = []
+        for state in (x, y):
+            ta.time = (k - 1) * interval
+            ta.state[:] = state
+            guard.check(ta.propagate_until(k * interval, callback=guard)[0], ta, source="hand", method=label)
+            ends.append(ta.state.copy())
+        x, sep = ends[0], ends[1] - ends[0]
+        dist = float(np.linalg.norm(sep))
+        logs[0] += np.log(dist / d0)
+        y = x + sep * (d0 / dist)
+        running.append(logs[0] / (k * interval))
+    return logs, running
 
 
 @functools.lru_cache(maxsize=64)  # one per (system, start): bounded, recomputed when dropped

@@ -379,25 +379,9 @@ def reference_trajectory(
     if where is not None:
         key = cache_key(system, q0, v0, tau, t, check=check)
         path = where / f"{system.name}-{key}.npz"
-        entry = cache.load(path, key)
-        if entry is not None:
-            arrays, stored = entry
-            traj = Trajectory(
-                "hand",
-                f"reference: {stored.get('method')}",
-                arrays.get("t", np.empty(0)),
-                arrays.get("q", np.empty((0, n))),
-                arrays.get("v", np.empty((0, n))),
-                {"steps": stored.get("steps")},
-            )
-            rhs = _checked_rhs(system)  # the trace is checked on every read, before the window check uses it
-            problem = _content_problem(system, traj, q0, v0, tau, t)
-            if problem is None:
-                stored["rhs_check"] = rhs
-                stored.update(cache="hit", cache_file=str(path))
-                stored["timing"]["load_s"] = time.perf_counter() - start
-                return traj, stored
-            cache.invalid(path, problem)
+        hit = _cached_reference(system, path, key, q0, v0, tau, t, start=start)
+        if hit is not None:
+            return hit
 
     primary = PRIMARY if _extended_available() else CHECK
     states, meta = taylor_solve(system, q0, v0, tau, t, precision=primary)
@@ -433,6 +417,43 @@ def reference_trajectory(
     else:
         info.update(cache="off", cache_file=None)
     return traj, info
+
+
+def _cached_reference(
+    system: System,
+    path: Path,
+    key: str,
+    q0: np.ndarray,
+    v0: np.ndarray,
+    tau: np.ndarray,
+    t: np.ndarray,
+    *,
+    start: float,
+) -> tuple[Trajectory, dict[str, Any]] | None:
+    """`reference_trajectory`'s answer from the cache entry at `path`, or None when there is none or it
+    fails the checks (then it is reported invalid)."""
+    n = system.nv
+    entry = cache.load(path, key)
+    if entry is None:
+        return None
+    arrays, stored = entry
+    traj = Trajectory(
+        "hand",
+        f"reference: {stored.get('method')}",
+        arrays.get("t", np.empty(0)),
+        arrays.get("q", np.empty((0, n))),
+        arrays.get("v", np.empty((0, n))),
+        {"steps": stored.get("steps")},
+    )
+    rhs = _checked_rhs(system)  # the trace is checked on every read, before the window check uses it
+    problem = _content_problem(system, traj, q0, v0, tau, t)
+    if problem is not None:
+        cache.invalid(path, problem)
+        return None
+    stored["rhs_check"] = rhs
+    stored.update(cache="hit", cache_file=str(path))
+    stored["timing"]["load_s"] = time.perf_counter() - start
+    return traj, stored
 
 
 def _checked_rhs(system: System) -> float:
