@@ -5,7 +5,7 @@ person makes deriving the equations by hand (as the lecture notes do): a wrong s
 length or factor 2, a sign, sin for cos, a dropped term, a wrong key read from the model. Its
 `terms` say which terms of the equations the mistake changes, and `hidden` whether the mistake
 is invisible at the repository model's own parameters (m1 = m2, l1 = l2, c1 = c2, I1 = I2, equal
-damping, unit lengths). tests/test_mutation_catalogue.py establishes both, independently of the
+damping, unit lengths). tests/unit/verdict/test_mutation_catalogue.py establishes both, independently of the
 harness's verdict code.
 
 Term vocabulary (what `term_values` computes; "parameters" is what parameters() returns):

@@ -8,7 +8,7 @@ joints taken from the root down. From it: the joints' anchors and axes and the g
 mass at q (forward kinematics), the space Jacobian, M(q) = sum_k J_k^T diag(m_k, I_k) J_k + armature, the
 gravity torques G(q) = -sum_k m_k J_vk^T g and the bias C(q, v) v + G(q) from the Jacobian's time
 derivative (dS_i/dt = ad_{V_parent(i)} S_i). So two files are compared by what each means, with no
-engine between the file and the numbers; tests/test_audit.py checks these against MuJoCo's own M and
+engine between the file and the numbers; tests/unit/audit/test_audit.py checks these against MuJoCo's own M and
 bias on MuJoCo's reading of a chain.
 
 Shapes: q, v (N, n) in `order(reading)`'s joint order; M (N, n, n); G, bias (N, n).

@@ -1,7 +1,7 @@
 """The catalogue of known importer behaviours (issue 33): what MuJoCo, Pinocchio and Drake each do with
 a model file that its format means otherwise, each entry with where it was reported and the reader
 that shows it on the versions in requirements.lock (MuJoCo 4.0.0, Pinocchio 4.1.0, Drake 1.51.1;
-each checked by a planted case in tests/test_audit.py, not assumed).
+each checked by a planted case in tests/unit/audit/test_audit.py, not assumed).
 
 The audit (validate/audit/audit.py) names the entry that explains each difference between a reader
 and the format's meaning: an entry applies when its reader, format and field match the difference and

@@ -7,6 +7,19 @@ hamiltonian  form (e), H(q, pm), brought to the energies of form (d)
 tracing      the module's numpy code traced with symbolic values (code generation, the reference)
 values       what a function returns, made a real float array or refused by name
 reads        which model numbers `parameters(model)` reads
+textcode     the text form's expressions as a numpy module, run in the worker like a person's module
 """
 
-__all__ = ["child", "expression", "forms", "hamiltonian", "proxy", "reads", "textform", "tracing", "values", "worker"]
+__all__ = [
+    "child",
+    "expression",
+    "forms",
+    "hamiltonian",
+    "proxy",
+    "reads",
+    "textcode",
+    "textform",
+    "tracing",
+    "values",
+    "worker",
+]

@@ -8,6 +8,7 @@ urdf         a URDF read by each engine's own parser; inertia: its defects found
 bounds       what a file may hold before it is compiled, and what its numbers must be
 overrides, set_values   parameters written into the MJCF text at full precision
 meaning      what the format means, field by field, in one frame (the audit's yardstick)
+start        Start(q0, v0, tau) and Scheme(integrator, timestep): where a run starts, how it is stepped
 """
 
 __all__ = [
@@ -20,5 +21,6 @@ __all__ = [
     "overrides",
     "scope",
     "set_values",
+    "start",
     "urdf",
 ]

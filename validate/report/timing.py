@@ -8,7 +8,7 @@ from .document import Document
 
 TIMING = "Where the time went"
 # A stage named as the module names it: the table spans every system, and a system without printed
-# forms must read no sentence about them (tests/test_findings.py).
+# forms must read no sentence about them (tests/unit/report/test_findings.py).
 SHOWN = {"printed forms": "VARIANTS"}
 
 

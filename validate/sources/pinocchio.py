@@ -26,7 +26,7 @@ from .readers import failure
 # convention only, whose spatial inertias about the world origin lose accuracy with the lever arms:
 # on double_pendulum_point with m2/50 and l2 = l1/20 (cond(M) 2e4) qacc differs from the symbolic
 # equations by 1.3e-13 of its scale in the world convention against 1.4e-15 in the local one
-# (tests/test_no_false_alarm.py), so the batch's ~1 ms per 1,000 states does not pay.
+# (tests/unit/verdict/test_no_false_alarm.py), so the batch's ~1 ms per 1,000 states does not pay.
 LOCAL = pin.Convention.LOCAL
 
 
@@ -166,7 +166,7 @@ class PinocchioSource:
     def _in_c(self, algorithm: Any, qs: np.ndarray, vs: np.ndarray, x: np.ndarray) -> np.ndarray:
         """RNEA at N states in one call: Pinocchio's C++ loop over the columns (`rneaInParallel` on one
         thread, so no OpenMP thread outlives the call; equal bit for bit to `rnea` called per state,
-        tests/test_batch.py). `qs`, `vs`: the states as `_qs`, `_vs` give them (built once per batch);
+        tests/unit/sources/test_batch.py). `qs`, `vs`: the states as `_qs`, `_vs` give them (built once per batch);
         x (N, n). Returns (N, n)."""
         if self._pool is None:
             self._pool = pin.ModelPool(self.model, 1)

@@ -230,7 +230,7 @@ def test_a_cache_dir_inside_out_is_refused_before_work(tmp_path, capsys, where):
 
 
 def test_a_folder_where_report_html_goes_is_replaced_by_the_report(tmp_path, capsys):
-    """The folder is one of the earlier set's names (tests/test_outputs.py): the new set replaces it."""
+    """The folder is one of the earlier set's names (tests/unit/cli/test_outputs.py): the new set replaces it."""
     out = tmp_path / "out"
     (out / "report.html").mkdir(parents=True)
     assert _run(out) == 0

@@ -1,7 +1,7 @@
 """What the fast-harness ratios are measured against: the double pendulum's right-hand side written
 by hand with `math` (and with a 2x2 numpy solve, for context), and the pointwise check's quantities
 as the minimal calls (the equations module called directly; MuJoCo's and Pinocchio's raw loops in
-sources/baselines.py). They are timing baselines, run by the bench beside the harness; tests/test_bench.py
+sources/baselines.py). They are timing baselines, run by the bench beside the harness; tests/unit/studies/test_bench.py
 holds each equal to what it stands for (the generated fast path, the equations module, the harness's
 values bit for bit), as MuJoCo's rollout_test.py holds its fast path to a plain loop.
 """
