@@ -8,10 +8,10 @@ import doctest
 import lagrange_xval
 import lagrange_xval.forms
 import pytest
-from lagrange_xval import systems
+from lagrange_xval.systems import system
 
 
-@pytest.mark.parametrize("module", [lagrange_xval, lagrange_xval.forms, systems], ids=lambda m: m.__name__)
+@pytest.mark.parametrize("module", [lagrange_xval, lagrange_xval.forms, system], ids=lambda m: m.__name__)
 def test_the_examples_run(module):
     failed, attempted = doctest.testmod(module, optionflags=doctest.NORMALIZE_WHITESPACE)
     assert attempted > 0, f"{module.__name__} has no example"

@@ -125,11 +125,11 @@ def _without(module_name: str, attribute: str, monkeypatch):
 def test_list_names_a_module_missing_an_attribute_as_broken_and_lists_the_others(capsys, monkeypatch):
     names = systems.system_names()
     _without(names[-1], "parameters", monkeypatch)
-    systems._equations_module.cache_clear()
+    systems.loader.repository_module.cache_clear()
     try:
         status = main(["list"])
     finally:
-        systems._equations_module.cache_clear()
+        systems.loader.repository_module.cache_clear()
     out = capsys.readouterr().out
     assert status == 1
     assert f"{names[-1]}: BROKEN: equations/{names[-1]}.py lacks parameters(model)" in out, out
@@ -147,7 +147,7 @@ def lonely_models(tmp_path, monkeypatch):
         if name != "double_pendulum_bars":
             shutil.copy(systems.MODELS_DIR / f"{name}.xml", models / f"{name}.xml")
     shutil.copy(systems.MODELS_DIR / "simple_pendulum.xml", models / "lonely.xml")
-    monkeypatch.setattr(systems, "MODELS_DIR", models)
+    monkeypatch.setattr(systems.registry, "MODELS_DIR", models)
     return tmp_path
 
 

@@ -198,12 +198,12 @@ def test_a_broken_equations_module_does_not_hide_the_others(capsys, monkeypatch)
             raise SyntaxError("invalid syntax", (f"{names[0]}.py", 12, 1, "x = = 1\n"))
         return real(name, *args)
 
-    systems._equations_module.cache_clear()
+    systems.loader.repository_module.cache_clear()
     monkeypatch.setattr(systems.importlib, "import_module", syntax_error_in_one)
     try:
         assert main(["list"]) == 1
     finally:
-        systems._equations_module.cache_clear()
+        systems.loader.repository_module.cache_clear()
     captured = capsys.readouterr()
     assert f"{names[0]}: BROKEN: equations/{names[0]}.py: syntax error at line 12" in captured.out, captured.out
     for name in names[1:]:

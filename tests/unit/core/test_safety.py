@@ -258,12 +258,12 @@ def test_a_repository_module_with_a_syntax_error_is_one_line_for_check(capsys, m
             raise SyntaxError("invalid syntax", ("simple_pendulum.py", 3, 1, "x = = 1\n"))
         return real(name, *args)
 
-    systems._equations_module.cache_clear()
+    systems.loader.repository_module.cache_clear()
     monkeypatch.setattr(systems.importlib, "import_module", broken)
     try:
         assert main(["check", "simple_pendulum", "--states", "5"]) == 2
     finally:
-        systems._equations_module.cache_clear()
+        systems.loader.repository_module.cache_clear()
     _one_error_line(capsys, "equations/simple_pendulum.py: syntax error at line 3")
 
 

@@ -180,7 +180,7 @@ def test_check_of_a_repository_system_whose_model_cannot_be_read_is_one_line(
         shutil.copy(path, models / path.name)
     (tmp_path / "inc.xml").write_text('<mujoco><option timestep="0.002"/></mujoco>')
     (models / "simple_pendulum.xml").write_text(_repository_model(case, tmp_path))
-    monkeypatch.setattr(systems, "MODELS_DIR", models)
+    monkeypatch.setattr(systems.registry, "MODELS_DIR", models)
     assert main(["check", "simple_pendulum", "--states", "5"]) == 2
     captured = capsys.readouterr()
     lines = captured.err.splitlines()
