@@ -25,6 +25,7 @@ from .dynamics.freeruns import (
     reference_dir,
     trajectory_results,
 )
+from .dynamics.stagecache import cached_stage
 from .engines.base import stepped
 from .errors import HarnessError
 from .guard import DEFAULT_TIME_LIMIT, Stopped
@@ -202,18 +203,33 @@ def _run_stages(
             ),
             clock,
         )
-        notes_experiments = _stage(stages, "experiments", lambda: experiments.run_experiments(system), clock)
+        notes_experiments = _stage(
+            stages,
+            "experiments",
+            lambda: cached_stage(
+                cache, system, sources, "experiments", [], lambda: experiments.run_experiments(system)
+            ),
+            clock,
+        )
+        mirrors = tuple(e for e in ("hand", "pinocchio") if e not in (decision.excluded or {}))
         cross = _stage(
             stages,
             "chaos",
-            lambda: chaos.crossvalidate(
+            lambda: cached_stage(
+                cache,
                 system,
                 sources,
-                t_end=t_end,
-                dt_out=dt_out,
-                integrators=RUN_INTEGRATORS,
-                mirror_engines=tuple(e for e in ("hand", "pinocchio") if e not in (decision.excluded or {})),
-                cache_dir=reference_dir(cache),
+                "chaos",
+                [t_end, dt_out, RUN_INTEGRATORS, mirrors],
+                lambda: chaos.crossvalidate(
+                    system,
+                    sources,
+                    t_end=t_end,
+                    dt_out=dt_out,
+                    integrators=RUN_INTEGRATORS,
+                    mirror_engines=mirrors,
+                    cache_dir=reference_dir(cache),
+                ),
             ),
             clock,
         )

@@ -213,6 +213,8 @@ def cached_line(results: dict[str, Any]) -> str:
             for kind, info in (
                 ("reference solution", (s.get("trajectories") or {}).get("reference_info")),
                 ("chaos summary", chaos.get("chaos")),
+                ("chaos and mirrors", chaos),
+                ("experiments", s.get("experiments")),
             )
             if isinstance(info, dict) and info.get("cache") == "hit"
         ]
