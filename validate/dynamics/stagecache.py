@@ -42,12 +42,9 @@ def _versions() -> dict[str, str]:
 
 def _mjb(source: Source) -> str:
     """SHA-256 of the compiled MuJoCo scene the runs step (MJB bytes)."""
-    import mujoco
+    from ..engines.mujoco import model_digest
 
-    m = stepped(source).m
-    buf = np.zeros(mujoco.mj_sizeModel(m), dtype=np.uint8)
-    mujoco.mj_saveModel(m, None, buf)
-    return hashlib.sha256(buf.tobytes()).hexdigest()
+    return model_digest(stepped(source).m)
 
 
 def content_key(system: System, sources: Mapping[str, Source], stage: str, arguments: Any) -> str:
