@@ -25,7 +25,7 @@ from .dynamics.freeruns import (
     reference_dir,
     trajectory_results,
 )
-from .dynamics.stagecache import cached_stage
+from .dynamics.stagecache import cached_stage, states_digest
 from .engines.base import stepped
 from .errors import HarnessError
 from .guard import DEFAULT_TIME_LIMIT, Stopped
@@ -175,9 +175,18 @@ def _run_stages(
         _stage(
             stages,
             "printed forms",
-            lambda: judge.judge_system(
-                system, states, sources, values=values, n_probes=n_probes, seed=seed, cache=cache
-            ),
+            lambda: cached_stage(
+                cache,
+                system,
+                sources,
+                "printed forms",
+                [states_digest(states), n_probes, seed],
+                lambda: {
+                    "variants": judge.judge_system(
+                        system, states, sources, values=values, n_probes=n_probes, seed=seed, cache=cache
+                    )
+                },
+            )["variants"],
             clock,
         )
         if system.variants  # a system with no printed form has no such stage
@@ -482,18 +491,15 @@ def _outcome(future: Any, system: System) -> tuple[SystemResult, Any]:
 # What every `run` worker imports (engines, symbolic tools, the report's figures and recordings): about
 # 3 s of CPU per process on this machine. Imported once in the parent before its pool forks, each
 # worker inherits them instead of importing them again (5 systems: about 12 s of CPU saved).
-WORKER_MODULES = (
+WORKER_MODULES: tuple[str, ...] = (
     "mujoco",
     "pinocchio",
     "pydrake.multibody.plant",
     "pydrake.multibody.parsing",
     "sympy",
     "heyoka",
-    "scipy.integrate",
-    "matplotlib.figure",
-    "matplotlib.backends.backend_agg",
-    "rerun",
 )
+WORKER_MODULES += ("scipy.integrate", "matplotlib.figure", "matplotlib.backends.backend_agg", "rerun")
 
 
 def preload(modules: tuple[str, ...] = WORKER_MODULES) -> list[str]:

@@ -47,6 +47,14 @@ def _mjb(source: Source) -> str:
     return model_digest(stepped(source).m)
 
 
+def states_digest(states: Any) -> str:
+    """SHA-256 of sample states' q, v and tau (a stage judged at them is keyed by them)."""
+    h = hashlib.sha256()
+    for x in (states.q, states.v, states.tau):
+        h.update(np.ascontiguousarray(x, dtype=float).tobytes())
+    return h.hexdigest()
+
+
 def content_key(system: System, sources: Mapping[str, Source], stage: str, arguments: Any) -> str:
     """Hash of everything `stage` of `system` depends on (see the module docstring)."""
     module_file = getattr(system.equations, "__file__", None)
