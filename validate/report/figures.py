@@ -9,6 +9,7 @@ import math
 from typing import Any
 
 from .document import FIG_DPI, MAX_PLOT_POINTS, PAIR_COLOURS, SOURCE_STYLE, as_float, sci
+from .figstore import kept
 
 
 def _plain_log_labels(fig: Any) -> None:
@@ -130,6 +131,7 @@ def series(values: Any) -> Any:
         )
 
 
+@kept
 def pointwise_figure(name: str, rows: list[dict[str, Any]]) -> bytes:
     """Scaled error of every quantity and source pair on a log axis, tolerance marked."""
     import numpy as np
@@ -194,6 +196,7 @@ def run_style(run: dict[str, Any]) -> tuple[str, Any, float]:
     return SOURCE_STYLE.get(run["source"], ("#6b7280", "-", 1.2))
 
 
+@kept
 def trajectory_figure(name: str, coords: list[str], t: Any, runs: list[dict[str, Any]]) -> bytes:
     """q against t, every source overlaid, one panel per coordinate."""
     k = stride(len(t))
@@ -214,6 +217,7 @@ def trajectory_figure(name: str, coords: list[str], t: Any, runs: list[dict[str,
         return png(fig)
 
 
+@kept
 def error_figure(name: str, t: Any, runs: list[dict[str, Any]], threshold: float, reference: str) -> bytes:
     """log10 of the distance to the reference trajectory, threshold marked."""
     import numpy as np
@@ -252,6 +256,7 @@ def error_figure(name: str, t: Any, runs: list[dict[str, Any]], threshold: float
         return png(fig)
 
 
+@kept
 def energy_figure(name: str, t: Any, runs: list[dict[str, Any]]) -> bytes:
     """E(t) - E(0) of every source (the hand equations' energy along each trajectory)."""
     k = stride(len(t))
