@@ -240,7 +240,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             executor=executor,
             n_probes=args.probes,
             files=files,
-            after=functools.partial(render_system, replay=not args.no_replay),  # in the workers, overlapped
+            after=functools.partial(render_system, replay=not args.no_replay, cache=cache),  # in the workers
             rendered=rendered,
             locked=locked,
             cache=cache,

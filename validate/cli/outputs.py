@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import ctypes
 import errno
+import hashlib
 import os
 import shutil
 import sys
@@ -21,10 +22,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, cast
 
+import numpy as np
+
+from ..core.cache import harness_hash
+from ..core.cache import load as load_entry
+from ..core.cache import store as store_entry
+from ..core.cachedir import Cache
 from ..core.errors import HarnessError
 from ..core.files import folder, new_file
 from ..replay import render_system as render_rrd
 from ..report import ReplayHint, render, system_section
+from ..report.figstore import kept_in
 from ..results import dumps
 from ..results.schema import ReportInput, SystemResult
 
@@ -131,16 +139,43 @@ class SystemFiles:
     rrd: bytes | None  # its rerun recording (None: no trajectories, or replays not asked for)
 
 
-def render_system(name: str, result: SystemResult, meta: dict[str, Any], *, replay: bool = True) -> SystemFiles | None:
+def render_system(
+    name: str, result: SystemResult, meta: dict[str, Any], *, replay: bool = True, cache: Cache | None = None
+) -> SystemFiles | None:
     """A system's report section and recording, from its results alone: `run` calls this in the
     worker that computed them, so rendering overlaps the other systems' work. None if rendering
-    fails (the final render then tries again in the parent and reports the failure there)."""
+    fails (the final render then tries again in the parent and reports the failure there). `cache`:
+    where its figures are kept by content (report/figstore.py; None: drawn every time)."""
 
     try:
         rrd = render_rrd(name, result, meta=meta) if replay and result.get("trajectories") else None
-        return SystemFiles(system_section(name, result), rrd)
+        with kept_in(CachedFigures(cache) if cache is not None and cache.enabled else None):
+            return SystemFiles(system_section(name, result), rrd)
     except Exception:  # noqa: BLE001 - rendered again, with its error, by write_all
         return None
+
+
+@dataclass(frozen=True)
+class CachedFigures:
+    """The report's figures kept in a cache's `figures` folder (verified entries, core/cache.py),
+    keyed by the figure's own key and the harness's source."""
+
+    cache: Cache
+
+    def _where(self, key: str) -> tuple[Path, str] | None:
+        base = self.cache.folder("figures")
+        full = hashlib.sha256((harness_hash() + key).encode()).hexdigest()
+        return None if base is None else (base / f"{full[:32]}.npz", full)
+
+    def get(self, key: str) -> bytes | None:
+        where = self._where(key)
+        found = None if where is None else load_entry(*where)
+        return None if found is None or "png" not in found[0] else found[0]["png"].tobytes()
+
+    def put(self, key: str, png: bytes) -> None:
+        where = self._where(key)
+        if where is not None:
+            store_entry(where[0], where[1], {"png": np.frombuffer(png, dtype=np.uint8)}, {})
 
 
 def write_all(

@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 DEFAULT_MAX_BYTES = 2 * 1024**3  # 2 GiB: a `run` of the notes' systems keeps about 60 MB
-KINDS = ("reference", "chaos", "derive", "explain")  # the folders a cache holds, one per kind of entry
+KINDS = ("reference", "chaos", "derive", "explain", "figures")  # the folders a cache holds, one per kind of entry
 ENTRY_SUFFIX = ".npz"
 
 

@@ -19,6 +19,7 @@ from ..systems import System
 from . import estimate, experiments, fast, integrate, trust
 from .integrate import Trajectory
 from .reference import reference_trajectory
+from .stagecache import cached_stage, states_digest
 
 # Drake's free run is error-controlled (runge_kutta3 at a target accuracy), whose error does not scale with
 # the accuracy asked: its rerun at a tenth of it can underestimate the error tenfold (cart_pole: 1.2e-6 rad
@@ -81,7 +82,7 @@ def trajectory_results(
     perturbed = fast.accurate_trajectory(system, sources["hand"], q0b, v0, tau, t)
     perturbed.stats["label"] = f"{system.coordinates[-1]}0 + {experiments.PERTURBATION:g}"
     lap(clock, "trajectories: perturbed start")
-    estimates = [estimate.run_estimate(system, sources, tr, start) for tr in trajs]
+    estimates = run_estimates(system, sources, trajs, start, cache)
     lap(clock, "estimates")
     runs = [_run_entry(system, sources, tr, ref, est) for tr, est in zip(trajs, estimates, strict=True)]
     for run in runs:
@@ -104,6 +105,31 @@ def trajectory_results(
         "safety": estimate.SAFETY,
         "runs": runs,
     }
+
+
+def run_estimates(
+    system: System, sources: Mapping[str, Source], trajs: list[Any], start: Start, cache: Cache | None
+) -> list[tuple[np.ndarray, str]]:
+    """Each run's own error estimate (dynamics/estimate.py), kept in `cache` by content: the system's,
+    the start's and each run's own samples (its q digest), so an estimate is read back only for the
+    very run it estimates."""
+    runs = [[tr.source, tr.method, states_digest(_Samples(tr.q, tr.v))] for tr in trajs]
+    stored = cached_stage(
+        cache,
+        system,
+        sources,
+        "estimates",
+        [runs, [np.asarray(x, dtype=float).tolist() for x in (start.q0, start.v0, start.tau)]],
+        lambda: {"estimates": [estimate.run_estimate(system, sources, tr, start) for tr in trajs]},
+    )
+    return [(np.asarray(est, dtype=float), str(how)) for est, how in stored["estimates"]]
+
+
+class _Samples:
+    """A run's samples as `states_digest` reads them (q, v; no input)."""
+
+    def __init__(self, q: np.ndarray, v: np.ndarray) -> None:
+        self.q, self.v, self.tau = q, v, np.zeros(0)
 
 
 def _start_and_reference(

@@ -10,6 +10,7 @@ from typing import Any
 
 from ..results.schema import ComparisonRow, FreeRun
 from .document import FIG_DPI, MAX_PLOT_POINTS, PAIR_COLOURS, SOURCE_STYLE, as_float, sci
+from .figstore import kept
 
 
 def _plain_log_labels(fig: Any) -> None:
@@ -131,6 +132,7 @@ def series(values: Any) -> Any:
         )
 
 
+@kept
 def pointwise_figure(name: str, rows: list[ComparisonRow]) -> bytes:
     """Scaled error of every quantity and source pair on a log axis, tolerance marked."""
     import numpy as np
@@ -195,6 +197,7 @@ def run_style(run: FreeRun) -> tuple[str, Any, float]:
     return SOURCE_STYLE.get(run["source"], ("#6b7280", "-", 1.2))
 
 
+@kept
 def trajectory_figure(name: str, coords: list[str], t: Any, runs: list[FreeRun]) -> bytes:
     """q against t, every source overlaid, one panel per coordinate."""
     k = stride(len(t))
@@ -215,6 +218,7 @@ def trajectory_figure(name: str, coords: list[str], t: Any, runs: list[FreeRun])
         return png(fig)
 
 
+@kept
 def error_figure(name: str, t: Any, runs: list[FreeRun], threshold: float, reference: str) -> bytes:
     """log10 of the distance to the reference trajectory, threshold marked."""
     import numpy as np
@@ -253,6 +257,7 @@ def error_figure(name: str, t: Any, runs: list[FreeRun], threshold: float, refer
         return png(fig)
 
 
+@kept
 def energy_figure(name: str, t: Any, runs: list[FreeRun]) -> bytes:
     """E(t) - E(0) of every source (the hand equations' energy along each trajectory)."""
     k = stride(len(t))

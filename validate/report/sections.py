@@ -225,6 +225,8 @@ def cached_line(results: RunResults) -> str:
             for kind, info in (
                 ("reference solution", (s.get("trajectories") or {}).get("reference_info")),
                 ("chaos summary", chaos.get("chaos")),
+                ("chaos and mirrors", chaos),
+                ("experiments", s.get("experiments")),
             )
             if isinstance(info, dict) and info.get("cache") == "hit"
         ]

@@ -25,6 +25,7 @@ from .document import (
     vec,
     verdict_mark,
 )
+from .figstore import kept
 from .figures import LEGEND_W, legend_right, new_figure, png, rc, series
 from .findings import (
     CHAOS_LAMBDA,
@@ -545,6 +546,7 @@ def system_experiments(doc: Document, name: str, s: SystemResult) -> None:
     _experiment_figure_section(doc, name, ex, notes, solver_first)
 
 
+@kept
 def experiment_figure(name: str, ex: dict[str, Any], runs: list[dict[str, Any]], *, notes: bool = False) -> bytes:
     """The perturbed coordinate from both starts at each tolerance, one panel per tolerance; the legend
     on the right, clear of the curves."""

@@ -321,6 +321,15 @@ class MujocoSource:
 # for the call and restored after, and MuJoCo's warnings read (it resets the state after one).
 
 
+def model_digest(m: Any) -> str:
+    """SHA-256 of a compiled model's binary (MJB) form: every number, option and flag it holds."""
+    import hashlib
+
+    buf = np.zeros(mujoco.mj_sizeModel(m), dtype=np.uint8)
+    mujoco.mj_saveModel(m, None, buf)
+    return hashlib.sha256(buf.tobytes()).hexdigest()
+
+
 def integrator_enum(name: str) -> Any:
     """MuJoCo's enum value for an integrator name; an unknown name lists the valid ones."""
     if name not in MUJOCO_INTEGRATORS:

@@ -272,11 +272,11 @@ def test_run_uses_the_cache_dir_and_the_report_says_what_came_from_it(tmp_path, 
     args = ["run", "simple_pendulum", "--states", "10", "--no-replay", "--out", str(tmp_path / "r")]
     assert main([*args, "--cache-dir", str(tmp_path / "c")]) == 0
     assert "from the cache | nothing" in (tmp_path / "r" / "report.md").read_text()
-    assert sorted(p.name for p in (tmp_path / "c").iterdir()) == ["chaos", "derive", "reference"]
+    assert sorted(p.name for p in (tmp_path / "c").iterdir()) == ["chaos", "derive", "figures", "reference"]
     assert not (tmp_path / "r" / ".cache").exists()
     assert main([*args, "--cache-dir", str(tmp_path / "c")]) == 0
     report = (tmp_path / "r" / "report.md").read_text()
-    assert "from the cache | simple_pendulum (reference solution, chaos summary)" in report
+    assert "from the cache | simple_pendulum (reference solution, chaos and mirrors, experiments)" in report
     assert os.environ.get(cache.CACHE_ENV) == before
     capsys.readouterr()
 

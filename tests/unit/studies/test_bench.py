@@ -292,3 +292,31 @@ def test_unknown_system_and_bad_repeats_are_one_line_errors():
         bench.run_bench(["double_pendulum_pointt"], plan=QUICK)
     with pytest.raises(HarnessError, match="repeats"):
         bench.run_bench([DP], plan=replace(QUICK, repeats=0))
+
+
+def test_run_time_is_judged_on_the_warm_median_and_states_fresh_beside_it(monkeypatch, capsys):
+    """`bench --run-time` passes or fails on the warm cache's median against the 5 s target alone, and
+    prints the fresh machine's and the cold cache's medians beside it with each condition's stages."""
+    from lagrange_xval.studies.bench import output
+
+    def fake(warm: float) -> dict:
+        medians = {"fresh machine": 30.0, "cold cache": 12.0, "warm cache": warm}
+        return {
+            "target": FULL.run_warm_target_s,
+            "passed": warm <= FULL.run_warm_target_s,
+            "median_s": medians,
+            "wall_s_all": {c: [m] for c, m in medians.items()},
+            "cpu_s_all": {c: [m] for c, m in medians.items()},
+            "stages_s": {c: {"chaos": 1.0, "pointwise": 0.5} for c in medians},
+            "exit_codes": [0, 0, 0],
+        }
+
+    assert FULL.run_warm_target_s == 5.0
+    monkeypatch.setattr(output, "run_wall_times", lambda plan: fake(4.0))
+    assert output.run_time_command(FULL) == 0
+    text = capsys.readouterr().out
+    assert "meets the target (warm <= 5 s): warm 4.0 s (fresh machine 30.0 s, cold cache 12.0 s" in text
+    assert "stages, s summed over the systems: chaos 1.0, pointwise 0.5" in text
+    monkeypatch.setattr(output, "run_wall_times", lambda plan: fake(5.5))
+    assert output.run_time_command(FULL) == 1
+    assert "MISSES the target (warm <= 5 s): warm 5.5 s" in capsys.readouterr().out
