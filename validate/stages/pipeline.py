@@ -167,12 +167,37 @@ def _run_stages(
         return _unreadable(decision)
     if decision.model_only:
         return model_only_result(decision, t_end=t_end, dt_out=dt_out, cache=cache, clock=clock)
-    sources, states, values, probe_set = decision.sources, decision.states, decision.values, decision.probe_set
-    model, point, derivation = decision.model_checks, decision.pointwise, decision.derivation
-    assert sources is not None and states is not None and probe_set is not None  # decide judged the derivation
-    assert model is not None and point is not None
+    assert decision.probe_set is not None  # decide judged the derivation
     stages: dict[str, Any] = {}
-    variants = (
+    variants = _printed_forms(decision, stages, n_probes=n_probes, seed=seed, cache=cache, clock=clock)
+    same = _stage(
+        stages, "equivalence", lambda: equivalence.check_equivalence(system, decision.probe_set.systems()), clock
+    )
+    derived = _derived(system, stages, cache=cache, clock=clock)
+    if decision.passed:
+        traj, notes_experiments, cross = _agreeing_runs(
+            decision, stages, t_end=t_end, dt_out=dt_out, cache=cache, clock=clock, drake_run=drake_run
+        )
+    else:
+        traj, notes_experiments, cross = (
+            _divergence(decision, stages, t_end=t_end, dt_out=dt_out, clock=clock),
+            None,
+            None,
+        )
+    later = {"variants": variants, "derived": derived, "experiments": notes_experiments}
+    return _system_result(decision, stages, clock, same=same, cross=cross, traj=traj, **later)
+
+
+def _printed_forms(
+    decision: Decision, stages: dict[str, Any], *, n_probes: int, seed: int, cache: Cache | None, clock: Clock
+) -> list[Any]:
+    """The verdict on each of the notes' printed forms (kept by content in `cache`); none for a system
+    that transcribes none."""
+    system, sources, states = decision.system, decision.sources, decision.states
+    assert sources is not None and states is not None
+    if not system.variants:  # a system with no printed form has no such stage
+        return []
+    return (
         _stage(
             stages,
             "printed forms",
@@ -184,101 +209,127 @@ def _run_stages(
                 [states_digest(states), n_probes, seed],
                 lambda: {
                     "variants": judge.judge_system(
-                        system, states, sources, values=values, n_probes=n_probes, seed=seed, cache=cache
+                        system, states, sources, values=decision.values, n_probes=n_probes, seed=seed, cache=cache
                     )
                 },
             )["variants"],
             clock,
         )
-        if system.variants  # a system with no printed form has no such stage
-        else None
-    ) or []
-    same = _stage(stages, "equivalence", lambda: equivalence.check_equivalence(system, probe_set.systems()), clock)
+        or []
+    )
+
+
+def _derived(system: System, stages: dict[str, Any], *, cache: Cache | None, clock: Clock) -> Any:
+    """The model's derived equations as a person would read them, for chains short enough to simplify."""
     if system.nv <= READABLE_MAX_DOF:
-        derived = _stage(stages, "derived equations", lambda: derived_data(system, cache=cache), clock)
-    else:
-        derived = None
-        stages["derived equations"] = (
-            f"not run: {system.nv} joints; simplifying the equations of more than {READABLE_MAX_DOF} takes minutes "
-            "(`lagrange-xval derive` prints them on request)"
-        )
-    agrees = decision.passed
-    traj = notes_experiments = cross = None
-    if agrees:
-        traj = _stage(
-            stages,
-            "trajectories",
-            lambda: trajectory_results(
-                system, sources, t_end=t_end, dt_out=dt_out, cache=cache, clock=clock, drake_run=drake_run
-            ),
-            clock,
-        )
-        notes_experiments = _stage(
-            stages,
-            "experiments",
-            lambda: cached_stage(
-                cache, system, sources, "experiments", [], lambda: experiments.run_experiments(system)
-            ),
-            clock,
-        )
-        mirrors = tuple(e for e in ("hand", "pinocchio") if e not in (decision.excluded or {}))
-        cross = _stage(
-            stages,
+        return _stage(stages, "derived equations", lambda: derived_data(system, cache=cache), clock)
+    stages["derived equations"] = (
+        f"not run: {system.nv} joints; simplifying the equations of more than {READABLE_MAX_DOF} takes minutes "
+        "(`lagrange-xval derive` prints them on request)"
+    )
+    return None
+
+
+def _agreeing_runs(
+    decision: Decision,
+    stages: dict[str, Any],
+    *,
+    t_end: float,
+    dt_out: float,
+    cache: Cache | None,
+    clock: Clock,
+    drake_run: bool,
+) -> tuple[Any, Any, Any]:
+    """A derivation that agrees: the free runs against its reference, the notes' experiments and the
+    chaos mirrors (each kept by content in `cache`), the runs judged with the chaos stage's amplification."""
+    system, sources = decision.system, decision.sources
+    assert sources is not None
+    traj = _stage(
+        stages,
+        "trajectories",
+        lambda: trajectory_results(
+            system, sources, t_end=t_end, dt_out=dt_out, cache=cache, clock=clock, drake_run=drake_run
+        ),
+        clock,
+    )
+    notes_experiments = _stage(
+        stages,
+        "experiments",
+        lambda: cached_stage(cache, system, sources, "experiments", [], lambda: experiments.run_experiments(system)),
+        clock,
+    )
+    mirrors = tuple(e for e in ("hand", "pinocchio") if e not in (decision.excluded or {}))
+    cross = _stage(
+        stages,
+        "chaos",
+        lambda: cached_stage(
+            cache,
+            system,
+            sources,
             "chaos",
-            lambda: cached_stage(
-                cache,
-                system,
-                sources,
-                "chaos",
-                [t_end, dt_out, RUN_INTEGRATORS, mirrors],
-                lambda: chaos.crossvalidate(
-                    system,
-                    sources,
-                    t_end=t_end,
-                    dt_out=dt_out,
-                    integrators=RUN_INTEGRATORS,
-                    mirror_engines=mirrors,
-                    cache_dir=reference_dir(cache),
-                ),
-            ),
-            clock,
-        )
-        if traj is not None:
-            judge_trajectories(traj, cross.get("amplification") if cross else None, stages.get("chaos"))
-            set_aside_runs(traj, decision.excluded or {})
-    else:
-        why = (
-            f"not run: {_not_agreeing(decision)}; the reference, chaos and "
-            "the perturbation experiments are built on the hand equations, so they would only amplify the same mistake"
-        )
-        for name in ("reference trajectory", "chaos and mirrors", "perturbation experiments"):
-            stages[name] = why
-        traj = _stage(
-            stages,
-            "divergence run",
-            lambda: divergence_results(
+            [t_end, dt_out, RUN_INTEGRATORS, mirrors],
+            lambda: chaos.crossvalidate(
                 system,
                 sources,
                 t_end=t_end,
                 dt_out=dt_out,
-                why=f"information only: {_not_agreeing(decision)}, so this shows where its motion parts from "
-                "the engines'",
+                integrators=RUN_INTEGRATORS,
+                mirror_engines=mirrors,
+                cache_dir=reference_dir(cache),
             ),
-            clock,
-        )
+        ),
+        clock,
+    )
+    if traj is not None:
+        judge_trajectories(traj, cross.get("amplification") if cross else None, stages.get("chaos"))
+        set_aside_runs(traj, decision.excluded or {})
+    return traj, notes_experiments, cross
+
+
+def _divergence(decision: Decision, stages: dict[str, Any], *, t_end: float, dt_out: float, clock: Clock) -> Any:
+    """A derivation that disagrees: the stages built on its equations named as not run, and a bounded run
+    that shows where its motion parts from the engines'."""
+    sources = decision.sources
+    assert sources is not None
+    why = (
+        f"not run: {_not_agreeing(decision)}; the reference, chaos and "
+        "the perturbation experiments are built on the hand equations, so they would only amplify the same mistake"
+    )
+    for name in ("reference trajectory", "chaos and mirrors", "perturbation experiments"):
+        stages[name] = why
+    return _stage(
+        stages,
+        "divergence run",
+        lambda: divergence_results(
+            decision.system,
+            sources,
+            t_end=t_end,
+            dt_out=dt_out,
+            why=f"information only: {_not_agreeing(decision)}, so this shows where its motion parts from the engines'",
+        ),
+        clock,
+    )
+
+
+def _system_result(
+    decision: Decision, stages: dict[str, Any], clock: Clock, *, same: Any, cross: Any, traj: Any, **later: Any
+) -> SystemResult:
+    """The system's results: the verdict's checks, what the stages added, and whether all of it passed."""
+    system, sources = decision.system, decision.sources
+    model, point, derivation = decision.model_checks, decision.pointwise, decision.derivation
+    assert sources is not None and model is not None and point is not None
     failed_stages = [k for k, v in stages.items() if v.startswith("failed")]
     traj_ok = traj is None or all(r.get("passed", True) for r in traj["runs"] if r.get("counts"))
     passed = (
-        agrees
+        decision.passed
         and (same is None or same["passed"])
         and (cross is None or cross["passed"])
         and traj_ok
         and not failed_stages
     )
-    failed = _what_failed(model, point, derivation, same, cross, traj, failed_stages)
     return {
         **_identity(system),
-        "failed": failed,
+        "failed": _what_failed(model, point, derivation, same, cross, traj, failed_stages),
         "statement": decision.statement,
         "parameters": {k: float(v) for k, v in probing.param_fields(system.params).items()},
         "parameter_keys": parameter_keys(system),
@@ -286,10 +337,10 @@ def _run_stages(
         "model_checks": model,
         "pointwise": point,
         "derivation": derivation,
-        "variants": variants,
-        "derived": derived,
+        "variants": later["variants"],
+        "derived": later["derived"],
         "trajectories": traj,
-        "experiments": notes_experiments,
+        "experiments": later["experiments"],
         "equivalence": same,
         "chaos": cross,
         "stages": records(clock.seconds, stages),
