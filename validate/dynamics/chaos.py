@@ -479,62 +479,23 @@ def crossvalidate(
     }
     lock_states = (ref.q[::lockstep_every], ref.v[::lockstep_every])
     for integrator in integrators:
-        runs, windows = {}, {}
-        for engine in ("mujoco", *mirror_engines):
-            runs[engine] = _run(system, sources, engine, Start(q0, v0, tau), t, Scheme(integrator, dt))
-            windows[engine] = window_errors(system, sources, engine, ref, tau, Scheme(integrator, dt))
-        err = np.abs(runs["mujoco"].q - ref.q).max(axis=1)
-        env = error_envelope(fl, window_errors=windows["mujoco"], floor=floor, transfer=g)
-        entry: dict[str, Any] = {
-            "free_run": _free_run_entry(
-                "mujoco",
-                integrator,
-                dt,
-                t,
-                err,
-                windows["mujoco"],
-                env,
-                predicted_error(fl, windows["mujoco"]),
-                tolerance,
-            ),
-            "mirrors": {},
-        }
-        for engine in mirror_engines:
-            diff = np.abs(runs["mujoco"].q - runs[engine].q).max(axis=1)
-            w = windows["mujoco"] - windows[engine]
-            env_m = error_envelope(fl, window_errors=w, floor=floor, transfer=g)
-            entry["mirrors"][f"mujoco~{engine}"] = {
-                "max_difference": float(diff.max()),
-                "difference_at": sample_at(t, diff),
-                # judged while the scheme's own error leaves the tolerance unreached (its free run's horizon)
-                **_mirror_verdict(
-                    t, diff, w, env_m, ref, tolerance, out["round_off"]["limit"], entry["free_run"]["judge"]["horizon"]
-                ),
-            }
-            status = runs[engine].stats.get("status", "ok")  # a mirror that diverged or stopped fails, with its reason
-            if status != "ok":
-                entry["mirrors"][f"mujoco~{engine}"].update(
-                    passed=False, status=status, reason=runs[engine].stats.get("reason", "")
-                )
-        entry["lockstep"] = lockstep(
+        out["integrators"][integrator] = _integrator_entry(
             system,
-            {k: sources[k] for k in ("mujoco", *mirror_engines)},
-            lock_states,
-            integrator=integrator,
-            timestep=dt,
-            tau=tau,
-        )["pairs"]
-        entry["convergence"] = convergence_order(
-            system, sources, q0, v0, tau, integrator=integrator, cache_dir=cache_dir
+            sources,
+            integrator,
+            start=Start(q0, v0, tau),
+            t=t,
+            dt=dt,
+            ref=ref,
+            fl=fl,
+            transfer=g,
+            floor=floor,
+            tolerance=tolerance,
+            limit=out["round_off"]["limit"],
+            mirror_engines=mirror_engines,
+            lock_states=lock_states,
+            cache_dir=cache_dir,
         )
-        e_run = energy(system, sources["hand"], runs["mujoco"])
-        e_ref = energy(system, sources["hand"], ref)
-        entry["energy"] = {
-            "max_abs": float(np.abs(e_run - e_ref).max()),
-            "relative": float(np.abs(e_run - e_ref).max() / (np.abs(e_ref).max() or 1.0)),
-            "rate": _slope(t, e_run - e_ref),
-        }
-        out["integrators"][integrator] = entry
     # The mirrors decide (round-off windows, difference inside the envelope); the free runs against the
     # reference are findings about the integrators (horizon, prediction), judged but not decisive.
     _unmirrorable(system, out["integrators"])
@@ -542,6 +503,81 @@ def crossvalidate(
         m["passed"] or m.get("judged") is False for e in out["integrators"].values() for m in e["mirrors"].values()
     )
     return out
+
+
+def _integrator_entry(
+    system: System,
+    sources: Mapping[str, Source],
+    integrator: str,
+    *,
+    start: Start,
+    t: np.ndarray,
+    dt: float,
+    ref: Trajectory,
+    fl: Flow,
+    transfer: np.ndarray,
+    floor: np.ndarray,
+    tolerance: float,
+    limit: float,
+    mirror_engines: tuple[str, ...],
+    lock_states: tuple[np.ndarray, np.ndarray],
+    cache_dir: Any,
+) -> dict[str, Any]:
+    """One MuJoCo integrator's entry of `crossvalidate`: its free run against the reference, the mirrors
+    against mj_step (judged within `limit` round-off ulps), lockstep, convergence order and energy."""
+    q0, v0, tau = start.q0, start.v0, start.tau
+    runs, windows = {}, {}
+    for engine in ("mujoco", *mirror_engines):
+        runs[engine] = _run(system, sources, engine, start, t, Scheme(integrator, dt))
+        windows[engine] = window_errors(system, sources, engine, ref, tau, Scheme(integrator, dt))
+    err = np.abs(runs["mujoco"].q - ref.q).max(axis=1)
+    env = error_envelope(fl, window_errors=windows["mujoco"], floor=floor, transfer=transfer)
+    entry: dict[str, Any] = {
+        "free_run": _free_run_entry(
+            "mujoco",
+            integrator,
+            dt,
+            t,
+            err,
+            windows["mujoco"],
+            env,
+            predicted_error(fl, windows["mujoco"]),
+            tolerance,
+        ),
+        "mirrors": {},
+    }
+    for engine in mirror_engines:
+        diff = np.abs(runs["mujoco"].q - runs[engine].q).max(axis=1)
+        w = windows["mujoco"] - windows[engine]
+        env_m = error_envelope(fl, window_errors=w, floor=floor, transfer=transfer)
+        entry["mirrors"][f"mujoco~{engine}"] = {
+            "max_difference": float(diff.max()),
+            "difference_at": sample_at(t, diff),
+            # judged while the scheme's own error leaves the tolerance unreached (its free run's horizon)
+            **_mirror_verdict(t, diff, w, env_m, ref, tolerance, limit, entry["free_run"]["judge"]["horizon"]),
+        }
+        status = runs[engine].stats.get("status", "ok")  # a mirror that diverged or stopped fails, with its reason
+        if status != "ok":
+            entry["mirrors"][f"mujoco~{engine}"].update(
+                passed=False, status=status, reason=runs[engine].stats.get("reason", "")
+            )
+    entry["lockstep"] = lockstep(
+        system,
+        {k: sources[k] for k in ("mujoco", *mirror_engines)},
+        lock_states,
+        integrator=integrator,
+        timestep=dt,
+        tau=tau,
+    )["pairs"]
+    entry["convergence"] = convergence_order(system, sources, q0, v0, tau, integrator=integrator, cache_dir=cache_dir)
+    e_run = energy(system, sources["hand"], runs["mujoco"])
+    e_ref = energy(system, sources["hand"], ref)
+    entry["energy"] = {
+        "max_abs": float(np.abs(e_run - e_ref).max()),
+        "relative": float(np.abs(e_run - e_ref).max() / (np.abs(e_ref).max() or 1.0)),
+        "rate": _slope(t, e_run - e_ref),
+    }
+    return entry
 
 
 NO_DAMPED_MIRROR = (

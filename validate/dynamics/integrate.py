@@ -299,15 +299,7 @@ def _odeint(
         # latest earlier evaluation time below every later one (rejected and current attempts all
         # lie beyond it). A rerun to that output takes the same steps (the first step depends on
         # t[1] only) and ends before the stop.
-        k = guard.nfev  # the ring holds evaluations k-256 .. k-1, oldest first after rotation
-        ring = guard.ring[k & _RING_MASK :] + guard.ring[: k & _RING_MASK] if k > _RING_MASK else guard.ring[:k]
-        times = [s for s in ring if s == s]
-        reached, later = -np.inf, stop.t
-        for s in reversed(times):
-            if s < later:  # below every later evaluation: the end of the last accepted step
-                reached = s
-                break
-            later = min(later, s)
+        reached = _last_accepted(guard, stop.t)
         good = int(np.searchsorted(t, reached, side="right")) if np.isfinite(reached) else 1
         good = max(1, min(good, len(t)))
         out[0] = y0
@@ -333,6 +325,21 @@ def _odeint(
     failure_t = float(tcur[good]) if good < len(t) else float(t[-1])
     failure_y = np.asarray(y[good], dtype=float) if good < len(t) else None
     return Integration(out, good, guard.nfev, None, str(info["message"]), failure_t, failure_y)
+
+
+def _last_accepted(guard: _Guard, stopped_at: float) -> float:
+    """The end of LSODA's last accepted step before a stop at `stopped_at`: the latest recorded
+    evaluation time below every later one (-inf if none is)."""
+    k = guard.nfev  # the ring holds evaluations k-256 .. k-1, oldest first after rotation
+    ring = guard.ring[k & _RING_MASK :] + guard.ring[: k & _RING_MASK] if k > _RING_MASK else guard.ring[:k]
+    times = [s for s in ring if s == s]
+    reached, later = -np.inf, stopped_at
+    for s in reversed(times):
+        if s < later:  # below every later evaluation: the end of the last accepted step
+            reached = s
+            break
+        later = min(later, s)
+    return reached
 
 
 def _solve_ivp(

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ..results.schema import Explanation, FreeRun, SystemResult
+from ..results.schema import Derivation, Explanation, FreeRun, SystemResult
 from ..results.stages import outcome
 from .document import (
     ERRATA,
@@ -136,45 +136,8 @@ def system_derivation(doc: Document, name: str, s: SystemResult) -> None:
             for r in d.get("summary", [])
         ],
     )
-    explanations = d.get("explanations", [])
-    explained = [e for e in explanations if e.get("explained")]
-    if explanations and not explained:
-        entries = ", ".join(str(e.get("entry")) for e in explanations)
-        inner = Document()
-        differences_table(inner, name, explanations, owner)
-        doc.p(
-            f"No single slip reproduces the differences of {len(explanations)} "
-            f"entr{'y' if len(explanations) == 1 else 'ies'} ({entries}): more than one mistake, or one the "
-            "harness does not model (the differences are folded below).",
-            "note",
-        )
-        doc.fold(f"The {len(explanations)} differences against the model's equations", inner)
-    elif explanations:
-        doc.p(
-            "What the wrong expressions lack, against the model's own equations derived symbolically (`lagrange-xval "
-            "derive`): each disagreeing entry's difference fitted onto the slips one mistake makes (a lost or doubled "
-            "term, a flipped sign, a swapped parameter, a lost factor, sin for cos), kept only where it reproduces "
-            "your numbers at states held back from the fit."
-        )
-        differences_table(doc, name, explanations, owner)
-    failing = [r for r in d.get("terms", []) if not r.get("passed")]
-    if failing:
-        doc.table(
-            f"Where {name}'s failing terms are worst",
-            ("term", "pair", "at", "scaled error", "q", "v", "why"),
-            [
-                (
-                    r.get("term"),
-                    r.get("pair"),
-                    "model" if r.get("probe") == 0 else f"probe {r.get('probe')}",
-                    Num(r.get("scaled")),
-                    vec((r.get("worst_state") or {}).get("q", [])),
-                    vec((r.get("worst_state") or {}).get("v", [])),
-                    r.get("error", ""),
-                )
-                for r in failing[:12]
-            ],
-        )
+    _derivation_differences(doc, name, d.get("explanations", []), owner)
+    _failing_terms_table(doc, name, d)
     probes = [p for p in d.get("probes", []) if p.get("index")]
     if probes:
         doc.table(
@@ -202,6 +165,53 @@ def system_derivation(doc: Document, name: str, s: SystemResult) -> None:
         )
     for problem in d.get("probe_problems", []):
         doc.p(f"Probe not built: {problem}", "missing")
+
+
+def _derivation_differences(doc: Document, name: str, explanations: list[Explanation], owner: str) -> None:
+    """The failing entries' symbolic differences: as slips one mistake makes, or folded when no single
+    slip reproduces them."""
+    explained = [e for e in explanations if e.get("explained")]
+    if explanations and not explained:
+        entries = ", ".join(str(e.get("entry")) for e in explanations)
+        inner = Document()
+        differences_table(inner, name, explanations, owner)
+        doc.p(
+            f"No single slip reproduces the differences of {len(explanations)} "
+            f"entr{'y' if len(explanations) == 1 else 'ies'} ({entries}): more than one mistake, or one the "
+            "harness does not model (the differences are folded below).",
+            "note",
+        )
+        doc.fold(f"The {len(explanations)} differences against the model's equations", inner)
+    elif explanations:
+        doc.p(
+            "What the wrong expressions lack, against the model's own equations derived symbolically (`lagrange-xval "
+            "derive`): each disagreeing entry's difference fitted onto the slips one mistake makes (a lost or doubled "
+            "term, a flipped sign, a swapped parameter, a lost factor, sin for cos), kept only where it reproduces "
+            "your numbers at states held back from the fit."
+        )
+        differences_table(doc, name, explanations, owner)
+
+
+def _failing_terms_table(doc: Document, name: str, d: Derivation) -> None:
+    """Where the failing terms are worst (the first 12 failing rows)."""
+    failing = [r for r in d.get("terms", []) if not r.get("passed")]
+    if failing:
+        doc.table(
+            f"Where {name}'s failing terms are worst",
+            ("term", "pair", "at", "scaled error", "q", "v", "why"),
+            [
+                (
+                    r.get("term"),
+                    r.get("pair"),
+                    "model" if r.get("probe") == 0 else f"probe {r.get('probe')}",
+                    Num(r.get("scaled")),
+                    vec((r.get("worst_state") or {}).get("q", [])),
+                    vec((r.get("worst_state") or {}).get("v", [])),
+                    r.get("error", ""),
+                )
+                for r in failing[:12]
+            ],
+        )
 
 
 def differences_table(doc: Document, name: str, explanations: list[Explanation], owner: str = "yours") -> None:
@@ -323,6 +333,12 @@ def system_chaos(doc: Document, name: str, s: SystemResult) -> None:
         ),
     ]
     doc.table(f"{'Chaos' if chaotic else 'Error growth'} of {name} from its initial state", ("quantity", "value"), rows)
+    _integrators_table(doc, name, s, cx, chaotic=chaotic)
+
+
+def _integrators_table(doc: Document, name: str, s: SystemResult, cx: dict[str, Any], *, chaotic: bool) -> None:
+    """Per MuJoCo integrator: the free run against the reference with its verdict, the mirrors, the
+    convergence order and the energy; then what the mirrors are, and which free runs are judged short."""
     integ = cx.get("integrators", {})
     if not integ:
         return

@@ -122,17 +122,23 @@ def hand_terms(system: System, states: States) -> tuple[dict[str, np.ndarray], d
         lambda: np.stack([real_array(f"body_rotations()[{b!r}]", x) for b, x in _of(eq.body_rotations(p, q))], -3),
     )
     if M is not None and B is not None and "friction" in out:
-        rhs = tau + out["friction"] - B
-        a = np.full_like(q, np.nan)
-        ok = np.all(np.isfinite(M.reshape(N, -1)), axis=1) & np.all(np.isfinite(rhs), axis=1)
-        with np.errstate(all="ignore"):
-            for i in np.nonzero(ok)[0]:
-                try:
-                    a[i] = np.linalg.solve(M[i], rhs[i])
-                except np.linalg.LinAlgError:
-                    pass
-        out["acceleration"] = a
+        out["acceleration"] = _solved(M, tau + out["friction"] - B, like=q)
     return out, errors
+
+
+def _solved(M: np.ndarray, rhs: np.ndarray, *, like: np.ndarray) -> np.ndarray:
+    """a = M^-1 rhs state by state (M: (N, n, n), rhs and `like`, the array a copies: (N, n)); NaN where
+    M or rhs is not finite or M is singular."""
+    N = len(M)
+    a = np.full_like(like, np.nan)
+    ok = np.all(np.isfinite(M.reshape(N, -1)), axis=1) & np.all(np.isfinite(rhs), axis=1)
+    with np.errstate(all="ignore"):
+        for i in np.nonzero(ok)[0]:
+            try:
+                a[i] = np.linalg.solve(M[i], rhs[i])
+            except np.linalg.LinAlgError:
+                pass
+    return a
 
 
 def definiteness(M: np.ndarray, states: States) -> dict[str, Any] | None:
@@ -189,24 +195,7 @@ def term_rows_at(
         for term in ("mass matrix", "gravity", "velocity", "friction", "acceleration"):
             mine.pop(term, None)
             errors[term] = ignored
-    force = max(
-        float(np.abs(np.concatenate([e[k][x].ravel() for x in ("G", "Cv", "passive", "tau")])).max(initial=0.0))
-        for k in ev
-    )
-    force = max(force, force_scale(e["mujoco"]["M"], states.v))  # where the velocity terms vanish (gimbal lock)
-    energy = max(float(np.abs(np.concatenate([ev[k]["T"], ev[k]["V"]])).max(initial=0.0)) for k in ev)
-    length = max(float(np.abs(ev[k]["body_positions"]).max(initial=0.0)) for k in ev)
-    theirs = {
-        "mass matrix": ({k: e[k]["M"] for k in ev}, 0.0),
-        "gravity": ({k: e[k]["G"] for k in ev}, force),
-        "velocity": ({k: e[k]["Cv"] for k in ev}, force),
-        "friction": ({k: e[k]["passive"] for k in ev}, force),
-        "kinetic energy": ({k: ev[k]["T"] for k in ev}, energy),
-        "potential energy": ({k: ev[k]["V"] for k in ev}, energy),
-        "body positions": ({k: ev[k]["body_positions"] for k in ev}, length),
-        "body rotations": ({k: ev[k]["body_rotations"] for k in ev}, 1.0),
-        "acceleration": ({k: e[k]["a"] for k in ev}, 0.0),
-    }
+    theirs = _engine_terms(ev, e, states)
     cond = np.linalg.cond(e["mujoco"]["M"])
     # Explicit accelerations (form c) give M and the forces only through an inversion of M^-1: their
     # rounding grows with cond(M) like the accelerations', so they are judged with the solve tier.
@@ -250,6 +239,32 @@ def term_rows_at(
         if spd:
             notes["mass_matrix_not_spd"] = spd
     return rows, notes
+
+
+def _engine_terms(
+    ev: dict[str, Any], e: dict[str, Any], states: States
+) -> dict[str, tuple[dict[str, np.ndarray], float]]:
+    """Each term's values per engine (from `engine_values` and `EngineTerms.by_engine`), with the
+    smallest scale it is judged at: the largest force, energy or length any engine gives."""
+    force = max(
+        float(np.abs(np.concatenate([e[k][x].ravel() for x in ("G", "Cv", "passive", "tau")])).max(initial=0.0))
+        for k in ev
+    )
+    force = max(force, force_scale(e["mujoco"]["M"], states.v))  # where the velocity terms vanish (gimbal lock)
+    energy = max(float(np.abs(np.concatenate([ev[k]["T"], ev[k]["V"]])).max(initial=0.0)) for k in ev)
+    length = max(float(np.abs(ev[k]["body_positions"]).max(initial=0.0)) for k in ev)
+    theirs = {
+        "mass matrix": ({k: e[k]["M"] for k in ev}, 0.0),
+        "gravity": ({k: e[k]["G"] for k in ev}, force),
+        "velocity": ({k: e[k]["Cv"] for k in ev}, force),
+        "friction": ({k: e[k]["passive"] for k in ev}, force),
+        "kinetic energy": ({k: ev[k]["T"] for k in ev}, energy),
+        "potential energy": ({k: ev[k]["V"] for k in ev}, energy),
+        "body positions": ({k: ev[k]["body_positions"] for k in ev}, length),
+        "body rotations": ({k: ev[k]["body_rotations"] for k in ev}, 1.0),
+        "acceleration": ({k: e[k]["a"] for k in ev}, 0.0),
+    }
+    return theirs
 
 
 def _error_row(term: str, engine: str, why: str) -> TermRow:
