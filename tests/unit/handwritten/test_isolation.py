@@ -174,12 +174,16 @@ def test_the_limit_is_one_budget_for_all_of_a_systems_calls(tmp_path: Path) -> N
     assert took < ENDS_WITHIN
 
 
-def test_run_fails_a_hanging_system_alone(tmp_path: Path) -> None:
-    """`run --systems` with a module stuck in one C call beside a good one: the good one's results are
-    kept, the stuck one fails with the one line naming the limit, and the run ends."""
+@pytest.mark.parametrize(
+    "body", ["sum(range(10**13))", "while True:\n        pass"], ids=["one long C call", "a Python busy loop"]
+)
+def test_run_fails_a_hanging_system_alone(tmp_path: Path, body: str) -> None:
+    """`run --systems` with a module stuck in one C call, or in a Python busy loop, beside a good one: the
+    good one's results are kept, the stuck one is stopped at the limit per system and fails with the one
+    line naming it, and the run ends."""
     folder = tmp_path / "systems"
     _system(folder, "good")
-    _system(folder, "stuck", "sum(range(10**13))")
+    _system(folder, "stuck", body)
     out = tmp_path / "out"
     start = time.monotonic()
     proc = subprocess.run(
