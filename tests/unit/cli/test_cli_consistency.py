@@ -111,7 +111,7 @@ def test_the_top_level_help_says_what_the_tool_does(capsys):
 
 def _without(module_name: str, attribute: str, monkeypatch):
     """`import_module` returning the equations module `module_name` without `attribute`."""
-    real = systems.importlib.import_module
+    real = systems.loader.importlib.import_module
     original = real(f"{systems.EQUATIONS_PACKAGE}.{module_name}")
     broken = types.ModuleType(original.__name__)
     broken.__dict__.update({k: v for k, v in vars(original).items() if k != attribute})
@@ -119,7 +119,7 @@ def _without(module_name: str, attribute: str, monkeypatch):
     def import_module(name, *args):
         return broken if name == f"{systems.EQUATIONS_PACKAGE}.{module_name}" else real(name, *args)
 
-    monkeypatch.setattr(systems.importlib, "import_module", import_module)
+    monkeypatch.setattr(systems.loader.importlib, "import_module", import_module)
 
 
 def test_list_names_a_module_missing_an_attribute_as_broken_and_lists_the_others(capsys, monkeypatch):

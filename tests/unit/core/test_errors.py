@@ -190,7 +190,7 @@ def test_an_unexpected_exception_is_one_line_and_debug_shows_the_traceback(capsy
 
 
 def test_a_broken_equations_module_does_not_hide_the_others(capsys, monkeypatch):
-    real = systems.importlib.import_module
+    real = systems.loader.importlib.import_module
     names = systems.system_names()
 
     def syntax_error_in_one(name, *args):
@@ -199,7 +199,7 @@ def test_a_broken_equations_module_does_not_hide_the_others(capsys, monkeypatch)
         return real(name, *args)
 
     systems.loader.repository_module.cache_clear()
-    monkeypatch.setattr(systems.importlib, "import_module", syntax_error_in_one)
+    monkeypatch.setattr(systems.loader.importlib, "import_module", syntax_error_in_one)
     try:
         assert main(["list"]) == 1
     finally:

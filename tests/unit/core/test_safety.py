@@ -251,7 +251,7 @@ def test_an_earlier_runs_files_are_gone_after_a_run_of_one_system(tmp_path, caps
 
 
 def test_a_repository_module_with_a_syntax_error_is_one_line_for_check(capsys, monkeypatch):
-    real = systems.importlib.import_module
+    real = systems.loader.importlib.import_module
 
     def broken(name, *args):
         if name.endswith(".simple_pendulum"):
@@ -259,7 +259,7 @@ def test_a_repository_module_with_a_syntax_error_is_one_line_for_check(capsys, m
         return real(name, *args)
 
     systems.loader.repository_module.cache_clear()
-    monkeypatch.setattr(systems.importlib, "import_module", broken)
+    monkeypatch.setattr(systems.loader.importlib, "import_module", broken)
     try:
         assert main(["check", "simple_pendulum", "--states", "5"]) == 2
     finally:
