@@ -221,6 +221,7 @@ def cache_of(args: argparse.Namespace) -> Cache:
 
 def cmd_run(args: argparse.Namespace) -> int:
     from ..report.findings import console_lines
+    from ..report.render import warm as warm_report
     from ..stages.pipeline import run
     from .outputs import check_cache_dir, check_out, render_system, write_all
     from .progress import reporter
@@ -247,6 +248,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             time_limit=args.time_limit,
             balance_inertia=args.balance_inertia,
             drake_run=args.drake_run,
+            meanwhile=warm_report,  # the report's template compiled while the workers compute
         )
     cache.trim()
     hint = replay_hint(args.out, written=not args.no_replay)

@@ -33,7 +33,7 @@ from ..core.files import folder, new_file
 from ..replay import render_system as render_rrd
 from ..report import ReplayHint, render, system_section
 from ..report.figstore import kept_in
-from ..results import dumps
+from ..results import dumps, system_json
 from ..results.schema import ReportInput, SystemResult
 
 OPTIONAL_RESULTS = {"bench": "bench.json", "stress": "stress.json", "chains": "chains.json"}  # bench, stress
@@ -137,6 +137,7 @@ class SystemFiles:
 
     section: Any  # report.Document: the system's section of the report
     rrd: bytes | None  # its rerun recording (None: no trajectories, or replays not asked for)
+    json: str | None = None  # its results as results.json holds them (results.system_json)
 
 
 def render_system(
@@ -150,7 +151,7 @@ def render_system(
     try:
         rrd = render_rrd(name, result, meta=meta) if replay and result.get("trajectories") else None
         with kept_in(CachedFigures(cache) if cache is not None and cache.enabled else None):
-            return SystemFiles(system_section(name, result), rrd)
+            return SystemFiles(system_section(name, result), rrd, system_json(result))
     except Exception:  # noqa: BLE001 - rendered again, with its error, by write_all
         return None
 
@@ -192,7 +193,7 @@ def write_all(
     done = {name: f for name, f in (rendered or {}).items() if f is not None and name in results.get("systems", {})}
     sections = {name: f.section for name, f in done.items()}
     files = {
-        "results.json": dumps(results).encode(),
+        "results.json": dumps(results, {name: f.json for name, f in done.items() if f.json}).encode(),
         **render(with_optional_results(results, out), sections, hint=hint or ReplayHint(written=replay)),
     }
     if replay:

@@ -9,6 +9,7 @@ import platform
 import subprocess
 import sys
 from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
 from typing import Any, cast
@@ -30,6 +31,7 @@ __all__ = [
     "load",
     "provenance",
     "schema_problem",
+    "system_json",
     "to_jsonable",
 ]
 
@@ -128,14 +130,40 @@ def atomic_write_many(files: Mapping[Path, bytes | str | Iterable[str]]) -> None
         raise HarnessError(f"cannot write {where}: {exc.strerror or exc}; previous files left as they were.") from None
 
 
-def dumps(results: Mapping[str, Any]) -> str:
+def dumps(results: Mapping[str, Any], systems_text: Mapping[str, str] | None = None) -> str:
     """The results as JSON text: every object indented one space a level, keys sorted; every list on
     one line (a time series is one line, not one line per number) by the json module's C encoder,
-    which `indent` would turn off (0.34 s for the five systems' results where indent=1 took 0.95 s)."""
-    return _dumps(to_jsonable(results), 0) + "\n"
+    which `indent` would turn off (0.34 s for the five systems' results where indent=1 took 0.95 s).
+    `systems_text`: systems' results already written by `system_json` (in `run`'s workers, while the
+    other systems still ran), used as they are; the text is the same as without them."""
+    if not systems_text:
+        return _dumps(to_jsonable(results), 0) + "\n"
+    texts = {str(n): systems_text.get(n) or system_json(s) for n, s in results["systems"].items()}
+    return _dumps(to_jsonable({**results, "systems": _Written(texts)}), 0) + "\n"
+
+
+def system_json(result: Mapping[str, Any]) -> str:
+    """One system's results as `dumps` writes them inside results.json (at their depth there)."""
+    return _dumps(to_jsonable(result), SYSTEM_DEPTH)
+
+
+SYSTEM_DEPTH = 2  # results.json: {"systems": {name: <here>}}
+
+
+@dataclass(frozen=True)
+class _Written:
+    """An object whose values are JSON text already written at the depth below it (not a dict, so that
+    `to_jsonable` passes it through)."""
+
+    texts: Mapping[str, str]
 
 
 def _dumps(x: Any, depth: int) -> str:
+    if isinstance(x, _Written):
+        if not x.texts:
+            return "{}"
+        pad = "\n" + " " * (depth + 1)
+        return "{" + ",".join(f"{pad}{json.dumps(k)}: {x.texts[k]}" for k in sorted(x.texts)) + "\n" + " " * depth + "}"
     if isinstance(x, dict) and x:
         pad = "\n" + " " * (depth + 1)
         items = [f"{pad}{json.dumps(k)}: {_dumps(x[k], depth + 1)}" for k in sorted(x)]
