@@ -39,15 +39,29 @@ def _plain(x: Any) -> Any:
     return x.tolist() if hasattr(x, "tolist") else repr(x)
 
 
+# What the results say of where a value came from (the cache hit or missed, and its file), never drawn: a
+# figure of the same data is the same figure whether its data was computed or read back.
+PROVENANCE_KEYS = frozenset({"cache", "cache_file"})
+
+
+def _data(x: Any) -> Any:
+    """`x` without its provenance entries (PROVENANCE_KEYS), at any depth of dicts and lists."""
+    if isinstance(x, dict):
+        return {k: _data(v) for k, v in x.items() if k not in PROVENANCE_KEYS}
+    if isinstance(x, list | tuple):
+        return [_data(v) for v in x]
+    return x
+
+
 def figure_key(fn: Callable[..., bytes], args: tuple[Any, ...], kwargs: dict[str, Any]) -> str:
-    """SHA-256 of the figure function, its source and everything it is given."""
+    """SHA-256 of the figure function, its source and the data it is given (not where the data came from)."""
     import inspect
     from importlib.metadata import version
 
     # matplotlib's version from its metadata: a figure found in the store never imports matplotlib (0.3 s)
     h = hashlib.sha256(f"{fn.__module__}.{fn.__qualname__} {version('matplotlib')}".encode())
     h.update(inspect.getsource(fn).encode())
-    h.update(json.dumps([args, kwargs], default=_plain, sort_keys=True).encode())
+    h.update(json.dumps(_data([args, kwargs]), default=_plain, sort_keys=True).encode())
     return h.hexdigest()
 
 
