@@ -22,11 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, cast
 
-import numpy as np
-
-from ..core.cache import harness_hash
-from ..core.cache import load as load_entry
-from ..core.cache import store as store_entry
+from ..core.cache import harness_hash, load_bytes, store_bytes
 from ..core.cachedir import Cache
 from ..core.errors import HarnessError
 from ..core.files import folder, new_file
@@ -170,13 +166,12 @@ class CachedFigures:
 
     def get(self, key: str) -> bytes | None:
         where = self._where(key)
-        found = None if where is None else load_entry(*where)
-        return None if found is None or "png" not in found[0] else found[0]["png"].tobytes()
+        return None if where is None else load_bytes(*where)
 
     def put(self, key: str, png: bytes) -> None:
         where = self._where(key)
         if where is not None:
-            store_entry(where[0], where[1], {"png": np.frombuffer(png, dtype=np.uint8)}, {})
+            store_bytes(where[0], where[1], png)
 
 
 def write_all(

@@ -57,6 +57,9 @@ MAX_HEADER_BYTES = 2**20  # the header member (JSON: key, info, manifest); an ex
 MAX_ENTRY_BYTES = 2**30  # the arrays of one entry, as their signed shapes say (a reference: ~1 MB)
 
 
+BYTES = "bytes"  # the one array of an entry written by store_bytes
+
+
 def root() -> Path | None:
     """The cache folder in use, or None when caching is off."""
     value = os.environ.get(CACHE_ENV)
@@ -264,6 +267,18 @@ def store(path: Path, key: str, arrays: dict[str, np.ndarray], info: dict[str, A
     except OSError as exc:
         _unwritable(path.parent, f"cannot write the cache entry {path} ({exc.strerror or exc}); continuing without it.")
         return False
+
+
+def store_bytes(path: Path, key: str, data: bytes) -> bool:
+    """`store` of one byte string (a PNG, a JSON text): held as an array, so that its digest is signed
+    and it may be larger than the header's limit."""
+    return store(path, key, {BYTES: np.frombuffer(data, dtype=np.uint8)}, {})
+
+
+def load_bytes(path: Path, key: str) -> bytes | None:
+    """The byte string `store_bytes` kept under `key` at `path`, or None (as `load`)."""
+    found = load(path, key)
+    return None if found is None or BYTES not in found[0] else found[0][BYTES].tobytes()
 
 
 @functools.lru_cache(maxsize=256)  # once per folder and message, of the few folders a run writes

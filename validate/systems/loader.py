@@ -8,21 +8,13 @@ import functools
 import importlib
 from pathlib import Path
 from types import ModuleType
-from typing import TYPE_CHECKING
 
 from ..core.errors import HarnessError
 from ..core.guard import DEFAULT_TIME_LIMIT, Guard, Stopped, guard_module
-from ..core.package import EQUATIONS_PACKAGE as EQUATIONS_PACKAGE
-from ..core.package import MODELS_DIR as MODELS_DIR
-from ..core.package import PACKAGE_ROOT as PACKAGE_ROOT
+from ..core.package import EQUATIONS_PACKAGE
 from ..handwritten import textform
 from ..handwritten.forms import normalize
-from ..model.modelfile import MAX_MJCF_BYTES as MAX_MJCF_BYTES
-from ..model.modelfile import compile_model as compile_model
 from ..model.modelfile import model_view
-
-if TYPE_CHECKING:  # numpy and mujoco are loaded when first used
-    pass
 
 # The contract's one required name (and the dynamics in one form: validate/handwritten/forms.py). Everything
 # else has a default: COORDINATES and JOINTS the model's joints in order, DESCRIPTION the module's

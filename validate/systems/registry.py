@@ -8,21 +8,13 @@ import importlib
 import json
 import pkgutil
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from ..core.errors import HarnessError, unknown_name
 from ..core.guard import DEFAULT_TIME_LIMIT
-from ..core.package import EQUATIONS_PACKAGE as EQUATIONS_PACKAGE
-from ..core.package import MODELS_DIR as MODELS_DIR
-from ..core.package import PACKAGE_ROOT as PACKAGE_ROOT
-from ..model.modelfile import MAX_MJCF_BYTES as MAX_MJCF_BYTES
-from ..model.modelfile import compile_model as compile_model
+from ..core.package import EQUATIONS_PACKAGE, MODELS_DIR
 from ..model.modelfile import model_file
 from .loader import repository_module
 from .system import System
-
-if TYPE_CHECKING:  # numpy and mujoco are loaded when first used
-    pass
 
 MODEL_SUFFIXES = (".xml", ".urdf")  # what a folder of systems is searched for (the format is the root element's)
 PAIR = "<name>.xml or <name>.urdf, and <name>.py or <name>.toml"  # the files of a system in a user's folder

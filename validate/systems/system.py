@@ -12,15 +12,10 @@ from typing import TYPE_CHECKING, Any
 from ..core.errors import HarnessError
 from ..core.guard import DEFAULT_TIME_LIMIT, Stopped
 from ..core.memo import Memo
-from ..core.package import EQUATIONS_PACKAGE as EQUATIONS_PACKAGE
-from ..core.package import MODELS_DIR as MODELS_DIR
-from ..core.package import PACKAGE_ROOT as PACKAGE_ROOT
 from ..handwritten.forms import input_name, normalize
 from ..model import bounds, floating, urdf
 from ..model.inertia import repair_urdf
-from ..model.modelfile import MAX_MJCF_BYTES as MAX_MJCF_BYTES
 from ..model.modelfile import compile_mjcf, mjcf_text, model_file
-from ..model.modelfile import compile_model as compile_model
 from ..model.modelview import ModelView, from_mujoco, names
 from ..model.overrides import parse
 from .loader import load_module
