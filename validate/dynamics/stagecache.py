@@ -21,6 +21,7 @@ import numpy as np
 
 from ..core import cache
 from ..core.cachedir import Cache
+from ..core.package import installed_version
 from ..sources.base import Source, stepped
 from ..systems import System
 from .reference import param_key, source_hash, symbolic_dynamics
@@ -29,15 +30,7 @@ ENGINES = ("mujoco", "pinocchio", "numpy", "scipy", "heyoka")  # whose versions 
 
 
 def _versions() -> dict[str, str]:
-    from importlib import metadata
-
-    out = {}
-    for name in ENGINES:
-        try:
-            out[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            out[name] = ""
-    return out
+    return {name: installed_version(name) or "" for name in ENGINES}
 
 
 def _mjb(source: Source) -> str:

@@ -13,6 +13,8 @@ from collections.abc import Callable, Iterator
 from contextvars import ContextVar
 from typing import Any, Protocol
 
+from ..core.package import installed_version
+
 
 class FigureStore(Protocol):
     """Where figures are kept: the PNG for a key, or None; `put` keeps one."""
@@ -56,10 +58,9 @@ def _data(x: Any) -> Any:
 def figure_key(fn: Callable[..., bytes], args: tuple[Any, ...], kwargs: dict[str, Any]) -> str:
     """SHA-256 of the figure function, its source and the data it is given (not where the data came from)."""
     import inspect
-    from importlib.metadata import version
 
     # matplotlib's version from its metadata: a figure found in the store never imports matplotlib (0.3 s)
-    h = hashlib.sha256(f"{fn.__module__}.{fn.__qualname__} {version('matplotlib')}".encode())
+    h = hashlib.sha256(f"{fn.__module__}.{fn.__qualname__} {installed_version('matplotlib')}".encode())
     h.update(inspect.getsource(fn).encode())
     h.update(json.dumps(_data([args, kwargs]), default=_plain, sort_keys=True).encode())
     return h.hexdigest()

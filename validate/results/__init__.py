@@ -10,7 +10,6 @@ import subprocess
 import sys
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from importlib import metadata
 from pathlib import Path
 from typing import Any, cast
 
@@ -19,7 +18,7 @@ import numpy as np
 from ..core.errors import HarnessError
 from ..core.files import replace_files
 from ..core.inputs import parse_json, regular_file
-from ..core.package import PACKAGE_ROOT
+from ..core.package import PACKAGE_ROOT, installed_version
 from .schema import Provenance, RunResults
 
 __all__ = [
@@ -67,19 +66,11 @@ def _git_commit() -> str:
 
 def harness_version() -> str:
     """The installed package's version (importlib.metadata), or a sentence saying it is not installed."""
-    try:
-        return metadata.version("lagrange-xval")
-    except metadata.PackageNotFoundError:
-        return "unknown (not installed: pip install -e .)"
+    return installed_version("lagrange-xval") or "unknown (not installed: pip install -e .)"
 
 
 def provenance(seed: int | None = None) -> Provenance:
-    versions = {}
-    for pkg in PACKAGES:
-        try:
-            versions[pkg] = metadata.version(pkg)
-        except metadata.PackageNotFoundError:
-            versions[pkg] = "not installed"
+    versions = {pkg: installed_version(pkg) or "not installed" for pkg in PACKAGES}
     return {
         "harness_version": versions["lagrange-xval"],
         "git_commit": _git_commit(),
