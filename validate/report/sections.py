@@ -422,20 +422,36 @@ def section_limitations(doc: Document, results: ReportInput) -> None:
     doc.h(2, LIMITATIONS)
     doc.p("What these results do not show:")
     systems = results.get("systems", {})
-    items = []
     placeholders = {
         name: sorted(k for k, v in s.get("parameters", {}).items() if is_number(v) and 0 < abs(v) <= 1e-12)
         for name, s in sorted(systems.items())
     }
-    with_placeholders = [n for n, keys in placeholders.items() if keys]
-    if with_placeholders:
-        items.append(
-            f"{', '.join(with_placeholders)}: bodies the derivation treats as point masses are given a rotational "
-            "inertia of order 1e-14 kg m^2 in the model, because MuJoCo refuses a moving body without one; the "
-            "derivations include it exactly, the printed forms that omit it are off by about 1e-14 relative, far "
-            "below the algebraic tier, so it cannot flip a verdict."
-        )
+    items = placeholder_items(placeholders) + coverage_items(systems) + chaos_items(systems)
     items += [
+        "Contacts, joint limits, constraints and closed chains are not part of any system and are not checked.",
+        "This report only presents results.json; it recomputes nothing. A number here is only as recent as "
+        "that file (see Provenance).",
+    ]
+    items += system_limitation_items(systems, placeholders) + not_run_items(results)
+    doc.blocks.append(Items(tuple(items)))
+
+
+def placeholder_items(placeholders: dict[str, list[str]]) -> list[str]:
+    """The note on the placeholder inertias, when a system has any."""
+    with_placeholders = [n for n, keys in placeholders.items() if keys]
+    if not with_placeholders:
+        return []
+    return [
+        f"{', '.join(with_placeholders)}: bodies the derivation treats as point masses are given a rotational "
+        "inertia of order 1e-14 kg m^2 in the model, because MuJoCo refuses a moving body without one; the "
+        "derivations include it exactly, the printed forms that omit it are off by about 1e-14 relative, far "
+        "below the algebraic tier, so it cannot flip a verdict."
+    ]
+
+
+def coverage_items(systems: dict[str, SystemResult]) -> list[str]:
+    """What the sampled states and the parameter sets of the printed forms leave out."""
+    items = [
         "Pointwise results keep only the largest error over the random states (and the state where it "
         "occurred), not each state's error: the per-quantity charts show those maxima, not a distribution.",
         "The random states cover a box of angles and velocities; states outside it (very fast motion) are "
@@ -449,6 +465,12 @@ def section_limitations(doc: Document, results: ReportInput) -> None:
             f"A printed form is judged at {counted} parameter sets (the model's and its probes); a slip that happens "
             "to vanish at every one of them would not show."
         )
+    return items
+
+
+def chaos_items(systems: dict[str, SystemResult]) -> list[str]:
+    """What one initial state per trajectory says, for the chaotic systems and the regular ones."""
+    items = []
     chaotic = [n for n, s in sorted(systems.items()) if is_chaotic(s)]
     regular = [n for n, s in sorted(systems.items()) if s.get("chaos") and not is_chaotic(s)]
     if chaotic:
@@ -462,11 +484,13 @@ def section_limitations(doc: Document, results: ReportInput) -> None:
             f"{', '.join(regular)}: not chaotic from the initial state run (see their error-growth tables); one "
             "start says nothing of motion elsewhere in the state space."
         )
-    items += [
-        "Contacts, joint limits, constraints and closed chains are not part of any system and are not checked.",
-        "This report only presents results.json; it recomputes nothing. A number here is only as recent as "
-        "that file (see Provenance).",
-    ]
+    return items
+
+
+def system_limitation_items(systems: dict[str, SystemResult], placeholders: dict[str, list[str]]) -> list[str]:
+    """Per system: its placeholder parameters, the printed forms not judged, the parts not run; then what
+    was skipped, grouped by reason."""
+    items = []
     skips: dict[str, list[str]] = {}
     for name, s in sorted(systems.items()):
         if placeholders[name]:
@@ -489,6 +513,13 @@ def section_limitations(doc: Document, results: ReportInput) -> None:
             skips.setdefault(str(what).rstrip("."), []).append(name)
     for what, names in sorted(skips.items()):
         items.append(f"Skipped for {', '.join(names)}: {what}.")
+    return items
+
+
+def not_run_items(results: ReportInput) -> list[str]:
+    """The studies and per-system parts these results lack, and what the run skipped."""
+    systems = results.get("systems", {})
+    items = []
     missing = [label for key, label in (("bench", "benchmark"), ("stress", "stress tests")) if not results.get(key)]
     missing += [
         f"{label} of {name}"
@@ -500,7 +531,7 @@ def section_limitations(doc: Document, results: ReportInput) -> None:
         items.append(f"Not run in these results: {', '.join(missing)}.")
     if results.get("skipped"):
         items.append(f"Skipped: {shorten(results['skipped'], 200)}.")
-    doc.blocks.append(Items(tuple(items)))
+    return items
 
 
 @dataclass(frozen=True)

@@ -216,74 +216,13 @@ def section_stress(doc: Document, stress: dict[str, Any] | None) -> None:
         doc.p(f"Instability: {crit['instability']}")
     stab = stress.get("stability", [])
     if stab:
-        keys = sorted({(r["system"], r["integrator"], r["engine"], as_float(r["speed"])) for r in stab})
-        table = []
-        for system, integrator, engine, speed in keys:
-            by = {
-                r["criterion"]: r
-                for r in stab
-                if (r["system"], r["integrator"], r["engine"], as_float(r["speed"]))
-                == (system, integrator, engine, speed)
-            }
-            cells = [system, integrator, engine, Num(speed, 2)]
-            for c in ("energy x2", "divergence"):
-                r = by.get(c)
-                cells.append(Num(r["max_stable"], 2) if r and r.get("max_stable") is not None else "–")
-            table.append(tuple(cells))
-        doc.table(
-            "Largest stable timestep (s), by bisection over log(dt)",
-            ("system", "integrator", "engine", "initial speed (rad/s)", "energy x2 criterion", "divergence only"),
-            table,
-        )
+        stability_table(doc, stab)
     drift = stress.get("drift", [])
     if drift:
-        doc.table(
-            "Energy over long horizons at the MJCF timestep (conservative systems)",
-            ("system", "integrator", "engine", "horizon (s)", "class", "max |dE| / available", "rate (J/s)"),
-            [
-                (
-                    r.get("system"),
-                    r.get("integrator"),
-                    r.get("engine"),
-                    Num(r.get("horizon"), 3),
-                    r.get("class"),
-                    Num(r.get("relative_max")),
-                    Num(r.get("rate")),
-                )
-                for r in drift
-            ],
-        )
-        doc.figure(
-            "img/stress_drift.png",
-            _drift_figure(drift),
-            "Energy error against time over the long horizon",
-            "E(t) - E(0) of each integrator on the first conservative system, MuJoCo's own runs.",
-        )
+        drift_section(doc, drift)
     cond = stress.get("conditioning_summary", [])
     if cond:
-        doc.table(
-            "Disagreement between the sources against the mass matrix's conditioning",
-            ("system", "sweep", "quantity", "cond range", "disagreement range", "flat 1e-10 tier fails from cond"),
-            [
-                (
-                    r.get("system"),
-                    r.get("sweep", r.get("kind")),
-                    r.get("quantity"),
-                    "{} to {}".format(*(sci(x) for x in (r.get("cond_range") or [None, None]))),
-                    f"{sci((r.get('disagreement_range') or [None, None])[0])} to "
-                    f"{sci((r.get('disagreement_range') or [None, None])[1])}",
-                    sci(r.get("base_tier_fails_from_cond")) if r.get("base_tier_fails_from_cond") else "never",
-                )
-                for r in cond
-            ],
-        )
-        doc.figure(
-            "img/stress_conditioning.png",
-            _conditioning_figure(stress.get("conditioning", [])),
-            "Disagreement of the sources against cond(M)",
-            "Largest disagreement in q'' (scaled) against the largest cond(M) of each sweep point; the solve "
-            "tier max(1e-10, 20 cond(M) eps) dashed, cond(M) eps dotted.",
-        )
+        conditioning_section(doc, cond, stress.get("conditioning", []))
     prop = stress.get("solve_tier_proposal", {})
     if prop:
         doc.p(
@@ -293,6 +232,82 @@ def section_stress(doc: Document, stress: dict[str, Any] | None) -> None:
     stiff = stress.get("stiff_friction", [])
     if stiff:
         stiff_friction(doc, stiff)
+
+
+def stability_table(doc: Document, stab: list[dict[str, Any]]) -> None:
+    """The largest stable timestep of each system, integrator, engine and initial speed, by criterion."""
+    keys = sorted({(r["system"], r["integrator"], r["engine"], as_float(r["speed"])) for r in stab})
+    table = []
+    for system, integrator, engine, speed in keys:
+        by = {
+            r["criterion"]: r
+            for r in stab
+            if (r["system"], r["integrator"], r["engine"], as_float(r["speed"])) == (system, integrator, engine, speed)
+        }
+        cells = [system, integrator, engine, Num(speed, 2)]
+        for c in ("energy x2", "divergence"):
+            r = by.get(c)
+            cells.append(Num(r["max_stable"], 2) if r and r.get("max_stable") is not None else "–")
+        table.append(tuple(cells))
+    doc.table(
+        "Largest stable timestep (s), by bisection over log(dt)",
+        ("system", "integrator", "engine", "initial speed (rad/s)", "energy x2 criterion", "divergence only"),
+        table,
+    )
+
+
+def drift_section(doc: Document, drift: list[dict[str, Any]]) -> None:
+    """The long-horizon energy of the conservative systems: a table of each run's class and its figure."""
+    doc.table(
+        "Energy over long horizons at the MJCF timestep (conservative systems)",
+        ("system", "integrator", "engine", "horizon (s)", "class", "max |dE| / available", "rate (J/s)"),
+        [
+            (
+                r.get("system"),
+                r.get("integrator"),
+                r.get("engine"),
+                Num(r.get("horizon"), 3),
+                r.get("class"),
+                Num(r.get("relative_max")),
+                Num(r.get("rate")),
+            )
+            for r in drift
+        ],
+    )
+    doc.figure(
+        "img/stress_drift.png",
+        _drift_figure(drift),
+        "Energy error against time over the long horizon",
+        "E(t) - E(0) of each integrator on the first conservative system, MuJoCo's own runs.",
+    )
+
+
+def conditioning_section(doc: Document, cond: list[dict[str, Any]], points: list[dict[str, Any]]) -> None:
+    """The sources' disagreement against cond(M): the summary of each sweep (cond) and the figure of every
+    sweep point (points)."""
+    doc.table(
+        "Disagreement between the sources against the mass matrix's conditioning",
+        ("system", "sweep", "quantity", "cond range", "disagreement range", "flat 1e-10 tier fails from cond"),
+        [
+            (
+                r.get("system"),
+                r.get("sweep", r.get("kind")),
+                r.get("quantity"),
+                "{} to {}".format(*(sci(x) for x in (r.get("cond_range") or [None, None]))),
+                f"{sci((r.get('disagreement_range') or [None, None])[0])} to "
+                f"{sci((r.get('disagreement_range') or [None, None])[1])}",
+                sci(r.get("base_tier_fails_from_cond")) if r.get("base_tier_fails_from_cond") else "never",
+            )
+            for r in cond
+        ],
+    )
+    doc.figure(
+        "img/stress_conditioning.png",
+        _conditioning_figure(points),
+        "Disagreement of the sources against cond(M)",
+        "Largest disagreement in q'' (scaled) against the largest cond(M) of each sweep point; the solve "
+        "tier max(1e-10, 20 cond(M) eps) dashed, cond(M) eps dotted.",
+    )
 
 
 def stiff_friction(doc: Document, stiff: list[dict[str, Any]]) -> None:

@@ -307,8 +307,17 @@ def reference_text(s: SystemResult, tr: Trajectories) -> str:
 def section_trajectories(doc: Document, name: str, s: SystemResult, tr: Trajectories) -> None:
     t = series(tr.get("t", []))
     thr = as_float(tr.get("threshold"))
+    trajectory_intro(doc, s, tr, thr)
+    trajectory_runs_table(doc, name, s, tr)
+    judged_notes(doc, name, tr, t)
+    trust_section(doc, tr)
+    uncounted_notes(doc, s, tr)
+    trajectory_figures(doc, name, s, tr, t, thr)
+
+
+def trajectory_intro(doc: Document, s: SystemResult, tr: Trajectories, thr: float) -> None:
+    """The start, sampling and reference of the free motion, and what the error is judged against."""
     runs = tr["runs"]
-    damped = is_damped(s)
     doc.p(
         f"Free motion from q0 = {vec(tr.get('q0', []))} rad, v0 = {vec(tr.get('v0', []))} rad/s, "
         f"tau = {vec(tr.get('tau', []))}, sampled every {fmt_g(tr.get('dt_out'))} s "
@@ -324,7 +333,11 @@ def section_trajectories(doc: Document, name: str, s: SystemResult, tr: Trajecto
             else f"shown beside the trajectory threshold {sci(thr)} rad, not judged."
         )
     )
-    energy_column = "energy change (friction)" if damped else "energy drift"
+
+
+def trajectory_runs_table(doc: Document, name: str, s: SystemResult, tr: Trajectories) -> None:
+    """One row per run: its cost, error against the reference, energy change and verdict."""
+    energy_column = "energy change (friction)" if is_damped(s) else "energy drift"
     doc.table(
         f"Trajectory runs of {name}",
         ("source", "method", "cost", "max error vs reference", "first above threshold", energy_column, "verdict"),
@@ -338,9 +351,15 @@ def section_trajectories(doc: Document, name: str, s: SystemResult, tr: Trajecto
                 r["energy_missing"] if r.get("energy_missing") else Num(r.get("energy_drift"), unit="J"),
                 run_verdict(r, tr),
             )
-            for r in runs
+            for r in tr["runs"]
         ],
     )
+
+
+def judged_notes(doc: Document, name: str, tr: Trajectories, t: Any) -> None:
+    """How long the runs are judged and why: the common interval, each run's own error estimate and
+    threshold, and the runs judged over a shorter interval of their own."""
+    runs = tr["runs"]
     if tr.get("judged_until") is not None:
         whole = as_float(tr["judged_until"]) >= as_float(tr.get("t_end"))
         doc.p(
@@ -366,7 +385,11 @@ def section_trajectories(doc: Document, name: str, s: SystemResult, tr: Trajecto
     for r in runs:
         if r.get("judged_because"):
             doc.p(f"{run_label(r)} is judged until {fmt_g(r.get('judged_until'))} s: {r['judged_because']}.")
-    trust_section(doc, tr)
+
+
+def uncounted_notes(doc: Document, s: SystemResult, tr: Trajectories) -> None:
+    """Why runs are not part of the verdict: no derivation given, or each run's own reason."""
+    runs = tr["runs"]
     if not has_derivation(s):
         shown = and_join(sorted({run_label(r) for r in runs if r.get("source") != "mujoco" or tr.get("trust")}))
         against = "the reference" if tr.get("trust") else "MuJoCo's run"
@@ -374,6 +397,11 @@ def section_trajectories(doc: Document, name: str, s: SystemResult, tr: Trajecto
     else:
         for why in sorted({r["why_not_counted"] for r in runs if r.get("why_not_counted")}):
             doc.p(f"Not part of the verdict: {why}.", "note")
+
+
+def trajectory_figures(doc: Document, name: str, s: SystemResult, tr: Trajectories, t: Any, thr: float) -> None:
+    """The coordinates, the error against the reference and the energy of every run, against time."""
+    runs = tr["runs"]
     doc.figure(
         f"img/{name}_trajectories.png",
         trajectory_figure(name, s.get("coordinates", []), t, runs),

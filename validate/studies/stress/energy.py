@@ -42,6 +42,19 @@ def classify_energy(
          "late_envelope", "rate" (J/s, the slope of the line fitted to |dE| vs t), "r2", "E0", "available"}
     """
     t, E = np.asarray(t, dtype=float), np.asarray(E, dtype=float)
+    dE = E - float(E[0])
+    out = energy_extent(E, dE, V_min=V_min, t_fail=t_fail)
+    unstable = instability(t, E, dE, out["available"], failure=failure, growth=growth)
+    if unstable is not None:
+        return {**out, **unstable}
+    trend, late_mean = energy_trend(t, dE)
+    out.update(trend)
+    return {**out, **steady_class(out, late_mean)}
+
+
+def energy_extent(E: Any, dE: Any, *, V_min: float, t_fail: float | None) -> dict[str, Any]:
+    """The energy available to the motion and the largest and final change of E (dE = E - E[0]), absolute and
+    relative to it; the trend's keys are None until energy_trend fills them."""
     E0 = float(E[0])
     available = max(E0 - V_min, np.finfo(float).tiny)
     out: dict[str, Any] = {
@@ -56,7 +69,6 @@ def classify_energy(
         "late_envelope": None,
     }
     finite = np.isfinite(E)
-    dE = E - E0
     good = dE[finite]
     out.update(
         max_abs=float(np.abs(good).max()) if good.size else float("inf"),
@@ -64,17 +76,31 @@ def classify_energy(
     )
     out["relative_max"] = out["max_abs"] / available
     out["relative_final"] = out["final"] / available
+    return out
+
+
+def instability(
+    t: Any, E: Any, dE: Any, available: float, *, failure: str | None, growth: float
+) -> dict[str, Any] | None:
+    """The class, reason (and, for an energy gain, the time it set in) of an unstable run; None if it is not."""
+    finite = np.isfinite(E)
+    good = dE[finite]
     gain = float(good.max()) if good.size else float("inf")
     if failure or not finite.all():
-        return {**out, "class": "unstable", "reason": failure or "non-finite energy"}
+        return {"class": "unstable", "reason": failure or "non-finite energy"}
     if gain > growth * available:
         t_grow = float(t[np.argmax(dE > growth * available)])
         return {
-            **out,
             "class": "unstable",
             "t_fail": t_grow,
             "reason": f"energy gain {gain:.3g} J > {growth:g} x (E0 - V_min) = {growth * available:.3g} J",
         }
+    return None
+
+
+def energy_trend(t: Any, dE: Any) -> tuple[dict[str, Any], float]:
+    """The |dE| envelopes of the first and last tenth of the run, the line fitted to |dE| against t (its
+    slope and R^2), and the direction of the change; with the mean dE over the last tenth."""
     h = t[-1] - t[0]
     a = np.abs(dE)
     early = a[(t > t[0]) & (t <= t[0] + 0.1 * h)]
@@ -87,31 +113,35 @@ def classify_energy(
     r2 = 1.0 - float(np.sum(resid**2)) / var if var > 0 else 0.0
     late_mean = float(dE[t >= t[0] + 0.9 * h].mean())
     direction = "loss" if late_mean < 0 else "gain"
-    out.update(early_envelope=early_env, late_envelope=late_env, rate=float(slope), r2=r2, direction=direction)
+    trend = {"early_envelope": early_env, "late_envelope": late_env, "rate": float(slope), "r2": r2}
+    return {**trend, "direction": direction}, late_mean
+
+
+def steady_class(out: dict[str, Any], late_mean: float) -> dict[str, Any]:
+    """The class and reason of a stable run (round-off, bounded oscillation, irregular, drift, damping or
+    injection) from its extent and trend (out) and the mean dE over its last tenth."""
+    available, early_env, late_env = out["available"], out["early_envelope"], out["late_envelope"]
+    slope, r2, direction = out["rate"], out["r2"], out["direction"]
     if out["relative_max"] <= ROUND_OFF:
         return {
-            **out,
             "class": "round-off",
             "direction": None,
             "reason": f"max |dE| = {out['relative_max']:.2g} of E0 - V_min <= {ROUND_OFF:g}",
         }
     if late_env <= ENVELOPE_GROWTH * early_env:
         return {
-            **out,
             "class": "bounded oscillation",
             "direction": None,
             "reason": f"late |dE| envelope {late_env:.2g} J <= {ENVELOPE_GROWTH:g} x early {early_env:.2g} J",
         }
     if r2 < STEADY_R2:
         return {
-            **out,
             "class": "irregular",
             "reason": f"|dE| envelope grows ({early_env:.2g} -> {late_env:.2g} J) but no line fits (R^2 {r2:.2f})",
         }
     large = abs(late_mean) >= LARGE_CHANGE * available
     cls = ("numerical damping" if direction == "loss" else "energy injection") if large else "secular drift"
     return {
-        **out,
         "class": cls,
         "reason": f"|dE| grows at {slope:.2g} J/s (R^2 {r2:.2f}); {direction} of {abs(late_mean) / available:.2g} "
         f"of E0 - V_min by the end",
