@@ -335,6 +335,61 @@ def _steps_per_sample(t: np.ndarray, timestep: float) -> int:
     return steps
 
 
+def _step_samples(
+    stepper: Stepper,
+    source: Source,
+    integrator: str,
+    compiled: tuple[Any, int] | None,
+    q: np.ndarray,
+    v: np.ndarray,
+    tau_b: np.ndarray,
+    qs: np.ndarray,
+    vs: np.ndarray,
+    steps: int,
+    budget: Budget,
+) -> tuple[str, str]:
+    """Fills rows 1.. of qs, vs, `steps` steps apart, until the end or the first failure; its (status,
+    reason): ("ok", "") at the end, the raw reason of a blow-up, a spent budget or the equations' error."""
+    dt, n = stepper.h, len(qs)
+    fast = stepper._scalar(tau_b[0]) if integrator in ("RK4", "Euler") and compiled is None else None
+    deadline = time.perf_counter() + budget.max_wall_s
+    status, reason = "ok", ""
+    with np.errstate(all="ignore"):
+        try:
+            if compiled is not None:  # MuJoCo's RK4 compiled: the same operations, one call per steps
+                _compiled_run(*compiled, dt, tau_b[0], qs, vs, budget, deadline)
+                stepper.evaluations += 4 * steps * (n - 1)
+            elif fast is not None:  # one state: the same operations in Python floats (IEEE, so the same rounding)
+                _scalar_run(fast, integrator, dt, steps, qs, vs, stepper, budget, deadline)
+            else:
+                for k in range(1, n):
+                    for _ in range(steps):
+                        q, v = stepper.step(q, v, tau_b)
+                    _check_sample(q[0], v[0], budget, deadline)
+                    qs[k], vs[k] = q[0], v[0]
+        except _Blowup as exc:
+            status = "stopped: budget" if str(exc).startswith("wall time") else "diverged"
+            reason = str(exc)
+        except EQUATION_ERRORS as exc:
+            status = "diverged" if isinstance(exc, OverflowError) else "failed"
+            reason = f"the {source.name} equations raised {type(exc).__name__}: {exc}"
+    return status, reason
+
+
+def _stopped(t: np.ndarray, qs: np.ndarray, vs: np.ndarray, status: str, reason: str) -> tuple[float, str]:
+    """Sets the samples after the last good one to NaN; (stopped_at, the reason said with its time)."""
+    good = int(np.argmax(np.isnan(qs[:, 0]))) if np.isnan(qs[:, 0]).any() else len(t)
+    qs[good:], vs[good:] = np.nan, np.nan
+    stopped_at = float(t[good - 1])
+    if status == "diverged":
+        reason = f"diverged at t = {float(t[min(good, len(t) - 1)]):.6g} s: {reason}"
+    elif status == "stopped: budget":
+        reason = f"stopped: budget: {reason} spent by t = {stopped_at:.6g} s"
+    elif status == "failed":
+        reason = f"{reason} between t = {stopped_at:.6g} s and the next sample"
+    return stopped_at, reason
+
+
 def mirror_trajectory(
     system: System,
     source: Source,
@@ -368,37 +423,8 @@ def mirror_trajectory(
     qs, vs = np.full((len(t), system.nv), np.nan), np.full((len(t), system.nv), np.nan)
     qs[0], vs[0] = q[0], v[0]
     compiled = compiled_steps(source, integrator, steps)
-    fast = stepper._scalar(tau_b[0]) if integrator in ("RK4", "Euler") and compiled is None else None
-    deadline = time.perf_counter() + budget.max_wall_s
-    status, reason = "ok", ""
-    with np.errstate(all="ignore"):
-        try:
-            if compiled is not None:  # MuJoCo's RK4 compiled: the same operations, one call per steps
-                _compiled_run(*compiled, dt, tau_b[0], qs, vs, budget, deadline)
-                stepper.evaluations += 4 * steps * (len(t) - 1)
-            elif fast is not None:  # one state: the same operations in Python floats (IEEE, so the same rounding)
-                _scalar_run(fast, integrator, dt, steps, qs, vs, stepper, budget, deadline)
-            else:
-                for k in range(1, len(t)):
-                    for _ in range(steps):
-                        q, v = stepper.step(q, v, tau_b)
-                    _check_sample(q[0], v[0], budget, deadline)
-                    qs[k], vs[k] = q[0], v[0]
-        except _Blowup as exc:
-            status = "stopped: budget" if str(exc).startswith("wall time") else "diverged"
-            reason = str(exc)
-        except EQUATION_ERRORS as exc:
-            status = "diverged" if isinstance(exc, OverflowError) else "failed"
-            reason = f"the {source.name} equations raised {type(exc).__name__}: {exc}"
-    good = int(np.argmax(np.isnan(qs[:, 0]))) if np.isnan(qs[:, 0]).any() else len(t)
-    qs[good:], vs[good:] = np.nan, np.nan
-    stopped_at = float(t[good - 1])
-    if status == "diverged":
-        reason = f"diverged at t = {float(t[min(good, len(t) - 1)]):.6g} s: {reason}"
-    elif status == "stopped: budget":
-        reason = f"stopped: budget: {reason} spent by t = {stopped_at:.6g} s"
-    elif status == "failed":
-        reason = f"{reason} between t = {stopped_at:.6g} s and the next sample"
+    status, reason = _step_samples(stepper, source, integrator, compiled, q, v, tau_b, qs, vs, steps, budget)
+    stopped_at, reason = _stopped(t, qs, vs, status, reason)
     return Trajectory(
         source.name,
         f"mirror of MuJoCo {integrator} dt {dt:g}" + (" (compiled)" if compiled is not None else ""),

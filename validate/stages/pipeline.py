@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable, Mapping
-from concurrent.futures import BrokenExecutor, Executor
+from concurrent.futures import BrokenExecutor, Executor, Future
 from pathlib import Path
 from typing import Any
 
@@ -578,6 +578,75 @@ def _forks(executor: Executor | None) -> bool:
     return executor is None and multiprocessing.get_start_method(allow_none=True) in (None, "fork")
 
 
+def _systems_of(
+    names: list[str] | None,
+    files: list[tuple[Path, Path | None]] | None,
+    *,
+    locked: tuple[str, ...],
+    time_limit: float,
+    balance_inertia: bool,
+) -> tuple[list[System], list[System]]:
+    """The systems named (all, when neither names nor files are given) and those of `files`. Unknown
+    names, unreadable files and two systems of one name fail here, before any work starts."""
+    systems = load_all(names, time_limit=time_limit) if names or not files else []
+    users = [
+        System.from_files(m, e, locked=locked, time_limit=time_limit, balance_inertia=balance_inertia)
+        if e is not None
+        else System.model_only(m, locked=locked, balance_inertia=balance_inertia)
+        for m, e in (files or [])
+    ]
+    taken = [s.name for s in systems + users]
+    clash = sorted({n for n in taken if taken.count(n) > 1})
+    if clash:
+        raise HarnessError(f"two systems are called {', '.join(clash)}: rename one equations file.")
+    return systems, users
+
+
+def _submit(
+    pool: Executor,
+    systems: list[System],
+    users: list[System],
+    files: list[tuple[Path, Path | None]],
+    after: Any,
+    meta: Provenance,
+    common: tuple[int, int, int, Cache | None, float, bool],
+    per_file: tuple[tuple[str, ...], Cache | None, float, bool, bool],
+) -> dict[Future[tuple[dict[str, Any], Any]], System]:
+    """One task per system in `pool`, each future with its system. `common`: (n_states, seed, n_probes,
+    cache, time_limit, drake_run); `per_file`: (locked, cache, time_limit, balance_inertia, drake_run)."""
+    # Longest first, so that two workers finish together: damped scenes (implicit-damping
+    # mirrors step the numpy equations), then more coordinates, then more printed forms.
+    order = sorted(systems, key=lambda s: ("damping" not in s.uses, -s.nv, -len(s.variants), s.name))
+    futures = {pool.submit(_task, _run_one, (s.name, *common), after, meta): s for s in order}
+    for (model, equations), user in zip(files, users, strict=True):
+        equations_file = "" if equations is None else str(equations)
+        args = (str(model), equations_file, *common[:3], *per_file)
+        futures[pool.submit(_task, _run_files, args, after, meta)] = user
+    return futures
+
+
+def _collect(
+    futures: dict[Future[tuple[dict[str, Any], Any]], System],
+    progress: Any,
+    after: Any,
+    rendered: dict[str, Any] | None,
+) -> dict[str, Any]:
+    """Every system's results by name, as its worker finishes; `progress` told of each start and end,
+    what `after` returned put in `rendered`."""
+    for system in futures.values():
+        if progress:
+            progress(system.name, "start")
+    done: dict[str, Any] = {}
+    for future in completed(futures):
+        name = futures[future].name
+        done[name], extra = _outcome(future, futures[future])
+        if rendered is not None and after is not None:
+            rendered[name] = extra
+        if progress:
+            progress(name, "done", done[name])
+    return done
+
+
 def run(
     names: list[str] | None,
     *,
@@ -610,48 +679,19 @@ def run(
     `drake_run`: Drake's information-only free run beside the judged ones (freeruns.trajectory_results).
     `meanwhile`: work of the caller's own, done in a thread of this process while the workers compute."""
 
-    # Unknown names and unreadable files fail here, before any work starts.
-    systems = load_all(names, time_limit=time_limit) if names or not files else []
-    users = [
-        System.from_files(m, e, locked=locked, time_limit=time_limit, balance_inertia=balance_inertia)
-        if e is not None
-        else System.model_only(m, locked=locked, balance_inertia=balance_inertia)
-        for m, e in (files or [])
-    ]
-    taken = [s.name for s in systems + users]
-    clash = sorted({n for n in taken if taken.count(n) > 1})
-    if clash:
-        raise HarnessError(f"two systems are called {', '.join(clash)}: rename one equations file.")
+    systems, users = _systems_of(names, files, locked=locked, time_limit=time_limit, balance_inertia=balance_inertia)
     out: RunResults = {"meta": provenance(seed), "tolerances": TOLERANCES.as_dict(), "systems": {}, "passed": False}
 
     if _forks(executor):
         preload()
     with executor_for(executor, tasks=len(systems) + len(users), isolated=True) as pool:
-        # Longest first, so that two workers finish together: damped scenes (implicit-damping
-        # mirrors step the numpy equations), then more coordinates, then more printed forms.
-        order = sorted(systems, key=lambda s: ("damping" not in s.uses, -s.nv, -len(s.variants), s.name))
-        meta = out["meta"]
         common = (n_states, seed, n_probes, cache, time_limit, drake_run)
-        futures = {pool.submit(_task, _run_one, (s.name, *common), after, meta): s for s in order}
-        for (model, equations), user in zip(files or [], users, strict=True):
-            equations_file = "" if equations is None else str(equations)
-            per_file = (locked, cache, time_limit, balance_inertia, drake_run)
-            args = (str(model), equations_file, n_states, seed, n_probes, *per_file)
-            futures[pool.submit(_task, _run_files, args, after, meta)] = user
+        per_file = (locked, cache, time_limit, balance_inertia, drake_run)
+        futures = _submit(pool, systems, users, files or [], after, out["meta"], common, per_file)
         helper = threading.Thread(target=meanwhile, daemon=True) if meanwhile is not None else None
         if helper is not None:
             helper.start()
-        for system in futures.values():
-            if progress:
-                progress(system.name, "start")
-        done: dict[str, Any] = {}
-        for future in completed(futures):
-            name = futures[future].name
-            done[name], extra = _outcome(future, futures[future])
-            if rendered is not None and after is not None:
-                rendered[name] = extra
-            if progress:
-                progress(name, "done", done[name])
+        done = _collect(futures, progress, after, rendered)
         if helper is not None:
             helper.join()
     out["systems"] = {name: done[name] for name in sorted(done)}

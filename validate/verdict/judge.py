@@ -333,6 +333,70 @@ def _entry_label(name: str, shape: tuple[int, ...], index: tuple[int, ...]) -> s
     return f"{name}[{index[0]},{index[1]}]"
 
 
+def _step_items(system: System, variant: DerivationStep) -> list[tuple[str, str, Any, Any]]:
+    """A derivation step's entries to explain: the model's expression of its quantity entry by entry,
+    against the printed form's value of that entry."""
+    items: list[tuple[str, str, Any, Any]] = []
+    expr = step_expression(system, variant.quantity, variant.angle_index)
+    shape = tuple(expr.shape) if hasattr(expr, "shape") else ()
+    shape = (shape[0],) if len(shape) == 2 and shape[1] == 1 else shape
+    for index in np.ndindex(*shape) if shape else [()]:
+        entry = expr[index] if len(index) == 2 else expr[index[0]] if index else expr
+
+        def user(s: Any, q: np.ndarray, v: np.ndarray, index: tuple[int, ...] = index) -> np.ndarray:
+            out = real_array(f"{variant.name} evaluate()", variant.evaluate(s.params, q, v), (len(q), *shape))
+            where: tuple[Any, ...] = (slice(None), *index)
+            return np.asarray(out[where])
+
+        items.append(("value", _entry_label(variant.name, shape, index), entry, user))
+    return items
+
+
+def _acceleration_items(system: System, variant: Any, failing: list[str]) -> list[tuple[str, str, Any, Any]]:
+    """An explicit form's failing terms to explain, coordinate by coordinate: the numerators det M times
+    the acceleration (-adj(M) G, -adj(M) C v, adj(M) passive), against det M times the printed form's."""
+    from ..sources.symbolic import derivation_of
+    from ..symbolic.readable import transformed
+
+    items: list[tuple[str, str, Any, Any]] = []
+    d, names = derivation_of(system), tuple(system.coordinates)
+    M = transformed(d, names, system.joint_map, "M")
+    adj = M.adjugate()
+    numerators = {
+        "gravity": -adj * transformed(d, names, system.joint_map, "G"),
+        "velocity": -adj * transformed(d, names, system.joint_map, "Cv"),
+        "friction": adj * transformed(d, names, system.joint_map, "passive"),
+    }
+
+    sources: dict[int, Any] = {}
+
+    def symbolic_of(s: Any) -> Any:  # one per probe system, not one per entry
+        if id(s) not in sources:
+            sources[id(s)] = make_source(s, "symbolic")
+        return sources[id(s)]
+
+    def accel(term: str, i: int) -> Any:
+        def user(s: Any, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+            f = variant.acceleration
+            zero = np.zeros_like(q)
+            p, p0 = s.params, frictionless_params(s)
+            a = {
+                "gravity": lambda: f(p, q, zero, zero),
+                "velocity": lambda: np.asarray(f(p0, q, v, zero)) - np.asarray(f(p0, q, zero, zero)),
+                "friction": lambda: np.asarray(f(p, q, v, zero)) - np.asarray(f(p0, q, v, zero)),
+            }[term]()
+            det = np.linalg.det(symbolic_of(s).mass_matrix(q))
+            return det * real_array(f"{variant.name} acceleration()", a)[:, i]
+
+        return user
+
+    for term in failing:
+        if term in numerators:
+            for i, c in enumerate(names):
+                items.append((term, f"det(M) * {term} acceleration[{c}]", numerators[term][i], accel(term, i)))
+    return items
+
+
 def explain_variant(
     system: System,
     variant: Any,
@@ -350,60 +414,12 @@ def explain_variant(
     is one line saying why."""
     import sympy as sp
 
-    from ..sources.symbolic import derivation_of
-    from ..symbolic.readable import transformed
-
     try:
         items: list[tuple[str, str, Any, Any]] = []
         if isinstance(variant, DerivationStep):
-            expr = step_expression(system, variant.quantity, variant.angle_index)
-            shape = tuple(expr.shape) if hasattr(expr, "shape") else ()
-            shape = (shape[0],) if len(shape) == 2 and shape[1] == 1 else shape
-            for index in np.ndindex(*shape) if shape else [()]:
-                entry = expr[index] if len(index) == 2 else expr[index[0]] if index else expr
-
-                def user(s: Any, q: np.ndarray, v: np.ndarray, index: tuple[int, ...] = index) -> np.ndarray:
-                    out = real_array(f"{variant.name} evaluate()", variant.evaluate(s.params, q, v), (len(q), *shape))
-                    where: tuple[Any, ...] = (slice(None), *index)
-                    return np.asarray(out[where])
-
-                items.append(("value", _entry_label(variant.name, shape, index), entry, user))
+            items = _step_items(system, variant)
         elif hasattr(variant, "acceleration") and not isinstance(variant, Implicit):
-            d, names = derivation_of(system), tuple(system.coordinates)
-            M = transformed(d, names, system.joint_map, "M")
-            adj = M.adjugate()
-            numerators = {
-                "gravity": -adj * transformed(d, names, system.joint_map, "G"),
-                "velocity": -adj * transformed(d, names, system.joint_map, "Cv"),
-                "friction": adj * transformed(d, names, system.joint_map, "passive"),
-            }
-
-            sources: dict[int, Any] = {}
-
-            def symbolic_of(s: Any) -> Any:  # one per probe system, not one per entry
-                if id(s) not in sources:
-                    sources[id(s)] = make_source(s, "symbolic")
-                return sources[id(s)]
-
-            def accel(term: str, i: int) -> Any:
-                def user(s: Any, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-                    f = variant.acceleration
-                    zero = np.zeros_like(q)
-                    p, p0 = s.params, frictionless_params(s)
-                    a = {
-                        "gravity": lambda: f(p, q, zero, zero),
-                        "velocity": lambda: np.asarray(f(p0, q, v, zero)) - np.asarray(f(p0, q, zero, zero)),
-                        "friction": lambda: np.asarray(f(p, q, v, zero)) - np.asarray(f(p0, q, v, zero)),
-                    }[term]()
-                    det = np.linalg.det(symbolic_of(s).mass_matrix(q))
-                    return det * real_array(f"{variant.name} acceleration()", a)[:, i]
-
-                return user
-
-            for term in failing:
-                if term in numerators:
-                    for i, c in enumerate(names):
-                        items.append((term, f"det(M) * {term} acceleration[{c}]", numerators[term][i], accel(term, i)))
+            items = _acceleration_items(system, variant, failing)
         return explain_entries(system, probe_systems, items, seed=seed, cache=cache)
     except Exception as exc:  # noqa: BLE001 - a printed form the symbolic basis cannot hold
         return [

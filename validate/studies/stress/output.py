@@ -60,6 +60,64 @@ def sort_key(row: dict[str, Any]) -> tuple[Any, ...]:
     return tuple((0, "") if row.get(k) is None else (1, row[k]) for k in keys)
 
 
+def _stress_systems(
+    names: list[str] | None,
+    overrides: tuple[tuple[str, float], ...],
+    files: list[tuple[Path, Path]] | None,
+    locked: tuple[str, ...],
+    time_limit: float,
+) -> list[System]:
+    """The systems named (all when neither names nor files are given) and those of `files`, each with
+    `overrides`, compiled by MuJoCo and its parameters read: a bad one is a one-line HarnessError here."""
+    systems_ = [load(n, overrides=tuple(overrides)) for n in (names or ([] if files else system_names()))]
+    own = [System.from_files(m, e, locked=locked, time_limit=time_limit) for m, e in (files or [])]
+    systems_ += [s.derive(overrides=tuple(overrides)) for s in own]
+    for s in systems_:
+        try:
+            s.mujoco_model()
+        except HarnessError as exc:
+            if "mjMINVAL" not in str(exc):
+                raise
+            raise HarnessError(
+                f"{exc} ({s.name}: MuJoCo refuses masses and principal inertias below {MJ_MINVAL:g}; "
+                f"the point bobs carry 1e-14 kg m^2, so scale body/<name>/inertia up with a smaller "
+                f"mass)."
+            ) from None
+        s.params  # noqa: B018 - the equations read the overridden model: a bad value fails here
+    return systems_
+
+
+def _run_sections(
+    results: dict[str, Any],
+    systems_: list[System],
+    overrides: tuple[tuple[str, float], ...],
+    settings: Settings,
+    executor: Executor | None,
+    say: Callable[[str], None],
+    start: float,
+) -> None:
+    """Every section of every system, each collected into `results` and said with the time since `start`
+    as it finishes: in this process, or one task per system and section in `executor`."""
+    tasks = [(s, section) for s in systems_ for section in settings.sections]
+    if executor is None:  # in this process, one system's sources shared by its sections
+        with quiet_mujoco_warnings():
+            for s in systems_:
+                prepared = (s, *prepare(s))
+                for section in settings.sections:
+                    done = run_section(prepared, section, settings)
+                    collect(results, done)
+                    say(f"[{time.perf_counter() - start:6.1f} s] {s.name}: {section} ({done['elapsed']:.1f} s)")
+    else:  # one task per system and section, each worker keeping the systems it has built
+        futures = {
+            executor.submit(section_task, key_of(s), tuple(overrides), section, settings): (s, section)
+            for s, section in tasks
+        }
+        for fut in completed(futures):
+            done = fut.result()
+            collect(results, done)
+            say(f"[{time.perf_counter() - start:6.1f} s] {done['system']}: {done['section']} ({done['elapsed']:.1f} s)")
+
+
 def run_stress(
     names: list[str] | None,
     *,
@@ -82,21 +140,7 @@ def run_stress(
     """
     settings = settings or (QUICK if quick else FULL)
     say = progress or (lambda msg: None)
-    systems_ = [load(n, overrides=tuple(overrides)) for n in (names or ([] if files else system_names()))]
-    own = [System.from_files(m, e, locked=locked, time_limit=time_limit) for m, e in (files or [])]
-    systems_ += [s.derive(overrides=tuple(overrides)) for s in own]
-    for s in systems_:
-        try:
-            s.mujoco_model()
-        except HarnessError as exc:
-            if "mjMINVAL" not in str(exc):
-                raise
-            raise HarnessError(
-                f"{exc} ({s.name}: MuJoCo refuses masses and principal inertias below {MJ_MINVAL:g}; "
-                f"the point bobs carry 1e-14 kg m^2, so scale body/<name>/inertia up with a smaller "
-                f"mass)."
-            ) from None
-        s.params  # noqa: B018 - the equations read the overridden model: a bad value fails here
+    systems_ = _stress_systems(names, overrides, files, locked, time_limit)
     results: dict[str, Any] = {
         "meta": provenance(settings.seed),  # one provenance block, as in results.json and bench.json
         "quick": quick,
@@ -112,24 +156,7 @@ def run_stress(
         "timing": {},
     }
     start = time.perf_counter()
-    tasks = [(s, section) for s in systems_ for section in settings.sections]
-    if executor is None:  # in this process, one system's sources shared by its sections
-        with quiet_mujoco_warnings():
-            for s in systems_:
-                prepared = (s, *prepare(s))
-                for section in settings.sections:
-                    done = run_section(prepared, section, settings)
-                    collect(results, done)
-                    say(f"[{time.perf_counter() - start:6.1f} s] {s.name}: {section} ({done['elapsed']:.1f} s)")
-    else:  # one task per system and section, each worker keeping the systems it has built
-        futures = {
-            executor.submit(section_task, key_of(s), tuple(overrides), section, settings): (s, section)
-            for s, section in tasks
-        }
-        for fut in completed(futures):
-            done = fut.result()
-            collect(results, done)
-            say(f"[{time.perf_counter() - start:6.1f} s] {done['system']}: {done['section']} ({done['elapsed']:.1f} s)")
+    _run_sections(results, systems_, overrides, settings, executor, say, start)
     for key in ("drift", "stability", "conditioning", "stiff_friction", "skipped"):
         results[key] = sorted(results[key], key=sort_key)
     summary = conditioning_summary(results["conditioning"])
