@@ -38,7 +38,7 @@ EQUATIONS_DIR = _data_dir(EQUATIONS_PACKAGE)
 SOURCE_DIRS = {"validate": HARNESS_DIR, "equations": EQUATIONS_DIR}
 
 
-@functools.cache  # what is installed does not change under a running process (it imported it already)
+@functools.lru_cache(maxsize=64)  # what is installed does not change under a running process (it imported it)
 def installed_version(distribution: str) -> str | None:
     """The installed version of `distribution` (importlib.metadata, about 3 ms a lookup), or None."""
     try:
