@@ -2,7 +2,9 @@
 
 Read from the source with `ast` (nothing is imported). An annotation is a parameter's, a return's or an
 annotated assignment's; it mentions `Any` when `Any` (or `typing.Any`) appears anywhere in it, so
-`dict[str, Any]` counts. Issue 37 asks for under 10%; MAX_ANY_SHARE is where the harness stands now, and
+`dict[str, Any]` counts. A type alias whose value mentions `Any` (`Row = dict[str, Any]`, `Row: TypeAlias = ...`, in
+any module of validate/) counts as `Any` wherever it is used, so a name cannot hide it.
+Issue 37 asks for under 10%; MAX_ANY_SHARE is where the harness stands now, and
 may only go down.
 """
 
@@ -13,7 +15,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 VALIDATE = Path(__file__).resolve().parents[1] / "validate"
-MAX_ANY_SHARE = 0.233  # 1552 of 6662 now (23.3%); 1687 of 6593 (25.6%) at issue 37's start
+MAX_ANY_SHARE = 0.236  # 1663 of 7064 now (23.5%, aliases of Any counted); 1687 of 6593 (25.6%) at issue 37's start
 
 
 def annotations(tree: ast.AST) -> Iterator[ast.expr]:
@@ -30,22 +32,47 @@ def annotations(tree: ast.AST) -> Iterator[ast.expr]:
             yield node.annotation
 
 
-def mentions_any(annotation: ast.expr) -> bool:
-    """`Any` appears in the annotation (a string annotation is parsed first)."""
+def mentions_any(annotation: ast.expr, aliases: frozenset[str] = frozenset()) -> bool:
+    """`Any`, or an alias of a type that mentions it, appears in the annotation (a string is parsed first)."""
     if isinstance(annotation, ast.Constant) and isinstance(annotation.value, str):
         annotation = ast.parse(annotation.value, mode="eval").body
     return any(
-        (isinstance(n, ast.Name) and n.id == "Any") or (isinstance(n, ast.Attribute) and n.attr == "Any")
+        (isinstance(n, ast.Name) and n.id in {"Any", *aliases}) or (isinstance(n, ast.Attribute) and n.attr == "Any")
         for n in ast.walk(annotation)
     )
 
 
+def alias_values(tree: ast.AST) -> Iterator[tuple[str, ast.expr]]:
+    """Module-level assignments that may be type aliases: `X = ...`, `X: TypeAlias = ...` (Python 3.11
+    has no `type` statement)."""
+    for node in getattr(tree, "body", []):
+        if isinstance(getattr(node, "value", None), ast.Constant):
+            continue  # a number or a text, not a type
+        if isinstance(node, ast.Assign) and len(node.targets) == 1 and isinstance(node.targets[0], ast.Name):
+            yield node.targets[0].id, node.value
+        elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name) and node.value is not None:
+            yield node.target.id, node.value
+
+
+def any_aliases(trees: list[ast.AST]) -> frozenset[str]:
+    """Names bound (in any of the modules) to a value that mentions Any, followed through aliases of aliases."""
+    values = [(name, value) for tree in trees for name, value in alias_values(tree)]
+    found: frozenset[str] = frozenset()
+    while True:
+        more = frozenset(name for name, value in values if mentions_any(value, found)) | found
+        if more == found:
+            return found
+        found = more
+
+
 def any_counts() -> dict[str, tuple[int, int]]:
     """Per module of validate/: (annotations that mention Any, annotations)."""
+    trees = {path: ast.parse(path.read_text(), filename=str(path)) for path in sorted(VALIDATE.rglob("*.py"))}
+    aliases = any_aliases(list(trees.values()))
     counts = {}
-    for path in sorted(VALIDATE.rglob("*.py")):
-        found = list(annotations(ast.parse(path.read_text(), filename=str(path))))
-        counts[str(path.relative_to(VALIDATE))] = (sum(map(mentions_any, found)), len(found))
+    for path, tree in trees.items():
+        found = list(annotations(tree))
+        counts[str(path.relative_to(VALIDATE))] = (sum(mentions_any(a, aliases) for a in found), len(found))
     return counts
 
 
@@ -53,6 +80,17 @@ def test_counter_sees_any() -> None:
     """The counter finds `Any` inside a parameter, a return, an assignment and a string annotation."""
     tree = ast.parse("def f(a: int, b: dict[str, Any], *c: 'list[typing.Any]') -> Any:\n    x: int = 1\n")
     assert [mentions_any(a) for a in annotations(tree)] == [False, True, True, True, False]
+
+
+def test_counter_sees_through_aliases() -> None:
+    """An alias of a type mentioning Any, or an alias of that alias, counts as Any where it is used."""
+    tree = ast.parse(
+        "from typing import TypeAlias\nRow = dict[str, Any]\nRows: TypeAlias = list[Row]\nVec = list[float]\n"
+        "def f(a: Rows, b: Vec) -> 'Row': ...\n"
+    )
+    aliases = any_aliases([tree])
+    assert aliases == {"Row", "Rows"}
+    assert [mentions_any(a, aliases) for a in annotations(tree)] == [False, True, False, True]
 
 
 def test_any_share_stays_below_threshold() -> None:

@@ -1,5 +1,6 @@
 """The foundations every room may use, importing nothing of the harness above them.
 
+arrays       the names of the numbers' types: Vector, Matrix, Json
 errors       HarnessError and its kinds: one line for a person, what is wrong and what is valid
 inputs       strict input: files are what they claim, sizes bounded before reading
 files        every file the harness writes, created without following a link
@@ -12,4 +13,16 @@ memo         what is computed once per System and a few hashable arguments
 package      where the package's own files are (the harness, models/, equations/)
 """
 
-__all__ = ["cache", "cachedir", "errors", "files", "guard", "inputs", "memo", "package", "parallel", "tolerances"]
+__all__ = [
+    "arrays",
+    "cache",
+    "cachedir",
+    "errors",
+    "files",
+    "guard",
+    "inputs",
+    "memo",
+    "package",
+    "parallel",
+    "tolerances",
+]

@@ -12,6 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core.arrays import Vector
+
 
 @dataclass(frozen=True)
 class Start:
@@ -23,9 +25,9 @@ class Start:
         tau: (nv,) the generalized force held constant over the run (N m or N).
     """
 
-    q0: np.ndarray
-    v0: np.ndarray
-    tau: np.ndarray
+    q0: Vector
+    v0: Vector
+    tau: Vector
 
     @classmethod
     def of(cls, q0: ArrayLike, v0: ArrayLike, tau: ArrayLike) -> Start:
