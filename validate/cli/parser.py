@@ -36,13 +36,13 @@ EPILOG = (
 DEFAULT_STATES = 1000
 
 
-QUICK_DURATION = {  # as the README's command table says them (tests/unit/cli/test_cli_consistency.py checks both)
+QUICK_DURATION = {  # as the README's command table says them (tests/unit/cli/test_parser.py checks both)
     "bench --quick": "about 1.5 min on 2 cores",
     "bench --chains --quick": "under a minute",
 }
 
 
-HELP_EXAMPLES = (  # every command line the help shows, run as written by tests/unit/cli/test_cli_consistency.py
+HELP_EXAMPLES = (  # every command line the help shows, run as written by tests/unit/cli/test_parser.py
     "lagrange-xval run",
     "lagrange-xval list",
     "lagrange-xval stress --set scale/mass=2",

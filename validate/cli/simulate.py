@@ -26,7 +26,7 @@ from ..verdict.pointwise import validate_states
 
 # What one number of the trajectory costs in memory while `simulate` runs: the integrator's output,
 # the trajectory's copies of q and v, and the table written from them (about three float64 arrays:
-# 24.5 bytes measured for scipy, 14 for MuJoCo; tests/unit/cli/test_cli_consistency.py holds the bound).
+# 24.5 bytes measured for scipy, 14 for MuJoCo; tests/unit/cli/test_parser.py holds the bound).
 MEMORY_BYTES_PER_NUMBER = 32
 FILE_BYTES_PER_NUMBER = 25  # a float at full precision ("-1.2345678901234567e-05") and its separator
 MAX_SIMULATE_BYTES = 2**30  # 1 GiB: about 6.7 million samples of a two-degree-of-freedom system

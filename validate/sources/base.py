@@ -147,7 +147,7 @@ def engine_of(source: Source, kind: type[E]) -> E:
 
 
 # An engine's batch is split over threads only from this many states per thread (a thread's share of
-# the batch's set-up is then small); results do not depend on the split (tests/unit/sources/test_batch.py).
+# the batch's set-up is then small); results do not depend on the split (tests/unit/sources/test_base.py).
 THREAD_MIN_STATES = 1024
 
 

@@ -209,7 +209,7 @@ class MujocoSource:
         """The quantities `want` (of OUTPUTS) at N states: inputs mapped to MuJoCo's state rows for all
         states at once; mj_forward's outputs by MuJoCo's batch (`_forward_batch`) or, for fewer than
         BATCH_MIN_STATES states, the per-state loop `_rows` (the reference path: the two are equal bit
-        for bit, tests/unit/sources/test_batch.py); the coordinates' columns and the bodies selected after."""
+        for bit, tests/unit/sources/test_base.py); the coordinates' columns and the bodies selected after."""
         m = self.m
         n = len(q)
         states = np.empty((n, self.state_size))

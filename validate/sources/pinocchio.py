@@ -166,7 +166,7 @@ class PinocchioSource:
     def _in_c(self, algorithm: Any, qs: np.ndarray, vs: np.ndarray, x: np.ndarray) -> np.ndarray:
         """RNEA at N states in one call: Pinocchio's C++ loop over the columns (`rneaInParallel` on one
         thread, so no OpenMP thread outlives the call; equal bit for bit to `rnea` called per state,
-        tests/unit/sources/test_batch.py). `qs`, `vs`: the states as `_qs`, `_vs` give them (built once per batch);
+        tests/unit/sources/test_base.py). `qs`, `vs`: the states as `_qs`, `_vs` give them (built once per batch);
         x (N, n). Returns (N, n)."""
         if self._pool is None:
             self._pool = pin.ModelPool(self.model, 1)

@@ -1,10 +1,10 @@
 """Issue 35's last gaps: the text form evaluated in a worker like a person's module, a step's three calls
 in one round trip, `check SYSTEM` on a repository model that cannot be read, a busy loop in `run`.
 
-The other cases of the issue's list are tested where their surface is: tests/unit/handwritten/test_isolation.py (the
+The other cases of the issue's list are tested where their surface is: tests/unit/handwritten/test_worker.py (the
 worker: alarms, C calls, forks, threads, atexit, numpy patched, exceptions of any kind, forged lines),
-tests/unit/handwritten/test_bounds.py (text-form bombs, names, cache headers, huge models, non-finite numbers, HOME),
-tests/unit/handwritten/test_guard.py (time limits).
+tests/unit/handwritten/test_expression.py (text-form bombs, names, cache headers, huge models, non-finite numbers, HOME),
+tests/unit/core/test_guard.py (time limits).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The command line says what it is: one option name per meaning, help with units and the valid
 system names, `--version`, a top-level help about the tool, a broken or unpaired system reported
 rather than hiding the others, and a README table that names options that exist.
-(`simulate`'s adjustments and files: tests/unit/cli/test_simulate_file.py.)"""
+(`simulate`'s adjustments and files: tests/unit/cli/test_simulate.py.)"""
 
 from __future__ import annotations
 

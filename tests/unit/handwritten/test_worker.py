@@ -4,7 +4,7 @@ ends its process from a thread, patches numpy, raises anything or forges a verdi
 verdict or one error line, the right status, ends within its time limit and a few seconds, and leaves
 no process behind.
 
-Every module is the pendulum of tests/unit/handwritten/test_guard.py with one line in mass_matrix and/or at import;
+Every module is the pendulum of tests/unit/core/test_guard.py with one line in mass_matrix and/or at import;
 the time limit is 2 s, and every command line runs with a timeout.
 """
 
