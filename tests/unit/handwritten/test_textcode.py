@@ -24,7 +24,7 @@ from lagrange_xval.handwritten.worker import Raised
 from lagrange_xval.sources.hand import HandSource
 from lagrange_xval.systems import System, load_module, model_view
 
-from tests.unit.handwritten.test_guard import CLI, ROOT, TIMEOUT, _system
+from tests.unit.core.test_guard import CLI, ROOT, TIMEOUT, _system
 
 TOML = """
 coordinates = ["theta"]

@@ -22,7 +22,7 @@ import pytest
 from lagrange_xval.core.guard import Stopped
 from lagrange_xval.handwritten.worker import ModuleWorker, escape
 
-from tests.unit.handwritten.test_guard import CLI, LIMIT, TIMEOUT, _check, _error_line, _system
+from tests.unit.core.test_guard import CLI, LIMIT, TIMEOUT, _check, _error_line, _system
 
 # A command that starts (about 3 to 6 s here: imports, MuJoCo, Pinocchio, Drake) and is stopped at the
 # 2 s limit ends well within this; one that hangs runs into TIMEOUT instead.
