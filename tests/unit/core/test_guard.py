@@ -286,23 +286,6 @@ def test_one_process_per_task_and_a_dying_task_fails_alone() -> None:
     assert len({pid for _, pid in results} | {after.result()[1]}) == 4
 
 
-@pytest.mark.long
-def test_derive_of_a_chain_beyond_three_joints_is_exact_with_common_subexpressions(tmp_path: Path) -> None:
-    """Beyond three joints `derive` does not simplify (minutes on a 6-joint arm): it says so on stderr
-    and prints the exact equations with their common subexpressions, every term of M, C v and G named."""
-    from lagrange_xval.studies.chains import chain_mjcf
-
-    model = tmp_path / "chain4.xml"
-    model.write_text(chain_mjcf(4, "spatial"))
-    proc = _cli("derive", "--model", str(model))
-    assert proc.returncode == 0, proc.stderr
-    assert "4 joints; exact, not simplified" in proc.stderr
-    out = proc.stdout
-    assert "exact, not simplified: common subexpressions first" in out and "\nx0 = " in out
-    names = [line.split(" = ")[0] for line in out.splitlines()]
-    assert sum(n.startswith("M[") for n in names) == 10 and sum(n.startswith("G[") for n in names) == 4
-
-
 @pytest.mark.parametrize("command", ["bench", "stress"])
 def test_bench_and_stress_take_the_time_limit(tmp_path: Path, command: str) -> None:
     """`bench` and `stress` on a person's module that sleeps at import: one line naming the import and

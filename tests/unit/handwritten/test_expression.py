@@ -7,14 +7,10 @@ from __future__ import annotations
 
 import io
 import json
-import os
 import re
 import shutil
-import subprocess
-import sys
 import tracemalloc
 import types
-import urllib.parse
 import zipfile
 from pathlib import Path
 
@@ -226,27 +222,6 @@ def test_a_relative_xdg_cache_home_is_ignored(tmp_path, monkeypatch):
     assert main(["derive", "simple_pendulum"]) == 0
     assert list(work.iterdir()) == []
     assert (home / ".cache" / "lagrange-xval" / "derive").is_dir()
-
-
-@pytest.mark.long
-def test_without_home_run_says_so_once(tmp_path):
-    """With HOME unset there is no cache key to keep: `run` says so on one warning line, and heyoka's
-    JIT cache is off instead of warning on every compilation (37 lines before)."""
-    env = {k: v for k, v in os.environ.items() if k not in ("HOME", "XDG_CACHE_HOME", cache.CACHE_ENV)}
-    env.pop(cache.PROCESS_KEY_ENV, None)
-    done = subprocess.run(
-        [sys.executable, "-m", "lagrange_xval.cli", "run", "simple_pendulum", "--no-replay"]
-        + ["--out", str(tmp_path / "out")],
-        env=env,
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        check=False,
-    )
-    assert done.returncode == 0, done.stderr[-2000:]
-    warnings = [line for line in done.stderr.splitlines() if "warn" in line.lower()]
-    assert len(warnings) == 1 and "no private cache key" in warnings[0], warnings[:5]
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
 
 # ---- a person's text is data ---------------------------------------------------------------------------
@@ -594,33 +569,6 @@ def test_a_system_named_like_a_verdict_starts_no_line(tmp_path, capsys):
     assert main(["list", "--systems", str(folder)]) == 0
     out = capsys.readouterr().out.splitlines()
     assert out and not [line for line in out if line.startswith("verdict:")], out[:3]
-
-
-@pytest.mark.long
-def test_run_writes_every_report_of_a_system_with_such_names(tmp_path):
-    """`run --systems DIR` of a system named `my arm: θ` whose joints and bodies hold `/`, `:`, spaces and
-    Unicode: status 0, the reports, the recording (no rerun path warnings) and markdown image links that
-    resolve."""
-    folder = tmp_path / "systems"
-    folder.mkdir()
-    model, equations = _named_system(tmp_path)
-    stem = "my arm: \u03b8"
-    model.rename(folder / f"{stem}.xml")
-    equations.rename(folder / f"{stem}.py")
-    out = tmp_path / "out"
-    done = subprocess.run(
-        [sys.executable, "-m", "lagrange_xval.cli", "run", "--systems", str(folder), "--out", str(out)]
-        + ["--states", "50", "--probes", "1"],
-        capture_output=True,
-        text=True,
-        check=False,
-    )
-    assert done.returncode == 0, done.stderr[-2000:]
-    assert "WARN" not in done.stderr, done.stderr[-2000:]
-    assert stem in json.loads((out / "results.json").read_text())["systems"]
-    assert (out / f"{stem}.rrd").stat().st_size > 0
-    links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", (out / "report.md").read_text())
-    assert links and all((out / urllib.parse.unquote(link)).is_file() for link in links), links
 
 
 def test_derive_names_coordinates_of_such_joints_as_identifiers(tmp_path, capsys):

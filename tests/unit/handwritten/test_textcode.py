@@ -3,7 +3,8 @@ in one round trip, `check SYSTEM` on a repository model that cannot be read, a b
 
 The other cases of the issue's list are tested where their surface is: tests/unit/handwritten/test_worker.py (the
 worker: alarms, C calls, forks, threads, atexit, numpy patched, exceptions of any kind, forged lines),
-tests/unit/handwritten/test_expression.py (text-form bombs, names, cache headers, huge models, non-finite numbers, HOME),
+tests/unit/handwritten/test_expression.py (text-form bombs, names, cache headers, huge models, non-finite numbers,
+HOME),
 tests/unit/core/test_guard.py (time limits).
 """
 

@@ -194,20 +194,6 @@ def test_derive_python_output_computes_the_engines_mass_matrix(tmp_path):
     assert derived["kinetic_energy"](p, q, v).shape == derived["potential_energy"](p, q).shape == (2,)
 
 
-@pytest.mark.long
-def test_derive_urdf_arm_latex_and_bad_input(tmp_path):
-    urdf = EXAMPLES / "urdf" / "spatial_arm.urdf"
-    done = _cli("derive", "--model", str(urdf), "--latex", "--coordinates", "q1,q2,q3")
-    assert done.returncode == 0, done.stderr
-    assert r"\ddot{q_{3}}" in done.stdout or r"\ddot{q}_{3}" in done.stdout
-    assert "M[q1, q3] = " in done.stdout
-    bad = _cli("derive", "--model", str(urdf), "--coordinates", "a,b")
-    assert bad.returncode != 0 and "--coordinates needs 3 distinct names" in bad.stderr
-    assert len(bad.stderr.strip().splitlines()) == 1
-    none = _cli("derive")
-    assert none.returncode != 0 and "give --model PATH" in none.stderr
-
-
 # One mistake of each kind, in a derivation's own form, and what the explanation must say.
 MISTAKES = [
     # a lost factor: the notes' eq 9 prints sin(theta) without l (here: the bar's c in the gravity of link 1)

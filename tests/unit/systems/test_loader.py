@@ -97,43 +97,6 @@ def test_run_on_a_model_and_equations_outside_the_repository(tmp_path):
     assert {p.name for p in (tmp_path / "out").iterdir()} >= {"report.html", "report.md", "results.json", "my_cart.rrd"}
 
 
-@pytest.mark.long
-def test_run_systems_folder(tmp_path):
-    """`run --systems DIR` runs every <name>.xml with its <name>.py; a file without its partner is
-    named, and the others run all the same."""
-    import subprocess
-    import sys
-
-    from lagrange_xval import systems
-
-    source = systems.load("simple_pendulum")
-    (tmp_path / "mine").mkdir()
-    shutil.copy(source.mjcf, tmp_path / "mine" / "pendulum.xml")
-    shutil.copy(source.equations.__file__, tmp_path / "mine" / "pendulum.py")  # imports lagrange_xval.forms
-    command = [sys.executable, "-m", "lagrange_xval.cli", "run", "--systems", "mine", "--out", "out"]
-    ok = subprocess.run(
-        command + ["--states", "50", "--probes", "1", "--no-replay"],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    assert ok.returncode == 0 and "pendulum: pass" in ok.stderr, ok.stderr[-2000:]
-    (tmp_path / "mine" / "lonely.xml").write_text("<mujoco/>")
-    # issue 26: a file without its partner is named, and the rest are validated all the same
-    more = subprocess.run(
-        command + ["--states", "50", "--probes", "1", "--no-replay"],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    assert more.returncode == 0 and "pendulum: pass" in more.stderr, more.stderr[-2000:]
-    assert (
-        "lonely: not checked: " in more.stdout and "lonely.xml has no lonely.py or lonely.toml beside it" in more.stdout
-    )
-
-
 def test_check_and_simulate_take_a_model_and_equations(tmp_path):
     """`check` and `simulate` on a user's files; a SYSTEM name and files together, or neither, is one line."""
     import json
@@ -200,21 +163,6 @@ def test_bench_and_stress_take_model_and_equations_together(command, capsys):
     assert "--model and --equations go together" in capsys.readouterr().err
 
 
-@pytest.mark.long
-@pytest.mark.parametrize("name", sorted(FORMS))
-def test_every_new_system_passes_the_whole_job(name):
-    """Verdicts, trajectories, chaos and the mirrors of MuJoCo's integrators: a 3-DOF damped arm (whose
-    flow contracts phase volume until Phi is singular in double precision) and explicit accelerations
-    under Euler's implicit damping included."""
-    from lagrange_xval.stages.pipeline import run_system
-
-    result = run_system(
-        systems.System.from_files(FOLDER / f"{name}.xml", FOLDER / f"{name}.py"), n_states=100, seed=0, n_probes=1
-    )
-    assert result["passed"], result["failed"]
-    assert not [k for k, v in result["stages"].items() if "outcome" in v], result["stages"]
-
-
 def _without(text: str, names: tuple[str, ...]) -> str:
     """The module's source without the top-level functions (and assignments) called `names`."""
     import ast
@@ -227,43 +175,6 @@ def _without(text: str, names: tuple[str, ...]) -> str:
         if named in names:
             del lines[node.lineno - 1 - len(getattr(node, "decorator_list", [])) : node.end_lineno]
     return "".join(lines)
-
-
-@pytest.mark.long
-def test_optional_functions_left_out_are_not_checked_never_failed(tmp_path):
-    """A derivation with only its dynamics (no energies, no body poses, no printed variants) gets the
-    whole job; what it leaves out is listed as not checked, in the derivation and the pointwise check."""
-    import json
-
-    from lagrange_xval.cli import main
-
-    left_out = ("kinetic_energy", "potential_energy", "body_positions", "body_rotations", "VARIANTS")
-    shutil.copy(FOLDER / "acrobot.xml", tmp_path / "acrobot.xml")
-    (tmp_path / "acrobot.py").write_text(_without((FOLDER / "acrobot.py").read_text(), left_out))
-    system = systems.System.from_files(tmp_path / "acrobot.xml", tmp_path / "acrobot.py")
-    assert not hasattr(system.equations.ORIGINAL, "kinetic_energy")
-    out = tmp_path / "reports"
-    code = main(
-        [
-            "run",
-            "--model",
-            str(tmp_path / "acrobot.xml"),
-            "--equations",
-            str(tmp_path / "acrobot.py"),
-            "--out",
-            str(out),
-            "--states",
-            "200",
-        ]
-    )
-    result = json.loads((out / "results.json").read_text())["systems"]["acrobot"]
-    assert code == 0 and result["passed"], result["failed"]
-    assert result["derivation"]["not_checked"] == [f"{n}() not provided" for n in left_out[:4]]
-    assert {"T", "V", "body_positions", "body_rotations"} <= {s.split()[0] for s in result["pointwise"]["not_checked"]}
-    assert not {"T", "V"} & {r["quantity"] for r in result["pointwise"]["rows"] if "hand" in r["pair"]}
-    assert {"T", "V"} <= {r["quantity"] for r in result["pointwise"]["rows"]}  # the engines still agree on them
-    assert (out / "acrobot.rrd").is_file()
-    assert "Not checked (the derivation does not provide them" in (out / "report.md").read_text()
 
 
 def _repository_modules() -> list[tuple[Path, Path]]:

@@ -142,33 +142,6 @@ def test_new_lock_writes_the_module_of_the_locked_urdf(tmp_path, capsys):
     assert "no joint 'nope' to lock" in capsys.readouterr().err and not (tmp_path / "other.py").exists()
 
 
-@pytest.mark.long
-def test_new_filled_in_from_derive_passes_every_check_locked(tmp_path, capsys):
-    """`new --lock` and `derive --python --lock` on the same URDF: derive's code is the dynamics of
-    new's module as it is, which passes check (the model's numbers and probes moving every field),
-    and `check` and `simulate` take the same --lock; a mass written as the model's number is caught
-    by the probes. The last joint is locked: a locked joint above a moving body puts that body in an
-    MJCF <frame>, which the probes' writer (set_values) cannot edit yet."""
-    import lagrange_xval as lx
-
-    assert main(["new", "mine", "--model", str(ARM), "--dir", str(tmp_path), "--lock", "elbow"]) == 0
-    module = tmp_path / "mine.py"
-    module.write_text(module.read_text() + "\n\n" + _derive_python(ARM, "--lock", "elbow"))
-    system = lx.System.from_files(ARM, module, locked=("elbow",))
-    assert system.coordinates == ("yaw", "shoulder")
-    lx.check(system, n_states=50, probes=2).assert_ok()
-    files = ["--model", str(ARM), "--equations", str(module), "--lock", "elbow"]
-    assert main(["check", *files, "--states", "50"]) == 0, capsys.readouterr().out[-2000:]
-    out = tmp_path / "sim.csv"
-    args = ["--source", "hand", "--q0", "0.1,0.2", "--v0", "0,0", "--t-end", "0.1", "--dt-out", "0.05"]
-    assert main(["simulate", *files, *args, "--out", str(out)]) == 0
-    assert "# locked: elbow (made fixed at zero)" in out.read_text()
-    wrong = tmp_path / "wrong.py"
-    wrong.write_text(module.read_text().replace("m_link2 = p.m_link2", f"m_link2 = {system.params.m_link2!r}"))
-    result = lx.check(lx.System.from_files(ARM, wrong, locked=("elbow",)), n_states=50, probes=2)
-    assert not result.passed and all(f.probe for f in result.failures if f.check == "derivation")
-
-
 @needs_robots
 def test_new_on_the_panda_with_or_without_its_fingers_locked(tmp_path, capsys):
     """The Panda's second finger mimics the first: a constraint, left out like every other, so `new`
