@@ -228,11 +228,27 @@ def judge_trajectories(traj: dict[str, Any], amplification: Any, chaos_failed: s
                 f"its own error estimate makes its threshold {thr[coarse[0]]:.2g} rad at {t[coarse[0]]:g} s, above "
                 f"{MAX_THRESHOLD:g} rad: beyond {end:g} s this run cannot tell equations apart"
             )
+        end = _wall_time_stop(run, end)
         inside = t <= end + 1e-12
         err = np.asarray(run["error_vs_hand"], dtype=float)[inside]
         run["judged_until"] = end
         run["threshold_at_judged_end"] = float(thr[inside][-1])
         run["passed"] = bool(np.all(np.isfinite(err)) and np.all(err <= thr[inside]))
+
+
+def _wall_time_stop(run: dict[str, Any], end: float) -> float:
+    """Where the harness's wall-time budget stopped the run, when before `end`: it is judged until then
+    (said on the run). That budget guards against a slow source; a loaded machine can spend it on a right
+    derivation, so its stop is no evidence (the evaluation budget's is: a wrong derivation spends it)."""
+    stats = run.get("stats") or {}
+    reason = str(stats.get("reason", ""))
+    if stats.get("status") != "stopped: budget" or not reason.startswith("stopped: budget: wall time"):
+        return end
+    stop = float(stats["stopped_at"])
+    if stop < end:
+        spent = reason.removeprefix("stopped: budget: ")
+        run["judged_because"] = f"the harness's wall-time budget ran out then ({spent})"
+    return min(end, stop)
 
 
 def divergence_results(

@@ -404,8 +404,28 @@ def _integrators_table(doc: Document, name: str, s: SystemResult, cx: dict[str, 
         "amplification, up to where the envelope reaches the tolerance (a free run that is the trajectory table's "
         "MuJoCo run carries that table's verdict, stated once); the order is measured from a timestep sweep."
     )
+    short += [note for iname, r in sorted(integ.items()) for note in mirror_notes(iname, r.get("mirrors", {}))]
     if short:
         doc.items(short)
+
+
+MIRROR_OF = {"mujoco~hand": "the hand equations", "mujoco~pinocchio": "Pinocchio's ABA"}
+
+
+def mirror_notes(integrator: str, mirrors: dict[str, Any]) -> list[str]:
+    """What a mirror's number alone does not say: not judged, judged short of the run, or failed, and why."""
+    notes = []
+    for pair, m in sorted(mirrors.items()):
+        what = f"MuJoCo {integrator}'s mirror on {MIRROR_OF.get(pair, pair)}"
+        if m.get("judged") is False:
+            notes.append(f"{what}: {m.get('why_not_judged', 'not judged')}.")
+        elif m.get("judged_short"):
+            until = (m.get("judge") or {}).get("judged_until")
+            verdict = "agrees" if m.get("passed") else "disagrees"
+            notes.append(f"{what} {verdict} until {as_float(until):g} s, judged no further: {m['judged_short']}.")
+        elif m.get("passed") is False and m.get("reason"):
+            notes.append(f"{what} fails: {m['reason']}.")
+    return notes
 
 
 def same_run(s: SystemResult, integrator: str, free_run: dict[str, Any]) -> FreeRun | None:

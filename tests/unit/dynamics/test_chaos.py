@@ -147,3 +147,31 @@ def test_energy_drift_rk4_against_euler(name):
     euler = chaos.energy_drift(system, sources_of(system), q0, v0, tau, t, integrator="Euler", ref=ref)
     assert rk4["relative"] < 1e-7, rk4
     assert euler["relative"] > 1e-3, euler
+
+
+def test_a_mirror_the_wall_time_budget_stops_is_judged_until_its_stop(monkeypatch, tmp_path):
+    """The wall-time budget is the harness's guard against a slow source, not evidence about the
+    derivation: a loaded machine can spend it on a right one (the acrobot's Euler mirror, 10^4 round
+    trips to a person's module at load 8). A mirror it stops is judged up to its stop, says so, and
+    fails only for a difference before it; a mirror that diverges still fails."""
+    import functools
+
+    from lagrange_xval.dynamics.integrate import Budget
+    from lagrange_xval.report.system_parts import mirror_notes
+
+    system = systems.load("simple_pendulum")
+    sources = make_sources(system)
+    stopped = functools.partial(chaos.mirror_trajectory, budget=Budget(max_wall_s=0.0))
+    monkeypatch.setattr(chaos, "mirror_trajectory", stopped)
+    out = chaos.crossvalidate(system, sources, t_end=1.0, integrators=("Euler",), cache_dir=tmp_path)
+    mirrors = out["integrators"]["Euler"]["mirrors"]
+    assert out["passed"], mirrors
+    for m in mirrors.values():
+        assert m["passed"] and m["judged_short"].startswith("stopped: budget: wall time 0 s"), m
+        assert m["judge"]["judged_until"] == 0.0
+    notes = mirror_notes("Euler", mirrors)
+    assert notes[0].startswith("MuJoCo Euler's mirror on the hand equations agrees until 0 s, judged no further: ")
+    failing = {"mujoco~hand": {"passed": False, "status": "diverged", "reason": "diverged at t = 2 s: |q| > 1e6"}}
+    assert mirror_notes("RK4", failing) == [
+        "MuJoCo RK4's mirror on the hand equations fails: diverged at t = 2 s: |q| > 1e6."
+    ]

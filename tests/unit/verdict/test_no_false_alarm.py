@@ -240,3 +240,22 @@ def test_a_chain_with_no_symbolic_source_gets_an_aba_reference():
     assert "Pinocchio ABA" in traj["reference"] and traj["reference_info"]["agreement_q"] < 1e-9, traj["reference"]
     runs = {r["source"]: r for r in traj["runs"]}
     assert runs["mujoco"]["max_error_vs_hand"] < 1e-6 and runs["pinocchio"]["max_error_vs_hand"] < 1e-8
+
+
+def test_a_run_the_wall_time_budget_stops_is_judged_until_its_stop_and_no_further():
+    """A free run the harness's wall-time budget stopped (a loaded machine, a slow module) is judged up
+    to its stop, which it says; one the evaluation budget stopped (what a wrong derivation spends) fails."""
+    t = np.linspace(0.0, 1.0, 11)
+    err = np.where(t <= 0.5, 1e-9, np.nan)
+
+    def run(reason: str) -> dict:
+        stats = {"status": "stopped: budget", "stopped_at": 0.5, "reason": reason}
+        return {"source": "hand", "counts": True, "error_vs_hand": err.tolist(), "stats": stats}
+
+    wall = run("stopped: budget: wall time 60 s spent by t = 0.5 s")
+    evals = run("stopped: budget: 200000 evaluations spent by t = 0.5 s")
+    traj = {"t": t.tolist(), "threshold": 1e-6, "runs": [wall, evals]}
+    freeruns.judge_trajectories(traj, None)
+    assert wall["passed"] is True and wall["judged_until"] == 0.5
+    assert wall["judged_because"] == "the harness's wall-time budget ran out then (wall time 60 s spent by t = 0.5 s)"
+    assert evals["passed"] is False
