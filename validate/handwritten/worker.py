@@ -9,8 +9,10 @@ match their length, numbers, strings, lists and dicts, and the names of exceptio
 cut message (`escape`). The parent compares, decides and prints with its own numpy.
 
 The parent keeps the watchdog. The time limit is per system: one budget for every call into the
-module, its import included, each call's wall time less `LATENCY` (`DEFAULT_TIME_LIMIT`,
-`--time-limit SECONDS`). A worker that does not answer within what is left of it is ended with its
+module, its import included (`DEFAULT_TIME_LIMIT`, `--time-limit SECONDS`). A call is charged its wall
+time less `LATENCY` and less the time the worker and the calling thread stood waiting for a CPU
+(Linux's /proc schedstat, `waited`): that is the machine's load, not the module's; computing and
+blocking are charged. A worker that does not answer within what is left of it is ended with its
 whole process group (SIGTERM, then SIGKILL after `GRACE` s) and the call raises `Stopped`
 ("mass_matrix did not return within 30 s (the time limit per system; ...)"); so does a worker that
 ends (a crash, a signal, `os._exit` from a thread) and a call of `sys.exit`/`os._exit` inside a
@@ -229,6 +231,21 @@ def send(fd: int, header: Any, blobs: list[bytes] = ()) -> None:  # type: ignore
         view = view[os.write(fd, view) :]
 
 
+def waited(schedstat: str) -> float:
+    """The run-queue wait of a task in seconds: the second field of its /proc schedstat (nanoseconds);
+    0 where there is none (not Linux, a task that ended)."""
+    try:
+        fd = os.open(schedstat, os.O_RDONLY)
+    except OSError:
+        return 0.0
+    try:
+        return int(os.pread(fd, 100, 0).split()[1]) / 1e9
+    except (OSError, ValueError, IndexError):
+        return 0.0
+    finally:
+        os.close(fd)
+
+
 def receive(fd: int, deadline: float | None = None) -> tuple[Any, list[bytes]]:
     """One message (header, arrays' bytes), bounded in size; TimeoutError past `deadline`
     (time.monotonic), EOFError when the other end is gone."""
@@ -396,7 +413,7 @@ class ModuleWorker:
                 forget(fd)
             self._start()
         self.calls += 1
-        start = time.monotonic()
+        start, queued = time.monotonic(), self._queued()
         try:
             send(self._send, message, blobs)
             while True:
@@ -415,8 +432,14 @@ class ModuleWorker:
             self.close()
             raise
         finally:
-            self.left -= max(0.0, time.monotonic() - start - LATENCY)
+            self.left -= max(0.0, time.monotonic() - start - LATENCY - (self._queued() - queued))
         return self._answer(name, header, got, unpack_hook, batch=message.get("op") == "batch")
+
+    def _queued(self) -> float:
+        """Seconds the worker and this thread have stood waiting for a CPU, summed (0 where unknown)."""
+        return waited(f"/proc/{self._proc.pid}/schedstat") + waited(
+            f"/proc/self/task/{threading.get_native_id()}/schedstat"
+        )
 
     def _lookup(self, model: Mapping[str, Any] | None, header: dict[str, Any]) -> None:
         key = header["get"]

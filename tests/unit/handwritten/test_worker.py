@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import os
 import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -172,6 +173,43 @@ def test_the_limit_is_one_budget_for_all_of_a_systems_calls(tmp_path: Path) -> N
     assert proc.returncode == 2, proc.stderr
     assert "did not return within 1.5 s (the time limit per system" in _error_line(proc)
     assert took < ENDS_WITHIN
+
+
+LOADED = """
+import os, subprocess, sys, time
+import numpy as np
+from lagrange_xval.handwritten.worker import ModuleWorker
+os.sched_setaffinity(0, {{0}})
+worker = ModuleWorker({module!r}, time_limit=30.0)
+os.sched_setaffinity(worker._proc.pid, {{0}})
+worker.renew()  # the import's charge aside
+hog = "import os\\nos.sched_setaffinity(0, {{0}})\\nwhile True: pass"
+hogs = [subprocess.Popen([sys.executable, "-c", hog]) for _ in range(3)]
+time.sleep(0.3)
+start = time.monotonic()
+try:
+    for _ in range(600):
+        worker.call("f", np.ones(3))
+finally:
+    for h in hogs:
+        h.kill()
+print(time.monotonic() - start, 30.0 - worker.left)
+"""
+
+
+@pytest.mark.skipif(not Path("/proc/self/schedstat").exists(), reason="the load is measured from Linux's schedstat")
+def test_a_loaded_machine_does_not_spend_the_modules_budget(tmp_path: Path) -> None:
+    """600 calls of a trivial function with three busy processes on the same CPU: the calls take seconds,
+    but the waits for the CPU are the machine's, not the module's, and are not charged
+    (before, a right derivation failed `run` at load 8 for \"did not return within 30 s\")."""
+    module = tmp_path / "m.py"
+    module.write_text("import numpy as np\n\ndef f(x):\n    return np.asarray(x) * 2.0\n")
+    done = subprocess.run(
+        [sys.executable, "-c", LOADED.format(module=str(module))], capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    took, charged = map(float, done.stdout.split())
+    assert took > 0.3 and charged < 0.1, (took, charged)
 
 
 @pytest.mark.parametrize(
