@@ -13,7 +13,6 @@ import numpy as np
 
 from ..core.errors import HarnessError
 from ..handwritten.forms import not_provided_in
-from ..model.modelview import ModelView
 from ..systems import System, load, system_names
 
 TRAIL_SECONDS = 1.0  # s of the tip's path drawn behind it
@@ -135,7 +134,7 @@ def shade(colour: Colour, towards: float, amount: float) -> Colour:
     return tuple(round(c + (towards - c) * amount) for c in colour)  # type: ignore[return-value]
 
 
-def joint_unit(view: ModelView, joint: str) -> str:
+def joint_unit(view: Mapping[str, object], joint: str) -> str:
     try:
         return "m" if view[f"joint/{joint}/type"] == "slide" else "rad"
     except HarnessError:
