@@ -135,7 +135,7 @@ def ratios_of(rows: list[Row], extras: dict[str, object], chosen: list[str], pla
     rhs: RhsRatio = {"value": None, "passed": False, "why": f"{plan.rhs_system} not available"}
     if "rhs" in extras:
         rhs = cast(RhsRatio, extras["rhs"])  # rhs_task's
-    point = [cast(PointwiseRatio, extras[f"pointwise {n}"]) for n in chosen]  # pointwise_task's
+    point = pointwise_summary([cast(PointwiseRatio, extras[f"pointwise {n}"]) for n in chosen], plan)  # its task's
     default: DefaultRatio = (
         default_ratio(rows, plan)
         if plan.rhs_system in chosen
@@ -144,7 +144,7 @@ def ratios_of(rows: list[Row], extras: dict[str, object], chosen: list[str], pla
     flags = [r for n in chosen for r in cast(list[FlagsRow], extras[f"flags {n}"])]  # flags_task's
     return {
         "rhs_fast_path_vs_hand_math": rhs,
-        "pointwise_vs_raw_engine_calls": pointwise_summary(point, plan),
+        "pointwise_vs_raw_engine_calls": point,
         "default_scipy_vs_fastest_scipy": default,
         "default_path_vs_frontier": frontier_ratios(rows, plan.frontier_epsilons),
         "mujoco_disable_flags": flags_summary(flags),

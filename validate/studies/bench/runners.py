@@ -491,6 +491,7 @@ def run_once(spec: Spec, case: Case, plan: Plan) -> Outcome:
             raise HarnessError(f"a {driver} run needs an atol.")
         y0 = np.concatenate([q0, v0])
         tau_list: Taus | None = None
+        f: Callable[..., Rates]  # the generated code, the compiled function, or a source's rhs
         if engine == "hand":
             f, tau_list = scalar_rhs(system), [float(x) for x in tau]  # compiled before the clock starts
         elif engine == "hand-cfunc":
