@@ -90,7 +90,7 @@ def render_replays(results: dict[str, Any]) -> dict[str, bytes]:
     }
 
 
-def render_system(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str, Any] | None = None) -> bytes:
+def render_system(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str, object] | None = None) -> bytes:
     """The .rrd bytes of one system's recording (recording and default blueprint).
 
     Args:
@@ -114,7 +114,7 @@ def render_system(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[st
     return data
 
 
-def recording_id(name: str, meta: Mapping[str, Any] | None) -> str:
+def recording_id(name: str, meta: Mapping[str, object] | None) -> str:
     """Same results, same id; another run's results, another id (the viewer merges recordings that share one)."""
     digest = hashlib.sha256(json.dumps([name, meta], sort_keys=True, default=str).encode()).hexdigest()[:16]
     return f"{name}-{digest}"
@@ -192,7 +192,7 @@ def _viewer_listening(port: int) -> bool:
         return False
 
 
-def _show(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str, Any] | None) -> None:
+def _show(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str, object] | None) -> None:
     """Spawns a rerun viewer (or reuses one on VIEWER_PORT) and streams the recording to it."""
     import rerun as rr
 

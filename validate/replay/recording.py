@@ -4,14 +4,16 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .scene import TRAIL_SECONDS, as_floats, shade
+from .scene import TRAIL_SECONDS, Colour, Scene, SceneRun, as_floats, first_exceeds, shade
 
 if TYPE_CHECKING:
-    from rerun import RecordingStream
+    from rerun import AsComponents, ComponentColumn, RecordingStream, TimeColumn
+    from rerun.blueprint import Blueprint
 
 TIMELINE = "time"  # s
 
@@ -44,7 +46,7 @@ def log10_error(error: np.ndarray) -> np.ndarray:
         return plottable(np.log10(np.maximum(error, ERROR_FLOOR)))
 
 
-def time_column(seconds: np.ndarray) -> Any:
+def time_column(seconds: np.ndarray) -> TimeColumn:
     """The "time" timeline at these instants. Rounded to whole nanoseconds here: rerun truncates
     float seconds (2.11 s would become 2.109999999 s)."""
     import rerun as rr
@@ -52,17 +54,17 @@ def time_column(seconds: np.ndarray) -> Any:
     return rr.TimeColumn(TIMELINE, duration=np.rint(np.asarray(seconds, dtype=float) * 1e9).astype("timedelta64[ns]"))
 
 
-def _static(rec: RecordingStream, path: str, *archetypes: Any) -> None:
+def _static(rec: RecordingStream, path: str, *archetypes: AsComponents) -> None:
     """Logs styling or text that does not change with time."""
     rec.log(path, *archetypes, static=True, strict=True)
 
 
-def _send(rec: RecordingStream, path: str, columns: Any, times: list[Any]) -> None:
+def _send(rec: RecordingStream, path: str, columns: Iterable[ComponentColumn], times: list[TimeColumn]) -> None:
     """Sends a whole time series at the instants `times` (one time column)."""
     rec.send_columns(path, indexes=times, columns=columns, strict=True)
 
 
-def _log_frame(rec: RecordingStream, scene: dict[str, Any], radius: float) -> None:
+def _log_frame(rec: RecordingStream, scene: Scene, radius: float) -> None:
     """The scene's axes (which way is up), description, anchors and the error threshold."""
     import rerun as rr
 
@@ -86,7 +88,7 @@ def _log_frame(rec: RecordingStream, scene: dict[str, Any], radius: float) -> No
         )
 
 
-def _log_bodies(rec: RecordingStream, scene: dict[str, Any], r: dict[str, Any], radius: float) -> None:
+def _log_bodies(rec: RecordingStream, scene: Scene, r: SceneRun, radius: float) -> None:
     """One run's 3D view: centres of mass, links, trails and body axes."""
     import rerun as rr
 
@@ -111,7 +113,7 @@ def _log_bodies(rec: RecordingStream, scene: dict[str, Any], r: dict[str, Any], 
         )
 
 
-def _log_plots(rec: RecordingStream, scene: dict[str, Any], r: dict[str, Any]) -> None:
+def _log_plots(rec: RecordingStream, scene: Scene, r: SceneRun) -> None:
     """One run's time series: its coordinates, log10 error and envelope vs hand, and energy change."""
     import rerun as rr
 
@@ -134,13 +136,13 @@ def _log_plots(rec: RecordingStream, scene: dict[str, Any], r: dict[str, Any]) -
         _send(rec, f"{base}/energy_change", rr.Scalars.columns(scalars=plottable(r["energy"] - r["energy"][0])), times)
 
 
-def _log_exceedance(rec: RecordingStream, scene: dict[str, Any], r: dict[str, Any]) -> tuple[float, str, Any] | None:
+def _log_exceedance(rec: RecordingStream, scene: Scene, r: SceneRun) -> tuple[float, str, Colour] | None:
     """Where one run's error vs hand first exceeds the threshold, marked on the error plot; the event
     (time, text, colour) for the log, or None where it never does."""
     import rerun as rr
 
     t, base, colour = scene["t"], f"/{part(scene['name'])}/{part(r['key'])}", r["colour"]
-    first_time = r["run"].get("first_exceeds_threshold")
+    first_time = first_exceeds(r["run"])
     if first_time is None or r["error"] is None or not np.isfinite(float(first_time)):
         return None
     k = int(np.argmin(np.abs(t - float(first_time))))
@@ -162,7 +164,7 @@ def _log_exceedance(rec: RecordingStream, scene: dict[str, Any], r: dict[str, An
     )
 
 
-def log_scene(rec: RecordingStream, scene: dict[str, Any]) -> None:
+def log_scene(rec: RecordingStream, scene: Scene) -> None:
     """Sends the scene to a recording stream: static styling and text first, then whole columns."""
     import rerun as rr
 
@@ -185,7 +187,7 @@ def log_scene(rec: RecordingStream, scene: dict[str, Any]) -> None:
         )
 
 
-def blueprint(scene: dict[str, Any]) -> Any:
+def blueprint(scene: Scene) -> Blueprint:
     """The default layout: the 3D view left; q, log10 error and energy plots stacked right; text below."""
     import rerun.blueprint as rrb
 
@@ -235,13 +237,13 @@ def blueprint(scene: dict[str, Any]) -> Any:
     )
 
 
-def describe(scene: dict[str, Any]) -> str:
+def describe(scene: Scene) -> str:
     """The markdown text document: the system, the runs, and how each plot was made."""
     s, t = scene["sys"], scene["t"]
     traj = s["trajectories"]
     units = dict(zip(scene["coordinates"], scene["units"], strict=True))
 
-    def vec(x: Any) -> str:
+    def vec(x: object) -> str:
         return "(" + ", ".join(f"{float(v):.6g}" for v in np.ravel(as_floats(x))) + ")"
 
     lines = [f"# {scene['name']}", "", str(s.get("description", "")), ""]
@@ -268,7 +270,7 @@ def describe(scene: dict[str, Any]) -> str:
         run = r["run"]
         colour = "#{:02x}{:02x}{:02x}".format(*r["colour"])
         v = as_floats(run["v"]).reshape(len(r["t"]), -1) if "v" in run else None
-        first_time = run.get("first_exceeds_threshold")
+        first_time = first_exceeds(run)
         max_error = f"{float(np.max(r['error'])):.3g}" if r["error"] is not None else "-"
         drift = f"{float(np.max(np.abs(r['energy'] - r['energy'][0]))):.3g}" if r["energy"] is not None else "-"
         lines.append(

@@ -7,7 +7,7 @@ from __future__ import annotations
 import colorsys
 import re
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, NotRequired, TypedDict
 
 import numpy as np
 
@@ -16,6 +16,54 @@ from ..handwritten.forms import not_provided_in
 from ..systems import System, load, system_names
 
 TRAIL_SECONDS = 1.0  # s of the tip's path drawn behind it
+
+Colour = tuple[int, int, int]  # RGB, 0-255
+
+
+class PlacedRun(TypedDict):
+    """One run's samples and its bodies placed by the equations' kinematics (`_placed_run`)."""
+
+    run: Mapping[str, object]  # the run as recorded (results.json's, or a wrong form's)
+    t: np.ndarray  # (K,) s
+    q: np.ndarray  # (K, n)
+    com: dict[str, np.ndarray]  # per body: (K, 3) centre of mass
+    rot: dict[str, np.ndarray]  # per body: (K, 3, 3)
+    anchor: dict[str, np.ndarray]  # per body: (K, 3) joint anchor
+    links: dict[str, np.ndarray]  # per body: (K, 3 points, 3)
+    energy: np.ndarray | None
+    error: np.ndarray | None
+    envelope: np.ndarray | None
+
+
+class SceneRun(PlacedRun):
+    """A placed run with its entity name, colour, body axes and tips' trails (`build_scene`)."""
+
+    key: str
+    colour: Colour
+    axes: NotRequired[dict[str, np.ndarray]]  # per still body: (K, 3 axes, 2 points, 3)
+    trails: NotRequired[dict[str, np.ndarray]]  # per tip: (K, window, 3)
+
+
+class Scene(TypedDict):
+    """The arrays and text of one system's recording (`build_scene`)."""
+
+    name: str
+    sys: Mapping[str, Any]  # results["systems"][name], JSON or numpy as `run` wrote it
+    t: np.ndarray
+    runs: list[SceneRun]
+    bodies: list[str]
+    tips: list[str]
+    still: list[str]
+    parent: dict[str, str]
+    scale: float
+    window: int
+    up: tuple[int, int]
+    coordinates: list[str]
+    units: list[str]
+    roots: list[str]
+    threshold: float | None
+    plane_normal: int | None
+    meta: str
 
 
 SOURCE_COLOURS: dict[str, tuple[int, int, int]] = {
@@ -35,16 +83,22 @@ EXTRA_COLOURS: tuple[tuple[int, int, int], ...] = (
 )
 
 
-def as_floats(x: Any) -> np.ndarray:
+def as_floats(x: object) -> np.ndarray:
     """A float array from numpy or JSON data (JSON keeps inf and nan as strings)."""
     return np.asarray(x, dtype=float) if not isinstance(x, np.ndarray) else x.astype(float, copy=False)
 
 
-def slug(text: str) -> str:
+def first_exceeds(run: Mapping[str, object]) -> float | None:
+    """When a run's error first exceeds its threshold (s; JSON keeps inf and nan as strings), or None."""
+    first = run.get("first_exceeds_threshold")
+    return None if first is None else float(as_floats(first))
+
+
+def slug(text: object) -> str:
     return re.sub(r"[^a-z0-9]+", "_", str(text).lower()).strip("_") or "run"
 
 
-def run_keys(runs: list[dict[str, Any]]) -> list[str]:
+def run_keys(runs: list[Mapping[str, object]]) -> list[str]:
     """Unique entity-path names for the runs: the source, then source_<label or method> for repeats."""
     keys: list[str] = []
     for run in runs:
@@ -59,7 +113,7 @@ def run_keys(runs: list[dict[str, Any]]) -> list[str]:
     return keys
 
 
-def run_colours(runs: list[dict[str, Any]]) -> list[tuple[int, int, int]]:
+def run_colours(runs: list[Mapping[str, object]]) -> list[Colour]:
     """A distinct colour per run: the source's colour for its first run, then the next unused colour."""
     spare = iter(EXTRA_COLOURS)
     golden = 0
@@ -76,18 +130,18 @@ def run_colours(runs: list[dict[str, Any]]) -> list[tuple[int, int, int]]:
     return taken
 
 
-def shade(colour: tuple[int, int, int], towards: float, amount: float) -> tuple[int, int, int]:
+def shade(colour: Colour, towards: float, amount: float) -> Colour:
     return tuple(round(c + (towards - c) * amount) for c in colour)  # type: ignore[return-value]
 
 
-def joint_unit(view: Any, joint: str) -> str:
+def joint_unit(view: Mapping[str, object], joint: str) -> str:
     try:
         return "m" if view[f"joint/{joint}/type"] == "slide" else "rad"
     except HarnessError:
         return "rad"
 
 
-def recorded_params(system: System, sys_results: Mapping[str, Any]) -> Any:
+def recorded_params(system: System, sys_results: Mapping[str, Any]) -> object:
     """The parameters the results were computed with (the model's when they do not fit Params)."""
     recorded = sys_results.get("parameters")
     if recorded:
@@ -129,8 +183,8 @@ def _depths(parent: dict[str, str]) -> dict[str, int]:
 
 
 def _placed_run(
-    system: System, params: Any, parent: dict[str, str], run: dict[str, Any], t: np.ndarray
-) -> dict[str, Any]:
+    system: System, params: object, parent: dict[str, str], run: Mapping[str, object], t: np.ndarray
+) -> PlacedRun:
     """One run's samples and its bodies (`parent`'s keys) placed by the equations' kinematics: centres
     of mass, rotations, joint anchors and links (parent's centre of mass, anchor, centre of mass)."""
     view, bodies = system.view, list(parent)
@@ -167,7 +221,7 @@ def _placed_run(
     }
 
 
-def _scale(runs: list[dict[str, Any]], bodies: list[str]) -> float:
+def _scale(runs: list[SceneRun], bodies: list[str]) -> float:
     """Scene size: how far anything drawn reaches from the origin (1 m when everything sits there);
     samples of a diverged run (non-finite q) do not count."""
     norms = np.concatenate(
@@ -179,7 +233,7 @@ def _scale(runs: list[dict[str, Any]], bodies: list[str]) -> float:
 
 
 def _axes_and_trails(
-    runs: list[dict[str, Any]], still: list[str], tips: list[str], depth: dict[str, int], scale: float
+    runs: list[SceneRun], still: list[str], tips: list[str], depth: dict[str, int], scale: float
 ) -> None:
     """Each run's body axes (for the bodies whose centre of mass stays still) and its tips' trails."""
     for r in runs:
@@ -194,7 +248,7 @@ def _axes_and_trails(
         r["trails"] = {b: (r["axes"][b][:, 0, 1] if b in still else r["com"][b])[trail_index] for b in tips}
 
 
-def _drop_still_links(runs: list[dict[str, Any]], bodies: list[str], scale: float) -> None:
+def _drop_still_links(runs: list[SceneRun], bodies: list[str], scale: float) -> None:
     """A link whose three points coincide throughout (a body turning about its own centre) is not drawn."""
     for b in bodies:
         if all(np.ptp(r["links"][b].reshape(-1, 3), axis=0).max() <= 1e-9 * scale for r in runs):
@@ -210,7 +264,7 @@ def _up(system: System) -> tuple[int, int]:
     return up_axis(gravity)
 
 
-def build_scene(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str, Any] | None = None) -> dict[str, Any]:
+def build_scene(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str, object] | None = None) -> Scene:
     """The arrays and text of one system's recording. Pure numpy; no rerun calls."""
     system = _recorded_system(name, sys_results)
     view = system.view
@@ -225,7 +279,7 @@ def build_scene(name: str, sys_results: Mapping[str, Any], *, meta: Mapping[str,
     parent = {b: view[f"body/{b}/parent"] for b in bodies}
     children = {b for b in bodies if any(parent[c] == b for c in bodies)}
     tips = [b for b in bodies if b not in children]
-    runs = [
+    runs: list[SceneRun] = [
         {"key": key, "colour": colour, **_placed_run(system, params, parent, run, t)}
         for key, colour, run in zip(run_keys(runs_in), run_colours(runs_in), runs_in, strict=True)
     ]
@@ -262,7 +316,7 @@ def _window(t: np.ndarray) -> int:
     return max(2, int(round(TRAIL_SECONDS / float(np.median(np.diff(t))))) + 1)
 
 
-def wrong_form_runs(sys_results: Mapping[str, Any]) -> list[dict[str, Any]]:
+def wrong_form_runs(sys_results: Mapping[str, Any]) -> list[Mapping[str, object]]:
     """The runs of the wrong printed forms from the experiment's unperturbed start at its tightest
     tolerance (the same start as the trajectories'), on the experiment's own time grid: the motion
     a wrong form predicts, beside the engines'."""
@@ -289,7 +343,7 @@ def wrong_form_runs(sys_results: Mapping[str, Any]) -> list[dict[str, Any]]:
     ]
 
 
-def provenance_text(meta: Mapping[str, Any] | None) -> str:
+def provenance_text(meta: Mapping[str, object] | None) -> str:
     if not meta:
         return ""
     command = meta.get("command", "lagrange-xval run")
@@ -309,7 +363,7 @@ def up_axis(gravity: np.ndarray) -> tuple[int, int]:
     return 2, 1
 
 
-def plane_normal(runs: list[dict[str, Any]], bodies: list[str], scale: float) -> int | None:
+def plane_normal(runs: list[SceneRun], bodies: list[str], scale: float) -> int | None:
     """The world axis all motion is perpendicular to, if the motion is planar (to look along it)."""
     if not bodies:
         return None

@@ -15,9 +15,11 @@ from __future__ import annotations
 import json
 import tempfile
 import time
+from argparse import Namespace
+from collections.abc import Callable
 from concurrent.futures import Executor
 from pathlib import Path
-from typing import Any
+from typing import NotRequired, Required, TypedDict
 
 import numpy as np
 
@@ -44,6 +46,54 @@ DERIVE_BUDGET = 120.0  # s: `derive` refuses a model predicted to take longer (u
 # of CPU against 90 s for the derivation alone (492 KB), so 1.2x.
 SPATIAL_FACTOR = 8.0
 PYTHON_FACTOR = 1.2
+
+
+Progress = Callable[[str], None] | None
+
+
+class SymbolicTimes(TypedDict):
+    """One chain's derivation and code generation times (codegen_s: where the derivation was in budget)."""
+
+    derive_s: float
+    ops_M_Cv: int  # sympy's count_ops of M and C v
+    codegen_s: NotRequired[float]
+
+
+class Symbolic(SymbolicTimes):
+    """`_symbolic`: the times, and the symbolic source where its code was generated."""
+
+    source: NotRequired[Source]
+
+
+class ChainRow(TypedDict, total=False):
+    """One chain: its sources' time per state, the symbolic times, their agreement and cond(M)."""
+
+    kind: Required[str]  # "planar" or "spatial"
+    n: Required[int]
+    symbolic: SymbolicTimes
+    per_state_s: dict[str, dict[str, float]]  # {source: {operation: s}}
+    worst_scaled: dict[str, float]  # {"quantity pair": scaled error}
+    all_within_tiers: bool
+    cond_M_max: float
+
+
+class Stopped(TypedDict):
+    """Where the symbolic source stopped, and why."""
+
+    n: int
+    why: str
+
+
+class ChainsResults(TypedDict):
+    """chains.json."""
+
+    ns: list[int]
+    n_states: int
+    repeats: int
+    symbolic_budget_s: float
+    rows: list[ChainRow]
+    symbolic_stopped_at: dict[str, Stopped]
+    slopes: dict[str, dict[str, float]]
 
 
 def predicted_derive_s(n: int, *, spatial: bool = False, python: bool = False) -> float:
@@ -86,7 +136,7 @@ def chain_mjcf(n: int, kind: str, seed: int = 0) -> str:
     return f'<mujoco model="chain{n}"><option gravity="{gravity}"/><worldbody>{body}</worldbody></mujoco>'
 
 
-def _per_state(fn: Any, n_states: int, repeats: int) -> float:
+def _per_state(fn: Callable[[], object], n_states: int, repeats: int) -> float:
     best = float("inf")
     for _ in range(repeats):
         start = time.perf_counter()
@@ -107,7 +157,7 @@ def _timings(source: Source, states: pointwise.States, repeats: int) -> dict[str
     return {op: _per_state(fn, len(q), repeats) for op, fn in calls.items()}
 
 
-def _symbolic(system: System, budget: float) -> dict[str, Any]:
+def _symbolic(system: System, budget: float) -> Symbolic:
     """Derivation and code generation of one chain, timed; the expression sizes."""
     import sympy as sp
 
@@ -115,7 +165,7 @@ def _symbolic(system: System, budget: float) -> dict[str, Any]:
     d = derive(system.view, system.joints)
     derive_s = time.perf_counter() - start
     size = int(sp.count_ops(list(d.M)) + sp.count_ops(list(d.Cv)))
-    out: dict[str, Any] = {"derive_s": derive_s, "ops_M_Cv": size}
+    out: Symbolic = {"derive_s": derive_s, "ops_M_Cv": size}
     if derive_s > budget:
         return out
     start = time.perf_counter()
@@ -126,13 +176,21 @@ def _symbolic(system: System, budget: float) -> dict[str, Any]:
     return out
 
 
+def _times(sym: Symbolic) -> SymbolicTimes:
+    """What a row keeps of `_symbolic`: its times and sizes, not the source."""
+    times: SymbolicTimes = {"derive_s": sym["derive_s"], "ops_M_Cv": sym["ops_M_Cv"]}
+    if "codegen_s" in sym:
+        times["codegen_s"] = sym["codegen_s"]
+    return times
+
+
 def kind_rows(
-    kind: str, ns: tuple[int, ...], n_states: int, repeats: int, budget: float, progress: Any = None
-) -> tuple[list[dict[str, Any]], dict[str, Any] | None]:
+    kind: str, ns: tuple[int, ...], n_states: int, repeats: int, budget: float, progress: Progress = None
+) -> tuple[list[ChainRow], Stopped | None]:
     """One kind's chains ("planar" or "spatial"), every n in turn: the rows, and where the symbolic
     source stopped (None if it ran at every n). One task of the study: it runs in a worker as it does here."""
-    rows: list[dict[str, Any]] = []
-    stopped: dict[str, Any] | None = None
+    rows: list[ChainRow] = []
+    stopped: Stopped | None = None
     symbolic_on, last = True, None  # last: (n, derivation + code seconds) of the previous chain
     with tempfile.TemporaryDirectory(prefix="lagrange_xval_chains_") as folder:
         for n in ns:
@@ -141,7 +199,7 @@ def kind_rows(
             system = System.model_only(path, name=f"{kind}{n}")
             states = pointwise.random_states(system, n=n_states, seed=n)
             sources = {name: make_source(system, name) for name in ("mujoco", "pinocchio")}
-            row: dict[str, Any] = {"kind": kind, "n": n}
+            row: ChainRow = {"kind": kind, "n": n}
             if symbolic_on and last is not None and last[1] * (n / last[0]) ** GROWTH > budget:
                 symbolic_on = False  # predicted, not tried: a derivation cannot be interrupted
                 predicted = last[1] * (n / last[0]) ** GROWTH
@@ -152,7 +210,7 @@ def kind_rows(
                 }
             if symbolic_on:
                 sym = _symbolic(system, budget)
-                row["symbolic"] = {k: v for k, v in sym.items() if k != "source"}
+                row["symbolic"] = _times(sym)
                 spent = sym["derive_s"] + sym.get("codegen_s", 0.0)
                 last = (n, spent)
                 if "source" in sym and spent <= budget:
@@ -171,7 +229,7 @@ def kind_rows(
     return rows, stopped
 
 
-def _progress_line(row: dict[str, Any]) -> str:
+def _progress_line(row: ChainRow) -> str:
     verdict = "agree" if row["all_within_tiers"] else "DISAGREE"
     return f"{row['kind']} n={row['n']}: {verdict}, cond(M) {row['cond_M_max']:.1e}"
 
@@ -181,10 +239,10 @@ def run_chains(
     quick: bool = False,
     n_states: int = 200,
     repeats: int = 3,
-    progress: Any = None,
+    progress: Progress = None,
     ns: tuple[int, ...] = (),
     executor: Executor | None = None,
-) -> dict[str, Any]:
+) -> ChainsResults:
     """The scaling study: every chain, every source; see the module docstring (`ns`: other chain lengths).
     With an `executor` (e.g. a dask cluster's), the planar and the spatial chains are two tasks run
     there side by side; without, both run in this process one after the other (each timing alone)."""
@@ -214,7 +272,7 @@ def run_chains(
     }
 
 
-def slopes(rows: list[dict[str, Any]]) -> dict[str, dict[str, float]]:
+def slopes(rows: list[ChainRow]) -> dict[str, dict[str, float]]:
     """log-log slope of time per state against n, per kind, source and operation (n >= 4)."""
     out: dict[str, dict[str, float]] = {}
     for kind in sorted({r["kind"] for r in rows}):
@@ -231,7 +289,7 @@ def slopes(rows: list[dict[str, Any]]) -> dict[str, dict[str, float]]:
     return out
 
 
-def chains_command(args: Any, executor: Executor | None = None) -> int:
+def chains_command(args: Namespace, executor: Executor | None = None) -> int:
     """`lagrange-xval bench --chains [--quick] [--out DIR] [--executor ...]`: writes DIR/chains.json,
     prints the table."""
     import sys

@@ -31,13 +31,15 @@ its kernel cache); the first call of each Warp function per system is timed and 
 
 from __future__ import annotations
 
+import os
 import tempfile
 import time
+from argparse import Namespace
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import TypedDict
 
 import numpy as np
 
@@ -49,12 +51,112 @@ from ..model.start import Scheme, Start
 from ..model.urdf import robots_folder
 from ..results import atomic_write, dumps, provenance
 from ..sources import make_source
-from ..sources.base import engine_of, one_state, stepped
+from ..sources.base import Source, engine_of, one_state, stepped
 from ..systems import System, load_all, system_names
 from ..verdict import pointwise
 from .chains import chain_mjcf
 
 EPS32 = 2.0**-23  # float32 unit roundoff (x2), 1.19e-7
+CacheDir = str | os.PathLike[str] | None  # reference_trajectory's: a folder, None (no cache) or cache.DEFAULT
+
+
+class Error(TypedDict):
+    """max |a - b| over a term, and over its scale."""
+
+    max_abs: float
+    scaled: float
+
+
+class Term(TypedDict):
+    """Warp against C MuJoCo and the reference on one term, and the float32 rounding expected of it."""
+
+    term: str
+    scale: float
+    warp_vs_mujoco: Error
+    warp_vs_reference: Error | None
+    mujoco_vs_reference: Error | None
+    reference: str
+    expected_float32: float
+    eps32_units: float | None
+
+
+class PointwiseRow(Term):
+    """A pointwise term at the random states (`pointwise_rows`)."""
+
+    cond_max: float
+    tolerance: float
+    within_tier: bool
+
+
+class TrajectoryRow(Term):
+    """Warp's own run against C MuJoCo's and the reference (`trajectory_row`)."""
+
+    horizon_s: float
+    integrator: str
+    timestep: float
+    steps: int
+    mujoco_warnings: list[str]
+    warp_us_per_step: float
+
+
+class NotRun(TypedDict):
+    """A trajectory not run, and why."""
+
+    skipped: str
+
+
+class ReferenceRun(TypedDict):
+    """The reference's samples of q and how it was computed."""
+
+    q: np.ndarray
+    method: str
+
+
+class SystemResult(TypedDict):
+    """One system's pointwise rows, trajectory row and first-call times (`system_result`)."""
+
+    nv: int
+    device: str
+    pointwise: list[PointwiseRow]
+    trajectory: TrajectoryRow | NotRun | None
+    first_call_s: dict[str, float]
+
+
+class TableRow(TypedDict):
+    """One line of the table (COLUMNS)."""
+
+    system: str
+    nv: int
+    term: str
+    warp_max_abs: float
+    warp_scaled: float
+    eps32_units: float | None
+    expected_scaled: float
+    warp_vs_reference_scaled: float | None
+    float64_scaled: float | None
+    reference: str
+
+
+class Config(TypedDict):
+    """How the study was run."""
+
+    device: str
+    versions: dict[str, str]
+    n_states: int
+    horizon_s: float
+    dt_out: float
+    eps32: float
+    tiers: dict[str, dict[str, object]]
+    quick: bool
+
+
+class Float32Results(TypedDict):
+    """The float32 study (`run_float32`), bench.json's "float32"."""
+
+    config: Config
+    systems: dict[str, SystemResult]
+    table: list[TableRow]
+    duration_s: float
 
 
 @dataclass(frozen=True)
@@ -92,7 +194,7 @@ class Float32Tiers:
     def of(self, quantity: str) -> Float32Tier:
         return self.solve if quantity == "qacc" else self.term
 
-    def as_dict(self) -> dict[str, dict[str, Any]]:
+    def as_dict(self) -> dict[str, dict[str, object]]:
         return {"term": asdict(self.term), "solve": asdict(self.solve)}
 
 
@@ -130,14 +232,18 @@ COLUMNS = (
 # Pointwise
 
 
-def _error(a: np.ndarray | None, b: np.ndarray | None, scale: float) -> dict[str, float] | None:
+def _error(a: np.ndarray | None, b: np.ndarray | None, scale: float) -> Error | None:
     if a is None or b is None:
         return None
+    return _diff(a, b, scale)
+
+
+def _diff(a: np.ndarray, b: np.ndarray, scale: float) -> Error:
     diff = float(np.max(np.abs(a - b))) if np.size(a) else 0.0
     return {"max_abs": diff, "scaled": diff / scale}
 
 
-def pointwise_rows(system: System, warp: Any, *, n_states: int = N_STATES, seed: int = 0) -> list[dict[str, Any]]:
+def pointwise_rows(system: System, warp: Source, *, n_states: int = N_STATES, seed: int = 0) -> list[PointwiseRow]:
     """One row per term: Warp's error against C MuJoCo and the reference, C MuJoCo's against the
     reference, the scale, cond(M) and the expected float32 rounding (see the module docstring)."""
     states = pointwise.random_states(system, n=n_states, seed=seed)
@@ -145,7 +251,7 @@ def pointwise_rows(system: System, warp: Any, *, n_states: int = N_STATES, seed:
     sources = {against: make_source(system, against), "mujoco": make_source(system, "mujoco"), "warp": warp}
     values = pointwise.evaluate(sources, states)
     cond = float(np.max(np.linalg.cond(values["mujoco"]["M"])))
-    rows = []
+    rows: list[PointwiseRow] = []
     for term in QUANTITIES:
         c, w, r = (values[k].get(term) for k in ("mujoco", "warp", against))
         if c is None or w is None:
@@ -153,7 +259,7 @@ def pointwise_rows(system: System, warp: Any, *, n_states: int = N_STATES, seed:
         also = [float(np.max(np.abs(values["mujoco"][k]))) for k in SCALE_ALSO_BY.get(term, ())]
         scale = max([float(np.max(np.abs(c))), *also, np.finfo(float).tiny])
         tier = FLOAT32.of(term)
-        warp_c = _error(w, c, scale)
+        warp_c = _diff(w, c, scale)
         expected = tier.expected(scale, cond)
         rows.append(
             {
@@ -177,7 +283,7 @@ def pointwise_rows(system: System, warp: Any, *, n_states: int = N_STATES, seed:
 # Trajectories
 
 
-def _reference_run(system: System, q0: np.ndarray, v0: np.ndarray, t: np.ndarray, cache_dir: Any) -> dict[str, Any]:
+def _reference_run(system: System, q0: np.ndarray, v0: np.ndarray, t: np.ndarray, cache_dir: CacheDir) -> ReferenceRun:
     """The reference solution on the grid `t`: heyoka on the hand equations, or DOP853 on Pinocchio."""
     tau = np.zeros(system.nv)
     if system.equations is not None:
@@ -190,7 +296,9 @@ def _reference_run(system: System, q0: np.ndarray, v0: np.ndarray, t: np.ndarray
     return {"q": sol.y[: system.nv].T, "method": "scipy DOP853 rtol 1e-12 on Pinocchio's ABA"}
 
 
-def trajectory_row(system: System, warp: Any, *, horizon: float, cache_dir: Any = DEFAULT_CACHE_DIR) -> dict[str, Any]:
+def trajectory_row(
+    system: System, warp: Source, *, horizon: float, cache_dir: CacheDir = DEFAULT_CACHE_DIR
+) -> TrajectoryRow | NotRun:
     """Warp's own run against C MuJoCo's (same integrator and timestep) and the reference (module docstring)."""
     from ..sources import mujoco as engine_mujoco
     from ..sources import warp as engine_warp
@@ -198,9 +306,10 @@ def trajectory_row(system: System, warp: Any, *, horizon: float, cache_dir: Any 
     q0, v0 = initial_state(system)
     tau = np.zeros(system.nv)
     t = time_grid(horizon, DT_OUT)
-    steps = round(DT_OUT / warp.timestep)
-    if steps < 1 or abs(steps * warp.timestep - DT_OUT) > 1e-12:
-        return {"skipped": f"timestep {warp.timestep:g} s does not divide the {DT_OUT:g} s sampling interval"}
+    stepping = engine_of(warp, engine_warp.WarpSource)  # its integrator and timestep
+    steps = round(DT_OUT / stepping.timestep)
+    if steps < 1 or abs(steps * stepping.timestep - DT_OUT) > 1e-12:
+        return {"skipped": f"timestep {stepping.timestep:g} s does not divide the {DT_OUT:g} s sampling interval"}
     run = engine_warp.run_in_coordinates(system, warp, q0, v0, tau, samples=len(t), steps=steps)
     q_warp = run["q"][0]
     q_c, _, _, raised = engine_mujoco.free_run(
@@ -208,19 +317,19 @@ def trajectory_row(system: System, warp: Any, *, horizon: float, cache_dir: Any 
         Start(q0, v0, tau),
         len(t),
         steps,
-        Scheme(warp.integrator, warp.timestep),
+        Scheme(stepping.integrator, stepping.timestep),
     )
     ref = _reference_run(system, q0, v0, t, cache_dir)
     n_steps = steps * (len(t) - 1)
     scale = max(float(np.max(np.abs(q_c))), np.finfo(float).tiny)
-    warp_c = _error(q_warp, q_c, scale)
+    warp_c = _diff(q_warp, q_c, scale)
     expected = EPS32 * scale * n_steps
     return {
         "term": f"q({horizon:g} s)",
         "scale": scale,
         "horizon_s": horizon,
-        "integrator": warp.integrator,
-        "timestep": warp.timestep,
+        "integrator": stepping.integrator,
+        "timestep": stepping.timestep,
         "steps": n_steps,
         "warp_vs_mujoco": warp_c,
         "warp_vs_reference": _error(q_warp, ref["q"], scale),
@@ -258,8 +367,8 @@ def float32_systems(
 
 
 def system_result(
-    system: System, *, n_states: int, horizon: float | None, cache_dir: Any = DEFAULT_CACHE_DIR
-) -> dict[str, Any]:
+    system: System, *, n_states: int, horizon: float | None, cache_dir: CacheDir = DEFAULT_CACHE_DIR
+) -> SystemResult:
     """One system's pointwise rows, its trajectory row (None without a horizon) and first-call times."""
     from ..sources import warp as warp_engine  # loads Warp
 
@@ -286,9 +395,9 @@ def run_float32(
     own: tuple[System, ...] = (),
     n_states: int = N_STATES,
     horizon: float | None = None,
-    cache_dir: Any = DEFAULT_CACHE_DIR,
+    cache_dir: CacheDir = DEFAULT_CACHE_DIR,
     progress: Callable[[str], None] | None = None,
-) -> dict[str, Any]:
+) -> Float32Results:
     """The float32 study as JSON-able data: {"config", "systems": {label: system_result}, "table"}.
 
     Args:
@@ -307,7 +416,7 @@ def run_float32(
     names = list(names) if names else (list(QUICK_SYSTEMS) if quick and not own else None)
     ns = chain_ns if chain_ns is not None else (QUICK_CHAIN_NS if quick else CHAIN_NS)
     horizon = horizon if horizon is not None else (QUICK_HORIZON if quick else HORIZON)
-    out: dict[str, Any] = {}
+    out: dict[str, SystemResult] = {}
     with float32_systems(names, chain_ns=tuple(ns), robots=robots, own=own) as chosen:
         for label, system in chosen:
             if quick and label == "panda":
@@ -332,19 +441,19 @@ def run_float32(
     }
 
 
-def _progress_line(label: str, result: dict[str, Any]) -> str:
+def _progress_line(label: str, result: SystemResult) -> str:
     worst = max((r["eps32_units"] or 0.0 for r in result["pointwise"]), default=0.0)
     first = sum(result["first_call_s"].values())
     return f"{label}: worst term {worst:.1f} eps32 x scale; first calls {first:.1f} s on {result['device']}"
 
 
-def table(systems: dict[str, Any]) -> list[dict[str, Any]]:
+def table(systems: dict[str, SystemResult]) -> list[TableRow]:
     """Long-format rows (COLUMNS), in the systems' order (as run) then QUANTITIES' order, a system's
     trajectory last as its term "q(T s)".
 
     Scaled errors are max |a - b| over the term's scale; `expected_scaled` is the expected float32
     rounding over the same scale (eps32, x cond(M) for qacc, x steps for a trajectory)."""
-    rows = []
+    rows: list[TableRow] = []
     for label, result in systems.items():
         trajectory = result["trajectory"]
         terms = result["pointwise"] + ([trajectory] if trajectory and "skipped" not in trajectory else [])
@@ -375,7 +484,7 @@ def _cell(x: float | None) -> str:
     return "-" if x is None else f"{x:.1e}"
 
 
-def print_table(results: dict[str, Any]) -> None:
+def print_table(results: Float32Results) -> None:
     """The table, one line per system and term, under a one-line title saying how it was measured."""
     cfg = results["config"]
     print(
@@ -405,7 +514,7 @@ def print_table(results: dict[str, Any]) -> None:
     )
 
 
-def write_into_bench(results: dict[str, Any], out: Path) -> Path:
+def write_into_bench(results: Float32Results, out: Path) -> Path:
     """OUT/bench.json with `results` under "float32", the rest of an existing bench.json kept."""
     import json
 
@@ -422,7 +531,7 @@ def write_into_bench(results: dict[str, Any], out: Path) -> Path:
     return path
 
 
-def float32_command(args: Any) -> int:
+def float32_command(args: Namespace) -> int:
     """`lagrange-xval bench --float32 [SYSTEM ...] [--model PATH --equations PATH] [--quick] [--out DIR]`:
     prints the table, writes it into DIR/bench.json. Exit status 0 when every Warp term is within its
     float32 tier, 1 otherwise."""

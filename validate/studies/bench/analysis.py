@@ -8,7 +8,7 @@ import math
 import statistics
 from collections.abc import Callable, Iterable
 from concurrent.futures import Executor, Future
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -16,11 +16,14 @@ from ...core.errors import HarnessError
 from ...core.parallel import completed
 from .plan import ERROR_TIMES, Plan
 from .runners import execute
+from .shapes import CostKey, ErrorKey, Errors, Execution, FrontPoint, Prepared, Reached, Row, Spec
+
+T = TypeVar("T")
 
 
 def errors_against(
     t: np.ndarray, q: np.ndarray, ref_t: np.ndarray, ref_q: np.ndarray, *, window: float, tolerance: float
-) -> dict[str, Any]:
+) -> Errors:
     """error_2s, error_10s (max over coordinates of |q - q_ref|, rad), error_horizon (max over the
     samples up to `window`; None when the run was sampled at ERROR_TIMES only) and t_exceeds_tolerance
     (the first sample whose error exceeds `tolerance`, rad)."""
@@ -41,7 +44,7 @@ def errors_against(
     }
 
 
-def row_of(system: str, spec: dict[str, Any]) -> dict[str, Any]:
+def row_of(system: str, spec: Spec) -> Row:
     return {
         "system": system,
         "method": spec["method"],
@@ -68,70 +71,87 @@ def row_of(system: str, spec: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def sort_key(row: dict[str, Any]) -> tuple[Any, ...]:
+def sort_key(row: Row) -> tuple[str, str, float]:
     return (row["system"], row["method"], -row["value"])
 
 
-def pareto_front(rows: Iterable[dict[str, Any]], error: str, *, cost: str = "cpu_s") -> list[dict[str, Any]]:
+def pareto_front(rows: Iterable[Row], error: ErrorKey, *, cost: CostKey = "cpu_s") -> list[FrontPoint]:
     """The runs no other run beats in both `cost` and `error` (status ok, finite values), cheapest first."""
     ok = [
-        r
+        (c, e, r)
         for r in rows
         if r["status"] == "ok"
-        and r.get(error) is not None
-        and r.get(cost) is not None
-        and math.isfinite(r[error])
-        and math.isfinite(r[cost])
+        and (e := r.get(error)) is not None
+        and (c := r.get(cost)) is not None
+        and math.isfinite(e)
+        and math.isfinite(c)
     ]
-    ok.sort(key=lambda r: (r[cost], r[error]))
-    front, best = [], math.inf
-    for r in ok:
-        if r[error] < best:
-            best = r[error]
-            front.append(
-                {"method": r["method"], "setting": r["setting"], "value": r["value"], cost: r[cost], error: r[error]}
-            )
+    ok.sort(key=lambda ce: (ce[0], ce[1]))
+    front: list[FrontPoint] = []
+    best = math.inf
+    for c, e, r in ok:
+        if e < best:
+            best = e
+            point: FrontPoint = {"method": r["method"], "setting": r["setting"], "value": r["value"]}
+            point[cost], point[error] = c, e
+            front.append(point)
     return front
 
 
 def time_to_epsilon(
-    rows: Iterable[dict[str, Any]],
+    rows: Iterable[Row],
     epsilons: Iterable[float],
     *,
-    error: str = "error_2s",
-    cost: str = "cpu_s",
-) -> list[dict[str, Any]]:
+    error: ErrorKey = "error_2s",
+    cost: CostKey = "cpu_s",
+) -> list[Reached]:
     """Per system, method and epsilon: the cheapest run of that method with `error` <= epsilon, or
     "not reached". Sorted by system, method, epsilon (largest first)."""
-    groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    groups: dict[tuple[str, str], list[Row]] = {}
     for r in rows:
         groups.setdefault((r["system"], r["method"]), []).append(r)
-    out = []
+    out: list[Reached] = []
     for (system, method), runs in sorted(groups.items()):
         for eps in sorted(epsilons, reverse=True):
             good = [
                 r
                 for r in runs
-                if r["status"] == "ok" and r.get(error) is not None and r[error] <= eps and r.get(cost) is not None
+                if r["status"] == "ok" and (e := r.get(error)) is not None and e <= eps and r.get(cost) is not None
             ]
-            entry: dict[str, Any] = {"system": system, "method": method, "epsilon": eps}
-            if good:
-                best = min(good, key=lambda r: (r[cost], -r["value"]))
-                entry.update(
-                    result="reached",
-                    setting=best["setting"],
-                    value=best["value"],
-                    cpu_s=best["cpu_s"],
-                    wall_s=best["wall_s"],
-                    error=best[error],
-                )
-            else:
-                entry.update(result="not reached", setting=None, value=None, cpu_s=None, wall_s=None, error=None)
-            out.append(entry)
+            out.append(
+                _reached(system, method, eps, min(good, key=lambda r: (r[cost], -r["value"])) if good else None, error)
+            )
     return out
 
 
-def interleave(groups: list[list[Any]], rotate: int) -> list[Any]:
+def _reached(system: str, method: str, eps: float, best: Row | None, error: ErrorKey) -> Reached:
+    """`time_to_epsilon`'s entry: the cheapest run reaching eps (`best`), or "not reached"."""
+    if best is None:
+        return {
+            "system": system,
+            "method": method,
+            "epsilon": eps,
+            "result": "not reached",
+            "setting": None,
+            "value": None,
+            "cpu_s": None,
+            "wall_s": None,
+            "error": None,
+        }
+    return {
+        "system": system,
+        "method": method,
+        "epsilon": eps,
+        "result": "reached",
+        "setting": best["setting"],
+        "value": best["value"],
+        "cpu_s": best["cpu_s"],
+        "wall_s": best["wall_s"],
+        "error": best[error],
+    }
+
+
+def interleave(groups: list[list[T]], rotate: int) -> list[T]:
     """Round-robin: the first item of every group, then the second, ...; the group order rotated."""
     if groups:
         rotate %= len(groups)
@@ -142,24 +162,25 @@ def interleave(groups: list[list[Any]], rotate: int) -> list[Any]:
     return out
 
 
-def looser(a: dict[str, Any], b: dict[str, Any]) -> bool:
+def looser(a: Spec, b: Spec) -> bool:
     """Whether setting a is looser (cheaper) than b: larger rtol or timestep."""
     return a["value"] > b["value"]
 
 
 Key = tuple[str, str, float]  # (system, method, setting value): one row
-Task = tuple[str, dict[str, Any]]  # (system, spec): one run
+Task = tuple[str, Spec]  # (system, spec): one run
+Tasks = dict[str, tuple[Callable[..., object], tuple[object, ...]]]  # {label: (fn, args)}: more worker tasks
 
 
 def sweep(
-    prepared: dict[str, dict[str, Any]],
-    specs: list[dict[str, Any]],
+    prepared: dict[str, Prepared],
+    specs: list[Spec],
     *,
     plan: Plan,
     executor: Executor,
     progress: Callable[[str], None] | None = None,
-    extra: dict[str, tuple[Callable[..., Any], tuple[Any, ...]]] | None = None,
-) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    extra: Tasks | None = None,
+) -> tuple[list[Row], dict[str, object]]:
     """Every spec on every prepared system, `plan.repeats` times, interleaved; rows sorted.
 
     Args:
@@ -173,7 +194,7 @@ def sweep(
         raise HarnessError(f"repeats must be at least 1; got {plan.repeats}.")
     rows = {(name, s["method"], s["value"]): row_of(name, s) for name in prepared for s in specs}
     groups = method_groups(prepared, specs)
-    extras: dict[str, Any] = {}
+    extras: dict[str, object] = {}
     digests: dict[Key, str | None] = {}
     for rep in range(plan.repeats):
         todo = [
@@ -196,9 +217,9 @@ def sweep(
     return sorted(rows.values(), key=sort_key), extras
 
 
-def method_groups(prepared: dict[str, Any], specs: list[dict[str, Any]]) -> dict[tuple[str, str], list[dict[str, Any]]]:
+def method_groups(prepared: dict[str, Prepared], specs: list[Spec]) -> dict[tuple[str, str], list[Spec]]:
     """The specs of each (system, method), loosest setting first."""
-    groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    groups: dict[tuple[str, str], list[Spec]] = {}
     for name in prepared:
         for s in specs:
             groups.setdefault((name, s["method"]), []).append(s)
@@ -208,13 +229,13 @@ def method_groups(prepared: dict[str, Any], specs: list[dict[str, Any]]) -> dict
 
 
 def collect(
-    futures: dict[Future[Any], Task],
+    futures: dict[Future[Any], Task],  # Any: one pool runs `execute` and the extra tasks (Future is invariant)
     extra_futures: dict[Future[Any], str],
-    rows: dict[Key, dict[str, Any]],
+    rows: dict[Key, Row],
     digests: dict[Key, str | None],
-    extras: dict[str, Any],
+    extras: dict[str, object],
     *,
-    prepared: dict[str, dict[str, Any]],
+    prepared: dict[str, Prepared],
     plan: Plan,
     rep: int,
     progress: Callable[[str], None] | None,
@@ -247,25 +268,26 @@ def collect(
             progress(f"repeat {rep + 1}/{plan.repeats}: {done}/{len(futures)} runs")
 
 
-def record_first(row: dict[str, Any], res: dict[str, Any], ref: dict[str, Any], plan: Plan) -> None:
+def record_first(row: Row, res: Execution, ref: Prepared, plan: Plan) -> None:
     """The first repeat of a run: its status, counts, errors against the reference (when ok) and times."""
     row.update(
-        status=res["status"],
-        message=res["message"],
-        nfev=res["nfev"],
-        steps=res["steps"],
-        executions=res["executions"],
-        deterministic=res["deterministic"],
+        {
+            "status": res["status"],
+            "message": res["message"],
+            "nfev": res["nfev"],
+            "steps": res["steps"],
+            "executions": res["executions"],
+            "deterministic": res["deterministic"],
+        }
     )
-    if res["status"] == "ok":
+    t, q = res["t"], res["q"]
+    if res["status"] == "ok" and t is not None and q is not None:  # the first repeat keeps its samples
         window = ref["horizon_window_s"]
-        row.update(
-            errors_against(res["t"], res["q"], ref["t"], ref["q"], window=window, tolerance=plan.horizon_tolerance)
-        )
+        row.update(errors_against(t, q, ref["t"], ref["q"], window=window, tolerance=plan.horizon_tolerance))
     add_times(row, res)
 
 
-def record_repeat(row: dict[str, Any], res: dict[str, Any], first_digest: str | None, rep: int) -> None:
+def record_repeat(row: Row, res: Execution, first_digest: str | None, rep: int) -> None:
     """A later repeat: its times, and the run marked not deterministic where it failed or gave other bits."""
     if res["status"] != "ok" or res["digest"] != first_digest:
         row["deterministic"] = False
@@ -275,21 +297,21 @@ def record_repeat(row: dict[str, Any], res: dict[str, Any], first_digest: str | 
     add_times(row, res)
 
 
-def add_times(row: dict[str, Any], res: dict[str, Any]) -> None:
+def add_times(row: Row, res: Execution) -> None:
     """A timed execution's CPU and wall seconds among the row's repeats (a skipped run has none)."""
     if res["status"] in ("ok", "timeout", "diverged", "failed"):
         row["cpu_s_repeats"].append(res["cpu_s"])
         row["wall_s_repeats"].append(res["wall_s"])
 
 
-def skip_tighter(
-    futures: dict[Future[Any], Task], rows: dict[Key, dict[str, Any]], timed_out: Task, *, budget: float
-) -> None:
+def skip_tighter(futures: dict[Future[Any], Task], rows: dict[Key, Row], timed_out: Task, *, budget: float) -> None:
     """Cancel the settings of the same method tighter than one that timed out, their rows "skipped"."""
     name, s = timed_out
     for other, (oname, os_) in futures.items():
         if oname == name and os_["method"] == s["method"] and looser(s, os_) and other.cancel():
             rows[(oname, os_["method"], os_["value"])].update(
-                status="skipped",
-                message=f"not run: {s['setting']} {s['value']:g} already exceeded the {budget:g} s budget",
+                {
+                    "status": "skipped",
+                    "message": f"not run: {s['setting']} {s['value']:g} already exceeded the {budget:g} s budget",
+                }
             )

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from typing import Any
 
 import numpy as np
 
@@ -21,7 +20,7 @@ from ...systems import System
 from ...verdict.pointwise import States
 
 
-def hand_math_rhs(p: Any) -> Callable[[float, Any], list[float]]:
+def hand_math_rhs(p: object) -> Callable[[float, np.ndarray], list[float]]:
     """double_pendulum_point's right-hand side written by hand with `math`: eqs (33)-(34) multiplied
     back by m l^2 and generalised to m1, m2, l1, l2 and the bobs' inertia I1, I2 (what
     equations/double_pendulum_point.py derives), solved for the accelerations by Cramer's rule.
@@ -39,7 +38,7 @@ def hand_math_rhs(p: Any) -> Callable[[float, Any], list[float]]:
     g1, g2 = (m1 + m2) * g * l1, m2 * g * l2
     sin, cos = math.sin, math.cos
 
-    def rhs(t: float, y: Any) -> list[float]:
+    def rhs(t: float, y: np.ndarray) -> list[float]:
         th, ph, w1, w2 = y
         c, s = cos(ph), sin(ph)
         m12 = m22 + b * c
@@ -54,14 +53,14 @@ def hand_math_rhs(p: Any) -> Callable[[float, Any], list[float]]:
     return rhs
 
 
-def numpy_solve_rhs(p: Any) -> Callable[[float, Any], np.ndarray]:
+def numpy_solve_rhs(p: object) -> Callable[[float, np.ndarray], np.ndarray]:
     """The same formula with a 2x2 `np.linalg.solve` per call (the issue's ~18x, for context)."""
     m1, m2, l1, l2, g, i1, i2 = (float(getattr(p, k)) for k in ("m1", "m2", "l1", "l2", "g", "I1", "I2"))
     a0 = m1 * l1 * l1 + m2 * (l1 * l1 + l2 * l2) + i1 + i2
     b, m22 = m2 * l1 * l2, m2 * l2 * l2 + i2
     g1, g2 = (m1 + m2) * g * l1, m2 * g * l2
 
-    def rhs(t: float, y: Any) -> np.ndarray:
+    def rhs(t: float, y: np.ndarray) -> np.ndarray:
         th, ph, w1, w2 = y
         c, s = np.cos(ph), np.sin(ph)
         M = np.array([[a0 + 2 * b * c, m22 + b * c], [m22 + b * c, m22]])
@@ -72,7 +71,7 @@ def numpy_solve_rhs(p: Any) -> Callable[[float, Any], np.ndarray]:
     return rhs
 
 
-def raw_hand(system: System, states: States) -> dict[str, Any]:
+def raw_hand(system: System, states: States) -> dict[str, np.ndarray]:
     """The hand side of the pointwise check as the equations module's vectorised numpy formulas,
     called directly (one batched solve; tau_inverse at the computed accelerations)."""
     q, v, tau = states.q, states.v, states.tau
@@ -100,12 +99,12 @@ def raw_hand(system: System, states: States) -> dict[str, Any]:
     return out
 
 
-def raw_pointwise(system: System, sources: Mapping[str, Source], states: States) -> dict[str, Any]:
+def raw_pointwise(system: System, sources: Mapping[str, Source], states: States) -> dict[str, object]:
     """What `compare.evaluate` computes, as the minimal loops (`raw_hand`, `raw_mujoco`, `raw_pinocchio`;
     the engines' inverse dynamics at the hand accelerations; `raw_symbolic` where the symbolic source
     is on). {source: {quantity: array}} (the symbolic source: its generated code's raw output)."""
     hand = raw_hand(system, states)
-    out: dict[str, Any] = {
+    out: dict[str, object] = {
         "hand": hand,
         "mujoco": raw_mujoco(system, sources["mujoco"], states, hand["qacc"]),
         "pinocchio": raw_pinocchio(system, sources["pinocchio"], states, hand["qacc"]),

@@ -33,18 +33,18 @@ import math
 import statistics
 import time
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 
 from ...dynamics.fast import accurate_trajectory
-from ...dynamics.integrate import SCIPY_DEFAULT, scipy_trajectory, time_grid
+from ...dynamics.integrate import SCIPY_DEFAULT, Trajectory, scipy_trajectory, time_grid
 from ...dynamics.mirror import mirror_steps, mirror_trajectory, mujoco_steps
 from ...dynamics.reference import DEFAULT_CACHE_DIR, reference_trajectory
 from ...sources.base import stepped
 from .plan import GRID_DRIVERS, Plan
 from .ratios import interleaved_medians
 from .runners import CacheDir, case_for, execute, resources
+from .shapes import CheckBest, CheckEntry, CheckRow, ChecksRatios, MeasuredChecks, Paired, Row, Spec, cpu_of
 
 SAME_EQUATIONS = {"hand": ("hand", "hand-cfunc"), "symbolic": ("symbolic",), "pinocchio": ("pinocchio",)}
 
@@ -54,7 +54,7 @@ def _error_2s(t: np.ndarray, q: np.ndarray, ref_q: np.ndarray) -> float:
     return float(np.abs(q[k] - ref_q[k]).max())
 
 
-def _looped(fn: Callable[[], Any], plan: Plan) -> tuple[Callable[[], None], int]:
+def _looped(fn: Callable[[], object], plan: Plan) -> tuple[Callable[[], None], int]:
     """`fn` executed back to back often enough to last the plan's `min_timed` (as the sweep times its
     short runs), and how many times: the execution count is set from one untimed call."""
     w0 = time.perf_counter()
@@ -69,7 +69,7 @@ def _looped(fn: Callable[[], Any], plan: Plan) -> tuple[Callable[[], None], int]
     return run, k
 
 
-def check_jobs(name: str, plan: Plan) -> dict[str, tuple[str, str, Callable[[], Any]]]:
+def check_jobs(name: str, plan: Plan) -> dict[str, tuple[str, str, Callable[[], Trajectory]]]:
     """The harness's trajectory checks on one system as `run` calls them, on the plan's grid:
     {label: (engine, kind, run)}."""
     system, sources = resources(name)
@@ -78,7 +78,7 @@ def check_jobs(name: str, plan: Plan) -> dict[str, tuple[str, str, Callable[[], 
     q0, v0, tau = (np.asarray(case[k], dtype=float) for k in ("q0", "v0", "tau"))
     dt = float(stepped(sources["mujoco"]).m.opt.timestep)
     hand = sources["hand"]
-    jobs: dict[str, tuple[str, str, Callable[[], Any]]] = {
+    jobs: dict[str, tuple[str, str, Callable[[], Trajectory]]] = {
         "hand accurate run": ("hand", "accurate", lambda: accurate_trajectory(system, hand, q0, v0, tau, t)),
         "hand scipy run (the user's path)": (
             "hand",
@@ -110,7 +110,7 @@ def check_jobs(name: str, plan: Plan) -> dict[str, tuple[str, str, Callable[[], 
     return jobs
 
 
-def measure_checks(name: str, *, plan: Plan, reps: int, cache_dir: CacheDir = DEFAULT_CACHE_DIR) -> dict[str, Any]:
+def measure_checks(name: str, *, plan: Plan, reps: int, cache_dir: CacheDir = DEFAULT_CACHE_DIR) -> MeasuredChecks:
     """Each of the harness's own trajectory checks on one system (a worker task): CPU time (median of
     `reps` interleaved repeats of back-to-back executions lasting the plan's `min_timed`, per execution,
     after untimed calls that compile what they need), error at t = 2 s
@@ -137,7 +137,7 @@ def measure_checks(name: str, *, plan: Plan, reps: int, cache_dir: CacheDir = DE
     loops = {k: _looped(fn, plan) for k, fn in {**{k: fn for k, (_, _, fn) in jobs.items()}, **windows}.items()}
     medians = interleaved_medians({k: run for k, (run, _) in loops.items()}, reps)
     timed = {k: {c: medians[k][c] / loops[k][1] for c in ("cpu_s", "wall_s")} for k in loops}
-    out = []
+    out: list[CheckRow] = []
     for label, (engine, kind, _) in jobs.items():
         tr = outputs[label]
         out.append(
@@ -177,10 +177,7 @@ def measure_checks(name: str, *, plan: Plan, reps: int, cache_dir: CacheDir = DE
     return {"system": system.name, "rows": out, "repeats": reps}
 
 
-SPEC_KEYS = ("engine", "driver", "scheme", "setting", "value", "atol")  # what a sweep row was run from
-
-
-def paired_timings(name: str, pairs: list[tuple[str, dict[str, Any]]], *, plan: Plan, reps: int) -> dict[str, Any]:
+def paired_timings(name: str, pairs: list[tuple[str, Spec]], *, plan: Plan, reps: int) -> dict[str, Paired]:
     """Each check of `pairs` and the sweep run it is set against (its spec), timed again side by side in
     one worker task: `reps` alternations of the check (as `measure_checks` times it) and
     the run (as the sweep times it, `execute`), medians of each. A ratio of two timings taken minutes
@@ -189,7 +186,7 @@ def paired_timings(name: str, pairs: list[tuple[str, dict[str, Any]]], *, plan: 
     system, _ = resources(name)
     case = case_for(system, plan)
     jobs = check_jobs(name, plan)
-    out: dict[str, Any] = {}
+    out: dict[str, Paired] = {}
     for label, spec in pairs:
         fn = jobs[label][2]
         fn()  # compiles what it needs, untimed
@@ -208,16 +205,16 @@ def paired_timings(name: str, pairs: list[tuple[str, dict[str, Any]]], *, plan: 
     return out
 
 
-def pairs_to_time(ratios: dict[str, Any]) -> dict[str, list[tuple[str, dict[str, Any]]]]:
+def pairs_to_time(ratios: ChecksRatios) -> dict[str, list[tuple[str, Spec]]]:
     """From `checks_ratios`: per system, the targeted checks set against a sweep run, with that run's spec."""
-    out: dict[str, list[tuple[str, dict[str, Any]]]] = {}
+    out: dict[str, list[tuple[str, Spec]]] = {}
     for e in ratios["rows"]:
         if e["target"] is not None and e["fastest"] is not None and "spec" in e["fastest"]:
             out.setdefault(e["system"], []).append((e["check"], e["fastest"]["spec"]))
     return out
 
 
-def _fastest(check: dict[str, Any], rows: list[dict[str, Any]]) -> dict[str, Any] | None:
+def _fastest(check: CheckRow, rows: list[Row]) -> Row | None:
     """The sweep's fastest run computing what `check` computes (module docstring), or None."""
     mine = [
         r
@@ -228,53 +225,69 @@ def _fastest(check: dict[str, Any], rows: list[dict[str, Any]]) -> dict[str, Any
         and r["engine"] in SAME_EQUATIONS[check["engine"]]
         and r["driver"] in GRID_DRIVERS
     ]
+    step = check["timestep"]
     if check["kind"] == "scheme":
         same = [
             r
             for r in mine
             if r.get("scheme") == "RK4"
             and r.get("setting") == "timestep"
-            and np.isclose(r["value"], check["timestep"], rtol=1e-9)
+            and step is not None  # a scheme's check has its timestep
+            and np.isclose(r["value"], step, rtol=1e-9)
         ]
     else:
         err = check["error_2s"]
         same = [r for r in mine if r["error_2s"] is not None and err is not None and r["error_2s"] <= err]
-    return min(same, key=lambda r: r["cpu_s"]) if same else None
+    return min(same, key=cpu_of) if same else None
+
+
+def _best(check: CheckRow, rows: list[Row]) -> CheckBest | None:
+    """What `check` is set against: MuJoCo's windows for the windows, else the sweep's fastest run (with
+    its spec, to time it again), or None."""
+    if check["kind"] == "windows":
+        return {
+            "method": "MuJoCo mj_step windows",
+            "setting": "timestep",
+            "value": check["timestep"],
+            "cpu_s": check["mujoco_windows_cpu_s"],
+            "error_2s": None,
+        }
+    found = _fastest(check, rows)
+    if found is None:
+        return None
+    spec: Spec = {  # what the sweep's row was run from
+        "engine": found["engine"],
+        "driver": found["driver"],
+        "scheme": found["scheme"],
+        "setting": found["setting"],
+        "value": found["value"],
+        "atol": found["atol"],
+    }
+    return {
+        "method": found["method"],
+        "setting": found["setting"],
+        "value": found["value"],
+        "cpu_s": found["cpu_s"],
+        "error_2s": found["error_2s"],
+        "spec": spec,
+    }
 
 
 def checks_ratios(
-    measured: list[dict[str, Any]],
-    rows: list[dict[str, Any]],
-    paired: dict[str, dict[str, Any]] | None = None,
+    measured: list[MeasuredChecks],
+    rows: list[Row],
+    paired: dict[str, dict[str, Paired]] | None = None,
     *,
     target: float,
-) -> dict[str, Any]:
+) -> ChecksRatios:
     """Per check: the ratio of its CPU time to the fastest comparable run (the sweep's, or MuJoCo's
     windows for the windows); `target` (the plan's `checks_target`) applies to every check but the user's path.
     `paired` ({system: `paired_timings`}): where a check and its fastest run were timed again side by
     side, the ratio is theirs (the separate timings stay in the entry, as `sweep_ratio`)."""
-    entries = []
+    entries: list[CheckEntry] = []
     for per_system in measured:
         for check in per_system["rows"]:
-            best: dict[str, Any] | None
-            if check["kind"] == "windows":
-                best = {
-                    "method": "MuJoCo mj_step windows",
-                    "setting": "timestep",
-                    "value": check["timestep"],
-                    "cpu_s": check["mujoco_windows_cpu_s"],
-                    "error_2s": None,
-                }
-            else:
-                found = _fastest(check, rows)
-                best = (
-                    None
-                    if found is None
-                    else {
-                        **{k: found[k] for k in ("method", "setting", "value", "cpu_s", "error_2s")},
-                        "spec": {k: found.get(k) for k in SPEC_KEYS},
-                    }
-                )
+            best = _best(check, rows)
             ratio = check["cpu_s"] / best["cpu_s"] if best and best["cpu_s"] else None
             again = (paired or {}).get(check["system"], {}).get(check["check"])
             sweep_ratio = ratio
@@ -295,7 +308,7 @@ def checks_ratios(
             )
     judged = [e for e in entries if e["target"] is not None and e["ratio"] is not None]
     return {
-        "value": max((e["ratio"] for e in judged), default=None),
+        "value": max((r for e in judged if (r := e["ratio"]) is not None), default=None),
         "target": target,
         "passed": bool(judged) and all(e["passed"] for e in judged),
         "rows": entries,

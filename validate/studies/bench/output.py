@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import statistics
 import time
+from argparse import Namespace
 from collections.abc import Callable
 from concurrent.futures import Executor
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import cast
 
 from ...core.errors import HarnessError
 from ...core.guard import DEFAULT_TIME_LIMIT
@@ -16,7 +17,7 @@ from ...core.parallel import completed, executor_for
 from ...dynamics.reference import DEFAULT_CACHE_DIR
 from ...results import atomic_write, dumps, provenance
 from ...systems import System, key_of, load_all, system_names
-from .analysis import pareto_front, sweep, time_to_epsilon
+from .analysis import Tasks, pareto_front, sweep, time_to_epsilon
 from .checks import checks_ratios, measure_checks, paired_timings, pairs_to_time
 from .plan import ERROR_TIMES, FULL, QUICK, Plan
 from .ratios import (
@@ -29,10 +30,26 @@ from .ratios import (
     run_wall_times,
 )
 from .runners import CacheDir, prepare
+from .shapes import (
+    BenchResults,
+    DefaultRatio,
+    Durations,
+    FlagsRatio,
+    FlagsRow,
+    MeasuredChecks,
+    Paired,
+    PointwiseRatio,
+    PointwiseSummary,
+    Prepared,
+    Ratios,
+    RhsRatio,
+    Row,
+    RunWallTimes,
+    SystemReference,
+)
 from .tables import summary
 
 Progress = Callable[[str], None] | None
-Tasks = dict[str, tuple[Callable[..., Any], tuple[Any, ...]]]  # {label: (fn, args)}: the ratio measurements
 
 
 def run_bench(
@@ -45,7 +62,7 @@ def run_bench(
     locked: tuple[str, ...] = (),
     cache_dir: CacheDir = DEFAULT_CACHE_DIR,
     time_limit: float = DEFAULT_TIME_LIMIT,
-) -> dict[str, Any]:
+) -> BenchResults:
     """The work-precision sweep and the ratios, as JSON-able data.
 
     Args:
@@ -75,11 +92,11 @@ def run_bench(
     ratios = ratios_of(rows, extras, chosen, plan, progress)
     for r in rows:  # a person's systems are keyed by their files in the workers, named in the results
         r["system"] = named.get(r["system"], r["system"])
-    measured = [extras[f"checks {n}"] for n in chosen]
+    measured = [cast(MeasuredChecks, extras[f"checks {n}"]) for n in chosen]  # checks_task's
     paired = paired_checks(measured, rows, named, plan, executor=executor, progress=progress)
     ratios["harness_checks_vs_fastest"] = checks_ratios(measured, rows, paired, target=plan.checks_target)
     prepared = {named[k]: v for k, v in prepared.items()}
-    durations = {"duration_s": time.perf_counter() - start, "sweep_s": sweep_s}
+    durations: Durations = {"duration_s": time.perf_counter() - start, "sweep_s": sweep_s}
     return bench_results(rows, prepared, ratios, plan, workers=workers, durations=durations)
 
 
@@ -112,25 +129,34 @@ def ratio_tasks(chosen: list[str], plan: Plan, cache_dir: CacheDir) -> Tasks:
     return extra
 
 
-def ratios_of(
-    rows: list[dict[str, Any]], extras: dict[str, Any], chosen: list[str], plan: Plan, progress: Progress
-) -> dict[str, Any]:
+def ratios_of(rows: list[Row], extras: dict[str, object], chosen: list[str], plan: Plan, progress: Progress) -> Ratios:
     """The fast-harness ratios from the sweep's rows and the ratio measurements; `lagrange-xval run`
     timed here where the plan says so (after the pool is shut down: nothing else of ours running)."""
-    ratios: dict[str, Any] = {}
-    ratios["rhs_fast_path_vs_hand_math"] = extras.get(
-        "rhs", {"value": None, "passed": False, "why": f"{plan.rhs_system} not available"}
-    )
-    ratios["pointwise_vs_raw_engine_calls"] = pointwise_summary([extras[f"pointwise {n}"] for n in chosen], plan)
-    ratios["default_scipy_vs_fastest_scipy"] = (
+    rhs: RhsRatio = {"value": None, "passed": False, "why": f"{plan.rhs_system} not available"}
+    if "rhs" in extras:
+        rhs = cast(RhsRatio, extras["rhs"])  # rhs_task's
+    point = pointwise_summary([cast(PointwiseRatio, extras[f"pointwise {n}"]) for n in chosen], plan)  # its task's
+    default: DefaultRatio = (
         default_ratio(rows, plan)
         if plan.rhs_system in chosen
         else {"value": None, "passed": None, "why": f"{plan.rhs_system} not in this bench"}
     )
-    ratios["default_path_vs_frontier"] = frontier_ratios(rows, plan.frontier_epsilons)
-    ratios["mujoco_disable_flags"] = {
+    flags = [r for n in chosen for r in cast(list[FlagsRow], extras[f"flags {n}"])]  # flags_task's
+    return {
+        "rhs_fast_path_vs_hand_math": rhs,
+        "pointwise_vs_raw_engine_calls": point,
+        "default_scipy_vs_fastest_scipy": default,
+        "default_path_vs_frontier": frontier_ratios(rows, plan.frontier_epsilons),
+        "mujoco_disable_flags": flags_summary(flags),
+        "run_wall_time": run_time(plan, progress),
+    }
+
+
+def flags_summary(rows: list[FlagsRow]) -> FlagsRatio:
+    """MuJoCo's disable flags on every system, sorted by system and integrator."""
+    return {
         "target": None,
-        "rows": sorted((r for n in chosen for r in extras[f"flags {n}"]), key=lambda r: (r["system"], r["integrator"])),
+        "rows": sorted(rows, key=lambda r: (r["system"], r["integrator"])),
         "how": "CPU time per mj_step (median of interleaved repeats) with the MJCF's disableflags and with "
         "disableflags = 0. The scenes have no contacts (contype 0), constraints, limits, springs or "
         "friction loss, so enabling them changes no force: the difference is the cost of the pipeline "
@@ -138,21 +164,23 @@ def ratios_of(
         "where the flags disable them, gravity (gimbal: balanced, zero torque), damper and actuation "
         "(the double pendulums have neither), and Euler's implicit damping (gimbal).",
     }
+
+
+def run_time(plan: Plan, progress: Progress) -> RunWallTimes:
+    """`lagrange-xval run` timed where the plan says so, or why not."""
     if plan.time_run:
         if progress:
             progress(f"timing `lagrange-xval run` {plan.run_repeats} x {len(RUN_CONDITIONS)} times")
-        ratios["run_wall_time"] = run_wall_times(plan)
-    else:
-        ratios["run_wall_time"] = {
-            "value": None,
-            "target": plan.run_warm_target_s,
-            "passed": None,
-            "why": "not measured in --quick (5 full runs take over a minute)",
-        }
-    return ratios
+        return run_wall_times(plan)
+    return {
+        "value": None,
+        "target": plan.run_warm_target_s,
+        "passed": None,
+        "why": "not measured in --quick (5 full runs take over a minute)",
+    }
 
 
-def pointwise_summary(point: list[dict[str, Any]], plan: Plan) -> dict[str, Any]:
+def pointwise_summary(point: list[PointwiseRatio], plan: Plan) -> PointwiseSummary:
     """The pointwise ratio over every system: the worst, and each system's."""
     return {
         "value": max(p["value"] for p in point),
@@ -170,14 +198,14 @@ def pointwise_summary(point: list[dict[str, Any]], plan: Plan) -> dict[str, Any]
 
 
 def paired_checks(
-    measured: list[dict[str, Any]],
-    rows: list[dict[str, Any]],
+    measured: list[MeasuredChecks],
+    rows: list[Row],
     named: dict[str, str],
     plan: Plan,
     *,
     executor: Executor | None,
     progress: Progress,
-) -> dict[str, Any]:
+) -> dict[str, dict[str, Paired]]:
     """The targeted checks timed again side by side with their fastest runs, per system, in a new pool."""
     pairs = pairs_to_time(checks_ratios(measured, rows, target=plan.checks_target))
     if not pairs:
@@ -185,7 +213,7 @@ def paired_checks(
     if progress:
         progress(f"timing {sum(len(v) for v in pairs.values())} checks again beside their fastest runs")
     key = {v: k for k, v in named.items()}
-    paired = {}
+    paired: dict[str, dict[str, Paired]] = {}
     with executor_for(executor, tasks=len(pairs)) as pool:
         futures = {n: pool.submit(paired_timings, key[n], p, plan=plan, reps=plan.ratio_reps) for n, p in pairs.items()}
         for n, f in futures.items():
@@ -196,14 +224,14 @@ def paired_checks(
 
 
 def bench_results(
-    rows: list[dict[str, Any]],
-    prepared: dict[str, dict[str, Any]],
-    ratios: dict[str, Any],
+    rows: list[Row],
+    prepared: dict[str, Prepared],
+    ratios: Ratios,
     plan: Plan,
     *,
     workers: int | None,
-    durations: dict[str, float],
-) -> dict[str, Any]:
+    durations: Durations,
+) -> BenchResults:
     """bench.json's content: provenance, the configuration, the systems' references, the rows, Pareto
     fronts, time to reach each epsilon, the ratios and how long it all took (`durations`)."""
     chosen = list(prepared)
@@ -224,10 +252,7 @@ def bench_results(
             "workers": workers,
             "cost": "cpu_s (time.process_time, median)",
         },
-        "systems": {
-            n: {k: prepared[n][k] for k in ("case", "reference", "horizon_s", "horizon_window_s", "lyapunov_per_s")}
-            for n in chosen
-        },
+        "systems": {n: system_reference(prepared[n]) for n in chosen},
         "rows": rows,
         "pareto": {
             n: {e: pareto_front([r for r in rows if r["system"] == n], e) for e in ("error_10s", "error_2s")}
@@ -240,6 +265,17 @@ def bench_results(
     }
 
 
+def system_reference(p: Prepared) -> SystemReference:
+    """bench.json's entry of one system: its case, reference and horizon (not the reference's samples)."""
+    return {
+        "case": p["case"],
+        "reference": p["reference"],
+        "horizon_s": p["horizon_s"],
+        "horizon_window_s": p["horizon_window_s"],
+        "lyapunov_per_s": p["lyapunov_per_s"],
+    }
+
+
 def prepare_all(
     pool: Executor,
     chosen: list[str],
@@ -247,10 +283,10 @@ def prepare_all(
     progress: Progress,
     plan: Plan,
     cache_dir: CacheDir = DEFAULT_CACHE_DIR,
-) -> dict[str, Any]:
+) -> dict[str, Prepared]:
     """`prepare` on every system in the pool, a progress line as each reference is ready."""
     futures = {pool.submit(prepare, k, plan, cache_dir=cache_dir): k for k in chosen}
-    out: dict[str, Any] = {}
+    out: dict[str, Prepared] = {}
     for fut in completed(futures):
         out[futures[fut]] = fut.result()
         if progress:
@@ -258,27 +294,27 @@ def prepare_all(
     return {k: out[k] for k in chosen}
 
 
-def rhs_task(plan: Plan) -> dict[str, Any]:
+def rhs_task(plan: Plan) -> RhsRatio:
     """The rhs ratio (a worker task)."""
     return rhs_ratio(plan, reps=plan.rhs_reps)
 
 
-def pointwise_task(name: str, plan: Plan) -> dict[str, Any]:
+def pointwise_task(name: str, plan: Plan) -> PointwiseRatio:
     """The pointwise ratio of one system (a worker task)."""
     return pointwise_ratio(name, plan, reps=plan.pointwise_reps)
 
 
-def flags_task(name: str, plan: Plan) -> list[dict[str, Any]]:
+def flags_task(name: str, plan: Plan) -> list[FlagsRow]:
     """MuJoCo's disable flags on one system (a worker task)."""
     return flags_ratio(name, plan, reps=plan.ratio_reps)
 
 
-def checks_task(name: str, plan: Plan, cache_dir: CacheDir = DEFAULT_CACHE_DIR) -> dict[str, Any]:
+def checks_task(name: str, plan: Plan, cache_dir: CacheDir = DEFAULT_CACHE_DIR) -> MeasuredChecks:
     """The harness's own checks on one system (a worker task)."""
     return measure_checks(name, plan=plan, reps=plan.ratio_reps, cache_dir=cache_dir)
 
 
-def write_bench(results: dict[str, Any], out: Path) -> Path:
+def write_bench(results: BenchResults, out: Path) -> Path:
     """`out/bench.json`, written atomically (serialised first, then a temporary file and a rename)."""
     text = dumps(results)
     path = Path(out) / "bench.json"
@@ -286,7 +322,7 @@ def write_bench(results: dict[str, Any], out: Path) -> Path:
     return path
 
 
-def bench_command(args: Any, executor: Executor | None = None) -> int:
+def bench_command(args: Namespace, executor: Executor | None = None) -> int:
     """`lagrange-xval bench [SYSTEM ...] [--quick] [--out DIR] [--repeats N]`.
 
     Writes DIR/bench.json and prints the summary. Exit status 0 when every ratio with a target meets
@@ -320,7 +356,11 @@ def bench_command(args: Any, executor: Executor | None = None) -> int:
     path = write_bench(results, Path(getattr(args, "out", None) or "reports"))
     summary(results)
     print(f"wrote {path}")
-    targeted = [r for k, r in results["ratios"].items() if k != "mujoco_disable_flags" and r.get("passed") is not None]
+    targeted = [
+        r
+        for k, r in results["ratios"].items()
+        if k != "mujoco_disable_flags" and isinstance(r, dict) and r.get("passed") is not None
+    ]
     return 0 if all(r["passed"] for r in targeted) else 1
 
 

@@ -9,11 +9,11 @@ whole grid, which are contenders, a row's statuses, the sample times the error c
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 from ...dynamics.integrate import SCIPY_DEFAULT
 from ...sources import drake as drake_engine  # imports no pydrake: `unavailable` looks it up
 from ...sources.base import MUJOCO_INTEGRATORS  # every one is swept
+from .shapes import Spec
 
 ERROR_TIMES = (2.0, 10.0)  # s: the samples of the rows' "error_2s" and "error_10s"
 
@@ -96,7 +96,7 @@ class Plan:
     # fresh-machine and cold-cache runs are reported beside it, not judged
     run_warm_target_s: float = 5.0
 
-    def specs(self) -> list[dict[str, Any]]:
+    def specs(self) -> list[Spec]:
         """Every run of one system, loosest setting first within each method; Drake's where pydrake is
         importable; the harness's default path last."""
         specs = [
@@ -111,23 +111,25 @@ class Plan:
         return specs
 
 
-def spec_of(sweep: Sweep, value: float, plan: Plan) -> dict[str, Any]:
+def spec_of(sweep: Sweep, value: float, plan: Plan) -> Spec:
     """One run of a sweep: its engine, driver, scheme, setting, value and atol (rtol settings only)."""
     if sweep.setting == "rtol":
         return scipy_spec(sweep.engine, sweep.driver, sweep.scheme, value, atol_factor=plan.atol_factor)
     batch = plan.rollout_batch if sweep.driver == "rollout_batch" else None
-    return {
+    spec: Spec = {
         "engine": sweep.engine,
         "driver": sweep.driver,
         "scheme": sweep.scheme,
         "setting": sweep.setting,
         "value": value,
         "atol": None,
-        **({"batch": batch} if batch else {}),
     }
+    if batch:
+        spec["batch"] = batch
+    return spec
 
 
-def default_spec() -> dict[str, Any]:
+def default_spec() -> Spec:
     """The harness's default path (`integrate.scipy_trajectory` with `integrate.SCIPY_DEFAULT`), one run."""
     return {
         "engine": "hand",
@@ -139,7 +141,7 @@ def default_spec() -> dict[str, Any]:
     }
 
 
-def method_name(spec: dict[str, Any]) -> str:
+def method_name(spec: Spec) -> str:
     """The row's method label, e.g. "hand solve_ivp DOP853", "mujoco RK4", "pinocchio mirror RK4"."""
     engine, driver, scheme = spec["engine"], spec["driver"], spec.get("scheme")
     label = {
@@ -159,7 +161,7 @@ def method_name(spec: dict[str, Any]) -> str:
     return f"{engine} {label}"
 
 
-def scipy_spec(engine: str, driver: str, scheme: str | None, rtol: float, *, atol_factor: float) -> dict[str, Any]:
+def scipy_spec(engine: str, driver: str, scheme: str, rtol: float, *, atol_factor: float) -> Spec:
     """A scipy run at `rtol`, atol = rtol * atol_factor."""
     return {
         "engine": engine,
@@ -171,14 +173,14 @@ def scipy_spec(engine: str, driver: str, scheme: str | None, rtol: float, *, ato
     }
 
 
-def taylor_spec(tol: float, engine: str = "hand") -> dict[str, Any]:
+def taylor_spec(tol: float, engine: str = "hand") -> Spec:
     """heyoka's Taylor integrator in double precision on the hand equations or the "symbolic" source."""
     return {"engine": engine, "driver": "taylor", "scheme": "double", "setting": "tol", "value": tol, "atol": None}
 
 
-def step_spec(engine: str, driver: str, scheme: str, timestep: float, *, batch: int | None = None) -> dict[str, Any]:
+def step_spec(engine: str, driver: str, scheme: str, timestep: float, *, batch: int | None = None) -> Spec:
     """A fixed-step run at `timestep` (s); `batch`: the copies of a "rollout_batch" run."""
-    spec: dict[str, Any] = {
+    spec: Spec = {
         "engine": engine,
         "driver": driver,
         "scheme": scheme,

@@ -15,7 +15,6 @@ import tempfile
 import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -30,9 +29,24 @@ from ...verdict import pointwise as compare
 from .baselines import hand_math_rhs, numpy_solve_rhs, raw_hand, raw_pointwise
 from .plan import CONTENDER_DRIVERS, GRID_DRIVERS, Plan
 from .runners import case_for, resources
+from .shapes import (
+    DefaultRatio,
+    FlagsRow,
+    FrontierEntry,
+    FrontierRatios,
+    PointwiseRatio,
+    PointwiseSize,
+    RhsRatio,
+    Row,
+    RunBrief,
+    RunWallTimes,
+    ScipyBrief,
+    Timed,
+    cpu_of,
+)
 
 
-def interleaved_medians(fns: dict[str, Callable[[], Any]], reps: int) -> dict[str, dict[str, Any]]:
+def interleaved_medians(fns: dict[str, Callable[[], object]], reps: int) -> dict[str, Timed]:
     """Each callable timed `reps` times, in rotating order; medians of CPU and wall seconds."""
     names = list(fns)
     cpu: dict[str, list[float]] = {k: [] for k in names}
@@ -54,7 +68,7 @@ def interleaved_medians(fns: dict[str, Callable[[], Any]], reps: int) -> dict[st
     }
 
 
-def rhs_ratio(plan: Plan, *, reps: int, calls: int = 10_000, n_states: int = 1000, seed: int = 0) -> dict[str, Any]:
+def rhs_ratio(plan: Plan, *, reps: int, calls: int = 10_000, n_states: int = 1000, seed: int = 0) -> RhsRatio:
     """Ratio 1 (a worker task): the right-hand side `scipy_trajectory` hands to the integrator for the
     hand equations (`integrate.source_rhs`: the generated fast path behind one call layer; the evaluation
     guard `integrate_rhs` puts around it is not included) against `hand_math_rhs`, per call, both called
@@ -68,7 +82,7 @@ def rhs_ratio(plan: Plan, *, reps: int, calls: int = 10_000, n_states: int = 100
     ys = [rng.uniform(-3, 3, 2 * system.nv) for _ in range(n_states)]
     passes = max(1, calls // n_states)
 
-    def loop(f: Callable[..., Any], *extra: Any) -> Callable[[], None]:
+    def loop(f: Callable[..., object], *extra: list[float]) -> Callable[[], None]:
         def run() -> None:
             for _ in range(passes):
                 for y in ys:
@@ -103,7 +117,7 @@ def rhs_ratio(plan: Plan, *, reps: int, calls: int = 10_000, n_states: int = 100
     }
 
 
-def pointwise_ratio(name: str, plan: Plan, *, reps: int, seed: int = 0) -> dict[str, Any]:
+def pointwise_ratio(name: str, plan: Plan, *, reps: int, seed: int = 0) -> PointwiseRatio:
     """Ratio 2 for one system (a worker task), at each batch size of the plan's `pointwise_sizes`:
     `compare.evaluate` through every source against `raw_pointwise` (the minimal loops computing the
     same), interleaved; and each source's own `evaluate` against its raw calls (`raw_hand`; `raw_mujoco`,
@@ -129,14 +143,14 @@ def pointwise_ratio(name: str, plan: Plan, *, reps: int, seed: int = 0) -> dict[
 
 def _pointwise_at(
     system: System, sources: Mapping[str, Source], n_states: int, *, seed: int, reps: int
-) -> dict[str, Any]:
+) -> PointwiseSize:
     """`pointwise_ratio` at one batch size."""
     states = compare.random_states(system, n=n_states, seed=seed)
     q, v, tau = states.q, states.v, states.tau
     a_hand = sources["hand"].forward(q, v, tau)
     compare.evaluate(sources, compare.States(q[:2], v[:2], tau[:2]))  # generates the symbolic code
 
-    fns: dict[str, Callable[[], Any]] = {
+    fns: dict[str, Callable[[], object]] = {
         "harness": lambda: compare.evaluate(sources, states),
         "raw": lambda: raw_pointwise(system, sources, states),
         "harness hand": lambda: sources["hand"].evaluate(q, v, tau),  # inverse dynamics at its own qacc
@@ -170,7 +184,7 @@ def _pointwise_at(
     }
 
 
-def flags_ratio(name: str, plan: Plan, *, reps: int) -> list[dict[str, Any]]:
+def flags_ratio(name: str, plan: Plan, *, reps: int) -> list[FlagsRow]:
     """Per integrator of the plan's `flag_integrators`: CPU time per mj_step (`flag_steps` of them) at the
     MJCF's timestep from the system's start, with the model's disable flags and with `disableflags = 0`,
     interleaved (a worker task)."""
@@ -181,7 +195,7 @@ def flags_ratio(name: str, plan: Plan, *, reps: int) -> list[dict[str, Any]]:
     case = case_for(system, plan)
     model_flags, timestep = int(src.m.opt.disableflags), float(src.m.opt.timestep)
     steps = plan.flag_steps
-    out = []
+    out: list[FlagsRow] = []
     for integ in plan.flag_integrators:
 
         def stepping(flags: int, integ: str = integ) -> Callable[[], None]:
@@ -211,7 +225,7 @@ def flags_ratio(name: str, plan: Plan, *, reps: int) -> list[dict[str, Any]]:
     return out
 
 
-def default_ratio(rows: list[dict[str, Any]], plan: Plan) -> dict[str, Any]:
+def default_ratio(rows: list[Row], plan: Plan) -> DefaultRatio:
     """From the sweep, on the plan's `rhs_system`: the default's CPU time over that of the fastest scipy run
     on the hand equations reaching `default_epsilon` at t = 2 s (drivers giving the whole 10 ms grid, as
     the default must), and which (method, rtol) runs would meet `default_target`."""
@@ -227,58 +241,59 @@ def default_ratio(rows: list[dict[str, Any]], plan: Plan) -> dict[str, Any]:
         and r["error_2s"] is not None
         and r["error_2s"] <= epsilon
     ]
-    out: dict[str, Any] = {"system": system, "epsilon": epsilon, "target": target}
+    out: DefaultRatio = {"system": system, "epsilon": epsilon, "target": target}
     if default is None or not candidates or default.get("cpu_s") is None:
         return {**out, "value": None, "passed": False, "why": "no default run or no scipy run reached epsilon"}
-    fastest = min(candidates, key=lambda r: r["cpu_s"])
+    fastest = min(candidates, key=cpu_of)
     ivp = [r for r in candidates if r["driver"] == "solve_ivp"]
-    fastest_ivp = min(ivp, key=lambda r: r["cpu_s"]) if ivp else None
+    fastest_ivp = min(ivp, key=cpu_of) if ivp else None
     reached = default["status"] == "ok" and default["error_2s"] is not None and default["error_2s"] <= epsilon
-    ratio = default["cpu_s"] / fastest["cpu_s"]
+    ratio = cpu_of(default) / cpu_of(fastest)
 
-    def brief(r: dict[str, Any] | None) -> dict[str, Any] | None:
-        return (
-            None
-            if r is None
-            else {
-                "method": r["method"],
-                "rtol": r["value"],
-                "atol": r["atol"],
-                "cpu_s": r["cpu_s"],
-                "error_2s": r["error_2s"],
-            }
-        )
+    def brief(r: Row) -> ScipyBrief:
+        return {
+            "method": r["method"],
+            "rtol": r["value"],
+            "atol": r["atol"],
+            "cpu_s": r["cpu_s"],
+            "error_2s": r["error_2s"],
+        }
 
     return {
         **out,
         "value": ratio,
         "passed": bool(reached and ratio <= target),
-        "default": {**brief(default), "reached": reached},  # type: ignore[dict-item]
+        "default": {**brief(default), "reached": reached},
         "fastest": brief(fastest),
-        "fastest_solve_ivp": brief(fastest_ivp),
-        "default_over_fastest_solve_ivp": default["cpu_s"] / fastest_ivp["cpu_s"] if fastest_ivp else None,
-        "would_pass": [
-            brief(r) for r in sorted(candidates, key=lambda r: r["cpu_s"]) if r["cpu_s"] <= target * fastest["cpu_s"]
-        ],
+        "fastest_solve_ivp": brief(fastest_ivp) if fastest_ivp is not None else None,
+        "default_over_fastest_solve_ivp": cpu_of(default) / cpu_of(fastest_ivp) if fastest_ivp else None,
+        "would_pass": [brief(r) for r in sorted(candidates, key=cpu_of) if cpu_of(r) <= target * cpu_of(fastest)],
         "how": "median CPU time of each run in the interleaved sweep; the default is integrate.scipy_trajectory "
         "with integrate.SCIPY_DEFAULT on the hand source",
     }
 
 
-def frontier_ratios(rows: list[dict[str, Any]], epsilons: tuple[float, ...]) -> dict[str, Any]:
+def frontier_ratios(rows: list[Row], epsilons: tuple[float, ...]) -> FrontierRatios:
     """From the sweep, per system and eps: the harness's default trajectory path (its driver, `odeint`
     on the hand equations' generated right-hand side, at the cheapest rtol reaching eps at t = 2 s; the
     default rtol itself as one of them) against the fastest run of any method reaching eps that gives
     the whole 10 ms grid (as the harness's trajectories must). CPU time ratios; nothing is asserted."""
-    out: dict[str, Any] = {}
+    out: dict[str, list[FrontierEntry]] = {}
 
-    def brief(r: dict[str, Any] | None) -> dict[str, Any] | None:
+    def brief(r: Row | None) -> RunBrief | None:
         if r is None:
             return None
-        keys = ("method", "setting", "value", "cpu_s", "wall_s", "error_2s", "error_10s")
-        return {k: r[k] for k in keys}
+        return {
+            "method": r["method"],
+            "setting": r["setting"],
+            "value": r["value"],
+            "cpu_s": r["cpu_s"],
+            "wall_s": r["wall_s"],
+            "error_2s": r["error_2s"],
+            "error_10s": r["error_10s"],
+        }
 
-    def reaching(rs: list[dict[str, Any]], eps: float) -> list[dict[str, Any]]:
+    def reaching(rs: list[Row], eps: float) -> list[Row]:
         return [
             r
             for r in rs
@@ -288,20 +303,20 @@ def frontier_ratios(rows: list[dict[str, Any]], epsilons: tuple[float, ...]) -> 
     for system in sorted({r["system"] for r in rows}):
         mine = [r for r in rows if r["system"] == system and r["driver"] in GRID_DRIVERS]
         path = [r for r in mine if (r["engine"], r["driver"]) == ("hand", "odeint") or r["driver"] == "default"]
-        per_eps = []
+        per_eps: list[FrontierEntry] = []
         for eps in epsilons:
             good, mine_good = reaching(path, eps), reaching(mine, eps)
-            default = min(good, key=lambda r: r["cpu_s"]) if good else None
-            fastest = min(mine_good, key=lambda r: r["cpu_s"]) if mine_good else None
+            default = min(good, key=cpu_of) if good else None
+            fastest = min(mine_good, key=cpu_of) if mine_good else None
             contenders = [r for r in mine_good if r["driver"] in CONTENDER_DRIVERS]
-            best_contender = min(contenders, key=lambda r: r["cpu_s"]) if contenders else None
+            best_contender = min(contenders, key=cpu_of) if contenders else None
             per_eps.append(
                 {
                     "epsilon": eps,
                     "default_path": brief(default),
                     "fastest": brief(fastest),
                     "fastest_contender": brief(best_contender),
-                    "ratio": default["cpu_s"] / fastest["cpu_s"] if default and fastest else None,
+                    "ratio": cpu_of(default) / cpu_of(fastest) if default and fastest else None,
                     "why": None
                     if default and fastest
                     else ("the default path does not reach eps" if fastest else "no run reaches eps"),
@@ -326,7 +341,7 @@ RUN_CONDITIONS = {
 }
 
 
-def run_wall_times(plan: Plan, *, timeout: float = 900.0) -> dict[str, Any]:
+def run_wall_times(plan: Plan, *, timeout: float = 900.0) -> RunWallTimes:
     """`python -m lagrange_xval.cli run` (all systems, reports and replays) timed as
     subprocesses one after another, with nothing else of the bench running: per repeat (the plan's
     `run_repeats`), three runs into new folders, one per condition of RUN_CONDITIONS (fresh machine,

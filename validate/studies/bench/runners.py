@@ -10,9 +10,9 @@ import statistics
 import threading
 import time
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 
@@ -28,8 +28,29 @@ from ...sources.base import OneStateSource, Source, SteppedSource, one_state, st
 from ...sources.fastpath import scalar_rhs
 from ...systems import System, from_key, key_of
 from .plan import CHECK_EVERY, ERROR_TIMES, SCIPY_DRIVERS, Plan
+from .shapes import Case, Execution, Outcome, Prepared, Spec
 
 CacheDir = Path | str | None  # reference_trajectory's cache_dir: a folder, None (no cache) or cache.DEFAULT
+
+
+Taus = list[float] | np.ndarray  # the torques handed to a right-hand side f(t, y, tau)
+Rates = Sequence[float] | np.ndarray  # what a right-hand side returns: y' = [v, a]
+Rhs = Callable[[float, np.ndarray], Rates]  # a right-hand side as scipy calls it
+
+
+class GuardStats(TypedDict):
+    """A guarded right-hand side's calls so far, and why it stopped (None, "timeout" or "diverged")."""
+
+    nfev: int
+    stop: str | None
+
+
+class DrakeOptions(TypedDict):
+    """`drake_trajectory`'s integrator settings for one run."""
+
+    scheme: str
+    accuracy: float | None
+    max_step: float
 
 
 class Stop(Exception):
@@ -48,7 +69,7 @@ def resources(name: str) -> tuple[System, Sources]:
     return cache[name]
 
 
-def case_for(system: System, plan: Plan) -> dict[str, Any]:
+def case_for(system: System, plan: Plan) -> Case:
     """The start the bench integrates from: the system's `initial_state`, tau = 0, the plan's grid."""
     q0, v0 = initial_state(system)
     return {
@@ -61,7 +82,7 @@ def case_for(system: System, plan: Plan) -> dict[str, Any]:
     }
 
 
-def prepare(name: str, plan: Plan, cache_dir: CacheDir = DEFAULT_CACHE_DIR) -> dict[str, Any]:
+def prepare(name: str, plan: Plan, cache_dir: CacheDir = DEFAULT_CACHE_DIR) -> Prepared:
     """Reference trajectory and predictability horizon of one system on the plan's grid (a worker task),
     kept in `cache_dir` (reference_trajectory's: a folder, None for none, or the configured cache)."""
     system, _ = resources(name)
@@ -88,7 +109,7 @@ def prepare(name: str, plan: Plan, cache_dir: CacheDir = DEFAULT_CACHE_DIR) -> d
     }
 
 
-def nonfinite(out: Any) -> bool:
+def nonfinite(out: Rates) -> bool:
     try:
         s = sum(out)
     except TypeError:
@@ -97,8 +118,8 @@ def nonfinite(out: Any) -> bool:
 
 
 def guarded(
-    f: Callable[..., Any], deadline: float, *, tau: Any = None, stop_with_nan: bool = False
-) -> tuple[Callable[[float, Any], Any], Callable[[], dict[str, Any]]]:
+    f: Callable[..., Rates], deadline: float, *, tau: Taus | None = None, stop_with_nan: bool = False
+) -> tuple[Rhs, Callable[[], GuardStats]]:
     """`f` counted, and stopped once past `deadline` (perf_counter) or once it returns non-finite values.
 
     The checks run every CHECK_EVERY calls, so they cost nothing measurable. Stopping raises `Stop`,
@@ -113,7 +134,7 @@ def guarded(
     stop: list[str | None] = [None]
     mask = CHECK_EVERY - 1
 
-    def check(out: Any) -> str | None:
+    def check(out: Rates) -> str | None:
         if nonfinite(out):
             return "diverged"
         if time.perf_counter() > deadline:
@@ -122,7 +143,7 @@ def guarded(
 
     if stop_with_nan:
 
-        def g_nan(t: float, y: Any) -> Any:
+        def g_nan(t: float, y: np.ndarray) -> Rates:
             nonlocal n
             n += 1
             if stop[0] is not None:
@@ -135,7 +156,7 @@ def guarded(
         g = g_nan
     elif tau is not None:
 
-        def g_tau(t: float, y: Any) -> Any:
+        def g_tau(t: float, y: np.ndarray) -> Rates:
             nonlocal n
             n += 1
             out = f(t, y, tau)
@@ -149,7 +170,7 @@ def guarded(
         g = g_tau
     else:
 
-        def g_plain(t: float, y: Any) -> Any:
+        def g_plain(t: float, y: np.ndarray) -> Rates:
             nonlocal n
             n += 1
             out = f(t, y)
@@ -174,7 +195,7 @@ def result_row(
     q: np.ndarray | None = None,
     nfev: int | None = None,
     steps: int | None = None,
-) -> dict[str, Any]:
+) -> Outcome:
     if status == "ok" and q is not None and not np.all(np.isfinite(q)):
         status, message = "diverged", "non-finite state"
     return {
@@ -192,15 +213,15 @@ def result_row(
 def run_scipy(
     driver: str,
     scheme: str,
-    f: Callable[..., Any],
+    f: Callable[..., Rates],
     y0: np.ndarray,
     t: np.ndarray,
     *,
     rtol: float,
     atol: float,
     deadline: float,
-    tau: Any = None,
-) -> dict[str, Any]:
+    tau: Taus | None = None,
+) -> Outcome:
     """One scipy integration of y' = f(t, y) (or f(t, y, tau)), timed around the driver call alone.
 
     Args:
@@ -248,7 +269,7 @@ def run_scipy(
 
 
 def _run_ode(
-    g: Callable[[float, Any], Any], y0: np.ndarray, out_t: np.ndarray, *, rtol: float, atol: float
+    g: Rhs, y0: np.ndarray, out_t: np.ndarray, *, rtol: float, atol: float
 ) -> tuple[bool, str, np.ndarray, float, float]:
     """scipy's `ode` (dop853) stopping at every time of `out_t`, timed around the stepping loop alone.
     `g` must stop with NaN (scipy's `ode` crashes on an exception in the callback), never `Stop`.
@@ -285,7 +306,7 @@ def run_mujoco(
     integrator: str,
     timestep: float,
     deadline: float,
-) -> dict[str, Any]:
+) -> Outcome:
     """MuJoCo stepping its own integrator from (q0, v0); only the stepping loop is timed.
 
     The model's integrator and timestep are set for the run and restored after it. A run that sets
@@ -321,12 +342,12 @@ class GuardedSource:
     def __init__(self, source: OneStateSource, deadline: float) -> None:
         self._source, self._deadline = source, deadline
         self.name = source.name
-        self.stats: Callable[[], dict[str, Any]] = lambda: {"nfev": 0, "stop": None}
+        self.stats: Callable[[], GuardStats] = lambda: {"nfev": 0, "stop": None}
 
     def __getattr__(self, attr: str) -> Any:
         return getattr(self._source, attr)
 
-    def rhs(self, tau: np.ndarray) -> Callable[[float, Any], Any]:
+    def rhs(self, tau: np.ndarray) -> Rhs:
         g, self.stats = guarded(self._source.rhs(tau), self._deadline)
         return g
 
@@ -342,7 +363,7 @@ def run_mirror(
     integrator: str,
     timestep: float,
     deadline: float,
-) -> dict[str, Any]:
+) -> Outcome:
     """`mirror_trajectory` (MuJoCo's scheme on an engine's per-call rhs), timed around the call."""
     src = GuardedSource(one_state(source), deadline)
     c0, w0 = time.process_time(), time.perf_counter()
@@ -360,7 +381,7 @@ def run_mirror(
 
 def run_taylor(
     system: System, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, tol: float, max_steps: int, source: str = "hand"
-) -> dict[str, Any]:
+) -> Outcome:
     """heyoka's Taylor integrator in double precision at `tol` on the hand equations or the derived
     ones ("symbolic": joint coordinates, JOINT_MAP applied outside the clock); compiled before the
     clock starts, `propagate_grid` alone timed. At most `max_steps` steps."""
@@ -381,7 +402,7 @@ def run_taylor(
 
 def run_compiled_rk4(
     system: System, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, timestep: float, deadline: float
-) -> dict[str, Any]:
+) -> Outcome:
     """Classic RK4 with its steps compiled (heyoka cfunc, `compiled.rk4_plan` steps per call), one
     Python call per group of steps; the loop over the samples is timed."""
     n = len(q0)
@@ -407,7 +428,7 @@ def run_rollout(
     integrator: str,
     timestep: float,
     batch: int,
-) -> dict[str, Any]:
+) -> Outcome:
     """MuJoCo's `rollout` of `batch` copies of the start (sources/mujoco.rollout_run); the row's time is
     the batch's CPU time divided by `batch` (per trajectory), its samples those of the first copy."""
     from ...sources import mujoco as engine  # imports MuJoCo: loaded when first used
@@ -425,16 +446,17 @@ def run_rollout(
     return result_row("ok", "", cpu, wall, t=t, q=np.ascontiguousarray(q), steps=total)
 
 
-def run_drake(
-    system: System, source: Source, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, spec: dict[str, Any]
-) -> dict[str, Any]:
+def run_drake(system: System, source: Source, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, spec: Spec) -> Outcome:
     """Drake's own integrator on its continuous plant (dynamics/integrate.py `drake_trajectory`): at a
     target accuracy (setting "accuracy", max step one output interval) or fixed steps ("timestep");
     the whole run, context and Simulator setup included, is timed."""
     fixed = spec["setting"] == "timestep"
     dt_out = float(t[1] - t[0])
-    opts = {"scheme": spec["scheme"], "accuracy": None if fixed else spec["value"]}
-    opts["max_step"] = spec["value"] if fixed else dt_out
+    opts: DrakeOptions = {
+        "scheme": spec["scheme"],
+        "accuracy": None if fixed else spec["value"],
+        "max_step": spec["value"] if fixed else dt_out,
+    }
     c0, w0 = time.process_time(), time.perf_counter()
     traj = drake_trajectory(system, source, q0, v0, tau, t, **opts)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
@@ -445,7 +467,7 @@ def run_drake(
     return result_row("ok", "", cpu, wall, t=t, q=np.ascontiguousarray(traj.q), nfev=nfev, steps=steps)
 
 
-def run_default(system: System, source: Source, q0: Any, v0: Any, tau: Any, t: np.ndarray) -> dict[str, Any]:
+def run_default(system: System, source: Source, q0: Any, v0: Any, tau: Any, t: np.ndarray) -> Outcome:
     """The harness's default scipy integration, as `run` calls it (no budget: it has no hook)."""
     c0, w0 = time.process_time(), time.perf_counter()
     try:
@@ -457,15 +479,19 @@ def run_default(system: System, source: Source, q0: Any, v0: Any, tau: Any, t: n
     return result_row("ok", "", cpu, wall, t=traj.t, q=traj.q, nfev=int(traj.stats["nfev"]))
 
 
-def run_once(spec: dict[str, Any], case: dict[str, Any], plan: Plan) -> dict[str, Any]:
+def run_once(spec: Spec, case: Case, plan: Plan) -> Outcome:
     """One execution of one spec on one case, in this process, within the plan's budget."""
     system, sources = resources(case["system"])
     t = time_grid(case["t_end"], case["dt_out"])
     q0, v0, tau = (np.asarray(case[k], dtype=float) for k in ("q0", "v0", "tau"))
     driver, engine, budget = spec["driver"], spec["engine"], plan.budget
     if driver in SCIPY_DRIVERS:
+        atol = spec["atol"]
+        if atol is None:  # every rtol spec has one (plan.scipy_spec)
+            raise HarnessError(f"a {driver} run needs an atol.")
         y0 = np.concatenate([q0, v0])
-        tau_list: Any = None
+        tau_list: Taus | None = None
+        f: Callable[..., Rates]  # the generated code, the compiled function, or a source's rhs
         if engine == "hand":
             f, tau_list = scalar_rhs(system), [float(x) for x in tau]  # compiled before the clock starts
         elif engine == "hand-cfunc":
@@ -474,7 +500,7 @@ def run_once(spec: dict[str, Any], case: dict[str, Any], plan: Plan) -> dict[str
             f = one_state(sources[engine]).rhs(tau)
         deadline = time.perf_counter() + budget
         return run_scipy(
-            driver, spec["scheme"], f, y0, t, rtol=spec["value"], atol=spec["atol"], deadline=deadline, tau=tau_list
+            driver, spec["scheme"], f, y0, t, rtol=spec["value"], atol=atol, deadline=deadline, tau=tau_list
         )
     if driver == "mujoco":
         return run_mujoco(
@@ -535,7 +561,7 @@ def digest(q: np.ndarray | None) -> str | None:
     return None if q is None else hashlib.sha256(np.ascontiguousarray(q).tobytes()).hexdigest()[:16]
 
 
-def execute(spec: dict[str, Any], case: dict[str, Any], *, plan: Plan, samples: bool = True) -> dict[str, Any]:
+def execute(spec: Spec, case: Case, *, plan: Plan, samples: bool = True) -> Execution:
     """One timing of one spec (a worker task): the run, repeated back to back while the total time is
     under the plan's `min_timed` (the first, cold, execution then dropped), mean per execution.
 

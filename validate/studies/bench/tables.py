@@ -4,14 +4,27 @@ the fast-harness ratios; the default path against the frontier; the harness's ch
 from __future__ import annotations
 
 import sys
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING
+
+from .shapes import (
+    BenchResults,
+    CheckEntry,
+    ChecksRatios,
+    DefaultRatio,
+    FlagsRatio,
+    FrontierRatios,
+    PointwiseSummary,
+    Ratios,
+    Reached,
+    RhsRatio,
+    RunBrief,
+    RunWallTimes,
+)
 
 if TYPE_CHECKING:  # rich is imported when the summary is printed
     from rich.console import Console
     from rich.table import Table
-
-Result = dict[str, Any]  # one entry of bench.json (a row, a ratio, a system's front)
 
 
 def fmt_ms(x: float | None) -> str:
@@ -28,12 +41,12 @@ def fmt_setting(setting: str | None, value: float | None) -> str:
     return f"{ {'rtol': 'rtol', 'tol': 'tol', 'accuracy': 'accuracy'}.get(setting, 'dt') } {value:.0e}"
 
 
-def verdict(r: Result) -> str:
+def verdict(r: Mapping[str, object]) -> str:
     """ "pass", "FAIL", or "-" for a ratio without a target."""
     return "-" if r.get("passed") is None else ("pass" if r["passed"] else "FAIL")
 
 
-def summary(results: Result, console: Console | None = None) -> None:
+def summary(results: BenchResults, console: Console | None = None) -> None:
     """A readable summary: per system, time to reach eps and the Pareto front; the ratios; failures."""
     from rich.console import Console
 
@@ -54,7 +67,7 @@ def summary(results: Result, console: Console | None = None) -> None:
     flags_table(ratios["mujoco_disable_flags"], console)
 
 
-def system_section(results: Result, name: str, console: Console) -> None:
+def system_section(results: BenchResults, name: str, console: Console) -> None:
     """One system: its time-to-eps table, its Pareto front at 10 s and the runs that were not ok."""
     from rich.table import Table
 
@@ -88,14 +101,14 @@ def system_section(results: Result, name: str, console: Console) -> None:
         )
 
 
-def _reached(e: Result) -> str:
+def _reached(e: Reached) -> str:
     """A time-to-eps cell: the cheapest run's time and setting, or "not reached"."""
     if e["result"] != "reached":
         return "not reached"
     return f"{fmt_ms(e['cpu_s'])} ({fmt_setting(e['setting'], e['value'])})"
 
 
-def ratios_table(ratios: Result, console: Console) -> None:
+def ratios_table(ratios: Ratios, console: Console) -> None:
     """The fast-harness ratios against their targets; where default scipy misses, the runs that would pass."""
     from rich.table import Table
 
@@ -121,7 +134,7 @@ def ratios_table(ratios: Result, console: Console) -> None:
         )
 
 
-def rhs_row(r1: Result, table: Table) -> None:
+def rhs_row(r1: RhsRatio, table: Table) -> None:
     """The generated right-hand side against hand-written math (none where its system was not benched)."""
     if r1.get("value") is None:
         return
@@ -135,7 +148,7 @@ def rhs_row(r1: Result, table: Table) -> None:
     )
 
 
-def pointwise_rows(r2: Result, table: Table) -> None:
+def pointwise_rows(r2: PointwiseSummary, table: Table) -> None:
     """The pointwise check against the raw engine calls, per system and batch size."""
     for p in r2["per_system"]:
         for size in p.get("per_size", []):
@@ -153,7 +166,7 @@ def pointwise_rows(r2: Result, table: Table) -> None:
             )
 
 
-def default_row(r3: Result, table: Table) -> None:
+def default_row(r3: DefaultRatio, table: Table) -> None:
     """Default scipy against the fastest scipy run at its epsilon, or why it was not measured."""
     if r3.get("value") is None:
         table.add_row("default scipy / fastest scipy", r3.get("why", "-"), "<= 1.5x", verdict(r3))
@@ -168,7 +181,7 @@ def default_row(r3: Result, table: Table) -> None:
     )
 
 
-def run_time_rows(r4: Result, table: Table) -> None:
+def run_time_rows(r4: RunWallTimes, table: Table) -> None:
     """`lagrange-xval run`'s wall time per condition, or why it was not measured."""
     if r4.get("value") is None or not isinstance(r4.get("median_s"), dict):
         table.add_row("`lagrange-xval run` wall time", r4.get("why", "-"), f"warm <= {r4['target']:g} s", verdict(r4))
@@ -184,7 +197,7 @@ def run_time_rows(r4: Result, table: Table) -> None:
         )
 
 
-def flags_table(flags: Result, console: Console) -> None:
+def flags_table(flags: FlagsRatio, console: Console) -> None:
     """MuJoCo's step cost with the model's disable flags against every stage enabled."""
     from rich.table import Table
 
@@ -204,7 +217,7 @@ def flags_table(flags: Result, console: Console) -> None:
     console.print(table)
 
 
-def frontier_table(frontier: Result, console: Console) -> None:
+def frontier_table(frontier: FrontierRatios, console: Console) -> None:
     """The harness's default trajectory path against the fastest method at equal error, per system."""
     from rich.table import Table
 
@@ -215,7 +228,7 @@ def frontier_table(frontier: Result, console: Console) -> None:
     for col in ("system", "eps", "default path", "fastest", "ratio", "fastest contender"):
         table.add_column(col)
 
-    def cell(r: Result | None) -> str:
+    def cell(r: RunBrief | None) -> str:
         if r is None:
             return "not reached"
         return f"{r['method']} {fmt_setting(r['setting'], r['value'])}: {fmt_ms(r['cpu_s'])} ({r['error_2s']:.1e})"
@@ -234,7 +247,7 @@ def frontier_table(frontier: Result, console: Console) -> None:
     console.print(table)
 
 
-def checks_table(checks: Result, console: Console) -> None:
+def checks_table(checks: ChecksRatios, console: Console) -> None:
     """The harness's own trajectory checks against the fastest run computing the same at their error."""
     from rich.table import Table
 
@@ -272,7 +285,7 @@ def checks_table(checks: Result, console: Console) -> None:
     console.print(table)
 
 
-def _ratio_cell(e: Result, fmt: Callable[[float | None], str]) -> str:
+def _ratio_cell(e: CheckEntry, fmt: Callable[[float | None], str]) -> str:
     """The ratio, and where it was timed again beside its fastest run, both times and the ratio apart."""
     if e.get("ratio") is None:
         return "-"

@@ -7,7 +7,6 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -19,6 +18,17 @@ from ...sources.hand import HandSource
 from ...systems import System
 from ...verdict import pointwise as compare
 from .settings import EPS, FIT_FROM_COND, MAX_FACTOR, PROPOSAL_MARGIN, TARGET_DISTANCES, TARGETED_STATES, Settings
+from .shapes import (
+    CondInfo,
+    ConditioningRow,
+    ConditioningSummary,
+    CondPoint,
+    CondRow,
+    Measured,
+    SolveTierProposal,
+    SweepBase,
+    SweepPoint,
+)
 
 
 def equilibrated_cond(M: np.ndarray) -> np.ndarray:
@@ -125,9 +135,7 @@ def no_sweep_reason(system: System) -> str:
     return f"fewer than two bodies named (BODIES: {named}): no first and last body to sweep a mass ratio between"
 
 
-def conditioning_point(
-    system: System, *, n_states: int, seed: int, search: tuple[int, int] = (65, 4000)
-) -> dict[str, Any]:
+def conditioning_point(system: System, *, n_states: int, seed: int, search: tuple[int, int] = (65, 4000)) -> CondPoint:
     """cond(M) and the sources' disagreement in q'' and tau_inverse at one parameter set.
 
     Besides compare.compare's rows (their `scaled` error, `tolerance` and verdict), each row gets the
@@ -140,7 +148,7 @@ def conditioning_point(
     values = compare.evaluate(sources, states)
     M = values["mujoco" if "mujoco" in values else "hand"]["M"]  # compare.compare's reference
     cond, cond_eq = np.linalg.cond(M), equilibrated_cond(M)
-    rows = []
+    rows: list[CondRow] = []
     for r in compare.compare(values, states):
         if r["quantity"] not in ("qacc", "tau_inverse"):
             continue
@@ -175,13 +183,13 @@ def conditioning_point(
     }
 
 
-def conditioning_rows(system: System, sources: Mapping[str, Source], settings: Settings) -> list[dict[str, Any]]:
+def conditioning_rows(system: System, sources: Mapping[str, Source], settings: Settings) -> list[ConditioningRow]:
 
-    out = []
+    out: list[ConditioningRow] = []
     for sweep in conditioning_sweeps(system, sources["hand"]):
         for ratio in settings.ratios:
             extra = sweep_overrides(system, sweep, ratio)
-            base = {
+            base: SweepBase = {
                 "system": system.name,
                 "sweep": sweep.name,
                 "kind": sweep.kind,
@@ -198,47 +206,54 @@ def conditioning_rows(system: System, sources: Mapping[str, Source], settings: S
             except HarnessError as exc:
                 out.append({**base, "quantity": None, "pair": None, "refused": str(exc)})
                 continue
-            info = {k: v for k, v in point.items() if k != "rows"}
-            for r in point["rows"]:
-                out.append(
-                    {
-                        **base,
-                        **info,
-                        **{
-                            k: r[k]
-                            for k in (
-                                "quantity",
-                                "pair",
-                                "scaled",
-                                "max_abs",
-                                "scale",
-                                "tier",
-                                "tolerance",
-                                "passed",
-                                "base_tolerance",
-                                "passed_base",
-                                "c_state",
-                                "c_state_eq",
-                                "c_state_all",
-                                "c_state_eq_all",
-                                "worst_state_cond",
-                            )
-                        },
-                        "per_cond_eps": r["scaled"] / (info["cond_max"] * EPS),
-                    }
-                )
+            info: CondInfo = {
+                "cond_median": point["cond_median"],
+                "cond_max": point["cond_max"],
+                "cond_random_max": point["cond_random_max"],
+                "cond_eq_median": point["cond_eq_median"],
+                "cond_eq_max": point["cond_eq_max"],
+                "q_worst": point["q_worst"],
+                "n_states": point["n_states"],
+                "n_targeted": point["n_targeted"],
+            }
+            out += [
+                {**base, **info, **_measured(r), "per_cond_eps": r["scaled"] / (info["cond_max"] * EPS)}
+                for r in point["rows"]
+            ]
     return out
 
 
-def conditioning_summary(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+def _measured(r: CondRow) -> Measured:
+    """What a conditioning row keeps of compare's row and its constants C."""
+    return {
+        "quantity": r["quantity"],
+        "pair": r["pair"],
+        "scaled": r["scaled"],
+        "max_abs": r["max_abs"],
+        "scale": r["scale"],
+        "tier": r["tier"],
+        "tolerance": r["tolerance"],
+        "passed": r["passed"],
+        "base_tolerance": r["base_tolerance"],
+        "passed_base": r["passed_base"],
+        "c_state": r["c_state"],
+        "c_state_eq": r["c_state_eq"],
+        "c_state_all": r["c_state_all"],
+        "c_state_eq_all": r["c_state_eq_all"],
+        "worst_state_cond": r["worst_state_cond"],
+    }
+
+
+def conditioning_summary(rows: list[ConditioningRow]) -> list[ConditioningSummary]:
     """Per (system, sweep, quantity): at each point the worst pair's disagreement against cond(M) over
     the sample; the log-log slope where cond >= FIT_FROM_COND; the largest per-state error / (cond eps)
     (C) and / (cond_eq eps) (C_eq); the smallest cond at which the base tier and the current tier fail."""
-    groups: dict[tuple[str, str, str], dict[float, dict[str, Any]]] = {}
+    groups: dict[tuple[str, str, str], dict[float, SweepPoint]] = {}
     for r in rows:
-        if r.get("quantity") is None:
+        quantity = r.get("quantity")
+        if quantity is None:
             continue
-        p = groups.setdefault((r["system"], r["sweep"], r["quantity"]), {}).setdefault(
+        p = groups.setdefault((r["system"], r["sweep"], quantity), {}).setdefault(
             r["ratio"],
             {
                 "cond_max": r["cond_max"],
@@ -262,7 +277,7 @@ def conditioning_summary(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
         p["c_state_eq_all"] = max(p["c_state_eq_all"], r["c_state_eq_all"])
         p["passed"] = p["passed"] and r["passed"]
         p["passed_base"] = p["passed_base"] and r["passed_base"]
-    out = []
+    out: list[ConditioningSummary] = []
     for (system, sweep, quantity), points in sorted(groups.items()):
         pts = [points[k] for k in sorted(points)]
         cond = np.array([p["cond_max"] for p in pts])
@@ -299,7 +314,7 @@ def conditioning_summary(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
-def proposed_solve_tier(summary: list[dict[str, Any]]) -> dict[str, Any]:
+def proposed_solve_tier(summary: list[ConditioningSummary]) -> SolveTierProposal:
     """The per-state solve tier max(rtol, C eps kappa) the measurements support: C = PROPOSAL_MARGIN x the
     largest C any state beyond rtol needed (`c_state`), rounded up to one significant digit; for kappa =
     cond(M), and for comparison the equilibrated cond_eq (which does not bound the error: near the

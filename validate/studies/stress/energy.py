@@ -5,10 +5,10 @@ numerical damping, energy injection, irregular.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
 
 import numpy as np
 
+from ...core.arrays import Floats
 from ...dynamics.integrate import initial_state
 from ...sources.base import Source
 from ...systems import System
@@ -23,11 +23,18 @@ from .settings import (
     STEADY_R2,
     Settings,
 )
+from .shapes import DriftRow, EnergyClass, Trend
 
 
 def classify_energy(
-    t: Any, E: Any, *, V_min: float, failure: str | None = None, t_fail: float | None = None, growth: float = GROWTH
-) -> dict[str, Any]:
+    t: Floats,
+    E: Floats,
+    *,
+    V_min: float,
+    failure: str | None = None,
+    t_fail: float | None = None,
+    growth: float = GROWTH,
+) -> EnergyClass:
     """The energy behaviour of one run (see the module docstring for the classes).
 
     Args:
@@ -48,16 +55,15 @@ def classify_energy(
     if unstable is not None:
         return {**out, **unstable}
     trend, late_mean = energy_trend(t, dE)
-    out.update(trend)
-    return {**out, **steady_class(out, late_mean)}
+    return {**out, **trend, **steady_class(out, trend, late_mean)}
 
 
-def energy_extent(E: Any, dE: Any, *, V_min: float, t_fail: float | None) -> dict[str, Any]:
+def energy_extent(E: np.ndarray, dE: np.ndarray, *, V_min: float, t_fail: float | None) -> EnergyClass:
     """The energy available to the motion and the largest and final change of E (dE = E - E[0]), absolute and
     relative to it; the trend's keys are None until energy_trend fills them."""
     E0 = float(E[0])
     available = max(E0 - V_min, np.finfo(float).tiny)
-    out: dict[str, Any] = {
+    out: EnergyClass = {
         "E0": E0,
         "V_min": float(V_min),
         "available": available,
@@ -70,18 +76,16 @@ def energy_extent(E: Any, dE: Any, *, V_min: float, t_fail: float | None) -> dic
     }
     finite = np.isfinite(E)
     good = dE[finite]
-    out.update(
-        max_abs=float(np.abs(good).max()) if good.size else float("inf"),
-        final=float(dE[-1]) if finite[-1] else float("nan"),
-    )
+    out["max_abs"] = float(np.abs(good).max()) if good.size else float("inf")
+    out["final"] = float(dE[-1]) if finite[-1] else float("nan")
     out["relative_max"] = out["max_abs"] / available
     out["relative_final"] = out["final"] / available
     return out
 
 
 def instability(
-    t: Any, E: Any, dE: Any, available: float, *, failure: str | None, growth: float
-) -> dict[str, Any] | None:
+    t: np.ndarray, E: np.ndarray, dE: np.ndarray, available: float, *, failure: str | None, growth: float
+) -> EnergyClass | None:
     """The class, reason (and, for an energy gain, the time it set in) of an unstable run; None if it is not."""
     finite = np.isfinite(E)
     good = dE[finite]
@@ -98,7 +102,7 @@ def instability(
     return None
 
 
-def energy_trend(t: Any, dE: Any) -> tuple[dict[str, Any], float]:
+def energy_trend(t: np.ndarray, dE: np.ndarray) -> tuple[Trend, float]:
     """The |dE| envelopes of the first and last tenth of the run, the line fitted to |dE| against t (its
     slope and R^2), and the direction of the change; with the mean dE over the last tenth."""
     h = t[-1] - t[0]
@@ -113,15 +117,21 @@ def energy_trend(t: Any, dE: Any) -> tuple[dict[str, Any], float]:
     r2 = 1.0 - float(np.sum(resid**2)) / var if var > 0 else 0.0
     late_mean = float(dE[t >= t[0] + 0.9 * h].mean())
     direction = "loss" if late_mean < 0 else "gain"
-    trend = {"early_envelope": early_env, "late_envelope": late_env, "rate": float(slope), "r2": r2}
-    return {**trend, "direction": direction}, late_mean
+    trend: Trend = {
+        "early_envelope": early_env,
+        "late_envelope": late_env,
+        "rate": float(slope),
+        "r2": r2,
+        "direction": direction,
+    }
+    return trend, late_mean
 
 
-def steady_class(out: dict[str, Any], late_mean: float) -> dict[str, Any]:
+def steady_class(out: EnergyClass, trend: Trend, late_mean: float) -> EnergyClass:
     """The class and reason of a stable run (round-off, bounded oscillation, irregular, drift, damping or
-    injection) from its extent and trend (out) and the mean dE over its last tenth."""
-    available, early_env, late_env = out["available"], out["early_envelope"], out["late_envelope"]
-    slope, r2, direction = out["rate"], out["r2"], out["direction"]
+    injection) from its extent (out), its trend and the mean dE over its last tenth."""
+    available, early_env, late_env = out["available"], trend["early_envelope"], trend["late_envelope"]
+    slope, r2, direction = trend["rate"], trend["r2"], trend["direction"]
     if out["relative_max"] <= ROUND_OFF:
         return {
             "class": "round-off",
@@ -152,16 +162,14 @@ def conservative(system: System) -> bool:
     return not ({"damping", "actuation"} & set(system.uses))
 
 
-def drift_rows(
-    system: System, sources: Mapping[str, Source], settings: Settings, *, V_min: float
-) -> list[dict[str, Any]]:
+def drift_rows(system: System, sources: Mapping[str, Source], settings: Settings, *, V_min: float) -> list[DriftRow]:
     """Energy over every horizon, for every MuJoCo integrator and mirror, at the MJCF timestep."""
     q0, v0 = initial_state(system)
     tau = np.zeros(system.nv)
     dt = float(system.mujoco_model().opt.timestep)
     sample_steps = max(1, round(settings.drift_sample / dt))
     horizon = max(settings.drift_horizons)
-    rows = []
+    rows: list[DriftRow] = []
     runs = [("mujoco", i) for i in MUJOCO_INTEGRATORS] + [("mirror", i) for i in MIRROR_INTEGRATORS]
     for engine, integrator in runs:
         run = simulate(

@@ -5,11 +5,12 @@ from __future__ import annotations
 import sys
 import threading
 import time
-from collections.abc import Callable
+from argparse import Namespace
+from collections.abc import Callable, Mapping
 from concurrent.futures import Executor
 from dataclasses import asdict
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Literal, TypedDict, cast
 
 from ...core.errors import HarnessError
 from ...core.guard import DEFAULT_TIME_LIMIT
@@ -36,13 +37,25 @@ from .settings import (
     STEADY_R2,
     Settings,
 )
+from .shapes import (
+    ConditioningRow,
+    ConditioningSummary,
+    DriftRow,
+    Section,
+    SectionRows,
+    Skipped,
+    SolveTierProposal,
+    StabilityRow,
+    StiffRow,
+    StressResults,
+)
 from .stability import stability_rows, stiff_rows
 
 if TYPE_CHECKING:  # rich is imported when the summary is printed
     from rich.console import Console
 
 
-def sort_key(row: dict[str, Any]) -> tuple[Any, ...]:
+def sort_key(row: Mapping[str, object]) -> tuple[tuple[int, object], ...]:
     keys = (
         "system",
         "sweep",
@@ -88,7 +101,7 @@ def _stress_systems(
 
 
 def _run_sections(
-    results: dict[str, Any],
+    results: StressResults,
     systems_: list[System],
     overrides: tuple[tuple[str, float], ...],
     settings: Settings,
@@ -129,7 +142,7 @@ def run_stress(
     executor: Executor | None = None,
     locked: tuple[str, ...] = (),
     time_limit: float = DEFAULT_TIME_LIMIT,
-) -> dict[str, Any]:
+) -> StressResults:
     """The four stress experiments on the systems named (all when none) and on a person's own
     (`files`: (model, equations) pairs, their URDF joints `locked` made fixed), with `overrides` on
     each; in this process, or with `executor`
@@ -141,7 +154,7 @@ def run_stress(
     settings = settings or (QUICK if quick else FULL)
     say = progress or (lambda msg: None)
     systems_ = _stress_systems(names, overrides, files, locked, time_limit)
-    results: dict[str, Any] = {
+    results: StressResults = {
         "meta": provenance(settings.seed),  # one provenance block, as in results.json and bench.json
         "quick": quick,
         "settings": asdict(settings),
@@ -157,8 +170,11 @@ def run_stress(
     }
     start = time.perf_counter()
     _run_sections(results, systems_, overrides, settings, executor, say, start)
-    for key in ("drift", "stability", "conditioning", "stiff_friction", "skipped"):
-        results[key] = sorted(results[key], key=sort_key)
+    results["drift"] = sorted(results["drift"], key=sort_key)
+    results["stability"] = sorted(results["stability"], key=sort_key)
+    results["conditioning"] = sorted(results["conditioning"], key=sort_key)
+    results["stiff_friction"] = sorted(results["stiff_friction"], key=sort_key)
+    results["skipped"] = sorted(results["skipped"], key=sort_key)
     summary = conditioning_summary(results["conditioning"])
     results["conditioning_summary"] = summary
     results["solve_tier_proposal"] = proposed_solve_tier(summary)
@@ -177,9 +193,7 @@ def prepare(system: System) -> tuple[Sources, float]:
     return sources, minimum_potential(system, sources["hand"])
 
 
-def section_task(
-    key: str, overrides: tuple[tuple[str, float], ...], section: str, settings: Settings
-) -> dict[str, Any]:
+def section_task(key: str, overrides: tuple[tuple[str, float], ...], section: str, settings: Settings) -> Section:
     """One system's section in a worker (the system found by `systems.key_of`'s key, with the
     overrides); the system, its sources and V_min are built once per worker thread."""
     cache = LOCAL.__dict__.setdefault("systems", {})
@@ -191,12 +205,12 @@ def section_task(
         return run_section(cache[(key, overrides)], section, settings)
 
 
-def run_section(prepared: tuple[System, Sources, float], section: str, settings: Settings) -> dict[str, Any]:
+def run_section(prepared: tuple[System, Sources, float], section: str, settings: Settings) -> Section:
     """One section's rows on one system: {"system", "section", "rows", "skipped", "elapsed"}."""
     s, sources, V_min = prepared
     t0 = time.perf_counter()
-    rows: list[dict[str, Any]] = []
-    skipped: list[dict[str, Any]] = []
+    rows: SectionRows = []
+    skipped: list[Skipped] = []
     missing = energy_missing(sources["hand"])
     if section == "drift":
         if missing:
@@ -225,8 +239,18 @@ def run_section(prepared: tuple[System, Sources, float], section: str, settings:
     return {"system": s.name, "section": section, "rows": rows, "skipped": skipped, "elapsed": time.perf_counter() - t0}
 
 
-def collect(results: dict[str, Any], done: dict[str, Any]) -> None:
-    results[done["section"]] += done["rows"]
+def collect(results: StressResults, done: Section) -> None:
+    section, rows = done["section"], done["rows"]  # a section's rows are of its kind (run_section)
+    if section == "drift":
+        results["drift"] += cast(list[DriftRow], rows)
+    elif section == "stability":
+        results["stability"] += cast(list[StabilityRow], rows)
+    elif section == "conditioning":
+        results["conditioning"] += cast(list[ConditioningRow], rows)
+    elif section == "stiff_friction":
+        results["stiff_friction"] += cast(list[StiffRow], rows)
+    else:
+        raise KeyError(section)
     results["skipped"] += done["skipped"]
     results["timing"][f"{done['system']}/{done['section']}"] = done["elapsed"]
 
@@ -257,7 +281,7 @@ def criteria() -> dict[str, str]:
     }
 
 
-def write_stress(results: dict[str, Any], out: Path) -> Path:
+def write_stress(results: StressResults, out: Path) -> Path:
     """Writes out/stress.json atomically (rendered in memory first: a failure leaves the old file)."""
     path = Path(out) / "stress.json"
     text = dumps(results)
@@ -265,14 +289,22 @@ def write_stress(results: dict[str, Any], out: Path) -> Path:
     return path
 
 
-def fmt(x: Any, spec: str = ".1e") -> str:
+def fmt(x: object, spec: str = ".1e") -> str:
     return "-" if x is None else format(x, spec)
 
 
 NAME_COLUMNS = ("system", "method", "engine", "integrator")
 
 
-def longest_names(results: Any) -> dict[str, int]:
+class ColumnStyle(TypedDict, total=False):
+    """rich's `Table.add_column` options for one column."""
+
+    overflow: Literal["fold"]
+    no_wrap: bool
+    min_width: int
+
+
+def longest_names(results: Mapping[str, object] | None) -> dict[str, int]:
     """The longest value of each name column in any table of `results` (rows are dicts)."""
     out: dict[str, int] = {}
     rows = [r for v in (results or {}).values() if isinstance(v, list) for r in v if isinstance(r, dict)]
@@ -281,7 +313,7 @@ def longest_names(results: Any) -> dict[str, int]:
     return out
 
 
-def column_style(col: str, longest: dict[str, int] | None = None) -> dict[str, Any]:
+def column_style(col: str, longest: dict[str, int] | None = None) -> ColumnStyle:
     """Names are never cut ("double_pendulum..."): a name column is as wide as its longest name and
     does not wrap; the other columns wrap instead."""
     if col not in NAME_COLUMNS:
@@ -289,7 +321,7 @@ def column_style(col: str, longest: dict[str, int] | None = None) -> dict[str, A
     return {"no_wrap": True, "min_width": (longest or {}).get(col, len(col))}
 
 
-def print_summary(results: dict[str, Any], console: Console | None = None) -> None:
+def print_summary(results: StressResults, console: Console | None = None) -> None:
     """Readable tables of the results (rich), one per section that ran, then what was skipped."""
     from rich.console import Console
 
@@ -308,7 +340,7 @@ def print_summary(results: dict[str, Any], console: Console | None = None) -> No
         console.print(f"skipped {s['section']} on {s['system']}: {s['why']}")
 
 
-def drift_table(rows: list[dict[str, Any]], longest: dict[str, int], console: Console) -> None:
+def drift_table(rows: list[DriftRow], longest: dict[str, int], console: Console) -> None:
     """Energy over the long horizons: class, direction, worst relative change and rate."""
     from rich.table import Table
 
@@ -338,7 +370,7 @@ def drift_table(rows: list[dict[str, Any]], longest: dict[str, int], console: Co
     console.print(table)
 
 
-def stability_table(rows: list[dict[str, Any]], longest: dict[str, int], console: Console) -> None:
+def stability_table(rows: list[StabilityRow], longest: dict[str, int], console: Console) -> None:
     """The largest stable timestep per system, engine and integrator, at each speed and criterion."""
     from rich.table import Table
 
@@ -366,12 +398,12 @@ def stability_table(rows: list[dict[str, Any]], longest: dict[str, int], console
     console.print(table)
 
 
-def ranges(rows: list[dict[str, Any]]) -> dict[str, tuple[float, float]]:
+def ranges(rows: list[StabilityRow]) -> dict[str, tuple[float, float]]:
     """Each engine's search range (the bottom raised where a run would take too many steps)."""
     return {r["engine"]: (float(r.get("range", DT_RANGE)[0]), float(r.get("range", DT_RANGE)[1])) for r in rows}
 
 
-def stable_cell(r: dict[str, Any]) -> str:
+def stable_cell(r: StabilityRow) -> str:
     """The bisection's answer: the largest stable dt, or a bound where it ran off the bracket."""
     if r["min_unstable"] is None:
         return f">={r['max_stable']:.2g}"
@@ -380,7 +412,7 @@ def stable_cell(r: dict[str, Any]) -> str:
     return f"{r['max_stable']:.3g}"
 
 
-def conditioning_table(summary: list[dict[str, Any]], longest: dict[str, int], console: Console) -> None:
+def conditioning_table(summary: list[ConditioningSummary], longest: dict[str, int], console: Console) -> None:
     """Ill-conditioning: the worst pair's disagreement against cond(M), and where each tier fails."""
     from rich.table import Table
 
@@ -417,7 +449,7 @@ def conditioning_table(summary: list[dict[str, Any]], longest: dict[str, int], c
     console.print(table)
 
 
-def proposal_line(p: dict[str, Any], console: Console) -> None:
+def proposal_line(p: SolveTierProposal, console: Console) -> None:
     """The proposed solve tier from the measured disagreement (nothing when none was proposed)."""
     if not p:
         return
@@ -432,7 +464,7 @@ def proposal_line(p: dict[str, Any], console: Console) -> None:
     )
 
 
-def stiff_table(rows: list[dict[str, Any]], longest: dict[str, int], console: Console) -> None:
+def stiff_table(rows: list[StiffRow], longest: dict[str, int], console: Console) -> None:
     """Stiff friction: stable or not, and the error against the reference, per timestep."""
     from rich.table import Table
 
@@ -453,7 +485,7 @@ def stiff_table(rows: list[dict[str, Any]], longest: dict[str, int], console: Co
     console.print(table)
 
 
-def stress_command(args: Any, executor: Executor | None = None) -> int:
+def stress_command(args: Namespace, executor: Executor | None = None) -> int:
     """`lagrange-xval stress [SYSTEM ...] [--set KEY=VALUE ...] [--quick] [--out DIR]`."""
     from rich.console import Console
 

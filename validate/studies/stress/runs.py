@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from contextlib import AbstractContextManager
 from typing import Any
 
 import numpy as np
@@ -15,9 +16,10 @@ from ...dynamics.mirror import mirror_trajectory
 from ...sources.base import Source, stepped
 from ...systems import System
 from .settings import MIRROR_INTEGRATORS, MUJOCO_INTEGRATORS, SERIES_POINTS, Run
+from .shapes import Series
 
 
-def quiet_mujoco_warnings() -> Any:
+def quiet_mujoco_warnings() -> AbstractContextManager[list[str]]:
     """MuJoCo's warnings collected instead of printed (sources/mujoco.py `collected_warnings`)."""
     from ...sources import mujoco as engine  # imports MuJoCo: loaded when first used
 
@@ -88,7 +90,7 @@ def simulate(
     return Run(np.array(ts), np.array(qs).reshape(-1, n), np.array(vs).reshape(-1, n), failure, t_fail)
 
 
-def _mirror_failure(stats: dict[str, Any]) -> str:
+def _mirror_failure(stats: Mapping[str, object]) -> str:
     """Why a mirror run stopped, in the words `simulate` uses for MuJoCo's runs."""
     reason = str(stats.get("reason") or "")
     if "non-finite" in reason:
@@ -117,7 +119,7 @@ def run_energy(hand: Source, run: Run) -> np.ndarray:
     return kin + pot
 
 
-def downsample(t: np.ndarray, y: np.ndarray, points: int = SERIES_POINTS) -> dict[str, list[float]]:
+def downsample(t: np.ndarray, y: np.ndarray, points: int = SERIES_POINTS) -> Series:
     """At most `points` samples for a plot: the first sample, then in each of `points` - 1 buckets the
     sample of largest |y| (so the envelope survives)."""
     t, y = np.asarray(t, dtype=float), np.asarray(y, dtype=float)

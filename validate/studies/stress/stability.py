@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from ...core.errors import HarnessError
-from ...dynamics.integrate import energy_missing, initial_state, scipy_trajectory, time_grid
+from ...dynamics.integrate import Trajectory, energy_missing, initial_state, scipy_trajectory, time_grid
 from ...dynamics.mirror import eulerdamp_active
 from ...sources import make_sources
 from ...sources.base import Source
@@ -28,6 +28,7 @@ from .settings import (
     Run,
     Settings,
 )
+from .shapes import Found, Search, StabilityRow, StiffBase, StiffOutcome, StiffRow, StiffRun, Trial
 
 
 def stability_trial(
@@ -44,7 +45,7 @@ def stability_trial(
     V_min: float,
     eulerdamp: bool = True,
     growth: float = GROWTH,
-) -> dict[str, Any]:
+) -> Trial:
     """One run at one timestep: stable or not, and why."""
     run, E = trial_run(
         system, sources, engine, integrator, q0, v0, tau, timestep=timestep, t_end=t_end, eulerdamp=eulerdamp
@@ -91,7 +92,7 @@ def sample_steps(engine: str, steps: int) -> int:
     return every if engine == "mujoco" else MIRROR_BLOCK * math.ceil(every / MIRROR_BLOCK)
 
 
-def judged(run: Run, E: np.ndarray | None, *, timestep: float, V_min: float, growth: float) -> dict[str, Any]:
+def judged(run: Run, E: np.ndarray | None, *, timestep: float, V_min: float, growth: float) -> Trial:
     """A stability run judged under one criterion (`growth`; without an energy, divergence alone)."""
     if E is None:
         stable = run.failure is None
@@ -113,11 +114,11 @@ def judged(run: Run, E: np.ndarray | None, *, timestep: float, V_min: float, gro
 
 
 def max_stable_timestep(
-    trial: Callable[[float], dict[str, Any]],
+    trial: Callable[[float], Trial],
     *,
     dt_range: tuple[float, float] = DT_RANGE,
     ratio: float = BISECTION_RATIO,
-) -> dict[str, Any]:
+) -> Search:
     """Bisection on log(dt): the largest stable timestep in `dt_range`, to within `ratio`.
 
     `trial(dt)` returns {"stable": bool, ...}. The top of the range is tried first (stable there: done);
@@ -165,7 +166,9 @@ def search_range(engine: str, settings: Settings, step_cost: float = 0.0) -> tup
 MIRROR_BLOCK = 10  # a mirror run's steps per sample are a multiple of this: one compiled RK4 per system
 
 
-def mirror_step_cost(system: System, sources: Mapping[str, Source], integrator: str, v0: Any, steps: int = 10) -> float:
+def mirror_step_cost(
+    system: System, sources: Mapping[str, Source], integrator: str, v0: np.ndarray, steps: int = 10
+) -> float:
     """Seconds one mirror step of `integrator` takes on the person's equations (from q0 at v0): what
     bounds how far down its search goes (`search_range`). The compiled RK4 is built first."""
     q0, _ = initial_state(system)
@@ -178,11 +181,11 @@ def mirror_step_cost(system: System, sources: Mapping[str, Source], integrator: 
 
 def stability_rows(
     system: System, sources: Mapping[str, Source], settings: Settings, *, V_min: float
-) -> list[dict[str, Any]]:
+) -> list[StabilityRow]:
     """Per speed, engine, integrator and criterion (settings.growth_factors; divergence alone where the
     module leaves out its energies): the bisection's result (`searches`)."""
     q0, _ = initial_state(system)
-    rows = []
+    rows: list[StabilityRow] = []
     runs = [("mujoco", i) for i in MUJOCO_INTEGRATORS] + [("mirror", i) for i in MIRROR_INTEGRATORS]
     growths = [math.inf] if energy_missing(sources["hand"]) else list(settings.growth_factors)
     for speed in settings.speeds:
@@ -218,7 +221,7 @@ def searches(
     settings: Settings,
     growths: list[float],
     V_min: float,
-) -> list[dict[str, Any]]:
+) -> list[Found]:
     """The bisection under each criterion of `growths`, from the system's q0 at speeds v0; a run at a
     timestep is made once and judged under every criterion."""
     q0, _ = initial_state(system)
@@ -233,10 +236,10 @@ def searches(
         return made[dt]
 
     cost = mirror_step_cost(system, sources, integrator, v0) if engine == "mirror" else 0.0
-    out = []
+    out: list[Found] = []
     for growth in growths:
 
-        def trial(dt: float, g: float = growth) -> dict[str, Any]:
+        def trial(dt: float, g: float = growth) -> Trial:
             return judged(*run_at(dt), timestep=dt, V_min=V_min, growth=g)
 
         found = max_stable_timestep(trial, dt_range=search_range(engine, settings, cost))
@@ -244,14 +247,14 @@ def searches(
     return out
 
 
-def stiff_rows(system: System, settings: Settings, V_min: float | None = None) -> list[dict[str, Any]]:
+def stiff_rows(system: System, settings: Settings, V_min: float | None = None) -> list[StiffRow]:
     """Every integrator at every timestep on the system with its joint damping times each factor
     (a mirror run that would cost more than `mirror_trial_seconds` is listed as not run, with why).
     `V_min`: the system's smallest potential, which damping does not change (None: found here)."""
     q0, v0 = initial_state(system)
     tau = np.zeros(system.nv)
     t = time_grid(settings.stiff_t_end, settings.stiff_sample)
-    rows = []
+    rows: list[StiffRow] = []
     if V_min is None:
         hand = make_sources(system)["hand"]
         V_min = float("nan") if energy_missing(hand) else minimum_potential(system, hand)
@@ -264,15 +267,25 @@ def stiff_rows(system: System, settings: Settings, V_min: float | None = None) -
         if eulerdamp_active(damped):
             runs.append(("mujoco", NO_EULERDAMP, False))
         cost = mirror_step_cost(damped, sources, "Euler", v0)
-        base = {"system": system.name, "damping_factor": float(factor), "t_end": settings.stiff_t_end}
-        base["damping"] = {j: float(damped.view[f"joint/{j}/damping"]) for j in system.joints}
-        base["reference"] = ref.method
+        base: StiffBase = {
+            "system": system.name,
+            "damping_factor": float(factor),
+            "t_end": settings.stiff_t_end,
+            "damping": {j: float(damped.view[f"joint/{j}/damping"]) for j in system.joints},
+            "reference": ref.method,
+        }
         for engine, integrator, eulerdamp in runs:
             for dt in settings.stiff_timesteps:
                 steps = round(settings.stiff_sample / dt)
                 if steps < 1 or not math.isclose(steps * dt, settings.stiff_sample, rel_tol=1e-9):
                     raise HarnessError(f"stiff timestep {dt} must divide the sample step {settings.stiff_sample}.")
-                row = {**base, "engine": engine, "integrator": integrator, "eulerdamp": eulerdamp, "timestep": dt}
+                row: StiffRun = {
+                    **base,
+                    "engine": engine,
+                    "integrator": integrator,
+                    "eulerdamp": eulerdamp,
+                    "timestep": dt,
+                }
                 total = settings.stiff_t_end / dt
                 if engine == "mirror" and cost * total > settings.mirror_trial_seconds:
                     why = (
@@ -299,7 +312,7 @@ def stiff_rows(system: System, settings: Settings, V_min: float | None = None) -
     return rows
 
 
-def _stiff_outcome(run: Run, E: np.ndarray | None, ref: Any, *, V_min: float, timestep: float) -> dict[str, Any]:
+def _stiff_outcome(run: Run, E: np.ndarray | None, ref: Trajectory, *, V_min: float, timestep: float) -> StiffOutcome:
     """A stiff-friction run judged: stable or not (by its energy, or by divergence alone without one),
     and its error against the reference."""
     verdict = judged(run, E, timestep=timestep, V_min=V_min, growth=GROWTH)
