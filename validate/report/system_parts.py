@@ -422,7 +422,11 @@ def mirror_notes(integrator: str, mirrors: dict[str, Any]) -> list[str]:
         elif m.get("judged_short"):
             until = (m.get("judge") or {}).get("judged_until")
             verdict = "agrees" if m.get("passed") else "disagrees"
-            notes.append(f"{what} {verdict} until {as_float(until):g} s, judged no further: {m['judged_short']}.")
+            spent = str(m["judged_short"]).removeprefix("stopped: budget: ")
+            notes.append(
+                f"{what}: the harness's wall-time budget stopped it ({spent}), which says nothing of the "
+                f"equations; it {verdict} until {as_float(until):g} s, as far as it is judged."
+            )
         elif m.get("passed") is False and m.get("reason"):
             notes.append(f"{what} fails: {m['reason']}.")
     return notes

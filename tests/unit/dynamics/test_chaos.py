@@ -170,7 +170,10 @@ def test_a_mirror_the_wall_time_budget_stops_is_judged_until_its_stop(monkeypatc
         assert m["passed"] and m["judged_short"].startswith("stopped: budget: wall time 0 s"), m
         assert m["judge"]["judged_until"] == 0.0
     notes = mirror_notes("Euler", mirrors)
-    assert notes[0].startswith("MuJoCo Euler's mirror on the hand equations agrees until 0 s, judged no further: ")
+    assert notes[0] == (
+        "MuJoCo Euler's mirror on the hand equations: the harness's wall-time budget stopped it (wall time 0 s spent "
+        "by t = 0 s), which says nothing of the equations; it agrees until 0 s, as far as it is judged."
+    )
     failing = {"mujoco~hand": {"passed": False, "status": "diverged", "reason": "diverged at t = 2 s: |q| > 1e6"}}
     assert mirror_notes("RK4", failing) == [
         "MuJoCo RK4's mirror on the hand equations fails: diverged at t = 2 s: |q| > 1e6."
