@@ -22,11 +22,16 @@ import os
 import signal
 import sys
 from collections.abc import Iterator, Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..core.guard import CONTRACT_FUNCTIONS
 from ..core.memo import Memo
 from .worker import pack, receive, send, unpack
+
+if TYPE_CHECKING:
+    from typing_extensions import TypeIs
+
+    from .tracing import Backend
 
 _REAL_EXIT = os._exit
 CONTRACT = CONTRACT_FUNCTIONS  # the contract's functions (equations/__init__.py), as the guard names them
@@ -410,7 +415,11 @@ class Node:
 _TREES = Memo(maxsize=64)  # one backend per name the parent traces for
 
 
-def _tree(name: str) -> Any:
+def _is_node(x: object) -> TypeIs[Node]:
+    return isinstance(x, Node)
+
+
+def _tree(name: str) -> Backend[Node]:
     """The tree backend, named after the parent's (its refusals say what the trace was for)."""
     from .tracing import Backend
 
@@ -420,7 +429,7 @@ def _tree(name: str) -> Any:
             str(name),
             lambda x: Node("c", float(x)),
             lambda fn: lambda *a: Node(fn, *a),
-            lambda x: isinstance(x, Node),
+            _is_node,
             lambda op, a, b: Node(op, a, b),
             lambda c, a, b: Node("select", c, a, b),
             lambda op, cs: Node(op, *cs),
