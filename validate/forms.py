@@ -42,6 +42,9 @@ The contract itself:
     EquationsModule                                             the Protocol a module meets: `parameters(model)`
                                                                 and the dynamics in one of the forms listed in
                                                                 equations/__init__.py (the other names optional)
+    FormA                                                       what the harness reads of a module once brought
+                                                                to form (a): M, bias and passive, every optional
+                                                                function (a stub where absent), VARIANTS
 
     >>> import numpy as np
     >>> from lagrange_xval.forms import rot_z, stack_vector
@@ -174,14 +177,14 @@ def _array(x: npt.ArrayLike) -> np.ndarray:
     return arr.astype(float) if arr.dtype.kind in "biuf" else arr
 
 
-def stack_matrix(rows: list[list[npt.ArrayLike]]) -> np.ndarray:
+def stack_matrix(rows: Sequence[Sequence[npt.ArrayLike]]) -> np.ndarray:
     """Stacks broadcastable scalars or arrays into an array of shape (..., len(rows), len(rows[0]))."""
     b = np.broadcast_arrays(*[_array(x) for row in rows for x in row])
     flat = np.stack(b, axis=-1)
     return flat.reshape(flat.shape[:-1] + (len(rows), len(rows[0])))
 
 
-def stack_vector(items: list[npt.ArrayLike]) -> np.ndarray:
+def stack_vector(items: Sequence[npt.ArrayLike]) -> np.ndarray:
     """Stacks broadcastable scalars or arrays into an array of shape (..., len(items))."""
     return np.stack(np.broadcast_arrays(*[_array(x) for x in items]), axis=-1)
 
