@@ -59,7 +59,7 @@ comparing it with MuJoCo and Pinocchio; nothing here says which forms are right.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Hashable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import ParamSpec, Protocol, TypeVar, runtime_checkable
 
@@ -271,7 +271,7 @@ class EquationsModule(Protocol):
     def parameters(self, model: Mapping[str, object]) -> object: ...
 
 
-class FormA(Protocol):
+class FormA(Hashable, Protocol):
     """An equations module as the harness reads it after `normalize` (validate/handwritten/forms.py): the
     dynamics in form (a), whatever form was written; every optional function (a `not_provided` stub where
     the module leaves it out); VARIANTS (none by default) and assumptions(p) (empty by default). `p` is what

@@ -117,6 +117,14 @@ def accelerations_only(module: object) -> bool:
     return written_form(module) == "c" and input_name(module) == "u"
 
 
+def written_function(module: object, name: str) -> Callable[..., np.ndarray]:
+    """The function `name` as the person wrote it (form b's residual, form c's qacc): the original
+    module's, behind the facade normalize made of it."""
+    original = module.ORIGINAL if isinstance(module, _Facade) else module
+    fn: Callable[..., np.ndarray] = getattr(original, name)
+    return fn
+
+
 def provided(fn: object) -> bool:
     """A function the module really defines: callable and not a `not_provided` stub."""
     return callable(fn) and not getattr(fn, "not_provided", False)

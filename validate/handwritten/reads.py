@@ -15,13 +15,16 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
-from typing import TypeAlias
+from typing import TYPE_CHECKING, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
 
 from ..core.errors import HarnessError
 from ..model.modelview import key_parts
+
+if TYPE_CHECKING:
+    from _typeshed import DataclassInstance
 
 # The keys whose numbers a probe may move (a body's orientation, a joint's axis and the structure keys
 # are the chain's shape, not its parameters: moving one entry of a quaternion or an axis is no model).
@@ -37,12 +40,17 @@ def movable(key: str) -> bool:
     return key == "gravity" or (parts is not None and parts[2] in MOVABLE)
 
 
-def numeric_fields(params: object) -> dict[str, float]:
-    """The numeric fields of what `parameters()` returned (a dataclass), by name."""
+def dataclass_instance(params: object) -> DataclassInstance:
+    """What `parameters()` returned, which must be a dataclass instance (a HarnessError otherwise)."""
     if not dataclasses.is_dataclass(params) or isinstance(params, type):
         raise HarnessError(f"parameters() must return a dataclass instance; got {type(params).__name__}.")
+    return params
+
+
+def numeric_fields(params: object) -> dict[str, float]:
+    """The numeric fields of what `parameters()` returned (a dataclass), by name."""
     out = {}
-    for f in dataclasses.fields(params):
+    for f in dataclasses.fields(dataclass_instance(params)):
         value = getattr(params, f.name)
         if isinstance(value, (int, float, np.floating, np.integer)) and not isinstance(value, bool):
             out[f.name] = float(value)

@@ -5,12 +5,15 @@
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 if TYPE_CHECKING:  # the package imports this module
+    from ..handwritten.reads import ModelValue
     from . import System
+
 
 KEY_UNITS = {  # the last part of a model key -> its unit (modelview.py's key list)
     "mass": "kg",
@@ -24,7 +27,7 @@ KEY_UNITS = {  # the last part of a model key -> its unit (modelview.py's key li
 }
 
 
-def key_unit(key: str, view: Any = None) -> str:
+def key_unit(key: str, view: Mapping[str, ModelValue] | None = None) -> str:
     if key == "gravity":
         return "m/s^2"
     kind = key.rsplit("/", 1)[-1]
@@ -39,7 +42,7 @@ def key_unit(key: str, view: Any = None) -> str:
     return KEY_UNITS.get(kind, "")
 
 
-def _numeric(x: Any) -> np.ndarray | None:
+def _numeric(x: object) -> np.ndarray | None:
     try:
         return np.asarray(x, dtype=float)
     except (TypeError, ValueError):
@@ -49,7 +52,9 @@ def _numeric(x: Any) -> np.ndarray | None:
 def parameter_keys(system: System) -> dict[str, dict[str, Any]]:
     """{Params field: {"keys": model keys it sets, "unit": their unit}}: each field doubled alone, the
     keys of `assumptions` that change with it. A field no key follows gets an empty unit (unknown)."""
-    eq, params = system.equations, system.params
+    from ..handwritten.reads import dataclass_instance
+
+    eq, params = system.derivation, dataclass_instance(system.params)
     try:
         base = eq.assumptions(params)
     except Exception:  # noqa: BLE001 - the derivation's own failure is reported elsewhere
@@ -95,7 +100,7 @@ def _read_keys(system: System) -> dict[str, dict[str, Any]]:
     from ..handwritten.reads import knobs
 
     try:
-        found = knobs(system.equations.parameters, system.view)
+        found = knobs(system.derivation.parameters, system.view)
     except Exception:  # noqa: BLE001 - the derivation's own failure is reported elsewhere
         return {}
     out: dict[str, dict[str, Any]] = {}
