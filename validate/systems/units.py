@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -49,7 +49,7 @@ def _numeric(x: object) -> np.ndarray | None:
         return None
 
 
-def parameter_keys(system: System) -> dict[str, dict[str, Any]]:
+def parameter_keys(system: System) -> dict[str, dict[str, list[str] | str]]:
     """{Params field: {"keys": model keys it sets, "unit": their unit}}: each field doubled alone, the
     keys of `assumptions` that change with it. A field no key follows gets an empty unit (unknown)."""
     from ..handwritten.reads import dataclass_instance
@@ -61,7 +61,7 @@ def parameter_keys(system: System) -> dict[str, dict[str, Any]]:
         return {}
     if not set(system.view) <= set(base):  # the derivation reads the model: the keys it reads say it
         return _read_keys(system)
-    out: dict[str, dict[str, Any]] = {}
+    out: dict[str, dict[str, list[str] | str]] = {}
     for f in dataclasses.fields(params):
         value = getattr(params, f.name)
         try:
@@ -94,7 +94,7 @@ def _kind(key: str) -> str:
     return "gravity" if key == "gravity" else key.rsplit("/", 1)[-1]
 
 
-def _read_keys(system: System) -> dict[str, dict[str, Any]]:
+def _read_keys(system: System) -> dict[str, dict[str, list[str] | str]]:
     """{Params field: {"keys": the model numbers parameters() reads for it, "unit": theirs}} (a field
     that one number alone moves in proportion has that number's unit; else unknown)."""
     from ..handwritten.reads import knobs
@@ -103,12 +103,12 @@ def _read_keys(system: System) -> dict[str, dict[str, Any]]:
         found = knobs(system.derivation.parameters, system.view)
     except Exception:  # noqa: BLE001 - the derivation's own failure is reported elsewhere
         return {}
-    out: dict[str, dict[str, Any]] = {}
+    keys: dict[str, list[str]] = {}
     for knob in found:
         for field in knob.fields:
-            entry = out.setdefault(field, {"keys": [], "unit": ""})
-            entry["keys"].append(knob.label)
-    for field, entry in out.items():
+            keys.setdefault(field, []).append(knob.label)
+    out: dict[str, dict[str, list[str] | str]] = {}
+    for field, labels in keys.items():
         alone = [k for k in found if k.fields == (field,)]
-        entry["unit"] = key_unit(alone[0].key, system.view) if len(alone) == 1 else ""
+        out[field] = {"keys": labels, "unit": key_unit(alone[0].key, system.view) if len(alone) == 1 else ""}
     return out
