@@ -42,6 +42,9 @@ The contract itself:
     EquationsModule                                             the Protocol a module meets: `parameters(model)`
                                                                 and the dynamics in one of the forms listed in
                                                                 equations/__init__.py (the other names optional)
+    FormA                                                       what the harness reads of a module once brought
+                                                                to form (a): M, bias and passive, every optional
+                                                                function (a stub where absent), VARIANTS
 
     >>> import numpy as np
     >>> from lagrange_xval.forms import rot_z, stack_vector
@@ -56,16 +59,20 @@ comparing it with MuJoCo and Pinocchio; nothing here says which forms are right.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Hashable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Protocol, runtime_checkable
+from typing import ParamSpec, Protocol, TypeVar, runtime_checkable
 
 import numpy as np
+import numpy.typing as npt
+
+from .core.arrays import Floats
 
 __all__ = [
     "NAN",
     "DerivationStep",
     "EquationsModule",
+    "FormA",
     "Explicit",
     "Implicit",
     "NotApplicable",
@@ -83,6 +90,8 @@ __all__ = [
 ]
 
 NAN = float("nan")
+Args = ParamSpec("Args")
+R = TypeVar("R")
 
 
 @dataclass(frozen=True)
@@ -97,7 +106,7 @@ class Implicit:
     name: str
     notes_equations: tuple[str, ...]
     residual: Callable[..., np.ndarray]
-    row_scale: Callable[[Any], np.ndarray]
+    row_scale: Callable[[object], np.ndarray]  # (p) -> (n,)
     note: str = ""
     printed_parameters: Mapping[str, float] = field(default_factory=dict)
     kind: str = "implicit"
@@ -136,7 +145,7 @@ class DerivationStep:
 
     name: str
     notes_equations: tuple[str, ...]
-    quantity: tuple[Any, ...]
+    quantity: tuple[str, str | tuple[float, float, float] | None]
     evaluate: Callable[..., np.ndarray]
     note: str = ""
     angle_index: int = 0
@@ -161,38 +170,38 @@ def common(symbol: str, **values: float) -> float:
     return first
 
 
-def _array(x: Any) -> np.ndarray:
+def _array(x: npt.ArrayLike) -> np.ndarray:
     # Numbers become floats; anything else (symbolic entries for code generation, and complex values or
     # strings the harness must see to refuse by name: validate/handwritten/values.py) stays as it is.
     arr = np.asarray(x)
     return arr.astype(float) if arr.dtype.kind in "biuf" else arr
 
 
-def stack_matrix(rows: list[list[Any]]) -> np.ndarray:
+def stack_matrix(rows: Sequence[Sequence[npt.ArrayLike]]) -> np.ndarray:
     """Stacks broadcastable scalars or arrays into an array of shape (..., len(rows), len(rows[0]))."""
     b = np.broadcast_arrays(*[_array(x) for row in rows for x in row])
     flat = np.stack(b, axis=-1)
     return flat.reshape(flat.shape[:-1] + (len(rows), len(rows[0])))
 
 
-def stack_vector(items: list[Any]) -> np.ndarray:
+def stack_vector(items: Sequence[npt.ArrayLike]) -> np.ndarray:
     """Stacks broadcastable scalars or arrays into an array of shape (..., len(items))."""
     return np.stack(np.broadcast_arrays(*[_array(x) for x in items]), axis=-1)
 
 
-def rot_x(angle: Any) -> np.ndarray:
+def rot_x(angle: npt.ArrayLike) -> np.ndarray:
     """Rotation by `angle` about x, (..., 3, 3)."""
     c, s = np.cos(angle), np.sin(angle)
     return stack_matrix([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
 
 
-def rot_z(angle: Any) -> np.ndarray:
+def rot_z(angle: npt.ArrayLike) -> np.ndarray:
     """Rotation by `angle` about z, (..., 3, 3)."""
     c, s = np.cos(angle), np.sin(angle)
     return stack_matrix([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
-def rot_y(angle: Any) -> np.ndarray:
+def rot_y(angle: npt.ArrayLike) -> np.ndarray:
     """Rotation by `angle` about y, (..., 3, 3)."""
     c, s = np.cos(angle), np.sin(angle)
     return stack_matrix([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
@@ -203,11 +212,11 @@ def body(
     *,
     parent: str,
     mass: float,
-    com: Any,
-    inertia: Any,
-    pos: Any = (0.0, 0.0, 0.0),
-    quat: Any = (1.0, 0.0, 0.0, 0.0),
-) -> dict[str, Any]:
+    com: Floats,
+    inertia: Floats,
+    pos: Floats = (0.0, 0.0, 0.0),
+    quat: Floats = (1.0, 0.0, 0.0, 0.0),
+) -> dict[str, str | float | np.ndarray]:
     """The assumptions a derivation makes about one MJCF body."""
     return {
         f"body/{name}/parent": parent,
@@ -219,7 +228,9 @@ def body(
     }
 
 
-def hinge(name: str, *, body: str, axis: Any, pos: Any = (0.0, 0.0, 0.0), damping: float = 0.0) -> dict[str, Any]:
+def hinge(
+    name: str, *, body: str, axis: Floats, pos: Floats = (0.0, 0.0, 0.0), damping: float = 0.0
+) -> dict[str, str | float | np.ndarray]:
     """The assumptions a derivation makes about one hinge joint (no armature, friction loss or spring)."""
     return {
         f"joint/{name}/type": "hinge",
@@ -238,11 +249,11 @@ def planar_inertia(izz: float) -> np.ndarray:
     return np.array([[NAN, NAN, 0.0], [NAN, NAN, 0.0], [0.0, 0.0, izz]])
 
 
-def not_provided(fn: Callable[..., Any]) -> Callable[..., Any]:
+def not_provided(fn: Callable[Args, R]) -> Callable[Args, R]:
     """Marks a function a person has not written yet (`lagrange-xval new` writes such stubs): it
     raises when called, and the harness counts it as absent, never as an answer."""
 
-    def stub(*args: Any, **kwargs: Any) -> Any:
+    def stub(*args: Args.args, **kwargs: Args.kwargs) -> R:
         raise NotImplementedError(f"{fn.__name__}() is not provided yet: write it in this module")
 
     stub.__name__, stub.__doc__ = fn.__name__, fn.__doc__
@@ -257,4 +268,26 @@ class EquationsModule(Protocol):
     Everything else (COORDINATES, the dynamics in one of five forms, the energies, the printed forms) is
     optional and read by name; equations/__init__.py lists each name and its shape."""
 
-    def parameters(self, model: Mapping[str, Any]) -> Any: ...
+    def parameters(self, model: Mapping[str, object]) -> object: ...
+
+
+class FormA(Hashable, Protocol):
+    """An equations module as the harness reads it after `normalize` (validate/handwritten/forms.py): the
+    dynamics in form (a), whatever form was written; every optional function (a `not_provided` stub where
+    the module leaves it out); VARIANTS (none by default) and assumptions(p) (empty by default). `p` is what
+    the module's own parameters() returned; q, v: (..., n) arrays (floats, or traced object arrays)."""
+
+    __name__: str
+    __file__: str | None
+
+    def parameters(self, model: Mapping[str, object]) -> object: ...
+    def mass_matrix(self, p: object, q: np.ndarray) -> np.ndarray: ...
+    def bias(self, p: object, q: np.ndarray, v: np.ndarray) -> np.ndarray: ...
+    def passive(self, p: object, q: np.ndarray, v: np.ndarray) -> np.ndarray: ...
+    def kinetic_energy(self, p: object, q: np.ndarray, v: np.ndarray) -> np.ndarray: ...
+    def potential_energy(self, p: object, q: np.ndarray) -> np.ndarray: ...
+    def body_positions(self, p: object, q: np.ndarray) -> Mapping[str, np.ndarray]: ...
+    def body_rotations(self, p: object, q: np.ndarray) -> Mapping[str, np.ndarray]: ...
+    def assumptions(self, p: object) -> Mapping[str, object]: ...
+    @property
+    def VARIANTS(self) -> Sequence[Variant]: ...  # noqa: N802 - the module's own name

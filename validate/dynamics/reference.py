@@ -106,7 +106,7 @@ def _symbolic(name: str, module: types.ModuleType, p: Any, n: int) -> SymbolicDy
 
 def symbolic_dynamics(system: System) -> SymbolicDynamics:
     """The system's hand equations as heyoka expressions (traced once per parameter set)."""
-    return _symbolic(system.name, system.equations, system.params, system.nv)
+    return _symbolic(system.name, system.derivation, system.params, system.nv)
 
 
 def rhs_check(system: System, *, n_states: int = 64, seed: int = 0) -> float:

@@ -21,23 +21,30 @@ import inspect
 import os
 import signal
 import sys
-from collections.abc import Iterator, Mapping
-from typing import Any
+from collections.abc import Callable, Iterator, Mapping
+from types import ModuleType
+from typing import TYPE_CHECKING
 
 from ..core.guard import CONTRACT_FUNCTIONS
 from ..core.memo import Memo
-from .worker import pack, receive, send, unpack
+from .worker import Message, Tagged, pack, receive, send, unpack
+
+if TYPE_CHECKING:
+    from typing_extensions import TypeIs
+
+    from ..core.arrays import Json
+    from .tracing import Backend
 
 _REAL_EXIT = os._exit
 CONTRACT = CONTRACT_FUNCTIONS  # the contract's functions (equations/__init__.py), as the guard names them
 
 
 class _Exit(BaseException):  # noqa: N818 - os._exit called inside a call: answered, then the process ends
-    def __init__(self, code: Any) -> None:
+    def __init__(self, code: object) -> None:
         self.code = code
 
 
-def _exit(code: Any) -> None:
+def _exit(code: object) -> None:
     """os._exit inside a call of the main thread: answered as such; anywhere else, the real one."""
     import threading
 
@@ -48,8 +55,8 @@ def _exit(code: Any) -> None:
 
 class _State:
     calling = False
-    module: Any = None
-    classes: dict[str, Any] = {}  # noqa: RUF012 - the dataclasses the module's functions returned, by name
+    module: ModuleType | None = None
+    classes: dict[str, type] = {}  # noqa: RUF012 - the dataclasses the module's functions returned, by name
 
 
 _STATE = _State()
@@ -99,7 +106,7 @@ def _die_with_parent(parent: int, main_thread: bool) -> None:
     threading.Thread(target=watch, daemon=True, name="lagrange-xval-parent-watch").start()
 
 
-def _serve(rfd: int, wfd: int, header: dict[str, Any], blobs: list[bytes]) -> None:
+def _serve(rfd: int, wfd: int, header: Message, blobs: list[bytes]) -> None:
     reply_blobs: list[bytes] = []
     _STATE.calling = True
     try:
@@ -125,7 +132,7 @@ def _serve(rfd: int, wfd: int, header: dict[str, Any], blobs: list[bytes]) -> No
         _REAL_EXIT(0)
 
 
-def _raised(exc: BaseException, header: dict[str, Any]) -> dict[str, Any]:
+def _raised(exc: BaseException, header: Message) -> Message:
     from ..core.errors import HarnessError
     from . import tracing
 
@@ -142,7 +149,7 @@ def _raised(exc: BaseException, header: dict[str, Any]) -> dict[str, Any]:
     return {"raised": type(exc).__name__, "message": text[:100_000], "function": header.get("name")}
 
 
-def _import(path: str, blobs: list[bytes], source: str | None = None) -> dict[str, Any]:
+def _import(path: str, blobs: list[bytes], source: str | None = None) -> Message:
     import hashlib
 
     name = "lagrange_xval_user_" + hashlib.sha256(path.encode()).hexdigest()[:12]
@@ -160,7 +167,7 @@ def _import(path: str, blobs: list[bytes], source: str | None = None) -> dict[st
     return {"ok": pack(_describe(module), blobs, _Describer(blobs))}
 
 
-def _new_module(name: str, path: str, generated: bool) -> Any:
+def _new_module(name: str, path: str, generated: bool) -> ModuleType:
     """An empty module for the file at `path`, or for code the parent generated (the text form's, whose
     file is the TOML)."""
     import types
@@ -175,7 +182,7 @@ def _new_module(name: str, path: str, generated: bool) -> Any:
     return importlib.util.module_from_spec(spec)
 
 
-def _describe(module: Any) -> dict[str, Any]:
+def _describe(module: ModuleType) -> dict[str, object]:
     """What the parent builds its stand-in module from: the contract's functions, the upper-case
     attributes (data; printed forms' functions by path), the docstring and the name."""
     functions = {n: _function(getattr(module, n), n) for n in CONTRACT if callable(getattr(module, n, None))}
@@ -191,15 +198,15 @@ def _describe(module: Any) -> dict[str, Any]:
 
 
 class _Fn:
-    def __init__(self, fn: Any, path: str) -> None:
+    def __init__(self, fn: Callable[..., object], path: str) -> None:
         self.fn, self.path = fn, path
 
 
-def _function(fn: Any, path: str) -> _Fn:
+def _function(fn: Callable[..., object], path: str) -> _Fn:
     return _Fn(fn, path)
 
 
-def _with_paths(value: Any, path: str) -> Any:
+def _with_paths(value: object, path: str) -> object:
     """`value` with every function in it (a printed form's residual, ...) replaced by its path."""
     if callable(value) and not isinstance(value, type):
         return _Fn(value, path)
@@ -217,10 +224,10 @@ class _Describer:
     def __init__(self, blobs: list[bytes]) -> None:
         self.blobs = blobs
 
-    def __call__(self, value: Any) -> Any:
+    def __call__(self, value: object) -> Json | None:
         if isinstance(value, _Fn):
             try:
-                names = list(inspect.signature(value.fn).parameters)
+                names: list[Json] = list(inspect.signature(value.fn).parameters)
             except (TypeError, ValueError):
                 names = []
             return {"F": value.path, "p": names, "n": bool(getattr(value.fn, "not_provided", False))}
@@ -230,7 +237,7 @@ class _Describer:
         return None
 
 
-def _resolve(path: str) -> Any:
+def _resolve(path: str) -> Callable[..., object]:
     """The module's object at `path` ("mass_matrix", "VARIANTS.2.residual")."""
     head, *rest = path.split(".")
     obj = getattr(_STATE.module, head)
@@ -239,7 +246,7 @@ def _resolve(path: str) -> Any:
     return obj
 
 
-def _batch(rfd: int, wfd: int, header: dict[str, Any], blobs: list[bytes], out: list[bytes]) -> dict[str, Any]:
+def _batch(rfd: int, wfd: int, header: Message, blobs: list[bytes], out: list[bytes]) -> Message:
     """Several calls on numbers in one round trip (a step's passive, bias and mass matrix): their answers
     in order; the first that raises ends the batch, the function named in `header` for the answer."""
     answers = []
@@ -249,9 +256,10 @@ def _batch(rfd: int, wfd: int, header: dict[str, Any], blobs: list[bytes], out: 
     return {"ok": {"L": answers}}
 
 
-def _call(rfd: int, wfd: int, header: dict[str, Any], blobs: list[bytes], out: list[bytes]) -> dict[str, Any]:
+def _call(rfd: int, wfd: int, header: Message, blobs: list[bytes], out: list[bytes]) -> Message:
     fn = _resolve(header["name"])
-    backend = _tree(header["backend"]) if header.get("backend") else None
+    backend_name = header.get("backend")
+    backend = _tree(backend_name) if backend_name else None
     args = [unpack(a, blobs, _Decoder(rfd, wfd, backend, blobs)) for a in header["args"]]
     if backend is not None:
         import numpy as np
@@ -265,19 +273,19 @@ def _call(rfd: int, wfd: int, header: dict[str, Any], blobs: list[bytes], out: l
     return {"ok": packed, "nodes": encoder.nodes} if backend else {"ok": packed}
 
 
-class _Remote(Mapping[str, Any]):
+class _Remote(Mapping[str, object]):
     """The parent's model view, key by key (the parent records which keys parameters() reads)."""
 
     def __init__(self, rfd: int, wfd: int) -> None:
         self.rfd, self.wfd = rfd, wfd
 
-    def _ask(self, key: str | None) -> dict[str, Any]:
+    def _ask(self, key: str | None) -> Message:
         send(self.wfd, {"get": key})
         header, blobs = receive(self.rfd)
         header["blobs"] = blobs
         return header
 
-    def __getitem__(self, key: str) -> Any:
+    def __getitem__(self, key: str) -> object:
         if not isinstance(key, str):
             raise KeyError(key)
         got = self._ask(key)
@@ -295,13 +303,13 @@ class _Remote(Mapping[str, Any]):
 class _Decoder:
     """The parent's tags: the model view, the module's own dataclasses, placeholders of traced values."""
 
-    def __init__(self, rfd: int, wfd: int, backend: Any, blobs: list[bytes]) -> None:
+    def __init__(self, rfd: int, wfd: int, backend: Backend[Node] | None, blobs: list[bytes]) -> None:
         self.rfd, self.wfd, self.backend, self.blobs = rfd, wfd, backend, blobs
 
-    def __call__(self, data: dict[str, Any]) -> Any:
+    def __call__(self, data: Tagged) -> object:
         if "M" in data:
             return _Remote(self.rfd, self.wfd)
-        if "P" in data:
+        if "P" in data and self.backend is not None:
             from .tracing import Traced
 
             return Traced(Node("p", int(data["P"])), self.backend)
@@ -313,7 +321,7 @@ class _Decoder:
 
 
 class _Namespace:
-    def __init__(self, **fields: Any) -> None:
+    def __init__(self, **fields: object) -> None:
         self.__dict__.update(fields)
 
 
@@ -322,11 +330,11 @@ class _Encoder:
 
     def __init__(self, blobs: list[bytes]) -> None:
         self.blobs = blobs
-        self.nodes: list[list[Any]] = []
+        self.nodes: list[list[str | float]] = []
         self.index: dict[int, int] = {}
-        self.keep: list[Any] = []
+        self.keep: list[Node] = []
 
-    def __call__(self, value: Any) -> Any:
+    def __call__(self, value: object) -> Json | None:
         from .tracing import Traced
 
         if isinstance(value, Traced):
@@ -335,7 +343,9 @@ class _Encoder:
             return {"N": self.node(value), "c": False}
         if dataclasses.is_dataclass(value) and not isinstance(value, type):
             _STATE.classes[type(value).__name__] = type(value)
-            fields = [[f.name, pack(getattr(value, f.name), self.blobs, self)] for f in dataclasses.fields(value)]
+            fields: list[Json] = [
+                [f.name, pack(getattr(value, f.name), self.blobs, self)] for f in dataclasses.fields(value)
+            ]
             return {"C": type(value).__name__, "f": fields}
         return None
 
@@ -348,12 +358,14 @@ class _Encoder:
                 continue
             if node.op in ("c", "p"):
                 self.index[id(node)] = len(self.nodes)
-                self.nodes.append([node.op, node.args[0]])
+                leaf = node.args[0]  # a number: the constant's value, the placeholder's index
+                assert not isinstance(leaf, Node)
+                self.nodes.append([node.op, leaf])
                 self.keep.append(node)
                 continue
             if not ready:
                 stack.append((node, True))
-                stack.extend((a, False) for a in node.args if id(a) not in self.index)
+                stack.extend((a, False) for a in node.args if isinstance(a, Node) and id(a) not in self.index)
                 continue
             self.index[id(node)] = len(self.nodes)
             self.nodes.append([node.op, *(self.index[id(a)] for a in node.args)])
@@ -366,41 +378,41 @@ class Node:
 
     __slots__ = ("op", "args")
 
-    def __init__(self, op: str, *args: Any) -> None:
+    def __init__(self, op: str, *args: Node | float) -> None:
         self.op, self.args = op, args
 
-    def _bin(self, op: str, other: Any, reflected: bool = False) -> Node:
+    def _bin(self, op: str, other: Node | float, reflected: bool = False) -> Node:
         other = other if isinstance(other, Node) else Node("c", float(other))
         return Node(op, other, self) if reflected else Node(op, self, other)
 
-    def __add__(self, o: Any) -> Node:
+    def __add__(self, o: Node | float) -> Node:
         return self._bin("+", o)
 
-    def __radd__(self, o: Any) -> Node:
+    def __radd__(self, o: Node | float) -> Node:
         return self._bin("+", o, True)
 
-    def __sub__(self, o: Any) -> Node:
+    def __sub__(self, o: Node | float) -> Node:
         return self._bin("-", o)
 
-    def __rsub__(self, o: Any) -> Node:
+    def __rsub__(self, o: Node | float) -> Node:
         return self._bin("-", o, True)
 
-    def __mul__(self, o: Any) -> Node:
+    def __mul__(self, o: Node | float) -> Node:
         return self._bin("*", o)
 
-    def __rmul__(self, o: Any) -> Node:
+    def __rmul__(self, o: Node | float) -> Node:
         return self._bin("*", o, True)
 
-    def __truediv__(self, o: Any) -> Node:
+    def __truediv__(self, o: Node | float) -> Node:
         return self._bin("/", o)
 
-    def __rtruediv__(self, o: Any) -> Node:
+    def __rtruediv__(self, o: Node | float) -> Node:
         return self._bin("/", o, True)
 
-    def __pow__(self, o: Any) -> Node:
+    def __pow__(self, o: Node | float) -> Node:
         return self._bin("**", o)
 
-    def __rpow__(self, o: Any) -> Node:
+    def __rpow__(self, o: Node | float) -> Node:
         return self._bin("**", o, True)
 
     def __neg__(self) -> Node:
@@ -410,7 +422,11 @@ class Node:
 _TREES = Memo(maxsize=64)  # one backend per name the parent traces for
 
 
-def _tree(name: str) -> Any:
+def _is_node(x: object) -> TypeIs[Node]:
+    return isinstance(x, Node)
+
+
+def _tree(name: str) -> Backend[Node]:
     """The tree backend, named after the parent's (its refusals say what the trace was for)."""
     from .tracing import Backend
 
@@ -420,7 +436,7 @@ def _tree(name: str) -> Any:
             str(name),
             lambda x: Node("c", float(x)),
             lambda fn: lambda *a: Node(fn, *a),
-            lambda x: isinstance(x, Node),
+            _is_node,
             lambda op, a, b: Node(op, a, b),
             lambda c, a, b: Node("select", c, a, b),
             lambda op, cs: Node(op, *cs),

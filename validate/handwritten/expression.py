@@ -27,9 +27,13 @@ import math
 import re
 import unicodedata
 from collections.abc import Mapping
-from typing import Any
+from types import FunctionType
+from typing import TYPE_CHECKING
 
 from ..core.errors import HarnessError, shown
+
+if TYPE_CHECKING:
+    import sympy as sp
 
 MAX_CHARS = 200_000  # characters of one expression (a 3,000-term V of a 6-link arm is about 120,000)
 MAX_TERMS = 100_000  # numbers, names and operations of one expression
@@ -66,14 +70,14 @@ def normalized(name: str) -> str:
     return unicodedata.normalize("NFKC", name)
 
 
-def to_sympy(text: str, names: Mapping[str, Any], what: str) -> Any:
+def to_sympy(text: str, names: Mapping[str, sp.Expr], what: str) -> sp.Expr:
     """The sympy expression of `text` in the declared `names` (already `normalized`); a HarnessError
     naming `what`, the part and what is valid for anything else."""
     return _Parser(text, names, what).expression()
 
 
 class _Parser:
-    def __init__(self, text: str, names: Mapping[str, Any], what: str) -> None:
+    def __init__(self, text: str, names: Mapping[str, sp.Expr], what: str) -> None:
         self.text, self.names, self.what = text, names, what
         if len(text) > MAX_CHARS:
             raise self.error(f"has {len(text):,} characters; at most {MAX_CHARS:,}")
@@ -129,7 +133,7 @@ class _Parser:
             return value
         return None
 
-    def count(self, value: Any) -> Any:
+    def count(self, value: sp.Expr) -> sp.Expr:
         self.terms += 1
         if self.terms > MAX_TERMS:
             raise self.error(f"has more than {MAX_TERMS:,} numbers, names and operations; at most {MAX_TERMS:,}")
@@ -141,7 +145,7 @@ class _Parser:
             raise self.error(f"nests parentheses, calls and exponents deeper than {MAX_DEPTH} levels")
 
     # ---- grammar --------------------------------------------------------------------------------
-    def expression(self) -> Any:
+    def expression(self) -> sp.Expr:
         value = self.sum()
         kind, token, offset = self.peek()
         if kind != "end":
@@ -151,7 +155,7 @@ class _Parser:
             raise self.refuse(self.chain(offset) or token, f"is not allowed{missing}")
         return value
 
-    def sum(self) -> Any:
+    def sum(self) -> sp.Expr:
         import sympy as sp
 
         start, terms = self.i, [self.product()]
@@ -160,7 +164,7 @@ class _Parser:
             terms.append(self.count(term if op == "+" else -term))
         return terms[0] if len(terms) == 1 else self.checked(sp.Add(*terms), start)
 
-    def product(self) -> Any:
+    def product(self) -> sp.Expr:
         import sympy as sp
 
         start, factors = self.i, [self.unary()]
@@ -176,14 +180,14 @@ class _Parser:
             factors.append(self.count(factor))
         return factors[0] if len(factors) == 1 else self.checked(sp.Mul(*factors), start)
 
-    def unary(self) -> Any:
+    def unary(self) -> sp.Expr:
         negative = False
         while (op := self.take("+", "-")) is not None:  # a loop, not a recursion: 100,000 signs are one
             negative ^= op == "-"
         value = self.power()
         return self.count(-value) if negative else value
 
-    def power(self) -> Any:
+    def power(self) -> sp.Expr:
         start = self.i
         base = self.atom()
         if self.take("^", "**") is None:
@@ -193,7 +197,7 @@ class _Parser:
         self.depth -= 1
         return self.checked(self.pow(base, exponent, start), start)
 
-    def pow(self, base: Any, exponent: Any, start: int) -> Any:
+    def pow(self, base: sp.Expr, exponent: sp.Expr, start: int) -> sp.Expr:
         """base^exponent; of two numbers, only once its size is known to fit a double."""
         import sympy as sp
 
@@ -214,7 +218,7 @@ class _Parser:
             )
         return self.count(sp.Pow(base, exponent))
 
-    def atom(self) -> Any:
+    def atom(self) -> sp.Expr:
         kind, token, offset = self.peek()
         if kind == "number":
             self.i += 1
@@ -244,7 +248,7 @@ class _Parser:
         if (kind == "op" and token == "(") or (kind == "other" and token in ".["):
             raise self.refuse(self.chain(offset), "is not allowed")
 
-    def name(self, name: str, offset: int) -> Any:
+    def name(self, name: str, offset: int) -> sp.Expr:
         import sympy as sp
 
         self.i += 1
@@ -260,7 +264,7 @@ class _Parser:
             return sp.pi
         raise self.refuse(name, "is not a declared symbol, coordinate or velocity")
 
-    def call(self, name: str, offset: int) -> Any:
+    def call(self, name: str, offset: int) -> sp.Expr:
         import sympy as sp
 
         start = self.i - 1
@@ -278,7 +282,7 @@ class _Parser:
         return self.checked(getattr(sp, FUNCTIONS[name])(*args), start)
 
     # ---- numbers --------------------------------------------------------------------------------
-    def number(self, token: str) -> Any:
+    def number(self, token: str) -> sp.Expr:
         import sympy as sp
 
         if token.isdigit():
@@ -290,7 +294,7 @@ class _Parser:
             raise self.refuse(token, "is not a double (|x| from 5e-324 to 1.8e308)")
         return sp.Float(value)
 
-    def real(self, value: Any, start: int) -> float:
+    def real(self, value: sp.Expr, start: int) -> float:
         """A constant as a finite double, or the message naming the part that is not one."""
         try:
             x = float(value)
@@ -304,7 +308,7 @@ class _Parser:
             )
         return x
 
-    def checked(self, value: Any, start: int) -> Any:
+    def checked(self, value: sp.Expr, start: int) -> sp.Expr:
         """`value`, made of the tokens from `start`, if it is finite: a child was checked already, so
         only the new node and its own arguments can hold an infinity (sympy's zoo: `log(0)`)."""
         import sympy as sp
@@ -324,7 +328,9 @@ class _Parser:
 CHUNK = 64  # the most terms of one sum or product in one line of generated code
 
 
-def lambdified(args: list[Any], exprs: list[Any], *, common: bool = True) -> Any:
+def lambdified(
+    args: list[sp.Symbol], exprs: list[sp.Expr], *, common: bool = True
+) -> FunctionType:  # lambdify's generated function: a list of floats or arrays out
     """`sympy.lambdify(args, exprs)` in numpy, with common subexpressions (`common`) and every sum or
     product of more than CHUNK terms computed in parts of CHUNK, each a line of its own: Python compiles
     `a + b + c + ...` as a tree as deep as it has terms, and 3,000 terms pass its recursion limit."""
@@ -335,18 +341,18 @@ def lambdified(args: list[Any], exprs: list[Any], *, common: bool = True) -> Any
     return sp.lambdify(args, exprs, modules="numpy", dummify=True, cse=functools.partial(_split_cse, common=common))
 
 
-def _split_cse(exprs: Any, *, common: bool) -> tuple[list[tuple[Any, Any]], Any]:
+def _split_cse(exprs: list[sp.Expr], *, common: bool) -> tuple[list[tuple[sp.Symbol, sp.Expr]], list[sp.Expr]]:
     """sympy's cse (with `common`), then every long sum or product split (the `cse` argument of lambdify)."""
     import sympy as sp
 
     replacements, reduced = sp.cse(exprs) if common else ([], list(exprs))
-    out: list[tuple[Any, Any]] = []
+    out: list[tuple[sp.Symbol, sp.Expr]] = []
     for symbol, value in replacements:
         out.append((symbol, _split(value, out)))
     return out, [_split(e, out) for e in reduced]
 
 
-def _split(expr: Any, out: list[tuple[Any, Any]]) -> Any:
+def _split(expr: sp.Expr, out: list[tuple[sp.Symbol, sp.Expr]]) -> sp.Expr:
     """`expr` with every Add or Mul of more than CHUNK arguments made a sum (product) of parts, each
     part a new symbol whose definition is appended to `out` (before the line that uses it)."""
     import sympy as sp

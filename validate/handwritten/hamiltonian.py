@@ -21,26 +21,37 @@ from __future__ import annotations
 import dataclasses
 import functools
 import types
-from collections.abc import Callable
-from typing import Any
+from collections.abc import Callable, Hashable
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
 from ..core.errors import HarnessError
 from . import tracing
 
+if TYPE_CHECKING:
+    import numpy.typing as npt
+    import sympy as sp
+    from _typeshed import DataclassInstance
+
 WHERE = "hamiltonian(p, q, pm)"  # the function a form-(e) module provides: H, shape (...)
+
+
+class Hamiltonian(Hashable, Protocol):
+    """A form-(e) module."""
+
+    def hamiltonian(self, p: object, q: np.ndarray, pm: np.ndarray) -> np.ndarray: ...
 
 
 @dataclasses.dataclass(frozen=True)
 class _Terms:
     fields: tuple[str, ...]  # Params fields passed first (empty: the parameters were numbers when traced)
-    inverse_mass: Callable[..., Any]  # (*params, *q) -> [M^-1 entries (n*n), V]
-    rates: Callable[..., Any]  # (*params, *q, *pm) -> [dH/dpm (n), -dH/dq (n)]
+    inverse_mass: Callable[..., list[np.ndarray | float]]  # (*params, *q) -> [M^-1 entries (n*n), V]
+    rates: Callable[..., list[np.ndarray | float]]  # (*params, *q, *pm) -> [dH/dpm (n), -dH/dq (n)]
     n: int
 
 
-def _integer_powers(expr: Any) -> Any:
+def _integer_powers(expr: sp.Expr) -> sp.Expr:
     """x**2.0 as x**2 (the tracer lifts every number to a Float; as in handwritten/forms.py)."""
     import sympy as sp
 
@@ -51,7 +62,12 @@ def _integer_powers(expr: Any) -> Any:
 
 
 @functools.lru_cache(maxsize=256)  # one per module and parameter set: probes make many
-def _terms(module: Any, params_type: Any, n: int, numeric_params: tuple[tuple[str, float], ...] | None) -> _Terms:
+def _terms(
+    module: Hamiltonian,
+    params_type: type[DataclassInstance],
+    n: int,
+    numeric_params: tuple[tuple[str, float], ...] | None,
+) -> _Terms:
     """M^-1, V and Hamilton's equations of `module`, from its H traced with sympy and generated as
     numpy code; parameters are symbols unless `numeric_params` are given."""
     import sympy as sp
@@ -76,7 +92,7 @@ def _terms(module: Any, params_type: Any, n: int, numeric_params: tuple[tuple[st
     )
 
 
-def _check_quadratic(inverse_mass: list[list[Any]], dH_dpm: list[Any], ps: list[Any]) -> None:
+def _check_quadratic(inverse_mass: list[list[sp.Expr]], dH_dpm: list[sp.Expr], ps: list[sp.Symbol]) -> None:
     """A one-line HarnessError unless H = pm^T A(q) pm / 2 + V(q): A free of pm, no term linear in pm."""
     import sympy as sp
 
@@ -99,7 +115,7 @@ def _check_quadratic(inverse_mass: list[list[Any]], dH_dpm: list[Any], ps: list[
 
 
 @functools.lru_cache(maxsize=64)  # one per equations module loaded (a watch loads one per save), parameters symbolic
-def _symbolic(module: Any, params_type: Any, n: int) -> _Terms | None:
+def _symbolic(module: Hamiltonian, params_type: type[DataclassInstance], n: int) -> _Terms | None:
     """The terms with symbolic parameters, or None where the module's code needs numbers for them
     (a shape error of H, such as a term linear in pm, is raised here, once)."""
     try:
@@ -110,7 +126,7 @@ def _symbolic(module: Any, params_type: Any, n: int) -> _Terms | None:
         return None
 
 
-def _terms_at(module: Any, p: Any, n: int) -> _Terms:
+def _terms_at(module: Hamiltonian, p: DataclassInstance, n: int) -> _Terms:
     kind = _params_type(p)
     found = _symbolic(module, kind, n)
     if found is not None:
@@ -127,12 +143,14 @@ def _terms_at(module: Any, p: Any, n: int) -> _Terms:
         ) from None
 
 
-def _columns(x: Any, n: int) -> list[Any]:
+def _columns(x: npt.ArrayLike, n: int) -> list[np.ndarray]:
     x = np.asarray(x)
     return [x[..., i] for i in range(n)]
 
 
-def inverse_mass_and_potential(module: Any, p: Any, q: Any) -> tuple[list[list[Any]], Any]:
+def inverse_mass_and_potential(
+    module: Hamiltonian, p: DataclassInstance, q: np.ndarray
+) -> tuple[list[list[np.ndarray]], np.ndarray]:
     """(M^-1 as n rows of n entries, V), each entry broadcast over q's leading axes."""
     terms = _terms_at(module, p, np.shape(q)[-1])
     n = terms.n
@@ -141,7 +159,9 @@ def inverse_mass_and_potential(module: Any, p: Any, q: Any) -> tuple[list[list[A
     return [[out[i * n + j] + zero for j in range(n)] for i in range(n)], out[-1] + zero
 
 
-def hamilton_equations(module: Any, p: Any, q: Any, pm: Any) -> tuple[np.ndarray, np.ndarray]:
+def hamilton_equations(
+    module: Hamiltonian, p: DataclassInstance, q: np.ndarray, pm: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Hamilton's equations of a form-(e) module (or its facade) at (q, pm): (dH/dpm, -dH/dq), each
     (..., n); with friction and inputs, pdot = -dH/dq + passive + tau."""
     module = getattr(module, "ORIGINAL", module)
@@ -155,7 +175,7 @@ def hamilton_equations(module: Any, p: Any, q: Any, pm: Any) -> tuple[np.ndarray
     return qdot, pdot
 
 
-def energies(module: Any) -> types.ModuleType:
+def energies(module: Hamiltonian) -> types.ModuleType:
     """`module` as form (d): its own attributes, with kinetic_energy(p, q, v) and
     potential_energy(p, q) derived from its Hamiltonian. A Hamiltonian of the wrong shape is a
     HarnessError here (where its parameters can be symbols)."""
@@ -165,14 +185,14 @@ def energies(module: Any) -> types.ModuleType:
     out.__dict__.update({k: v for k, v in vars(module).items() if not k.startswith("__")})
     out.__file__ = getattr(module, "__file__", None)  # type: ignore[assignment]
 
-    def kinetic_energy(p: Any, q: Any, v: Any) -> Any:
+    def kinetic_energy(p: DataclassInstance, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """T = v^T M v / 2, M v solved from M^-1 = d2H/dpm2 by elimination."""
         inverse_mass, _ = inverse_mass_and_potential(module, p, q)
         vs = _columns(v, len(inverse_mass))
         momenta = tracing.solve_spd(inverse_mass, vs)
         return 0.5 * sum(a * b for a, b in zip(vs, momenta, strict=True))
 
-    def potential_energy(p: Any, q: Any) -> Any:
+    def potential_energy(p: DataclassInstance, q: np.ndarray) -> np.ndarray:
         """V = H(q, 0)."""
         return inverse_mass_and_potential(module, p, q)[1]
 
@@ -181,6 +201,6 @@ def energies(module: Any) -> types.ModuleType:
     return out
 
 
-def _params_type(p: Any) -> Any:
+def _params_type(p: DataclassInstance) -> type[DataclassInstance]:
     """The class of what parameters() returned (a key of the derivation caches)."""
     return type(p)

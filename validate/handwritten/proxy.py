@@ -24,7 +24,7 @@ import operator
 import types
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -32,11 +32,15 @@ from ..core.errors import HarnessError
 from ..core.guard import Stopped
 from ..core.memo import Memo
 from . import tracing
-from .worker import ModuleWorker, Raised, escape, pack, unpack
+from .worker import Message, ModuleWorker, Raised, Tagged, escape, pack, unpack
+
+if TYPE_CHECKING:
+    from ..core.arrays import Json
+    from .tracing import Arithmetic
 
 FORMS_MODULE = "lagrange_xval.forms"
 MAX_NODES = 5_000_000
-_ARITHMETIC: dict[str, Callable[[Any, Any], Any]] = {
+_ARITHMETIC: dict[str, Callable[[Arithmetic, Arithmetic], Arithmetic]] = {
     "+": operator.add,
     "-": operator.sub,
     "*": operator.mul,
@@ -65,7 +69,7 @@ def worker_module(path: Path, time_limit: float, *, source: str | None = None) -
     return _stand_in(worker, worker.description, Path(path))
 
 
-def _stand_in(worker: ModuleWorker, raw: Any, path: Path) -> types.ModuleType:
+def _stand_in(worker: ModuleWorker, raw: object, path: Path) -> types.ModuleType:
     decoder = _Described(worker, worker.description_blobs)
     try:
         described = unpack(raw, worker.description_blobs, decoder)
@@ -96,7 +100,7 @@ class _Described:
     def __init__(self, worker: ModuleWorker, blobs: list[bytes]) -> None:
         self.worker, self.blobs = worker, blobs
 
-    def __call__(self, data: dict[str, Any]) -> Any:
+    def __call__(self, data: Tagged) -> object:
         if "F" in data:
             names = [str(n) for n in data.get("p", []) if isinstance(n, str) and n.isidentifier()]
             return stand_in_function(self.worker, str(data["F"]), names, bool(data.get("n")))
@@ -106,7 +110,7 @@ class _Described:
         return NotImplemented
 
 
-def _printed_form(name: str, where: str, fields: dict[str, Any]) -> Any:
+def _printed_form(name: str, where: str, fields: dict[str, object]) -> object:
     """A printed form (Implicit, Explicit, DerivationStep of lagrange_xval.forms) rebuilt from its fields;
     another dataclass as a plain record of its fields."""
     from .. import forms as _forms
@@ -121,14 +125,14 @@ def _printed_form(name: str, where: str, fields: dict[str, Any]) -> Any:
         raise HarnessError(f"a printed form {name} that cannot be read ({exc})") from None
     for key, value in fields.items():  # named as the in-process guard named them: "<form>: residual"
         if callable(value) and hasattr(value, "__signature__"):
-            value.label = f"{getattr(form, 'name', name)}: {key}"
+            value.__dict__["label"] = f"{getattr(form, 'name', name)}: {key}"  # a stand-in function's
     return form
 
 
 _RECORDS = Memo(maxsize=256)  # one stand-in class per (name, fields) a module's Params has
 
 
-def _record_class(name: str, fields: tuple[str, ...]) -> Any:
+def _record_class(name: str, fields: tuple[str, ...]) -> type:
     """A frozen dataclass of these fields, standing in for the module's own (its Params): the harness
     reads, replaces and traces its fields; the worker rebuilds the module's class from them."""
     safe = name if name.isidentifier() else "Params"
@@ -137,11 +141,11 @@ def _record_class(name: str, fields: tuple[str, ...]) -> Any:
     )
 
 
-def stand_in_function(worker: ModuleWorker, path: str, names: list[str], not_provided: bool) -> Callable[..., Any]:
+def stand_in_function(worker: ModuleWorker, path: str, names: list[str], not_provided: bool) -> Callable[..., object]:
     """A function of the parameters `names` that calls the module's function at `path` in the worker."""
     signature = inspect.Signature([inspect.Parameter(n, inspect.Parameter.POSITIONAL_OR_KEYWORD) for n in names])
 
-    def fn(*args: Any, **kwargs: Any) -> Any:
+    def fn(*args: object, **kwargs: object) -> object:
         if kwargs:
             args = signature.bind(*args, **kwargs).args
         return invoke(worker, path, args, getattr(fn, "label", path))
@@ -154,21 +158,21 @@ def stand_in_function(worker: ModuleWorker, path: str, names: list[str], not_pro
     return fn
 
 
-def invoke(worker: ModuleWorker, path: str, args: tuple[Any, ...], label: str | None = None) -> Any:
+def invoke(worker: ModuleWorker, path: str, args: tuple[object, ...], label: str | None = None) -> object:
     """The module's function at `path` on `args`, in the worker: numbers in, data out; traced values
     as placeholders in, their expressions rebuilt in this process's backend out."""
     blobs: list[bytes] = []
     encoder = _Encoder(blobs)
     packed = [pack(a, blobs, encoder) for a in args]
     backend = encoder.backend
-    message = {"op": "call", "name": path, "args": packed, "backend": backend.name if backend else None}
+    message: Message = {"op": "call", "name": path, "args": packed, "backend": backend.name if backend else None}
     decoder = _Result(backend, encoder.placeholders)
     if backend is not None or encoder.model is not None:
         return worker.request(message, label or path, blobs, model=encoder.model, unpack_hook=decoder)
     return _recent(worker, (path, json.dumps(packed), *blobs), lambda: worker.request(message, label or path, blobs))
 
 
-def together(calls: list[tuple[Any, tuple[Any, ...]]]) -> list[Any] | None:
+def together(calls: list[tuple[Callable[..., object], tuple[object, ...]]]) -> list[object] | None:
     """[fn(*args) for fn, args in calls], the stand-ins of one worker called on numbers in one round trip
     (a step's passive, bias and mass matrix: one request, not three; a function of the harness, such as
     the zero friction of a module without passive, called here); None where fewer than two are stand-ins
@@ -189,10 +193,10 @@ def together(calls: list[tuple[Any, tuple[Any, ...]]]) -> list[Any] | None:
 RECENT = 4  # answers kept per worker: a per-step mirror asks bias and passive at the same states in a row
 
 
-def _recent(worker: ModuleWorker, key: tuple[Any, ...], call: Callable[[], Any]) -> Any:
+def _recent(worker: ModuleWorker, key: tuple[str | bytes, ...], call: Callable[[], object]) -> object:
     """call(), or a copy of its answer when the same function was just called on the same bytes (the
     facade of forms b and c derives bias and passive from one batch of calls: asked twice per step)."""
-    kept: dict[tuple[Any, ...], Any] = worker.__dict__.setdefault("recent", {})
+    kept: dict[tuple[str | bytes, ...], object] = worker.__dict__.setdefault("recent", {})
     if key in kept:
         kept[key] = kept.pop(key)  # most recent last
         return copy.deepcopy(kept[key])
@@ -209,12 +213,12 @@ class _Encoder:
 
     def __init__(self, blobs: list[bytes]) -> None:
         self.blobs = blobs
-        self.backend: tracing.Backend | None = None
-        self.placeholders: list[Any] = []
+        self.backend: tracing.Backend[Arithmetic] | None = None
+        self.placeholders: list[tracing.Traced[Arithmetic]] = []
         self.index: dict[int, int] = {}
-        self.model: Mapping[str, Any] | None = None
+        self.model: Mapping[str, object] | None = None
 
-    def __call__(self, value: Any) -> Any:
+    def __call__(self, value: object) -> Json | None:
         if isinstance(value, tracing.Traced):
             self.backend = self.backend or value.backend
             if id(value) not in self.index:
@@ -225,7 +229,9 @@ class _Encoder:
             self.model = value
             return {"M": 1}
         if dataclasses.is_dataclass(value) and not isinstance(value, type):
-            fields = [[f.name, pack(getattr(value, f.name), self.blobs, self)] for f in dataclasses.fields(value)]
+            fields: list[Json] = [
+                [f.name, pack(getattr(value, f.name), self.blobs, self)] for f in dataclasses.fields(value)
+            ]
             return {"C": type(value).__name__, "f": fields}
         return None
 
@@ -233,12 +239,14 @@ class _Encoder:
 class _Result:
     """The worker's answer decoded: Params as a stand-in dataclass, traced nodes rebuilt in `backend`."""
 
-    def __init__(self, backend: tracing.Backend | None, placeholders: list[Any]) -> None:
+    def __init__(
+        self, backend: tracing.Backend[Arithmetic] | None, placeholders: list[tracing.Traced[Arithmetic]]
+    ) -> None:
         self.backend, self.placeholders = backend, placeholders
-        self.built: list[Any] = []
+        self.built: list[Arithmetic] = []
         self.blobs: list[bytes] = []
 
-    def prepare(self, header: dict[str, Any], blobs: list[bytes]) -> None:
+    def prepare(self, header: Message, blobs: list[bytes]) -> None:
         self.blobs = blobs
         nodes = header.get("nodes") or []
         if nodes and self.backend is None:
@@ -249,11 +257,11 @@ class _Result:
         for node in nodes:
             self.built.append(self._build(node))
 
-    def _build(self, node: list[Any]) -> Any:
+    def _build(self, node: list[str | float]) -> Arithmetic:
         bk = self.backend
         assert bk is not None
         op, *args = node
-        if op not in OPERATIONS:
+        if not isinstance(op, str) or op not in OPERATIONS:  # (every operation is a name)
             raise ValueError(f"an unknown operation {escape(str(op), 20)!r}")
         if op == "c":
             return bk.lift(float(args[0]))
@@ -261,7 +269,7 @@ class _Result:
             return self.placeholders[int(args[0])].value
         if any(not isinstance(a, int) or not 0 <= a < len(self.built) for a in args):
             raise ValueError("an operand that is not an earlier node")
-        xs = [self.built[a] for a in args]
+        xs = [self.built[int(a)] for a in args]
         if op in _ARITHMETIC:
             return _ARITHMETIC[op](*xs)
         if op == "neg":
@@ -274,7 +282,7 @@ class _Result:
             return bk.logical(op, xs)
         return bk.function(op)(*xs)
 
-    def __call__(self, data: dict[str, Any]) -> Any:
+    def __call__(self, data: Tagged) -> object:
         if "N" in data:
             if self.backend is None:
                 raise ValueError("an expression in answer to a call on numbers")

@@ -15,17 +15,22 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, TypeAlias
 
 import numpy as np
+import numpy.typing as npt
 
 from ..core.errors import HarnessError
 from ..model.modelview import key_parts
+
+if TYPE_CHECKING:
+    from _typeshed import DataclassInstance
 
 # The keys whose numbers a probe may move (a body's orientation, a joint's axis and the structure keys
 # are the chain's shape, not its parameters: moving one entry of a quaternion or an axis is no model).
 MOVABLE = ("mass", "com", "inertia", "pos", "damping", "armature", "gear")
 NUDGE = 1e-3  # the relative move that finds which fields follow a number
+ModelValue: TypeAlias = float | str | np.ndarray  # what a model view holds: a number, a name, an array
 
 
 def movable(key: str) -> bool:
@@ -35,26 +40,31 @@ def movable(key: str) -> bool:
     return key == "gravity" or (parts is not None and parts[2] in MOVABLE)
 
 
-def numeric_fields(params: Any) -> dict[str, float]:
-    """The numeric fields of what `parameters()` returned (a dataclass), by name."""
+def dataclass_instance(params: object) -> DataclassInstance:
+    """What `parameters()` returned, which must be a dataclass instance (a HarnessError otherwise)."""
     if not dataclasses.is_dataclass(params) or isinstance(params, type):
         raise HarnessError(f"parameters() must return a dataclass instance; got {type(params).__name__}.")
+    return params
+
+
+def numeric_fields(params: object) -> dict[str, float]:
+    """The numeric fields of what `parameters()` returned (a dataclass), by name."""
     out = {}
-    for f in dataclasses.fields(params):
+    for f in dataclasses.fields(dataclass_instance(params)):
         value = getattr(params, f.name)
         if isinstance(value, (int, float, np.floating, np.integer)) and not isinstance(value, bool):
             out[f.name] = float(value)
     return out
 
 
-class Recorder(Mapping[str, Any]):
+class Recorder(Mapping[str, ModelValue]):
     """A model view that remembers which keys were read, in order."""
 
-    def __init__(self, view: Mapping[str, Any]) -> None:
+    def __init__(self, view: Mapping[str, ModelValue]) -> None:
         self.view = view
         self.read: list[str] = []
 
-    def __getitem__(self, key: str) -> Any:
+    def __getitem__(self, key: str) -> ModelValue:
         value = self.view[key]
         if key not in self.read:
             self.read.append(key)
@@ -67,13 +77,13 @@ class Recorder(Mapping[str, Any]):
         return len(self.view)
 
 
-class Overlay(Mapping[str, Any]):
+class Overlay(Mapping[str, ModelValue]):
     """A model view with some keys replaced (what `parameters()` would read from an edited model)."""
 
-    def __init__(self, view: Mapping[str, Any], replaced: Mapping[str, Any]) -> None:
+    def __init__(self, view: Mapping[str, ModelValue], replaced: Mapping[str, ModelValue]) -> None:
         self.view, self.replaced = view, replaced
 
-    def __getitem__(self, key: str) -> Any:
+    def __getitem__(self, key: str) -> ModelValue:
         return self.replaced[key] if key in self.replaced else self.view[key]
 
     def __iter__(self) -> Iterator[str]:
@@ -111,7 +121,7 @@ class Knob:
         return out
 
 
-def edited(view: Mapping[str, Any], knob: Knob, value: float) -> dict[str, Any]:
+def edited(view: Mapping[str, ModelValue], knob: Knob, value: float) -> dict[str, ModelValue]:
     """{key: the key's full value with knob's number set to `value`}."""
     current = view[knob.key]
     if not knob.index:
@@ -123,20 +133,22 @@ def edited(view: Mapping[str, Any], knob: Knob, value: float) -> dict[str, Any]:
     return {knob.key: arr}
 
 
-def _indices(key: str, value: Any) -> list[tuple[int, ...]]:
+def _indices(key: str, value: npt.ArrayLike) -> list[tuple[int, ...]]:
     arr = np.asarray(value, dtype=float)
     if key.endswith("/inertia"):
         return [(i, j) for i in range(3) for j in range(i, 3)]
     return [tuple(int(i) for i in idx) for idx in np.ndindex(arr.shape)]
 
 
-def _read_keys(parameters: Callable[[Any], Any], view: Mapping[str, Any]) -> tuple[list[str], dict[str, float]]:
+def _read_keys(
+    parameters: Callable[[Mapping[str, ModelValue]], object], view: Mapping[str, ModelValue]
+) -> tuple[list[str], dict[str, float]]:
     recorder = Recorder(view)
     base = numeric_fields(parameters(recorder))
     return recorder.read, base
 
 
-def knobs(parameters: Callable[[Any], Any], view: Mapping[str, Any]) -> list[Knob]:
+def knobs(parameters: Callable[[Mapping[str, ModelValue]], object], view: Mapping[str, ModelValue]) -> list[Knob]:
     """Every non-zero movable number that `parameters()` reads and that some numeric field follows."""
     keys, base = _read_keys(parameters, view)
     out = []

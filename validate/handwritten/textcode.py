@@ -11,8 +11,7 @@ from __future__ import annotations
 
 import inspect
 import math
-from collections.abc import Callable
-from typing import Any
+from types import FunctionType
 
 from ..core.errors import HarnessError
 
@@ -32,7 +31,7 @@ def passive(p, q, v):
 """
 
 
-def _imports(fn: Callable[..., Any]) -> list[str]:
+def _imports(fn: FunctionType) -> list[str]:
     """The lines that bind every global name lambdify's code of `fn` reads: numpy's names by name, its
     constants (pi) as numbers; anything else is the harness's error, never guessed."""
     import builtins
@@ -55,7 +54,7 @@ def _imports(fn: Callable[..., Any]) -> list[str]:
     return lines
 
 
-def _function(fn: Callable[..., Any], name: str) -> tuple[list[str], str]:
+def _function(fn: FunctionType, name: str) -> tuple[list[str], str]:
     """(imports, source) of lambdify's `fn` as a function called `name`."""
     text = inspect.getsource(fn)
     head, _, rest = text.partition("(")
@@ -72,9 +71,9 @@ def columns(fields: list[str], groups: list[tuple[str, int]]) -> str:
 def module_source(
     fields: list[str],
     n: int,
-    kinetic: Callable[..., Any],
-    potential: Callable[..., Any],
-    friction: Callable[..., Any] | None,
+    kinetic: FunctionType,
+    potential: FunctionType,
+    friction: FunctionType | None,
 ) -> str:
     """The module's source: lambdify's functions (`_kinetic_energy`, ...) and the contract's around them."""
     parts = [("_kinetic_energy", kinetic), ("_potential_energy", potential)]

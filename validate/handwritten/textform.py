@@ -46,7 +46,6 @@ import types
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -56,6 +55,7 @@ from ..core.inputs import regular_file
 from ..model import modelview
 from . import textcode
 from .expression import CONSTANTS, FUNCTIONS, lambdified, normalized, to_sympy
+from .reads import ModelValue
 
 MAX_BYTES = 2**20
 KEYS = ("description", "coordinates", "velocities", "joints", "T", "V", "friction", "symbols")
@@ -74,7 +74,7 @@ class Binding:
     index: tuple[int, ...]
     scale: float
 
-    def read(self, model: Mapping[str, Any]) -> float:
+    def read(self, model: Mapping[str, ModelValue]) -> float:
         value = np.asarray(model[self.key])
         try:
             entry = value[self.index] if self.index else value
@@ -93,7 +93,7 @@ def _index_text(index: tuple[int, ...]) -> str:
     return "".join(f"[{i}]" for i in index)
 
 
-def parse_binding(symbol: str, text: Any, where: str) -> Binding:
+def parse_binding(symbol: str, text: object, where: str) -> Binding:
     """A [symbols] entry: `[-][factor*]key[i][j]`."""
     match = _BINDING.match(text) if isinstance(text, str) else None
     if match is None:
@@ -120,7 +120,7 @@ class Spec:
     bindings: tuple[Binding, ...]
 
 
-def _read(path: Path) -> dict[str, Any]:
+def _read(path: Path) -> dict[str, object]:
     try:
         data = tomllib.loads(regular_file(path, "equations file", max_bytes=MAX_BYTES).decode())
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
@@ -134,14 +134,14 @@ def _read(path: Path) -> dict[str, Any]:
     return data
 
 
-def _names(data: dict[str, Any], key: str, default: list[str], where: str) -> tuple[str, ...]:
+def _names(data: dict[str, object], key: str, default: list[str], where: str) -> tuple[str, ...]:
     value = data.get(key, default)
     if not isinstance(value, list) or not all(isinstance(x, str) for x in value):
         raise HarnessError(f"{where}: {key} must be a list of names, e.g. {key} = {default!r}.")
     return tuple(value)
 
 
-def _expression_text(value: Any, what: str, where: str) -> str:
+def _expression_text(value: object, what: str, where: str) -> str:
     if isinstance(value, bool) or not isinstance(value, (str, int, float)):
         raise HarnessError(f'{where}: {what} must be an expression in a string, e.g. "m*g*l*cos(theta)".')
     return str(value)
@@ -206,27 +206,29 @@ def _check_names(where: str, names: list[str]) -> tuple[str, ...]:
     return tuple(seen)
 
 
-def _uses(view: Mapping[str, Any], joints: tuple[str, ...]) -> frozenset[str]:
+def _uses(view: Mapping[str, ModelValue], joints: tuple[str, ...]) -> frozenset[str]:
     found = {
-        "gravity": any(float(x) != 0.0 for x in view["gravity"]),
-        "damping": any(view[f"joint/{j}/damping"] > 0 for j in joints),
+        "gravity": any(float(x) != 0.0 for x in np.asarray(view["gravity"], dtype=float)),
+        "damping": any(float(view[f"joint/{j}/damping"]) > 0 for j in joints),
         "actuation": any(k.startswith("actuator/") for k in view),
     }
     return frozenset(k for k, on in found.items() if on)
 
 
-def _bodies(view: Mapping[str, Any], joints: tuple[str, ...]) -> tuple[str, ...]:
+def _bodies(view: Mapping[str, ModelValue], joints: tuple[str, ...]) -> tuple[str, ...]:
     """The bodies the joints move, in the model's order (what the engines are compared on)."""
     moved = {view[f"joint/{j}/body"] for j in joints}
     bodies = modelview.names(view, "body", "mass")
     return tuple(b for b in bodies if b in moved)
 
 
-def _assumptions(view: Mapping[str, Any], bindings: tuple[Binding, ...]) -> Callable[[Any], dict[str, Any]]:
+def _assumptions(
+    view: Mapping[str, ModelValue], bindings: tuple[Binding, ...]
+) -> Callable[[object], dict[str, ModelValue]]:
     """assumptions(p): the bound numbers from p, every other number NaN, structure as the model's."""
     base = {k: v if isinstance(v, str) else np.full(np.shape(v), np.nan) for k, v in view.items()}
 
-    def assumptions(p: Any) -> dict[str, Any]:
+    def assumptions(p: object) -> dict[str, ModelValue]:
         numbers = {k: np.array(v, dtype=float) for k, v in base.items() if not isinstance(v, str)}
         for b in bindings:
             numbers[b.key][b.index] = getattr(p, b.symbol) / b.scale  # index (): the whole 0-d array
@@ -236,7 +238,7 @@ def _assumptions(view: Mapping[str, Any], bindings: tuple[Binding, ...]) -> Call
 
 
 def module_from_file(
-    path: Path, view: Mapping[str, Any], *, time_limit: float = DEFAULT_TIME_LIMIT
+    path: Path, view: Mapping[str, ModelValue], *, time_limit: float = DEFAULT_TIME_LIMIT
 ) -> types.ModuleType:
     """The equations module (form d) a TOML file describes, read against the model `view`. The expressions
     are read here (bounded, nothing evaluated); their numpy code is imported and called in a worker
@@ -276,7 +278,7 @@ def module_from_file(
     module = worker_module(path, time_limit, source=source)  # the code has no file: a forked copy imports it again
     Params = dataclasses.make_dataclass("Params", [(f, float) for f in fields], frozen=True)
     module.__doc__ = f"{spec.description} (equations as text: {path.name})"
-    attributes: dict[str, Any] = {
+    attributes: dict[str, object] = {
         "DESCRIPTION": spec.description,
         "COORDINATES": spec.coordinates,
         "JOINTS": spec.joints,

@@ -10,8 +10,6 @@ lists and a shape that does not broadcast to the expected one, in one line namin
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from ..core.errors import HarnessError
@@ -31,7 +29,7 @@ def _expected(shape: tuple[int, ...] | None) -> str:
     return "real numbers" if shape is None else f"real numbers of shape {shape}"
 
 
-def real_array(name: str, value: Any, shape: tuple[int, ...] | None = None) -> np.ndarray:
+def real_array(name: str, value: object, shape: tuple[int, ...] | None = None) -> np.ndarray:
     """`value` as a float array (broadcast to `shape` where given), or a HarnessError
     "mass_matrix() returned complex values; expected real numbers of shape (100, 2, 2)".
 

@@ -51,9 +51,14 @@ import weakref
 from collections import OrderedDict
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import IO, TYPE_CHECKING, NoReturn, Protocol, TypedDict, cast
 
 from ..core.guard import DEFAULT_TIME_LIMIT, Stopped
+
+if TYPE_CHECKING:  # the worker imports this module: numpy is loaded when first used
+    import numpy as np
+
+    from ..core.arrays import Json, JsonObject
 
 HINT = "the time limit per system; --time-limit SECONDS sets it"
 GRACE = 1.0  # s between SIGTERM and SIGKILL
@@ -114,7 +119,71 @@ def raised(function: str, kind: str, message: str) -> Raised:
 # The wire: a JSON header and raw array bytes, length-prefixed
 
 
-def pack(value: Any, blobs: list[bytes], hook: Callable[[Any], Any] | None = None) -> Any:
+class Message(TypedDict, total=False):
+    """A header on the pipe: a request to the worker, its answer, or a model lookup in between (JSON; a
+    pair is a JSON array of two)."""
+
+    op: str  # a request: "import", "call" or "batch"
+    path: str
+    source: str | None
+    name: str
+    args: list[Json]  # packed
+    calls: list[tuple[str, list[Json]]]  # a batch: (function path, packed args)
+    backend: str | None
+    ok: Json  # an answer: the value packed
+    nodes: list[list[str | float]]  # traced answers: [operation, operand, ...] each
+    raised: str
+    message: str
+    function: str | None
+    harness: bool
+    exit: str
+    code: str
+    get: str | None  # a lookup of the model view (None: its keys)
+    keys: list[str]
+    value: Json
+    missing: bool
+    blobs: list[bytes]  # the arrays' bytes, attached to a lookup's answer where it is read (not sent)
+
+
+class Tagged(TypedDict, total=False):
+    """A packed value that is not plain JSON, by its tag: `pack`'s own, and its callers' (hooks)."""
+
+    A: int  # an array: its blob, dtype and shape
+    d: str
+    s: list[int]
+    K: str  # an array of a kind that is not numbers (shape in `s`)
+    O: list[int]  # an object array: its shape and packed elements
+    v: list[Json]
+    L: list[Json]  # a list, a tuple
+    T: list[Json]
+    D: list[tuple[Json, Json]]  # a dict: (key, value) pairs
+    R: str  # what cannot be sent: its type's name
+    F: str  # a function of the module: its path, parameter names and whether it is a stub
+    p: list[str]
+    n: bool
+    C: str  # a dataclass: its class's name, module and (field, packed value) pairs
+    m: str
+    f: list[tuple[str, Json]]
+    N: int  # a traced value: its node, and whether it is a condition
+    c: bool
+    P: int  # a placeholder of a traced value the parent sent
+    M: int  # the model view
+
+
+class Decoder(Protocol):
+    """An answer's reader: `prepare` with its header and arrays, then called on each tagged value
+    (NotImplemented: left to `unpack`)."""
+
+    def prepare(self, header: Message, blobs: list[bytes]) -> None: ...
+    def __call__(self, data: Tagged) -> object: ...
+
+
+def _tagged(data: JsonObject) -> Tagged:
+    """A JSON object from the pipe read by its tags (its fields are checked where they are read)."""
+    return cast(Tagged, data)
+
+
+def pack(value: object, blobs: list[bytes], hook: Callable[[object], Json | None] | None = None) -> Json:
     """`value` as JSON-able data, arrays' bytes appended to `blobs`; `hook(value)` encodes what the
     caller knows (traced values, mappings) and returns None to leave it to `pack`."""
     import numpy as np
@@ -143,7 +212,7 @@ def pack(value: Any, blobs: list[bytes], hook: Callable[[Any], Any] | None = Non
     return {"R": type(value).__name__}
 
 
-def _blob(blobs: list[bytes], arr: Any) -> int:
+def _blob(blobs: list[bytes], arr: np.ndarray) -> int:
     blobs.append(arr.astype("<c16").tobytes())
     return len(blobs) - 1
 
@@ -158,13 +227,14 @@ class Opaque:
         return f"<{self.kind}>"
 
 
-def unpack(data: Any, blobs: list[bytes], hook: Callable[[dict[str, Any]], Any] | None = None) -> Any:
+def unpack(data: object, blobs: list[bytes], hook: Callable[[Tagged], object] | None = None) -> object:
     """The value `pack` encoded; arrays checked (dtype from DTYPES, bytes equal to the shape's) and
     copied; `hook(tagged)` decodes the caller's own tags (returns NotImplemented to leave it here)."""
     if not isinstance(data, dict):
         if isinstance(data, list):
             raise ValueError("an untagged list")
         return data
+    data = _tagged(data)
     if hook is not None:
         out = hook(data)
         if out is not NotImplemented:
@@ -194,7 +264,7 @@ def unpack(data: Any, blobs: list[bytes], hook: Callable[[dict[str, Any]], Any] 
 _KIND_DTYPES = {"U": "U1", "S": "S1", "M": "M8[s]", "m": "m8[s]", "V": "V1", "c": "c16"}
 
 
-def _kind_only(data: dict[str, Any]) -> Any:
+def _kind_only(data: Tagged) -> np.ndarray:
     """An array of a kind that is not numbers, as that kind and shape without its contents (a view of
     one element: no memory), so that the reader names what it is (values.real_array)."""
     import numpy as np
@@ -203,11 +273,11 @@ def _kind_only(data: dict[str, Any]) -> Any:
     return np.broadcast_to(np.zeros((), dtype=kind), tuple(int(k) for k in data["s"]))
 
 
-def _key(k: Any) -> Any:
+def _key(k: object) -> str | int | float | bool | tuple[object, ...] | None:
     return k if isinstance(k, (str, int, float, bool, tuple)) or k is None else escape(repr(k), 80)
 
 
-def _array(data: dict[str, Any], blobs: list[bytes]) -> Any:
+def _array(data: Tagged, blobs: list[bytes]) -> np.ndarray:
     import numpy as np
 
     dtype, shape = str(data["d"]), tuple(int(k) for k in data["s"])
@@ -220,7 +290,7 @@ def _array(data: dict[str, Any], blobs: list[bytes]) -> Any:
     return np.frombuffer(raw, dtype=dt).reshape(shape).astype(dt.newbyteorder("="), copy=True)
 
 
-def send(fd: int, header: Any, blobs: list[bytes] = ()) -> None:  # type: ignore[assignment]
+def send(fd: int, header: Message, blobs: list[bytes] = ()) -> None:  # type: ignore[assignment]
     """One message: its JSON header and its arrays' bytes."""
     body = json.dumps(header, separators=(",", ":")).encode()
     parts = [_HEAD.pack(len(body), len(blobs)), body]
@@ -246,13 +316,13 @@ def waited(schedstat: str) -> float:
         os.close(fd)
 
 
-def receive(fd: int, deadline: float | None = None) -> tuple[Any, list[bytes]]:
+def receive(fd: int, deadline: float | None = None) -> tuple[Message, list[bytes]]:
     """One message (header, arrays' bytes), bounded in size; TimeoutError past `deadline`
     (time.monotonic), EOFError when the other end is gone."""
     size, count = _HEAD.unpack(_read(fd, _HEAD.size, deadline))
     if size > MAX_HEADER or count > MAX_BLOBS:
         raise ValueError(f"a message of {size} bytes and {count} arrays")
-    header = json.loads(_read(fd, size, deadline))
+    header: Message = json.loads(_read(fd, size, deadline))  # our own protocol's JSON
     blobs = []
     for _ in range(count):
         (n,) = _LEN.unpack(_read(fd, _LEN.size, deadline))
@@ -334,7 +404,7 @@ class ModuleWorker:
         self.left = self.time_limit or float("inf")
         self.stopped: str | None = None
         self.calls = 0
-        self.description: Any = None
+        self.description: object = None
         self.description_blobs: list[bytes] = []
         self._start()
 
@@ -366,7 +436,7 @@ class ModuleWorker:
         os.close(from_child)
         _LIVE.add(self)
         raw = _Raw()
-        message = {"op": "import", "path": self.path, "source": self.source}
+        message: Message = {"op": "import", "path": self.path, "source": self.source}
         self.description = self.request(message, "importing it", unpack_hook=raw)
         self.description_blobs = raw.blobs  # the description is decoded by its reader (handwritten/proxy.py)
 
@@ -375,22 +445,22 @@ class ModuleWorker:
         if self.stopped is None:
             self.left = self.time_limit or float("inf")
 
-    def call(self, name: str, *args: Any, model: Mapping[str, Any] | None = None) -> Any:
+    def call(self, name: str, *args: object, model: Mapping[str, object] | None = None) -> object:
         """The module's function at `name` ("mass_matrix", "VARIANTS.2.residual") called on `args`
         (arrays, numbers, the Params the worker gave, `MODEL` where the model view goes); `model` answers
         the lookups of `parameters(model)`. Traced values: handwritten/proxy.py `invoke`."""
         blobs: list[bytes] = []
         packed = [pack(a, blobs, functools.partial(_plain_hook, blobs)) for a in args]
-        message = {"op": "call", "name": name, "args": packed, "backend": None}
+        message: Message = {"op": "call", "name": name, "args": packed, "backend": None}
         return self.request(message, name, blobs, model=model, unpack_hook=_Records())
 
-    def batch(self, calls: list[tuple[str, tuple[Any, ...]]], name: str) -> list[Any]:
+    def batch(self, calls: list[tuple[str, tuple[object, ...]]], name: str) -> list[object]:
         """Several calls on numbers (`call`'s arguments, no model view) in one round trip, their answers
         in order; `name` says what the batch is for in a stop ("passive, bias and mass_matrix")."""
         blobs: list[bytes] = []
         hook = functools.partial(_plain_hook, blobs)
-        packed = [[path, [pack(a, blobs, hook) for a in args]] for path, args in calls]
-        message = {"op": "batch", "name": name, "calls": packed, "backend": None}
+        packed = [(path, [pack(a, blobs, hook) for a in args]) for path, args in calls]
+        message: Message = {"op": "batch", "name": name, "calls": packed, "backend": None}
         out = self.request(message, name, blobs, unpack_hook=_Records())
         if not isinstance(out, list) or len(out) != len(calls):
             self._stop(f"{name}: the module's worker sent what is not data (a batch of {len(calls)} answers)")
@@ -398,13 +468,13 @@ class ModuleWorker:
 
     def request(
         self,
-        message: dict[str, Any],
+        message: Message,
         name: str,
         blobs: list[bytes] = (),  # type: ignore[assignment]
         *,
-        model: Mapping[str, Any] | None = None,
-        unpack_hook: Any = None,
-    ) -> Any:
+        model: Mapping[str, object] | None = None,
+        unpack_hook: Decoder | None = None,
+    ) -> object:
         """One request answered within what is left of the budget (model lookups served meanwhile)."""
         if self.stopped is not None:
             raise Stopped(self.where, self.stopped)
@@ -441,11 +511,11 @@ class ModuleWorker:
             f"/proc/self/task/{threading.get_native_id()}/schedstat"
         )
 
-    def _lookup(self, model: Mapping[str, Any] | None, header: dict[str, Any]) -> None:
+    def _lookup(self, model: Mapping[str, object] | None, header: Message) -> None:
         key = header["get"]
         blobs: list[bytes] = []
         if model is None:
-            reply: dict[str, Any] = {"missing": True}
+            reply: Message = {"missing": True}
         elif key is None:
             reply = {"keys": [k for k in model]}
         elif not isinstance(key, str) or key not in model:
@@ -455,11 +525,17 @@ class ModuleWorker:
         send(self._send, reply, blobs)
 
     def _answer(
-        self, name: str, header: dict[str, Any], blobs: list[bytes], unpack_hook: Any, *, batch: bool = False
-    ) -> Any:
+        self,
+        name: str,
+        header: Message,
+        blobs: list[bytes],
+        unpack_hook: Decoder | None,
+        *,
+        batch: bool = False,
+    ) -> object:
         if "ok" in header:
             try:
-                if hasattr(unpack_hook, "prepare"):
+                if unpack_hook is not None and hasattr(unpack_hook, "prepare"):
                     unpack_hook.prepare(header, blobs)
                 return unpack(header["ok"], blobs, unpack_hook)
             except (ValueError, KeyError, TypeError, IndexError, OverflowError, RecursionError) as exc:
@@ -480,7 +556,7 @@ class ModuleWorker:
             cause = f"status {status}"
         return f"the module's worker process ended ({cause}) during {name}"
 
-    def _stop(self, why: str) -> None:
+    def _stop(self, why: str) -> NoReturn:
         self.stopped = why
         self.close(graceful=True)
         raise Stopped(self.where, why)
@@ -506,7 +582,7 @@ class ModuleWorker:
 MODEL = object()  # in `ModuleWorker.call`'s arguments: the model view `model=` answers for
 
 
-def _plain_hook(blobs: list[bytes], value: Any) -> Any:
+def _plain_hook(blobs: list[bytes], value: object) -> Json | None:
     import dataclasses
 
     if value is MODEL:
@@ -525,20 +601,20 @@ class _Raw:
 
     blobs: list[bytes] = []  # noqa: RUF012 - set by prepare
 
-    def prepare(self, header: dict[str, Any], blobs: list[bytes]) -> None:
+    def prepare(self, header: Message, blobs: list[bytes]) -> None:
         self.blobs = blobs
 
-    def __call__(self, data: dict[str, Any]) -> Any:
+    def __call__(self, data: Tagged) -> Tagged:
         return data
 
 
 class _Records:
     """Dataclasses from the worker (Params) as records of their fields, with their class's name."""
 
-    def prepare(self, header: dict[str, Any], blobs: list[bytes]) -> None:
+    def prepare(self, header: Message, blobs: list[bytes]) -> None:
         self.blobs = blobs
 
-    def __call__(self, data: dict[str, Any]) -> Any:
+    def __call__(self, data: Tagged) -> object:
         import dataclasses
 
         if "C" not in data:
@@ -591,7 +667,7 @@ def _kill_group(proc: subprocess.Popen[bytes], *, graceful: bool) -> None:
         proc.wait()
 
 
-def _has_fileno(stream: Any) -> bool:
+def _has_fileno(stream: IO[str]) -> bool:
     try:
         stream.fileno()
     except (AttributeError, OSError, ValueError):

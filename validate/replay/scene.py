@@ -194,8 +194,8 @@ def _placed_run(
     t_run = as_floats(run["t"]) if "t" in run else t
     q = as_floats(run["q"]).reshape(len(t_run), -1)
     K_run = len(t_run)
-    positions = system.equations.body_positions(params, q) if bodies else {}
-    rotations = system.equations.body_rotations(params, q) if bodies else {}
+    positions = system.derivation.body_positions(params, q) if bodies else {}
+    rotations = system.derivation.body_rotations(params, q) if bodies else {}
     com = {b: np.asarray(x, dtype=float).reshape(K_run, 3) for b, x in positions.items()}
     rot = {b: np.asarray(x, dtype=float).reshape(K_run, 3, 3) for b, x in rotations.items()}
     anchor = {}

@@ -105,7 +105,7 @@ def _key(system: System, variant: Any, damped_step: float | None = None) -> tupl
     (a mutated or reloaded module of the same name has other function objects), the parameter values
     and the variant's own function. Never the system's name alone: a module's functions replaced in
     place (a mutation) leave the System, and its memo, as they were."""
-    eq = system.equations
+    eq = system.derivation
     params = tuple((k, float(v).hex()) for k, v in sorted(vars(system.params).items()))
     if variant is None:
         return ("scalar_rhs", eq, eq.mass_matrix, eq.bias, eq.passive, params, None, damped_step)
@@ -125,7 +125,7 @@ def scalar_rhs(system: System, variant: Any = None, *, damped_step: float | None
 
     def make() -> tuple[Any, Any]:
         acc = hand_accelerations(system, damped_step) if variant is None else variant_accelerations(system, variant)
-        label = f"{system.name} ({system.equations.__name__}) {variant.name if variant else 'hand'}"
+        label = f"{system.name} ({system.derivation.__name__}) {variant.name if variant else 'hand'}"
         return variant, _compile(rhs_source(*acc), label)  # the variant kept alive: id() in the key
 
     return system.memo.get(_key(system, variant, damped_step), make)[1]

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import HarnessError
-from ..handwritten.forms import accelerations_only, not_provided_in, written_form
+from ..handwritten.forms import accelerations_only, not_provided_in, written_form, written_function
 from ..handwritten.values import real_array
 from ..systems import System
 
@@ -42,7 +42,7 @@ class HandSource:
 
     def __init__(self, system: System) -> None:
         self.system = system
-        self.eq = system.equations
+        self.eq = system.derivation
         self.p = system.params
 
     def rhs(self, tau: np.ndarray) -> Any:
@@ -109,7 +109,7 @@ class HandSource:
         inputs u: the person's qacc at the controls giving tau."""
         if self.accelerations_only:
             with np.errstate(all="ignore"):
-                return np.asarray(self.eq.ORIGINAL.qacc(self.p, q, v, self.controls(tau)), dtype=float)
+                return np.asarray(written_function(self.eq, "qacc")(self.p, q, v, self.controls(tau)), dtype=float)
         passive, bias, m = self.passive_bias_mass(q, v)
         return solve_or_nan(m, tau + passive - bias)
 

@@ -8,6 +8,7 @@ import functools
 import importlib
 from pathlib import Path
 from types import ModuleType
+from typing import TYPE_CHECKING
 
 from ..core.errors import HarnessError
 from ..core.guard import DEFAULT_TIME_LIMIT, Guard, Stopped, guard_module
@@ -16,6 +17,9 @@ from ..handwritten import textform
 from ..handwritten.forms import normalize
 from ..model.modelfile import model_view
 
+if TYPE_CHECKING:
+    from ..forms import FormA
+
 # The contract's one required name (and the dynamics in one form: validate/handwritten/forms.py). Everything
 # else has a default: COORDINATES and JOINTS the model's joints in order, DESCRIPTION the module's
 # docstring, BODIES none (pose checks "not provided"), assumptions() none (the probes move what
@@ -23,7 +27,7 @@ from ..model.modelfile import model_view
 REQUIRED_ATTRIBUTES = ("parameters",)
 
 
-def _check_contract(module: ModuleType, where: str) -> ModuleType:
+def _check_contract(module: ModuleType, where: str) -> FormA:
     """The module, brought to form (a) (validate/handwritten/forms.py) once it is known to meet the contract."""
 
     missing = [a for a in REQUIRED_ATTRIBUTES if not callable(getattr(module, a, None))]
@@ -40,7 +44,7 @@ def _check_contract(module: ModuleType, where: str) -> ModuleType:
 
 
 @functools.lru_cache(maxsize=64)  # one per repository system (and time limit)
-def repository_module(name: str, time_limit: float = DEFAULT_TIME_LIMIT) -> ModuleType:
+def repository_module(name: str, time_limit: float = DEFAULT_TIME_LIMIT) -> FormA:
     where = f"equations/{name}.py"
     guard = Guard(where, time_limit)
     try:
@@ -54,7 +58,7 @@ def repository_module(name: str, time_limit: float = DEFAULT_TIME_LIMIT) -> Modu
     return _check_contract(guard_module(module, guard), where)
 
 
-def load_module(path: Path, *, model: Path | None = None, time_limit: float = DEFAULT_TIME_LIMIT) -> ModuleType:
+def load_module(path: Path, *, model: Path | None = None, time_limit: float = DEFAULT_TIME_LIMIT) -> FormA:
     """An equations module from any file, executed under a name of its own (so two files with the
     same stem never share a module); a missing file, a syntax error or an exception while importing
     it, and a module that lacks part of the contract, are one-line HarnessErrors. A `.toml` file is

@@ -23,9 +23,9 @@ import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from ..core.errors import HarnessError, shown
 from ..core.files import create_file
@@ -40,7 +40,7 @@ def identifier(name: str) -> str:
     return f"{out}_" if keyword.iskeyword(out) else out
 
 
-def _vec(x: Any) -> str:
+def _vec(x: npt.ArrayLike) -> str:
     return "(" + ", ".join(repr(float(v)) for v in np.ravel(x)) + ")"
 
 
@@ -48,7 +48,7 @@ _BODY_FIELDS = {"mass": "m", "com": "c", "inertia": "I", "pos": "p"}
 _JOINT_FIELDS = {"pos": "j", "damping": "d", "armature": "arm", "stiffness": "k"}
 
 
-def field_of(key: str, entry: Any = None) -> str:
+def field_of(key: str, entry: int | tuple[int, ...] | None = None) -> str:
     """The Params field `new` writes for one number of the model, given as its model key and the entry
     of the key's value (None: the value itself; "norm": gravity's magnitude; i: a vector's; (i, j): an
     inertia's): `field_of("body/link/com", 1)` is "cy_link". `derive --python` binds its symbols so."""

@@ -7,7 +7,7 @@ import functools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, TypedDict, Unpack
 
 from ..core.errors import HarnessError
 from ..core.guard import DEFAULT_TIME_LIMIT, Stopped
@@ -24,6 +24,20 @@ if TYPE_CHECKING:  # numpy and mujoco are loaded when first used
     import mujoco
     import numpy as np
 
+    from ..forms import FormA, Variant
+
+
+class Changes(TypedDict, total=False):
+    """What `System.derive` may change: any of its fields."""
+
+    name: str
+    mjcf: Path
+    equations: FormA | None
+    overrides: tuple[tuple[str, float], ...]
+    locked: tuple[str, ...]
+    balance_inertia: bool
+    text: str | None
+
 
 @dataclass(frozen=True)
 class System:
@@ -31,7 +45,7 @@ class System:
 
     name: str
     mjcf: Path
-    equations: Any  # the equations module (form a after normalize), or None for the model alone
+    equations: FormA | None  # the equations module (form a after normalize), or None for the model alone
     overrides: tuple[tuple[str, float], ...] = ()
     locked: tuple[str, ...] = ()  # URDF joints made fixed (urdf.lock), a named step listed in the alignments
     balance_inertia: bool = False  # every reader given the repaired inertia of a defective link (model/inertia.py)
@@ -43,7 +57,7 @@ class System:
         if self.equations is not None:  # None: the model alone (`model_only`), no derivation to check
             object.__setattr__(self, "equations", normalize(self.equations))
 
-    def derive(self, **changes: Any) -> System:
+    def derive(self, **changes: Unpack[Changes]) -> System:
         """A copy with `changes` (overrides, text, equations) and nothing compiled or read yet."""
         return dataclasses.replace(self, **changes)  # cached properties are not copied
 
@@ -241,6 +255,14 @@ class System:
         return B
 
     @property
+    def derivation(self) -> FormA:
+        """The equations module in form (a), where a derivation is required; a HarnessError for the
+        model alone (`model_only`: no derivation to check)."""
+        if self.equations is None:
+            raise HarnessError(f"{self.name}: the model alone has no derivation (give an equations module).")
+        return self.equations
+
+    @property
     def nv(self) -> int:
         return len(self.coordinates)
 
@@ -361,11 +383,12 @@ class System:
         return from_mujoco(self.mujoco_model(), self.mjcf.name)
 
     @functools.cached_property
-    def params(self) -> Any:
-        """The equations module's `parameters(view)`, checked finite, read once."""
-        from ..handwritten.reads import numeric_fields
+    def params(self) -> object:
+        """The equations module's `parameters(view)` (a dataclass instance, hashable where frozen), checked
+        finite, read once."""
+        from ..handwritten.reads import dataclass_instance, numeric_fields
 
-        params = self.equations.parameters(self.view)
+        params = dataclass_instance(self.derivation.parameters(self.view))
         bad = [k for k, x in numeric_fields(params).items() if not math.isfinite(x)]
         if bad:
             raise HarnessError(
@@ -375,5 +398,5 @@ class System:
         return params
 
     @property
-    def variants(self) -> tuple[Any, ...]:
-        return tuple(self.equations.VARIANTS)
+    def variants(self) -> tuple[Variant, ...]:
+        return tuple(self.derivation.VARIANTS)

@@ -5,12 +5,15 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING, Any
+from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 if TYPE_CHECKING:  # the package imports this module
+    from ..handwritten.reads import ModelValue
     from . import System
+
 
 KEY_UNITS = {  # the last part of a model key -> its unit (modelview.py's key list)
     "mass": "kg",
@@ -24,7 +27,7 @@ KEY_UNITS = {  # the last part of a model key -> its unit (modelview.py's key li
 }
 
 
-def key_unit(key: str, view: Any = None) -> str:
+def key_unit(key: str, view: Mapping[str, ModelValue] | None = None) -> str:
     if key == "gravity":
         return "m/s^2"
     kind = key.rsplit("/", 1)[-1]
@@ -39,24 +42,26 @@ def key_unit(key: str, view: Any = None) -> str:
     return KEY_UNITS.get(kind, "")
 
 
-def _numeric(x: Any) -> np.ndarray | None:
+def _numeric(x: object) -> np.ndarray | None:
     try:
         return np.asarray(x, dtype=float)
     except (TypeError, ValueError):
         return None
 
 
-def parameter_keys(system: System) -> dict[str, dict[str, Any]]:
+def parameter_keys(system: System) -> dict[str, dict[str, list[str] | str]]:
     """{Params field: {"keys": model keys it sets, "unit": their unit}}: each field doubled alone, the
     keys of `assumptions` that change with it. A field no key follows gets an empty unit (unknown)."""
-    eq, params = system.equations, system.params
+    from ..handwritten.reads import dataclass_instance
+
+    eq, params = system.derivation, dataclass_instance(system.params)
     try:
         base = eq.assumptions(params)
     except Exception:  # noqa: BLE001 - the derivation's own failure is reported elsewhere
         return {}
     if not set(system.view) <= set(base):  # the derivation reads the model: the keys it reads say it
         return _read_keys(system)
-    out: dict[str, dict[str, Any]] = {}
+    out: dict[str, dict[str, list[str] | str]] = {}
     for f in dataclasses.fields(params):
         value = getattr(params, f.name)
         try:
@@ -89,21 +94,21 @@ def _kind(key: str) -> str:
     return "gravity" if key == "gravity" else key.rsplit("/", 1)[-1]
 
 
-def _read_keys(system: System) -> dict[str, dict[str, Any]]:
+def _read_keys(system: System) -> dict[str, dict[str, list[str] | str]]:
     """{Params field: {"keys": the model numbers parameters() reads for it, "unit": theirs}} (a field
     that one number alone moves in proportion has that number's unit; else unknown)."""
     from ..handwritten.reads import knobs
 
     try:
-        found = knobs(system.equations.parameters, system.view)
+        found = knobs(system.derivation.parameters, system.view)
     except Exception:  # noqa: BLE001 - the derivation's own failure is reported elsewhere
         return {}
-    out: dict[str, dict[str, Any]] = {}
+    keys: dict[str, list[str]] = {}
     for knob in found:
         for field in knob.fields:
-            entry = out.setdefault(field, {"keys": [], "unit": ""})
-            entry["keys"].append(knob.label)
-    for field, entry in out.items():
+            keys.setdefault(field, []).append(knob.label)
+    out: dict[str, dict[str, list[str] | str]] = {}
+    for field, labels in keys.items():
         alone = [k for k in found if k.fields == (field,)]
-        entry["unit"] = key_unit(alone[0].key, system.view) if len(alone) == 1 else ""
+        out[field] = {"keys": labels, "unit": key_unit(alone[0].key, system.view) if len(alone) == 1 else ""}
     return out

@@ -384,7 +384,7 @@ def _user_part(part: str, index: tuple[int, ...]) -> Any:
     """user(system, q, v) for one entry of one part of a derivation (mass_matrix, bias, ...)."""
 
     def user(system: System, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        eq, p = system.equations, system.params
+        eq, p = system.derivation, system.params
         zero = np.zeros_like(q)
         if part == "M":
             x = eq.mass_matrix(p, q)

@@ -25,7 +25,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..handwritten.forms import written_form
+from ..handwritten.forms import written_form, written_function
 from ..results.schema import Explanation
 from ..sources import make_source
 from ..systems import System
@@ -42,7 +42,7 @@ def _engine_mass(system: System, q: np.ndarray) -> np.ndarray:
 
 def _response(system: System, q: np.ndarray) -> np.ndarray:
     """d qacc / d u at rest (N, n, nu): the person's M^-1 B, column by column."""
-    qacc, p = system.equations.ORIGINAL.qacc, system.params
+    qacc, p = written_function(system.derivation, "qacc"), system.params
     zero = np.zeros_like(q)
     nu = system.input_matrix.shape[1]
     u0 = np.zeros((len(q), nu))
@@ -55,7 +55,7 @@ def force_part(part: str, index: tuple[int, ...]) -> User:
     """user(system, q, v) of one entry of a force of a u-form module, mapped back with the model's M."""
 
     def user(system: System, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        eq, p = system.equations, system.params
+        eq, p = system.derivation, system.params
         M = _engine_mass(system, q)
         zero = np.zeros_like(q)
         if part == "M":
@@ -102,7 +102,7 @@ def _input_columns(system: System, q: np.ndarray) -> np.ndarray:
     an implicit residual."""
     if written_form(system.equations) == "c":
         return np.asarray(np.einsum("nij,njk->nik", _engine_mass(system, q), _response(system, q)))
-    r, p = system.equations.ORIGINAL.residual, system.params
+    r, p = written_function(system.derivation, "residual"), system.params
     zero = np.zeros_like(q)
     nu = system.input_matrix.shape[1]
     u0 = np.zeros((len(q), nu))

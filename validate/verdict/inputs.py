@@ -15,7 +15,7 @@ import numpy as np
 
 from ..core.tolerances import TOLERANCES, Tolerances
 from ..forms import Explicit
-from ..handwritten.forms import written_form
+from ..handwritten.forms import written_form, written_function
 from ..results.schema import TermRow
 from ..systems import System
 from .judge import judge_variant
@@ -30,7 +30,7 @@ def ignored_torques(system: System, states: States) -> str:
     published form with inputs on the actuated coordinates only, transcribed with tau), said plainly."""
     if written_form(system.equations) != "c" or system.inputs != "tau":
         return ""
-    qacc, q = system.equations.ORIGINAL.qacc, states.q[:16]
+    qacc, q = written_function(system.derivation, "qacc"), states.q[:16]
     zero = np.zeros_like(q)
     try:
         with np.errstate(all="ignore"):
@@ -76,7 +76,7 @@ def acceleration_rows(
 ) -> list[TermRow]:
     """Explicit accelerations with inputs u, judged as a printed explicit form is (judge.py): each
     force's acceleration M^-1 (G, C v, friction, B u) against the engines', and the accelerations."""
-    qacc = system.equations.ORIGINAL.qacc
+    qacc = written_function(system.derivation, "qacc")
     variant = Explicit(
         name="your derivation",
         notes_equations=(),
@@ -105,7 +105,7 @@ def actuation_rows(
     system: System, states: States, terms: EngineTerms, *, error_row: ErrorRow, tolerances: Tolerances = TOLERANCES
 ) -> list[TermRow]:
     """An implicit residual with inputs u: -(r(q, 0, 0, u) - r(q, 0, 0, 0)) is the person's B u, against tau."""
-    r, p, q = system.equations.ORIGINAL.residual, system.params, states.q
+    r, p, q = written_function(system.derivation, "residual"), system.params, states.q
     zero = np.zeros_like(q)
     try:
         with np.errstate(all="ignore"):

@@ -55,14 +55,14 @@ def states_every_key(system: System) -> bool:
     the rest from the model, and the probes move what it reads (validate/verdict/probes.py)."""
     if not getattr(system.equations, "STATES_ASSUMPTIONS", True):
         return False
-    return set(system.view) <= set(system.equations.assumptions(system.params))
+    return set(system.view) <= set(system.derivation.assumptions(system.params))
 
 
 def equations_vs_model(system: System) -> list[Mismatch]:
     """Rows for every key of the compiled model and every assumption; `passed` False where they differ.
     Where the assumptions are partial (or absent), a key they do not state is read from the model, not
     assumed: no row."""
-    assumed = system.equations.assumptions(system.params)
+    assumed = system.derivation.assumptions(system.params)
     view = system.view
     strict = set(view) <= set(assumed)
     rows: list[Mismatch] = []

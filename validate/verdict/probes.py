@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import HarnessError
-from ..handwritten.reads import Knob, Overlay, knobs, numeric_fields
+from ..handwritten.reads import Knob, Overlay, dataclass_instance, knobs, numeric_fields
 from ..model.set_values import set_values
 from ..systems import System
 from . import modelsync
@@ -134,8 +134,8 @@ def _assumed_values(assumed: Mapping[str, Any]) -> dict[str, Any]:
 def build(system: System, values: dict[str, float], *, index: int, label: str) -> Probe:
     """The probe model for `values` (Params fields): written, compiled and read back."""
 
-    eq = system.equations
-    base = system.params
+    eq = system.derivation
+    base = dataclass_instance(system.params)
     params = dataclasses.replace(base, **values)
     try:
         assumed = eq.assumptions(params)
@@ -191,7 +191,7 @@ def _full(view: Any, key: str, partial: Any) -> Any:
 def build_moved(system: System, moved: dict[Knob, float], *, index: int, label: str) -> Probe:
     """The probe model with the model numbers `moved` (Knob -> new value) and the relations the
     derivation's assumptions() state at the parameters read from them: written, compiled, read."""
-    view, eq = system.view, system.equations
+    view, eq = system.view, system.derivation
     values: dict[str, Any] = {}
     for knob, value in moved.items():
         _merge(values, knob.key, knob.moved(value))
@@ -220,7 +220,7 @@ def _draw_moved(knob_list: list[Knob], rng: np.random.Generator, only: Knob | No
 
 def _moved_probes(system: System, k: int, seed: int, family: str) -> tuple[list[Probe], list[str]]:
     """Probes of a derivation that reads the model: its numbers moved, each independently."""
-    knob_list = knobs(system.equations.parameters, system.view)
+    knob_list = knobs(system.derivation.parameters, system.view)
     rng = np.random.default_rng([seed, k, len(family)])
     return _drawn(system, k, lambda i: build_moved(system, _draw_moved(knob_list, rng), index=i, label=f"probe {i}"))
 
@@ -282,7 +282,7 @@ def single_field_probes(system: System, *, seed: int = 0) -> list[Probe]:
 
 
 def _single_moved(system: System, seed: int) -> list[Probe]:
-    knob_list = knobs(system.equations.parameters, system.view)
+    knob_list = knobs(system.derivation.parameters, system.view)
     rng = np.random.default_rng([seed, 7])
     out = []
     for i, knob in enumerate(knob_list):

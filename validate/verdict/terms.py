@@ -45,7 +45,7 @@ TERM_ORDER = (
 def frictionless_params(system: System) -> Any:
     """The equations' parameters read from the same model with every joint's damping set to zero."""
     values = {k: (0.0 if k.endswith("/damping") else system.view[k]) for k in system.view}
-    return system.equations.parameters(ModelView(values, system.view.source + " (no friction)"))
+    return system.derivation.parameters(ModelView(values, system.view.source + " (no friction)"))
 
 
 def _solve(M: np.ndarray, x: np.ndarray) -> np.ndarray:

@@ -73,7 +73,7 @@ def _shaped(name: str, value: Any, shape: tuple[int, ...]) -> np.ndarray:
 
 def hand_terms(system: System, states: States) -> tuple[dict[str, np.ndarray], dict[str, str]]:
     """The derivation's terms at `states`, and for each term it could not give, why (one line)."""
-    eq, p = system.equations, system.params
+    eq, p = system.derivation, system.params
     q, v, tau = states.q, states.v, states.tau
     N, n = q.shape
     nb = len(system.bodies)
@@ -521,7 +521,7 @@ def judge_derivation(
     disagreeing term named, where it is worst, whether the model's own values hide it, and which
     parameter alone exposes it. `cache`: where the explanations of wrong entries are kept (None: nowhere)."""
 
-    result: Derivation = {"name": "hand derivation", "kind": "hand", "equations": system.equations.__name__}
+    result: Derivation = {"name": "hand derivation", "kind": "hand", "equations": system.derivation.__name__}
     rows, all_notes = _rows_at_model(system, states, sources, values, tolerances)
     probe_set = probe_set or derivation_probes(system, n_probes=n_probes, seed=seed)
     probe_rows, probe_notes = _rows_at_probes(probe_set, probe_states=probe_states, seed=seed, tolerances=tolerances)

@@ -51,7 +51,7 @@ def _label(key: str, entry: Any) -> str:
 def person_names(system: System) -> dict[str, str]:
     """{symbol of the model's equations: the person's expression for it}, e.g. {"c_pole": "l/2"}, for
     every symbol whose number one field of the person's Params follows."""
-    knob_list = knobs(system.equations.parameters, system.view)
+    knob_list = knobs(system.derivation.parameters, system.view)
     by_label = {k.label: k for k in knob_list if len(k.fields) == 1}
     derivation = derivation_of(system)
     out = {}
@@ -103,7 +103,7 @@ def unread_numbers(system: System, term: str) -> list[str]:
     derivation = derivation_of(system)
     exprs = [x for part in parts for x in _entries(getattr(derivation, part))]
     used: set[Any] = set().union(*(x.free_symbols for x in exprs)) if exprs else set()
-    read = {k.label for k in knobs(system.equations.parameters, system.view)}
+    read = {k.label for k in knobs(system.derivation.parameters, system.view)}
     unread = [s for s in derivation.source if s in used and _label(*derivation.source[s]) not in read]
     values = parameter_values(derivation, system.view)
     found = [s for s in unread if not _label(*derivation.source[s]).startswith("gravity")]
@@ -151,7 +151,7 @@ def typed_numbers(system: System) -> dict[str, float]:
     a length typed in): no model number moves them, so no probe can, and nothing checks them against
     the model. Zero fields are left out (an offset of 0 is rarely a number read wrong)."""
     base = numeric_fields(system.params)
-    followed = {f for k in knobs(system.equations.parameters, system.view) for f in k.fields}
+    followed = {f for k in knobs(system.derivation.parameters, system.view) for f in k.fields}
     return {f: v for f, v in base.items() if f not in followed and v != 0.0}
 
 

@@ -75,7 +75,7 @@ def raw_hand(system: System, states: States) -> dict[str, np.ndarray]:
     """The hand side of the pointwise check as the equations module's vectorised numpy formulas,
     called directly (one batched solve; tau_inverse at the computed accelerations)."""
     q, v, tau = states.q, states.v, states.tau
-    eq, p = system.equations, system.params
+    eq, p = system.derivation, system.params
     M = np.asarray(eq.mass_matrix(p, q), dtype=float)
     bias = np.asarray(eq.bias(p, q, v), dtype=float)
     passive = np.asarray(eq.passive(p, q, v), dtype=float)
