@@ -47,6 +47,25 @@ def dataclass_instance(params: object) -> DataclassInstance:
     return params
 
 
+def hashable(params: DataclassInstance) -> DataclassInstance:
+    """`params` itself where it can be hashed (a frozen dataclass); a plain `@dataclass` cannot, and the
+    caches key on parameter sets (the traced dynamics, the energies), so it becomes a copy of a subclass
+    hashed and compared by identity: the same fields, values and methods, shared by no other System."""
+    cls = type(params)
+    if cls.__hash__ is not None:
+        return params
+    copy = object.__new__(cls)
+    copy.__dict__.update(params.__dict__)
+    copy.__class__ = _by_identity(cls)
+    return copy
+
+
+def _by_identity(cls: type) -> type:
+    """A subclass of `cls` hashed and compared as `object` is (named as `cls`, for messages)."""
+    namespace = {"__hash__": object.__hash__, "__eq__": object.__eq__, "__module__": cls.__module__}
+    return type(cls.__name__, (cls,), {**namespace, "__qualname__": cls.__qualname__})
+
+
 def numeric_fields(params: object) -> dict[str, float]:
     """The numeric fields of what `parameters()` returned (a dataclass), by name."""
     out = {}

@@ -386,9 +386,9 @@ class System:
     def params(self) -> object:
         """The equations module's `parameters(view)` (a dataclass instance, hashable where frozen), checked
         finite, read once."""
-        from ..handwritten.reads import dataclass_instance, numeric_fields
+        from ..handwritten.reads import dataclass_instance, hashable, numeric_fields
 
-        params = dataclass_instance(self.derivation.parameters(self.view))
+        params = hashable(dataclass_instance(self.derivation.parameters(self.view)))
         bad = [k for k, x in numeric_fields(params).items() if not math.isfinite(x)]
         if bad:
             raise HarnessError(

@@ -215,3 +215,29 @@ def test_the_public_forms_module_documents_every_helper_it_exports():
     for name in forms.__all__:
         assert getattr(forms, name) is getattr(_forms, name), name
         assert name in forms.__doc__, f"lagrange_xval.forms's docstring does not document {name}"
+
+
+def test_a_module_with_a_plain_dataclass_is_judged_in_process_too(tmp_path):
+    """`Params` as a plain `@dataclass` (unhashable) in a module handed to `System` as an object: the caches
+    that key on parameter sets take it (before: TypeError: unhashable type: 'Params' at the traced dynamics)."""
+    import importlib.util
+    import sys
+
+    from lagrange_xval.dynamics.reference import rhs_check
+
+    text = (FOLDER.parent / "equations" / "simple_pendulum.py").read_text()
+    assert "@dataclass(frozen=True)" in text
+    (tmp_path / "plain_pendulum.py").write_text(text.replace("@dataclass(frozen=True)", "@dataclass"))
+    spec = importlib.util.spec_from_file_location("plain_pendulum", tmp_path / "plain_pendulum.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["plain_pendulum"] = module
+    try:
+        spec.loader.exec_module(module)
+        system = systems.System(
+            name="plain_pendulum", mjcf=FOLDER.parent / "models" / "simple_pendulum.xml", equations=module
+        )
+        assert type(system.params).__name__ == "Params" and hash(system.params) == hash(system.params)
+        assert rhs_check(system) < 1e-12
+        assert lx.check(system).passed
+    finally:
+        del sys.modules["plain_pendulum"]
