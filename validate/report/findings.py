@@ -61,7 +61,7 @@ def pointwise_rows(s: SystemResult) -> list[ComparisonRow]:
     return pw.get("rows", []) if pw else []
 
 
-Cells = tuple[object, object, object, object]  # a summary row's term, pair, scaled error and tolerance
+Cells = tuple[str | None, str | None, float | None, float | None]  # a summary row's term, pair, scaled error, tolerance
 
 
 def term_cells(w: TermSummary) -> Cells:

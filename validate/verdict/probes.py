@@ -36,6 +36,7 @@ import numpy as np
 from ..core.errors import HarnessError
 from ..handwritten.reads import Knob, Overlay, knobs, numeric_fields
 from ..model.set_values import set_values
+from ..results.schema import ProbeEntry
 from ..systems import System
 from . import modelsync
 
@@ -60,7 +61,7 @@ class Probe:
             return "the model's own parameters"
         return ", ".join(f"{k} {a:.6g} -> {b:.6g}" for k, (a, b) in self.changed.items())
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> ProbeEntry:
         return {
             "index": self.index,
             "label": self.label,
