@@ -33,7 +33,7 @@ def _cached(what: str, compute: Callable[[], T], store: Cache | None) -> T:
     path = None if where is None else where / f"{key[:32]}.npz"
     found = None if path is None else cache.load(path, key)
     if found is not None and "value" in found[1]:
-        return found[1]["value"]  # what `compute` returned, read back from JSON
+        return cast(T, found[1]["value"])  # what `compute` returned, read back from JSON
     value = compute()
     if path is not None:
         cache.store(path, key, {}, {"value": value})

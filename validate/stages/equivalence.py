@@ -12,6 +12,8 @@ from this system's model, and from each of its probe models):
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from ..core.tolerances import TOLERANCES
@@ -40,7 +42,7 @@ def _rows_at(
     q_o, v_o = states.q, states.v
     q_t, v_t = q_o @ B.T, v_o @ B.T
     this, that = HandSource(this_sys), HandSource(other_sys)
-    pairs = {
+    pairs: dict[str, Callable[[], tuple[np.ndarray, np.ndarray]]] = {
         "M": lambda: (B.T @ this.mass_matrix(q_t) @ B, that.mass_matrix(q_o)),
         "bias": lambda: (this.bias(q_t, v_t) @ B, that.bias(q_o, v_o)),
         "T": lambda: (this.energies(q_t, v_t)[0], that.energies(q_o, v_o)[0]),
