@@ -223,12 +223,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     from ..report.findings import console_lines
     from ..report.render import warm as warm_report
     from ..stages.pipeline import run
-    from .outputs import check_cache_dir, check_out, render_system, write_all
+    from .outputs import SystemFiles, check_cache_dir, check_out, render_system, write_all
     from .progress import reporter
 
     check_out(args.out)  # before hours of work, not after
     check_cache_dir(None if args.no_cache else args.cache_dir, args.out)
-    rendered: dict[str, Any] = {}
+    rendered: dict[str, SystemFiles | None] = {}
     files = absolute_files(user_files(args))
     locked = locked_joints(args)
     cache = cache_of(args)

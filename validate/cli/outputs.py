@@ -28,9 +28,10 @@ from ..core.errors import HarnessError
 from ..core.files import folder, new_file
 from ..replay import render_system as render_rrd
 from ..report import ReplayHint, render, system_section
+from ..report.document import Document
 from ..report.figstore import kept_in
 from ..results import dumps, system_json
-from ..results.schema import ReportInput, SystemResult
+from ..results.schema import Provenance, ReportInput, SystemResult
 
 OPTIONAL_RESULTS = {"bench": "bench.json", "stress": "stress.json", "chains": "chains.json"}  # bench, stress
 CACHE_FOLDER = ".cache"
@@ -131,13 +132,13 @@ def write_reports(results: Mapping[str, Any], out: Path, *, hint: ReplayHint | N
 class SystemFiles:
     """What one system contributes to the reports, rendered from its results alone."""
 
-    section: Any  # report.Document: the system's section of the report
+    section: Document  # the system's section of the report
     rrd: bytes | None  # its rerun recording (None: no trajectories, or replays not asked for)
     json: str | None = None  # its results as results.json holds them (results.system_json)
 
 
 def render_system(
-    name: str, result: SystemResult, meta: dict[str, Any], *, replay: bool = True, cache: Cache | None = None
+    name: str, result: SystemResult, meta: Provenance, *, replay: bool = True, cache: Cache | None = None
 ) -> SystemFiles | None:
     """A system's report section and recording, from its results alone: `run` calls this in the
     worker that computed them, so rendering overlaps the other systems' work. None if rendering
@@ -179,7 +180,7 @@ def write_all(
     out: Path,
     *,
     replay: bool = True,
-    rendered: dict[str, SystemFiles] | None = None,
+    rendered: dict[str, SystemFiles | None] | None = None,
     hint: ReplayHint | None = None,
 ) -> None:
     """Everything `run` produces, replacing the previous run's files (all of them) as one set.

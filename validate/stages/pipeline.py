@@ -685,7 +685,7 @@ def _submit(
     systems: list[System],
     users: list[System],
     files: list[tuple[Path, Path | None]],
-    after: Callable[[str, SystemResult, Provenance], R] | None,
+    after: Callable[[str, SystemResult, Provenance], R | None] | None,
     meta: Provenance,
     common: tuple[int, int, int, Cache | None, float, bool],
     per_file: tuple[tuple[str, ...], Cache | None, float, bool, bool],
@@ -706,7 +706,7 @@ def _submit(
 def _collect(
     futures: dict[Future[tuple[SystemResult, R | None]], System],
     progress: Progress | None,
-    after: Callable[[str, SystemResult, Provenance], R] | None,
+    after: Callable[[str, SystemResult, Provenance], R | None] | None,
     rendered: dict[str, R | None] | None,
 ) -> dict[str, SystemResult]:
     """Every system's results by name, as its worker finishes; `progress` told of each start and end,
@@ -734,7 +734,7 @@ def run(
     executor: Executor | None = None,
     n_probes: int = DEFAULT_PROBES,
     files: list[tuple[Path, Path | None]] | None = None,
-    after: Callable[[str, SystemResult, Provenance], R] | None = None,
+    after: Callable[[str, SystemResult, Provenance], R | None] | None = None,
     rendered: dict[str, R | None] | None = None,
     locked: tuple[str, ...] = (),
     cache: Cache | None = None,
