@@ -58,7 +58,11 @@ NOT_RUN = "not run"
 MAX_PLOT_POINTS = 1500  # samples per plotted series; longer series are strided (plots only)
 
 
-SOURCE_STYLE = {  # colour, line style, width: the reference solid, the engines dashed / dotted
+# A line style as matplotlib takes it: a name ("-", "--") or (offset, dash pattern)
+LineStyle: TypeAlias = str | tuple[int, tuple[int, ...]]
+
+SOURCE_STYLE: dict[str, tuple[str, LineStyle, float]] = {  # colour, line style, width: the reference solid,
+    # the engines dashed / dotted
     "hand": ("#1f2937", "-", 1.6),
     "mujoco": ("#2563eb", (0, (5, 3)), 1.4),
     "pinocchio": ("#d97706", (0, (1, 2)), 1.8),
