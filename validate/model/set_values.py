@@ -9,7 +9,7 @@ from __future__ import annotations
 import re
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Mapping
-from typing import Any, TypeAlias
+from typing import TypeAlias
 
 import numpy as np
 
@@ -363,14 +363,14 @@ class _Edit:
     """One set_values call: the parsed model, its compiled view before the edit (compiled once, when first
     needed), what has been written, and the inertial fields and damped joints left for after the loop."""
 
-    def __init__(self, text: str, root: ET.Element, model_view: Mapping[str, Any] | None) -> None:
+    def __init__(self, text: str, root: ET.Element, model_view: ModelView | None) -> None:
         self.text, self.root, self.model = text, root, _Model(root)
         self.view = model_view
         self.written: dict[str, float | np.ndarray] = {}  # key -> the full value the compiled model must give back
         self.inertials: dict[str, dict[str, Given]] = {}
         self.damping_set: set[str] = set()
 
-    def current(self) -> Mapping[str, Any]:
+    def current(self) -> ModelView:
         """The compiled model of the text before the edit."""
         if self.view is None:
             self.view = compiled_view(self.text)
@@ -471,7 +471,7 @@ class _Edit:
 
 
 def set_values(
-    text: str, values: Mapping[str, object], *, model_view: Mapping[str, Any] | None = None, verify: bool = True
+    text: str, values: Mapping[str, object], *, model_view: ModelView | None = None, verify: bool = True
 ) -> str:
     """The MJCF `text` edited so that its compiled model (`modelview.from_mujoco`) has `values`.
 
@@ -507,7 +507,7 @@ def set_values(
     return edited
 
 
-def _inertia_as_compiled(model: _Model, view: Mapping[str, Any]) -> None:
+def _inertia_as_compiled(model: _Model, view: ModelView) -> None:
     """<compiler inertiafromgeom="true"> (every body's inertia from its geoms, <inertial> ignored) made
     "auto", each <inertial> the model has set to what the geoms gave: the compiled model is unchanged,
     and a body's inertia can now be written."""
@@ -530,7 +530,7 @@ def _write_inertial(
     model: _Model,
     name: str,
     fields: dict[str, Given],
-    current: Callable[[], Mapping[str, Any]],
+    current: Callable[[], ModelView],
     written: dict[str, float | np.ndarray],
 ) -> None:
     """Mass, com and inertia of one body into its <inertial> (created, from the compiled model, if absent)."""
@@ -572,7 +572,7 @@ def _write_inertial(
         written[key] = tensor
 
 
-def _verify(edited: str, before: Mapping[str, Any], written: dict[str, float | np.ndarray]) -> None:
+def _verify(edited: str, before: ModelView, written: dict[str, float | np.ndarray]) -> None:
     """Every written key reads back as written and every other key as it was."""
     after = compiled_view(edited)
     for key in sorted(set(before) | set(after)):

@@ -29,12 +29,12 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from ..core.errors import HarnessError
 from ..handwritten.reads import Knob, Overlay, knobs, numeric_fields
+from ..model.modelview import ModelView
 from ..model.set_values import set_values
 from ..results.schema import ProbeEntry
 from ..systems import System
@@ -181,7 +181,7 @@ def _merge(values: dict[str, float | np.ndarray], key: str, given: object) -> No
     values[key] = np.where(np.isnan(new), old, new)
 
 
-def _full(view: Mapping[str, Any], key: str, given: float | np.ndarray) -> float | np.ndarray:
+def _full(view: ModelView, key: str, given: float | np.ndarray) -> float | np.ndarray:
     """The key's value in `view` with `given`'s non-NaN entries written over it."""
     partial = np.asarray(given, dtype=float)
     if partial.ndim == 0:
