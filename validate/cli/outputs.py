@@ -20,7 +20,7 @@ import tempfile
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, cast
+from typing import cast
 
 from ..core.cache import harness_hash, load_bytes, store_bytes
 from ..core.cachedir import Cache
@@ -31,7 +31,7 @@ from ..report import ReplayHint, render, system_section
 from ..report.document import Document
 from ..report.figstore import kept_in
 from ..results import dumps, system_json
-from ..results.schema import Provenance, ReportInput, SystemResult
+from ..results.schema import Provenance, ReportInput, RunResults, SystemResult
 
 OPTIONAL_RESULTS = {"bench": "bench.json", "stress": "stress.json", "chains": "chains.json"}  # bench, stress
 CACHE_FOLDER = ".cache"
@@ -106,7 +106,7 @@ def check_cache_dir(cache_dir: Path | None, out: Path) -> None:
         )
 
 
-def with_optional_results(results: Mapping[str, Any], out: Path) -> ReportInput:
+def with_optional_results(results: Mapping[str, object], out: Path) -> ReportInput:
     """The results plus the benchmark and stress results found in the reports folder, for rendering."""
     import json
 
@@ -121,7 +121,7 @@ def with_optional_results(results: Mapping[str, Any], out: Path) -> ReportInput:
     return cast(ReportInput, merged)  # results.json's shape (results/schema.py), and the studies found beside it
 
 
-def write_reports(results: Mapping[str, Any], out: Path, *, hint: ReplayHint | None = None) -> None:
+def write_reports(results: Mapping[str, object], out: Path, *, hint: ReplayHint | None = None) -> None:
     """report.md, report.html and their plots, replacing those of the folder as one set."""
 
     files = render(with_optional_results(results, out), hint=hint)  # may fail: nothing written yet
@@ -176,7 +176,7 @@ class CachedFigures:
 
 
 def write_all(
-    results: Mapping[str, Any],
+    results: RunResults,
     out: Path,
     *,
     replay: bool = True,
