@@ -7,7 +7,7 @@ documented where they are made (dynamics/chaos.py, dynamics/experiments.py, stag
 Non-finite numbers are written as strings ("inf", "nan"): JSON has none.
 """
 
-from typing import Any, NotRequired, TypedDict
+from typing import NotRequired, TypedDict
 
 from ..core.arrays import Json, Matrix
 from .stages import Stage
@@ -638,13 +638,221 @@ class RunResults(TypedDict):
     passed: bool
 
 
+# bench.json, stress.json and chains.json as the report reads them (studies/bench, studies/stress,
+# studies/chains.py write them; every key optional: a file of an older harness may lack one).
+
+
+class BenchConfig(TypedDict, total=False):
+    quick: bool
+    repeats: int
+
+
+class BenchRow(TypedDict, total=False):
+    """One method at one setting on one system: its CPU time and errors."""
+
+    system: str
+    method: str
+    setting: str
+    value: float  # the setting's value (a tolerance, a timestep)
+    status: str  # "ok", or why the run failed
+    cpu_s: float
+    error_2s: float  # rad
+    error_10s: float  # rad
+
+
+class TimeToEpsilon(TypedDict, total=False):
+    system: str
+    method: str
+    epsilon: float  # rad
+    cpu_s: float
+    result: str  # "reached" or why not
+
+
+class FrontierEntry(TypedDict, total=False):
+    """The fastest method measured at one error, and the harness's default path at the same error."""
+
+    epsilon: float
+    fastest: BenchRow | None
+    default_path: BenchRow | None
+    ratio: float | None  # default / fastest (CPU)
+    why: str  # no ratio: why
+
+
+class Frontier(TypedDict, total=False):
+    per_system: dict[str, list[FrontierEntry]]
+
+
+class Paired(TypedDict, total=False):
+    """A check timed again side by side with its fastest run."""
+
+    cpu_s: float
+    fastest_cpu_s: float
+
+
+class CheckCost(TypedDict, total=False):
+    """One of the harness's trajectory checks against the fastest run computing the same at its error."""
+
+    system: str
+    check: str
+    kind: str  # "windows", "user", ...
+    method: str
+    cpu_s: float
+    error_2s: float
+    windows_ulps_vs_mujoco: float
+    fastest: BenchRow | None
+    why: str
+    ratio: float | None
+    paired: Paired | None
+    sweep_ratio: float | None
+    passed: bool | None
+    target: float | None
+
+
+class Checks(TypedDict, total=False):
+    rows: list[CheckCost]
+    target: float
+
+
+class BenchRatios(TypedDict, total=False):
+    default_path_vs_frontier: Frontier
+    harness_checks_vs_fastest: Checks
+
+
+class BenchResults(TypedDict, total=False):
+    """bench.json (studies/bench/output.py)."""
+
+    meta: Provenance
+    config: BenchConfig
+    ratios: BenchRatios
+    systems: list[str]
+    rows: list[BenchRow]
+    pareto: dict[str, list[BenchRow] | dict[str, list[BenchRow]]]  # per system (older files: per horizon)
+    time_to_epsilon: list[TimeToEpsilon]
+
+
+class StabilityRow(TypedDict, total=False):
+    """The largest stable timestep of one system, integrator, engine and initial speed, by one criterion."""
+
+    system: str
+    integrator: str
+    engine: str
+    speed: float  # rad/s
+    criterion: str  # "energy x2" or "divergence"
+    max_stable: float | None  # s
+
+
+class EnergySeries(TypedDict, total=False):
+    t: list[float]
+    dE: list[float]  # J
+
+
+# One long-horizon energy run (studies/stress/energy.py; "class", a keyword, is how the energy behaves)
+DriftRow = TypedDict(
+    "DriftRow",
+    {
+        "system": str,
+        "integrator": str,
+        "engine": str,
+        "horizon": float,
+        "class": str,
+        "relative_max": float,
+        "rate": float,
+        "series": EnergySeries,
+    },
+    total=False,
+)
+
+
+class ConditioningSummary(TypedDict, total=False):
+    """One conditioning sweep of one quantity (studies/stress/conditioning.py)."""
+
+    system: str
+    sweep: str
+    kind: str
+    quantity: str
+    cond_range: list[float]
+    disagreement_range: list[float]
+    base_tier_fails_from_cond: float | None
+
+
+class ConditioningPoint(TypedDict, total=False):
+    system: str
+    quantity: str
+    cond_max: float
+    scaled: float
+
+
+class SolveTierProposal(TypedDict, total=False):
+    measured_C_cond: float
+    formula: str
+
+
+class StiffRun(TypedDict, total=False):
+    damping_factor: float
+    integrator: str
+    engine: str
+    timestep: float  # s
+    stable: bool
+    max_error: float  # rad
+
+
+class StressResults(TypedDict, total=False):
+    """stress.json (studies/stress/output.py)."""
+
+    meta: Provenance
+    provenance: Provenance  # stress.json before the block was named "meta"
+    quick: bool
+    criteria: dict[str, str]
+    stability: list[StabilityRow]
+    drift: list[DriftRow]
+    conditioning: list[ConditioningPoint]
+    conditioning_summary: list[ConditioningSummary]
+    solve_tier_proposal: SolveTierProposal
+    stiff_friction: list[StiffRun]
+
+
+class SymbolicCost(TypedDict, total=False):
+    derive_s: float
+    codegen_s: float
+    ops_M_Cv: int
+
+
+class ChainRow(TypedDict, total=False):
+    """One generated chain (studies/chains.py)."""
+
+    kind: str  # "planar" or "spatial"
+    n: int
+    per_state_s: dict[str, dict[str, float]]  # source -> operation ("M", "forward", ...) -> s
+    symbolic: SymbolicCost
+    worst_scaled: dict[str, float]  # "quantity pair" -> scaled disagreement
+    all_within_tiers: bool
+    cond_M_max: float
+
+
+class ChainStop(TypedDict, total=False):
+    n: int
+    why: str
+
+
+class ChainsStudy(TypedDict, total=False):
+    """chains.json (studies/chains.py)."""
+
+    rows: list[ChainRow]
+    ns: list[int]
+    n_states: int
+    repeats: int
+    symbolic_budget_s: float
+    slopes: dict[str, dict[str, float]]  # chains and source -> operation -> log-log slope
+    symbolic_stopped_at: dict[str, ChainStop]
+
+
 class ReportInput(RunResults, total=False):
     """What the report is rendered from: results.json, with the results of `bench`, `stress` and the chain
     study found beside it (cli/outputs.with_optional_results)."""
 
-    bench: dict[str, Any]
-    stress: dict[str, Any]
-    chains: dict[str, Any]
+    bench: BenchResults
+    stress: StressResults
+    chains: ChainsStudy
     skipped: str
 
 
