@@ -15,9 +15,9 @@ parameter sets (validate/verdict/verdict.py).
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TypedDict, Unpack
 
 import numpy as np
 
@@ -86,11 +86,11 @@ class Result:
         )
 
 
-def _round(x: Any) -> list[float]:
+def _round(x: Iterable[float] | None) -> list[float]:
     return [round(float(v), 6) for v in (x or [])]
 
 
-def _f(x: Any) -> float:
+def _f(x: float | str) -> float:
     try:
         return float(x)
     except (TypeError, ValueError):
@@ -113,12 +113,31 @@ def _row(check: str, r: ComparisonRow | TermRow, quantity: str, *, probe: int | 
     )
 
 
+class CheckOptions(TypedDict, total=False):
+    """`check`'s keyword options."""
+
+    n_states: int
+    seed: int
+    probes: int
+    tolerances: Tolerances
+    cache: Cache | None
+
+
+class DecideOptions(TypedDict):
+    """What `check` hands `decide` besides the cache: the key of a kept decision."""
+
+    n_states: int
+    seed: int
+    probes: int
+    tolerances: Tolerances
+
+
 def _stop_is_a_verdict(fn: Callable[..., Result]) -> Callable[..., Result]:
     """`check`, where an equations module stopped (it hung or tried to exit: validate/core/guard.py) is a
     failing result naming the function, not an exception."""
 
     @functools.wraps(fn)
-    def guarded(system: System | str, **options: Any) -> Result:
+    def guarded(system: System | str, **options: Unpack[CheckOptions]) -> Result:
         worker = getattr(getattr(system, "equations", None), "WORKER", None)
         if worker is not None:  # a person's module in its worker: the time limit is per check, as per command
             worker.renew()
@@ -160,7 +179,7 @@ def check(
     return result_of(decision)
 
 
-def kept_decision(system: System, *, cache: Cache | None, **options: Any) -> Decision:
+def kept_decision(system: System, *, cache: Cache | None, **options: Unpack[DecideOptions]) -> Decision:
     """`decide`'s Decision, kept with the System (its memo, gone with it): `check` repeated on an unchanged
     System (the same object, the same functions in its module, the same options) is not judged again.
     A System is a snapshot already (its model is compiled once); a function of its module replaced in

@@ -19,15 +19,20 @@ and the probe parameter set where it shows.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Unpack
 
-from .api import Result, System, check
+from .api import CheckOptions, Result, System, check
 from .systems import pairs_in
+
+if TYPE_CHECKING:  # pytest is imported when `systems_in` is called
+    from _pytest.mark.structures import ParameterSet
 
 __all__ = ["assert_equations_match", "systems_in"]
 
 
-def assert_equations_match(model: str | Path | System, equations: str | Path | None = None, **options: Any) -> Result:
+def assert_equations_match(
+    model: str | Path | System, equations: str | Path | None = None, **options: Unpack[CheckOptions]
+) -> Result:
     """Checks a derivation against MuJoCo and Pinocchio, with the verdict `lagrange_xval.check` gives
     (its keyword options: n_states, seed, probes, tolerances, cache), and raises AssertionError if
     any comparison fails; returns the Result."""
@@ -44,7 +49,7 @@ def assert_equations_match(model: str | Path | System, equations: str | Path | N
     return result
 
 
-def systems_in(folder: str | Path) -> list[Any]:
+def systems_in(folder: str | Path) -> list[ParameterSet]:
     """pytest parameters, one per system in `folder`: each `<name>.xml` paired with `<name>.py`.
     A file without its partner is an error naming it (a derivation left unchecked is never silent)."""
     import pytest

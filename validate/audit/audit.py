@@ -19,13 +19,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
+from ..core.arrays import Json
 from ..core.errors import HarnessError
-from ..model.meaning import Reading, fields, urdf_meaning
+from ..model.meaning import FieldValue, Reading, fields, urdf_meaning
 from ..model.modelview import key_parts
+from ..results.schema import Audit, AuditRow, MassMatrixGaps, Misread
 from ..sources import SYMBOLIC_MAX_DOF
 from ..sources.readers import read
 from ..systems import System
@@ -51,7 +52,7 @@ FRAME = (
 UNITS = {"mass": "kg", "com": "m", "anchor": "m", "damping": "N m s/rad", "armature": "kg m^2", "inertia": "kg m^2"}
 
 
-def _same(a: Any, b: Any, floor: float) -> bool:
+def _same(a: FieldValue, b: FieldValue, floor: float) -> bool:
     if a is None or b is None or isinstance(a, str) or isinstance(b, str):
         return a == b
     if isinstance(a, tuple) or isinstance(b, tuple):  # a mimic: (leader, multiplier, offset)
@@ -72,7 +73,7 @@ def _same(a: Any, b: Any, floor: float) -> bool:
     return bool(np.all(np.abs(x - y) <= RTOL * scale))
 
 
-def _fmt(x: Any) -> Any:
+def _fmt(x: FieldValue) -> Json:
     if x is None or isinstance(x, str):
         return x
     if isinstance(x, tuple):
@@ -81,13 +82,15 @@ def _fmt(x: Any) -> Any:
     return float(arr) if arr.ndim == 0 else np.round(arr, 12).tolist()
 
 
-def _short(x: Any) -> str:
+def _short(x: FieldValue) -> str:
     """A value in a finding: a number to 3 significant digits, a short array rounded."""
     v = _fmt(x)
     if isinstance(v, float):
         return f"{v:.3g}"
     if isinstance(v, list) and v and isinstance(v[0], list):
-        return "[" + ", ".join("[" + " ".join(f"{e:.3g}" for e in row) + "]" for row in v) + "]"
+        return (
+            "[" + ", ".join("[" + " ".join(f"{e:.3g}" for e in row) + "]" for row in v if isinstance(row, list)) + "]"
+        )
     if isinstance(v, list) and all(isinstance(e, float) for e in v):
         return "[" + " ".join(f"{e:.3g}" for e in v) + "]"
     return "none" if v is None else str(v)
@@ -104,12 +107,17 @@ def _cause(
 
 
 def _finding(
-    reader: str, key: str, value: Any, reference: Any, fmt: str, found: set[str], names: tuple[str, ...]
-) -> dict[str, Any]:
+    reader: str, key: str, value: FieldValue, reference: FieldValue, fmt: str, found: set[str], names: tuple[str, ...]
+) -> Misread:
     parts = key_parts(key)
     name, field = (parts[1], parts[2]) if parts else (key.split("/")[1], key.split("/")[-1])
     rotated = field != "inertia" or bool(
-        np.allclose(np.linalg.eigvalsh(value), np.linalg.eigvalsh(reference), rtol=1e-6, atol=1e-15)
+        np.allclose(
+            np.linalg.eigvalsh(np.asarray(value, dtype=float)),
+            np.linalg.eigvalsh(np.asarray(reference, dtype=float)),
+            rtol=1e-6,
+            atol=1e-15,
+        )
     )
     entry, cause, url = _cause(reader, fmt, field, found, names, rotated)
     unit = f" {UNITS[field]}" if field in UNITS else ""
@@ -137,14 +145,16 @@ def _reference(path: Path, text: str, fmt: str) -> Reading:
     return urdf_meaning(text, path.name) if fmt == "urdf" else read("mujoco", path, text, fmt)
 
 
-def _rows(reference: Reading, readings: dict[str, Reading], fmt: str, found: set[str]) -> list[dict[str, Any]]:
+def _rows(reference: Reading, readings: dict[str, Reading], fmt: str, found: set[str]) -> list[AuditRow]:
     labels = {j: r.body for j, r in reference.joints.items()}
     flat = {name: fields(r, labels) for name, r in readings.items()}
     ref = fields(reference, labels)
-    extent = max([float(np.abs(v).max()) for k, v in ref.items() if k.endswith("/anchor")] + [1.0])
+    extent = max(
+        [float(np.abs(np.asarray(v, dtype=float)).max()) for k, v in ref.items() if k.endswith("/anchor")] + [1.0]
+    )
     # an inertia is judged against the largest m l^2 it is added to in M (a point mass's 1e-14 kg m^2 is
     # rounding once its centre is shifted by 1 m)
-    masses = [float(v) for k, v in ref.items() if k.endswith("/mass")]
+    masses = [float(np.asarray(v, dtype=float)) for k, v in ref.items() if k.endswith("/mass")]
     inertia_floor = max(masses + [0.0]) * extent**2
     scope = {}  # a key's element -> the names a catalogue feature may be on (the group's links, its joint)
     for j, r in reference.joints.items():
@@ -161,22 +171,22 @@ def _rows(reference: Reading, readings: dict[str, Reading], fmt: str, found: set
             values = {name: f[key] for name, f in flat.items() if key in f}
         floor = extent if key.endswith(LENGTHS) else inertia_floor if key.endswith("/inertia") else 0.0
         wrong = [n for n, v in values.items() if not _same(v, want, floor)]
-        row: dict[str, Any] = {
+        name = (key_parts(key) or ("", key.split("/")[1], ""))[1]
+        names = scope.get(name, (name,))
+        row: AuditRow = {
             "key": key,
             "reference": _fmt(want),
             "values": {n: _fmt(v) for n, v in values.items()},
             "agree": not wrong,
             "informational": key.endswith(INFORMATIONAL),
+            "misreads": [_finding(n, key, values[n], want, fmt, found, names) for n in wrong],
         }
-        name = (key_parts(key) or ("", key.split("/")[1], ""))[1]
-        names = scope.get(name, (name,))
-        row["misreads"] = [_finding(n, key, values[n], want, fmt, found, names) for n in wrong]
         rows.append(row)
     return rows
 
 
-def _missing(reference: Reading, readings: dict[str, Reading], fmt: str, found: set[str]) -> list[dict[str, Any]]:
-    out = []
+def _missing(reference: Reading, readings: dict[str, Reading], fmt: str, found: set[str]) -> list[Misread]:
+    out: list[Misread] = []
     for name, r in readings.items():
         absent = [j for j in reference.joints if j not in r.joints]
         if absent:
@@ -204,7 +214,7 @@ def audit_file(
     inputs: Mapping[str, tuple[Path, str]] | None = None,
     seed: int = 0,
     n_states: int = N_STATES,
-) -> dict[str, Any]:
+) -> Audit:
     """Every reader of the model file against the format's meaning. `inputs`: a reader's own copy of the
     file ((path, text)), to plant a fault in one reader's input only; default: every reader reads `text`."""
     reference = _reference(path, text, fmt)
@@ -262,9 +272,7 @@ def _file_of(system: System) -> tuple[Path, str, str]:
     return system.mjcf, system.mjcf.read_text() if unchanged else system.mjcf_xml(), fmt
 
 
-def audit(
-    system: System, *, seed: int = 0, n_states: int = N_STATES, inputs: dict[str, Any] | None = None
-) -> dict[str, Any]:
+def audit(system: System, *, seed: int = 0, n_states: int = N_STATES, inputs: dict[str, System] | None = None) -> Audit:
     """The audit of the system's model file (`audit_file`), with the mass matrices of the harness's
     sources compared at `n_states` seeded states where the model is in its scope. `inputs`: a reader's
     own copy of the model (a System), to plant a fault in one reader's input only."""
@@ -279,12 +287,12 @@ def audit(
 
 def consequences(
     reference: Reading, readings: Mapping[str, Reading], *, seed: int = 0, n_states: int = N_STATES
-) -> dict[str, Any]:
+) -> MassMatrixGaps:
     """What each reading does to the dynamics: max |M_reader - M_format| (kg m^2 or kg) and max
     |G_reader - G_format| (N m or N) at `n_states` seeded configurations of the format's coordinates
     (validate/audit/chain.py on each reading; a reader missing a joint is not compared)."""
     ref = chain(reference)
-    out: dict[str, Any] = {"n_states": n_states, "seed": seed, "max_abs": {}, "gravity_max_abs": {}}
+    out: MassMatrixGaps = {"n_states": n_states, "seed": seed, "max_abs": {}, "gravity_max_abs": {}}
     if not ref.joints:
         return out  # nothing moves
     rng = np.random.default_rng(seed)
@@ -306,7 +314,7 @@ def consequences(
 SHOWN = 12  # misreadings printed in full; the rest are counted by cause
 
 
-def _summary(misreads: list[dict[str, Any]]) -> list[str]:
+def _summary(misreads: list[Misread]) -> list[str]:
     """One line per (reader, cause) where there are more misreadings than are printed."""
     if len(misreads) <= SHOWN:
         return []
@@ -317,7 +325,7 @@ def _summary(misreads: list[dict[str, Any]]) -> list[str]:
     return [f"  {LABEL[r]}: {n} fields, {entry}" for (r, entry), n in sorted(counts.items(), key=lambda x: -x[1])]
 
 
-def lines(result: dict[str, Any]) -> list[str]:
+def lines(result: Audit) -> list[str]:
     """The audit in one screen: what was compared, each misreading named with its cause, the warnings,
     the M gaps."""
     readers = ", ".join(LABEL[r] for r in result["readers"])
@@ -389,7 +397,7 @@ def set_aside(system: System) -> dict[str, str]:
     return out
 
 
-def audit_of(system: System, *, seed: int = 0) -> dict[str, Any]:
+def audit_of(system: System, *, seed: int = 0) -> Audit:
     """The audit for `run`'s results, or why it could not be made ({"error": ...})."""
     try:
         return audit(system, seed=seed)

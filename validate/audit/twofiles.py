@@ -24,13 +24,13 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 from pathlib import Path
-from typing import Any
+from typing import NotRequired, TypedDict
 
 import numpy as np
 
 from ..core.errors import HarnessError
 from ..core.inputs import regular_file
-from ..model.meaning import Reading, urdf_meaning
+from ..model.meaning import FieldValue, Reading, urdf_meaning
 from ..sources.readers import read
 from .chain import Chain, chain, dynamics, kinematics
 
@@ -170,18 +170,54 @@ def _above(j: str, k: str, reading: Reading) -> bool:
 ORDER = ("G", "bias", "M", "anchor", "axis", "com")  # the torques first: what a person's equations feel
 
 
-def _joint_lines(gaps: dict[str, np.ndarray], scale: dict[str, float], names: list[str]) -> list[dict[str, Any]]:
+class JointGap(TypedDict):
+    """One joint's quantity that differs between the two files, and why."""
+
+    joint: str
+    quantity: str  # one of ORDER
+    gap: float
+    what: str
+    unit: str
+    causes: NotRequired[list[str]]
+    finding: NotRequired[str]
+
+
+class FileRef(TypedDict):
+    file: str
+    format: str  # "mjcf" or "urdf"
+
+
+class TwoFiles(TypedDict):
+    """Two files of one robot compared (`compare`)."""
+
+    a: FileRef
+    b: FileRef
+    matched_joints: list[str]
+    unmatched_joints: dict[str, list[str]]  # "A", "B": the joints only that file has
+    unmatched_bodies: dict[str, list[str]]
+    n_states: int
+    seed: int
+    rtol: float
+    max_gap: dict[str, float]
+    scale: dict[str, float]
+    differences: list[JointGap]
+    joint_fields: list[str]
+    findings: list[str]
+    passed: bool
+
+
+def _joint_lines(gaps: dict[str, np.ndarray], scale: dict[str, float], names: list[str]) -> list[JointGap]:
     units = {"G": "N m", "bias": "N m", "M": "kg m^2", "anchor": "m", "axis": "", "com": "m"}
     words = {"G": "gravity torque", "bias": "bias force", "M": "mass matrix row", "anchor": "anchor", "axis": "axis"}
     words["com"] = "group's centre of mass"
-    out = []
+    out: list[JointGap] = []
     for key in ORDER:
-        rows = [
+        rows: list[JointGap] = [
             {"joint": j, "quantity": key, "gap": float(gaps[key][i]), "what": words[key], "unit": units[key]}
             for i, j in enumerate(names)
             if gaps[key][i] > RTOL * scale[key]
         ]
-        out += sorted(rows, key=lambda r: -float(r["gap"]))  # type: ignore[arg-type]
+        out += sorted(rows, key=lambda r: -float(r["gap"]))
     return out
 
 
@@ -205,7 +241,7 @@ def _joint_fields(names: list[str], ra: Reading, rb: Reading) -> list[str]:
     return out
 
 
-def _text(x: Any) -> str:
+def _text(x: FieldValue) -> str:
     if x is None or isinstance(x, str):
         return str(x)
     if isinstance(x, tuple):
@@ -214,7 +250,7 @@ def _text(x: Any) -> str:
     return " ".join(f"{v:.4g}" for v in arr) if arr.size > 1 else f"{arr[0]:.4g}"
 
 
-def compare(a: Path, b: Path, *, n_states: int = N_STATES, seed: int = 0) -> dict[str, Any]:
+def compare(a: Path, b: Path, *, n_states: int = N_STATES, seed: int = 0) -> TwoFiles:
     """The two files compared (the module docstring); `passed` when every matched quantity agrees."""
     ra, fa, ta = load(a)
     rb, fb, tb = load(b)
@@ -271,7 +307,7 @@ def compare(a: Path, b: Path, *, n_states: int = N_STATES, seed: int = 0) -> dic
     }
 
 
-def lines(result: dict[str, Any]) -> list[str]:
+def lines(result: TwoFiles) -> list[str]:
     """The comparison in one screen."""
     a, b = result["a"], result["b"]
     out = [

@@ -13,8 +13,8 @@ import errno
 import os
 import signal
 import sys
-from collections.abc import Iterator
-from typing import Any
+from collections.abc import Callable, Iterator
+from types import FrameType
 
 from ..core.errors import HarnessError, Terminated, console
 from ..core.guard import Stopped
@@ -24,15 +24,18 @@ from .parser import MAX_STATES_FILE_BYTES, build_parser, one_line
 __all__ = ["COMMANDS", "MAX_STATES_FILE_BYTES", "main"]
 
 
-def _handlers(owner: int) -> tuple[Any, Any]:
+Handler = Callable[[int, FrameType | None], None]  # a signal handler
+
+
+def _handlers(owner: int) -> tuple[Handler, Handler]:
     """SIGINT and SIGTERM handlers for the process `owner`. A pool worker forked before its initializer
     ran inherits them: there SIGINT is ignored (the parent reports it) and SIGTERM kills silently."""
 
-    def interrupt(signum: int, frame: Any) -> None:
+    def interrupt(signum: int, frame: FrameType | None) -> None:
         if os.getpid() == owner:
             raise KeyboardInterrupt
 
-    def terminate(signum: int, frame: Any) -> None:
+    def terminate(signum: int, frame: FrameType | None) -> None:
         signal.signal(signal.SIGTERM, signal.SIG_DFL if os.getpid() != owner else signal.SIG_IGN)
         if os.getpid() != owner:
             os.kill(os.getpid(), signal.SIGTERM)

@@ -3,10 +3,11 @@ one JSON object (README, "check --json schema")."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TypedDict
 
 import numpy as np
 
+from ..core.arrays import JsonObject
 from ..results import to_jsonable
 from ..results.schema import ComparisonRow, Mismatch
 from ..systems import System
@@ -26,7 +27,31 @@ def verdict_line(decision: Decision) -> str:
     return f"verdict: {decision.system.name}: {'pass' if decision.passed else 'FAIL'}: {decision.statement}"
 
 
-def verdict_data(decision: Decision) -> dict[str, Any]:
+class TermLine(TypedDict):
+    """One term of the verdict in `check --json` (a TermSummary's fields)."""
+
+    term: str | None
+    passed: bool | None
+    worst_scaled: float | None
+    tolerance: float | None
+    engine: str | None
+    probe: int | None
+
+
+class VerdictData(TypedDict):
+    """The verdict in `check --json` (README, "check --json schema")."""
+
+    passed: bool
+    statement: str
+    derivation: str
+    first_disagreeing_term: str | None
+    hidden_by_model_values: bool
+    model_mismatches: list[str]
+    excluded: dict[str, str]
+    terms: list[TermLine]
+
+
+def verdict_data(decision: Decision) -> VerdictData:
     """The verdict in the JSON object: what `lagrange_xval.check` and `run` decide, term by term."""
     d = decision.derivation
     return {
@@ -38,7 +63,14 @@ def verdict_data(decision: Decision) -> dict[str, Any]:
         "model_mismatches": [m["key"] for m in mismatches(decision)],
         "excluded": dict(decision.excluded or {}),
         "terms": [
-            {k: t.get(k) for k in ("term", "passed", "worst_scaled", "tolerance", "engine", "probe")}
+            {
+                "term": t.get("term"),
+                "passed": t.get("passed"),
+                "worst_scaled": t.get("worst_scaled"),
+                "tolerance": t.get("tolerance"),
+                "engine": t.get("engine"),
+                "probe": t.get("probe"),
+            }
             for t in d.get("summary", [])
         ],
     }
@@ -50,16 +82,16 @@ def json_document(
     values: dict[str, dict[str, np.ndarray]],
     rows: list[ComparisonRow],
     passed: bool,
-    verdict: dict[str, Any] | None = None,
-) -> dict[str, Any]:
+    verdict: VerdictData | None = None,
+) -> JsonObject:
     """`check --json`: the states, every source's quantities at each, the largest disagreement of
     each quantity and pair, `passed`, and the `verdict` (absent with --pointwise-only)."""
-    disagreement: dict[str, dict[str, Any]] = {}
+    disagreement: dict[str, dict[str, dict[str, float | bool]]] = {}
     for r in rows:
         disagreement.setdefault(r["quantity"], {})[r["pair"]] = {
             k: r[k] for k in ("max_abs", "scaled", "tolerance", "passed")
         }
-    out: dict[str, Any] = {
+    out: dict[str, object] = {
         "system": system.name,
         "coordinates": list(system.coordinates),
         "states": [
@@ -79,7 +111,7 @@ def json_document(
     return dict(to_jsonable(out))
 
 
-def decision_json(decision: Decision) -> dict[str, Any]:
+def decision_json(decision: Decision) -> JsonObject:
     """`check --json` of a verdict: `passed` is the verdict's."""
     rows = decision.pointwise["rows"] if decision.pointwise is not None else []
     values = decision.values or {}

@@ -38,6 +38,7 @@ from .parser import MAX_STATES_FILE_BYTES, one_line
 from .watch import cmd_watch
 
 if TYPE_CHECKING:
+    from ..model.modelview import ModelView
     from ..report import ReplayHint
 
 
@@ -61,7 +62,7 @@ def describe(name: str) -> tuple[bool, list[str]]:
     return True, lines
 
 
-def system_lines(s: Any) -> list[str]:
+def system_lines(s: System) -> list[str]:
     lines = [f"{s.name}: {s.nv} dof, coordinates ({', '.join(s.coordinates)}); uses {', '.join(sorted(s.uses))}"]
     return lines + [f"    {v.kind:16s} {v.name}  [{', '.join(v.notes_equations)}]" for v in s.variants]
 
@@ -93,7 +94,7 @@ def describe_files(model: Path, equations: Path | None) -> tuple[bool, list[str]
     return True, system_lines(s)
 
 
-def numbers(path: Path, i: int, name: str, x: Any, system: System) -> list[float]:
+def numbers(path: Path, i: int, name: str, x: object, system: System) -> list[float]:
     """`x` as a list of nv floats; JSON types are checked, never coerced ("0.5" and true are not numbers)."""
     if not isinstance(x, list) or len(x) != system.nv:
         raise HarnessError(
@@ -223,12 +224,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     from ..report.findings import console_lines
     from ..report.render import warm as warm_report
     from ..stages.pipeline import run
-    from .outputs import check_cache_dir, check_out, render_system, write_all
+    from .outputs import SystemFiles, check_cache_dir, check_out, render_system, write_all
     from .progress import reporter
 
     check_out(args.out)  # before hours of work, not after
     check_cache_dir(None if args.no_cache else args.cache_dir, args.out)
-    rendered: dict[str, Any] = {}
+    rendered: dict[str, SystemFiles | None] = {}
     files = absolute_files(user_files(args))
     locked = locked_joints(args)
     cache = cache_of(args)
@@ -316,7 +317,7 @@ def user_files(args: argparse.Namespace) -> list[tuple[Path, Path | None]] | Non
             "--model and --equations go together here (only `run`, `check` and `derive` take a model alone): "
             "give your equations module."
         )
-    files: list[Any] = [(model, equations)] if model is not None else []
+    files: list[tuple[Path, Path | None]] = [(model, equations)] if model is not None else []
     folder = getattr(args, "systems_dir", None)
     if folder is not None and getattr(args, "command", "") in ("run", "list"):
         pairs, lonely = pairs_and_lonely(folder)  # run and list name a file without its partner and go on
@@ -432,7 +433,7 @@ def affordable(n: int, *, spatial: bool = False, python: bool = False) -> None:
         )
 
 
-def is_spatial(view: Any, joints: tuple[str, ...]) -> bool:
+def is_spatial(view: ModelView, joints: tuple[str, ...]) -> bool:
     """Joint axes not all parallel, or a body frame rotated: what makes a derivation cost more than a
     planar chain's (validate/studies/chains.py SPATIAL_FACTOR)."""
     import numpy as np

@@ -20,7 +20,7 @@ import tempfile
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, cast
+from typing import cast
 
 from ..core.cache import harness_hash, load_bytes, store_bytes
 from ..core.cachedir import Cache
@@ -28,9 +28,10 @@ from ..core.errors import HarnessError
 from ..core.files import folder, new_file
 from ..replay import render_system as render_rrd
 from ..report import ReplayHint, render, system_section
+from ..report.document import Document
 from ..report.figstore import kept_in
 from ..results import dumps, system_json
-from ..results.schema import ReportInput, SystemResult
+from ..results.schema import Provenance, ReportInput, RunResults, SystemResult
 
 OPTIONAL_RESULTS = {"bench": "bench.json", "stress": "stress.json", "chains": "chains.json"}  # bench, stress
 CACHE_FOLDER = ".cache"
@@ -105,7 +106,7 @@ def check_cache_dir(cache_dir: Path | None, out: Path) -> None:
         )
 
 
-def with_optional_results(results: Mapping[str, Any], out: Path) -> ReportInput:
+def with_optional_results(results: Mapping[str, object], out: Path) -> ReportInput:
     """The results plus the benchmark and stress results found in the reports folder, for rendering."""
     import json
 
@@ -120,7 +121,7 @@ def with_optional_results(results: Mapping[str, Any], out: Path) -> ReportInput:
     return cast(ReportInput, merged)  # results.json's shape (results/schema.py), and the studies found beside it
 
 
-def write_reports(results: Mapping[str, Any], out: Path, *, hint: ReplayHint | None = None) -> None:
+def write_reports(results: Mapping[str, object], out: Path, *, hint: ReplayHint | None = None) -> None:
     """report.md, report.html and their plots, replacing those of the folder as one set."""
 
     files = render(with_optional_results(results, out), hint=hint)  # may fail: nothing written yet
@@ -131,13 +132,13 @@ def write_reports(results: Mapping[str, Any], out: Path, *, hint: ReplayHint | N
 class SystemFiles:
     """What one system contributes to the reports, rendered from its results alone."""
 
-    section: Any  # report.Document: the system's section of the report
+    section: Document  # the system's section of the report
     rrd: bytes | None  # its rerun recording (None: no trajectories, or replays not asked for)
     json: str | None = None  # its results as results.json holds them (results.system_json)
 
 
 def render_system(
-    name: str, result: SystemResult, meta: dict[str, Any], *, replay: bool = True, cache: Cache | None = None
+    name: str, result: SystemResult, meta: Provenance, *, replay: bool = True, cache: Cache | None = None
 ) -> SystemFiles | None:
     """A system's report section and recording, from its results alone: `run` calls this in the
     worker that computed them, so rendering overlaps the other systems' work. None if rendering
@@ -175,11 +176,11 @@ class CachedFigures:
 
 
 def write_all(
-    results: Mapping[str, Any],
+    results: RunResults,
     out: Path,
     *,
     replay: bool = True,
-    rendered: dict[str, SystemFiles] | None = None,
+    rendered: dict[str, SystemFiles | None] | None = None,
     hint: ReplayHint | None = None,
 ) -> None:
     """Everything `run` produces, replacing the previous run's files (all of them) as one set.

@@ -99,7 +99,13 @@ class Deprecated(argparse.Action):
         self.instead = instead
         super().__init__(option_strings, dest, **kwargs)
 
-    def __call__(self, parser: Any, namespace: Any, values: Any, option_string: str | None = None) -> None:
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: object,
+        option_string: str | None = None,
+    ) -> None:
         print(f"lagrange-xval: warning: {option_string} is deprecated; use {self.instead}.", file=sys.stderr)
         setattr(namespace, self.dest, values)
 

@@ -6,15 +6,18 @@ import contextlib
 import sys
 import time
 from collections.abc import Iterator
-from typing import Any
+from typing import TYPE_CHECKING
 
 from ..core.errors import console
 from ..report.findings import is_user, system_headline
 from ..results.schema import SystemResult
 
+if TYPE_CHECKING:  # the pipeline's engines are imported by `run`, not by this module
+    from ..stages.pipeline import Progress
+
 
 @contextlib.contextmanager
-def reporter() -> Iterator[Any]:
+def reporter() -> Iterator[Progress]:
     start = time.perf_counter()
     if sys.stderr.isatty():
         from rich.console import Console
@@ -29,19 +32,24 @@ def reporter() -> Iterator[Any]:
         ) as bar:
             task = bar.add_task("validating", total=None)
 
-            def live(name: str, stage: str, result: Any = None) -> None:
+            def live(name: str, stage: str, result: SystemResult | None = None) -> None:
                 if stage == "start":
                     bar.update(task, description=f"validating {name}")
                 else:
+                    assert result is not None  # "done" comes with the system's results
                     line = console([_line(name, result, time.perf_counter() - start)])
                     bar.console.print(line, markup=False, highlight=False, emoji=False)
 
             yield live
     else:
 
-        def plain(name: str, stage: str, result: Any = None) -> None:
+        def plain(name: str, stage: str, result: SystemResult | None = None) -> None:
             elapsed = time.perf_counter() - start
-            line = _line(name, result, elapsed) if stage == "done" else f"[{elapsed:6.1f} s] {name}: started"
+            if stage == "done":
+                assert result is not None  # "done" comes with the system's results
+                line = _line(name, result, elapsed)
+            else:
+                line = f"[{elapsed:6.1f} s] {name}: started"
             # One write with its newline: a signal handled between print's two writes would glue its
             # own line to this one.
             sys.stderr.write(console([line]) + "\n")

@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import argparse
 import json
-from collections.abc import Callable, Iterator
-from typing import Any
+from collections.abc import Callable, Iterator, Sequence
+from typing import TypedDict
 
 import numpy as np
 
@@ -73,7 +73,36 @@ def mujoco_timestep(model_dt: float, dt_out: float) -> tuple[float, str | None]:
     )
 
 
-def files_of(system: System) -> dict[str, str]:
+class Files(TypedDict):
+    """The model and equations files, as the results name them."""
+
+    model: str
+    equations: str
+
+
+class SimulateMeta(TypedDict):
+    """What `simulate` writes before the samples: the request, its adjustments and the units."""
+
+    system: str
+    model: str
+    equations: str
+    locked: list[str]  # URDF joints made fixed (--lock)
+    source: str
+    method: str
+    coordinates: list[str]
+    q0: list[float]
+    v0: list[float]
+    tau: list[float]
+    t_end: float
+    dt_out: float
+    samples: int
+    mujoco_timestep: float | None
+    adjustments: list[str]
+    units: dict[str, str | tuple[str, ...] | list[str]]  # a column's unit, or the units of a request's numbers
+    harness_version: str
+
+
+def files_of(system: System) -> Files:
     """The model and equations files, as the results name them (relative for the repository's)."""
     inside = system.mjcf.resolve().parent == MODELS_DIR.resolve()
     return {
@@ -82,7 +111,7 @@ def files_of(system: System) -> dict[str, str]:
     }
 
 
-def units(system: System) -> dict[str, Any]:
+def units(system: System) -> dict[str, str | tuple[str, ...] | list[str]]:
     """The unit of every column and of every number of the request."""
     per = system.units  # "rad" or "m" per coordinate
     rate = [f"{u}/s" for u in per]
@@ -100,11 +129,11 @@ def units(system: System) -> dict[str, Any]:
     }
 
 
-def csv_pieces(meta: dict[str, Any], columns: list[str], table: np.ndarray) -> Iterator[str]:
+def csv_pieces(meta: SimulateMeta, columns: list[str], table: np.ndarray) -> Iterator[str]:
     """The CSV: `# key: value` lines with the request and units, the column names, then the rows."""
     u = meta["units"]
 
-    def numbers(values: list[float], unit: list[str]) -> str:
+    def numbers(values: list[float], unit: Sequence[str]) -> str:
         return ", ".join(f"{v!r} {w}" for v, w in zip(values, unit, strict=True))
 
     lines = [
@@ -130,7 +159,7 @@ def csv_pieces(meta: dict[str, Any], columns: list[str], table: np.ndarray) -> I
         yield "".join(",".join(map(repr, row)) + "\n" for row in rows)
 
 
-def json_pieces(meta: dict[str, Any], columns: list[str], table: np.ndarray) -> Iterator[str]:
+def json_pieces(meta: SimulateMeta, columns: list[str], table: np.ndarray) -> Iterator[str]:
     """One JSON object: a key per line, then "rows", one sample (a list in the order of "columns") per line."""
     head = {**meta, "columns": columns}
     yield "{\n" + "".join(f" {json.dumps(k)}: {json.dumps(v, allow_nan=False)},\n" for k, v in head.items())
@@ -142,7 +171,7 @@ def json_pieces(meta: dict[str, Any], columns: list[str], table: np.ndarray) -> 
     yield " ]\n}\n"
 
 
-def cmd_simulate(args: argparse.Namespace, one_system: Callable[[argparse.Namespace], Any]) -> int:
+def cmd_simulate(args: argparse.Namespace, one_system: Callable[[argparse.Namespace], System]) -> int:
     """Integrates, checks every sample is finite, writes the file and prints what it did, each
     adjustment of the request included. `one_system` finds the system the arguments name."""
     suffix = args.out.suffix.lower()
@@ -177,7 +206,7 @@ def cmd_simulate(args: argparse.Namespace, one_system: Callable[[argparse.Namesp
         raise HarnessError(
             f"{args.source} ({traj.method}): {columns[j]} is {table[k, j]} at t = {table[k, 0]:g} s; nothing written."
         )
-    meta = {
+    meta: SimulateMeta = {
         "system": system.name,
         **files_of(system),
         "locked": list(system.locked),  # URDF joints made fixed (--lock)

@@ -36,8 +36,9 @@ import os
 import stat
 import sys
 import zipfile
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import IO, Any, TypedDict
 
 import numpy as np
 
@@ -68,7 +69,7 @@ def root() -> Path | None:
     return Path(value) if value else None
 
 
-def folder(cache_dir: Any, kind: str) -> Path | None:
+def folder(cache_dir: str | os.PathLike[str] | None, kind: str) -> Path | None:
     """The folder for entries of `kind` ("reference", "chaos"): `cache_dir` as given, None for no
     cache, or DEFAULT for the configured cache."""
     if cache_dir is None:
@@ -89,16 +90,24 @@ def harness_hash() -> str:
     return h.hexdigest()
 
 
-def _manifest(arrays: dict[str, np.ndarray]) -> dict[str, dict[str, Any]]:
+class _Spec(TypedDict):
+    """One array as the signed header states it."""
+
+    dtype: str  # numpy's dtype.str, "<f8"
+    shape: list[int]
+    sha256: str
+
+
+def _manifest(arrays: dict[str, np.ndarray]) -> dict[str, _Spec]:
     """Each array's dtype, shape and SHA-256: what the signed header says the entry holds."""
-    out = {}
+    out: dict[str, _Spec] = {}
     for name in sorted(arrays):
         a = np.ascontiguousarray(arrays[name])
         out[name] = {"dtype": a.dtype.str, "shape": list(a.shape), "sha256": hashlib.sha256(a.tobytes()).hexdigest()}
     return out
 
 
-def _signature(header: dict[str, Any]) -> str:
+def _signature(header: Mapping[str, object]) -> str:
     """HMAC-SHA256 of the header without its signature: the schema, the key, the info and the manifest
     (every array's dtype, shape and digest), so the header alone says whether the rest can be trusted."""
     unsigned = {k: v for k, v in header.items() if k != "hmac"}
@@ -196,7 +205,7 @@ def load(path: Path, key: str) -> tuple[dict[str, np.ndarray], dict[str, Any]] |
     return arrays, header["info"]
 
 
-def _problem(header: Any, key: str) -> str | None:
+def _problem(header: object, key: str) -> str | None:
     """Why a header is not to be trusted (schema, key, signature, sizes), or None."""
     if not isinstance(header, dict) or header.get("schema") != SCHEMA:
         return f"schema {header.get('schema') if isinstance(header, dict) else '?'}, expected {SCHEMA}"
@@ -212,21 +221,21 @@ def _problem(header: Any, key: str) -> str | None:
     return None
 
 
-def _nbytes(spec: dict[str, Any]) -> int:
+def _nbytes(spec: _Spec) -> int:
     return int(np.dtype(spec["dtype"]).itemsize) * math.prod(int(n) for n in spec["shape"])
 
 
-def _npy_header(m: Any) -> tuple[tuple[int, ...], bool, np.dtype[Any]]:
+def _npy_header(m: IO[bytes]) -> tuple[tuple[int, ...], bool, np.dtype[np.generic]]:
     """A .npy member's shape, order and dtype, read without its data (numpy bounds the header's length)."""
     version = np.lib.format.read_magic(m)
     if version == (1, 0):
-        return np.lib.format.read_array_header_1_0(m)  # type: ignore[no-any-return]
+        return np.lib.format.read_array_header_1_0(m)
     if version == (2, 0):
-        return np.lib.format.read_array_header_2_0(m)  # type: ignore[no-any-return]
+        return np.lib.format.read_array_header_2_0(m)
     raise _Refused(f"an array in format {version}, not one numpy.savez writes")
 
 
-def _member(z: zipfile.ZipFile, name: str, spec: dict[str, Any] | None) -> np.ndarray:
+def _member(z: zipfile.ZipFile, name: str, spec: _Spec | None) -> np.ndarray:
     """The array `name` of the entry, read only after its .npy header states what `spec` (the signed
     manifest) does; spec None: the header member, a 0-d string of at most MAX_HEADER_BYTES."""
     with z.open(f"{name}.npy") as m:
@@ -248,12 +257,13 @@ def _member(z: zipfile.ZipFile, name: str, spec: dict[str, Any] | None) -> np.nd
     return np.frombuffer(data, dtype=dtype).reshape(shape, order="F" if fortran else "C").copy()
 
 
-def store(path: Path, key: str, arrays: dict[str, np.ndarray], info: dict[str, Any]) -> bool:
+def store(path: Path, key: str, arrays: dict[str, np.ndarray], info: Mapping[str, object]) -> bool:
     """Writes an entry atomically (`files.replace_file`: never through a link), mode 0644; False (and
     one warning per folder) if the cache cannot be written."""
-    header: dict[str, Any] = {"schema": SCHEMA, "key": key, "info": info, "arrays": _manifest(arrays)}
+    header: dict[str, object] = {"schema": SCHEMA, "key": key, "info": info, "arrays": _manifest(arrays)}
     header["hmac"] = _signature(header)
-    payload: dict[str, Any] = {**arrays, HEADER: np.array(json.dumps(header))}
+    payload: dict[str, Any] = {**arrays, HEADER: np.array(json.dumps(header))}  # arrays: Any, as numpy's savez
+    # stub checks a **mapping's values against its own allow_pickle flag
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         if path.parent.is_symlink():  # planted in a shared cache, it would send entries elsewhere

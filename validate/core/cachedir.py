@@ -19,7 +19,7 @@ import functools
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from types import ModuleType
 
 DEFAULT_MAX_BYTES = 2 * 1024**3  # 2 GiB: a `run` of the notes' systems keeps about 60 MB
 KINDS = ("reference", "chaos", "derive", "explain", "figures")  # the folders a cache holds, one per kind of entry
@@ -43,7 +43,7 @@ def user_folder() -> Path | None:
 
 
 @functools.cache  # one setting per process
-def heyoka() -> Any:
+def heyoka() -> ModuleType:
     """heyoka, its on-disk JIT cache off where the user has no cache base (HOME unset: heyoka would try
     the working directory and warn on every compilation, 36 lines in one `run`)."""
     import heyoka as hy

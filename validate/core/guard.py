@@ -47,7 +47,11 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, NoReturn
+from types import FrameType, ModuleType
+from typing import Any, NoReturn, ParamSpec, TypeVar
+
+P = ParamSpec("P")
+R = TypeVar("R")
 
 DEFAULT_TIME_LIMIT = 30.0  # s per call into a person's module (and for its import)
 REPEAT = 0.5  # s between further alarms while a stopped call has not returned
@@ -76,7 +80,7 @@ class Guard:
     time_limit: float = DEFAULT_TIME_LIMIT
     stopped: str | None = None
 
-    def call(self, name: str, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+    def call(self, name: str, fn: Callable[P, R], *args: P.args, **kwargs: P.kwargs) -> R:
         """fn(*args, **kwargs), the person's code called `name`, under the guard; an exception coming
         out of it is marked with `name` (`describe`). Plain try/finally, no context managers: the
         mirrors call the dynamics once per step."""
@@ -122,7 +126,7 @@ class _Timer:
     guard: Guard
     name: str
     start: float
-    previous: Any  # the SIGALRM handler before
+    previous: Callable[[int, FrameType | None], object] | int | None  # the SIGALRM handler before
     delay: float  # someone else's timer (pytest-timeout's, say): its remaining seconds and interval
     interval: float
 
@@ -154,7 +158,7 @@ def _disarm(timer: _Timer) -> None:
         signal.setitimer(signal.ITIMER_REAL, left, timer.interval)
 
 
-def _expired(signum: int, frame: Any) -> None:
+def _expired(signum: int, frame: FrameType | None) -> None:
     timer = _timer
     if timer is None:  # disarmed as it fired
         return
@@ -198,7 +202,7 @@ def _isolate(on: bool) -> None:
             os._exit = _REAL_EXIT
 
 
-def guarded(guard: Guard, name: str, fn: Callable[..., Any]) -> Callable[..., Any]:
+def guarded(guard: Guard, name: str, fn: Callable[P, R]) -> Callable[P, R]:
     """`fn` called under `guard` (its name, signature and attributes kept: `not_provided` stubs stay
     stubs, `inspect.signature` reads the person's parameter names)."""
     if getattr(fn, "__guarded__", None) is guard:
@@ -207,7 +211,7 @@ def guarded(guard: Guard, name: str, fn: Callable[..., Any]) -> Callable[..., An
         fn = fn.__wrapped__  # type: ignore[attr-defined]
 
     @functools.wraps(fn)
-    def call(*args: Any, **kwargs: Any) -> Any:
+    def call(*args: P.args, **kwargs: P.kwargs) -> R:
         return guard.call(name, fn, *args, **kwargs)
 
     call.__guarded__ = guard  # type: ignore[attr-defined]
@@ -231,7 +235,7 @@ CONTRACT_FUNCTIONS = (
 )
 
 
-def guard_module(module: Any, guard: Guard) -> Any:
+def guard_module(module: ModuleType, guard: Guard) -> ModuleType:
     """`module` with each contract function and each printed form's function called under `guard`
     (replaced in place: the module's own calls of its functions go through the guard as well)."""
     import dataclasses
@@ -253,8 +257,8 @@ def guard_module(module: Any, guard: Guard) -> Any:
                 }
                 v = dataclasses.replace(v, **changes) if changes else v
             wrapped.append(v)
-        module.VARIANTS = tuple(wrapped)
-    module.GUARD = guard
+        module.__dict__["VARIANTS"] = tuple(wrapped)  # a module's attributes are its __dict__'s entries
+    module.__dict__["GUARD"] = guard
     return module
 
 

@@ -7,8 +7,9 @@ import json
 import os
 import stat
 from pathlib import Path
-from typing import Any
+from typing import NoReturn
 
+from .arrays import Json
 from .errors import HarnessError
 
 
@@ -43,11 +44,11 @@ def regular_file(path: Path, what: str, *, max_bytes: int) -> bytes:
     return data
 
 
-def _reject_constant(name: str) -> Any:
+def _reject_constant(name: str) -> NoReturn:
     raise ValueError(f"{name} is not finite; give finite numbers")
 
 
-def parse_json(data: bytes, path: Path) -> Any:
+def parse_json(data: bytes, path: Path) -> Json:
     """Strict JSON: UTF-8, no NaN or Infinity, no integers too long to be numbers, bounded nesting."""
     try:
         return json.loads(data.decode("utf-8"), parse_constant=_reject_constant)

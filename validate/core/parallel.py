@@ -27,12 +27,13 @@ import threading
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import CancelledError, Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor
-from typing import Any, TypeVar
+from typing import Any, ParamSpec, TypeVar
 
 from .errors import HarnessError
 
 EXECUTOR_KINDS = ("local", "dask")
 T = TypeVar("T")
+P = ParamSpec("P")
 
 
 def completed(futures: Iterable[Future[T]]) -> Iterator[Future[T]]:
@@ -87,8 +88,8 @@ class OnePerTask(Executor):
         self._launcher = threading.Thread(target=self._launch, name="OnePerTask launcher", daemon=True)
         self._launcher.start()
 
-    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
-        outer: Future[Any] = Future()
+    def submit(self, fn: Callable[P, T], /, *args: P.args, **kwargs: P.kwargs) -> Future[T]:
+        outer: Future[T] = Future()
         with self._ready:
             if self._closed:
                 raise RuntimeError("cannot schedule new futures after shutdown")
@@ -117,7 +118,7 @@ class OnePerTask(Executor):
                 self._ready.notify_all()
             inner.add_done_callback(functools.partial(self._finished, outer, pool))
 
-    def _finished(self, outer: Future[Any], pool: ProcessPoolExecutor, inner: Future[Any]) -> None:
+    def _finished(self, outer: Future[object], pool: ProcessPoolExecutor, inner: Future[object]) -> None:
         if inner.cancelled():  # at shutdown; the outer future is running, so it cannot be cancelled itself
             outer.set_exception(CancelledError())
         elif inner.exception() is not None:

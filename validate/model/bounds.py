@@ -24,11 +24,15 @@ import math
 import os
 import re
 import xml.etree.ElementTree as ET
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from ..core.errors import HarnessError, shown
 from ..core.inputs import regular_file
+
+if TYPE_CHECKING:  # MuJoCo is imported when a model is first checked
+    import mujoco
 
 MAX_MODEL_BYTES = 16 * 2**20  # the model and its includes (the notes' models are ~3 kB; dm_control's dog 84 kB)
 MAX_JOINTS = 500  # dm_control's dog has 147 (its defaults included)
@@ -164,7 +168,7 @@ _FIELDS = (  # (MjModel array, the kind of element that holds each row, what it 
 )
 
 
-def check_numbers(model: Any, source: str) -> Any:
+def check_numbers(model: mujoco.MjModel, source: str) -> mujoco.MjModel:
     """`model`, refused if its gravity or a number of a body or joint is not finite or exceeds
     MAX_MAGNITUDE, naming each such field (the first three) and the element."""
     import mujoco
@@ -189,7 +193,7 @@ def check_numbers(model: Any, source: str) -> Any:
     return model
 
 
-def _bad(what: str, kind: str, row: Any) -> list[str]:
+def _bad(what: str, kind: str, row: Iterable[float]) -> list[str]:
     values = [float(x) for x in row]
     if all(math.isfinite(x) and abs(x) <= MAX_MAGNITUDE for x in values):
         return []

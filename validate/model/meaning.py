@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TypeAlias
 
 import numpy as np
 
@@ -94,6 +94,11 @@ class Reading:
     notes: list[str] = field(default_factory=list)
     members: dict[str, tuple[str, ...]] = field(default_factory=dict)
     gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
+
+
+# One field of a reading (`fields`): a number, an array (a vector, an inertia, limits), a text (a joint's
+# kind, an actuator's target), a mimic coupling (leader, multiplier, offset), or None (no mimic).
+FieldValue: TypeAlias = np.ndarray | float | str | tuple[str, float, float] | None
 
 
 def composite(parts: list[Inertial]) -> Inertial:
@@ -274,11 +279,11 @@ def _transmissions(root: ET.Element) -> dict[str, tuple[str, float]]:
     return out
 
 
-def fields(reading: Reading, labels: dict[str, str]) -> dict[str, Any]:
+def fields(reading: Reading, labels: dict[str, str]) -> dict[str, FieldValue]:
     """The reading flattened: 'model/world/gravity', 'body/<link>/mass', ..., 'joint/<name>/<field>',
     'actuator/<name>/gear';
     `labels`: joint -> the link its group is shown as (the reference's)."""
-    out: dict[str, Any] = {"model/world/gravity": reading.gravity}
+    out: dict[str, FieldValue] = {"model/world/gravity": reading.gravity}
     for j, g in reading.groups.items():
         b = labels.get(j, j)
         out |= {f"body/{b}/mass": g.mass, f"body/{b}/com": g.com, f"body/{b}/inertia": g.inertia}

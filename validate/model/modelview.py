@@ -29,11 +29,14 @@ part and the field its last, so a key is split only by `key_parts`, and names ar
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator, Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..core.errors import HarnessError, unknown_name
+
+if TYPE_CHECKING:  # MuJoCo is imported when a model is first compiled
+    import mujoco
 
 _JOINT_TYPES = {0: "free", 1: "ball", 2: "slide", 3: "hinge"}
 KINDS = ("body", "joint", "actuator")
@@ -103,7 +106,7 @@ def quat_to_mat(quat: np.ndarray) -> np.ndarray:
     )
 
 
-def from_mujoco(model: Any, source: str) -> ModelView:
+def from_mujoco(model: mujoco.MjModel, source: str) -> ModelView:
     """Snapshots a compiled `mujoco.MjModel` into a ModelView."""
     import mujoco
 

@@ -24,8 +24,6 @@ reads the file, since the readers would split or drop them differently.
 
 from __future__ import annotations
 
-from typing import Any
-
 import mujoco
 import numpy as np
 
@@ -51,15 +49,15 @@ def urdf_refusals(joints: list[tuple[str, str]]) -> list[str]:
     ]
 
 
-def _name(model: Any, obj: Any, i: int, kind: str) -> str:
+def _name(model: mujoco.MjModel, obj: mujoco.mjtObj, i: int, kind: str) -> str:
     return mujoco.mj_id2name(model, obj, i) or f"{kind}#{i}"
 
 
-def _disabled(model: Any, bit: Any) -> bool:
+def _disabled(model: mujoco.MjModel, bit: mujoco.mjtDisableBit) -> bool:
     return bool(model.opt.disableflags & int(bit))
 
 
-def _collide(model: Any, a: int, b: int) -> bool:
+def _collide(model: mujoco.MjModel, a: int, b: int) -> bool:
     """Whether geoms a and b can touch by MuJoCo's filters (contype/conaffinity, same body, parent)."""
     ba, bb = int(model.geom_bodyid[a]), int(model.geom_bodyid[b])
     if ba == bb:
@@ -79,7 +77,7 @@ def _listed(names: list[str], *, quoted: bool = True) -> str:
     return shown + (f" and {len(names) - SHOWN} more" if len(names) > SHOWN else "")
 
 
-def refusals(model: Any) -> list[str]:
+def refusals(model: mujoco.MjModel) -> list[str]:
     """One line per element the harness cannot compare, naming it and why (empty: in scope)."""
     out = [] if model.nv else ["no joint moves (every body is fixed): there are no equations of motion to compare"]
     for j in range(model.njnt):
@@ -95,7 +93,7 @@ def refusals(model: Any) -> list[str]:
     return out
 
 
-def _contacts(model: Any) -> list[str]:
+def _contacts(model: mujoco.MjModel) -> list[str]:
     if _disabled(model, mujoco.mjtDisableBit.mjDSBL_CONTACT):
         return []
     geom = mujoco.mjtObj.mjOBJ_GEOM
@@ -108,7 +106,7 @@ def _contacts(model: Any) -> list[str]:
     return [f"contacts between {len(named)} pair(s) of geoms ({_listed(named)})"] if named else []
 
 
-def _limits(model: Any) -> list[str]:
+def _limits(model: mujoco.MjModel) -> list[str]:
     if _disabled(model, mujoco.mjtDisableBit.mjDSBL_LIMIT):
         return []
     joints = [_name(model, mujoco.mjtObj.mjOBJ_JOINT, int(j), "joint") for j in np.nonzero(model.jnt_limited)[0]]
@@ -117,7 +115,7 @@ def _limits(model: Any) -> list[str]:
     return out + ([f"the range of tendon(s) {_listed(tendons)}"] if tendons else [])
 
 
-def _equalities(model: Any) -> list[str]:
+def _equalities(model: mujoco.MjModel) -> list[str]:
     if _disabled(model, mujoco.mjtDisableBit.mjDSBL_EQUALITY):
         return []
     named = []
@@ -133,7 +131,7 @@ def _equalities(model: Any) -> list[str]:
     return [f"equality constraint(s) {_listed(named, quoted=False)}"] if named else []
 
 
-def _frictionloss(model: Any) -> list[str]:
+def _frictionloss(model: mujoco.MjModel) -> list[str]:
     if _disabled(model, mujoco.mjtDisableBit.mjDSBL_FRICTIONLOSS):
         return []
     dofs = np.nonzero(model.dof_frictionloss > 0)[0]
@@ -145,7 +143,7 @@ def _frictionloss(model: Any) -> list[str]:
     return [f"the dry friction (frictionloss) of {_listed(named)}"] if named else []
 
 
-def _only_mujoco(model: Any) -> list[str]:
+def _only_mujoco(model: mujoco.MjModel) -> list[str]:
     """Passive forces MuJoCo alone computes, set to zero on `model` (one line per kind)."""
     out = []
     sprung = np.nonzero((model.tendon_stiffness > 0) | (model.tendon_damping > 0))[0]
@@ -166,7 +164,7 @@ def _only_mujoco(model: Any) -> list[str]:
     return out
 
 
-def joint_actuators(model: Any) -> list[int]:
+def joint_actuators(model: mujoco.MjModel) -> list[int]:
     """The actuators whose force is gear x control on one joint (a joint transmission, no activation
     dynamics, a fixed unit gain: a motor): the inputs every source can be given. The others (a servo's
     gain kp, a tendon) are never driven."""
@@ -180,7 +178,7 @@ def joint_actuators(model: Any) -> list[int]:
     ]
 
 
-def _actuators(model: Any) -> list[str]:
+def _actuators(model: mujoco.MjModel) -> list[str]:
     """Actuator forces at zero control (a servo's feedback, set to zero on `model`) and actuators no
     source can be given an input through, one line per kind."""
     out = []
@@ -214,14 +212,14 @@ def _actuators(model: Any) -> list[str]:
     return out
 
 
-def constraints(model: Any) -> list[str]:
+def constraints(model: mujoco.MjModel) -> list[str]:
     """One line per kind of constraint `model` has switched on, naming its elements (empty: none)."""
     if _disabled(model, mujoco.mjtDisableBit.mjDSBL_CONSTRAINT):  # every constraint off already
         return []
     return _contacts(model) + _limits(model) + _equalities(model) + _frictionloss(model)
 
 
-def unconstrained(model: Any) -> list[str]:
+def unconstrained(model: mujoco.MjModel) -> list[str]:
     """Switches `model`'s constraints off (and zeroes the passive forces only MuJoCo computes); returns
     one line per kind that was left out, naming its elements (module docstring)."""
     left = constraints(model)

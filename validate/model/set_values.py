@@ -8,11 +8,12 @@ from __future__ import annotations
 
 import re
 import xml.etree.ElementTree as ET
-from collections.abc import Mapping
-from typing import Any
+from collections.abc import Callable, Mapping
+from typing import TypeAlias
 
 import numpy as np
 
+from ..core.arrays import Floats
 from ..core.errors import HarnessError, unknown_name
 from .modelview import ModelView, from_mujoco
 from .overrides import MUJOCO_DEFAULT_GRAVITY
@@ -54,7 +55,7 @@ def _prolog(text: str) -> str:
     return text[:end] + "\n" if end else ""
 
 
-def _show(x: Any) -> str:
+def _show(x: object) -> str:
     if isinstance(x, str):
         return repr(x)
     try:
@@ -64,11 +65,11 @@ def _show(x: Any) -> str:
     return repr(float(arr)) if arr.ndim == 0 else str(arr.tolist())
 
 
-def _bad(key: str, value: Any, why: str) -> HarnessError:
+def _bad(key: str, value: object, why: str) -> HarnessError:
     return HarnessError(f"set_values: {key} = {_show(value)}: {why}.")
 
 
-def _floats(values: Any) -> str:
+def _floats(values: Floats) -> str:
     return " ".join(repr(float(x)) for x in np.ravel(values))
 
 
@@ -300,7 +301,7 @@ def _split(key: str, model: _Model) -> tuple[str, str, str]:
     return kind, name, field_
 
 
-def _number(key: str, field_: str, value: Any) -> np.ndarray:
+def _number(key: str, field_: str, value: object) -> np.ndarray:
     """The value as a float array of the key's shape; NaN allowed (keep or choose), infinities not."""
     shape = _SHAPES.get(field_, ())
     try:
@@ -314,7 +315,7 @@ def _number(key: str, field_: str, value: Any) -> np.ndarray:
     return arr
 
 
-def _same(expected: Any, actual: Any) -> bool:
+def _same(expected: object, actual: object) -> bool:
     if isinstance(expected, str) or isinstance(actual, str):
         return bool(expected == actual)
     e, a = np.asarray(expected, dtype=float), np.asarray(actual, dtype=float)
@@ -347,25 +348,29 @@ def _parse(text: str) -> ET.Element:
     return root
 
 
-def _unit(key: str, given: Any, arr: np.ndarray) -> np.ndarray:
+def _unit(key: str, given: object, arr: np.ndarray) -> np.ndarray:
     """`arr`, which must be a unit vector (MuJoCo would normalize it and not give back what was written)."""
     if not abs(float(np.linalg.norm(arr)) - 1.0) <= UNIT_RTOL:
         raise _bad(key, given, f"not a unit vector (norm {float(np.linalg.norm(arr))!r}; MuJoCo normalizes it)")
     return arr
 
 
+# A body's mass, com or inertia as given: (key, the value given, it as a float array)
+Given: TypeAlias = tuple[str, object, np.ndarray]
+
+
 class _Edit:
     """One set_values call: the parsed model, its compiled view before the edit (compiled once, when first
     needed), what has been written, and the inertial fields and damped joints left for after the loop."""
 
-    def __init__(self, text: str, root: ET.Element, model_view: Mapping[str, Any] | None) -> None:
+    def __init__(self, text: str, root: ET.Element, model_view: ModelView | None) -> None:
         self.text, self.root, self.model = text, root, _Model(root)
         self.view = model_view
-        self.written: dict[str, Any] = {}  # key -> the full value the compiled model must give back
-        self.inertials: dict[str, dict[str, Any]] = {}
+        self.written: dict[str, float | np.ndarray] = {}  # key -> the full value the compiled model must give back
+        self.inertials: dict[str, dict[str, Given]] = {}
         self.damping_set: set[str] = set()
 
-    def current(self) -> Mapping[str, Any]:
+    def current(self) -> ModelView:
         """The compiled model of the text before the edit."""
         if self.view is None:
             self.view = compiled_view(self.text)
@@ -377,7 +382,7 @@ class _Edit:
             return arr
         return np.where(np.isnan(arr), held if held is not None else np.asarray(self.current()[key], dtype=float), arr)
 
-    def set(self, key: str, value: Any) -> None:
+    def set(self, key: str, value: object) -> None:
         """One key: a structure key checked, gravity, a body's pose, a joint's field or a gear written, or a
         body's mass, com or inertia kept for its <inertial>."""
         kind, name, field_ = _split(key, self.model)
@@ -424,7 +429,7 @@ class _Edit:
             self.root.insert(0, option)
         option.set("gravity", _floats(g))
 
-    def body_pose(self, el: ET.Element, key: str, name: str, field_: str, value: Any, arr: np.ndarray) -> None:
+    def body_pose(self, el: ET.Element, key: str, name: str, field_: str, value: object, arr: np.ndarray) -> None:
         """A body's pos, or its quat (replacing any other orientation attribute)."""
         if self.model.in_frame(el):
             raise _bad(key, value, f"body '{name}' sits inside a <frame>, whose transform the writer does not invert")
@@ -438,7 +443,7 @@ class _Edit:
         el.set("quat", _floats(quat))
         self.written[key] = quat
 
-    def joint(self, el: ET.Element, key: str, name: str, field_: str, value: Any, arr: np.ndarray) -> None:
+    def joint(self, el: ET.Element, key: str, name: str, field_: str, value: object, arr: np.ndarray) -> None:
         """A joint's axis or pos, or a non-negative damping, armature, frictionloss or stiffness."""
         if el.tag == "freejoint":
             raise _bad(key, value, f"joint '{name}' is a <freejoint>, which takes no {field_}")
@@ -466,7 +471,7 @@ class _Edit:
 
 
 def set_values(
-    text: str, values: Mapping[str, Any], *, model_view: Mapping[str, Any] | None = None, verify: bool = True
+    text: str, values: Mapping[str, object], *, model_view: ModelView | None = None, verify: bool = True
 ) -> str:
     """The MJCF `text` edited so that its compiled model (`modelview.from_mujoco`) has `values`.
 
@@ -502,7 +507,7 @@ def set_values(
     return edited
 
 
-def _inertia_as_compiled(model: _Model, view: Mapping[str, Any]) -> None:
+def _inertia_as_compiled(model: _Model, view: ModelView) -> None:
     """<compiler inertiafromgeom="true"> (every body's inertia from its geoms, <inertial> ignored) made
     "auto", each <inertial> the model has set to what the geoms gave: the compiled model is unchanged,
     and a body's inertia can now be written."""
@@ -524,9 +529,9 @@ def _inertia_as_compiled(model: _Model, view: Mapping[str, Any]) -> None:
 def _write_inertial(
     model: _Model,
     name: str,
-    fields: dict[str, tuple[str, Any, np.ndarray]],
-    current: Any,
-    written: dict[str, Any],
+    fields: dict[str, Given],
+    current: Callable[[], ModelView],
+    written: dict[str, float | np.ndarray],
 ) -> None:
     """Mass, com and inertia of one body into its <inertial> (created, from the compiled model, if absent)."""
     body = model.bodies[name]
@@ -567,7 +572,7 @@ def _write_inertial(
         written[key] = tensor
 
 
-def _verify(edited: str, before: Mapping[str, Any], written: dict[str, Any]) -> None:
+def _verify(edited: str, before: ModelView, written: dict[str, float | np.ndarray]) -> None:
     """Every written key reads back as written and every other key as it was."""
     after = compiled_view(edited)
     for key in sorted(set(before) | set(after)):

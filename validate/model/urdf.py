@@ -34,11 +34,14 @@ import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from ..core.errors import HarnessError
 from .bounds import check_numbers
 from .inertia import repair_urdf
+
+if TYPE_CHECKING:  # MuJoCo is imported when a URDF is first compiled
+    import mujoco
 
 ROOT = "robot"
 UNBOUNDED = 1e10  # the limits of a continuous joint handed to Pinocchio as revolute, in rad
@@ -148,7 +151,7 @@ def _no_log(message: str) -> None:
     pass
 
 
-def _spec(text: str, source: str) -> Any:
+def _spec(text: str, source: str) -> mujoco.MjSpec:
     """MuJoCo's MjSpec of the URDF `text`, with the alignments of the module docstring."""
     import mujoco
 
@@ -187,12 +190,12 @@ def motors(text: str, source: str) -> list[tuple[Transmission, str]]:
     return [(tr, tr.actuator if count[tr.actuator] == 1 else f"{tr.actuator}@{tr.joint}") for tr in found]
 
 
-def compile_urdf(text: str, source: str) -> Any:
+def compile_urdf(text: str, source: str) -> mujoco.MjModel:
     """MuJoCo's model of the URDF `text`, with the alignments of the module docstring."""
     return _compiled(_spec(text, source), source)
 
 
-def _compiled(spec: Any, source: str) -> Any:
+def _compiled(spec: mujoco.MjSpec, source: str) -> mujoco.MjModel:
     try:
         model = spec.compile()
     except Exception as exc:

@@ -2,17 +2,16 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
+from ..results.schema import ChainRow, ChainsStudy
 from .document import NOT_RUN, Document, Num, as_float
 from .figures import LEGEND_W, legend_right, new_figure, png, rc
 
 SOURCE_COLOURS = {"mujoco": "#2563eb", "pinocchio": "#d97706", "symbolic": "#059669"}
 
 
-def section_chains(doc: Document, chains: dict[str, Any] | None) -> None:
+def section_chains(doc: Document, chains: ChainsStudy | None) -> None:
     doc.h(2, "Scaling with the number of joints")
     if not chains:
         doc.p(
@@ -88,7 +87,7 @@ def section_chains(doc: Document, chains: dict[str, Any] | None) -> None:
     )
 
 
-def _figure(kind: str, rows: list[dict[str, Any]]) -> bytes:
+def _figure(kind: str, rows: list[ChainRow]) -> bytes:
     with rc():
         fig, (ax,) = new_figure(8.6, 3.6, legend_right=LEGEND_W + 0.4)
         for source, colour in SOURCE_COLOURS.items():

@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, SupportsFloat, TypeAlias, TypeGuard
 
 TITLE = "lagrange-xval validation report"
 
@@ -58,7 +58,11 @@ NOT_RUN = "not run"
 MAX_PLOT_POINTS = 1500  # samples per plotted series; longer series are strided (plots only)
 
 
-SOURCE_STYLE = {  # colour, line style, width: the reference solid, the engines dashed / dotted
+# A line style as matplotlib takes it: a name ("-", "--") or (offset, dash pattern)
+LineStyle: TypeAlias = str | tuple[int, tuple[int, ...]]
+
+SOURCE_STYLE: dict[str, tuple[str, LineStyle, float]] = {  # colour, line style, width: the reference solid,
+    # the engines dashed / dotted
     "hand": ("#1f2937", "-", 1.6),
     "mujoco": ("#2563eb", (0, (5, 3)), 1.4),
     "pinocchio": ("#d97706", (0, (1, 2)), 1.8),
@@ -91,7 +95,7 @@ class Num:
     `short` an exact power of ten as 1e-12 and any other value with trailing zeros dropped
     (9.81e+00, 8.33333e-02)."""
 
-    value: Any
+    value: float | str | None  # "inf" and "nan" as results.json stores them
     digits: int = 2
     unit: str = ""
     short: bool = False
@@ -122,7 +126,7 @@ class Para:
 class Table:
     title: str
     columns: tuple[str, ...]
-    rows: tuple[tuple[Any, ...], ...]
+    rows: tuple[tuple[Cell, ...], ...]
     numeric: tuple[bool, ...] = ()
     group: bool = False  # HTML: the first column as a heading row each time it changes (markdown keeps it)
 
@@ -153,6 +157,8 @@ class Fold:
 
 
 Block = Heading | Para | Table | Figure | Code | Items | Fold  # what a document is made of
+# A table's cell: a text, a count, a number (shown by `sci`), a Num, a Mark, or None (shown as "–").
+Cell: TypeAlias = str | float | Num | Mark | None
 
 
 @dataclass
@@ -170,7 +176,7 @@ class Document:
         self,
         title: str,
         columns: tuple[str, ...] | list[str],
-        rows: list[tuple[Any, ...]] | list[list[Any]],
+        rows: Sequence[Sequence[Cell]],
         *,
         group: bool = False,
     ) -> None:
@@ -195,11 +201,11 @@ def slug(text: str) -> str:
     return re.sub(r"[^a-z0-9]+", "-", text.lower()).strip("-")
 
 
-def is_number(x: Any) -> bool:
+def is_number(x: object) -> TypeGuard[int | float]:
     return isinstance(x, (int, float)) and not isinstance(x, bool)
 
 
-def sci(x: Any, digits: int = 2) -> str:
+def sci(x: object, digits: int = 2) -> str:
     """Scientific notation; exact powers of ten short (1e-12); 0 as 0; inf/nan as given."""
     if x is None:
         return "–"
@@ -239,7 +245,7 @@ def num_text(c: Num) -> str:
     return f"{mantissa}e{exponent}"
 
 
-def cell_text(c: Any) -> str:
+def cell_text(c: Cell) -> str:
     if isinstance(c, Num):
         return num_text(c) + (f" {c.unit}" if c.unit and c.value is not None else "")
     if isinstance(c, Mark):
@@ -278,7 +284,9 @@ def to_plain(x: Any) -> Any:
 PLAIN_TYPES = (float, int, str, bool, type(None))
 
 
-def as_float(x: Any) -> float:
+def as_float(x: object) -> float:
+    if not isinstance(x, str | SupportsFloat):  # None, a list: not a number (float() would raise TypeError)
+        return math.nan
     try:
         return float(x)
     except (TypeError, ValueError):
@@ -293,7 +301,7 @@ def ratio(row: Mapping[str, object], key: str = "scaled") -> float:
     return e / tol if tol > 0 else e
 
 
-def pass_mark(ok: Any, yes: str = "pass", no: str = "FAIL") -> Mark:
+def pass_mark(ok: object, yes: str = "pass", no: str = "FAIL") -> Mark:
     return Mark("ok", yes) if ok is True else Mark("bad", no) if ok is False else Mark("na", NOT_RUN)
 
 
@@ -301,11 +309,11 @@ def verdict_mark(verdict: str) -> Mark:
     return {"agrees": Mark("ok", "agrees"), "disagrees": Mark("bad", "disagrees")}.get(verdict, Mark("na", verdict))
 
 
-def fmt_time(x: Any) -> str:
+def fmt_time(x: object) -> str:
     return "never" if x is None else f"{as_float(x):.2f} s"
 
 
-def vec(xs: Any) -> str:
+def vec(xs: Iterable[float | str] | str) -> str:
     try:
         return "(" + ", ".join(f"{float(x):g}" for x in xs) + ")"
     except (TypeError, ValueError):

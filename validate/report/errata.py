@@ -5,14 +5,12 @@ agree folded in one table.
 
 from __future__ import annotations
 
-from typing import Any
-
 from ..results.schema import Derivation, Explanation, RunResults
-from .document import ERRATA, Document, Num, verdict_mark
+from .document import ERRATA, Cell, Document, Num, verdict_mark
 from .findings import form_anchor, form_reason, form_term, where_worst, whose
 
 
-def variant_row(name: str, v: Derivation) -> tuple[Any, ...]:
+def variant_row(name: str, v: Derivation) -> tuple[Cell, ...]:
     w = v.get("worst_term") if v.get("verdict") == "disagrees" else None
     return (
         name,

@@ -9,11 +9,13 @@ import contextlib
 import functools
 import hashlib
 import json
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from contextvars import ContextVar
-from typing import Any, Protocol
+from typing import ParamSpec, Protocol
 
 from ..core.package import installed_version
+
+P = ParamSpec("P")
 
 
 class FigureStore(Protocol):
@@ -37,7 +39,7 @@ def kept_in(store: FigureStore | None) -> Iterator[None]:
         _STORE.reset(token)
 
 
-def _plain(x: Any) -> Any:
+def _plain(x: object) -> object:
     return x.tolist() if hasattr(x, "tolist") else repr(x)
 
 
@@ -46,7 +48,7 @@ def _plain(x: Any) -> Any:
 PROVENANCE_KEYS = frozenset({"cache", "cache_file"})
 
 
-def _data(x: Any) -> Any:
+def _data(x: object) -> object:
     """`x` without its provenance entries (PROVENANCE_KEYS), at any depth of dicts and lists."""
     if isinstance(x, dict):
         return {k: _data(v) for k, v in x.items() if k not in PROVENANCE_KEYS}
@@ -55,7 +57,7 @@ def _data(x: Any) -> Any:
     return x
 
 
-def figure_key(fn: Callable[..., bytes], args: tuple[Any, ...], kwargs: dict[str, Any]) -> str:
+def figure_key(fn: Callable[..., bytes], args: tuple[object, ...], kwargs: Mapping[str, object]) -> str:
     """SHA-256 of the figure function, its source and the data it is given (not where the data came from)."""
     import inspect
 
@@ -66,11 +68,11 @@ def figure_key(fn: Callable[..., bytes], args: tuple[Any, ...], kwargs: dict[str
     return h.hexdigest()
 
 
-def kept(fn: Callable[..., bytes]) -> Callable[..., bytes]:
+def kept(fn: Callable[P, bytes]) -> Callable[P, bytes]:
     """`fn` (data -> PNG bytes), answered from the store `kept_in` set, if any."""
 
     @functools.wraps(fn)
-    def figure(*args: Any, **kwargs: Any) -> bytes:
+    def figure(*args: P.args, **kwargs: P.kwargs) -> bytes:
         store = _STORE.get()
         if store is None:
             return fn(*args, **kwargs)

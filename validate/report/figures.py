@@ -6,19 +6,27 @@ from __future__ import annotations
 
 import io
 import math
-from typing import Any
+from collections.abc import Iterable
+from contextlib import AbstractContextManager
+from typing import TYPE_CHECKING
 
 from ..results.schema import ComparisonRow, FreeRun
-from .document import FIG_DPI, MAX_PLOT_POINTS, PAIR_COLOURS, SOURCE_STYLE, as_float, sci
+from .document import FIG_DPI, MAX_PLOT_POINTS, PAIR_COLOURS, SOURCE_STYLE, LineStyle, as_float, sci
 from .figstore import kept
 
+if TYPE_CHECKING:  # matplotlib is imported by the first figure drawn (a warm run draws none)
+    import numpy as np
+    import numpy.typing as npt
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
-def _plain_log_labels(fig: Any) -> None:
+
+def _plain_log_labels(fig: Figure) -> None:
     """Log-axis tick labels as plain text (1e-12) instead of mathtext (10^-12): the same reading,
     and mathtext layout was half of the render time."""
     from matplotlib.ticker import FuncFormatter, LogFormatterSciNotation, NullFormatter
 
-    def label(x: float, _pos: Any) -> str:
+    def label(x: float, _pos: int | None) -> str:
         if x <= 0 or not math.isfinite(x):
             return ""
         e = math.log10(x)
@@ -35,13 +43,17 @@ def _plain_log_labels(fig: Any) -> None:
                     axis.set_minor_formatter(NullFormatter())
 
 
-def fit_legends(fig: Any) -> None:
+def fit_legends(fig: Figure) -> None:
     """Widens the figure where a legend placed right of its axes would pass the figure's edge, keeping
     the axes where they are: no legend is cut off, whatever its labels' length."""
-    legends = [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None]
+    legends = [legend for ax in fig.axes if (legend := ax.get_legend()) is not None]
     if not legends:
         return
-    renderer = fig.canvas.get_renderer()
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = fig.canvas
+    assert isinstance(canvas, FigureCanvasAgg)  # png() drew the figure on Agg
+    renderer = canvas.get_renderer()  # type: ignore[no-untyped-call]  # matplotlib leaves it unannotated
     over = max(legend.get_window_extent(renderer).x1 for legend in legends) - fig.bbox.x1
     if over <= 0:
         return
@@ -52,7 +64,7 @@ def fit_legends(fig: Any) -> None:
     fig.subplots_adjust(left=left / (w + extra), right=1 - (right + extra) / (w + extra))
 
 
-def png(fig: Any) -> bytes:
+def png(fig: Figure) -> bytes:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     FigureCanvasAgg(fig)
@@ -65,7 +77,7 @@ def png(fig: Any) -> bytes:
 
 def new_figure(
     w: float, h: float, nrows: int = 1, sharex: bool = False, *, legend_right: float = 0.0
-) -> tuple[Any, Any]:
+) -> tuple[Figure, npt.NDArray[np.object_]]:
     """A figure with fixed margins (in inches, so every figure lines up; and no layout engine,
     which would draw each figure twice)."""
     from matplotlib.figure import Figure as MplFigure
@@ -91,11 +103,11 @@ def new_figure(
 LEGEND_W = 1.45  # in: room on the right of a figure for its legend, clear of the curves
 
 
-def legend_right(ax: Any) -> None:
+def legend_right(ax: Axes) -> None:
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, handlelength=2.6)
 
 
-def rc() -> Any:
+def rc() -> AbstractContextManager[None]:
     import matplotlib
 
     return matplotlib.rc_context(
@@ -120,7 +132,7 @@ def stride(n: int) -> int:
     return max(1, math.ceil(n / MAX_PLOT_POINTS))
 
 
-def series(values: Any) -> Any:
+def series(values: Iterable[object]) -> npt.NDArray[np.float64]:
     """A float array from a list that may hold "nan"/"inf" strings (as results.json stores them)."""
     import numpy as np
 
@@ -190,7 +202,7 @@ def run_label(run: FreeRun) -> str:
     return f"{run['source']} ({run['label']})" if run.get("label") else run["source"]
 
 
-def run_style(run: FreeRun) -> tuple[str, Any, float]:
+def run_style(run: FreeRun) -> tuple[str, LineStyle, float]:
     """Colour, line style and width: by source, green dash-dot for a labelled extra run (a perturbed start)."""
     if run.get("label"):
         return "#7c3aed", (0, (6, 2, 1, 2)), 1.2  # not a source's colour: a perturbed start is no source
@@ -198,7 +210,7 @@ def run_style(run: FreeRun) -> tuple[str, Any, float]:
 
 
 @kept
-def trajectory_figure(name: str, coords: list[str], t: Any, runs: list[FreeRun]) -> bytes:
+def trajectory_figure(name: str, coords: list[str], t: npt.NDArray[np.float64], runs: list[FreeRun]) -> bytes:
     """q against t, every source overlaid, one panel per coordinate."""
     k = stride(len(t))
     tt = t[::k]
@@ -219,7 +231,7 @@ def trajectory_figure(name: str, coords: list[str], t: Any, runs: list[FreeRun])
 
 
 @kept
-def error_figure(name: str, t: Any, runs: list[FreeRun], threshold: float, reference: str) -> bytes:
+def error_figure(name: str, t: npt.NDArray[np.float64], runs: list[FreeRun], threshold: float, reference: str) -> bytes:
     """log10 of the distance to the reference trajectory, threshold marked."""
     import numpy as np
 
@@ -258,7 +270,7 @@ def error_figure(name: str, t: Any, runs: list[FreeRun], threshold: float, refer
 
 
 @kept
-def energy_figure(name: str, t: Any, runs: list[FreeRun]) -> bytes:
+def energy_figure(name: str, t: npt.NDArray[np.float64], runs: list[FreeRun]) -> bytes:
     """E(t) - E(0) of every source (the hand equations' energy along each trajectory)."""
     k = stride(len(t))
     tt = t[::k]

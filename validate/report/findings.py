@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
-from typing import Any
+from typing import SupportsFloat, TypedDict
 
 from ..results.schema import ComparisonRow, Derivation, RunResults, SystemResult, TermSummary
 
@@ -61,7 +61,7 @@ def pointwise_rows(s: SystemResult) -> list[ComparisonRow]:
     return pw.get("rows", []) if pw else []
 
 
-Cells = tuple[object, object, object, object]  # a summary row's term, pair, scaled error and tolerance
+Cells = tuple[str | None, str | None, float | None, float | None]  # a summary row's term, pair, scaled error, tolerance
 
 
 def term_cells(w: TermSummary) -> Cells:
@@ -91,7 +91,7 @@ def and_join(items: list[str]) -> str:
     return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1] if items else ""
 
 
-def whose(text: Any, owner: str) -> str:
+def whose(text: object, owner: str) -> str:
     """A statement of the judge ("yours lacks ...") with "yours" named: "the notes' form lacks ..."."""
     if owner == "yours":
         return str(text)
@@ -116,7 +116,14 @@ def is_driven(s: SystemResult) -> bool:
         return False
 
 
-def chaos_facts(s: SystemResult) -> dict[str, Any] | None:
+# Whether the motion from a start is chaotic, and the numbers that say so ("lambda", 1/s, is a keyword;
+# "horizon", s: None where the rounding of the start never grows to "tolerance", rad, within "t_end", s).
+ChaosFacts = TypedDict(
+    "ChaosFacts", {"chaotic": bool, "lambda": float, "horizon": float | None, "tolerance": float, "t_end": float}
+)
+
+
+def chaos_facts(s: SystemResult) -> ChaosFacts | None:
     """Whether the motion from the system's start is chaotic, with the numbers that say so; None when
     the results hold no chaos study. Chaotic: the largest Lyapunov exponent is at least CHAOS_LAMBDA
     and the initial state's own rounding grows to the horizon tolerance within the study's time."""
@@ -142,7 +149,9 @@ def is_chaotic(s: SystemResult) -> bool:
     return bool(facts and facts["chaotic"])
 
 
-def _float(x: Any) -> float:
+def _float(x: object) -> float:
+    if not isinstance(x, str | SupportsFloat):  # None, a list: not a number (float() would raise TypeError)
+        return math.nan
     try:
         return float(x)
     except (TypeError, ValueError):

@@ -8,7 +8,7 @@ import base64
 import re
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 from urllib.parse import quote
 
 from ..core.errors import escaped
@@ -19,6 +19,7 @@ from .document import (
     SUBTITLE_MODELS,
     TITLE,
     Block,
+    Cell,
     Code,
     Document,
     Figure,
@@ -33,6 +34,9 @@ from .document import (
     to_plain,
 )
 from .findings import has_derivation
+
+if TYPE_CHECKING:  # jinja2 is imported by the first HTML render
+    import jinja2
 from .sections import HIDDEN, ReplayHint, build, header
 
 
@@ -42,7 +46,7 @@ def subtitle(results: RunResults) -> str:
     return SUBTITLE if not systems or any(has_derivation(s) for s in systems) else SUBTITLE_MODELS
 
 
-def _md_cell(c: Any) -> str:
+def _md_cell(c: Cell) -> str:
     return escaped(cell_text(c)).replace("|", "\\|")
 
 
@@ -100,16 +104,16 @@ def render_markdown(doc: Document, results: RunResults) -> str:
     return "\n".join(out).rstrip("\n") + "\n"
 
 
-_ENV: Any = None
+_ENV: jinja2.Environment | None = None
 
 
-def _env() -> Any:
+def _env() -> jinja2.Environment:
     global _ENV
     if _ENV is None:
         import jinja2
         from markupsafe import Markup, escape
 
-        def inline(text: Any) -> Markup:
+        def inline(text: object) -> Markup:
             parts = re.split(r"`([^`]+)`", str(text))
             return Markup("").join(
                 escape(p) if i % 2 == 0 else Markup("<code>%s</code>") % p for i, p in enumerate(parts)
@@ -129,7 +133,7 @@ def _env() -> Any:
         _ENV.filters["inline"] = inline
         _ENV.filters["wbr"] = lambda text: Markup("_<wbr>").join(escape(p) for p in str(text).split("_"))
 
-        def breakable(text: Any) -> Markup:
+        def breakable(text: object) -> Markup:
             """A table cell: inline markup, and a break opportunity after ':' in long identifiers."""
             out = inline(text)
             return Markup(re.sub(r":(?=[A-Za-z_])", ":<wbr>", str(out))) if len(str(text)) > 24 else out

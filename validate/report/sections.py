@@ -5,7 +5,7 @@ replay) and `build`, which puts every section in order.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, cast
+from typing import cast
 
 from ..results.schema import (
     SCALED_DEFINITION,
@@ -26,6 +26,7 @@ from .document import (
     STRESS,
     SUMMARY,
     TOLERANCE_TIERS,
+    Cell,
     Code,
     Document,
     Items,
@@ -78,7 +79,7 @@ def variant_worst(v: Derivation) -> WorstTerm | None:
     return cast(WorstTerm, {k: w.get(k) for k in keys})  # absent ones as None
 
 
-def variant_tolerance(v: Derivation, worst: WorstTerm | None) -> Any:
+def variant_tolerance(v: Derivation, worst: WorstTerm | None) -> float | None:
     if worst is None:
         return None
     if worst.get("tolerance") is not None:
@@ -262,7 +263,7 @@ def section_provenance(doc: Document, results: RunResults) -> None:
     doc.table("Package versions", ("package", "version"), [(k, str(v)) for k, v in sorted(versions.items())])
 
 
-def derivation_row(name: str, s: SystemResult) -> tuple[Any, ...]:
+def derivation_row(name: str, s: SystemResult) -> tuple[Cell, ...]:
     """One system's row: the term (or pointwise pair) that fails, with its numbers; where none fails
     but the system does (a model check, a stage after the verdict), that failure in words and no
     numbers; where all pass, the term closest to its tolerance. The mark is the row's own."""
@@ -296,7 +297,7 @@ def _failure_words(s: SystemResult) -> str:
     return str(failed[0]) if failed else "see its section"
 
 
-def form_row(name: str, v: Derivation) -> tuple[Any, ...]:
+def form_row(name: str, v: Derivation) -> tuple[Cell, ...]:
     w = variant_worst(v)
     engine = (w or {}).get("engine")
     wrong = v.get("verdict") == "disagrees"
@@ -341,8 +342,8 @@ def section_summary(doc: Document, results: RunResults) -> None:
         )
         + f". {SCALED_DEFINITION}; the row shows the term closest to (or furthest past) its tolerance."
     )
-    rows: list[tuple[Any, ...]] = []
-    passing: list[tuple[Any, ...]] = []
+    rows: list[tuple[Cell, ...]] = []
+    passing: list[tuple[Cell, ...]] = []
     for name, s in sorted(results.get("systems", {}).items()):
         rows.append(derivation_row(name, s))
         for v in s.get("variants", []):

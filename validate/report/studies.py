@@ -2,19 +2,32 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
-from .document import NOT_RUN, PAIR_COLOURS, Document, Num, as_float, pass_mark, sci, slug
+from ..results.schema import (
+    BenchResults,
+    BenchRow,
+    CheckCost,
+    Checks,
+    ConditioningPoint,
+    ConditioningSummary,
+    DriftRow,
+    Frontier,
+    StabilityRow,
+    StiffRun,
+    StressResults,
+)
+from .document import NOT_RUN, PAIR_COLOURS, Cell, Document, Num, as_float, pass_mark, sci, slug
 from .figures import LEGEND_W, legend_right, new_figure, png, rc, series
 
 LINE_STYLES = ("-", (0, (5, 2)), (0, (1, 1.5)), (0, (6, 2, 1, 2)))
 
+NO_RANGE = (None, None)  # a sweep's range not in the file: shown as "–"
+
 WORK_PRECISION_COLOURS = ("#1f2937", *PAIR_COLOURS, "#475569")
 
 
-def section_bench(doc: Document, bench: dict[str, Any] | None) -> None:
+def section_bench(doc: Document, bench: BenchResults | None) -> None:
     if not bench:
         doc.p(
             f"Benchmark: {NOT_RUN} (`lagrange-xval bench` writes reports/bench.json; this report shows it "
@@ -71,7 +84,7 @@ def section_bench(doc: Document, bench: dict[str, Any] | None) -> None:
             methods = sorted({r["method"] for r in tte})
             table = []
             for m in methods:
-                cells: list[Any] = [m]
+                cells: list[Cell] = [m]
                 for e in eps:
                     hit = next((r for r in tte if r["method"] == m and r["epsilon"] == e), None)
                     cells.append(Num(hit["cpu_s"], 3) if hit and hit.get("result") == "reached" else "not reached")
@@ -83,12 +96,12 @@ def section_bench(doc: Document, bench: dict[str, Any] | None) -> None:
             )
 
 
-def frontier_section(doc: Document, frontier: Any) -> None:
+def frontier_section(doc: Document, frontier: Frontier | None) -> None:
     """Per system and eps: the fastest method measured, and the harness's default path against it."""
     if not isinstance(frontier, dict) or not frontier.get("per_system"):
         return
 
-    def run(r: Any) -> str:
+    def run(r: BenchRow | None) -> str:
         if not isinstance(r, dict):
             return "not reached"
         return f"{r.get('method')} ({r.get('setting')} {sci(r.get('value'))}): {sci(r.get('cpu_s'))} s"
@@ -114,7 +127,7 @@ def frontier_section(doc: Document, frontier: Any) -> None:
     )
 
 
-def checks_section(doc: Document, checks: Any) -> None:
+def checks_section(doc: Document, checks: Checks | None) -> None:
     """The harness's own trajectory checks, each against the fastest run computing the same at its error."""
     if not isinstance(checks, dict) or not checks.get("rows"):
         return
@@ -155,7 +168,7 @@ def checks_section(doc: Document, checks: Any) -> None:
     )
 
 
-def _ratio_text(e: dict[str, Any]) -> str:
+def _ratio_text(e: CheckCost) -> str:
     """The ratio; where the check was timed again beside its fastest run, both times and the ratio apart."""
     ratio, pair, apart = e.get("ratio"), e.get("paired"), e.get("sweep_ratio")
     if ratio is None:
@@ -166,7 +179,7 @@ def _ratio_text(e: dict[str, Any]) -> str:
     return text + (f"; timed apart {apart:.2f}x)" if apart is not None else ")")
 
 
-def _work_precision_figure(system: str, rows: list[dict[str, Any]]) -> bytes:
+def _work_precision_figure(system: str, rows: list[BenchRow]) -> bytes:
     methods = sorted({r["method"] for r in rows})
     with rc():
         fig, (ax,) = new_figure(8.6, 4.2, legend_right=2.3)
@@ -198,7 +211,7 @@ def _work_precision_figure(system: str, rows: list[dict[str, Any]]) -> bytes:
         return png(fig)
 
 
-def section_stress(doc: Document, stress: dict[str, Any] | None) -> None:
+def section_stress(doc: Document, stress: StressResults | None) -> None:
     if not stress:
         doc.p(
             f"Stress tests: {NOT_RUN} (`lagrange-xval stress` writes reports/stress.json; this report shows it "
@@ -234,7 +247,7 @@ def section_stress(doc: Document, stress: dict[str, Any] | None) -> None:
         stiff_friction(doc, stiff)
 
 
-def stability_table(doc: Document, stab: list[dict[str, Any]]) -> None:
+def stability_table(doc: Document, stab: list[StabilityRow]) -> None:
     """The largest stable timestep of each system, integrator, engine and initial speed, by criterion."""
     keys = sorted({(r["system"], r["integrator"], r["engine"], as_float(r["speed"])) for r in stab})
     table = []
@@ -244,7 +257,7 @@ def stability_table(doc: Document, stab: list[dict[str, Any]]) -> None:
             for r in stab
             if (r["system"], r["integrator"], r["engine"], as_float(r["speed"])) == (system, integrator, engine, speed)
         }
-        cells = [system, integrator, engine, Num(speed, 2)]
+        cells: list[Cell] = [system, integrator, engine, Num(speed, 2)]
         for c in ("energy x2", "divergence"):
             r = by.get(c)
             cells.append(Num(r["max_stable"], 2) if r and r.get("max_stable") is not None else "–")
@@ -256,7 +269,7 @@ def stability_table(doc: Document, stab: list[dict[str, Any]]) -> None:
     )
 
 
-def drift_section(doc: Document, drift: list[dict[str, Any]]) -> None:
+def drift_section(doc: Document, drift: list[DriftRow]) -> None:
     """The long-horizon energy of the conservative systems: a table of each run's class and its figure."""
     doc.table(
         "Energy over long horizons at the MJCF timestep (conservative systems)",
@@ -282,7 +295,7 @@ def drift_section(doc: Document, drift: list[dict[str, Any]]) -> None:
     )
 
 
-def conditioning_section(doc: Document, cond: list[dict[str, Any]], points: list[dict[str, Any]]) -> None:
+def conditioning_section(doc: Document, cond: list[ConditioningSummary], points: list[ConditioningPoint]) -> None:
     """The sources' disagreement against cond(M): the summary of each sweep (cond) and the figure of every
     sweep point (points)."""
     doc.table(
@@ -293,9 +306,9 @@ def conditioning_section(doc: Document, cond: list[dict[str, Any]], points: list
                 r.get("system"),
                 r.get("sweep", r.get("kind")),
                 r.get("quantity"),
-                "{} to {}".format(*(sci(x) for x in (r.get("cond_range") or [None, None]))),
-                f"{sci((r.get('disagreement_range') or [None, None])[0])} to "
-                f"{sci((r.get('disagreement_range') or [None, None])[1])}",
+                "{} to {}".format(*(sci(x) for x in (r.get("cond_range") or NO_RANGE))),
+                f"{sci((r.get('disagreement_range') or NO_RANGE)[0])} to "
+                f"{sci((r.get('disagreement_range') or NO_RANGE)[1])}",
                 sci(r.get("base_tier_fails_from_cond")) if r.get("base_tier_fails_from_cond") else "never",
             )
             for r in cond
@@ -310,14 +323,14 @@ def conditioning_section(doc: Document, cond: list[dict[str, Any]], points: list
     )
 
 
-def stiff_friction(doc: Document, stiff: list[dict[str, Any]]) -> None:
+def stiff_friction(doc: Document, stiff: list[StiffRun]) -> None:
     """The stiff-friction sweep as a compact grid (the largest stable timestep of each integrator at each
     damping factor), every run folded below it."""
     factors = sorted({as_float(r.get("damping_factor")) for r in stiff})
     methods = sorted({(str(r.get("integrator", "")), str(r.get("engine", ""))) for r in stiff})
     grid = []
     for integrator, engine in methods:
-        cells: list[Any] = [integrator, engine]
+        cells: list[Cell] = [integrator, engine]
         for f in factors:
             runs = [
                 r
@@ -359,7 +372,7 @@ def stiff_friction(doc: Document, stiff: list[dict[str, Any]]) -> None:
     doc.fold(f"All {len(stiff)} stiff-friction runs, with their errors", inner)
 
 
-def _drift_figure(drift: list[dict[str, Any]]) -> bytes:
+def _drift_figure(drift: list[DriftRow]) -> bytes:
     system = drift[0].get("system")
     runs = [r for r in drift if r.get("system") == system and r.get("engine") == "mujoco" and r.get("series")]
     with rc():
@@ -386,7 +399,7 @@ def _drift_figure(drift: list[dict[str, Any]]) -> bytes:
         return png(fig)
 
 
-def _conditioning_figure(rows: list[dict[str, Any]]) -> bytes:
+def _conditioning_figure(rows: list[ConditioningPoint]) -> bytes:
     eps = float(np.finfo(float).eps)
     pts = [(as_float(r.get("cond_max")), as_float(r.get("scaled"))) for r in rows if r.get("quantity") == "qacc"]
     pts = [(c, e) for c, e in pts if c > 0 and np.isfinite(e)]

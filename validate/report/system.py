@@ -5,12 +5,14 @@ printed forms, trajectories, chaos and experiments; a pure function of that syst
 from __future__ import annotations
 
 import re
-from typing import Any
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
 
 from ..results.schema import SCALED_DEFINITION, ComparisonRow, FreeRun, SystemResult, Trajectories
 from .audit import audit_section
 from .document import (
     NOT_RUN,
+    Cell,
     Document,
     Items,
     Mark,
@@ -48,6 +50,10 @@ from .system_parts import (
     system_skipped,
 )
 from .trust import trust_section
+
+if TYPE_CHECKING:
+    import numpy as np
+    import numpy.typing as npt
 
 
 def section_system(doc: Document, name: str, s: SystemResult) -> None:
@@ -202,7 +208,7 @@ def section_model_checks(doc: Document, name: str, s: SystemResult) -> None:
 POINTWISE_COLUMNS = ("quantity", "pair", "tier", "max abs", "scale", "scaled", "tolerance", "verdict")
 
 
-def pointwise_row(r: ComparisonRow) -> tuple[Any, ...]:
+def pointwise_row(r: ComparisonRow) -> tuple[Cell, ...]:
     return (
         r.get("quantity"),
         r.get("pair"),
@@ -215,12 +221,12 @@ def pointwise_row(r: ComparisonRow) -> tuple[Any, ...]:
     )
 
 
-def worst_per_quantity(rows: list[ComparisonRow]) -> list[tuple[Any, ...]]:
+def worst_per_quantity(rows: list[ComparisonRow]) -> list[tuple[Cell, ...]]:
     """One line per quantity: how many pairs agree, and the pair closest to (or furthest past) its tolerance."""
     by: dict[str, list[ComparisonRow]] = {}
     for r in rows:
         by.setdefault(str(r.get("quantity")), []).append(r)
-    out = []
+    out: list[tuple[Cell, ...]] = []
     for q, rs in by.items():
         w = max(rs, key=ratio)
         bad = sum(1 for r in rs if r.get("passed") is False)
@@ -356,7 +362,7 @@ def trajectory_runs_table(doc: Document, name: str, s: SystemResult, tr: Traject
     )
 
 
-def judged_notes(doc: Document, name: str, tr: Trajectories, t: Any) -> None:
+def judged_notes(doc: Document, name: str, tr: Trajectories, t: npt.NDArray[np.float64]) -> None:
     """How long the runs are judged and why: the common interval, each run's own error estimate and
     threshold, and the runs judged over a shorter interval of their own."""
     runs = tr["runs"]
@@ -399,7 +405,9 @@ def uncounted_notes(doc: Document, s: SystemResult, tr: Trajectories) -> None:
             doc.p(f"Not part of the verdict: {why}.", "note")
 
 
-def trajectory_figures(doc: Document, name: str, s: SystemResult, tr: Trajectories, t: Any, thr: float) -> None:
+def trajectory_figures(
+    doc: Document, name: str, s: SystemResult, tr: Trajectories, t: npt.NDArray[np.float64], thr: float
+) -> None:
     """The coordinates, the error against the reference and the energy of every run, against time."""
     runs = tr["runs"]
     doc.figure(
@@ -425,7 +433,7 @@ def trajectory_figures(doc: Document, name: str, s: SystemResult, tr: Trajectori
     )
 
 
-def judged_max(values: Any, t: Any, until: Any) -> float | None:
+def judged_max(values: Iterable[object] | None, t: Iterable[object], until: float | str | None) -> float | None:
     """The largest of a run's per-sample values up to the judged end (all, without one)."""
     x = series(values if values is not None else [])
     if until is not None and len(x) == len(series(t)):
@@ -471,7 +479,7 @@ def first_above(run: FreeRun, tr: Trajectories) -> str:
     return when
 
 
-def fmt_stats(stats: Any) -> str:
+def fmt_stats(stats: object) -> str:
     """The cost of a run: its function evaluations and steps (the integrator's status is not a cost)."""
     if not isinstance(stats, dict) or not stats:
         return "–"
@@ -479,6 +487,6 @@ def fmt_stats(stats: Any) -> str:
     return ", ".join(f"{v} {names[k]}" for k, v in sorted(stats.items()) if k in names and is_number(v)) or "–"
 
 
-def shorten(x: Any, n: int = 60) -> str:
+def shorten(x: Cell | list[float | str], n: int = 60) -> str:
     text = vec(x) if isinstance(x, list) else cell_text(x)
     return text if len(text) <= n else text[: n - 1] + "…"

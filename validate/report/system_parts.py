@@ -4,15 +4,27 @@ chaos and the mirrors, the notes' experiments, and what the scene skips.
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Mapping
 
 import numpy as np
 
-from ..results.schema import Derivation, Explanation, FreeRun, SystemResult
+from ..results.schema import (
+    ChaosStudy,
+    Derivation,
+    EquivalenceRow,
+    ExperimentRun,
+    Experiments,
+    Explanation,
+    FreeRun,
+    FreeRunCheck,
+    MirrorCheck,
+    SystemResult,
+)
 from ..results.stages import outcome
 from .document import (
     ERRATA,
     NOT_RUN,
+    Cell,
     Code,
     Document,
     Mark,
@@ -239,7 +251,7 @@ def system_equivalence(doc: Document, name: str, s: SystemResult) -> None:
         f"B = {np.asarray(eq['map']).tolist()}): their hand equations must map onto each other."
     )
     rows = eq["rows"]
-    worst: dict[str, dict[str, Any]] = {}
+    worst: dict[str, EquivalenceRow] = {}
     for r in rows:
         if r["quantity"] not in worst or ratio(r) > ratio(worst[r["quantity"]]):
             worst[r["quantity"]] = r
@@ -313,7 +325,7 @@ def system_chaos(doc: Document, name: str, s: SystemResult) -> None:
     lyap, lyap2 = ch.get("lyapunov", {}), ch.get("lyapunov_two_trajectories", {})
     amp = ch.get("amplification_at", {})
     hz = ch.get("horizon_from_rounding", {})
-    rows: list[tuple[Any, ...]] = [
+    rows: list[tuple[str, Cell]] = [
         ("largest Lyapunov exponent, variational equations (1/s)", Num(lyap.get("lambda"), 3)),
         ("largest Lyapunov exponent, two nearby trajectories (1/s)", Num(lyap2.get("lambda"), 3)),
     ]
@@ -336,7 +348,7 @@ def system_chaos(doc: Document, name: str, s: SystemResult) -> None:
     _integrators_table(doc, name, s, cx, chaotic=chaotic)
 
 
-def _integrators_table(doc: Document, name: str, s: SystemResult, cx: dict[str, Any], *, chaotic: bool) -> None:
+def _integrators_table(doc: Document, name: str, s: SystemResult, cx: ChaosStudy, *, chaotic: bool) -> None:
     """Per MuJoCo integrator: the free run against the reference with its verdict, the mirrors, the
     convergence order and the energy; then what the mirrors are, and which free runs are judged short."""
     integ = cx.get("integrators", {})
@@ -412,7 +424,7 @@ def _integrators_table(doc: Document, name: str, s: SystemResult, cx: dict[str, 
 MIRROR_OF = {"mujoco~hand": "the hand equations", "mujoco~pinocchio": "Pinocchio's ABA"}
 
 
-def mirror_notes(integrator: str, mirrors: dict[str, Any]) -> list[str]:
+def mirror_notes(integrator: str, mirrors: Mapping[str, MirrorCheck]) -> list[str]:
     """What a mirror's number alone does not say: not judged, judged short of the run, or failed, and why."""
     notes = []
     for pair, m in sorted(mirrors.items()):
@@ -432,7 +444,7 @@ def mirror_notes(integrator: str, mirrors: dict[str, Any]) -> list[str]:
     return notes
 
 
-def same_run(s: SystemResult, integrator: str, free_run: dict[str, Any]) -> FreeRun | None:
+def same_run(s: SystemResult, integrator: str, free_run: FreeRunCheck) -> FreeRun | None:
     """The trajectory table's MuJoCo run when it is this integrator's free run (same integrator and
     timestep, from the same start): its verdict is then stated once, in the trajectory table's words."""
     tr = s.get("trajectories") or {}
@@ -450,12 +462,12 @@ def same_run(s: SystemResult, integrator: str, free_run: dict[str, Any]) -> Free
     )
 
 
-def _when(x: Any, t_end: float) -> str:
+def _when(x: float | str | None, t_end: float) -> str:
     """A separation or departure time, or never within the experiment's `t_end`."""
     return f"{as_float(x):.2f} s" if x is not None else f"never ({t_end:g} s)"
 
 
-def _experiment_intro(doc: Document, ex: dict[str, Any], notes: Any) -> None:
+def _experiment_intro(doc: Document, ex: Experiments, notes: str | None) -> None:
     """The starts, the perturbation, the integrator, and what separation and departure mean."""
     coord = ex.get("perturbed_coordinate", "q")
     what = f"The notes' experiment ({notes})" if notes else "A perturbation experiment"
@@ -467,18 +479,18 @@ def _experiment_intro(doc: Document, ex: dict[str, Any], notes: Any) -> None:
     )
 
 
-def _separation_table(doc: Document, name: str, s: SystemResult, notes: Any, t_end: float) -> None:
+def _separation_table(doc: Document, name: str, s: SystemResult, notes: str | None, t_end: float) -> None:
     """Every form's separation and departure times beside its verdict; the wrong forms named below."""
     ex = s.get("experiments") or {}  # the callers hold experiments
     verdicts = {v.get("name"): v.get("verdict") for v in s.get("variants", [])}
     of_notes = "notes' " if notes else ""
 
-    def form_verdict(form: str) -> Any:
+    def form_verdict(form: str) -> Mark:
         if form == "hand derivation":
             return verdict_mark((s.get("derivation") or {}).get("verdict", ""))
         return verdict_mark(str(verdicts.get(form, "–")))  # as the table prints it
 
-    def integration(r: dict[str, Any]) -> str:
+    def integration(r: ExperimentRun) -> str:
         status = str(r.get("status", ""))
         return "completed" if status == "ok" else status
 
@@ -507,7 +519,7 @@ def _separation_table(doc: Document, name: str, s: SystemResult, notes: Any, t_e
         )
 
 
-def _separation_finding(doc: Document, name: str, s: SystemResult, notes: Any, t_end: float) -> bool:
+def _separation_finding(doc: Document, name: str, s: SystemResult, notes: str | None, t_end: float) -> bool:
     """What the hand derivation's runs at rtol 1e-3 and 1e-6 say about separation; whether the loose
     solver's own error parts the starts first (False where either run is missing)."""
     ex = s.get("experiments") or {}  # the callers hold experiments
@@ -551,7 +563,9 @@ def _separation_finding(doc: Document, name: str, s: SystemResult, notes: Any, t
     return solver_first
 
 
-def _experiment_figure_section(doc: Document, name: str, ex: dict[str, Any], notes: Any, solver_first: bool) -> None:
+def _experiment_figure_section(
+    doc: Document, name: str, ex: Experiments, notes: str | None, solver_first: bool
+) -> None:
     """The figure of the hand derivation's runs from both starts, where they were kept."""
     hand = [r for r in ex.get("runs", []) if r["form"] == "hand derivation" and "q" in r]
     if not hand:
@@ -587,7 +601,7 @@ def system_experiments(doc: Document, name: str, s: SystemResult) -> None:
 
 
 @kept
-def experiment_figure(name: str, ex: dict[str, Any], runs: list[dict[str, Any]], *, notes: bool = False) -> bytes:
+def experiment_figure(name: str, ex: Experiments, runs: list[ExperimentRun], *, notes: bool = False) -> bytes:
     """The perturbed coordinate from both starts at each tolerance, one panel per tolerance; the legend
     on the right, clear of the curves."""
     t = series(ex["t"])

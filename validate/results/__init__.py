@@ -133,7 +133,7 @@ def dumps(results: Mapping[str, Any], systems_text: Mapping[str, str] | None = N
     return _dumps(to_jsonable({**results, "systems": _Written(texts)}), 0) + "\n"
 
 
-def system_json(result: Mapping[str, Any]) -> str:
+def system_json(result: Mapping[str, object]) -> str:
     """One system's results as `dumps` writes them inside results.json (at their depth there)."""
     return _dumps(to_jsonable(result), SYSTEM_DEPTH)
 
@@ -149,7 +149,7 @@ class _Written:
     texts: Mapping[str, str]
 
 
-def _dumps(x: Any, depth: int) -> str:
+def _dumps(x: object, depth: int) -> str:
     if isinstance(x, _Written):
         if not x.texts:
             return "{}"
@@ -180,7 +180,7 @@ def load(path: Path) -> RunResults:
     return cast(RunResults, results)  # its top checked here, the rest as `run` wrote it
 
 
-def schema_problem(results: Any) -> str | None:
+def schema_problem(results: object) -> str | None:
     """What is wrong with the top of a results document, or None (the parts the report reads first)."""
     if not isinstance(results, dict):
         return f"a JSON {type(results).__name__}, expected an object"

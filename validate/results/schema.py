@@ -2,13 +2,14 @@
 reports and replays read. One provenance block (`meta`) for every results file (run, bench, stress).
 
 Typed where the harness decides the shape, and read by the report through these types (mypy checks every
-key it reads); the chaos study, the experiments and the equivalence stay plain mappings (`dict[str, Any]`),
-their keys documented where they are made (dynamics/chaos.py, pipeline.py). Non-finite numbers are written
-as strings ("inf", "nan"): JSON has none.
+key it reads); the chaos study, the experiments and the equivalence are typed here too, their keys
+documented where they are made (dynamics/chaos.py, dynamics/experiments.py, stages/equivalence.py).
+Non-finite numbers are written as strings ("inf", "nan"): JSON has none.
 """
 
-from typing import Any, NotRequired, TypedDict
+from typing import NotRequired, TypedDict
 
+from ..core.arrays import Json, Matrix
 from .stages import Stage
 
 # The one definition of the number every comparison is judged by (verdict/pointwise.error_row computes
@@ -151,10 +152,36 @@ class WorstTerm(TypedDict, total=False):
     pair: str
     parameters: str
     max_abs: float
+    max_rel: float  # a printed form's
     scaled: float
     tolerance: float
     worst_state: WorstState | None
     error: str
+
+
+class ProbeEntry(TypedDict):
+    """One parameter set a derivation was judged at (verdict/probes.Probe.as_dict)."""
+
+    index: int  # 0: the model's own
+    label: str
+    changed: dict[str, list[float]]  # Params field -> [model's value, probe's value]
+
+
+class NotSpd(TypedDict):
+    """Where a derivation's mass matrix is not symmetric positive definite (verdict/verdict.definiteness)."""
+
+    what: str  # "not symmetric", "singular" or "indefinite"
+    states: int  # how many states
+    of: int
+    q: list[float]  # the worst state
+    smallest_eigenvalue: float
+
+
+class TermNotes(TypedDict, total=False):
+    """What the terms could not check at one parameter set (verdict/verdict.term_rows_at)."""
+
+    errors: dict[str, str]  # term -> why it was not computed
+    mass_matrix_not_spd: NotSpd
 
 
 class Derivation(TypedDict, total=False):
@@ -171,15 +198,15 @@ class Derivation(TypedDict, total=False):
     typed_numbers: dict[str, float]  # fields parameters() returns without reading the model (g = 9.81)
     terms: list[TermRow]
     summary: list[TermSummary]  # per term: rows, worst scaled error, tolerance
-    probes: list[dict[str, Any]]  # index, label, the parameters changed
+    probes: list[ProbeEntry]  # index, label, the parameters changed
     probe_problems: list[str]  # probes that could not be built, and why
     held_at_zero: list[str]  # parameters zero in the model: the terms they scale are not tested
     checked: dict[str, int]  # states at the model, per probe, probes, evaluations
-    notes: dict[str, Any]  # per probe: what the terms could not check there
+    notes: dict[str, TermNotes]  # per probe: what the terms could not check there
     worst_term: WorstTerm
     exposed_by: list[str]  # the parameters that alone expose a mistake hidden by the model's values
     unstated_assumptions: list[str]  # model numbers the failing term depends on that parameters() does not read
-    mass_matrix_not_spd: dict[str, Any]
+    mass_matrix_not_spd: NotSpd
     disagrees_at: str
     disagrees_where: str
     reason: str  # why not applicable
@@ -205,13 +232,39 @@ class TrustSummary(TypedDict):
     horizon_rule: str
 
 
+class RunTrust(TypedDict, total=False):
+    """Until when one run agrees with the reference, and why (dynamics/trust.run_trust)."""
+
+    trusted_until: float  # s
+    why: str
+    departs_at: float | None  # s: its distance to the reference passes the trust limit
+    expected: bool  # the departure is within the run's own threshold
+
+
+class ReferenceInfo(TypedDict, total=False):
+    """How a reference solution was computed and checked (dynamics/reference.reference_trajectory)."""
+
+    method: str
+    precision: str
+    tolerance: float
+    order: int
+    steps: int
+    timing: dict[str, float]  # s: compile_s, integrate_s, check_..., total_s
+    rhs_check: float  # the traced right-hand side against the numpy equations (relative)
+    check_method: str | None
+    agreement_q: float | None  # rad: the second method against the first
+    agreement_v: float | None
+    cache: str  # "hit", "miss" or "off"
+    cache_file: str | None
+
+
 class FreeRun(TypedDict, total=False):
     """One free run against the reference (dynamics/freeruns._run_entry, judged by judge_trajectories)."""
 
     source: str  # "hand", "mujoco", "pinocchio", "symbolic", "drake"
     method: str  # "MuJoCo RK4", "scipy DOP853 rtol 1e-10", ...
     label: str  # a run from another start (the perturbed one)
-    stats: dict[str, Any]
+    stats: dict[str, Json]  # the integrator's own counts and status ("nfev", "status", "reason", ...)
     q: list[list[Number]]  # (K, n) rad
     v: list[list[Number]]  # (K, n) rad/s
     energy: list[Number]  # (K,) J, by the hand equations (or the first source that has them)
@@ -229,7 +282,7 @@ class FreeRun(TypedDict, total=False):
     judged_until: float  # s
     judged_because: str
     threshold_at_judged_end: float
-    trust: dict[str, Any]  # dynamics/trust.run_trust
+    trust: RunTrust  # dynamics/trust.run_trust
     trust_statement: str
 
 
@@ -243,7 +296,7 @@ class Trajectories(TypedDict, total=False):
     dt_out: float  # s
     t: list[float]  # (K,) s
     reference: str
-    reference_info: dict[str, Any]
+    reference_info: ReferenceInfo
     threshold: float  # rad: the floor under every run's own threshold
     threshold_rule: str
     safety: float
@@ -252,6 +305,295 @@ class Trajectories(TypedDict, total=False):
     trust: TrustSummary
     judged_until: float  # s
     judged_because: str
+
+
+class EquivalenceRow(TypedDict):
+    """One quantity of a system against its other formulation, mapped (stages/equivalence.py)."""
+
+    quantity: str  # "M", "bias", "T", "V", "body_positions", "parameters", "trajectory q over 10 s"
+    parameters: str  # "model" or "probe k"
+    tolerance: float
+    max_abs: float
+    scaled: float
+    passed: bool
+    error: NotRequired[str]  # the other module's parameters() or a function raised
+
+
+class Equivalence(TypedDict):
+    """Two formulations of one chain, mapped onto each other (stages/equivalence.check_equivalence)."""
+
+    other: str  # the other system
+    map: Matrix | list[list[float]]  # B, q_this = B q_other (an array as computed, lists as read back)
+    n_states: int
+    probes: int
+    rows: list[EquivalenceRow]
+    passed: bool
+
+
+class ExperimentRun(TypedDict, total=False):
+    """One dynamic form from both starts at one tolerance (dynamics/experiments.run_experiments)."""
+
+    form: str  # "hand derivation" or a printed form's name
+    rtol: float
+    status: str  # "ok", "not applicable: ...", or why the integration stopped
+    stopped_at: float  # s
+    q: list[list[Number]]  # (K, n) rad, from the start as given
+    q_perturbed: list[list[Number]]  # (K, n) rad, from the perturbed start
+    separation_time: float | None  # s: the two starts differ by more than `resemblance`
+    departure_time: float | None  # s: the unperturbed run leaves the accurate solution by as much
+
+
+class Experiments(TypedDict, total=False):
+    """The notes' perturbation experiment (dynamics/experiments.run_experiments), as the stage keeps it."""
+
+    method: str
+    accurate: str
+    q0: list[float]
+    v0: list[float]
+    perturbed_coordinate: str
+    perturbation: float  # rad, added to the last coordinate
+    resemblance: float  # rad
+    t: list[float]  # (K,) s
+    q_accurate: list[list[Number]]  # (K, n) rad
+    accurate_status: str
+    runs: list[ExperimentRun]
+    notes_experiment: str | None  # what the notes call it; None where they have none
+    notes_separation: float | None  # s, as the notes report it
+    cache: str  # "hit", "miss" or "off"
+
+
+# The largest Lyapunov exponent by one method (dynamics/lyapunov.lyapunov_exponent): "lambda" (1/s) is a
+# keyword, hence the functional form. "running": [t, lambda(t)] every 10 % of t_end; "spectrum" (variational):
+# every exponent; "d0" (two trajectories): their distance.
+Lyapunov = TypedDict(
+    "Lyapunov",
+    {
+        "lambda": float,
+        "method": str,
+        "t_end": float,
+        "interval": float,
+        "running": list[list[float]],
+        "spread": float,
+        "seconds": float,
+        "spectrum": list[float],
+        "d0": float,
+    },
+    total=False,
+)
+
+
+class RoundingHorizon(TypedDict, total=False):
+    """When the rounding of the start grows to `tolerance` (dynamics/flow.horizon_from_rounding)."""
+
+    e0: float  # rad: the rounding
+    tolerance: float  # rad
+    horizon: float | None  # s; None: not within t_end
+    t_end: float
+
+
+class ChaosSummary(TypedDict, total=False):
+    """Lyapunov exponents, amplification and horizons from one start (dynamics/lyapunov.chaos_summary)."""
+
+    lyapunov: Lyapunov
+    lyapunov_two_trajectories: Lyapunov
+    lyapunov_agreement: float
+    amplification_at: dict[str, float]  # "2 s" -> amplification
+    max_amplification: float
+    horizon_from_rounding: RoundingHorizon
+    horizon_estimate_from_lambda: float | None  # s
+    cache: str
+
+
+class Judgement(TypedDict, total=False):
+    """A free-running error against its envelope (dynamics/flow.judge_free_run)."""
+
+    passed: bool
+    horizon: float | None  # s; None: the whole grid
+    judged_until: float  # s
+    safety: float
+    tolerance: float  # rad
+    max_ratio: float  # largest error / envelope within the horizon
+    first_violation: float | None  # s
+
+
+class FreeRunCheck(TypedDict, total=False):
+    """One MuJoCo integrator's free run against the reference (dynamics/chaos.free_run_check)."""
+
+    engine: str
+    integrator: str
+    timestep: float  # s
+    max_error: float  # rad
+    error_at: dict[str, float]  # "1 s" -> rad
+    max_window_error: float
+    envelope_at: dict[str, float]
+    predicted_at: dict[str, float]
+    predicted_horizon: float | None  # s
+    prediction_mismatch: float
+    judge: Judgement
+
+
+class MirrorCheck(TypedDict, total=False):
+    """MuJoCo against a mirror of its scheme on another source (dynamics/chaos._mirror_verdict)."""
+
+    max_difference: float  # rad
+    difference_at: dict[str, float]
+    max_window_difference: float
+    window_ulps: float
+    window_ulps_limit: float
+    round_off: bool
+    envelope_at: dict[str, float]
+    judge: Judgement
+    passed: bool
+    status: str  # a mirror that diverged or stopped
+    reason: str
+    judged: bool  # False: cannot be built (an explicit form with damping)
+    why_not_judged: str
+    judged_short: str  # the harness's wall-time budget stopped it: judged until then (the stop, said)
+
+
+class Convergence(TypedDict, total=False):
+    """The observed order of an integrator from a timestep sweep (dynamics/chaos.convergence_order)."""
+
+    engine: str
+    integrator: str
+    t_end: float
+    timesteps: list[float]
+    stable_timestep: float | None
+    timesteps_from: str
+    errors: list[float]
+    order: float | None
+    pairwise_orders: list[float] | None
+    expected: int
+
+
+class EnergyChange(TypedDict):
+    """A free run's energy against the reference's (J; dynamics/chaos._integrator_entry)."""
+
+    max_abs: float
+    relative: float
+    rate: float  # J/s
+
+
+class IntegratorStudy(TypedDict, total=False):
+    """One MuJoCo integrator in the chaos study (dynamics/chaos._integrator_entry)."""
+
+    free_run: FreeRunCheck
+    mirrors: dict[str, MirrorCheck]  # "mujoco~hand", "mujoco~pinocchio"
+    lockstep: dict[str, dict[str, float]]  # "a~b" -> q, v (largest differences), q_ulps, v_ulps
+    convergence: Convergence
+    energy: EnergyChange
+
+
+class RoundOff(TypedDict, total=False):
+    """The window ulps two sources under one scheme may differ by (dynamics/chaos.round_off_limit)."""
+
+    limit: float
+    formula: str
+    cond_max: float
+    max_acceleration: float
+    max_state: float
+    steps: int
+    timestep: float
+
+
+class ChaosStudy(TypedDict, total=False):
+    """The trajectory cross-validation of one system (dynamics/chaos.crossvalidate), as the stage keeps it."""
+
+    q0: list[float]
+    v0: list[float]
+    tau: list[float]
+    t_end: float  # s
+    dt_out: float  # s
+    timestep: float  # s: the model's
+    tolerance: float  # rad
+    safety: float
+    reference: ReferenceInfo
+    chaos: ChaosSummary
+    amplification: list[float]  # (K,) on the grid: how much the dynamics amplify an error
+    round_off: RoundOff
+    integrators: dict[str, IntegratorStudy]  # "RK4", "Euler", "implicit", "implicitfast"
+    passed: bool
+    cache: str  # "hit", "miss" or "off"
+
+
+class Readable(TypedDict):
+    """One derived expression as plain text and LaTeX."""
+
+    text: str
+    latex: str
+
+
+class DerivedEquations(TypedDict):
+    """The model's equations derived symbolically, term by term (symbolic/readable.as_data)."""
+
+    coordinates: list[str]
+    T: Readable
+    V: Readable
+    M: list[list[Readable]]
+    Cv: list[Readable]
+    G: list[Readable]
+    passive: list[Readable]
+    parameters: dict[str, str]  # symbol -> "the model key it reads, unit"
+
+
+class ParameterKeys(TypedDict, total=False):
+    """The model keys a parameter sets and their unit (systems/units.parameter_keys)."""
+
+    keys: list[str]
+    unit: str  # "" where no key follows the parameter
+
+
+class Misread(TypedDict):
+    """One reader's misreading of a field (audit/audit.py), with the catalogue entry that explains it."""
+
+    reader: str
+    key: str
+    field: str
+    entry: str  # the catalogue's key ("" : cause unknown)
+    reported: str  # where the behaviour is reported
+    finding: str
+    short: str
+
+
+class AuditRow(TypedDict):
+    """One field of the model: what the format means, what each reader read."""
+
+    key: str
+    reference: Json
+    values: dict[str, Json]  # reader -> its value
+    agree: bool
+    informational: bool  # no smooth dynamics use it
+    misreads: list[Misread]
+
+
+class MassMatrixGaps(TypedDict):
+    """What each reading does to the dynamics (audit/audit.consequences)."""
+
+    n_states: int
+    seed: int
+    max_abs: dict[str, float]  # reader -> max |M_reader - M_format|
+    gravity_max_abs: dict[str, float]  # reader -> max |G_reader - G_format|
+
+
+class Audit(TypedDict, total=False):
+    """The model read by MuJoCo, Pinocchio and Drake side by side (audit/audit.audit_file); an audit that
+    cannot be made has only `error` and `passed`."""
+
+    model: str
+    format: str
+    reference: str
+    readers: list[str]
+    skipped: dict[str, str]  # reader -> why it did not read the file
+    frame: str
+    rows: list[AuditRow]
+    misreads: list[Misread]
+    findings: list[str]
+    excluded: list[str]
+    warnings: dict[str, list[str]]
+    mass_matrix: MassMatrixGaps
+    passed: bool
+    system: str
+    error: str
 
 
 class SystemResult(TypedDict, total=False):
@@ -271,20 +613,20 @@ class SystemResult(TypedDict, total=False):
     failed: list[str]  # each failing check in one short phrase
     statement: str  # the verdict in one sentence, as `decide` wrote it (verdict/decide.py, Decision.statement)
     parameters: dict[str, float]
-    parameter_keys: dict[str, dict[str, Any]]  # per parameter: the model keys it sets and their unit
-    derived: dict[str, Any] | None  # the model's equations derived symbolically (symbolic/readable.as_data)
+    parameter_keys: dict[str, ParameterKeys]  # per parameter: the model keys it sets and their unit
+    derived: DerivedEquations | None  # the model's equations derived symbolically (symbolic/readable.as_data)
     timestep: float
     model_checks: ModelChecks
     pointwise: Pointwise
     derivation: Derivation
     variants: list[Derivation]  # the printed forms of the notes (verdict/judge.py)
     trajectories: Trajectories | None
-    experiments: dict[str, Any] | None
-    equivalence: dict[str, Any] | None
-    chaos: dict[str, Any] | None
+    experiments: Experiments | None
+    equivalence: Equivalence | None
+    chaos: ChaosStudy | None
     stages: dict[str, Stage]  # each stage's wall seconds, and why it was not run or failed (results/stages.py)
     skipped: list[str]
-    audit: dict[str, Any]  # the model read by MuJoCo, Pinocchio and Drake side by side (audit/audit.py)
+    audit: Audit  # the model read by MuJoCo, Pinocchio and Drake side by side (audit/audit.py)
     passed: bool
 
 
@@ -292,18 +634,226 @@ class RunResults(TypedDict):
     """results.json."""
 
     meta: Provenance
-    tolerances: dict[str, Any]
+    tolerances: dict[str, dict[str, float | str | None]]  # per tier (core/tolerances.Tolerances.as_dict)
     systems: dict[str, SystemResult]
     passed: bool
+
+
+# bench.json, stress.json and chains.json as the report reads them (studies/bench, studies/stress,
+# studies/chains.py write them; every key optional: a file of an older harness may lack one).
+
+
+class BenchConfig(TypedDict, total=False):
+    quick: bool
+    repeats: int
+
+
+class BenchRow(TypedDict, total=False):
+    """One method at one setting on one system: its CPU time and errors."""
+
+    system: str
+    method: str
+    setting: str
+    value: float  # the setting's value (a tolerance, a timestep)
+    status: str  # "ok", or why the run failed
+    cpu_s: float
+    error_2s: float  # rad
+    error_10s: float  # rad
+
+
+class TimeToEpsilon(TypedDict, total=False):
+    system: str
+    method: str
+    epsilon: float  # rad
+    cpu_s: float
+    result: str  # "reached" or why not
+
+
+class FrontierEntry(TypedDict, total=False):
+    """The fastest method measured at one error, and the harness's default path at the same error."""
+
+    epsilon: float
+    fastest: BenchRow | None
+    default_path: BenchRow | None
+    ratio: float | None  # default / fastest (CPU)
+    why: str  # no ratio: why
+
+
+class Frontier(TypedDict, total=False):
+    per_system: dict[str, list[FrontierEntry]]
+
+
+class Paired(TypedDict, total=False):
+    """A check timed again side by side with its fastest run."""
+
+    cpu_s: float
+    fastest_cpu_s: float
+
+
+class CheckCost(TypedDict, total=False):
+    """One of the harness's trajectory checks against the fastest run computing the same at its error."""
+
+    system: str
+    check: str
+    kind: str  # "windows", "user", ...
+    method: str
+    cpu_s: float
+    error_2s: float
+    windows_ulps_vs_mujoco: float
+    fastest: BenchRow | None
+    why: str
+    ratio: float | None
+    paired: Paired | None
+    sweep_ratio: float | None
+    passed: bool | None
+    target: float | None
+
+
+class Checks(TypedDict, total=False):
+    rows: list[CheckCost]
+    target: float
+
+
+class BenchRatios(TypedDict, total=False):
+    default_path_vs_frontier: Frontier
+    harness_checks_vs_fastest: Checks
+
+
+class BenchResults(TypedDict, total=False):
+    """bench.json (studies/bench/output.py)."""
+
+    meta: Provenance
+    config: BenchConfig
+    ratios: BenchRatios
+    systems: list[str]
+    rows: list[BenchRow]
+    pareto: dict[str, list[BenchRow] | dict[str, list[BenchRow]]]  # per system (older files: per horizon)
+    time_to_epsilon: list[TimeToEpsilon]
+
+
+class StabilityRow(TypedDict, total=False):
+    """The largest stable timestep of one system, integrator, engine and initial speed, by one criterion."""
+
+    system: str
+    integrator: str
+    engine: str
+    speed: float  # rad/s
+    criterion: str  # "energy x2" or "divergence"
+    max_stable: float | None  # s
+
+
+class EnergySeries(TypedDict, total=False):
+    t: list[float]
+    dE: list[float]  # J
+
+
+# One long-horizon energy run (studies/stress/energy.py; "class", a keyword, is how the energy behaves)
+DriftRow = TypedDict(
+    "DriftRow",
+    {
+        "system": str,
+        "integrator": str,
+        "engine": str,
+        "horizon": float,
+        "class": str,
+        "relative_max": float,
+        "rate": float,
+        "series": EnergySeries,
+    },
+    total=False,
+)
+
+
+class ConditioningSummary(TypedDict, total=False):
+    """One conditioning sweep of one quantity (studies/stress/conditioning.py)."""
+
+    system: str
+    sweep: str
+    kind: str
+    quantity: str
+    cond_range: list[float]
+    disagreement_range: list[float]
+    base_tier_fails_from_cond: float | None
+
+
+class ConditioningPoint(TypedDict, total=False):
+    system: str
+    quantity: str
+    cond_max: float
+    scaled: float
+
+
+class SolveTierProposal(TypedDict, total=False):
+    measured_C_cond: float
+    formula: str
+
+
+class StiffRun(TypedDict, total=False):
+    damping_factor: float
+    integrator: str
+    engine: str
+    timestep: float  # s
+    stable: bool
+    max_error: float  # rad
+
+
+class StressResults(TypedDict, total=False):
+    """stress.json (studies/stress/output.py)."""
+
+    meta: Provenance
+    provenance: Provenance  # stress.json before the block was named "meta"
+    quick: bool
+    criteria: dict[str, str]
+    stability: list[StabilityRow]
+    drift: list[DriftRow]
+    conditioning: list[ConditioningPoint]
+    conditioning_summary: list[ConditioningSummary]
+    solve_tier_proposal: SolveTierProposal
+    stiff_friction: list[StiffRun]
+
+
+class SymbolicCost(TypedDict, total=False):
+    derive_s: float
+    codegen_s: float
+    ops_M_Cv: int
+
+
+class ChainRow(TypedDict, total=False):
+    """One generated chain (studies/chains.py)."""
+
+    kind: str  # "planar" or "spatial"
+    n: int
+    per_state_s: dict[str, dict[str, float]]  # source -> operation ("M", "forward", ...) -> s
+    symbolic: SymbolicCost
+    worst_scaled: dict[str, float]  # "quantity pair" -> scaled disagreement
+    all_within_tiers: bool
+    cond_M_max: float
+
+
+class ChainStop(TypedDict, total=False):
+    n: int
+    why: str
+
+
+class ChainsStudy(TypedDict, total=False):
+    """chains.json (studies/chains.py)."""
+
+    rows: list[ChainRow]
+    ns: list[int]
+    n_states: int
+    repeats: int
+    symbolic_budget_s: float
+    slopes: dict[str, dict[str, float]]  # chains and source -> operation -> log-log slope
+    symbolic_stopped_at: dict[str, ChainStop]
 
 
 class ReportInput(RunResults, total=False):
     """What the report is rendered from: results.json, with the results of `bench`, `stress` and the chain
     study found beside it (cli/outputs.with_optional_results)."""
 
-    bench: dict[str, Any]
-    stress: dict[str, Any]
-    chains: dict[str, Any]
+    bench: BenchResults
+    stress: StressResults
+    chains: ChainsStudy
     skipped: str
 
 

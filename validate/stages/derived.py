@@ -9,24 +9,31 @@ from __future__ import annotations
 
 import hashlib
 import json
-from typing import Any
+from collections.abc import Callable
+from typing import TypeVar, cast
+
+import numpy as np
 
 from ..core import cache
 from ..core.cachedir import Cache
+from ..model.modelview import ModelView
+from ..results.schema import DerivedEquations
 from ..sources.symbolic import derivation_of
 from ..symbolic.derivation import derive, structure_key
 from ..symbolic.readable import as_data, as_text, equations
 from ..systems import System
 
+T = TypeVar("T")
 
-def _cached(what: str, compute: Any, store: Cache | None) -> Any:
+
+def _cached(what: str, compute: Callable[[], T], store: Cache | None) -> T:
     """`compute()` (JSON-able), or what `store` (None: no cache) holds for `what`."""
     key = hashlib.sha256((cache.harness_hash() + what).encode()).hexdigest()
     where = None if store is None else store.folder("derive")
     path = None if where is None else where / f"{key[:32]}.npz"
     found = None if path is None else cache.load(path, key)
     if found is not None and "value" in found[1]:
-        return found[1]["value"]
+        return cast(T, found[1]["value"])  # what `compute` returned, read back from JSON
     value = compute()
     if path is not None:
         cache.store(path, key, {}, {"value": value})
@@ -36,16 +43,18 @@ def _cached(what: str, compute: Any, store: Cache | None) -> Any:
 SIMPLIFY_MAX_DOF = 3  # a 3-joint arm's entries simplify in about 20 s; a 6-joint arm's take far longer
 
 
-def _what(view: Any, joints: tuple[str, ...], coordinates: tuple[str, ...], joint_map: Any, fmt: str) -> str:
+def _what(
+    view: ModelView, joints: tuple[str, ...], coordinates: tuple[str, ...], joint_map: np.ndarray | None, fmt: str
+) -> str:
     mapping = None if joint_map is None else [[float(x) for x in row] for row in joint_map]
     return repr((structure_key(view, joints), tuple(coordinates), json.dumps(mapping), fmt))
 
 
 def derived_text(
-    view: Any,
+    view: ModelView,
     joints: tuple[str, ...],
     coordinates: tuple[str, ...],
-    joint_map: Any,
+    joint_map: np.ndarray | None,
     fmt: str,
     *,
     cache: Cache | None = None,
@@ -64,14 +73,17 @@ def derived_text(
     )
 
 
-def derived_data(system: System, *, cache: Cache | None = None) -> dict[str, Any]:
+def derived_data(system: System, *, cache: Cache | None = None) -> DerivedEquations:
     """The system's derived equations for the results: each term as text and LaTeX (readable.as_data),
     kept in `cache` (None: not kept)."""
     view, joints = system.view, system.joints
-    return dict(
-        _cached(
+    return DerivedEquations(
+        **_cached(
             _what(view, joints, system.coordinates, system.joint_map, "data"),
-            lambda: as_data(equations(derivation_of(system), tuple(system.coordinates), system.joint_map)),
+            lambda: cast(  # symbolic/readable.as_data's shape
+                DerivedEquations,
+                as_data(equations(derivation_of(system), tuple(system.coordinates), system.joint_map)),
+            ),
             cache,
         )
     )

@@ -12,7 +12,7 @@ from this system's model, and from each of its probe models):
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable
 
 import numpy as np
 
@@ -24,6 +24,7 @@ from ..dynamics.integrate import (
     initial_state,
     time_grid,
 )
+from ..results.schema import Equivalence, EquivalenceRow
 from ..sources.hand import HandSource
 from ..systems import System, load
 from ..verdict.pointwise import random_states
@@ -34,28 +35,46 @@ def _map(system: System) -> np.ndarray:
     return np.eye(system.nv) if A is None else A
 
 
-def _rows_at(this_sys: Any, other_sys: Any, B: np.ndarray, *, n: int, seed: int, label: str) -> list[dict[str, Any]]:
+def _rows_at(
+    this_sys: System, other_sys: System, B: np.ndarray, *, n: int, seed: int, label: str
+) -> list[EquivalenceRow]:
     states = random_states(other_sys, n=n, seed=seed)
     q_o, v_o = states.q, states.v
     q_t, v_t = q_o @ B.T, v_o @ B.T
     this, that = HandSource(this_sys), HandSource(other_sys)
-    pairs = {
+    pairs: dict[str, Callable[[], tuple[np.ndarray, np.ndarray]]] = {
         "M": lambda: (B.T @ this.mass_matrix(q_t) @ B, that.mass_matrix(q_o)),
         "bias": lambda: (this.bias(q_t, v_t) @ B, that.bias(q_o, v_o)),
         "T": lambda: (this.energies(q_t, v_t)[0], that.energies(q_o, v_o)[0]),
         "V": lambda: (this.energies(q_t, v_t)[1], that.energies(q_o, v_o)[1]),
         "body_positions": lambda: (this.body_positions(q_t), that.body_positions(q_o)),
     }
-    rows = []
+    rows: list[EquivalenceRow] = []
     for quantity, compute in pairs.items():
-        row: dict[str, Any] = {"quantity": quantity, "parameters": label, "tolerance": TOLERANCES.algebraic.rtol}
+        tolerance = TOLERANCES.algebraic.rtol
         try:
             a, b = compute()
             err = float(np.abs(a - b).max())
             scale = float(np.abs(b).max()) or 1.0
-            row.update(max_abs=err, scaled=err / scale, passed=bool(err / scale <= TOLERANCES.algebraic.rtol))
+            passed = bool(err / scale <= TOLERANCES.algebraic.rtol)
+            row: EquivalenceRow = {
+                "quantity": quantity,
+                "parameters": label,
+                "tolerance": tolerance,
+                "max_abs": err,
+                "scaled": err / scale,
+                "passed": passed,
+            }
         except Exception as exc:  # noqa: BLE001 - a derivation's own failure is a failing row
-            row.update(max_abs=float("inf"), scaled=float("inf"), passed=False, error=f"{type(exc).__name__}: {exc}")
+            row = {
+                "quantity": quantity,
+                "parameters": label,
+                "tolerance": tolerance,
+                "max_abs": float("inf"),
+                "scaled": float("inf"),
+                "passed": False,
+                "error": f"{type(exc).__name__}: {exc}",
+            }
         rows.append(row)
     return rows
 
@@ -67,7 +86,7 @@ def check_equivalence(
     n: int = 200,
     seed: int = 0,
     t_end: float = DEFAULT_T_END,
-) -> dict[str, Any] | None:
+) -> Equivalence | None:
     """Rows of the mapped comparison, or None if the module names no other formulation.
 
     Both derivations are evaluated with the same physical parameters: the other module reads its
@@ -78,7 +97,7 @@ def check_equivalence(
         return None
 
     other_module = load(other_name).equations
-    rows: list[dict[str, Any]] = []
+    rows: list[EquivalenceRow] = []
     B = _map(system) @ np.linalg.inv(_map(system.derive(equations=other_module)))
     for i, this_sys in enumerate([system, *(probe_systems or [])]):
         other_sys = this_sys.derive(equations=other_module)

@@ -9,7 +9,7 @@ import threading
 from collections.abc import Callable, Mapping
 from concurrent.futures import BrokenExecutor, Executor, Future
 from pathlib import Path
-from typing import Any
+from typing import Protocol, Required, TypedDict, TypeVar, Unpack, cast
 
 from ..core.cachedir import Cache
 from ..core.errors import HarnessError
@@ -26,7 +26,20 @@ from ..dynamics.freeruns import (
 )
 from ..dynamics.stagecache import cached_stage, states_digest
 from ..results import provenance
-from ..results.schema import Derivation, ModelChecks, Pointwise, Provenance, RunResults, SystemResult
+from ..results.schema import (
+    ChaosStudy,
+    Derivation,
+    DerivedEquations,
+    Equivalence,
+    Experiments,
+    ModelChecks,
+    ParameterKeys,
+    Pointwise,
+    Provenance,
+    RunResults,
+    SystemResult,
+    Trajectories,
+)
 from ..results.stages import Clock, records
 from ..sources.base import stepped
 from ..systems import MODELS_DIR, System, load, load_all
@@ -39,6 +52,32 @@ from . import equivalence
 from .derived import SIMPLIFY_MAX_DOF, derived_data
 
 READABLE_MAX_DOF = SIMPLIFY_MAX_DOF  # the report's derived equations: simplified (cached), up to this many joints
+
+T = TypeVar("T")
+R = TypeVar("R")  # what `run`'s `after` makes of a system's results (cli/outputs.render_system: its files)
+
+
+class StageOptions(TypedDict, total=False):
+    """`run_system`'s options for the stages after the verdict (`_run_stages`)."""
+
+    t_end: float
+    dt_out: float
+    n_probes: int
+    cache: Cache | None
+    drake_run: bool
+
+
+class RunOptions(StageOptions, total=False):
+    """`guarded_run`'s options: the states the verdict is reached on, and the stages' options."""
+
+    n_states: Required[int]
+    seed: Required[int]
+
+
+class Progress(Protocol):
+    """`run`'s progress: told of each system's start (`stage` "start") and end ("done", with its results)."""
+
+    def __call__(self, name: str, stage: str, result: SystemResult | None = None, /) -> object: ...
 
 
 def model_only_result(
@@ -55,12 +94,15 @@ def model_only_result(
         f"no derivation given: the engines' and the derived equations' free runs, against {against} (information only)"
     )
     clock = clock or Clock()
-    stages: dict[str, Any] = {}
+    stages: dict[str, str] = {}
     traj = _stage(
         stages,
         "trajectories",
-        lambda: divergence_results(
-            system, sources, t_end=t_end, dt_out=dt_out, why=why, aba_reference="symbolic" not in sources
+        lambda: cast(
+            "Trajectories",
+            divergence_results(
+                system, sources, t_end=t_end, dt_out=dt_out, why=why, aba_reference="symbolic" not in sources
+            ),
         ),
         clock,
     )
@@ -114,7 +156,7 @@ def skipped_work(system: System) -> list[str]:
     return out
 
 
-def _stage(stages: dict[str, Any], name: str, fn: Any, clock: Clock) -> Any:
+def _stage(stages: dict[str, str], name: str, fn: Callable[[], T], clock: Clock) -> T | None:
     """Runs one stage after the verdicts, its wall seconds on `clock` (what the stage did not lap
     itself); a failure is recorded (and fails the system), never raised, so the verdicts already
     computed are always written."""
@@ -130,7 +172,7 @@ def _stage(stages: dict[str, Any], name: str, fn: Any, clock: Clock) -> Any:
         clock.lap(name)
 
 
-def run_system(system: System, *, n_states: int, seed: int, **options: Any) -> SystemResult:
+def run_system(system: System, *, n_states: int, seed: int, **options: Unpack[StageOptions]) -> SystemResult:
     """`_run_stages` (below), and the model audit: the three readers of the model side by side
     (audit/audit.py; an audit that cannot be made says why under "error")."""
     from ..audit.audit import audit_of
@@ -168,12 +210,11 @@ def _run_stages(
         return _unreadable(decision)
     if decision.model_only:
         return model_only_result(decision, t_end=t_end, dt_out=dt_out, cache=cache, clock=clock)
-    assert decision.probe_set is not None  # decide judged the derivation
-    stages: dict[str, Any] = {}
+    probe_set = decision.probe_set
+    assert probe_set is not None  # decide judged the derivation
+    stages: dict[str, str] = {}
     variants = _printed_forms(decision, stages, n_probes=n_probes, seed=seed, cache=cache, clock=clock)
-    same = _stage(
-        stages, "equivalence", lambda: equivalence.check_equivalence(system, decision.probe_set.systems()), clock
-    )
+    same = _stage(stages, "equivalence", lambda: equivalence.check_equivalence(system, probe_set.systems()), clock)
     derived = _derived(system, stages, cache=cache, clock=clock)
     if decision.passed:
         traj, notes_experiments, cross = _agreeing_runs(
@@ -185,13 +226,22 @@ def _run_stages(
             None,
             None,
         )
-    later = {"variants": variants, "derived": derived, "experiments": notes_experiments}
-    return _system_result(decision, stages, clock, same=same, cross=cross, traj=traj, **later)
+    return _system_result(
+        decision,
+        stages,
+        clock,
+        same=same,
+        cross=cross,
+        traj=traj,
+        variants=variants,
+        derived=derived,
+        experiments=notes_experiments,
+    )
 
 
 def _printed_forms(
-    decision: Decision, stages: dict[str, Any], *, n_probes: int, seed: int, cache: Cache | None, clock: Clock
-) -> list[Any]:
+    decision: Decision, stages: dict[str, str], *, n_probes: int, seed: int, cache: Cache | None, clock: Clock
+) -> list[Derivation]:
     """The verdict on each of the notes' printed forms (kept by content in `cache`); none for a system
     that transcribes none."""
     system, sources, states = decision.system, decision.sources, decision.states
@@ -220,7 +270,7 @@ def _printed_forms(
     )
 
 
-def _derived(system: System, stages: dict[str, Any], *, cache: Cache | None, clock: Clock) -> Any:
+def _derived(system: System, stages: dict[str, str], *, cache: Cache | None, clock: Clock) -> DerivedEquations | None:
     """The model's derived equations as a person would read them, for chains short enough to simplify."""
     if system.nv <= READABLE_MAX_DOF:
         return _stage(stages, "derived equations", lambda: derived_data(system, cache=cache), clock)
@@ -233,14 +283,14 @@ def _derived(system: System, stages: dict[str, Any], *, cache: Cache | None, clo
 
 def _agreeing_runs(
     decision: Decision,
-    stages: dict[str, Any],
+    stages: dict[str, str],
     *,
     t_end: float,
     dt_out: float,
     cache: Cache | None,
     clock: Clock,
     drake_run: bool,
-) -> tuple[Any, Any, Any]:
+) -> tuple[Trajectories | None, Experiments | None, ChaosStudy | None]:
     """A derivation that agrees: the free runs against its reference, the notes' experiments and the
     chaos mirrors (each kept by content in `cache`), the runs judged with the chaos stage's amplification."""
     system, sources = decision.system, decision.sources
@@ -256,38 +306,48 @@ def _agreeing_runs(
     notes_experiments = _stage(
         stages,
         "experiments",
-        lambda: cached_stage(cache, system, sources, "experiments", [], lambda: experiments.run_experiments(system)),
+        lambda: cast(
+            "Experiments",
+            cached_stage(cache, system, sources, "experiments", [], lambda: experiments.run_experiments(system)),
+        ),
         clock,
     )
     mirrors = tuple(e for e in ("hand", "pinocchio") if e not in (decision.excluded or {}))
     cross = _stage(
         stages,
         "chaos",
-        lambda: cached_stage(
-            cache,
-            system,
-            sources,
-            "chaos",
-            [t_end, dt_out, RUN_INTEGRATORS, mirrors],
-            lambda: chaos.crossvalidate(
+        lambda: cast(
+            "ChaosStudy",
+            cached_stage(
+                cache,
                 system,
                 sources,
-                t_end=t_end,
-                dt_out=dt_out,
-                integrators=RUN_INTEGRATORS,
-                mirror_engines=mirrors,
-                cache_dir=reference_dir(cache),
+                "chaos",
+                [t_end, dt_out, RUN_INTEGRATORS, mirrors],
+                lambda: chaos.crossvalidate(
+                    system,
+                    sources,
+                    t_end=t_end,
+                    dt_out=dt_out,
+                    integrators=RUN_INTEGRATORS,
+                    mirror_engines=mirrors,
+                    cache_dir=reference_dir(cache),
+                ),
             ),
         ),
         clock,
     )
-    if traj is not None:
-        judge_trajectories(traj, cross.get("amplification") if cross else None, stages.get("chaos"))
-        set_aside_runs(traj, decision.excluded or {})
-    return traj, notes_experiments, cross
+    if traj is None:
+        return None, notes_experiments, cross
+    judge_trajectories(traj, cross.get("amplification") if cross else None, stages.get("chaos"))
+    runs = cast("Trajectories", traj)  # dynamics/freeruns.trajectory_results: the shape results.json holds
+    set_aside_runs(runs, decision.excluded or {})
+    return runs, notes_experiments, cross
 
 
-def _divergence(decision: Decision, stages: dict[str, Any], *, t_end: float, dt_out: float, clock: Clock) -> Any:
+def _divergence(
+    decision: Decision, stages: dict[str, str], *, t_end: float, dt_out: float, clock: Clock
+) -> Trajectories | None:
     """A derivation that disagrees: the stages built on its equations named as not run, and a bounded run
     that shows where its motion parts from the engines'."""
     sources = decision.sources
@@ -301,19 +361,32 @@ def _divergence(decision: Decision, stages: dict[str, Any], *, t_end: float, dt_
     return _stage(
         stages,
         "divergence run",
-        lambda: divergence_results(
-            decision.system,
-            sources,
-            t_end=t_end,
-            dt_out=dt_out,
-            why=f"information only: {_not_agreeing(decision)}, so this shows where its motion parts from the engines'",
+        lambda: cast(
+            "Trajectories",
+            divergence_results(
+                decision.system,
+                sources,
+                t_end=t_end,
+                dt_out=dt_out,
+                why=f"information only: {_not_agreeing(decision)}, so this shows where its motion parts from the "
+                "engines'",
+            ),
         ),
         clock,
     )
 
 
 def _system_result(
-    decision: Decision, stages: dict[str, Any], clock: Clock, *, same: Any, cross: Any, traj: Any, **later: Any
+    decision: Decision,
+    stages: dict[str, str],
+    clock: Clock,
+    *,
+    same: Equivalence | None,
+    cross: ChaosStudy | None,
+    traj: Trajectories | None,
+    variants: list[Derivation],
+    derived: DerivedEquations | None,
+    experiments: Experiments | None,
 ) -> SystemResult:
     """The system's results: the verdict's checks, what the stages added, and whether all of it passed."""
     system, sources = decision.system, decision.sources
@@ -333,15 +406,15 @@ def _system_result(
         "failed": _what_failed(model, point, derivation, same, cross, traj, failed_stages),
         "statement": decision.statement,
         "parameters": {k: float(v) for k, v in probing.param_fields(system.params).items()},
-        "parameter_keys": parameter_keys(system),
+        "parameter_keys": cast("dict[str, ParameterKeys]", parameter_keys(system)),  # systems/units.py's shape
         "timestep": float(stepped(sources["mujoco"]).m.opt.timestep),
         "model_checks": model,
         "pointwise": point,
         "derivation": derivation,
-        "variants": later["variants"],
-        "derived": later["derived"],
+        "variants": variants,
+        "derived": derived,
         "trajectories": traj,
-        "experiments": later["experiments"],
+        "experiments": experiments,
         "equivalence": same,
         "chaos": cross,
         "stages": records(clock.seconds, stages),
@@ -350,7 +423,7 @@ def _system_result(
     }
 
 
-def set_aside_runs(traj: dict[str, Any], excluded: Mapping[str, str]) -> None:
+def set_aside_runs(traj: Trajectories, excluded: Mapping[str, str]) -> None:
     """A reader the verdict set aside (audit/audit.py: it misreads the model) is shown, not judged."""
     for run in traj["runs"]:
         if run.get("source") in excluded:
@@ -372,9 +445,9 @@ def _what_failed(
     model: ModelChecks,
     point: Pointwise,
     derivation: Derivation,
-    same: dict[str, Any] | None,
-    cross: dict[str, Any] | None,
-    traj: dict[str, Any] | None,
+    same: Equivalence | None,
+    cross: ChaosStudy | None,
+    traj: Trajectories | None,
     failed_stages: list[str],
 ) -> list[str]:
     """Each failing check of a system in one short phrase, the derivation's first."""
@@ -484,7 +557,7 @@ def _run_files(
     return guarded_run(system, n_states=n_states, seed=seed, n_probes=n_probes, cache=cache, drake_run=drake_run)
 
 
-def guarded_run(system: System, **options: Any) -> SystemResult:
+def guarded_run(system: System, **options: Unpack[RunOptions]) -> SystemResult:
     """`run_system`, with a module that hung or tried to exit (validate/core/guard.py) as its one finding."""
     try:
         return run_system(system, **options)
@@ -518,18 +591,23 @@ def stopped_result(system: System, why: str) -> SystemResult:
     }
 
 
-def _task(fn: Any, args: tuple[Any, ...], after: Any, meta: Provenance) -> tuple[dict[str, Any], Any]:
+def _task(
+    fn: Callable[..., SystemResult],
+    args: tuple[object, ...],
+    after: Callable[[str, SystemResult, Provenance], R] | None,
+    meta: Provenance,
+) -> tuple[SystemResult, R | None]:
     """One system's work in a worker: its results, and `after(name, results, meta)` of them (None
     without `after`)."""
     result = fn(*args)
     return result, (after(result["name"], result, meta) if after is not None else None)
 
 
-def _outcome(future: Any, system: System) -> tuple[SystemResult, Any]:
+def _outcome(future: Future[tuple[SystemResult, R | None]], system: System) -> tuple[SystemResult, R | None]:
     """A finished system's (results, rendered); a worker that ended without an answer (its module
     called os._exit or crashed the interpreter) is that system's failure, not the run's."""
     try:
-        return future.result()  # type: ignore[no-any-return]
+        return future.result()
     except Stopped as stop:  # stopped before run_system (a Hamiltonian traced as the module was read)
         why = stop.why
     except BrokenExecutor:
@@ -607,11 +685,11 @@ def _submit(
     systems: list[System],
     users: list[System],
     files: list[tuple[Path, Path | None]],
-    after: Any,
+    after: Callable[[str, SystemResult, Provenance], R | None] | None,
     meta: Provenance,
     common: tuple[int, int, int, Cache | None, float, bool],
     per_file: tuple[tuple[str, ...], Cache | None, float, bool, bool],
-) -> dict[Future[tuple[dict[str, Any], Any]], System]:
+) -> dict[Future[tuple[SystemResult, R | None]], System]:
     """One task per system in `pool`, each future with its system. `common`: (n_states, seed, n_probes,
     cache, time_limit, drake_run); `per_file`: (locked, cache, time_limit, balance_inertia, drake_run)."""
     # Longest first, so that two workers finish together: damped scenes (implicit-damping
@@ -626,17 +704,17 @@ def _submit(
 
 
 def _collect(
-    futures: dict[Future[tuple[dict[str, Any], Any]], System],
-    progress: Any,
-    after: Any,
-    rendered: dict[str, Any] | None,
-) -> dict[str, Any]:
+    futures: dict[Future[tuple[SystemResult, R | None]], System],
+    progress: Progress | None,
+    after: Callable[[str, SystemResult, Provenance], R | None] | None,
+    rendered: dict[str, R | None] | None,
+) -> dict[str, SystemResult]:
     """Every system's results by name, as its worker finishes; `progress` told of each start and end,
     what `after` returned put in `rendered`."""
     for system in futures.values():
         if progress:
             progress(system.name, "start")
-    done: dict[str, Any] = {}
+    done: dict[str, SystemResult] = {}
     for future in completed(futures):
         name = futures[future].name
         done[name], extra = _outcome(future, futures[future])
@@ -652,12 +730,12 @@ def run(
     *,
     n_states: int,
     seed: int,
-    progress: Any = None,
+    progress: Progress | None = None,
     executor: Executor | None = None,
     n_probes: int = DEFAULT_PROBES,
     files: list[tuple[Path, Path | None]] | None = None,
-    after: Any = None,
-    rendered: dict[str, Any] | None = None,
+    after: Callable[[str, SystemResult, Provenance], R | None] | None = None,
+    rendered: dict[str, R | None] | None = None,
     locked: tuple[str, ...] = (),
     cache: Cache | None = None,
     time_limit: float = DEFAULT_TIME_LIMIT,

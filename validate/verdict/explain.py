@@ -33,7 +33,7 @@ import re
 from dataclasses import dataclass
 from fractions import Fraction
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeAlias, TypedDict, cast
 
 import numpy as np
 
@@ -43,11 +43,18 @@ from ..handwritten.forms import written_form
 from ..handwritten.values import real_array
 from ..results.schema import Explanation
 from ..sources.symbolic import derivation_of
-from ..symbolic.derivation import axis_rotation, parameter_values
+from ..symbolic.derivation import Derivation, axis_rotation, parameter_values
 from ..symbolic.readable import in_coordinates, tidy, transformed
 from ..systems import System
-from .explain_inputs import actuation_explanations, force_part, mass_identifiable
+from .explain_inputs import User, actuation_explanations, force_part, mass_identifiable
 from .pointwise import random_states
+
+if TYPE_CHECKING:  # sympy is imported when first used
+    import sympy as sp
+
+# One entry to explain: the term, the entry's label, the model's expression of it (in the system's
+# coordinates), and user(system, q, v): the person's value of it, one per state.
+Item: TypeAlias = "tuple[str, str, sp.Expr, User]"
 
 PARTS = {
     "mass matrix": "M",
@@ -69,13 +76,13 @@ SIMPLE = sorted(
 
 @dataclass(frozen=True)
 class Candidate:
-    basis: Any  # sympy: D = c * basis
+    basis: sp.Expr  # D = c * basis
     kind: str  # "term", "swap", "drop", "extra", "trig", "argument"
     text: str  # what the mistake is, when c is the one expected of it
     fixed: Fraction | None  # the coefficient this mistake must have (None: any simple one)
 
 
-def _kind(symbol: Any) -> str:
+def _kind(symbol: sp.Symbol) -> str:
     name = str(symbol)
     if name.startswith("I_"):
         return "inertia"
@@ -84,7 +91,7 @@ def _kind(symbol: Any) -> str:
     return name.split("_")[0]
 
 
-def _parameter_slips(t: Any, params: list[Any]) -> list[Candidate]:
+def _parameter_slips(t: sp.Expr, params: list[sp.Symbol]) -> list[Candidate]:
     """The slips of one parameter in the term `t`: swapped for another of its kind, lost or extra."""
     import sympy as sp
 
@@ -104,7 +111,7 @@ def _parameter_slips(t: Any, params: list[Any]) -> list[Candidate]:
     return out
 
 
-def _trig_slips(t: Any, q: list[Any]) -> list[Candidate]:
+def _trig_slips(t: sp.Expr, q: list[sp.Symbol]) -> list[Candidate]:
     """The slips of a trigonometric factor in the term `t`: sin for cos (or back), another coordinate."""
     import sympy as sp
 
@@ -120,7 +127,7 @@ def _trig_slips(t: Any, q: list[Any]) -> list[Candidate]:
     return out
 
 
-def _rate_slips(t: Any, rates: tuple[Any, ...]) -> list[Candidate]:
+def _rate_slips(t: sp.Expr, rates: tuple[sp.Symbol, ...]) -> list[Candidate]:
     """One rate for another in the term `t`: (theta' + theta') for (theta' + phi')."""
     one = Fraction(1)
     return [
@@ -132,7 +139,7 @@ def _rate_slips(t: Any, rates: tuple[Any, ...]) -> list[Candidate]:
     ]
 
 
-def _entry_slips(expanded: Any, terms: list[Any], params: list[Any]) -> list[Candidate]:
+def _entry_slips(expanded: sp.Expr, terms: list[sp.Expr], params: list[sp.Symbol]) -> list[Candidate]:
     """The slips across the whole entry: a group of terms scaled, two parameters exchanged, a factor
     lost everywhere, sin for cos everywhere."""
     import sympy as sp
@@ -158,7 +165,7 @@ def _entry_slips(expanded: Any, terms: list[Any], params: list[Any]) -> list[Can
     return out
 
 
-def literal_slips(expected: Any, params: list[Any], values: list[dict[Any, float]]) -> list[Candidate]:
+def literal_slips(expected: sp.Expr, params: list[sp.Symbol], values: list[dict[sp.Symbol, float]]) -> list[Candidate]:
     """A parameter typed in as a number: the entry with one parameter replaced by its model value (a
     literal equal to it hides the slip at the model's values; a probe shows it) or by a number typed
     into parameters() (`values[1]`: any of them, for any parameter of the entry)."""
@@ -189,7 +196,9 @@ def _typed_values(system: System) -> dict[str, float]:
         return {}
 
 
-def candidates(expected: Any, q: list[Any], params: list[Any], rates: tuple[Any, ...] = ()) -> list[Candidate]:
+def candidates(
+    expected: sp.Expr, q: list[sp.Symbol], params: list[sp.Symbol], rates: tuple[sp.Symbol, ...] = ()
+) -> list[Candidate]:
     """The single-slip differences from `expected`, most specific first: slips in one term, then
     slips across the whole entry, then each term on its own (lost, doubled, sign, wrong number)."""
     import sympy as sp
@@ -212,7 +221,7 @@ def _simple(c: float) -> Fraction | None:
     return None
 
 
-def _plus(expr: Any) -> str:
+def _plus(expr: sp.Expr) -> str:
     """ "+ x" or "- x" for a sympy term."""
     import sympy as sp
 
@@ -220,7 +229,7 @@ def _plus(expr: Any) -> str:
     return f"- {text[1:]}" if text.startswith("-") else f"+ {text}"
 
 
-def _coefficient_text(c: Fraction, basis: Any) -> str:
+def _coefficient_text(c: Fraction, basis: sp.Expr) -> str:
     import sympy as sp
 
     return _plus(sp.Rational(c.numerator, c.denominator) * basis)
@@ -246,7 +255,9 @@ def _describe(cand: Candidate, c: Fraction) -> str:
 class _Samples:
     """The entry's arguments at the fit and the held-back states: q, v and parameter values."""
 
-    def __init__(self, systems: list[System], derivation: Any, symbols: dict[str, list[Any]], seed: int) -> None:
+    def __init__(
+        self, systems: list[System], derivation: Derivation, symbols: dict[str, list[sp.Symbol]], seed: int
+    ) -> None:
         qs, vs, ps, self.states = [], [], [], []
         for k, s in enumerate(systems):
             st = random_states(s, n=STATES_PER_MODEL, seed=seed + 1000 + k)
@@ -262,7 +273,7 @@ class _Samples:
         half[::2] = True
         self.fit, self.held = half, ~half
 
-    def evaluate(self, exprs: list[Any]) -> np.ndarray:
+    def evaluate(self, exprs: list[sp.Expr]) -> np.ndarray:
         import sympy as sp
 
         fn = sp.lambdify(self.args, exprs, modules="numpy", cse=True)
@@ -279,7 +290,7 @@ def _entries(part: str, n: int, coordinates: tuple[str, ...]) -> list[tuple[tupl
     return [((i,), f"{label}[{c}]") for i, c in enumerate(coordinates)]
 
 
-def _symbols(coordinates: tuple[str, ...]) -> dict[str, list[Any]]:
+def _symbols(coordinates: tuple[str, ...]) -> dict[str, list[sp.Symbol]]:
     import sympy as sp
 
     return {
@@ -291,7 +302,7 @@ def _symbols(coordinates: tuple[str, ...]) -> dict[str, list[Any]]:
 def explain_entries(
     system: System,
     probe_systems: list[System],
-    items: list[tuple[str, str, Any, Any]],
+    items: list[Item],
     *,
     seed: int = 0,
     cache: Cache | None = None,
@@ -322,7 +333,13 @@ def explain_entries(
 
 
 def _explain_entry(
-    d: Any, samples: _Samples, symbols: dict[str, list[Any]], term: str, label: str, entry: Any, mine: np.ndarray
+    d: Derivation,
+    samples: _Samples,
+    symbols: dict[str, list[sp.Symbol]],
+    term: str,
+    label: str,
+    entry: sp.Expr,
+    mine: np.ndarray,
 ) -> Explanation | None:
     """One entry's record, or None where the user's numbers equal the expected entry's."""
     import sympy as sp
@@ -346,7 +363,7 @@ def _explain_entry(
     return record
 
 
-def _entry_key(d: Any, samples: _Samples, term: str, label: str, entry: Any, mine: np.ndarray) -> str:
+def _entry_key(d: Derivation, samples: _Samples, term: str, label: str, entry: sp.Expr, mine: np.ndarray) -> str:
     """A hash of everything an entry's record is computed from (module docstring)."""
     import sympy as sp
 
@@ -359,10 +376,16 @@ def _entry_key(d: Any, samples: _Samples, term: str, label: str, entry: Any, min
     return h.hexdigest()
 
 
-def _cached(key: str, where: Path | None) -> dict[str, Any] | None:
+def _cached(key: str, where: Path | None) -> Kept | None:
     """{"record": ...} as kept for `key` in the folder `where`, or None (not kept, or no cache)."""
     found = None if where is None else cache.load(where / f"{key[:32]}.npz", key)
-    return found[1] if found is not None and "record" in found[1] else None
+    return cast(Kept, found[1]) if found is not None and "record" in found[1] else None  # as `_keep` wrote it
+
+
+class Kept(TypedDict):
+    """An entry's record as the cache keeps it (None: the user's numbers equal the expected entry's)."""
+
+    record: Explanation | None
 
 
 def _keep(key: str, record: Explanation | None, where: Path | None) -> None:
@@ -380,7 +403,7 @@ _FUNCTION_OF_PART = {
 }
 
 
-def _user_part(part: str, index: tuple[int, ...]) -> Any:
+def _user_part(part: str, index: tuple[int, ...]) -> User:
     """user(system, q, v) for one entry of one part of a derivation (mass_matrix, bias, ...)."""
 
     def user(system: System, q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -399,13 +422,13 @@ def _user_part(part: str, index: tuple[int, ...]) -> Any:
         else:
             x = eq.potential_energy(p, q)
         arr = real_array(f"{_FUNCTION_OF_PART[part]}()", x, (len(q), *(len(q[0]),) * len(index)))
-        where: tuple[Any, ...] = (slice(None), *index)
+        where: tuple[slice | int, ...] = (slice(None), *index)
         return np.asarray(arr[where])
 
     return user
 
 
-def step_expression(system: System, quantity: tuple[Any, ...], angle_index: int = 0) -> Any:
+def step_expression(system: System, quantity: tuple[Any, ...], angle_index: int = 0) -> sp.Expr | sp.Matrix:
     """The model's own expression of a derivation step's quantity (terms.engine_quantity's list), in
     the system's coordinates: a scalar, a 3-vector or a 3x3 matrix."""
     import sympy as sp
@@ -449,7 +472,7 @@ def explain(
     u_form = system.inputs == "u" and written_form(system.equations) == "c"  # M^-1 times each force
     if u_form and terms and mass_identifiable(system):
         terms = ["mass matrix", *terms]  # not judged apart, but read back from B (d qacc / d u)^-1
-    items = []
+    items: list[Item] = []
     for term in dict.fromkeys(terms):
         part = PARTS.get(term)
         if part is None or (u_form and part == "M" and not mass_identifiable(system)):
@@ -466,7 +489,12 @@ def explain(
 
 
 def _fit(
-    expected: Any, exp_num: np.ndarray, D: np.ndarray, scale: float, samples: _Samples, symbols: dict[str, list[Any]]
+    expected: sp.Expr,
+    exp_num: np.ndarray,
+    D: np.ndarray,
+    scale: float,
+    samples: _Samples,
+    symbols: dict[str, list[sp.Symbol]],
 ) -> Explanation:
     """The simplest candidate difference that reproduces D, or why none does."""
     params = list(samples.args[2 * len(symbols["q"]) :])
@@ -524,7 +552,7 @@ def _fit(
     }
 
 
-def sp_str(c: Fraction, basis: Any) -> str:
+def sp_str(c: Fraction, basis: sp.Expr) -> str:
     import sympy as sp
 
     return str(sp.sstr(sp.Rational(c.numerator, c.denominator) * basis))

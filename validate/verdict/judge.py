@@ -23,28 +23,28 @@ l = 1.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import Any
+from collections.abc import Callable, Mapping
 
 import numpy as np
 
 from ..core.cachedir import Cache
 from ..core.errors import HarnessError
 from ..core.tolerances import TOLERANCES, Tolerances
-from ..forms import DerivationStep, Explicit, Implicit, NotApplicable
+from ..forms import DerivationStep, Explicit, Implicit, NotApplicable, Variant
 from ..handwritten.values import real_array
-from ..results.schema import Explanation, TermRow
+from ..results.schema import Derivation, Explanation, TermRow
 from ..sources import make_source, make_sources
 from ..sources.base import Source
 from ..systems import System
 from . import probes as probing
-from .explain import explain_entries, step_expression
+from .explain import Item, explain_entries, step_expression
+from .explain_inputs import User
 from .pointwise import States, force_scale, random_states
-from .probes import DEFAULT_PROBES, describe_ties
-from .terms import TERM_ORDER, EngineTerms, engine_quantity, frictionless_params, term_rows
+from .probes import DEFAULT_PROBES, Probe, describe_ties
+from .terms import TERM_ORDER, EngineTerms, EngineValues, engine_quantity, frictionless_params, term_rows
 
 
-def _printed_parameter_rows(system: System, variant: Any) -> list[TermRow]:
+def _printed_parameter_rows(system: System, variant: Variant) -> list[TermRow]:
     rows: list[TermRow] = []
     for field, printed in sorted(getattr(variant, "printed_parameters", {}).items()):
         compiled = float(getattr(system.params, field))
@@ -85,7 +85,7 @@ def _implicit_rows(
     variant: Implicit,
     terms: EngineTerms,
     states: States,
-    p0: Any,
+    p0: object,
     tolerances: Tolerances,
 ) -> list[TermRow]:
     """An implicit form's residual split into terms (module docstring), each against the engines'
@@ -96,7 +96,10 @@ def _implicit_rows(
     zero = np.zeros_like(q)
     uses = system.uses
     e = terms.by_engine
-    r = lambda *args: real_array(f"{variant.name} residual()", variant.residual(*args))  # noqa: E731
+
+    def r(*args: object) -> np.ndarray:
+        return real_array(f"{variant.name} residual()", variant.residual(*args))
+
     s = real_array(f"{variant.name} row_scale()", variant.row_scale(p))
     r00 = r(p, q, zero, zero, zero)
     n = system.nv
@@ -157,7 +160,7 @@ def _explicit_rows(
     variant: Explicit,
     terms: EngineTerms,
     states: States,
-    p0: Any,
+    p0: object,
     tolerances: Tolerances,
 ) -> list[TermRow]:
     """An explicit (or Matlab state-space) form's accelerations split into terms, each against the
@@ -168,7 +171,10 @@ def _explicit_rows(
     zero = np.zeros_like(q)
     uses = system.uses
     e = terms.by_engine
-    f = lambda *args: real_array(f"{variant.name} acceleration()", variant.acceleration(*args))  # noqa: E731
+
+    def f(*args: object) -> np.ndarray:
+        return real_array(f"{variant.name} acceleration()", variant.acceleration(*args))
+
     f00 = f(p, q, zero, zero)
 
     def against(term: str, value: np.ndarray, key: str) -> list[TermRow]:
@@ -187,15 +193,15 @@ def _explicit_rows(
 
 def judge_variant(
     system: System,
-    variant: Any,
+    variant: Variant,
     terms: EngineTerms,
     states: States,
     *,
     tolerances: Tolerances = TOLERANCES,
     printed_parameters: bool = True,
-) -> dict[str, Any]:
+) -> Derivation:
     """One printed form's verdict, with every separated term against both engines."""
-    result: dict[str, Any] = {
+    result: Derivation = {
         "name": variant.name,
         "kind": variant.kind,
         "notes_equations": list(variant.notes_equations),
@@ -211,7 +217,7 @@ def judge_variant(
         else:  # explicit and Matlab state-space forms
             rows += _explicit_rows(system, variant, terms, states, p0, tolerances)
     except NotApplicable as exc:  # a printed form that does not apply to these parameters
-        result.update(verdict="not applicable", reason=str(exc), terms=[])
+        result.update({"verdict": "not applicable", "reason": str(exc), "terms": []})
         return result
     rows.sort(key=lambda r: (TERM_ORDER.index(r["term"]), r["engine"]))
     failing = [r for r in rows if not r["passed"]]
@@ -220,15 +226,22 @@ def judge_variant(
     if failing:
         worst = max(failing, key=lambda r: r["scaled"])
         result["first_disagreeing_term"] = failing[0]["term"]
-        result["worst_term"] = {k: worst[k] for k in ("term", "engine", "max_abs", "max_rel", "scaled", "worst_state")}
+        result["worst_term"] = {
+            "term": worst["term"],
+            "engine": worst["engine"],
+            "max_abs": worst["max_abs"],
+            "max_rel": worst["max_rel"],
+            "scaled": worst["scaled"],
+            "worst_state": worst["worst_state"],
+        }
     return result
 
 
-def _combine(judged: list[tuple[Any, dict[str, Any]]]) -> dict[str, Any]:
+def _combine(judged: list[tuple[Probe, Derivation]]) -> Derivation:
     """One verdict from every parameter set (the model's first, then the probes); the first
     disagreement named is the one at the earliest parameter set that disagrees."""
     nominal = judged[0][1]
-    out = dict(nominal)
+    out = nominal.copy()
     out["terms"] = []
     for probe, verdict in judged:
         for r in verdict.get("terms", []):
@@ -248,17 +261,23 @@ def _combine(judged: list[tuple[Any, dict[str, Any]]]) -> dict[str, Any]:
         failing = [r for r in out["terms"] if not r["passed"]]
         worst = max(failing, key=lambda r: r["scaled"])
         out["worst_term"] = {
-            k: worst[k] for k in ("term", "engine", "parameters", "max_abs", "max_rel", "scaled", "worst_state")
+            "term": worst["term"],
+            "engine": worst["engine"],
+            "parameters": worst["parameters"],
+            "max_abs": worst["max_abs"],
+            "max_rel": worst["max_rel"],
+            "scaled": worst["scaled"],
+            "worst_state": worst["worst_state"],
         }
     elif set(verdicts) == {"agrees"}:
         out["verdict"] = "agrees"
     else:
         out["verdict"] = "not applicable"
-        out["reason"] = next(v.get("reason") for _, v in judged if v["verdict"] == "not applicable")
+        out["reason"] = next(v["reason"] for _, v in judged if v["verdict"] == "not applicable")  # judge_variant's
     return out
 
 
-def printed_probes(system: System, *, n_probes: int, seed: int) -> tuple[list[Any], list[str]]:
+def printed_probes(system: System, *, n_probes: int, seed: int) -> tuple[list[Probe], list[str]]:
     """The parameter sets the printed forms are judged at: the model's, and probes that keep the
     equalities the notes' printed forms assume (`PRINTED_FORMS_ASSUME` of the module)."""
 
@@ -275,12 +294,12 @@ def judge_system(
     sources: Mapping[str, Source],
     *,
     tolerances: Tolerances = TOLERANCES,
-    values: dict[str, dict[str, np.ndarray]] | None = None,
+    values: EngineValues | None = None,
     n_probes: int = DEFAULT_PROBES,
     probe_states: int = 100,
     seed: int = 0,
     cache: Cache | None = None,
-) -> list[dict[str, Any]]:
+) -> list[Derivation]:
     """Verdicts for every printed form of one system, at the model's parameters and at `n_probes`
     probe parameter sets (verdict/probes.py).
 
@@ -333,32 +352,32 @@ def _entry_label(name: str, shape: tuple[int, ...], index: tuple[int, ...]) -> s
     return f"{name}[{index[0]},{index[1]}]"
 
 
-def _step_items(system: System, variant: DerivationStep) -> list[tuple[str, str, Any, Any]]:
+def _step_items(system: System, variant: DerivationStep) -> list[Item]:
     """A derivation step's entries to explain: the model's expression of its quantity entry by entry,
     against the printed form's value of that entry."""
-    items: list[tuple[str, str, Any, Any]] = []
+    items: list[Item] = []
     expr = step_expression(system, variant.quantity, variant.angle_index)
     shape = tuple(expr.shape) if hasattr(expr, "shape") else ()
     shape = (shape[0],) if len(shape) == 2 and shape[1] == 1 else shape
     for index in np.ndindex(*shape) if shape else [()]:
         entry = expr[index] if len(index) == 2 else expr[index[0]] if index else expr
 
-        def user(s: Any, q: np.ndarray, v: np.ndarray, index: tuple[int, ...] = index) -> np.ndarray:
+        def user(s: System, q: np.ndarray, v: np.ndarray, index: tuple[int, ...] = index) -> np.ndarray:
             out = real_array(f"{variant.name} evaluate()", variant.evaluate(s.params, q, v), (len(q), *shape))
-            where: tuple[Any, ...] = (slice(None), *index)
+            where: tuple[slice | int, ...] = (slice(None), *index)
             return np.asarray(out[where])
 
         items.append(("value", _entry_label(variant.name, shape, index), entry, user))
     return items
 
 
-def _acceleration_items(system: System, variant: Any, failing: list[str]) -> list[tuple[str, str, Any, Any]]:
+def _acceleration_items(system: System, variant: Explicit, failing: list[str]) -> list[Item]:
     """An explicit form's failing terms to explain, coordinate by coordinate: the numerators det M times
     the acceleration (-adj(M) G, -adj(M) C v, adj(M) passive), against det M times the printed form's."""
     from ..sources.symbolic import derivation_of
     from ..symbolic.readable import transformed
 
-    items: list[tuple[str, str, Any, Any]] = []
+    items: list[Item] = []
     d, names = derivation_of(system), tuple(system.coordinates)
     M = transformed(d, names, system.joint_map, "M")
     adj = M.adjugate()
@@ -368,25 +387,26 @@ def _acceleration_items(system: System, variant: Any, failing: list[str]) -> lis
         "friction": adj * transformed(d, names, system.joint_map, "passive"),
     }
 
-    sources: dict[int, Any] = {}
+    sources: dict[int, Source] = {}
 
-    def symbolic_of(s: Any) -> Any:  # one per probe system, not one per entry
+    def symbolic_of(s: System) -> Source:  # one per probe system, not one per entry
         if id(s) not in sources:
             sources[id(s)] = make_source(s, "symbolic")
         return sources[id(s)]
 
-    def accel(term: str, i: int) -> Any:
-        def user(s: Any, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    def accel(term: str, i: int) -> User:
+        def user(s: System, q: np.ndarray, v: np.ndarray) -> np.ndarray:
             f = variant.acceleration
             zero = np.zeros_like(q)
             p, p0 = s.params, frictionless_params(s)
-            a = {
+            parts: dict[str, Callable[[], np.ndarray]] = {
                 "gravity": lambda: f(p, q, zero, zero),
                 "velocity": lambda: np.asarray(f(p0, q, v, zero)) - np.asarray(f(p0, q, zero, zero)),
                 "friction": lambda: np.asarray(f(p, q, v, zero)) - np.asarray(f(p0, q, v, zero)),
-            }[term]()
+            }
+            a = parts[term]()
             det = np.linalg.det(symbolic_of(s).mass_matrix(q))
-            return det * real_array(f"{variant.name} acceleration()", a)[:, i]
+            return np.asarray(det * real_array(f"{variant.name} acceleration()", a)[:, i])
 
         return user
 
@@ -399,7 +419,7 @@ def _acceleration_items(system: System, variant: Any, failing: list[str]) -> lis
 
 def explain_variant(
     system: System,
-    variant: Any,
+    variant: Variant,
     probe_systems: list[System],
     failing: list[str],
     *,
@@ -415,7 +435,7 @@ def explain_variant(
     import sympy as sp
 
     try:
-        items: list[tuple[str, str, Any, Any]] = []
+        items: list[Item] = []
         if isinstance(variant, DerivationStep):
             items = _step_items(system, variant)
         elif hasattr(variant, "acceleration") and not isinstance(variant, Implicit):

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from ..model.modelview import quat_to_mat, welded
+from ..model.modelview import ModelView, quat_to_mat, welded
 from ..results.schema import Mismatch, ModelChecks
 from ..sources.base import Source, engine_of
 from ..sources.frames import mujoco_joint_frames
@@ -26,7 +26,7 @@ LEFT_OUT = ("/frictionloss",)  # keys of forces every comparison leaves out: wha
 RTOL = 1e-12  # both sides are the same compiled numbers, possibly through a few operations
 
 
-def _same(expected: Any, actual: Any, floor: float = 0.0) -> bool:
+def _same(expected: object, actual: object, floor: float = 0.0) -> bool:
     if isinstance(expected, str) or isinstance(actual, str):
         return bool(expected == actual)
     e, a = np.asarray(expected, dtype=float), np.asarray(actual, dtype=float)
@@ -142,7 +142,7 @@ def pinocchio_vs_mujoco(system: System, pin_source: Source) -> list[Mismatch]:
     return rows
 
 
-def _rigid(view: Any, body: str, welded: dict[str, list[str]]) -> tuple[float, np.ndarray, np.ndarray]:
+def _rigid(view: ModelView, body: str, welded: dict[str, list[str]]) -> tuple[float, np.ndarray, np.ndarray]:
     """Mass, centre of mass and inertia about it, in `body`'s frame, of `body` and the bodies welded to
     it (no joint between them) as MuJoCo compiled them."""
     parts = [
@@ -167,7 +167,7 @@ def _rigid(view: Any, body: str, welded: dict[str, list[str]]) -> tuple[float, n
     return mass, com, total
 
 
-def _engine_row(key: str, mujoco_value: Any, pinocchio_value: Any, ok: bool, what: str) -> Mismatch:
+def _engine_row(key: str, mujoco_value: object, pinocchio_value: object, ok: bool, what: str) -> Mismatch:
     """One pinocchio~mujoco row: MuJoCo's reading expected, Pinocchio's actual."""
     return {
         "check": "pinocchio~mujoco",

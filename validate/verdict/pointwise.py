@@ -8,7 +8,6 @@ from __future__ import annotations
 import itertools
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -58,7 +57,7 @@ def random_states(system: System, *, n: int, seed: int) -> States:
     return States(q, v, tau)
 
 
-def validate_states(system: System, q: Any, v: Any, tau: Any | None = None) -> States:
+def validate_states(system: System, q: object, v: object, tau: object | None = None) -> States:
     """Checks user-given states: shapes (N, n) and finite values; errors name the problem."""
     n = system.nv
     arrays: dict[str, np.ndarray] = {}

@@ -29,13 +29,14 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from ..core.errors import HarnessError
 from ..handwritten.reads import Knob, Overlay, dataclass_instance, knobs, numeric_fields
+from ..model.modelview import ModelView
 from ..model.set_values import set_values
+from ..results.schema import ProbeEntry
 from ..systems import System
 from . import modelsync
 
@@ -60,7 +61,7 @@ class Probe:
             return "the model's own parameters"
         return ", ".join(f"{k} {a:.6g} -> {b:.6g}" for k, (a, b) in self.changed.items())
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> ProbeEntry:
         return {
             "index": self.index,
             "label": self.label,
@@ -80,7 +81,7 @@ class ParametersMisread(ProbeError):
         self.wrong = wrong
 
 
-def param_fields(params: Any) -> dict[str, float]:
+def param_fields(params: object) -> dict[str, float]:
     """The numeric fields of a Params dataclass, by name."""
     return numeric_fields(params)
 
@@ -126,7 +127,7 @@ def draw(
     return values
 
 
-def _assumed_values(assumed: Mapping[str, Any]) -> dict[str, Any]:
+def _assumed_values(assumed: Mapping[str, object]) -> dict[str, object]:
     """The numeric assumptions a probe writes into the MJCF (structure keys stay as they are)."""
     return {k: v for k, v in assumed.items() if not isinstance(v, str)}
 
@@ -170,9 +171,9 @@ def reads_model(system: System) -> bool:
     return not modelsync.states_every_key(system)
 
 
-def _merge(values: dict[str, Any], key: str, new: Any) -> None:
-    """values[key] with `new`'s non-NaN entries written over it (NaN entries: leave as is)."""
-    new = np.asarray(new, dtype=float)
+def _merge(values: dict[str, float | np.ndarray], key: str, given: object) -> None:
+    """values[key] with `given`'s non-NaN entries written over it (NaN entries: leave as is)."""
+    new = np.asarray(given, dtype=float)
     if key not in values or new.ndim == 0:
         values[key] = new if new.ndim else float(new)
         return
@@ -180,9 +181,9 @@ def _merge(values: dict[str, Any], key: str, new: Any) -> None:
     values[key] = np.where(np.isnan(new), old, new)
 
 
-def _full(view: Any, key: str, partial: Any) -> Any:
-    """The key's value in `view` with `partial`'s non-NaN entries written over it."""
-    partial = np.asarray(partial, dtype=float)
+def _full(view: ModelView, key: str, given: float | np.ndarray) -> float | np.ndarray:
+    """The key's value in `view` with `given`'s non-NaN entries written over it."""
+    partial = np.asarray(given, dtype=float)
     if partial.ndim == 0:
         return float(partial)
     return np.where(np.isnan(partial), np.asarray(view[key], dtype=float), partial)
@@ -192,7 +193,7 @@ def build_moved(system: System, moved: dict[Knob, float], *, index: int, label: 
     """The probe model with the model numbers `moved` (Knob -> new value) and the relations the
     derivation's assumptions() state at the parameters read from them: written, compiled, read."""
     view, eq = system.view, system.derivation
-    values: dict[str, Any] = {}
+    values: dict[str, float | np.ndarray] = {}
     for knob, value in moved.items():
         _merge(values, knob.key, knob.moved(value))
     read = eq.parameters(Overlay(view, {k: _full(view, k, v) for k, v in values.items()}))
@@ -200,8 +201,8 @@ def build_moved(system: System, moved: dict[Knob, float], *, index: int, label: 
         assumed = _assumed_values(eq.assumptions(read))
     except Exception as exc:  # noqa: BLE001 - the user's module: its failure is a finding
         raise ProbeError(f"assumptions() fails at the probe parameters: {type(exc).__name__}: {exc}") from None
-    for key, value in assumed.items():
-        _merge(values, key, value)
+    for key, given in assumed.items():
+        _merge(values, key, given)
     text = set_values(system.mjcf_xml(), values, model_view=view)
     probe_system = system.derive(text=text, overrides=())
     probe_system.mujoco_model()  # a model MuJoCo refuses is a ProbeError for the caller to redraw

@@ -10,16 +10,19 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Mapping
-from typing import Any
+from typing import TypeAlias
 
 import numpy as np
 
 from ..core.tolerances import Tolerances
 from ..model.modelview import ModelView
 from ..results.schema import ComparisonRow, TermRow
-from ..sources.base import Source, posed
+from ..sources.base import Kinematics, Source, posed
 from ..systems import System
 from .pointwise import States, error_row
+
+# engine -> quantity ("M", "bias", "passive", "qacc", "T", "V", ...) -> its values at the states (Source.evaluate)
+EngineValues: TypeAlias = dict[str, dict[str, np.ndarray]]
 
 ENGINES = ("mujoco", "pinocchio", "symbolic", "drake")  # the references a derivation is judged against
 
@@ -42,7 +45,7 @@ TERM_ORDER = (
 )
 
 
-def frictionless_params(system: System) -> Any:
+def frictionless_params(system: System) -> object:
     """The equations' parameters read from the same model with every joint's damping set to zero."""
     values = {k: (0.0 if k.endswith("/damping") else system.view[k]) for k in system.view}
     return system.derivation.parameters(ModelView(values, system.view.source + " (no friction)"))
@@ -61,13 +64,13 @@ class EngineTerms:
         system: System,
         sources: Mapping[str, Source],
         states: States,
-        values: dict[str, dict[str, np.ndarray]] | None = None,
+        values: EngineValues | None = None,
     ) -> None:
         """`values`: what `compare.evaluate` already computed at these states, reused rather than recomputed."""
         q, v, tau = states.q, states.v, states.tau
         zero = np.zeros_like(q)
         self.engines = engines_of(sources)
-        self.by_engine: dict[str, dict[str, np.ndarray]] = {}
+        self.by_engine: EngineValues = {}
         for name in self.engines:
             src = sources[name]
             known = (values or {}).get(name)
@@ -95,7 +98,7 @@ class EngineTerms:
         }
 
     @functools.cached_property
-    def kinematics(self) -> dict[str, Any]:
+    def kinematics(self) -> dict[str, Kinematics]:
         """Per-body kinematics of each engine, computed on first use (derivation steps need them)."""
         q, v = self._states.q, self._states.v
         return {name: posed(self._sources[name]).kinematics(q, v) for name in self.engines}
@@ -166,7 +169,7 @@ def _axis_rotation(axis: np.ndarray, angle: np.ndarray, engine: str) -> np.ndarr
 
 
 def engine_quantity(
-    system: System, terms: EngineTerms, quantity: tuple[Any, ...], engine: str, states: States, angle_index: int
+    system: System, terms: EngineTerms, quantity: tuple[object, ...], engine: str, states: States, angle_index: int
 ) -> np.ndarray:
     """What `engine` computes for a derivation step's quantity."""
     kind, which = quantity[0], quantity[1] if len(quantity) > 1 else None

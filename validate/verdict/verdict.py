@@ -21,9 +21,9 @@ that is not symmetric positive definite is reported with the state where it is n
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any, cast
+from typing import TypedDict, cast
 
 import numpy as np
 
@@ -32,7 +32,7 @@ from ..core.errors import HarnessError
 from ..core.tolerances import TOLERANCES, Tolerances
 from ..handwritten.forms import accelerations_only, not_provided_in, written_form
 from ..handwritten.values import real_array
-from ..results.schema import Derivation, Explanation, TermRow, TermSummary, WorstTerm
+from ..results.schema import Derivation, Explanation, NotSpd, TermNotes, TermRow, TermSummary, WorstTerm
 from ..sources import SYMBOLIC_MAX_DOF, make_sources
 from ..sources.base import Source
 from ..systems import System
@@ -42,7 +42,7 @@ from .explain import explain, statement_tail
 from .inputs import acceleration_rows, actuation_rows, ignored_torques
 from .modelsync import equations_vs_model
 from .pointwise import States, force_scale, random_states
-from .terms import EngineTerms, engines_of, term_rows
+from .terms import EngineTerms, EngineValues, engines_of, term_rows
 
 HAND_TERMS = (
     "parameters",
@@ -67,7 +67,7 @@ TERM_OF_FUNCTION = {
 PROBE_STATES = 200  # states per probe (the model's own parameters use the pointwise sample)
 
 
-def _shaped(name: str, value: Any, shape: tuple[int, ...]) -> np.ndarray:
+def _shaped(name: str, value: object, shape: tuple[int, ...]) -> np.ndarray:
     return real_array(name, value, shape)
 
 
@@ -82,7 +82,7 @@ def hand_terms(system: System, states: States) -> tuple[dict[str, np.ndarray], d
     errors: dict[str, str] = {}
     missing = not_provided_in(eq)
 
-    def call(term: str, fname: str, shape: tuple[int, ...], fn: Any) -> np.ndarray | None:
+    def call(term: str, fname: str, shape: tuple[int, ...], fn: Callable[[], object]) -> np.ndarray | None:
         if fname in missing:
             return None  # not provided: not checked (listed by judge_derivation), never a failure
         try:
@@ -98,7 +98,7 @@ def hand_terms(system: System, states: States) -> tuple[dict[str, np.ndarray], d
         out[term] = arr
         return arr
 
-    def _of(per_body: Any) -> list[tuple[str, Any]]:
+    def _of(per_body: Mapping[str, object]) -> list[tuple[str, object]]:
         return [(b, per_body[b]) for b in system.bodies]
 
     M = call("mass matrix", "mass_matrix", (N, n, n), lambda: eq.mass_matrix(p, q))
@@ -141,7 +141,7 @@ def _solved(M: np.ndarray, rhs: np.ndarray, *, like: np.ndarray) -> np.ndarray:
     return a
 
 
-def definiteness(M: np.ndarray, states: States) -> dict[str, Any] | None:
+def definiteness(M: np.ndarray, states: States) -> NotSpd | None:
     """Where a mass matrix is not symmetric positive definite: the worst state, or None."""
     finite = np.all(np.isfinite(M.reshape(len(M), -1)), axis=1)
     if not finite.any():
@@ -166,9 +166,7 @@ def definiteness(M: np.ndarray, states: States) -> dict[str, Any] | None:
     }
 
 
-def engine_values(
-    sources: Mapping[str, Source], states: States, values: dict[str, Any] | None = None
-) -> dict[str, Any]:
+def engine_values(sources: Mapping[str, Source], states: States, values: EngineValues | None = None) -> EngineValues:
     """The engines' quantities at `states` (reusing what the pointwise check computed, if given)."""
     if values is not None:
         return {k: values[k] for k in engines_of(sources)}
@@ -181,9 +179,9 @@ def term_rows_at(
     states: States,
     sources: Mapping[str, Source],
     *,
-    values: dict[str, Any] | None = None,
+    values: EngineValues | None = None,
     tolerances: Tolerances = TOLERANCES,
-) -> tuple[list[TermRow], dict[str, Any]]:
+) -> tuple[list[TermRow], TermNotes]:
     """Every term of the derivation against both engines at one parameter set; and notes (errors,
     mass-matrix definiteness)."""
     ev = engine_values(sources, states, values)  # keyed by the engines present
@@ -231,7 +229,7 @@ def term_rows_at(
             if term in errors:
                 row["error"] = errors[term]
         rows += new
-    notes: dict[str, Any] = {}
+    notes: TermNotes = {}
     if errors:
         notes["errors"] = errors
     if "mass matrix" in mine:
@@ -241,9 +239,7 @@ def term_rows_at(
     return rows, notes
 
 
-def _engine_terms(
-    ev: dict[str, Any], e: dict[str, Any], states: States
-) -> dict[str, tuple[dict[str, np.ndarray], float]]:
+def _engine_terms(ev: EngineValues, e: EngineValues, states: States) -> dict[str, tuple[dict[str, np.ndarray], float]]:
     """Each term's values per engine (from `engine_values` and `EngineTerms.by_engine`), with the
     smallest scale it is judged at: the largest force, energy or length any engine gives."""
     force = max(
@@ -307,6 +303,13 @@ def _first_term(failing: list[TermRow]) -> str:
     return next(t for t in HAND_TERMS if t in names)
 
 
+class Misreading(TypedDict):
+    """What parameters() misread at a probe (probes.ParametersMisread)."""
+
+    message: str
+    fields: dict[str, list[float]]  # per field, [built with, read back]
+
+
 @dataclass(frozen=True)
 class ProbeSet:
     """The hand derivation's probe models (index 0, the model's own, excluded), why any could not
@@ -314,7 +317,7 @@ class ProbeSet:
 
     probes: list[probing.Probe]
     problems: list[str]
-    misread: dict[str, Any] | None = None
+    misread: Misreading | None = None
 
     def systems(self) -> list[System]:
         return [p.system for p in self.probes]
@@ -360,8 +363,8 @@ def _explanations(
 
 
 def _rows_at_model(
-    system: System, states: States, sources: Mapping[str, Source], values: dict[str, Any] | None, tolerances: Tolerances
-) -> tuple[list[TermRow], dict[int, dict[str, Any]]]:
+    system: System, states: States, sources: Mapping[str, Source], values: EngineValues | None, tolerances: Tolerances
+) -> tuple[list[TermRow], dict[int, TermNotes]]:
     """Every term's rows at the model's parameters and the model's own checks; its notes, as probe 0's."""
     rows, notes = term_rows_at(system, states, sources, values=values, tolerances=tolerances)
     for r in rows:
@@ -371,10 +374,10 @@ def _rows_at_model(
 
 def _rows_at_probes(
     probe_set: ProbeSet, *, probe_states: int, seed: int, tolerances: Tolerances
-) -> tuple[list[TermRow], dict[int, dict[str, Any]]]:
+) -> tuple[list[TermRow], dict[int, TermNotes]]:
     """What parameters() misread, then every term's rows at each probe; each probe's notes, by index."""
     rows: list[TermRow] = []
-    notes: dict[int, dict[str, Any]] = {}
+    notes: dict[int, TermNotes] = {}
     if probe_set.misread is not None:
         rows.append(
             {
@@ -400,7 +403,7 @@ def _coverage(result: Derivation, system: System, states: States, probe_set: Pro
     """What the verdict was reached on: the probes, those not built, parameters held at zero,
     functions not provided and the number of states."""
     probe_list = probe_set.probes
-    result["probes"] = [{"index": 0, "label": "model", "changed": {}}] + [p.as_dict() for p in probe_list]
+    result["probes"] = [{"index": 0, "label": "model", "changed": {}}, *(p.as_dict() for p in probe_list)]
     result["probe_problems"] = probe_set.problems
     # A parameter that is zero in the model stays zero at every probe: the terms it scales are not tested.
     result["held_at_zero"] = sorted(k for k, x in probing.param_fields(system.params).items() if x == 0.0)
@@ -492,7 +495,7 @@ def _disagreement(
     result["statement"] += statement_tail(result.get("explanations", []), at_model=at_model)
 
 
-def _not_spd_note(result: Derivation, all_notes: dict[int, dict[str, Any]]) -> None:
+def _not_spd_note(result: Derivation, all_notes: dict[int, TermNotes]) -> None:
     """Where the derivation's mass matrix is not symmetric positive definite, said in the statement."""
     spd = next((n["mass_matrix_not_spd"] for n in all_notes.values() if "mass_matrix_not_spd" in n), None)
     if spd:
@@ -509,7 +512,7 @@ def judge_derivation(
     sources: Mapping[str, Source],
     probe_set: ProbeSet | None = None,
     *,
-    values: dict[str, Any] | None = None,
+    values: EngineValues | None = None,
     n_probes: int = probing.DEFAULT_PROBES,
     probe_states: int = PROBE_STATES,
     seed: int = 0,

@@ -16,14 +16,17 @@ unstated assumption, with how to state it.
 from __future__ import annotations
 
 import re
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..handwritten.reads import knobs, numeric_fields
 from ..sources.symbolic import derivation_of
-from ..symbolic.derivation import parameter_values
+from ..symbolic.derivation import Derivation, parameter_values
 from ..systems import System
+
+if TYPE_CHECKING:  # sympy is imported when first used
+    import sympy as sp
 
 # The parts of the model's own equations a term of a derivation is made of (explicit accelerations
 # carry M^-1 in each term).
@@ -39,7 +42,7 @@ TERM_PARTS = {
 }
 
 
-def _label(key: str, entry: Any) -> str:
+def _label(key: str, entry: int | tuple[int, int] | str | None) -> str:
     if entry is None:
         return key
     if isinstance(entry, tuple):
@@ -102,7 +105,7 @@ def unread_numbers(system: System, term: str) -> list[str]:
         return []
     derivation = derivation_of(system)
     exprs = [x for part in parts for x in _entries(getattr(derivation, part))]
-    used: set[Any] = set().union(*(x.free_symbols for x in exprs)) if exprs else set()
+    used: set[sp.Symbol] = set().union(*(x.free_symbols for x in exprs)) if exprs else set()
     read = {k.label for k in knobs(system.derivation.parameters, system.view)}
     unread = [s for s in derivation.source if s in used and _label(*derivation.source[s]) not in read]
     values = parameter_values(derivation, system.view)
@@ -113,11 +116,13 @@ def unread_numbers(system: System, term: str) -> list[str]:
 MATTERS = 1e-9  # relative change of a term when one number doubles: below it, the number does not matter
 
 
-def _entries(x: Any) -> list[Any]:
+def _entries(x: sp.Expr | sp.Matrix) -> list[sp.Expr]:
     return list(x) if hasattr(x, "shape") else [x]
 
 
-def _matters(derivation: Any, exprs: list[Any], values: dict[Any, float], sym: Any, n_states: int = 8) -> bool:
+def _matters(
+    derivation: Derivation, exprs: list[sp.Expr], values: dict[sp.Symbol, float], sym: sp.Symbol, n_states: int = 8
+) -> bool:
     """Whether doubling the number `sym` stands for moves the expressions by more than MATTERS of their size."""
     import sympy as sp
 
