@@ -249,3 +249,125 @@ def test_the_layout_check_sees_every_room():
         _top(m) for m in MODULES
     }
     assert len(_imports("verdict.decide", MODULES["verdict.decide"])) > 5
+
+
+# ----------------------------------------------------------------------------------------------
+# The readers never write into the results they read (the records of validate/results/schema.py)
+
+MUTATORS = {"update", "setdefault", "pop", "popitem", "clear", "append", "extend", "insert", "remove", "sort"}
+VIEWS = {"get", "items", "values", "keys"}  # a view of a record is the record's
+
+
+def _record_types() -> set[str]:
+    """The names of the result records: every class of validate/results/schema.py."""
+    tree = ast.parse((VALIDATE / "results" / "schema.py").read_text())
+    return {n.name for n in tree.body if isinstance(n, ast.ClassDef)}
+
+
+def _root(node: ast.expr) -> str | None:
+    """The name a subscript, attribute or view (`.get`, `.items`, ...) chain starts from."""
+    while True:
+        if isinstance(node, ast.Subscript | ast.Attribute):
+            node = node.value
+        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr in VIEWS:
+            node = node.func.value
+        else:
+            return node.id if isinstance(node, ast.Name) else None
+
+
+def _from_record(expr: ast.expr, held: set[str]) -> bool:
+    """`expr` is (a part of) a record held in one of the names `held`, not a copy of it."""
+    if isinstance(expr, ast.BoolOp):
+        return any(_from_record(v, held) for v in expr.values)
+    if isinstance(expr, ast.IfExp):
+        return _from_record(expr.body, held) or _from_record(expr.orelse, held)
+    if isinstance(expr, ast.Call) and not (isinstance(expr.func, ast.Attribute) and expr.func.attr in VIEWS):
+        return False  # a function's result (dict(...), sorted(...), a computation) is the reader's own
+    return _root(expr) in held
+
+
+def _holding_records(fn: ast.FunctionDef | ast.AsyncFunctionDef, records: set[str]) -> set[str]:
+    """The parameters annotated with a record type, and the locals and loop variables bound to their parts."""
+    args = (*fn.args.posonlyargs, *fn.args.args, *fn.args.kwonlyargs)
+    held = {
+        a.arg
+        for a in args
+        if a.annotation is not None
+        and records & {n.id for n in ast.walk(a.annotation) if isinstance(n, ast.Name)}
+        | {c.value for c in ast.walk(a.annotation) if isinstance(c, ast.Constant) and isinstance(c.value, str)}
+    }
+    while True:
+        more = set(held)
+        for node in ast.walk(fn):
+            if isinstance(node, ast.Assign) and _from_record(node.value, held):  # bound to a name, not stored
+                more |= {
+                    n.id
+                    for t in node.targets
+                    if isinstance(t, ast.Name | ast.Tuple)
+                    for n in ast.walk(t)
+                    if isinstance(n, ast.Name)
+                }
+            if isinstance(node, ast.For | ast.comprehension) and _from_record(node.iter, held):
+                more |= {n.id for n in ast.walk(node.target) if isinstance(n, ast.Name)}
+        if more == held:
+            return held
+        held = more
+
+
+def _writes(fn: ast.FunctionDef | ast.AsyncFunctionDef, held: set[str]) -> list[tuple[int, str]]:
+    """Item or attribute assignments, deletions and mutating calls on what `held` names."""
+    out = []
+    for node in ast.walk(fn):
+        targets: list[ast.expr] = []
+        if isinstance(node, ast.Assign | ast.Delete):
+            targets = node.targets
+        elif isinstance(node, ast.AugAssign | ast.AnnAssign):
+            targets = [node.target]
+        out += [
+            (node.lineno, ast.unparse(t))
+            for t in targets
+            if isinstance(t, ast.Subscript | ast.Attribute) and _root(t) in held
+        ]
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr in MUTATORS:
+            if _root(node.func.value) in held:
+                out.append((node.lineno, ast.unparse(node.func)))
+    return out
+
+
+def record_writes(source: str, records: set[str]) -> list[tuple[int, str]]:
+    """Every write into a result record in a module's source."""
+    tree = ast.parse(source)
+    functions = [n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef | ast.AsyncFunctionDef)]
+    return [w for fn in functions for w in _writes(fn, _holding_records(fn, records))]
+
+
+def test_the_readers_never_write_into_the_records_they_read():
+    """The result records are data once made: the report and the replay read them and never assign into
+    them, delete from them or call a mutating method on them (or on a part of them held in a local)."""
+    records = _record_types()
+    bad = [
+        f"validate/{path.relative_to(VALIDATE)}:{line}: {what}"
+        for reader in READERS
+        for path in sorted((VALIDATE / reader).rglob("*.py"))
+        for line, what in record_writes(path.read_text(), records)
+    ]
+    assert not bad, "a reader writes into a result record:\n" + "\n".join(bad)
+
+
+def test_the_record_writes_check_sees_a_write():
+    """A write through a parameter, through a part of it held in a local, and through a loop variable."""
+    source = (
+        "def f(s: SystemResult, rows: list[ComparisonRow], other: dict) -> None:\n"
+        "    s['passed'] = True\n"
+        "    tr = s.get('trajectories') or {}\n"
+        "    tr['t'].append(1)\n"
+        "    for r in rows:\n"
+        "        r.update(x=1)\n"
+        "    mine = dict(s)\n"
+        "    mine['x'] = 1\n"
+        "    other['y'] = 2\n"
+        "    kept = {}\n"
+        "    kept[s['name']] = s\n"
+    )
+    lines = [line for line, _ in record_writes(source, {"SystemResult", "ComparisonRow"})]
+    assert lines == [2, 4, 6]
