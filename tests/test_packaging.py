@@ -58,6 +58,10 @@ def third_party_imports(folders: tuple[str, ...] = SCANNED) -> dict[str, list[tu
     found: dict[str, list[tuple[str, bool]]] = {}
 
     def visit(node: ast.AST, path: Path, in_function: bool) -> None:
+        if isinstance(node, ast.If) and ast.unparse(node.test) in {"TYPE_CHECKING", "typing.TYPE_CHECKING"}:
+            for child in node.orelse:  # what only the type checker imports never runs
+                visit(child, path, in_function)
+            return
         tops = []
         if isinstance(node, ast.Import):
             tops = [a.name.split(".")[0] for a in node.names]

@@ -160,7 +160,7 @@ class WorstTerm(TypedDict, total=False):
 
 
 class ProbeEntry(TypedDict):
-    """One parameter set a derivation was judged at (verdict/probes.Probe.as_dict)."""
+    """One parameter set a derivation was judged at (`Probe.as_dict` in verdict/probes.py)."""
 
     index: int  # 0: the model's own
     label: str
@@ -634,7 +634,7 @@ class RunResults(TypedDict):
     """results.json."""
 
     meta: Provenance
-    tolerances: dict[str, dict[str, float | str | None]]  # per tier (core/tolerances.Tolerances.as_dict)
+    tolerances: dict[str, dict[str, float | str | None]]  # per tier (`Tolerances.as_dict` in core/tolerances.py)
     systems: dict[str, SystemResult]
     passed: bool
 

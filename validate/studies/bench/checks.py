@@ -261,7 +261,7 @@ def _best(check: CheckRow, rows: list[Row]) -> CheckBest | None:
         "scheme": found["scheme"],
         "setting": found["setting"],
         "value": found["value"],
-        "atol": found["atol"],
+        "atol": found.get("atol"),
     }
     return {
         "method": found["method"],

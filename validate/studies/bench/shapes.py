@@ -99,7 +99,7 @@ class Row(TypedDict):
     scheme: str
     setting: str
     value: float
-    atol: float | None
+    atol: NotRequired[float | None]  # rtol runs only
     status: str
     message: str
     error_2s: float | None
