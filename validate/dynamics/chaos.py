@@ -42,11 +42,13 @@ All public functions return JSON-able dicts (floats, lists, None) unless documen
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
+from ..core.arrays import Floats
 from ..core.errors import unknown_name
 from ..handwritten.forms import accelerations_only
 from ..model.start import Scheme, Start
@@ -138,9 +140,9 @@ def window_errors(
 def free_run_check(
     system: System,
     sources: Mapping[str, Source],
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    q0: Floats,
+    v0: Floats,
+    tau: Floats,
     t: np.ndarray,
     *,
     engine: str = "mujoco",
@@ -148,7 +150,7 @@ def free_run_check(
     timestep: float | None = None,
     tolerance: float = DEFAULT_TOLERANCE,
     ref: Trajectory | None = None,
-    cache_dir: Any = DEFAULT_CACHE_DIR,
+    cache_dir: str | os.PathLike[str] | None = DEFAULT_CACHE_DIR,
 ) -> dict[str, Any]:
     """A free run against the reference, judged against its propagated window errors.
 
@@ -200,16 +202,16 @@ def pair_check(
     sources: Mapping[str, Source],
     a: str,
     b: str,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    q0: Floats,
+    v0: Floats,
+    tau: Floats,
     t: np.ndarray,
     *,
     integrator: str = "RK4",
     timestep: float | None = None,
     ref: Trajectory | None = None,
     tolerance: float = DEFAULT_TOLERANCE,
-    cache_dir: Any = DEFAULT_CACHE_DIR,
+    cache_dir: str | os.PathLike[str] | None = DEFAULT_CACHE_DIR,
 ) -> dict[str, Any]:
     """Two free runs of the same scheme (e.g. MuJoCo and the hand mirror) judged against the envelope of
     their window-by-window difference (both restarted from the reference at every sample).
@@ -329,15 +331,15 @@ def sweep_timesteps(integrator: str, rate: float) -> tuple[tuple[float, ...], fl
 def convergence_order(
     system: System,
     sources: Mapping[str, Source],
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    q0: Floats,
+    v0: Floats,
+    tau: Floats,
     *,
     integrator: str,
     timesteps: tuple[float, ...] | None = None,
     t_end: float = CONVERGENCE_T_END,
     engine: str = "mujoco",
-    cache_dir: Any = DEFAULT_CACHE_DIR,
+    cache_dir: str | os.PathLike[str] | None = DEFAULT_CACHE_DIR,
     check: str | None = CHECK,
 ) -> dict[str, Any]:
     """The observed order of `integrator` from a timestep sweep against the reference.
@@ -387,16 +389,16 @@ def convergence_order(
 def energy_drift(
     system: System,
     sources: Mapping[str, Source],
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    q0: Floats,
+    v0: Floats,
+    tau: Floats,
     t: np.ndarray,
     *,
     integrator: str,
     timestep: float | None = None,
     engine: str = "mujoco",
     ref: Trajectory | None = None,
-    cache_dir: Any = DEFAULT_CACHE_DIR,
+    cache_dir: str | os.PathLike[str] | None = DEFAULT_CACHE_DIR,
 ) -> dict[str, Any]:
     """Energy of a run minus the reference's energy at the same times (J), by the hand equations.
 
@@ -432,15 +434,15 @@ def crossvalidate(
     system: System,
     sources: Mapping[str, Source],
     *,
-    q0: Any = None,
-    v0: Any = None,
-    tau: Any = None,
+    q0: Floats | None = None,
+    v0: Floats | None = None,
+    tau: Floats | None = None,
     t_end: float = DEFAULT_T_END,
     dt_out: float = DEFAULT_DT_OUT,
     tolerance: float = DEFAULT_TOLERANCE,
     integrators: tuple[str, ...] = INTEGRATORS,
     mirror_engines: tuple[str, ...] = ("hand", "pinocchio"),
-    cache_dir: Any = DEFAULT_CACHE_DIR,
+    cache_dir: str | os.PathLike[str] | None = DEFAULT_CACHE_DIR,
     lockstep_every: int = 10,
 ) -> dict[str, Any]:
     """Trajectory cross-validation of one system, JSON-able: reference, chaos measures, and per MuJoCo
@@ -521,7 +523,7 @@ def _integrator_entry(
     limit: float,
     mirror_engines: tuple[str, ...],
     lock_states: tuple[np.ndarray, np.ndarray],
-    cache_dir: Any,
+    cache_dir: str | os.PathLike[str] | None,
 ) -> dict[str, Any]:
     """One MuJoCo integrator's entry of `crossvalidate`: its free run against the reference, the mirrors
     against mj_step (judged within `limit` round-off ulps), lockstep, convergence order and energy."""

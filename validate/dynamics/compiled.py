@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.arrays import Floats
 from ..core.cachedir import heyoka
 from ..core.errors import HarnessError
 from ..core.memo import Memo
@@ -100,7 +101,7 @@ def taylor_integrator(system: System, tol: float, *, compact: bool = False, sour
 
 
 def taylor_grid(
-    ta: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, max_steps: int = 0
+    ta: Any, q0: Floats, v0: Floats, tau: Floats, t: np.ndarray, *, max_steps: int = 0
 ) -> tuple[str, np.ndarray, int]:
     """The state (K, 2n) on the grid `t` from (q0, v0) at t[0] with input `tau`: (outcome, states,
     steps). outcome "ok", or heyoka's own word when it stopped early (the rows it did not reach NaN).
@@ -128,7 +129,7 @@ def compiled_rhs(system: System) -> Callable[[float, Any, Any], np.ndarray]:
 
     cf = _COMPILED.get(key, make)
 
-    def rhs(t: float, y: Any, tau: Any) -> np.ndarray:
+    def rhs(t: float, y: Any, tau: Floats) -> np.ndarray:
         return cf(y, pars=tau)  # type: ignore[no-any-return]
 
     return rhs
@@ -195,7 +196,15 @@ def rk4_plan(dt_out: float, timestep: float, most: int = RK4_STEPS_PER_CALL) -> 
 
 
 def rk4_grid(
-    cf: Any, calls: int, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, timestep: float, deadline: float = np.inf
+    cf: Any,
+    calls: int,
+    q0: Floats,
+    v0: Floats,
+    tau: Floats,
+    t: np.ndarray,
+    *,
+    timestep: float,
+    deadline: float = np.inf,
 ) -> tuple[str, np.ndarray]:
     """The state (K, 2n) on the grid `t` by `calls` calls of the compiled RK4 steps `cf` per sample:
     ("ok" | "diverged" | "timeout", states; rows not reached are NaN). The deadline (perf_counter)

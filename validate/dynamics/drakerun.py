@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.arrays import Floats
 from ..sources.base import Source, engine_of
 from ..systems import System
 from .integrate import Trajectory
@@ -26,9 +27,9 @@ def drake_method(scheme: str, accuracy: float | None, max_step: float) -> str:
 def drake_trajectory(
     system: System,
     source: Source,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    q0: Floats,
+    v0: Floats,
+    tau: Floats,
     t: np.ndarray,
     *,
     scheme: str = DRAKE_DEFAULT["scheme"],

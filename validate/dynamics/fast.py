@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.arrays import Floats, Vector
 from ..core.errors import HarnessError
 from ..results.stages import Clock, lap
 from ..sources.base import Source, stepped
@@ -66,9 +67,9 @@ def taylor_method(tol: float = FAST_TOLERANCE) -> str:
 def taylor_trajectory(
     system: System,
     source: str,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    q0: Floats,
+    v0: Floats,
+    tau: Floats,
     t: np.ndarray,
     *,
     tol: float = FAST_TOLERANCE,
@@ -124,9 +125,9 @@ def taylor_trajectory(
 def accurate_trajectory(
     system: System,
     source: Source,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    q0: Vector,
+    v0: Vector,
+    tau: Vector,
     t: np.ndarray,
     *,
     budget: Budget = DEFAULT_BUDGET,

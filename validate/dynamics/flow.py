@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.arrays import Floats
 from ..core.cachedir import heyoka
 from ..core.errors import HarnessError
 from ..core.memo import Memo
@@ -68,9 +69,9 @@ def reset_variational(ta: Any, n: int, x0: np.ndarray, tau: np.ndarray, t0: floa
 
 def flow(
     system: System,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    q0: Floats,
+    v0: Floats,
+    tau: Floats,
     t: np.ndarray,
     *,
     precision: str = "double",
@@ -241,9 +242,9 @@ def sample_at(t: np.ndarray, y: np.ndarray, at: tuple[float, ...] = (1.0, 2.0, 5
 
 def horizon_from_rounding(
     system: System,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    q0: Floats,
+    v0: Floats,
+    tau: Floats,
     *,
     tolerance: float = DEFAULT_TOLERANCE,
     t_end: float = 200.0,

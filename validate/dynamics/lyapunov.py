@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import json
+import os
 import time
 from pathlib import Path
 from typing import Any
@@ -11,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from ..core import cache
+from ..core.arrays import Floats
 from ..core.errors import HarnessError, unknown_name
 from ..results import dumps
 from ..systems import System
@@ -36,9 +38,9 @@ LYAPUNOV_INTERVAL = 0.5  # s between renormalisations (growth per interval e^0.1
 
 def lyapunov_exponent(
     system: System,
-    q0: Any,
-    v0: Any,
-    tau: Any = None,
+    q0: Floats,
+    v0: Floats,
+    tau: Floats | None = None,
     *,
     t_end: float = LYAPUNOV_T_END,
     interval: float = LYAPUNOV_INTERVAL,
@@ -153,13 +155,13 @@ def _lyapunov_cached(system: System, x0: tuple[float, ...], tau: tuple[float, ..
 
 def chaos_summary(
     system: System,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    q0: Floats,
+    v0: Floats,
+    tau: Floats,
     *,
     t: np.ndarray | None = None,
     tolerance: float = DEFAULT_TOLERANCE,
-    cache_dir: Any = DEFAULT_CACHE_DIR,
+    cache_dir: str | os.PathLike[str] | None = DEFAULT_CACHE_DIR,
 ) -> dict[str, Any]:
     """Lyapunov exponent (two methods), amplification at 2 s and 10 s, and horizons, for one start.
 

@@ -46,6 +46,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.arrays import Floats
 from ..core.errors import HarnessError, unknown_name
 from ..model.start import Scheme
 from ..sources.base import Source, SteppedSource, stepped
@@ -393,9 +394,9 @@ def _stopped(t: np.ndarray, qs: np.ndarray, vs: np.ndarray, status: str, reason:
 def mirror_trajectory(
     system: System,
     source: Source,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    q0: Floats,
+    v0: Floats,
+    tau: Floats,
     t: np.ndarray,
     *,
     integrator: str,
@@ -498,7 +499,7 @@ def lockstep(
     integrator: str,
     timestep: float | None = None,
     window_steps: int = 1,
-    tau: Any = None,
+    tau: Floats | None = None,
 ) -> dict[str, Any]:
     """Every source advanced `window_steps` steps from the same states; the largest differences per pair.
 

@@ -40,6 +40,7 @@ import numpy as np
 
 from .. import forms
 from ..core import cache
+from ..core.arrays import Floats
 from ..core.cachedir import heyoka
 from ..core.errors import HarnessError, IntegrationStopped, unknown_name
 from ..core.memo import Memo
@@ -331,7 +332,7 @@ def cache_key(
     return hashlib.sha256(json.dumps(blob, sort_keys=True).encode()).hexdigest()[:24]
 
 
-def _check_inputs(system: System, q0: Any, v0: Any, tau: Any, t: Any) -> tuple[np.ndarray, ...]:
+def _check_inputs(system: System, q0: Floats, v0: Floats, tau: Floats, t: Floats) -> tuple[np.ndarray, ...]:
     n = system.nv
     arrays = []
     for name, x in (("q0", q0), ("v0", v0), ("tau", tau)):
@@ -349,10 +350,10 @@ def _check_inputs(system: System, q0: Any, v0: Any, tau: Any, t: Any) -> tuple[n
 
 def reference_trajectory(
     system: System,
-    q0: Any,
-    v0: Any,
-    tau: Any,
-    t: Any,
+    q0: Floats,
+    v0: Floats,
+    tau: Floats,
+    t: Floats,
     *,
     cache_dir: str | os.PathLike[str] | None = DEFAULT_CACHE_DIR,
     check: str | None = CHECK,
