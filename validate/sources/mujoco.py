@@ -13,6 +13,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from ..core.arrays import Floats
 from ..core.errors import HarnessError, unknown_name
 from ..model.scope import joint_actuators
 from ..model.start import Scheme, Start
@@ -54,7 +55,13 @@ ROW_SHAPES = {
 
 
 def _rows(
-    m: Any, d: Any, states: np.ndarray, accel: np.ndarray | None, out: dict[str, np.ndarray], lo: int, hi: int
+    m: mujoco.MjModel,
+    d: mujoco.MjData,
+    states: np.ndarray,
+    accel: np.ndarray | None,
+    out: dict[str, np.ndarray],
+    lo: int,
+    hi: int,
 ) -> None:
     """States lo..hi-1 of a batch into `out` (keys of ROW_SHAPES): per state one mj_setState, mj_forward
     (when anything but the inverse dynamics is asked for), mj_fullM, copies of whole MjData arrays, and
@@ -321,7 +328,7 @@ class MujocoSource:
 # for the call and restored after, and MuJoCo's warnings read (it resets the state after one).
 
 
-def model_digest(m: Any) -> str:
+def model_digest(m: mujoco.MjModel) -> str:
     """SHA-256 of a compiled model's binary (MJB) form: every number, option and flag it holds."""
     import hashlib
 
@@ -330,26 +337,26 @@ def model_digest(m: Any) -> str:
     return hashlib.sha256(buf.tobytes()).hexdigest()
 
 
-def integrator_enum(name: str) -> Any:
+def integrator_enum(name: str) -> mujoco.mjtIntegrator:
     """MuJoCo's enum value for an integrator name; an unknown name lists the valid ones."""
     if name not in MUJOCO_INTEGRATORS:
         raise unknown_name("MuJoCo integrator", name, MUJOCO_INTEGRATORS)
     return getattr(mujoco.mjtIntegrator, INTEGRATOR_ENUMS[name])
 
 
-def eulerdamp_active(model: Any) -> bool:
+def eulerdamp_active(model: mujoco.MjModel) -> bool:
     """Whether MuJoCo's Euler treats joint damping implicitly for this model (flags and damping)."""
     off = int(mujoco.mjtDisableBit.mjDSBL_EULERDAMP) | int(mujoco.mjtDisableBit.mjDSBL_DAMPER)
     return not (model.opt.disableflags & off) and bool(np.any(model.dof_damping > 0))
 
 
-def warnings_raised(d: Any) -> list[tuple[str, int]]:
+def warnings_raised(d: mujoco.MjData) -> list[tuple[str, int]]:
     """(name, last DOF) of every warning MuJoCo counted in `d` (after one it resets the state)."""
     return [(mujoco.mjtWarning(w).name, int(stat.lastinfo)) for w, stat in enumerate(d.warning) if stat.number]
 
 
 @contextlib.contextmanager
-def scheme(m: Any, integrator: str, timestep: float) -> Iterator[None]:
+def scheme(m: mujoco.MjModel, integrator: str, timestep: float) -> Iterator[None]:
     """The model steps with `integrator` at `timestep` inside the block; its own options after."""
     saved = (m.opt.integrator, m.opt.timestep)
     m.opt.integrator, m.opt.timestep = integrator_enum(integrator), float(timestep)
@@ -419,7 +426,7 @@ def axis_rotation(axis: np.ndarray, angles: np.ndarray) -> np.ndarray:
 
 
 @contextlib.contextmanager
-def disabled(m: Any, flags: int) -> Iterator[None]:
+def disabled(m: mujoco.MjModel, flags: int) -> Iterator[None]:
     """The model steps with `opt.disableflags = flags` inside the block; its own flags after."""
     saved = m.opt.disableflags
     m.opt.disableflags = int(flags)
@@ -438,7 +445,7 @@ def disable_flag_names(flags: int) -> list[str]:
     )
 
 
-def steps_from(source: SteppedSource, q0: Any, v0: Any, tau: Any, steps: int) -> None:
+def steps_from(source: SteppedSource, q0: Floats, v0: Floats, tau: Floats, steps: int) -> None:
     """`steps` calls of `mj_step` from (q0, v0) with the model's current options (for timing)."""
     mujoco.mj_resetData(source.m, source.d)
     source.set_state(np.asarray(q0, dtype=float), np.asarray(v0, dtype=float), np.asarray(tau, dtype=float))
@@ -450,9 +457,9 @@ BAD_STATE_WARNINGS = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")
 
 def timed_run(
     source: SteppedSource,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    q0: Floats,
+    v0: Floats,
+    tau: Floats,
     samples: int,
     steps: int,
     *,
@@ -497,9 +504,9 @@ def timed_run(
 
 def rollout_run(
     source: SteppedSource,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    q0: Floats,
+    v0: Floats,
+    tau: Floats,
     samples: int,
     steps: int,
     *,
