@@ -8,12 +8,12 @@ from __future__ import annotations
 import contextlib
 import os
 from collections.abc import Iterator
-from typing import Any
+from typing import TypedDict
 
 import mujoco
 import numpy as np
 
-from ..core.arrays import Floats
+from ..core.arrays import Floats, Matrix
 from ..core.errors import HarnessError, unknown_name
 from ..model.scope import joint_actuators
 from ..model.start import Scheme, Start
@@ -455,6 +455,32 @@ def steps_from(source: SteppedSource, q0: Floats, v0: Floats, tau: Floats, steps
 BAD_STATE_WARNINGS = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")
 
 
+class TimedRun(TypedDict):
+    """`timed_run`'s free run: (samples, n) q and v (NaN after a stop), its CPU and wall seconds, the
+    sample where the deadline stopped it (None: not stopped), the bad-state warnings and MuJoCo's texts."""
+
+    q: Matrix
+    v: Matrix
+    cpu_s: float
+    wall_s: float
+    stopped_at: int | None
+    bad: list[str]
+    printed: list[str]
+
+
+class RolloutRun(TypedDict):
+    """`rollout_run`'s free run: the first trajectory's (samples, n) q and v, whether the batch's were
+    identical, the batch's CPU and wall seconds, the bad-state warnings and the threads used."""
+
+    q: Matrix
+    v: Matrix
+    identical: bool
+    cpu_s: float
+    wall_s: float
+    bad: list[str]
+    threads: int
+
+
 def timed_run(
     source: SteppedSource,
     q0: Floats,
@@ -466,7 +492,7 @@ def timed_run(
     integrator: str,
     timestep: float,
     deadline: float,
-) -> dict[str, Any]:
+) -> TimedRun:
     """A free run for the benchmark: only the stepping loop is timed (CPU and wall), it stops at
     `deadline` (perf_counter), and MuJoCo's warning texts are collected instead of printed.
 
@@ -514,7 +540,7 @@ def rollout_run(
     timestep: float,
     batch: int = 1,
     nthread: int | None = None,
-) -> dict[str, Any]:
+) -> RolloutRun:
     """The same free run as `timed_run` through MuJoCo's multithreaded `mujoco.rollout` (C loops, no
     Python per step), for `batch` copies of the start at once; only the rollout call is timed.
 

@@ -301,12 +301,11 @@ def run_mujoco(
         source, q0, v0, tau, len(t), steps, integrator=integrator, timestep=timestep, deadline=deadline
     )
     cpu, wall, bad, printed, k = out["cpu_s"], out["wall_s"], out["bad"], out["printed"], out["stopped_at"]
-    timed_out = k is not None
     total = steps * (len(t) - 1)
     if bad:
         first = f" (first: {printed[0]})" if printed else ""
         return result_row("diverged", f"MuJoCo warnings: {', '.join(bad)}{first}", cpu, wall, steps=total)
-    if timed_out:
+    if k is not None:  # stopped by the deadline
         return result_row("timeout", f"stopped at t = {t[k]:g} s", cpu, wall, steps=steps * k)
     q = out["q"]
     A = system.joint_map
