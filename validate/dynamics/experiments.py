@@ -36,7 +36,7 @@ T_END = 10.0  # s, the notes' [0, 10]
 DT_OUT = 0.02  # s
 
 
-def dynamic_forms(system: System) -> list[tuple[str, Any]]:
+def dynamic_forms(system: System) -> list[tuple[str, Implicit | Explicit | None]]:
     """(name, variant) for the hand derivation (variant None) and every printed form with dynamics."""
     return [("hand derivation", None)] + [(v.name, v) for v in system.variants if isinstance(v, (Explicit, Implicit))]
 

@@ -123,7 +123,7 @@ class WarpSource:
         return out
 
     def evaluate(
-        self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray | None = None, **_: Any
+        self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray | None = None, **_: object
     ) -> dict[str, np.ndarray]:
         """M, bias, passive and qacc at tau by one `forward` over N worlds; with `a_ref`, tau_inverse
         by `inverse` at those accelerations. Float32 values, returned as float64 in the coordinates."""

@@ -465,6 +465,7 @@ def run_once(spec: dict[str, Any], case: dict[str, Any], plan: Plan) -> dict[str
     if driver in SCIPY_DRIVERS:
         y0 = np.concatenate([q0, v0])
         tau_list: Any = None
+        f: Callable[..., object]  # the generated code, the compiled function, or a source's rhs
         if engine == "hand":
             f, tau_list = scalar_rhs(system), [float(x) for x in tau]  # compiled before the clock starts
         elif engine == "hand-cfunc":
