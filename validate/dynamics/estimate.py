@@ -39,7 +39,7 @@ from ..sources.base import Source, SteppedSource, stepped
 from ..systems import System
 from .drakerun import DRAKE_DEFAULT, drake_trajectory
 from .flow import SAFETY as FLOW_SAFETY
-from .integrate import SCIPY_DEFAULT, Trajectory, mujoco_trajectory, scipy_trajectory
+from .integrate import SCIPY_DEFAULT, ScipyOptions, Trajectory, mujoco_trajectory, scipy_trajectory
 
 SAFETY = FLOW_SAFETY  # 10: see the module docstring
 FLOOR = TOLERANCES.trajectory.rtol  # rad
@@ -73,11 +73,11 @@ def mujoco_estimate(
 
 
 def scipy_estimate(
-    system: System, source: Source, tr: Trajectory, start: Start, *, opts: dict[str, Any] | None = None
+    system: System, source: Source, tr: Trajectory, start: Start, *, opts: ScipyOptions | None = None
 ) -> tuple[np.ndarray, str]:
     """(K,) rad: a scipy run's error estimated from CHECK_METHOD at a tenth of its tolerances (module
     docstring). A check run that stops early (budget, blow-up) gives NaN samples: no estimate there (the floor)."""
-    o = dict(opts or SCIPY_DEFAULT)
+    o = opts or SCIPY_DEFAULT
     q0, v0, tau = start.q0, start.v0, start.tau
     fine = scipy_trajectory(
         system, source, q0, v0, tau, tr.t, method=CHECK_METHOD, rtol=o["rtol"] / FINER, atol=o["atol"] / FINER

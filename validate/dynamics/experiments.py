@@ -27,7 +27,16 @@ from ..sources.fastpath import scalar_rhs
 from ..sources.hand import HandSource
 from ..systems import System
 from .fast import accurate_trajectory
-from .integrate import DEFAULT_BUDGET, Budget, first_exceeding, initial_state, integrate_rhs, outcome, time_grid
+from .integrate import (
+    DEFAULT_BUDGET,
+    Budget,
+    RunStats,
+    first_exceeding,
+    initial_state,
+    integrate_rhs,
+    outcome,
+    time_grid,
+)
 
 PERTURBATION = 0.01  # rad, added to the last coordinate, as the notes perturb phi
 RESEMBLANCE = 0.5  # rad: half a radian apart, two pendulum animations no longer look alike
@@ -52,7 +61,7 @@ def _integrate(
     rtol: float,
     atol: float,
     budget: Budget = DEFAULT_BUDGET,
-) -> tuple[np.ndarray, dict[str, Any]]:
+) -> tuple[np.ndarray, RunStats]:
     """q (K, n) of the compiled right-hand side `rhs` (NaN after a stop) and {"status", "stopped_at",
     "reason", "nfev"} (validate/dynamics/integrate.py `outcome`); never raises for what `rhs` computes."""
     n = len(q0)
@@ -66,12 +75,12 @@ def _integrate(
         budget=budget,
         args=([float(x) for x in tau],),
     )
-    info = outcome(run, t, budget=budget, equations="printed form", solver=f"scipy {method}", n=n)
+    info: RunStats = {**outcome(run, t, budget=budget, equations="printed form", solver=f"scipy {method}", n=n)}
     info["nfev"] = run.nfev
     return run.y[:, :n].copy(), info
 
 
-def _status(info: dict[str, Any]) -> str:
+def _status(info: RunStats) -> str:
     """The run's status for the report: ok, or the one-line reason ("diverged at t = ...", ...)."""
     return "ok" if info["status"] == "ok" else str(info["reason"])
 

@@ -31,7 +31,6 @@ beside them as the path a user of scipy takes; the bench reports how far it is f
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import Any
 
 import numpy as np
 
@@ -49,6 +48,8 @@ from .integrate import (
     EQUATION_ERRORS,
     SCIPY_DEFAULT,
     Budget,
+    RunStats,
+    ScipyOptions,
     Trajectory,
     initial_state,
     mujoco_trajectory,
@@ -113,7 +114,7 @@ def taylor_trajectory(
     q, v = states[:, :n], states[:, n:]
     if A is not None:
         q, v = q @ A.T, v @ A.T
-    stats = {
+    stats: RunStats = {
         "steps": steps,
         "status": status,
         "stopped_at": float(t[max(k - 1, 0)]),
@@ -131,7 +132,7 @@ def accurate_trajectory(
     t: np.ndarray,
     *,
     budget: Budget = DEFAULT_BUDGET,
-    fallback: dict[str, Any] | None = None,
+    fallback: ScipyOptions | None = None,
 ) -> Trajectory:
     """The fastest accurate free run of a source the Taylor method can integrate (`taylor_trajectory`);
     scipy (`fallback`, default SCIPY_DEFAULT) for any other source, or where the equations cannot be

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import importlib.util
 import logging
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 
@@ -231,6 +231,16 @@ def build_plant(system: System) -> tuple[Any, list[str], dict[str, tuple[float, 
     return plant, warnings + aligned, parsed
 
 
+class DrakeRunStats(TypedDict):
+    """What `DrakeSource.free_run` says of its run: Drake's steps and derivative evaluations, "ok" or
+    "failed", and why it stopped."""
+
+    steps: int
+    evaluations: int
+    status: str
+    reason: str
+
+
 class DrakeSource:
     name = "drake"
 
@@ -355,7 +365,7 @@ class DrakeSource:
         scheme: str = "runge_kutta3",
         accuracy: float | None = None,
         max_step: float = 0.01,
-    ) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+    ) -> tuple[np.ndarray, np.ndarray, DrakeRunStats]:
         """Drake's own integration of the continuous plant (joint damping as its force elements apply
         it) from (q0, v0) with constant `tau`, sampled by AdvanceTo at each time of `t` (t[0] the start):
         q, v (K, n) in the system's joint coordinates (mapped by joint name) and stats. `scheme`: one of
@@ -383,7 +393,7 @@ class DrakeSource:
                 q[k], v[k] = x[self.qidx], x[self.plant.num_positions() + self.vidx]
         except RuntimeError as exc:  # Drake's step-size or state errors
             status, reason = "failed", f"Drake stopped at t = {ctx.get_time():.6g} s: {str(exc).splitlines()[0]}"
-        stats = {
+        stats: DrakeRunStats = {
             "steps": int(integrator.get_num_steps_taken()),
             "evaluations": int(integrator.get_num_derivative_evaluations()),
             "status": status,

@@ -353,7 +353,7 @@ def run_mirror(
         return result_row(str(s["stop"]), f"stopped after {s['nfev']} evaluations", cpu, wall, nfev=s["nfev"])
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     return result_row(
-        "ok", "", cpu, wall, t=t, q=traj.q, nfev=int(traj.stats["evaluations"]), steps=int(traj.stats["steps"])
+        "ok", "", cpu, wall, t=t, q=traj.q, nfev=int(traj.stats["evaluations"]), steps=traj.stats["steps"]
     )
 
 
@@ -437,7 +437,7 @@ def run_drake(
     c0, w0 = time.process_time(), time.perf_counter()
     traj = drake_trajectory(system, source, q0, v0, tau, t, **opts)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
-    steps = int(traj.stats["steps"])
+    steps = traj.stats["steps"]  # an int: Drake counts its steps
     if traj.stats["status"] != "ok":
         return result_row("failed", traj.stats["reason"], cpu, wall, steps=steps)
     nfev = int(traj.stats["evaluations"])

@@ -88,7 +88,7 @@ def simulate(
     return Run(np.array(ts), np.array(qs).reshape(-1, n), np.array(vs).reshape(-1, n), failure, t_fail)
 
 
-def _mirror_failure(stats: dict[str, Any]) -> str:
+def _mirror_failure(stats: Mapping[str, object]) -> str:
     """Why a mirror run stopped, in the words `simulate` uses for MuJoCo's runs."""
     reason = str(stats.get("reason") or "")
     if "non-finite" in reason:
