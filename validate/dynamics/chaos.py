@@ -48,7 +48,6 @@ from typing import Any
 
 import numpy as np
 
-from ..core.arrays import Floats
 from ..core.errors import unknown_name
 from ..handwritten.forms import accelerations_only
 from ..model.start import Scheme, Start
@@ -106,13 +105,10 @@ def _run(
     system: System, sources: Mapping[str, Source], engine: str, start: Start, t: np.ndarray, scheme: Scheme
 ) -> Trajectory:
     """A free run: MuJoCo stepping (engine "mujoco") or the mirror of its scheme on another source."""
-    q0, v0, tau = start.q0, start.v0, start.tau
     integrator, timestep = scheme.integrator, scheme.timestep
     if engine == "mujoco":
-        return mujoco_trajectory(
-            system, stepped(sources["mujoco"]), q0, v0, tau, t, integrator=integrator, timestep=timestep
-        )
-    return mirror_trajectory(system, sources[engine], q0, v0, tau, t, integrator=integrator, timestep=timestep)
+        return mujoco_trajectory(system, stepped(sources["mujoco"]), start, t, integrator=integrator, timestep=timestep)
+    return mirror_trajectory(system, sources[engine], start, t, integrator=integrator, timestep=timestep)
 
 
 def window_errors(
@@ -140,9 +136,7 @@ def window_errors(
 def free_run_check(
     system: System,
     sources: Mapping[str, Source],
-    q0: Floats,
-    v0: Floats,
-    tau: Floats,
+    start: Start,
     t: np.ndarray,
     *,
     engine: str = "mujoco",
@@ -159,14 +153,14 @@ def free_run_check(
     "predicted_horizon" (s or None), "prediction_mismatch" (max |error - predicted| / max error),
     "judge": judge_free_run(...)}; errors in rad (max over q), window errors as state 2-norms.
     """
-    q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
+    tau = start.tau
     dt = float(timestep or system.mujoco_model().opt.timestep)
     if ref is None:
-        ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=cache_dir)
-    run = _run(system, sources, engine, Start(q0, v0, tau), t, Scheme(integrator, dt))
+        ref, _ = reference_trajectory(system, start, t, cache_dir=cache_dir)
+    run = _run(system, sources, engine, start, t, Scheme(integrator, dt))
     err = np.abs(run.q - ref.q).max(axis=1)
     w = window_errors(system, sources, engine, ref, tau, Scheme(integrator, dt))
-    fl = flow(system, q0, v0, tau, t)
+    fl = flow(system, start, t)
     env = error_envelope(fl, window_errors=w, floor=rounding_floor(ref))
     return _free_run_entry(engine, integrator, dt, t, err, w, env, predicted_error(fl, w), tolerance)
 
@@ -202,9 +196,7 @@ def pair_check(
     sources: Mapping[str, Source],
     a: str,
     b: str,
-    q0: Floats,
-    v0: Floats,
-    tau: Floats,
+    start: Start,
     t: np.ndarray,
     *,
     integrator: str = "RK4",
@@ -220,17 +212,17 @@ def pair_check(
     "window_ulps" (in units of the spacing of doubles at max |x|), "round_off" (<= ROUND_OFF_ULPS),
     "envelope_at", "judge", "passed" (round-off windows and judge passed)}.
     """
-    q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
+    tau = start.tau
     dt = float(timestep or system.mujoco_model().opt.timestep)
     if ref is None:
-        ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=cache_dir)
-    run_a = _run(system, sources, a, Start(q0, v0, tau), t, Scheme(integrator, dt))
-    run_b = _run(system, sources, b, Start(q0, v0, tau), t, Scheme(integrator, dt))
+        ref, _ = reference_trajectory(system, start, t, cache_dir=cache_dir)
+    run_a = _run(system, sources, a, start, t, Scheme(integrator, dt))
+    run_b = _run(system, sources, b, start, t, Scheme(integrator, dt))
     err = np.abs(run_a.q - run_b.q).max(axis=1)
     w = window_errors(system, sources, a, ref, tau, Scheme(integrator, dt)) - window_errors(
         system, sources, b, ref, tau, Scheme(integrator, dt)
     )
-    env = error_envelope(flow(system, q0, v0, tau, t), window_errors=w, floor=rounding_floor(ref))
+    env = error_envelope(flow(system, start, t), window_errors=w, floor=rounding_floor(ref))
     return {
         "pair": f"{a}~{b}",
         "integrator": integrator,
@@ -331,9 +323,7 @@ def sweep_timesteps(integrator: str, rate: float) -> tuple[tuple[float, ...], fl
 def convergence_order(
     system: System,
     sources: Mapping[str, Source],
-    q0: Floats,
-    v0: Floats,
-    tau: Floats,
+    start: Start,
     *,
     integrator: str,
     timesteps: tuple[float, ...] | None = None,
@@ -349,18 +339,18 @@ def convergence_order(
     """
     if integrator not in INTEGRATORS:
         raise unknown_name("MuJoCo integrator", integrator, INTEGRATORS)
-    q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
+    tau = start.tau
     stable = None
     if timesteps is None:
         coarse = time_grid(t_end, DEFAULT_DT_OUT)  # samples 10 ms apart: a 0.02 s grid missed the fastest
-        around, _ = reference_trajectory(system, q0, v0, tau, coarse, cache_dir=cache_dir, check=check)
+        around, _ = reference_trajectory(system, start, coarse, cache_dir=cache_dir, check=check)
         timesteps, stable = sweep_timesteps(integrator, largest_rate(sources["hand"], around, tau))
     dts = tuple(timesteps)
     t = time_grid(t_end, max(dts))
-    ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=cache_dir, check=check)
+    ref, _ = reference_trajectory(system, start, t, cache_dir=cache_dir, check=check)
     errors = []
     for dt in dts:
-        run = _run(system, sources, engine, Start(q0, v0, tau), t, Scheme(integrator, dt))
+        run = _run(system, sources, engine, start, t, Scheme(integrator, dt))
         errors.append(float(np.abs(run.q - ref.q).max()))
     usable = [(dt, e) for dt, e in zip(dts, errors, strict=True) if e > 0 and np.isfinite(e)]  # a diverged run: NaN
     order = (
@@ -389,9 +379,7 @@ def convergence_order(
 def energy_drift(
     system: System,
     sources: Mapping[str, Source],
-    q0: Floats,
-    v0: Floats,
-    tau: Floats,
+    start: Start,
     t: np.ndarray,
     *,
     integrator: str,
@@ -405,11 +393,10 @@ def energy_drift(
     For a conservative system (no damping, no input) the reference energy is constant to ~1e-15
     and this is the usual drift; with damping or inputs it is the run's energy error.
     """
-    q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
     dt = float(timestep or system.mujoco_model().opt.timestep)
     if ref is None:
-        ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=cache_dir)
-    run = _run(system, sources, engine, Start(q0, v0, tau), t, Scheme(integrator, dt))
+        ref, _ = reference_trajectory(system, start, t, cache_dir=cache_dir)
+    run = _run(system, sources, engine, start, t, Scheme(integrator, dt))
     e_run, e_ref = energy(system, sources["hand"], run), energy(system, sources["hand"], ref)
     diff = e_run - e_ref
     scale = float(np.max(np.abs(e_ref)) or 1.0)
@@ -434,9 +421,7 @@ def crossvalidate(
     system: System,
     sources: Mapping[str, Source],
     *,
-    q0: Floats | None = None,
-    v0: Floats | None = None,
-    tau: Floats | None = None,
+    start: Start | None = None,
     t_end: float = DEFAULT_T_END,
     dt_out: float = DEFAULT_DT_OUT,
     tolerance: float = DEFAULT_TOLERANCE,
@@ -452,21 +437,17 @@ def crossvalidate(
     The start is the module's INITIAL_STATE (or the harness's generic one) with zero input unless given.
     """
 
-    if q0 is None or v0 is None:
-        q0_default, v0_default = initial_state(system)
-        q0 = q0_default if q0 is None else q0
-        v0 = v0_default if v0 is None else v0
-    q0, v0 = np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)
-    tau = np.zeros(system.nv) if tau is None else np.asarray(tau, dtype=float)
+    start = Start.at_rest(*initial_state(system)) if start is None else start
+    tau = start.tau
     t = time_grid(t_end, dt_out)
     dt = float(system.mujoco_model().opt.timestep)
-    ref, ref_info = reference_trajectory(system, q0, v0, tau, t, cache_dir=cache_dir)
-    fl = flow(system, q0, v0, tau, t)
+    ref, ref_info = reference_trajectory(system, start, t, cache_dir=cache_dir)
+    fl = flow(system, start, t)
     g = transfer_norms(fl)
     floor = rounding_floor(ref)
     out: dict[str, Any] = {
-        "q0": q0.tolist(),
-        "v0": v0.tolist(),
+        "q0": start.q0.tolist(),
+        "v0": start.v0.tolist(),
         "tau": tau.tolist(),
         "t_end": t_end,
         "dt_out": dt_out,
@@ -474,7 +455,7 @@ def crossvalidate(
         "tolerance": tolerance,
         "safety": SAFETY,
         "reference": ref_info,
-        "chaos": chaos_summary(system, q0, v0, tau, t=t, tolerance=tolerance, cache_dir=cache_dir),
+        "chaos": chaos_summary(system, start, t=t, tolerance=tolerance, cache_dir=cache_dir),
         "amplification": amplification(fl),  # (K,) on the grid t: how much the dynamics amplify an error
         "round_off": round_off_limit(sources["hand"], ref, tau, timestep=dt),
         "integrators": {},
@@ -485,7 +466,7 @@ def crossvalidate(
             system,
             sources,
             integrator,
-            start=Start(q0, v0, tau),
+            start=start,
             t=t,
             dt=dt,
             ref=ref,
@@ -527,7 +508,7 @@ def _integrator_entry(
 ) -> dict[str, Any]:
     """One MuJoCo integrator's entry of `crossvalidate`: its free run against the reference, the mirrors
     against mj_step (judged within `limit` round-off ulps), lockstep, convergence order and energy."""
-    q0, v0, tau = start.q0, start.v0, start.tau
+    tau = start.tau
     runs, windows = {}, {}
     for engine in ("mujoco", *mirror_engines):
         runs[engine] = _run(system, sources, engine, start, t, Scheme(integrator, dt))
@@ -571,7 +552,7 @@ def _integrator_entry(
         timestep=dt,
         tau=tau,
     )["pairs"]
-    entry["convergence"] = convergence_order(system, sources, q0, v0, tau, integrator=integrator, cache_dir=cache_dir)
+    entry["convergence"] = convergence_order(system, sources, start, integrator=integrator, cache_dir=cache_dir)
     e_run = energy(system, sources["hand"], runs["mujoco"])
     e_ref = energy(system, sources["hand"], ref)
     entry["energy"] = {

@@ -36,6 +36,7 @@ from ..core.cachedir import heyoka
 from ..core.errors import HarnessError
 from ..core.memo import Memo
 from ..handwritten import tracing
+from ..model.start import Start
 from ..sources.symbolic import derivation_of
 from ..symbolic.derivation import parameter_values
 from ..systems import System
@@ -100,13 +101,12 @@ def taylor_integrator(system: System, tol: float, *, compact: bool = False, sour
     return _COMPILED.get(key, make)
 
 
-def taylor_grid(
-    ta: Any, q0: Floats, v0: Floats, tau: Floats, t: np.ndarray, *, max_steps: int = 0
-) -> tuple[str, np.ndarray, int]:
+def taylor_grid(ta: Any, start: Start, t: np.ndarray, *, max_steps: int = 0) -> tuple[str, np.ndarray, int]:
     """The state (K, 2n) on the grid `t` from (q0, v0) at t[0] with input `tau`: (outcome, states,
     steps). outcome "ok", or heyoka's own word when it stopped early (the rows it did not reach NaN).
     `max_steps` > 0 bounds the Taylor steps (a budget with no per-step callback, which would cost more
     than the step itself)."""
+    q0, v0, tau = start.q0, start.v0, start.tau
     ta.time = float(t[0])
     ta.state[:] = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
     ta.pars[:] = np.asarray(tau, dtype=float)
@@ -198,9 +198,7 @@ def rk4_plan(dt_out: float, timestep: float, most: int = RK4_STEPS_PER_CALL) -> 
 def rk4_grid(
     cf: Any,
     calls: int,
-    q0: Floats,
-    v0: Floats,
-    tau: Floats,
+    start: Start,
     t: np.ndarray,
     *,
     timestep: float,
@@ -209,6 +207,7 @@ def rk4_grid(
     """The state (K, 2n) on the grid `t` by `calls` calls of the compiled RK4 steps `cf` per sample:
     ("ok" | "diverged" | "timeout", states; rows not reached are NaN). The deadline (perf_counter)
     and finiteness are checked once per sample."""
+    q0, v0, tau = start.q0, start.v0, start.tau
     y = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
     pars = np.concatenate([np.asarray(tau, dtype=float), [float(timestep)]])
     out = np.full((len(t), len(y)), np.nan)

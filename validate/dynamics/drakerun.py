@@ -7,7 +7,7 @@ from typing import TypedDict
 
 import numpy as np
 
-from ..core.arrays import Floats
+from ..model.start import Start
 from ..sources.base import Source, engine_of
 from ..systems import System
 from .integrate import Trajectory
@@ -36,9 +36,7 @@ def drake_method(scheme: str, accuracy: float | None, max_step: float) -> str:
 def drake_trajectory(
     system: System,
     source: Source,
-    q0: Floats,
-    v0: Floats,
-    tau: Floats,
+    start: Start,
     t: np.ndarray,
     *,
     scheme: str = DRAKE_DEFAULT["scheme"],
@@ -48,7 +46,7 @@ def drake_trajectory(
     """Drake's own free run of its continuous plant (sources/drake.py `free_run`) on the grid `t`, in the
     equations' coordinates (a JOINT_MAP applied outside Drake). Never raises for what Drake's integrator
     meets: stats["status"] and ["reason"] say where it stopped, the samples after are NaN."""
-    q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
+    q0, v0, tau = start.q0, start.v0, start.tau
     A = system.joint_map
     if A is not None:  # q_notes = A q_joint; the inputs' work: tau_joint = A^T tau_notes
         q0, v0, tau = np.linalg.solve(A, q0), np.linalg.solve(A, v0), A.T @ tau

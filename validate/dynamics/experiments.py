@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..forms import Explicit, Implicit, NotApplicable
+from ..model.start import Start
 from ..sources.fastpath import scalar_rhs
 from ..sources.hand import HandSource
 from ..systems import System
@@ -94,7 +95,7 @@ def run_experiments(system: System) -> dict[str, Any]:
     q0b[-1] += PERTURBATION
     forms = dynamic_forms(system)
 
-    fast = accurate_trajectory(system, HandSource(system), q0, v0, tau, t)
+    fast = accurate_trajectory(system, HandSource(system), Start(q0, v0, tau), t)
     accurate, accurate_info = fast.q, fast.stats
     runs: list[dict[str, Any]] = []
     for name, variant in forms:

@@ -8,11 +8,11 @@ from typing import Any
 
 import numpy as np
 
-from ..core.arrays import Floats
 from ..core.cachedir import heyoka
 from ..core.errors import HarnessError
 from ..core.memo import Memo
 from ..core.tolerances import TOLERANCES
+from ..model.start import Start
 from ..systems import System
 from .integrate import DEFAULT_BUDGET, Budget, time_grid
 from .reference import TaylorGuard, param_key, symbolic_dynamics
@@ -69,9 +69,7 @@ def reset_variational(ta: Any, n: int, x0: np.ndarray, tau: np.ndarray, t0: floa
 
 def flow(
     system: System,
-    q0: Floats,
-    v0: Floats,
-    tau: Floats,
+    start: Start,
     t: np.ndarray,
     *,
     precision: str = "double",
@@ -80,6 +78,7 @@ def flow(
     """The trajectory and Phi(t) = dx(t)/dx(0) on the grid `t` (starting at t[0]).
 
     Raises IntegrationStopped (a HarnessError) when the equations blow up or spend `budget`."""
+    q0, v0, tau = start.q0, start.v0, start.tau
     n = system.nv
     ta = variational_integrator(system, precision)
     x0 = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
@@ -242,9 +241,7 @@ def sample_at(t: np.ndarray, y: np.ndarray, at: tuple[float, ...] = (1.0, 2.0, 5
 
 def horizon_from_rounding(
     system: System,
-    q0: Floats,
-    v0: Floats,
-    tau: Floats,
+    start: Start,
     *,
     tolerance: float = DEFAULT_TOLERANCE,
     t_end: float = 200.0,
@@ -252,6 +249,7 @@ def horizon_from_rounding(
 ) -> dict[str, Any]:
     """Predictability horizon of the initial state's own rounding (e0 = 2^-53 |x0|): the best any double
     precision integration can do. Phi from the variational equations in long double."""
+    q0, v0, tau = start.q0, start.v0, start.tau
     x0 = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
     e0 = float(np.finfo(float).eps) / 2 * max(float(np.linalg.norm(x0)), 1.0)
     t = time_grid(t_end, dt_out)
@@ -263,8 +261,8 @@ def horizon_from_rounding(
     reset_variational(ta, n, x0, np.asarray(tau, dtype=float), float(t[0]), np.eye(2 * n))
     guard = TaylorGuard(DEFAULT_BUDGET, n, float(t[0]))
     horizon = None
-    for start in range(0, max(len(t) - 1, 1), chunk):
-        grid = t[start : start + chunk + 1]  # each chunk starts where the last ended
+    for first in range(0, max(len(t) - 1, 1), chunk):
+        grid = t[first : first + chunk + 1]  # each chunk starts where the last ended
         outcome, *_, states = ta.propagate_grid(grid.astype(ta.state.dtype), callback=guard)
         guard.check(outcome, ta, source="hand", method=f"heyoka variational flow, {precision}")
         phi = states.astype(float)[:, 2 * n :].reshape(-1, 2 * n, 2 * n)

@@ -72,14 +72,13 @@ def trajectory_results(
     estimate it cost ~5 s of a double pendulum's ~25, so it runs on request, `run --drake-run`)."""
 
     start = Start.at_rest(*integrate.initial_state(system))
-    q0, v0, tau = start.q0, start.v0, start.tau
     t = integrate.time_grid(t_end, dt_out)
-    ref, ref_info = reference_trajectory(system, q0, v0, tau, t, cache_dir=reference_dir(cache))
+    ref, ref_info = reference_trajectory(system, start, t, cache_dir=reference_dir(cache))
     lap(clock, "trajectories: reference")
     trajs = fast.run_trajectories(system, sources, t_end=t_end, dt_out=dt_out, clock=clock, drake=drake_run)
-    q0b = q0.copy()
+    q0b = start.q0.copy()
     q0b[-1] += experiments.PERTURBATION
-    perturbed = fast.accurate_trajectory(system, sources["hand"], q0b, v0, tau, t)
+    perturbed = fast.accurate_trajectory(system, sources["hand"], Start(q0b, start.v0, start.tau), t)
     perturbed.stats["label"] = f"{system.coordinates[-1]}0 + {experiments.PERTURBATION:g}"
     lap(clock, "trajectories: perturbed start")
     estimates = run_estimates(system, sources, trajs, start, cache)

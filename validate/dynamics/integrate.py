@@ -16,6 +16,7 @@ import numpy as np
 
 from ..core.arrays import Floats
 from ..core.errors import HarnessError, unknown_name
+from ..model.start import Start
 from ..sources.base import MUJOCO_INTEGRATORS as MUJOCO_INTEGRATORS  # re-exported: dynamics names them
 from ..sources.base import RightHandSide, Source, SteppedSource
 from ..systems import System
@@ -528,9 +529,7 @@ def _mass_matrix_finding(
 def scipy_trajectory(
     system: System,
     source: Source,
-    q0: np.ndarray,
-    v0: np.ndarray,
-    tau: np.ndarray,
+    start: Start,
     t: np.ndarray,
     *,
     method: str = "DOP853",
@@ -545,6 +544,7 @@ def scipy_trajectory(
     STATUSES), "stopped_at" (s, the last good sample; t[-1] when "ok") and "reason" (one line, empty
     when "ok"); the samples after "stopped_at" are NaN.
     """
+    q0, v0, tau = start.q0, start.v0, start.tau
     n = system.nv
     f = source_rhs(source, tau)
     y0 = np.concatenate([q0, v0])
@@ -566,9 +566,7 @@ def scipy_trajectory(
 def mujoco_trajectory(
     system: System,
     source: SteppedSource,
-    q0: np.ndarray,
-    v0: np.ndarray,
-    tau: np.ndarray,
+    start: Start,
     t: np.ndarray,
     *,
     integrator: str = "RK4",
@@ -577,7 +575,7 @@ def mujoco_trajectory(
     """MuJoCo stepping its own integrator; samples every round(dt_out / timestep) steps. A run that
     went unstable (a warning, after which MuJoCo resets the state, or a non-finite state) raises
     Diverged naming the interval: its samples are never data."""
-    from ..model.start import Scheme, Start
+    from ..model.start import Scheme
     from ..sources.mujoco import free_run
 
     dt = float(timestep or source.m.opt.timestep)
@@ -585,7 +583,7 @@ def mujoco_trajectory(
     steps = round(dt_out / dt)
     if steps < 1 or not np.isclose(steps * dt, dt_out, rtol=1e-9, atol=0.0):
         raise HarnessError(f"MuJoCo timestep {dt} must divide the output step {dt_out}.")
-    q, v, clock, raised = free_run(source, Start(q0, v0, tau), len(t), steps, Scheme(integrator, dt))
+    q, v, clock, raised = free_run(source, start, len(t), steps, Scheme(integrator, dt))
     # The first sample whose clock fell behind or whose state is not finite, or the last if only a
     # warning counter says so (checked once, after the loop: per sample it cost a tenth of the stepping).
     behind = np.abs(clock - (clock[0] + np.arange(len(t)) * steps * dt)) > 0.5 * dt

@@ -12,8 +12,8 @@ from typing import Any
 import numpy as np
 
 from ..core import cache
-from ..core.arrays import Floats
 from ..core.errors import HarnessError, unknown_name
+from ..model.start import Start
 from ..results import dumps
 from ..systems import System
 from .flow import (
@@ -38,16 +38,14 @@ LYAPUNOV_INTERVAL = 0.5  # s between renormalisations (growth per interval e^0.1
 
 def lyapunov_exponent(
     system: System,
-    q0: Floats,
-    v0: Floats,
-    tau: Floats | None = None,
+    start: Start,
     *,
     t_end: float = LYAPUNOV_T_END,
     interval: float = LYAPUNOV_INTERVAL,
     method: str = "variational",
     d0: float = 1e-9,
 ) -> dict[str, Any]:
-    """The largest Lyapunov exponent (1/s) along the trajectory from (q0, v0), by Benettin's method.
+    """The largest Lyapunov exponent (1/s) along the trajectory from `start`, by Benettin's method.
 
     method "variational": Phi restarted from Q of its QR every `interval`; the log of R's diagonal
     accumulates the whole spectrum (a Hamiltonian system's sums to ~0 and pairs +-lambda: a check).
@@ -58,10 +56,10 @@ def lyapunov_exponent(
              "running": [[t, lambda(t)], ...] every 10 % of t_end, "spread": max-min of lambda(t)
              over the second half, "seconds"}.
     """
-    start = time.perf_counter()
+    began = time.perf_counter()
     n = system.nv
-    tau = np.zeros(n) if tau is None else np.asarray(tau, dtype=float)
-    x0 = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
+    tau = start.tau
+    x0 = np.concatenate([start.q0, start.v0])
     steps = round(t_end / interval)
     if steps < 1 or not np.isclose(steps * interval, t_end, rtol=1e-9, atol=0.0):
         raise HarnessError(f"t_end ({t_end}) must be a whole multiple of interval ({interval}).")
@@ -85,7 +83,7 @@ def lyapunov_exponent(
         "interval": interval,
         "running": [[float(times[i]), float(running_arr[i])] for i in range(tenth - 1, steps, tenth)],
         "spread": float(np.ptp(running_arr[steps // 2 :])),
-        "seconds": time.perf_counter() - start,
+        "seconds": time.perf_counter() - began,
     }
     if method == "variational":
         out["spectrum"] = [float(x) for x in logs / t_end]
@@ -150,14 +148,12 @@ def _two_trajectory_logs(
 @functools.lru_cache(maxsize=64)  # one per (system, start): bounded, recomputed when dropped
 def _lyapunov_cached(system: System, x0: tuple[float, ...], tau: tuple[float, ...], method: str) -> dict[str, Any]:
     n = system.nv
-    return lyapunov_exponent(system, x0[:n], x0[n:], tau, method=method)
+    return lyapunov_exponent(system, Start.of(x0[:n], x0[n:], tau), method=method)
 
 
 def chaos_summary(
     system: System,
-    q0: Floats,
-    v0: Floats,
-    tau: Floats,
+    start: Start,
     *,
     t: np.ndarray | None = None,
     tolerance: float = DEFAULT_TOLERANCE,
@@ -170,14 +166,14 @@ def chaos_summary(
     start, input, grid, tolerance); a loaded summary must also be consistent in itself
     (`_summary_problem`). `cache` in the result says "hit", "miss" or "off"."""
 
-    q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
+    q0, v0, tau = start.q0, start.v0, start.tau
     t = time_grid(DEFAULT_T_END, DEFAULT_DT_OUT) if t is None else t
     if isinstance(cache_dir, str) and cache_dir == cache.DEFAULT:
         where = cache.folder(cache_dir, "chaos")
     else:  # an explicit reference folder: the chaos entries go beside it
         where = None if cache_dir is None else Path(cache_dir).parent / "chaos"
     if where is None:
-        return {**json.loads(dumps(_chaos_summary(system, q0, v0, tau, t=t, tolerance=tolerance))), "cache": "off"}
+        return {**json.loads(dumps(_chaos_summary(system, start, t=t, tolerance=tolerance))), "cache": "off"}
     key = cache_key(system, q0, v0, tau, t, check=f"chaos {tolerance!r} {source_hash(__file__)}")
     path = where / f"{system.name}-{key}.npz"
     entry = cache.load(path, key)
@@ -186,7 +182,7 @@ def chaos_summary(
         if problem is None:
             return {**entry[1], "cache": "hit"}
         cache.invalid(path, problem)
-    out = json.loads(dumps(_chaos_summary(system, q0, v0, tau, t=t, tolerance=tolerance)))
+    out = json.loads(dumps(_chaos_summary(system, start, t=t, tolerance=tolerance)))
     cache.store(path, key, {}, out)
     return {**out, "cache": "miss"}
 
@@ -211,14 +207,13 @@ def _summary_problem(summary: dict[str, Any], tolerance: float) -> str | None:
     return None
 
 
-def _chaos_summary(
-    system: System, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, *, t: np.ndarray, tolerance: float
-) -> dict[str, Any]:
-    x0 = tuple(float(x) for x in np.concatenate([q0, v0]))
+def _chaos_summary(system: System, start: Start, *, t: np.ndarray, tolerance: float) -> dict[str, Any]:
+    tau = start.tau
+    x0 = tuple(float(x) for x in np.concatenate([start.q0, start.v0]))
     lyap = _lyapunov_cached(system, x0, tuple(float(x) for x in tau), "variational")
     lyap2 = _lyapunov_cached(system, x0, tuple(float(x) for x in tau), "two trajectories")
-    amp = amplification(flow(system, q0, v0, tau, t))
-    rounding = horizon_from_rounding(system, q0, v0, tau, tolerance=tolerance)
+    amp = amplification(flow(system, start, t))
+    rounding = horizon_from_rounding(system, start, tolerance=tolerance)
     lam = lyap["lambda"]
     estimate = float(np.log(tolerance / rounding["e0"]) / lam) if lam > 0 else None
     return {

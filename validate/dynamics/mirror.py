@@ -48,7 +48,7 @@ import numpy as np
 
 from ..core.arrays import Floats
 from ..core.errors import HarnessError, unknown_name
-from ..model.start import Scheme
+from ..model.start import Scheme, Start
 from ..sources.base import Source, SteppedSource, stepped
 from ..sources.hand import HandSource, solve_or_nan
 from ..systems import System
@@ -394,9 +394,7 @@ def _stopped(t: np.ndarray, qs: np.ndarray, vs: np.ndarray, status: str, reason:
 def mirror_trajectory(
     system: System,
     source: Source,
-    q0: Floats,
-    v0: Floats,
-    tau: Floats,
+    start: Start,
     t: np.ndarray,
     *,
     integrator: str,
@@ -415,6 +413,7 @@ def mirror_trajectory(
         budget" or "failed"), "stopped_at" (s, the last good sample) and "reason" (one line, empty
         when ok). Samples after "stopped_at" are NaN. Never raises for what the equations compute.
     """
+    q0, v0, tau = start.q0, start.v0, start.tau
     dt = float(timestep or system.mujoco_model().opt.timestep)
     steps = _steps_per_sample(t, dt)
     stepper = Stepper(system, source, integrator=integrator, timestep=dt)

@@ -46,6 +46,7 @@ from ..core.errors import HarnessError, IntegrationStopped, unknown_name
 from ..core.memo import Memo
 from ..handwritten import tracing
 from ..handwritten.forms import accelerations_only
+from ..model.start import Start
 from ..sources.hand import HandSource
 from ..systems import System
 from .integrate import DEFAULT_BUDGET, Budget, Trajectory
@@ -350,9 +351,7 @@ def _check_inputs(system: System, q0: Floats, v0: Floats, tau: Floats, t: Floats
 
 def reference_trajectory(
     system: System,
-    q0: Floats,
-    v0: Floats,
-    tau: Floats,
+    start: Start,
     t: Floats,
     *,
     cache_dir: str | os.PathLike[str] | None = DEFAULT_CACHE_DIR,
@@ -362,7 +361,7 @@ def reference_trajectory(
 
     Args:
         system: a `System`.
-        q0, v0, tau: (n,) initial state and constant input.
+        start: the (n,) initial state and constant input.
         t: (K,) increasing output times, s.
         cache_dir: where results are cached (None: no cache).
         check: precision of the second, independent run ("quad", "double", or None to skip).
@@ -372,15 +371,15 @@ def reference_trajectory(
         method, tolerance, order, check_method, agreement_q / agreement_v (max |difference| between
         the two runs over the grid, rad and rad/s), rhs_check, timing (s), cache ("hit"/"miss"/"off").
     """
-    q0, v0, tau, t = _check_inputs(system, q0, v0, tau, t)
-    start = time.perf_counter()
+    q0, v0, tau, t = _check_inputs(system, start.q0, start.v0, start.tau, t)
+    began = time.perf_counter()
     n = system.nv
     where = cache.folder(cache_dir, "reference")
     path = key = None
     if where is not None:
         key = cache_key(system, q0, v0, tau, t, check=check)
         path = where / f"{system.name}-{key}.npz"
-        hit = _cached_reference(system, path, key, q0, v0, tau, t, start=start)
+        hit = _cached_reference(system, path, key, q0, v0, tau, t, start=began)
         if hit is not None:
             return hit
 
@@ -411,7 +410,7 @@ def reference_trajectory(
     if not (np.all(np.isfinite(traj.q)) and np.all(np.isfinite(traj.v))):
         k = int(np.argwhere(~np.isfinite(np.hstack([traj.q, traj.v])))[0][0])
         raise HarnessError(f"{system.name}: the reference solution is not finite at t = {t[k]:g} s (heyoka {primary}).")
-    info["timing"]["total_s"] = time.perf_counter() - start
+    info["timing"]["total_s"] = time.perf_counter() - began
     if path is not None and key is not None:
         written = cache.store(path, key, {"t": traj.t, "q": traj.q, "v": traj.v}, info)
         info.update(cache="miss", cache_file=str(path) if written else None)

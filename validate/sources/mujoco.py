@@ -13,7 +13,7 @@ from typing import TypedDict
 import mujoco
 import numpy as np
 
-from ..core.arrays import Floats, Matrix
+from ..core.arrays import Matrix
 from ..core.errors import HarnessError, unknown_name
 from ..model.scope import joint_actuators
 from ..model.start import Scheme, Start
@@ -445,8 +445,9 @@ def disable_flag_names(flags: int) -> list[str]:
     )
 
 
-def steps_from(source: SteppedSource, q0: Floats, v0: Floats, tau: Floats, steps: int) -> None:
+def steps_from(source: SteppedSource, start: Start, steps: int) -> None:
     """`steps` calls of `mj_step` from (q0, v0) with the model's current options (for timing)."""
+    q0, v0, tau = start.q0, start.v0, start.tau
     mujoco.mj_resetData(source.m, source.d)
     source.set_state(np.asarray(q0, dtype=float), np.asarray(v0, dtype=float), np.asarray(tau, dtype=float))
     mujoco.mj_step(source.m, source.d, nstep=steps)
@@ -483,9 +484,7 @@ class RolloutRun(TypedDict):
 
 def timed_run(
     source: SteppedSource,
-    q0: Floats,
-    v0: Floats,
-    tau: Floats,
+    start: Start,
     samples: int,
     steps: int,
     *,
@@ -498,6 +497,7 @@ def timed_run(
 
     Returns {"q", "v" (samples, n; NaN after a stop), "cpu_s", "wall_s", "stopped_at" (the sample
     index where the deadline hit, or None), "bad" (bad-state warnings raised), "printed" (texts)}."""
+    q0, v0, tau = start.q0, start.v0, start.tau
     import time
 
     m, d = source.m, source.d
@@ -530,9 +530,7 @@ def timed_run(
 
 def rollout_run(
     source: SteppedSource,
-    q0: Floats,
-    v0: Floats,
-    tau: Floats,
+    start: Start,
     samples: int,
     steps: int,
     *,
@@ -547,6 +545,7 @@ def rollout_run(
     The state of every step is recorded (rollout has no stride), the samples are every `steps`-th.
     Returns {"q", "v" (samples, n) of the first trajectory, "identical" (every trajectory of the batch
     gave the same bits), "cpu_s", "wall_s" (the whole batch), "bad" (bad-state warnings), "threads"}."""
+    q0, v0, tau = start.q0, start.v0, start.tau
     import time
 
     from mujoco import rollout
@@ -602,9 +601,7 @@ def collected_warnings() -> Iterator[list[str]]:
 
 def sampled_run(
     source: SteppedSource,
-    q0: np.ndarray,
-    v0: np.ndarray,
-    tau: np.ndarray,
+    start: Start,
     chunks: int,
     sample_steps: int,
     *,
@@ -616,6 +613,7 @@ def sampled_run(
     warned about (it then resets the state) or that is not finite. `eulerdamp=False` disables Euler's
     implicit damping for the run. Returns the samples after the start (q, v lists), the failure (the
     warnings' names or "non-finite state") and the chunk where it happened, or None, None."""
+    q0, v0, tau = start.q0, start.v0, start.tau
     m, d = source.m, source.d
     flags = int(m.opt.disableflags) | (0 if eulerdamp else int(mujoco.mjtDisableBit.mjDSBL_EULERDAMP))
     qs: list[np.ndarray] = []

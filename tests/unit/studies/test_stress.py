@@ -12,6 +12,7 @@ from lagrange_xval import systems
 from lagrange_xval.core.errors import HarnessError
 from lagrange_xval.dynamics.integrate import initial_state, mujoco_trajectory
 from lagrange_xval.dynamics.mirror import mirror_trajectory
+from lagrange_xval.model.start import Start
 from lagrange_xval.sources import make_sources
 from lagrange_xval.studies import stress
 
@@ -46,7 +47,9 @@ def test_mirror_runs_in_chunks_equal_one_run(integrator):
     run = stress.simulate(
         system, sources, "mirror", integrator, q0, v0, np.zeros(2), timestep=1e-3, t_end=0.5, sample_steps=50
     )
-    whole = mirror_trajectory(system, sources["hand"], q0, v0, np.zeros(2), run.t, integrator=integrator, timestep=1e-3)
+    whole = mirror_trajectory(
+        system, sources["hand"], Start.of(q0, v0, np.zeros(2)), run.t, integrator=integrator, timestep=1e-3
+    )
     assert run.failure is None
     assert np.array_equal(run.q, whole.q) and np.array_equal(run.v, whole.v)
 
@@ -59,7 +62,9 @@ def test_mujoco_runs_equal_mujoco_trajectory(integrator):
     run = stress.simulate(
         system, sources, "mujoco", integrator, q0, v0, np.zeros(2), timestep=1e-3, t_end=0.5, sample_steps=10
     )
-    ref = mujoco_trajectory(system, sources["mujoco"], q0, v0, np.zeros(2), run.t, integrator=integrator, timestep=1e-3)
+    ref = mujoco_trajectory(
+        system, sources["mujoco"], Start.of(q0, v0, np.zeros(2)), run.t, integrator=integrator, timestep=1e-3
+    )
     assert np.array_equal(run.q, ref.q) and np.array_equal(run.v, ref.v)
 
 

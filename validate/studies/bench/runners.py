@@ -23,6 +23,7 @@ from ...dynamics.drakerun import drake_trajectory
 from ...dynamics.integrate import SCIPY_DEFAULT, initial_state, scipy_trajectory, time_grid
 from ...dynamics.mirror import mirror_trajectory
 from ...dynamics.reference import DEFAULT_CACHE_DIR, reference_trajectory
+from ...model.start import Start
 from ...sources import Sources, make_sources
 from ...sources.base import OneStateSource, Source, SteppedSource, one_state, stepped
 from ...sources.fastpath import scalar_rhs
@@ -67,9 +68,13 @@ def prepare(name: str, plan: Plan, cache_dir: CacheDir = DEFAULT_CACHE_DIR) -> d
     system, _ = resources(name)
     case = case_for(system, plan)
     t = time_grid(case["t_end"], case["dt_out"])
-    ref, info = reference_trajectory(system, case["q0"], case["v0"], case["tau"], t, cache_dir=cache_dir)
+    ref, info = reference_trajectory(system, Start.of(case["q0"], case["v0"], case["tau"]), t, cache_dir=cache_dir)
     summary = chaos_summary(
-        system, case["q0"], case["v0"], case["tau"], t=t, tolerance=plan.horizon_tolerance, cache_dir=cache_dir
+        system,
+        Start.of(case["q0"], case["v0"], case["tau"]),
+        t=t,
+        tolerance=plan.horizon_tolerance,
+        cache_dir=cache_dir,
     )
     horizon = summary["horizon_from_rounding"]["horizon"]
     return {
@@ -298,7 +303,7 @@ def run_mujoco(
     if steps < 1 or not np.isclose(steps * timestep, dt_out, rtol=1e-9, atol=0.0):
         raise HarnessError(f"MuJoCo timestep {timestep} must divide the output step {dt_out}.")
     out = engine.timed_run(
-        source, q0, v0, tau, len(t), steps, integrator=integrator, timestep=timestep, deadline=deadline
+        source, Start.of(q0, v0, tau), len(t), steps, integrator=integrator, timestep=timestep, deadline=deadline
     )
     cpu, wall, bad, printed, k = out["cpu_s"], out["wall_s"], out["bad"], out["printed"], out["stopped_at"]
     total = steps * (len(t) - 1)
@@ -346,7 +351,7 @@ def run_mirror(
     src = GuardedSource(one_state(source), deadline)
     c0, w0 = time.process_time(), time.perf_counter()
     try:
-        traj = mirror_trajectory(system, src, q0, v0, tau, t, integrator=integrator, timestep=timestep)
+        traj = mirror_trajectory(system, src, Start.of(q0, v0, tau), t, integrator=integrator, timestep=timestep)
     except Stop:
         cpu, wall = time.process_time() - c0, time.perf_counter() - w0
         s = src.stats()
@@ -369,7 +374,7 @@ def run_taylor(
         q0, v0, tau = np.linalg.solve(A, q0), np.linalg.solve(A, v0), A.T @ np.asarray(tau, dtype=float)
     ta = taylor_integrator(system, tol, source=source)
     c0, w0 = time.process_time(), time.perf_counter()
-    outcome, states, steps = taylor_grid(ta, q0, v0, tau, t, max_steps=max_steps)
+    outcome, states, steps = taylor_grid(ta, Start.of(q0, v0, tau), t, max_steps=max_steps)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     if outcome != "ok":
         status = "diverged" if "nf_state" in outcome else "failed"
@@ -387,7 +392,7 @@ def run_compiled_rk4(
     per_call, calls = rk4_plan(float(t[1] - t[0]), timestep)
     cf = compiled_rk4(system, per_call)
     c0, w0 = time.process_time(), time.perf_counter()
-    status, states = rk4_grid(cf, calls, q0, v0, tau, t, timestep=timestep, deadline=deadline)
+    status, states = rk4_grid(cf, calls, Start.of(q0, v0, tau), t, timestep=timestep, deadline=deadline)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     total = calls * per_call * (len(t) - 1)
     if status != "ok":
@@ -413,7 +418,14 @@ def run_rollout(
 
     steps = round(float(t[1] - t[0]) / timestep)
     out = engine.rollout_run(
-        source, q0, v0, tau, len(t), steps, integrator=integrator, timestep=timestep, batch=batch, nthread=batch
+        source,
+        Start.of(q0, v0, tau),
+        len(t),
+        steps,
+        integrator=integrator,
+        timestep=timestep,
+        batch=batch,
+        nthread=batch,
     )
     cpu, wall, total = out["cpu_s"] / batch, out["wall_s"] / batch, steps * (len(t) - 1)
     if out["bad"]:
@@ -435,7 +447,7 @@ def run_drake(
     opts = {"scheme": spec["scheme"], "accuracy": None if fixed else spec["value"]}
     opts["max_step"] = spec["value"] if fixed else dt_out
     c0, w0 = time.process_time(), time.perf_counter()
-    traj = drake_trajectory(system, source, q0, v0, tau, t, **opts)
+    traj = drake_trajectory(system, source, Start.of(q0, v0, tau), t, **opts)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     steps = traj.stats["steps"]  # an int: Drake counts its steps
     if traj.stats["status"] != "ok":
@@ -449,7 +461,7 @@ def run_default(system: System, source: Source, q0: Any, v0: Any, tau: Any, t: n
     c0, w0 = time.process_time(), time.perf_counter()
     try:
         default: dict[str, Any] = dict(SCIPY_DEFAULT)
-        traj = scipy_trajectory(system, source, np.asarray(q0), np.asarray(v0), np.asarray(tau), t, **default)
+        traj = scipy_trajectory(system, source, Start.of(q0, v0, tau), t, **default)
     except HarnessError as exc:
         return result_row("failed", str(exc), time.process_time() - c0, time.perf_counter() - w0)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0

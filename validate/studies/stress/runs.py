@@ -12,6 +12,7 @@ import numpy as np
 
 from ...core.errors import HarnessError, unknown_name
 from ...dynamics.mirror import mirror_trajectory
+from ...model.start import Start
 from ...sources.base import Source, stepped
 from ...systems import System
 from .settings import MIRROR_INTEGRATORS, MUJOCO_INTEGRATORS, SERIES_POINTS, Run
@@ -61,9 +62,7 @@ def simulate(
 
         done_q, done_v, failure, k_fail = mj.sampled_run(
             stepped(sources["mujoco"]),
-            q0,
-            v0,
-            tau,
+            Start.of(q0, v0, tau),
             chunks,
             sample_steps,
             integrator=integrator,
@@ -76,7 +75,9 @@ def simulate(
         t_fail = None if k_fail is None else k_fail * sample_steps * timestep
     elif engine == "mirror":  # one run over the whole grid: compiled RK4 where the equations trace
         grid = np.arange(chunks + 1) * (sample_steps * timestep)
-        tr = mirror_trajectory(system, sources["hand"], q0, v0, tau, grid, integrator=integrator, timestep=timestep)
+        tr = mirror_trajectory(
+            system, sources["hand"], Start.of(q0, v0, tau), grid, integrator=integrator, timestep=timestep
+        )
         good = ~np.isnan(tr.q).any(axis=1) & ~np.isnan(tr.v).any(axis=1)
         k = int(np.argmin(good)) if not good.all() else len(grid)
         qs, vs, ts = list(tr.q[:k]), list(tr.v[:k]), list(grid[:k])

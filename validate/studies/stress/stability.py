@@ -12,6 +12,7 @@ import numpy as np
 from ...core.errors import HarnessError
 from ...dynamics.integrate import energy_missing, initial_state, scipy_trajectory, time_grid
 from ...dynamics.mirror import eulerdamp_active
+from ...model.start import Start
 from ...sources import make_sources
 from ...sources.base import Source
 from ...systems import System
@@ -259,7 +260,9 @@ def stiff_rows(system: System, settings: Settings, V_min: float | None = None) -
         extra = tuple((f"joint/{j}/damping", float(system.view[f"joint/{j}/damping"]) * factor) for j in system.joints)
         damped = system.derive(overrides=(*system.overrides, *extra))
         sources = make_sources(damped)
-        ref = scipy_trajectory(damped, sources["hand"], q0, v0, tau, t, method="DOP853", rtol=1e-12, atol=1e-12)
+        ref = scipy_trajectory(
+            damped, sources["hand"], Start.of(q0, v0, tau), t, method="DOP853", rtol=1e-12, atol=1e-12
+        )
         runs = [("mujoco", i, True) for i in MUJOCO_INTEGRATORS] + [("mirror", "Euler", True)]
         if eulerdamp_active(damped):
             runs.append(("mujoco", NO_EULERDAMP, False))
