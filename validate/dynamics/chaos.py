@@ -120,16 +120,13 @@ def window_errors(
     scheme: Scheme,
 ) -> np.ndarray:
     """(K-1, 2n): the run restarted from the reference at each sample, minus the reference one sample later."""
-    integrator, timestep = scheme.integrator, scheme.timestep
     dt_out = float(ref.t[1] - ref.t[0])
-    steps = round(dt_out / timestep)
+    steps = round(dt_out / scheme.timestep)
     q, v = ref.q[:-1], ref.v[:-1]
     if engine == "mujoco":
-        q1, v1 = mujoco_steps(
-            stepped(sources["mujoco"]), q, v, tau, integrator=integrator, timestep=timestep, steps=steps
-        )
+        q1, v1 = mujoco_steps(stepped(sources["mujoco"]), q, v, tau, scheme, steps=steps)
     else:
-        q1, v1 = mirror_steps(system, sources[engine], q, v, tau, integrator=integrator, timestep=timestep, steps=steps)
+        q1, v1 = mirror_steps(system, sources[engine], q, v, tau, scheme, steps=steps)
     return np.concatenate([q1 - ref.q[1:], v1 - ref.v[1:]], axis=1)
 
 

@@ -111,7 +111,8 @@ def eulerdamp_active(system: System) -> bool:
 class Stepper:
     """One of MuJoCo's schemes on a source's dynamics, batched over N states."""
 
-    def __init__(self, system: System, source: Source, *, integrator: str, timestep: float) -> None:
+    def __init__(self, system: System, source: Source, stepping: Scheme) -> None:
+        integrator, timestep = stepping.integrator, stepping.timestep
         _check_integrator(integrator)
         if not timestep > 0:
             raise HarnessError(f"timestep must be positive; got {timestep}.")
@@ -416,7 +417,7 @@ def mirror_trajectory(
     q0, v0, tau = start.q0, start.v0, start.tau
     dt = float(timestep or system.mujoco_model().opt.timestep)
     steps = _steps_per_sample(t, dt)
-    stepper = Stepper(system, source, integrator=integrator, timestep=dt)
+    stepper = Stepper(system, source, Scheme(integrator, dt))
     q = np.asarray(q0, dtype=float)[None].copy()
     v = np.asarray(v0, dtype=float)[None].copy()
     tau_b = np.asarray(tau, dtype=float)[None]
@@ -447,25 +448,24 @@ def mirror_steps(
     q: np.ndarray,
     v: np.ndarray,
     tau: np.ndarray,
+    stepping: Scheme,
     *,
-    integrator: str,
-    timestep: float,
     steps: int = 1,
 ) -> tuple[np.ndarray, np.ndarray]:
     """`steps` mirror steps from each of N states at once, (N, n) in and out (compiled in one call
     per group of steps for a source `compiled_steps` accepts: non-finite rows where it blows up)."""
     q, v = np.array(q, dtype=float), np.array(v, dtype=float)
     tau = np.broadcast_to(np.asarray(tau, dtype=float), q.shape)
-    compiled = compiled_steps(source, integrator, steps) if len(q) else None
+    compiled = compiled_steps(source, stepping.integrator, steps) if len(q) else None
     if compiled is not None:
         cf, calls = compiled
         n = q.shape[1]
         y = np.ascontiguousarray(np.concatenate([q, v], axis=1).T)
-        pars = np.ascontiguousarray(np.concatenate([tau, np.full((len(q), 1), float(timestep))], axis=1).T)
+        pars = np.ascontiguousarray(np.concatenate([tau, np.full((len(q), 1), float(stepping.timestep))], axis=1).T)
         for _ in range(calls):
             y = cf(y, pars=pars)
         return np.ascontiguousarray(y[:n].T), np.ascontiguousarray(y[n:].T)
-    stepper = Stepper(system, source, integrator=integrator, timestep=timestep)
+    stepper = Stepper(system, source, stepping)
     with np.errstate(all="ignore"):  # a wrong derivation's overflow is NaN in its rows, not a warning
         for _ in range(steps):
             q, v = stepper.step(q, v, tau)
@@ -477,17 +477,16 @@ def mujoco_steps(
     q: np.ndarray,
     v: np.ndarray,
     tau: np.ndarray,
+    stepping: Scheme,
     *,
-    integrator: str,
-    timestep: float,
     steps: int = 1,
 ) -> tuple[np.ndarray, np.ndarray]:
     """`steps` calls of `mj_step` from each of N states (the MuJoCo side of a lockstep), (N, n). A
     state from which MuJoCo warns (and resets) gives NaN rows, never the reset state as data."""
     from ..sources import mujoco as engine
 
-    _check_integrator(integrator)
-    return engine.step_states(source, q, v, tau, Scheme(integrator, timestep), steps=steps)
+    _check_integrator(stepping.integrator)
+    return engine.step_states(source, q, v, tau, stepping, steps=steps)
 
 
 def lockstep(
@@ -532,9 +531,9 @@ def lockstep(
     ends = {}
     for name, src in sources.items():
         if name == "mujoco":
-            ends[name] = mujoco_steps(stepped(src), q, v, tau_b, integrator=integrator, timestep=dt, steps=window_steps)
+            ends[name] = mujoco_steps(stepped(src), q, v, tau_b, Scheme(integrator, dt), steps=window_steps)
         else:
-            ends[name] = mirror_steps(system, src, q, v, tau_b, integrator=integrator, timestep=dt, steps=window_steps)
+            ends[name] = mirror_steps(system, src, q, v, tau_b, Scheme(integrator, dt), steps=window_steps)
     pairs = {}
     for a, b in itertools.combinations(sorted(ends), 2):
         entry = {}

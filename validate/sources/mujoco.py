@@ -487,9 +487,8 @@ def timed_run(
     start: Start,
     samples: int,
     steps: int,
+    stepping: Scheme,
     *,
-    integrator: str,
-    timestep: float,
     deadline: float,
 ) -> TimedRun:
     """A free run for the benchmark: only the stepping loop is timed (CPU and wall), it stops at
@@ -507,7 +506,7 @@ def timed_run(
     mujoco.set_mju_user_warning(lambda msg: printed.append(str(msg).strip()))
     stopped_at = None
     try:
-        with scheme(m, integrator, timestep):
+        with scheme(m, stepping.integrator, stepping.timestep):
             mujoco.mj_resetData(m, d)
             source.set_state(np.asarray(q0, dtype=float), np.asarray(v0, dtype=float), np.asarray(tau, dtype=float))
             qpos[0], qvel[0] = d.qpos, d.qvel
@@ -533,9 +532,8 @@ def rollout_run(
     start: Start,
     samples: int,
     steps: int,
+    stepping: Scheme,
     *,
-    integrator: str,
-    timestep: float,
     batch: int = 1,
     nthread: int | None = None,
 ) -> RolloutRun:
@@ -554,7 +552,7 @@ def rollout_run(
     threads = max(1, min(batch, nthread or 1, os.cpu_count() or 1))
     spec = int(mujoco.mjtState.mjSTATE_FULLPHYSICS)
     control_spec = int(mujoco.mjtState.mjSTATE_CTRL) | int(mujoco.mjtState.mjSTATE_QFRC_APPLIED)
-    with scheme(m, integrator, timestep):
+    with scheme(m, stepping.integrator, stepping.timestep):
         mujoco.mj_resetData(m, d)
         source.set_state(np.asarray(q0, dtype=float), np.asarray(v0, dtype=float), np.asarray(tau, dtype=float))
         x0 = np.empty(mujoco.mj_stateSize(m, spec))
@@ -604,9 +602,8 @@ def sampled_run(
     start: Start,
     chunks: int,
     sample_steps: int,
+    stepping: Scheme,
     *,
-    integrator: str,
-    timestep: float,
     eulerdamp: bool = True,
 ) -> tuple[list[np.ndarray], list[np.ndarray], str | None, int | None]:
     """Up to `chunks` samples `sample_steps` steps apart, stopping at the first whose state MuJoCo
@@ -618,7 +615,7 @@ def sampled_run(
     flags = int(m.opt.disableflags) | (0 if eulerdamp else int(mujoco.mjtDisableBit.mjDSBL_EULERDAMP))
     qs: list[np.ndarray] = []
     vs: list[np.ndarray] = []
-    with scheme(m, integrator, timestep), disabled(m, flags):
+    with scheme(m, stepping.integrator, stepping.timestep), disabled(m, flags):
         mujoco.mj_resetData(m, d)
         source.set_state(q0, v0, tau)
         for k in range(1, chunks + 1):

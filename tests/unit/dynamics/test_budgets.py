@@ -16,7 +16,7 @@ import pytest
 from lagrange_xval import systems
 from lagrange_xval.core.errors import IntegrationStopped
 from lagrange_xval.dynamics import chaos, experiments, integrate, mirror, reference
-from lagrange_xval.model.start import Start
+from lagrange_xval.model.start import Scheme, Start
 from lagrange_xval.sources import fastpath, make_source
 from lagrange_xval.sources.hand import HandSource
 
@@ -269,6 +269,6 @@ def test_lockstep_mujoco_side_never_reports_a_reset_state():
     source = make_source(systems.load("double_pendulum_point"), "mujoco")
     q = np.array([[0.1, 0.2], [0.1, 0.2]])
     v = np.array([[0.0, 0.0], [1e12, -1e12]])  # MuJoCo's bad-qacc warning, then its reset
-    q1, v1 = mirror.mujoco_steps(source, q, v, np.zeros(2), integrator="Euler", timestep=0.001, steps=3)
+    q1, v1 = mirror.mujoco_steps(source, q, v, np.zeros(2), Scheme("Euler", 0.001), steps=3)
     assert np.all(np.isfinite(q1[0])) and np.all(np.isfinite(v1[0]))
     assert np.all(np.isnan(q1[1])) and np.all(np.isnan(v1[1]))

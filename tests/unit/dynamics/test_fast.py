@@ -11,7 +11,7 @@ import pytest
 from lagrange_xval import systems
 from lagrange_xval.dynamics import compiled, fast, integrate, mirror
 from lagrange_xval.dynamics.reference import reference_trajectory
-from lagrange_xval.model.start import Start
+from lagrange_xval.model.start import Scheme, Start
 from lagrange_xval.sources import make_source, make_sources
 from lagrange_xval.sources.hand import HandSource
 from lagrange_xval.studies.bench import FULL, checks
@@ -92,11 +92,9 @@ def test_the_compiled_mirror_of_rk4_rounds_as_the_python_scheme_does(name):
     assert np.abs(a.q - b.q).max() < 1e-11, np.abs(a.q - b.q).max()
     ref, _ = reference_trajectory(s, Start.of(q0, v0, tau), t)
     ulp = np.spacing(np.abs(np.concatenate([ref.q, ref.v], axis=1)).max())
-    qa, va = mirror.mirror_steps(s, hand, ref.q[:-1], ref.v[:-1], tau, integrator="RK4", timestep=1e-3, steps=10)
-    qb, vb = mirror.mirror_steps(s, plain, ref.q[:-1], ref.v[:-1], tau, integrator="RK4", timestep=1e-3, steps=10)
-    qm, vm = mirror.mujoco_steps(
-        make_source(s, "mujoco"), ref.q[:-1], ref.v[:-1], tau, integrator="RK4", timestep=1e-3, steps=10
-    )
+    qa, va = mirror.mirror_steps(s, hand, ref.q[:-1], ref.v[:-1], tau, Scheme("RK4", 1e-3), steps=10)
+    qb, vb = mirror.mirror_steps(s, plain, ref.q[:-1], ref.v[:-1], tau, Scheme("RK4", 1e-3), steps=10)
+    qm, vm = mirror.mujoco_steps(make_source(s, "mujoco"), ref.q[:-1], ref.v[:-1], tau, Scheme("RK4", 1e-3), steps=10)
     assert max(np.abs(qa - qb).max(), np.abs(va - vb).max()) <= 4 * ulp
     assert max(np.abs(qa - qm).max(), np.abs(va - vm).max()) <= 16 * ulp
 

@@ -17,7 +17,7 @@ from lagrange_xval.dynamics import chaos
 from lagrange_xval.dynamics.integrate import initial_state, mujoco_trajectory, time_grid
 from lagrange_xval.dynamics.mirror import INTEGRATORS, Stepper, eulerdamp_active, lockstep, mirror_trajectory
 from lagrange_xval.dynamics.reference import reference_trajectory
-from lagrange_xval.model.start import Start
+from lagrange_xval.model.start import Scheme, Start
 from lagrange_xval.sources import make_sources
 from lagrange_xval.sources.hand import HandSource
 from lagrange_xval.verdict import pointwise as compare
@@ -94,8 +94,8 @@ def test_lockstep_tells_the_schemes_apart():
     from lagrange_xval.dynamics.mirror import mirror_steps, mujoco_steps
 
     for mirrored, stepped in [("RK4", "Euler"), ("Euler", "implicit"), ("implicit", "implicitfast")]:
-        qm, vm = mirror_steps(system, src["hand"], states.q, states.v, states.tau, integrator=mirrored, timestep=1e-3)
-        qs, vs = mujoco_steps(src["mujoco"], states.q, states.v, states.tau, integrator=stepped, timestep=1e-3)
+        qm, vm = mirror_steps(system, src["hand"], states.q, states.v, states.tau, Scheme(mirrored, 1e-3))
+        qs, vs = mujoco_steps(src["mujoco"], states.q, states.v, states.tau, Scheme(stepped, 1e-3))
         assert np.abs(vm - vs).max() > 1e-9, f"mirror {mirrored} is indistinguishable from MuJoCo {stepped}"
 
 
@@ -155,7 +155,7 @@ def test_eulerdamp_semantics_with_joint_damping():
         t = time_grid(2.0, 0.01)
         stepped = mujoco_trajectory(system, src["mujoco"], Start.of(q0, v0, tau), t, integrator="Euler")
         mirrored = mirror_trajectory(system, src["hand"], Start.of(q0, v0, tau), t, integrator="Euler")
-        stepper = Stepper(system, src["hand"], integrator="Euler", timestep=system.mujoco_model().opt.timestep)
+        stepper = Stepper(system, src["hand"], Scheme("Euler", system.mujoco_model().opt.timestep))
         stepper.eulerdamp = False
         q, v = q0[None].copy(), v0[None].copy()
         explicit = [q[0]]
@@ -197,7 +197,7 @@ def test_scalar_eulerdamp_path_is_the_batched_one(engine):
         q0, v0, tau = start(system)
         t = time_grid(0.5, 0.01)
         free = mirror_trajectory(system, src[engine], Start.of(q0, v0, tau), t, integrator="Euler")
-        stepper = Stepper(system, src[engine], integrator="Euler", timestep=system.mujoco_model().opt.timestep)
+        stepper = Stepper(system, src[engine], Scheme("Euler", system.mujoco_model().opt.timestep))
         assert stepper.eulerdamp and stepper._scalar(tau) is not None, f"{name}: no one-state eulerdamp path"
         q, v = np.repeat(q0[None], 2, axis=0), np.repeat(v0[None], 2, axis=0)  # two states: the batched path
         batched = [q[0]]

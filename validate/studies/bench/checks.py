@@ -41,7 +41,7 @@ from ...dynamics.fast import accurate_trajectory
 from ...dynamics.integrate import SCIPY_DEFAULT, scipy_trajectory, time_grid
 from ...dynamics.mirror import mirror_steps, mirror_trajectory, mujoco_steps
 from ...dynamics.reference import DEFAULT_CACHE_DIR, reference_trajectory
-from ...model.start import Start
+from ...model.start import Scheme, Start
 from ...sources.base import stepped
 from .plan import GRID_DRIVERS, Plan
 from .ratios import interleaved_medians
@@ -130,10 +130,8 @@ def measure_checks(name: str, *, plan: Plan, reps: int, cache_dir: CacheDir = DE
     jobs = check_jobs(name, plan)
     qw, vw = ref.q[:-1], ref.v[:-1]
     windows = {
-        "hand mirror RK4 windows": lambda: mirror_steps(
-            system, hand, qw, vw, tau, integrator="RK4", timestep=dt, steps=steps
-        ),
-        "MuJoCo RK4 windows": lambda: mujoco_steps(mj, qw, vw, tau, integrator="RK4", timestep=dt, steps=steps),
+        "hand mirror RK4 windows": lambda: mirror_steps(system, hand, qw, vw, tau, Scheme("RK4", dt), steps=steps),
+        "MuJoCo RK4 windows": lambda: mujoco_steps(mj, qw, vw, tau, Scheme("RK4", dt), steps=steps),
     }
     outputs = {k: fn() for k, (_, _, fn) in jobs.items()}  # compiles, and gives the errors
     ends = {k: fn() for k, fn in windows.items()}

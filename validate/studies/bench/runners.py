@@ -23,7 +23,7 @@ from ...dynamics.drakerun import drake_trajectory
 from ...dynamics.integrate import SCIPY_DEFAULT, initial_state, scipy_trajectory, time_grid
 from ...dynamics.mirror import mirror_trajectory
 from ...dynamics.reference import DEFAULT_CACHE_DIR, reference_trajectory
-from ...model.start import Start
+from ...model.start import Scheme, Start
 from ...sources import Sources, make_sources
 from ...sources.base import OneStateSource, Source, SteppedSource, one_state, stepped
 from ...sources.fastpath import scalar_rhs
@@ -282,29 +282,24 @@ def _run_ode(
 def run_mujoco(
     system: System,
     source: SteppedSource,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    start: Start,
     t: np.ndarray,
+    stepping: Scheme,
     *,
-    integrator: str,
-    timestep: float,
     deadline: float,
 ) -> dict[str, Any]:
-    """MuJoCo stepping its own integrator from (q0, v0); only the stepping loop is timed.
+    """MuJoCo stepping its own integrator from `start`; only the stepping loop is timed.
 
     The model's integrator and timestep are set for the run and restored after it. A run that sets
     any of MuJoCo's bad-state warnings (MuJoCo then resets the state and carries on) has diverged.
     """
     from ...sources import mujoco as engine  # imports MuJoCo: loaded when first used
 
-    dt_out = float(t[1] - t[0])
+    dt_out, timestep = float(t[1] - t[0]), stepping.timestep
     steps = round(dt_out / timestep)
     if steps < 1 or not np.isclose(steps * timestep, dt_out, rtol=1e-9, atol=0.0):
         raise HarnessError(f"MuJoCo timestep {timestep} must divide the output step {dt_out}.")
-    out = engine.timed_run(
-        source, Start.of(q0, v0, tau), len(t), steps, integrator=integrator, timestep=timestep, deadline=deadline
-    )
+    out = engine.timed_run(source, start, len(t), steps, stepping, deadline=deadline)
     cpu, wall, bad, printed, k = out["cpu_s"], out["wall_s"], out["bad"], out["printed"], out["stopped_at"]
     total = steps * (len(t) - 1)
     if bad:
@@ -338,20 +333,17 @@ class GuardedSource:
 def run_mirror(
     system: System,
     source: Source,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    start: Start,
     t: np.ndarray,
+    stepping: Scheme,
     *,
-    integrator: str,
-    timestep: float,
     deadline: float,
 ) -> dict[str, Any]:
     """`mirror_trajectory` (MuJoCo's scheme on an engine's per-call rhs), timed around the call."""
     src = GuardedSource(one_state(source), deadline)
     c0, w0 = time.process_time(), time.perf_counter()
     try:
-        traj = mirror_trajectory(system, src, Start.of(q0, v0, tau), t, integrator=integrator, timestep=timestep)
+        traj = mirror_trajectory(system, src, start, t, integrator=stepping.integrator, timestep=stepping.timestep)
     except Stop:
         cpu, wall = time.process_time() - c0, time.perf_counter() - w0
         s = src.stats()
@@ -363,11 +355,12 @@ def run_mirror(
 
 
 def run_taylor(
-    system: System, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, tol: float, max_steps: int, source: str = "hand"
+    system: System, start: Start, t: np.ndarray, *, tol: float, max_steps: int, source: str = "hand"
 ) -> dict[str, Any]:
     """heyoka's Taylor integrator in double precision at `tol` on the hand equations or the derived
     ones ("symbolic": joint coordinates, JOINT_MAP applied outside the clock); compiled before the
     clock starts, `propagate_grid` alone timed. At most `max_steps` steps."""
+    q0, v0, tau = start.q0, start.v0, start.tau
     n = len(q0)
     A = system.joint_map if source == "symbolic" else None
     if A is not None:  # q_notes = A q_joint, and the inputs' work: tau_joint = A^T tau_notes
@@ -384,15 +377,15 @@ def run_taylor(
 
 
 def run_compiled_rk4(
-    system: System, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, timestep: float, deadline: float
+    system: System, start: Start, t: np.ndarray, *, timestep: float, deadline: float
 ) -> dict[str, Any]:
     """Classic RK4 with its steps compiled (heyoka cfunc, `compiled.rk4_plan` steps per call), one
     Python call per group of steps; the loop over the samples is timed."""
-    n = len(q0)
+    n = len(start.q0)
     per_call, calls = rk4_plan(float(t[1] - t[0]), timestep)
     cf = compiled_rk4(system, per_call)
     c0, w0 = time.process_time(), time.perf_counter()
-    status, states = rk4_grid(cf, calls, Start.of(q0, v0, tau), t, timestep=timestep, deadline=deadline)
+    status, states = rk4_grid(cf, calls, start, t, timestep=timestep, deadline=deadline)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     total = calls * per_call * (len(t) - 1)
     if status != "ok":
@@ -403,30 +396,18 @@ def run_compiled_rk4(
 def run_rollout(
     system: System,
     source: SteppedSource,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    start: Start,
     t: np.ndarray,
+    stepping: Scheme,
     *,
-    integrator: str,
-    timestep: float,
     batch: int,
 ) -> dict[str, Any]:
     """MuJoCo's `rollout` of `batch` copies of the start (sources/mujoco.rollout_run); the row's time is
     the batch's CPU time divided by `batch` (per trajectory), its samples those of the first copy."""
     from ...sources import mujoco as engine  # imports MuJoCo: loaded when first used
 
-    steps = round(float(t[1] - t[0]) / timestep)
-    out = engine.rollout_run(
-        source,
-        Start.of(q0, v0, tau),
-        len(t),
-        steps,
-        integrator=integrator,
-        timestep=timestep,
-        batch=batch,
-        nthread=batch,
-    )
+    steps = round(float(t[1] - t[0]) / stepping.timestep)
+    out = engine.rollout_run(source, start, len(t), steps, stepping, batch=batch, nthread=batch)
     cpu, wall, total = out["cpu_s"] / batch, out["wall_s"] / batch, steps * (len(t) - 1)
     if out["bad"]:
         return result_row("diverged", f"MuJoCo warnings: {', '.join(out['bad'])}", cpu, wall, steps=total)
@@ -436,9 +417,7 @@ def run_rollout(
     return result_row("ok", "", cpu, wall, t=t, q=np.ascontiguousarray(q), steps=total)
 
 
-def run_drake(
-    system: System, source: Source, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, spec: dict[str, Any]
-) -> dict[str, Any]:
+def run_drake(system: System, source: Source, start: Start, t: np.ndarray, *, spec: dict[str, Any]) -> dict[str, Any]:
     """Drake's own integrator on its continuous plant (dynamics/integrate.py `drake_trajectory`): at a
     target accuracy (setting "accuracy", max step one output interval) or fixed steps ("timestep");
     the whole run, context and Simulator setup included, is timed."""
@@ -447,7 +426,7 @@ def run_drake(
     opts = {"scheme": spec["scheme"], "accuracy": None if fixed else spec["value"]}
     opts["max_step"] = spec["value"] if fixed else dt_out
     c0, w0 = time.process_time(), time.perf_counter()
-    traj = drake_trajectory(system, source, Start.of(q0, v0, tau), t, **opts)
+    traj = drake_trajectory(system, source, start, t, **opts)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     steps = traj.stats["steps"]  # an int: Drake counts its steps
     if traj.stats["status"] != "ok":
@@ -456,12 +435,12 @@ def run_drake(
     return result_row("ok", "", cpu, wall, t=t, q=np.ascontiguousarray(traj.q), nfev=nfev, steps=steps)
 
 
-def run_default(system: System, source: Source, q0: Any, v0: Any, tau: Any, t: np.ndarray) -> dict[str, Any]:
+def run_default(system: System, source: Source, start: Start, t: np.ndarray) -> dict[str, Any]:
     """The harness's default scipy integration, as `run` calls it (no budget: it has no hook)."""
     c0, w0 = time.process_time(), time.perf_counter()
     try:
         default: dict[str, Any] = dict(SCIPY_DEFAULT)
-        traj = scipy_trajectory(system, source, Start.of(q0, v0, tau), t, **default)
+        traj = scipy_trajectory(system, source, start, t, **default)
     except HarnessError as exc:
         return result_row("failed", str(exc), time.process_time() - c0, time.perf_counter() - w0)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
@@ -472,7 +451,8 @@ def run_once(spec: dict[str, Any], case: dict[str, Any], plan: Plan) -> dict[str
     """One execution of one spec on one case, in this process, within the plan's budget."""
     system, sources = resources(case["system"])
     t = time_grid(case["t_end"], case["dt_out"])
-    q0, v0, tau = (np.asarray(case[k], dtype=float) for k in ("q0", "v0", "tau"))
+    start = Start.of(case["q0"], case["v0"], case["tau"])
+    q0, v0, tau = start.q0, start.v0, start.tau
     driver, engine, budget = spec["driver"], spec["engine"], plan.budget
     if driver in SCIPY_DRIVERS:
         y0 = np.concatenate([q0, v0])
@@ -492,12 +472,9 @@ def run_once(spec: dict[str, Any], case: dict[str, Any], plan: Plan) -> dict[str
         return run_mujoco(
             system,
             stepped(sources["mujoco"]),
-            q0,
-            v0,
-            tau,
+            start,
             t,
-            integrator=spec["scheme"],
-            timestep=spec["value"],
+            Scheme(spec["scheme"], spec["value"]),
             deadline=time.perf_counter() + budget,
         )
     if driver == "mirror":
@@ -506,40 +483,29 @@ def run_once(spec: dict[str, Any], case: dict[str, Any], plan: Plan) -> dict[str
         return run_mirror(
             system,
             sources[engine],
-            q0,
-            v0,
-            tau,
+            start,
             t,
-            integrator=spec["scheme"],
-            timestep=spec["value"],
+            Scheme(spec["scheme"], spec["value"]),
             deadline=time.perf_counter() + budget,
         )
     if driver == "taylor":
         if engine not in sources:
             return result_row("skipped", f"no {engine} source for {system.name}", 0.0, 0.0)
-        return run_taylor(system, q0, v0, tau, t, tol=spec["value"], max_steps=plan.taylor_max_steps, source=engine)
+        return run_taylor(system, start, t, tol=spec["value"], max_steps=plan.taylor_max_steps, source=engine)
     if driver == "compiled_rk4":
-        return run_compiled_rk4(system, q0, v0, tau, t, timestep=spec["value"], deadline=time.perf_counter() + budget)
+        return run_compiled_rk4(system, start, t, timestep=spec["value"], deadline=time.perf_counter() + budget)
     if driver in ("rollout", "rollout_batch"):
         batch = spec["batch"] if driver == "rollout_batch" else 1
         return run_rollout(
-            system,
-            stepped(sources["mujoco"]),
-            q0,
-            v0,
-            tau,
-            t,
-            integrator=spec["scheme"],
-            timestep=spec["value"],
-            batch=batch,
+            system, stepped(sources["mujoco"]), start, t, Scheme(spec["scheme"], spec["value"]), batch=batch
         )
     if driver == "drake":
         if "drake" not in sources:
             return result_row("skipped", f"no drake source for {system.name}", 0.0, 0.0)
-        return run_drake(system, sources["drake"], q0, v0, tau, t, spec=spec)
+        return run_drake(system, sources["drake"], start, t, spec=spec)
     if driver == "default":
         scalar_rhs(system)
-        return run_default(system, sources["hand"], q0, v0, tau, t)
+        return run_default(system, sources["hand"], start, t)
     raise HarnessError(f"unknown driver '{driver}'.")
 
 

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from ...dynamics.integrate import initial_state
+from ...model.start import Scheme, Start
 from ...sources.base import Source
 from ...systems import System
 from .runs import downsample, run_energy, simulate
@@ -165,7 +166,13 @@ def drift_rows(
     runs = [("mujoco", i) for i in MUJOCO_INTEGRATORS] + [("mirror", i) for i in MIRROR_INTEGRATORS]
     for engine, integrator in runs:
         run = simulate(
-            system, sources, engine, integrator, q0, v0, tau, timestep=dt, t_end=horizon, sample_steps=sample_steps
+            system,
+            sources,
+            engine,
+            Start.of(q0, v0, tau),
+            Scheme(integrator, dt),
+            t_end=horizon,
+            sample_steps=sample_steps,
         )
         E = run_energy(sources["hand"], run)
         for h in settings.drift_horizons:
