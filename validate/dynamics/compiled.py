@@ -102,7 +102,7 @@ def taylor_integrator(system: System, tol: float, *, compact: bool = False, sour
 
 
 def taylor_grid(ta: Any, start: Start, t: np.ndarray, *, max_steps: int = 0) -> tuple[str, np.ndarray, int]:
-    """The state (K, 2n) on the grid `t` from (q0, v0) at t[0] with input `tau`: (outcome, states,
+    """The state (K, 2n) on the grid `t` from `start` at t[0] (its input held): (outcome, states,
     steps). outcome "ok", or heyoka's own word when it stopped early (the rows it did not reach NaN).
     `max_steps` > 0 bounds the Taylor steps (a budget with no per-step callback, which would cost more
     than the step itself)."""

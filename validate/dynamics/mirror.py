@@ -405,7 +405,7 @@ def mirror_trajectory(
     """MuJoCo's `integrator` applied to `source` (hand, Pinocchio, or MuJoCo's own forward dynamics).
 
     Args:
-        q0, v0, tau: (n,) initial state and constant input.
+        start: the (n,) initial state and constant input.
         t: (K,) uniform output grid starting at 0; `timestep` (default: the MJCF's) must divide its step.
         budget: the wall time and blow-up bound of the run (its evaluations are fixed by the steps).
 

@@ -446,7 +446,7 @@ def disable_flag_names(flags: int) -> list[str]:
 
 
 def steps_from(source: SteppedSource, start: Start, steps: int) -> None:
-    """`steps` calls of `mj_step` from (q0, v0) with the model's current options (for timing)."""
+    """`steps` calls of `mj_step` from `start` with the model's current options (for timing)."""
     q0, v0, tau = start.q0, start.v0, start.tau
     mujoco.mj_resetData(source.m, source.d)
     source.set_state(np.asarray(q0, dtype=float), np.asarray(v0, dtype=float), np.asarray(tau, dtype=float))
