@@ -15,7 +15,7 @@ from ..core.tolerances import TOLERANCES
 from ..model.start import Start
 from ..systems import System
 from .integrate import DEFAULT_BUDGET, Budget, time_grid
-from .reference import TaylorGuard, param_key, symbolic_dynamics
+from .reference import Taylor, TaylorGuard, param_key, symbolic_dynamics
 
 SAFETY = 10.0
 HORIZON_CHUNK = 100  # grid samples per propagation of `horizon_from_rounding` (10 s at 0.1 s)
@@ -38,12 +38,12 @@ class Flow:
 _VAR_INTEGRATORS = Memo(maxsize=32)  # bounded: one per system, parameter set and precision (issue 36)
 
 
-def variational_integrator(system: System, precision: str) -> Any:
+def variational_integrator(system: System, precision: str) -> Taylor:
     hy = heyoka()
 
     key = (system.name, system.overrides, param_key(system), system.equations, precision)  # the module, not its id
 
-    def make() -> Any:
+    def make() -> Taylor:
         dyn = symbolic_dynamics(system)
         fp = {"double": float, "long double": np.longdouble}[precision]
         vsys = hy.var_ode_sys(dyn.ode, hy.var_args.vars, order=1)
@@ -59,7 +59,7 @@ def variational_integrator(system: System, precision: str) -> Any:
     return _VAR_INTEGRATORS.get(key, make)
 
 
-def reset_variational(ta: Any, n: int, x0: np.ndarray, tau: np.ndarray, t0: float, tangent: np.ndarray) -> None:
+def reset_variational(ta: Taylor, n: int, x0: np.ndarray, tau: np.ndarray, t0: float, tangent: np.ndarray) -> None:
     dtype = ta.state.dtype
     ta.time = dtype.type(t0)
     ta.state[: 2 * n] = np.asarray(x0, dtype=float).astype(dtype)

@@ -41,8 +41,8 @@ import functools
 import itertools
 import math
 import time
-from collections.abc import Mapping
-from typing import Any
+from collections.abc import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, TypeAlias, TypedDict, cast
 
 import numpy as np
 
@@ -54,6 +54,26 @@ from ..sources.hand import HandSource, solve_or_nan
 from ..systems import System
 from .compiled import RK4_A, RK4_B, RK4_STEPS_PER_CALL, UNROLLED_MAX_DOF, compiled_rk4, rk4_plan
 from .integrate import DEFAULT_BUDGET, EQUATION_ERRORS, MUJOCO_INTEGRATORS, Budget, Trajectory
+
+if TYPE_CHECKING:  # heyoka is imported when first used (core/cachedir.heyoka)
+    from heyoka import cfunc_dbl
+
+# a source's one-state right-hand side f(t, y) -> (v, a), called on an array or on the scheme's list of floats
+OneStateRhs: TypeAlias = Callable[[float, np.ndarray | list[float]], np.ndarray | Sequence[float]]
+# the generated scheme (`_scheme_code`): run(f, q, v, h, steps) -> (q, v) after `steps` steps
+SchemeRun: TypeAlias = Callable[[OneStateRhs, list[float], list[float], float, int], tuple[list[float], list[float]]]
+
+
+class Lockstep(TypedDict):
+    """`lockstep`'s windows: the scheme, the steps per window, the states, and per pair of sources
+    ("a~b") the largest differences: "q" (rad), "v" (rad/s), "q_ulps", "v_ulps"."""
+
+    integrator: str
+    timestep: float
+    window_steps: int
+    n_states: int
+    pairs: dict[str, dict[str, float]]
+
 
 INTEGRATORS = MUJOCO_INTEGRATORS
 DERIVATIVE_STEP = 1.0  # rad/s: central differences are exact for F quadratic in v, so a large step only cuts rounding
@@ -119,9 +139,9 @@ class Stepper:
         self.system, self.source, self.integrator, self.h = system, source, integrator, float(timestep)
         self.eulerdamp = integrator == "Euler" and eulerdamp_active(system)
         self.evaluations = 0  # forward-dynamics evaluations (states), a cost guard for tests
-        self._scalars: dict[tuple[tuple[float, ...], float | None], Any] = {}  # `_scalar` per (tau, damped)
+        self._scalars: dict[tuple[tuple[float, ...], float | None], OneStateRhs | None] = {}  # per (tau, damped)
 
-    def _scalar(self, tau: np.ndarray) -> Any:
+    def _scalar(self, tau: np.ndarray) -> OneStateRhs | None:
         """A one-state right-hand side f(t, y) without batch overhead, or None for MuJoCo's own."""
         damped = self.h if self.eulerdamp else None  # Euler's implicit damping: (M + h D)^-1 f
         key = (tuple(float(x) for x in tau), damped)
@@ -189,7 +209,7 @@ class _Blowup(Exception):
     """A free run's state left the budget's bound (or is not finite), or its wall time ran out."""
 
 
-def _check_sample(q: Any, v: Any, budget: Budget, deadline: float) -> None:
+def _check_sample(q: Sequence[float], v: Sequence[float], budget: Budget, deadline: float) -> None:
     """Between samples: raises _Blowup past the blow-up bound (or at a non-finite entry) or the wall time."""
     bound = budget.max_abs_state
     for x in (*q, *v):
@@ -200,7 +220,7 @@ def _check_sample(q: Any, v: Any, budget: Budget, deadline: float) -> None:
 
 
 @functools.lru_cache(maxsize=32)  # two schemes x the few coordinate counts of the systems run
-def _scheme_code(integrator: str, n: int) -> Any:
+def _scheme_code(integrator: str, n: int) -> SchemeRun:
     """`run(f, q, v, h, steps) -> (q, v)`: `steps` steps of `Stepper.step`'s one-state scheme (RK4 or
     semi-implicit Euler) on Python floats, generated as straight-line code for n coordinates with the
     same operations in the same order (the zero tableau entries included), so it rounds as the loop
@@ -241,9 +261,9 @@ def _scheme_code(integrator: str, n: int) -> Any:
         *[f"        {line}" for line in body],
         f"    return [{', '.join(qs)}], [{', '.join(vs)}]",
     ]
-    namespace: dict[str, Any] = {}
+    namespace: dict[str, object] = {}
     exec(compile("\n".join(lines) + "\n", f"<mirror {integrator} n={n}>", "exec"), namespace)  # noqa: S102 - ours
-    return namespace["run"]
+    return cast(SchemeRun, namespace["run"])  # the function written above
 
 
 def _nest(expr: str) -> str:
@@ -256,7 +276,7 @@ def _nest(expr: str) -> str:
 
 
 def _scalar_run(
-    f: Any,
+    f: OneStateRhs,
     integrator: str,
     h: float,
     steps: int,
@@ -280,7 +300,7 @@ def _scalar_run(
         qs[k], vs[k] = q, v
 
 
-def compiled_steps(source: Source, integrator: str, steps: int) -> tuple[Any, int] | None:
+def compiled_steps(source: Source, integrator: str, steps: int) -> tuple[cfunc_dbl, int] | None:
     """(cf, calls): MuJoCo's RK4 compiled (compiled.py `compiled_rk4`, cf(y, pars=[tau..., h]) does
     `steps / calls` steps, on one state (2n,) or a batch (2n, N)) for the hand equations of the
     source's system (a HandSource itself: a subclass may compute other dynamics than the module it
@@ -301,7 +321,14 @@ _BLOCK = 16  # samples of a compiled run between blow-up and wall-time checks (a
 
 
 def _compiled_run(
-    cf: Any, calls: int, h: float, tau: np.ndarray, qs: np.ndarray, vs: np.ndarray, budget: Budget, deadline: float
+    cf: cfunc_dbl,
+    calls: int,
+    h: float,
+    tau: np.ndarray,
+    qs: np.ndarray,
+    vs: np.ndarray,
+    budget: Budget,
+    deadline: float,
 ) -> None:
     """The compiled steps sample by sample; fills rows 1.. of qs, vs. Every _BLOCK samples (and at the
     end) the block is checked against the blow-up bound and the deadline: raises _Blowup with the rows
@@ -341,7 +368,7 @@ def _step_samples(
     stepper: Stepper,
     source: Source,
     integrator: str,
-    compiled: tuple[Any, int] | None,
+    compiled: tuple[cfunc_dbl, int] | None,
     q: np.ndarray,
     v: np.ndarray,
     tau_b: np.ndarray,
@@ -492,13 +519,13 @@ def mujoco_steps(
 def lockstep(
     system: System,
     sources: Mapping[str, Source],
-    states: Any,
+    states: np.ndarray | tuple[Floats, Floats],
     *,
     integrator: str,
     timestep: float | None = None,
     window_steps: int = 1,
     tau: Floats | None = None,
-) -> dict[str, Any]:
+) -> Lockstep:
     """Every source advanced `window_steps` steps from the same states; the largest differences per pair.
 
     The MuJoCo source (name "mujoco") steps with `mj_step`; every other source with its mirror.
