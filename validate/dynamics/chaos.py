@@ -44,7 +44,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 
@@ -56,13 +56,13 @@ from ..systems import System
 from .flow import DEFAULT_TOLERANCE as DEFAULT_TOLERANCE
 from .flow import SAFETY as SAFETY
 from .flow import Flow as Flow
+from .flow import Judgement, predicted_error, sample_at, transfer_norms
 from .flow import amplification as amplification
 from .flow import error_envelope as error_envelope
 from .flow import flow as flow
 from .flow import horizon_from_rounding as horizon_from_rounding
 from .flow import judge_free_run as judge_free_run
 from .flow import predictability_horizon as predictability_horizon
-from .flow import predicted_error, sample_at, transfer_norms
 from .integrate import DEFAULT_DT_OUT, DEFAULT_T_END, Trajectory, energy, initial_state, mujoco_trajectory, time_grid
 from .lyapunov import chaos_summary as chaos_summary
 from .lyapunov import lyapunov_exponent as lyapunov_exponent
@@ -95,6 +95,87 @@ EXPECTED_ORDER = {"RK4": 4, "Euler": 1, "implicit": 1, "implicitfast": 1}
 STABILITY_LIMIT = {"RK4": 2.78, "Euler": 2.0, "implicit": 2.0, "implicitfast": 2.0}
 STABLE_FRACTION = 0.5  # well inside the region, where the error is in its asymptotic regime
 JACOBIAN_STEP = 1e-6  # central differences of the accelerations, relative to max(|x|, 1)
+
+
+class FreeRunCheck(TypedDict):
+    """`free_run_check`: a free run against the reference (errors in rad, max over q; window errors as
+    state 2-norms; "..._at" sampled at 1, 2, 5, 10 s), judged against its propagated window errors."""
+
+    engine: str
+    integrator: str
+    timestep: float
+    max_error: float
+    error_at: dict[str, float]
+    max_window_error: float
+    envelope_at: dict[str, float]
+    predicted_at: dict[str, float]
+    predicted_horizon: float | None
+    prediction_mismatch: float
+    judge: Judgement
+
+
+class RoundOffLimit(TypedDict):
+    """`round_off_limit`: the window ulps two sources under one scheme may differ by, and what it is made of."""
+
+    limit: float
+    formula: str
+    cond_max: float
+    max_acceleration: float
+    max_state: float
+    steps: int
+    timestep: float
+
+
+class MirrorVerdict(TypedDict):
+    """`_mirror_verdict`: round-off windows (in ulps of max |x|, within the limit) and the free-run
+    difference judged inside the envelope."""
+
+    max_window_difference: float
+    window_ulps: float
+    window_ulps_limit: float
+    round_off: bool
+    envelope_at: dict[str, float]
+    judge: Judgement
+    passed: bool
+
+
+class PairCheck(MirrorVerdict):
+    """`pair_check`: two free runs of one scheme ("a~b"), their largest difference (rad) and its verdict."""
+
+    pair: str
+    integrator: str
+    timestep: float
+    max_difference: float
+    difference_at: dict[str, float]
+
+
+class ConvergenceOrder(TypedDict):
+    """`convergence_order`: the sweep's timesteps (s) and errors (rad), the fitted and pairwise orders
+    (None where too few runs stayed finite) and the scheme's expected order."""
+
+    engine: str
+    integrator: str
+    t_end: float
+    timesteps: list[float]
+    stable_timestep: float | None
+    timesteps_from: str
+    errors: list[float]
+    order: float | None
+    pairwise_orders: list[float] | None
+    expected: int
+
+
+class EnergyDrift(TypedDict):
+    """`energy_drift`: a run's energy minus the reference's (J; "rate" J/s, "relative" to max |E_ref|)."""
+
+    engine: str
+    integrator: str
+    timestep: float
+    max_abs: float
+    final: float
+    rate: float
+    relative: float
+    reference_energy_range: float
 
 
 # ----------------------------------------------------------------------------------------------
@@ -142,7 +223,7 @@ def free_run_check(
     tolerance: float = DEFAULT_TOLERANCE,
     ref: Trajectory | None = None,
     cache_dir: str | os.PathLike[str] | None = DEFAULT_CACHE_DIR,
-) -> dict[str, Any]:
+) -> FreeRunCheck:
     """A free run against the reference, judged against its propagated window errors.
 
     Returns {"engine", "integrator", "timestep" (s), "max_error", "error_at" {"1 s": .., "10 s": ..},
@@ -172,7 +253,7 @@ def _free_run_entry(
     env: np.ndarray,
     pred: np.ndarray,
     tolerance: float,
-) -> dict[str, Any]:
+) -> FreeRunCheck:
     return {
         "engine": engine,
         "integrator": integrator,
@@ -201,7 +282,7 @@ def pair_check(
     ref: Trajectory | None = None,
     tolerance: float = DEFAULT_TOLERANCE,
     cache_dir: str | os.PathLike[str] | None = DEFAULT_CACHE_DIR,
-) -> dict[str, Any]:
+) -> PairCheck:
     """Two free runs of the same scheme (e.g. MuJoCo and the hand mirror) judged against the envelope of
     their window-by-window difference (both restarted from the reference at every sample).
 
@@ -232,7 +313,7 @@ def pair_check(
     }
 
 
-def round_off_limit(hand: Any, ref: Trajectory, tau: np.ndarray, *, timestep: float) -> dict[str, Any]:
+def round_off_limit(hand: Source, ref: Trajectory, tau: np.ndarray, *, timestep: float) -> RoundOffLimit:
     """The window ulps two sources under one scheme may differ by on this model and run (see ROUND_OFF_ULPS)."""
     cond = float(np.linalg.cond(hand.mass_matrix(ref.q)).max())
     a = float(np.abs(hand.forward(ref.q, ref.v, np.broadcast_to(tau, ref.q.shape))).max())
@@ -259,7 +340,7 @@ def _mirror_verdict(
     tolerance: float,
     limit: float,
     until: float | None = None,
-) -> dict[str, Any]:
+) -> MirrorVerdict:
     """Round-off windows (within `limit` ulps, `round_off_limit`) and a free-run difference inside the
     envelope (judged no later than `until`: the scheme's own horizon): the two halves of a mirror's verdict."""
     ulp = float(np.spacing(np.abs(np.concatenate([ref.q, ref.v], axis=1)).max()))
@@ -328,7 +409,7 @@ def convergence_order(
     engine: str = "mujoco",
     cache_dir: str | os.PathLike[str] | None = DEFAULT_CACHE_DIR,
     check: str | None = CHECK,
-) -> dict[str, Any]:
+) -> ConvergenceOrder:
     """The observed order of `integrator` from a timestep sweep against the reference.
 
     error(dt) = max over the grid (output step: the largest timestep) of max |q - q_ref|; the order is
@@ -384,7 +465,7 @@ def energy_drift(
     engine: str = "mujoco",
     ref: Trajectory | None = None,
     cache_dir: str | os.PathLike[str] | None = DEFAULT_CACHE_DIR,
-) -> dict[str, Any]:
+) -> EnergyDrift:
     """Energy of a run minus the reference's energy at the same times (J), by the hand equations.
 
     For a conservative system (no damping, no input) the reference energy is constant to ~1e-15

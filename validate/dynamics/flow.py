@@ -4,7 +4,7 @@ transfer of window errors, the error envelope, the predictability horizon (see d
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TypedDict
 
 import numpy as np
 
@@ -194,6 +194,29 @@ def predictability_horizon(t: np.ndarray, envelope: np.ndarray, tolerance: float
     return float(t[above[0]]) if len(above) else None
 
 
+class Judgement(TypedDict):
+    """`judge_free_run`'s verdict: passed, the horizon (s, None: the whole grid), how far it judged (s),
+    the safety factor and tolerance (rad), the largest error / envelope and the first violation (s)."""
+
+    passed: bool
+    horizon: float | None
+    judged_until: float
+    safety: float
+    tolerance: float
+    max_ratio: float
+    first_violation: float | None
+
+
+class RoundingHorizon(TypedDict):
+    """`horizon_from_rounding`'s answer: the rounding e0 of the start, the tolerance (rad), the horizon
+    (s, None: not within t_end) and the run's length t_end (s)."""
+
+    e0: float
+    tolerance: float
+    horizon: float | None
+    t_end: float
+
+
 def judge_free_run(
     t: np.ndarray,
     error: np.ndarray,
@@ -202,7 +225,7 @@ def judge_free_run(
     tolerance: float = DEFAULT_TOLERANCE,
     safety: float = SAFETY,
     until: float | None = None,
-) -> dict[str, Any]:
+) -> Judgement:
     """Whether a free-running error stays inside safety x envelope up to the predictability horizon
     (and no later than `until`, where another prediction ends: a mirror's, where its scheme's own
     truncation error leaves the tolerance and the reference's flow no longer bounds how the scheme
@@ -246,7 +269,7 @@ def horizon_from_rounding(
     tolerance: float = DEFAULT_TOLERANCE,
     t_end: float = 200.0,
     dt_out: float = 0.1,
-) -> dict[str, Any]:
+) -> RoundingHorizon:
     """Predictability horizon of the initial state's own rounding (e0 = 2^-53 |x0|): the best any double
     precision integration can do. Phi from the variational equations in long double."""
     q0, v0, tau = start.q0, start.v0, start.tau

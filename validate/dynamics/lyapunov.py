@@ -7,7 +7,7 @@ import json
 import os
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, NotRequired, TypedDict
 
 import numpy as np
 
@@ -18,6 +18,7 @@ from ..results import dumps
 from ..systems import System
 from .flow import (
     DEFAULT_TOLERANCE,
+    RoundingHorizon,
     amplification,
     flow,
     horizon_from_rounding,
@@ -32,6 +33,36 @@ LYAPUNOV_T_END = 500.0  # s: finite-time estimates fluctuate by ~+-0.03/s around
 LYAPUNOV_INTERVAL = 0.5  # s between renormalisations (growth per interval e^0.12: far from overflow)
 
 
+# `lyapunov_exponent`'s answer (its keys below); "lambda" is a keyword, so the functional form
+Lyapunov = TypedDict(
+    "Lyapunov",
+    {
+        "lambda": float,
+        "method": str,
+        "t_end": float,
+        "interval": float,
+        "running": list[list[float]],
+        "spread": float,
+        "seconds": float,
+        "spectrum": NotRequired[list[float]],
+        "d0": NotRequired[float],
+    },
+)
+
+
+class ChaosSummary(TypedDict):
+    """`_chaos_summary`: the exponent by both methods and their agreement (1/s), the amplification
+    (at 1, 2, 5, 10 s and its largest) and the horizons, of the rounding and estimated from lambda (s)."""
+
+    lyapunov: Lyapunov
+    lyapunov_two_trajectories: Lyapunov
+    lyapunov_agreement: float
+    amplification_at: dict[str, float]
+    max_amplification: float
+    horizon_from_rounding: RoundingHorizon
+    horizon_estimate_from_lambda: float | None
+
+
 # ----------------------------------------------------------------------------------------------
 # Lyapunov exponent
 
@@ -44,7 +75,7 @@ def lyapunov_exponent(
     interval: float = LYAPUNOV_INTERVAL,
     method: str = "variational",
     d0: float = 1e-9,
-) -> dict[str, Any]:
+) -> Lyapunov:
     """The largest Lyapunov exponent (1/s) along the trajectory from `start`, by Benettin's method.
 
     method "variational": Phi restarted from Q of its QR every `interval`; the log of R's diagonal
@@ -76,7 +107,7 @@ def lyapunov_exponent(
     running_arr = np.array(running)
     times = interval * np.arange(1, steps + 1)
     tenth = max(steps // 10, 1)
-    out = {
+    out: Lyapunov = {
         "lambda": float(running_arr[-1]),
         "method": method,
         "t_end": t_end,
@@ -146,7 +177,7 @@ def _two_trajectory_logs(
 
 
 @functools.lru_cache(maxsize=64)  # one per (system, start): bounded, recomputed when dropped
-def _lyapunov_cached(system: System, x0: tuple[float, ...], tau: tuple[float, ...], method: str) -> dict[str, Any]:
+def _lyapunov_cached(system: System, x0: tuple[float, ...], tau: tuple[float, ...], method: str) -> Lyapunov:
     n = system.nv
     return lyapunov_exponent(system, Start.of(x0[:n], x0[n:], tau), method=method)
 
@@ -207,7 +238,7 @@ def _summary_problem(summary: dict[str, Any], tolerance: float) -> str | None:
     return None
 
 
-def _chaos_summary(system: System, start: Start, *, t: np.ndarray, tolerance: float) -> dict[str, Any]:
+def _chaos_summary(system: System, start: Start, *, t: np.ndarray, tolerance: float) -> ChaosSummary:
     tau = start.tau
     x0 = tuple(float(x) for x in np.concatenate([start.q0, start.v0]))
     lyap = _lyapunov_cached(system, x0, tuple(float(x) for x in tau), "variational")
