@@ -29,7 +29,7 @@ equations, never that its step is too coarse for the model: the estimate says th
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import TypedDict
 
 import numpy as np
 
@@ -121,9 +121,19 @@ def threshold(estimate: np.ndarray) -> np.ndarray:
 ABA_METHOD, ABA_RTOL = "DOP853", 1e-12  # the reference of a chain with no symbolic source (atol = rtol)
 
 
+class AbaReference(TypedDict):
+    """`aba_reference`'s account of itself: how the reference and its check were made, their largest
+    difference in q (rad) and the reference run's status."""
+
+    method: str
+    check: str
+    agreement_q: float
+    status: str
+
+
 def aba_reference(
     system: System, source: Source, start: Start, t: np.ndarray
-) -> tuple[Trajectory, Trajectory, dict[str, Any]]:
+) -> tuple[Trajectory, Trajectory, AbaReference]:
     """The reference of a chain with no symbolic source (no equations the Taylor method can trace):
     Pinocchio's ABA by scipy's ABA_METHOD at ABA_RTOL, and its check, the same at half the tolerances;
     info["agreement_q"] (rad) is the two runs' largest difference, the reference's stated accuracy."""
@@ -131,7 +141,7 @@ def aba_reference(
     half = ABA_RTOL / 2
     check = scipy_trajectory(system, source, start, t, method=ABA_METHOD, rtol=half, atol=half)
     agreement = float(np.nanmax(np.abs(ref.q - check.q))) if np.isfinite(check.q).any() else float("nan")
-    info = {
+    info: AbaReference = {
         "method": f"Pinocchio ABA, scipy {ABA_METHOD} rtol {ABA_RTOL:g}",
         "check": f"the same at rtol {half:g}",
         "agreement_q": agreement,

@@ -18,13 +18,11 @@ form that blows up or spends its budget is recorded with the reason ("diverged a
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from ..forms import Explicit, Implicit, NotApplicable
 from ..model.start import Start
-from ..sources.fastpath import scalar_rhs
+from ..sources.fastpath import ScalarRhs, scalar_rhs
 from ..sources.hand import HandSource
 from ..systems import System
 from .fast import accurate_trajectory
@@ -52,7 +50,7 @@ def dynamic_forms(system: System) -> list[tuple[str, Implicit | Explicit | None]
 
 
 def _integrate(
-    rhs: Any,
+    rhs: ScalarRhs,
     q0: np.ndarray,
     v0: np.ndarray,
     tau: np.ndarray,
@@ -86,7 +84,7 @@ def _status(info: RunStats) -> str:
     return "ok" if info["status"] == "ok" else str(info["reason"])
 
 
-def run_experiments(system: System) -> dict[str, Any]:
+def run_experiments(system: System) -> dict[str, object]:
     """Both initial conditions, both tolerances, every dynamic form; plain data for the report."""
     q0, v0 = initial_state(system)
     tau = np.zeros(system.nv)
@@ -97,7 +95,7 @@ def run_experiments(system: System) -> dict[str, Any]:
 
     fast = accurate_trajectory(system, HandSource(system), Start(q0, v0, tau), t)
     accurate, accurate_info = fast.q, fast.stats
-    runs: list[dict[str, Any]] = []
+    runs: list[dict[str, object]] = []
     for name, variant in forms:
         try:
             rhs = scalar_rhs(system, variant)

@@ -92,7 +92,7 @@ def param_key(system: System) -> tuple[tuple[str, str], ...]:
 
 
 @functools.lru_cache(maxsize=64)  # one per parameter set: probes and overrides make many
-def _symbolic(name: str, module: types.ModuleType, p: Any, n: int) -> SymbolicDynamics:
+def _symbolic(name: str, module: types.ModuleType, p: object, n: int) -> SymbolicDynamics:
     hy = heyoka()
 
     qs = [hy.expression(f"q{i}") for i in range(n)]

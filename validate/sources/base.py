@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol, TypeVar, runtime_checkable
 
@@ -89,8 +89,9 @@ class PosedSource(Source, Protocol):
     def kinematics(self, q: np.ndarray, v: np.ndarray) -> Kinematics: ...
 
 
-# scipy's right-hand side f(t, y) of one state y = (q, v), for a constant input.
-RightHandSide = Callable[[float, np.ndarray], np.ndarray]
+# scipy's right-hand side f(t, y) of one state y = (q, v), for a constant input: (v, a) as an array, or
+# as the list of floats the hand equations' generated code returns (sources/fastpath.py)
+RightHandSide = Callable[[float, np.ndarray], np.ndarray | Sequence[float]]
 
 
 @runtime_checkable

@@ -13,6 +13,8 @@ from __future__ import annotations
 from collections.abc import Callable, Hashable, Sequence
 from typing import TYPE_CHECKING, TypeAlias, cast
 
+import numpy as np
+
 from ..forms import Explicit, Implicit
 from ..handwritten import tracing
 from ..systems import System
@@ -21,7 +23,7 @@ if TYPE_CHECKING:  # sympy is imported when first used
     import sympy as sp
 
 # the generated one-state right-hand side: rhs(t, y, tau) -> [v..., a...]
-ScalarRhs: TypeAlias = Callable[[float, Sequence[float], Sequence[float]], list[float]]
+ScalarRhs: TypeAlias = Callable[[float, np.ndarray | Sequence[float], Sequence[float]], list[float]]
 # a = M^-1 f symbolically, and the symbols of q, v and tau it is in
 Accelerations: TypeAlias = "tuple[list[sp.Expr], list[sp.Symbol], list[sp.Symbol], list[sp.Symbol]]"
 
