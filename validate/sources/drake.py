@@ -25,10 +25,12 @@ from __future__ import annotations
 
 import importlib.util
 import logging
+from collections.abc import Callable
 from typing import Any, TypedDict
 
 import numpy as np
 
+from ..core.arrays import Floats
 from ..core.errors import HarnessError
 from ..model.modelview import names
 from ..systems import System
@@ -416,7 +418,7 @@ class DrakeSource:
         return ctx
 
     # -- batches ------------------------------------------------------------------------------
-    def _each(self, q: np.ndarray, v: np.ndarray, fn: Any) -> np.ndarray:
+    def _each(self, q: np.ndarray, v: np.ndarray, fn: Callable[[int], Floats]) -> np.ndarray:
         rows = []
         for i in range(len(q)):
             self._set(q[i], v[i])
@@ -529,11 +531,11 @@ class DrakeSource:
         V = plant.EvalBodySpatialVelocityInWorld(ctx, body)
         return 0.5 * float(V.dot(M_W * V))
 
-    def reading(self) -> dict[str, Any]:
+    def reading(self) -> dict[str, float | np.ndarray]:
         """How Drake read each compared body and joint, keyed as validate/audit/audit.py compares them:
         mass, centre of mass and inertia about it in the body's frame (with the bodies welded to it),
         and at q = 0 each joint's anchor and axis in the world, its limits, damping and armature."""
-        out: dict[str, Any] = {}
+        out: dict[str, float | np.ndarray] = {}
         self._set(np.zeros(len(self.qidx)), np.zeros(len(self.vidx)))
         for b, k in zip(self.system.bodies, range(len(self.bodies)), strict=True):
             mass, com, inertia = self._group_inertia(k)
@@ -561,7 +563,7 @@ class DrakeSource:
         inertia = total.Shift(com).CalcRotationalInertia().CopyToFullMatrix3()
         return mass, com, np.array(inertia, dtype=float)
 
-    def _joint_reading(self, j: str) -> dict[str, Any]:
+    def _joint_reading(self, j: str) -> dict[str, float | np.ndarray]:
         """Joint j at q = 0: anchor and motion axis (linear, angular) in the world, limits, damping and
         armature as Drake's parser read them (before any alignment)."""
         plant, ctx = self.plant, self.context
