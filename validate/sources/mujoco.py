@@ -356,10 +356,10 @@ def warnings_raised(d: mujoco.MjData) -> list[tuple[str, int]]:
 
 
 @contextlib.contextmanager
-def scheme(m: mujoco.MjModel, integrator: str, timestep: float) -> Iterator[None]:
-    """The model steps with `integrator` at `timestep` inside the block; its own options after."""
+def scheme(m: mujoco.MjModel, stepping: Scheme) -> Iterator[None]:
+    """The model steps with `stepping` (its integrator at its timestep) inside the block; its own options after."""
     saved = (m.opt.integrator, m.opt.timestep)
-    m.opt.integrator, m.opt.timestep = integrator_enum(integrator), float(timestep)
+    m.opt.integrator, m.opt.timestep = integrator_enum(stepping.integrator), float(stepping.timestep)
     try:
         yield
     finally:
@@ -380,7 +380,7 @@ def step_states(
     m, d = source.m, source.d
     tau = np.broadcast_to(np.asarray(tau, dtype=float), np.shape(q))
     q_out, v_out = np.empty(np.shape(q)), np.empty(np.shape(v))
-    with scheme(m, stepping.integrator, stepping.timestep):
+    with scheme(m, stepping):
         for i in range(len(q)):
             mujoco.mj_resetData(m, d)
             source.set_state(q[i], v[i], tau[i])
@@ -402,7 +402,7 @@ def free_run(
     q0, v0, tau = start.q0, start.v0, start.tau
     n = len(np.atleast_1d(q0))
     q, v, clock = np.empty((samples, n)), np.empty((samples, n)), np.empty(samples)
-    with scheme(m, stepping.integrator, stepping.timestep):
+    with scheme(m, stepping):
         mujoco.mj_resetData(m, d)
         source.set_state(q0, v0, tau)
         q[0], v[0], clock[0] = q0, v0, d.time
@@ -506,7 +506,7 @@ def timed_run(
     mujoco.set_mju_user_warning(lambda msg: printed.append(str(msg).strip()))
     stopped_at = None
     try:
-        with scheme(m, stepping.integrator, stepping.timestep):
+        with scheme(m, stepping):
             mujoco.mj_resetData(m, d)
             source.set_state(np.asarray(q0, dtype=float), np.asarray(v0, dtype=float), np.asarray(tau, dtype=float))
             qpos[0], qvel[0] = d.qpos, d.qvel
@@ -552,7 +552,7 @@ def rollout_run(
     threads = max(1, min(batch, nthread or 1, os.cpu_count() or 1))
     spec = int(mujoco.mjtState.mjSTATE_FULLPHYSICS)
     control_spec = int(mujoco.mjtState.mjSTATE_CTRL) | int(mujoco.mjtState.mjSTATE_QFRC_APPLIED)
-    with scheme(m, stepping.integrator, stepping.timestep):
+    with scheme(m, stepping):
         mujoco.mj_resetData(m, d)
         source.set_state(np.asarray(q0, dtype=float), np.asarray(v0, dtype=float), np.asarray(tau, dtype=float))
         x0 = np.empty(mujoco.mj_stateSize(m, spec))
@@ -615,7 +615,7 @@ def sampled_run(
     flags = int(m.opt.disableflags) | (0 if eulerdamp else int(mujoco.mjtDisableBit.mjDSBL_EULERDAMP))
     qs: list[np.ndarray] = []
     vs: list[np.ndarray] = []
-    with scheme(m, stepping.integrator, stepping.timestep), disabled(m, flags):
+    with scheme(m, stepping), disabled(m, flags):
         mujoco.mj_resetData(m, d)
         source.set_state(q0, v0, tau)
         for k in range(1, chunks + 1):
