@@ -129,10 +129,10 @@ def test_scipys_error_estimate_bounds_its_error_at_an_extreme_ratio(tmp_path):
     system = _extreme(tmp_path)
     t = np.linspace(0.0, 10.0, 1001)
     q0, v0, tau = np.array([0.0, 3.0]), np.zeros(2), np.zeros(2)
-    ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=None)
+    ref, _ = reference_trajectory(system, Start.of(q0, v0, tau), t, cache_dir=None)
     pin = make_source(system, "pinocchio")
     o = SCIPY_DEFAULT
-    run = scipy_trajectory(system, pin, q0, v0, tau, t, method=o["method"], rtol=o["rtol"], atol=o["atol"])
+    run = scipy_trajectory(system, pin, Start.of(q0, v0, tau), t, method=o["method"], rtol=o["rtol"], atol=o["atol"])
     estimate, how = scipy_estimate(system, pin, run, Start.of(q0, v0, tau))
     error = np.abs(run.q - ref.q).max(axis=1)
     assert "DOP853" in how

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..core.errors import HarnessError
 from ..dynamics import integrate
+from ..model.start import Start
 from ..results import atomic_write, harness_version
 from ..sources import make_source
 from ..sources.base import stepped
@@ -195,10 +196,12 @@ def cmd_simulate(args: argparse.Namespace, one_system: Callable[[argparse.Namesp
         timestep, note = mujoco_timestep(float(source.m.opt.timestep), args.dt_out)
         adjustments += [note] if note else []
         traj = integrate.mujoco_trajectory(
-            system, source, st.q[0], st.v[0], st.tau[0], t, integrator="RK4", timestep=timestep
+            system, source, Start.of(st.q[0], st.v[0], st.tau[0]), t, integrator="RK4", timestep=timestep
         )
     else:
-        traj = integrate.scipy_trajectory(system, source, st.q[0], st.v[0], st.tau[0], t, **integrate.SCIPY_DEFAULT)
+        traj = integrate.scipy_trajectory(
+            system, source, Start.of(st.q[0], st.v[0], st.tau[0]), t, **integrate.SCIPY_DEFAULT
+        )
     table = np.column_stack([traj.t, traj.q, traj.v])
     bad = np.argwhere(~np.isfinite(table))
     if len(bad):  # never data: a non-finite sample is the error, with where it happened

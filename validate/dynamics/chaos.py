@@ -42,8 +42,9 @@ All public functions return JSON-able dicts (floats, lists, None) unless documen
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 
@@ -55,13 +56,13 @@ from ..systems import System
 from .flow import DEFAULT_TOLERANCE as DEFAULT_TOLERANCE
 from .flow import SAFETY as SAFETY
 from .flow import Flow as Flow
+from .flow import Judgement, predicted_error, sample_at, transfer_norms
 from .flow import amplification as amplification
 from .flow import error_envelope as error_envelope
 from .flow import flow as flow
 from .flow import horizon_from_rounding as horizon_from_rounding
 from .flow import judge_free_run as judge_free_run
 from .flow import predictability_horizon as predictability_horizon
-from .flow import predicted_error, sample_at, transfer_norms
 from .integrate import DEFAULT_DT_OUT, DEFAULT_T_END, Trajectory, energy, initial_state, mujoco_trajectory, time_grid
 from .lyapunov import chaos_summary as chaos_summary
 from .lyapunov import lyapunov_exponent as lyapunov_exponent
@@ -96,6 +97,87 @@ STABLE_FRACTION = 0.5  # well inside the region, where the error is in its asymp
 JACOBIAN_STEP = 1e-6  # central differences of the accelerations, relative to max(|x|, 1)
 
 
+class FreeRunCheck(TypedDict):
+    """`free_run_check`: a free run against the reference (errors in rad, max over q; window errors as
+    state 2-norms; "..._at" sampled at 1, 2, 5, 10 s), judged against its propagated window errors."""
+
+    engine: str
+    integrator: str
+    timestep: float
+    max_error: float
+    error_at: dict[str, float]
+    max_window_error: float
+    envelope_at: dict[str, float]
+    predicted_at: dict[str, float]
+    predicted_horizon: float | None
+    prediction_mismatch: float
+    judge: Judgement
+
+
+class RoundOffLimit(TypedDict):
+    """`round_off_limit`: the window ulps two sources under one scheme may differ by, and what it is made of."""
+
+    limit: float
+    formula: str
+    cond_max: float
+    max_acceleration: float
+    max_state: float
+    steps: int
+    timestep: float
+
+
+class MirrorVerdict(TypedDict):
+    """`_mirror_verdict`: round-off windows (in ulps of max |x|, within the limit) and the free-run
+    difference judged inside the envelope."""
+
+    max_window_difference: float
+    window_ulps: float
+    window_ulps_limit: float
+    round_off: bool
+    envelope_at: dict[str, float]
+    judge: Judgement
+    passed: bool
+
+
+class PairCheck(MirrorVerdict):
+    """`pair_check`: two free runs of one scheme ("a~b"), their largest difference (rad) and its verdict."""
+
+    pair: str
+    integrator: str
+    timestep: float
+    max_difference: float
+    difference_at: dict[str, float]
+
+
+class ConvergenceOrder(TypedDict):
+    """`convergence_order`: the sweep's timesteps (s) and errors (rad), the fitted and pairwise orders
+    (None where too few runs stayed finite) and the scheme's expected order."""
+
+    engine: str
+    integrator: str
+    t_end: float
+    timesteps: list[float]
+    stable_timestep: float | None
+    timesteps_from: str
+    errors: list[float]
+    order: float | None
+    pairwise_orders: list[float] | None
+    expected: int
+
+
+class EnergyDrift(TypedDict):
+    """`energy_drift`: a run's energy minus the reference's (J; "rate" J/s, "relative" to max |E_ref|)."""
+
+    engine: str
+    integrator: str
+    timestep: float
+    max_abs: float
+    final: float
+    rate: float
+    relative: float
+    reference_energy_range: float
+
+
 # ----------------------------------------------------------------------------------------------
 # Runs, window errors, judging
 
@@ -104,13 +186,10 @@ def _run(
     system: System, sources: Mapping[str, Source], engine: str, start: Start, t: np.ndarray, scheme: Scheme
 ) -> Trajectory:
     """A free run: MuJoCo stepping (engine "mujoco") or the mirror of its scheme on another source."""
-    q0, v0, tau = start.q0, start.v0, start.tau
     integrator, timestep = scheme.integrator, scheme.timestep
     if engine == "mujoco":
-        return mujoco_trajectory(
-            system, stepped(sources["mujoco"]), q0, v0, tau, t, integrator=integrator, timestep=timestep
-        )
-    return mirror_trajectory(system, sources[engine], q0, v0, tau, t, integrator=integrator, timestep=timestep)
+        return mujoco_trajectory(system, stepped(sources["mujoco"]), start, t, integrator=integrator, timestep=timestep)
+    return mirror_trajectory(system, sources[engine], start, t, integrator=integrator, timestep=timestep)
 
 
 def window_errors(
@@ -122,25 +201,20 @@ def window_errors(
     scheme: Scheme,
 ) -> np.ndarray:
     """(K-1, 2n): the run restarted from the reference at each sample, minus the reference one sample later."""
-    integrator, timestep = scheme.integrator, scheme.timestep
     dt_out = float(ref.t[1] - ref.t[0])
-    steps = round(dt_out / timestep)
+    steps = round(dt_out / scheme.timestep)
     q, v = ref.q[:-1], ref.v[:-1]
     if engine == "mujoco":
-        q1, v1 = mujoco_steps(
-            stepped(sources["mujoco"]), q, v, tau, integrator=integrator, timestep=timestep, steps=steps
-        )
+        q1, v1 = mujoco_steps(stepped(sources["mujoco"]), q, v, tau, scheme, steps=steps)
     else:
-        q1, v1 = mirror_steps(system, sources[engine], q, v, tau, integrator=integrator, timestep=timestep, steps=steps)
+        q1, v1 = mirror_steps(system, sources[engine], q, v, tau, scheme, steps=steps)
     return np.concatenate([q1 - ref.q[1:], v1 - ref.v[1:]], axis=1)
 
 
 def free_run_check(
     system: System,
     sources: Mapping[str, Source],
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    start: Start,
     t: np.ndarray,
     *,
     engine: str = "mujoco",
@@ -148,8 +222,8 @@ def free_run_check(
     timestep: float | None = None,
     tolerance: float = DEFAULT_TOLERANCE,
     ref: Trajectory | None = None,
-    cache_dir: Any = DEFAULT_CACHE_DIR,
-) -> dict[str, Any]:
+    cache_dir: str | os.PathLike[str] | None = DEFAULT_CACHE_DIR,
+) -> FreeRunCheck:
     """A free run against the reference, judged against its propagated window errors.
 
     Returns {"engine", "integrator", "timestep" (s), "max_error", "error_at" {"1 s": .., "10 s": ..},
@@ -157,14 +231,14 @@ def free_run_check(
     "predicted_horizon" (s or None), "prediction_mismatch" (max |error - predicted| / max error),
     "judge": judge_free_run(...)}; errors in rad (max over q), window errors as state 2-norms.
     """
-    q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
+    tau = start.tau
     dt = float(timestep or system.mujoco_model().opt.timestep)
     if ref is None:
-        ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=cache_dir)
-    run = _run(system, sources, engine, Start(q0, v0, tau), t, Scheme(integrator, dt))
+        ref, _ = reference_trajectory(system, start, t, cache_dir=cache_dir)
+    run = _run(system, sources, engine, start, t, Scheme(integrator, dt))
     err = np.abs(run.q - ref.q).max(axis=1)
     w = window_errors(system, sources, engine, ref, tau, Scheme(integrator, dt))
-    fl = flow(system, q0, v0, tau, t)
+    fl = flow(system, start, t)
     env = error_envelope(fl, window_errors=w, floor=rounding_floor(ref))
     return _free_run_entry(engine, integrator, dt, t, err, w, env, predicted_error(fl, w), tolerance)
 
@@ -179,7 +253,7 @@ def _free_run_entry(
     env: np.ndarray,
     pred: np.ndarray,
     tolerance: float,
-) -> dict[str, Any]:
+) -> FreeRunCheck:
     return {
         "engine": engine,
         "integrator": integrator,
@@ -200,17 +274,15 @@ def pair_check(
     sources: Mapping[str, Source],
     a: str,
     b: str,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    start: Start,
     t: np.ndarray,
     *,
     integrator: str = "RK4",
     timestep: float | None = None,
     ref: Trajectory | None = None,
     tolerance: float = DEFAULT_TOLERANCE,
-    cache_dir: Any = DEFAULT_CACHE_DIR,
-) -> dict[str, Any]:
+    cache_dir: str | os.PathLike[str] | None = DEFAULT_CACHE_DIR,
+) -> PairCheck:
     """Two free runs of the same scheme (e.g. MuJoCo and the hand mirror) judged against the envelope of
     their window-by-window difference (both restarted from the reference at every sample).
 
@@ -218,17 +290,17 @@ def pair_check(
     "window_ulps" (in units of the spacing of doubles at max |x|), "round_off" (<= ROUND_OFF_ULPS),
     "envelope_at", "judge", "passed" (round-off windows and judge passed)}.
     """
-    q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
+    tau = start.tau
     dt = float(timestep or system.mujoco_model().opt.timestep)
     if ref is None:
-        ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=cache_dir)
-    run_a = _run(system, sources, a, Start(q0, v0, tau), t, Scheme(integrator, dt))
-    run_b = _run(system, sources, b, Start(q0, v0, tau), t, Scheme(integrator, dt))
+        ref, _ = reference_trajectory(system, start, t, cache_dir=cache_dir)
+    run_a = _run(system, sources, a, start, t, Scheme(integrator, dt))
+    run_b = _run(system, sources, b, start, t, Scheme(integrator, dt))
     err = np.abs(run_a.q - run_b.q).max(axis=1)
     w = window_errors(system, sources, a, ref, tau, Scheme(integrator, dt)) - window_errors(
         system, sources, b, ref, tau, Scheme(integrator, dt)
     )
-    env = error_envelope(flow(system, q0, v0, tau, t), window_errors=w, floor=rounding_floor(ref))
+    env = error_envelope(flow(system, start, t), window_errors=w, floor=rounding_floor(ref))
     return {
         "pair": f"{a}~{b}",
         "integrator": integrator,
@@ -241,7 +313,7 @@ def pair_check(
     }
 
 
-def round_off_limit(hand: Any, ref: Trajectory, tau: np.ndarray, *, timestep: float) -> dict[str, Any]:
+def round_off_limit(hand: Source, ref: Trajectory, tau: np.ndarray, *, timestep: float) -> RoundOffLimit:
     """The window ulps two sources under one scheme may differ by on this model and run (see ROUND_OFF_ULPS)."""
     cond = float(np.linalg.cond(hand.mass_matrix(ref.q)).max())
     a = float(np.abs(hand.forward(ref.q, ref.v, np.broadcast_to(tau, ref.q.shape))).max())
@@ -268,7 +340,7 @@ def _mirror_verdict(
     tolerance: float,
     limit: float,
     until: float | None = None,
-) -> dict[str, Any]:
+) -> MirrorVerdict:
     """Round-off windows (within `limit` ulps, `round_off_limit`) and a free-run difference inside the
     envelope (judged no later than `until`: the scheme's own horizon): the two halves of a mirror's verdict."""
     ulp = float(np.spacing(np.abs(np.concatenate([ref.q, ref.v], axis=1)).max()))
@@ -329,17 +401,15 @@ def sweep_timesteps(integrator: str, rate: float) -> tuple[tuple[float, ...], fl
 def convergence_order(
     system: System,
     sources: Mapping[str, Source],
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    start: Start,
     *,
     integrator: str,
     timesteps: tuple[float, ...] | None = None,
     t_end: float = CONVERGENCE_T_END,
     engine: str = "mujoco",
-    cache_dir: Any = DEFAULT_CACHE_DIR,
+    cache_dir: str | os.PathLike[str] | None = DEFAULT_CACHE_DIR,
     check: str | None = CHECK,
-) -> dict[str, Any]:
+) -> ConvergenceOrder:
     """The observed order of `integrator` from a timestep sweep against the reference.
 
     error(dt) = max over the grid (output step: the largest timestep) of max |q - q_ref|; the order is
@@ -347,18 +417,18 @@ def convergence_order(
     """
     if integrator not in INTEGRATORS:
         raise unknown_name("MuJoCo integrator", integrator, INTEGRATORS)
-    q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
+    tau = start.tau
     stable = None
     if timesteps is None:
         coarse = time_grid(t_end, DEFAULT_DT_OUT)  # samples 10 ms apart: a 0.02 s grid missed the fastest
-        around, _ = reference_trajectory(system, q0, v0, tau, coarse, cache_dir=cache_dir, check=check)
+        around, _ = reference_trajectory(system, start, coarse, cache_dir=cache_dir, check=check)
         timesteps, stable = sweep_timesteps(integrator, largest_rate(sources["hand"], around, tau))
     dts = tuple(timesteps)
     t = time_grid(t_end, max(dts))
-    ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=cache_dir, check=check)
+    ref, _ = reference_trajectory(system, start, t, cache_dir=cache_dir, check=check)
     errors = []
     for dt in dts:
-        run = _run(system, sources, engine, Start(q0, v0, tau), t, Scheme(integrator, dt))
+        run = _run(system, sources, engine, start, t, Scheme(integrator, dt))
         errors.append(float(np.abs(run.q - ref.q).max()))
     usable = [(dt, e) for dt, e in zip(dts, errors, strict=True) if e > 0 and np.isfinite(e)]  # a diverged run: NaN
     order = (
@@ -387,27 +457,24 @@ def convergence_order(
 def energy_drift(
     system: System,
     sources: Mapping[str, Source],
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    start: Start,
     t: np.ndarray,
     *,
     integrator: str,
     timestep: float | None = None,
     engine: str = "mujoco",
     ref: Trajectory | None = None,
-    cache_dir: Any = DEFAULT_CACHE_DIR,
-) -> dict[str, Any]:
+    cache_dir: str | os.PathLike[str] | None = DEFAULT_CACHE_DIR,
+) -> EnergyDrift:
     """Energy of a run minus the reference's energy at the same times (J), by the hand equations.
 
     For a conservative system (no damping, no input) the reference energy is constant to ~1e-15
     and this is the usual drift; with damping or inputs it is the run's energy error.
     """
-    q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
     dt = float(timestep or system.mujoco_model().opt.timestep)
     if ref is None:
-        ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=cache_dir)
-    run = _run(system, sources, engine, Start(q0, v0, tau), t, Scheme(integrator, dt))
+        ref, _ = reference_trajectory(system, start, t, cache_dir=cache_dir)
+    run = _run(system, sources, engine, start, t, Scheme(integrator, dt))
     e_run, e_ref = energy(system, sources["hand"], run), energy(system, sources["hand"], ref)
     diff = e_run - e_ref
     scale = float(np.max(np.abs(e_ref)) or 1.0)
@@ -432,15 +499,13 @@ def crossvalidate(
     system: System,
     sources: Mapping[str, Source],
     *,
-    q0: Any = None,
-    v0: Any = None,
-    tau: Any = None,
+    start: Start | None = None,
     t_end: float = DEFAULT_T_END,
     dt_out: float = DEFAULT_DT_OUT,
     tolerance: float = DEFAULT_TOLERANCE,
     integrators: tuple[str, ...] = INTEGRATORS,
     mirror_engines: tuple[str, ...] = ("hand", "pinocchio"),
-    cache_dir: Any = DEFAULT_CACHE_DIR,
+    cache_dir: str | os.PathLike[str] | None = DEFAULT_CACHE_DIR,
     lockstep_every: int = 10,
 ) -> dict[str, Any]:
     """Trajectory cross-validation of one system, JSON-able: reference, chaos measures, and per MuJoCo
@@ -450,21 +515,17 @@ def crossvalidate(
     The start is the module's INITIAL_STATE (or the harness's generic one) with zero input unless given.
     """
 
-    if q0 is None or v0 is None:
-        q0_default, v0_default = initial_state(system)
-        q0 = q0_default if q0 is None else q0
-        v0 = v0_default if v0 is None else v0
-    q0, v0 = np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)
-    tau = np.zeros(system.nv) if tau is None else np.asarray(tau, dtype=float)
+    start = Start.at_rest(*initial_state(system)) if start is None else start
+    tau = start.tau
     t = time_grid(t_end, dt_out)
     dt = float(system.mujoco_model().opt.timestep)
-    ref, ref_info = reference_trajectory(system, q0, v0, tau, t, cache_dir=cache_dir)
-    fl = flow(system, q0, v0, tau, t)
+    ref, ref_info = reference_trajectory(system, start, t, cache_dir=cache_dir)
+    fl = flow(system, start, t)
     g = transfer_norms(fl)
     floor = rounding_floor(ref)
     out: dict[str, Any] = {
-        "q0": q0.tolist(),
-        "v0": v0.tolist(),
+        "q0": start.q0.tolist(),
+        "v0": start.v0.tolist(),
         "tau": tau.tolist(),
         "t_end": t_end,
         "dt_out": dt_out,
@@ -472,7 +533,7 @@ def crossvalidate(
         "tolerance": tolerance,
         "safety": SAFETY,
         "reference": ref_info,
-        "chaos": chaos_summary(system, q0, v0, tau, t=t, tolerance=tolerance, cache_dir=cache_dir),
+        "chaos": chaos_summary(system, start, t=t, tolerance=tolerance, cache_dir=cache_dir),
         "amplification": amplification(fl),  # (K,) on the grid t: how much the dynamics amplify an error
         "round_off": round_off_limit(sources["hand"], ref, tau, timestep=dt),
         "integrators": {},
@@ -483,7 +544,7 @@ def crossvalidate(
             system,
             sources,
             integrator,
-            start=Start(q0, v0, tau),
+            start=start,
             t=t,
             dt=dt,
             ref=ref,
@@ -521,11 +582,11 @@ def _integrator_entry(
     limit: float,
     mirror_engines: tuple[str, ...],
     lock_states: tuple[np.ndarray, np.ndarray],
-    cache_dir: Any,
+    cache_dir: str | os.PathLike[str] | None,
 ) -> dict[str, Any]:
     """One MuJoCo integrator's entry of `crossvalidate`: its free run against the reference, the mirrors
     against mj_step (judged within `limit` round-off ulps), lockstep, convergence order and energy."""
-    q0, v0, tau = start.q0, start.v0, start.tau
+    tau = start.tau
     runs, windows = {}, {}
     for engine in ("mujoco", *mirror_engines):
         runs[engine] = _run(system, sources, engine, start, t, Scheme(integrator, dt))
@@ -574,7 +635,7 @@ def _integrator_entry(
         timestep=dt,
         tau=tau,
     )["pairs"]
-    entry["convergence"] = convergence_order(system, sources, q0, v0, tau, integrator=integrator, cache_dir=cache_dir)
+    entry["convergence"] = convergence_order(system, sources, start, integrator=integrator, cache_dir=cache_dir)
     e_run = energy(system, sources["hand"], runs["mujoco"])
     e_ref = energy(system, sources["hand"], ref)
     entry["energy"] = {

@@ -26,19 +26,25 @@ module by `reference.rhs_check`.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
-from typing import Any
+from collections.abc import Callable, Hashable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..core.arrays import Floats
 from ..core.cachedir import heyoka
 from ..core.errors import HarnessError
 from ..core.memo import Memo
 from ..handwritten import tracing
+from ..model.start import Start
 from ..sources.symbolic import derivation_of
 from ..symbolic.derivation import parameter_values
 from ..systems import System
 from .reference import param_key, symbolic_dynamics
+
+if TYPE_CHECKING:  # heyoka is imported when first used (core/cachedir.heyoka)
+    import sympy as sp
+    from heyoka import cfunc_dbl, expression, taylor_adaptive_dbl
 
 # MuJoCo's RK4 tableau (`mj_RungeKutta(m, d, 4)`), used by the mirrors (mirror.py) and the compiled steps
 RK4_A = ((0.5,), (0.0, 0.5), (0.0, 0.0, 1.0))
@@ -54,12 +60,12 @@ UNROLLED_MAX_DOF = 2  # steps composed into one compiled call (compile time grow
 _COMPILED = Memo(maxsize=512)
 
 
-def _key(system: System, *what: Any) -> tuple[Any, ...]:
+def _key(system: System, *what: Hashable) -> tuple[Hashable, ...]:
     # the module itself, not its name: a mutated module of the same name gets its own code
     return (system.name, system.overrides, param_key(system), system.equations, *what)
 
 
-def derived_ode(system: System) -> list[tuple[Any, Any]]:
+def derived_ode(system: System) -> list[tuple[expression, expression]]:
     """The model's equations derived symbolically (the "symbolic" source) as a heyoka ODE in the
     joints' coordinates: x = (q_joint, v_joint), a = M^-1 (tau - (C v + G - passive)), tau = par[0:n]."""
     hy = heyoka()
@@ -72,7 +78,7 @@ def derived_ode(system: System) -> list[tuple[Any, Any]]:
     names = {**dict(zip(d.q, qs, strict=True)), **dict(zip(d.v, vs, strict=True))}
     names.update({sym: hy.expression(float(values[sym])) for sym in d.source})
 
-    def conv(e: Any) -> Any:
+    def conv(e: sp.Expr) -> expression:
         return hy.from_sympy(e, names)
 
     m = [[conv(d.M[i, j]) for j in range(n)] for i in range(n)]
@@ -81,7 +87,9 @@ def derived_ode(system: System) -> list[tuple[Any, Any]]:
     return list(zip(qs + vs, vs + a, strict=True))
 
 
-def taylor_integrator(system: System, tol: float, *, compact: bool = False, source: str = "hand") -> Any:
+def taylor_integrator(
+    system: System, tol: float, *, compact: bool = False, source: str = "hand"
+) -> taylor_adaptive_dbl:
     """heyoka's adaptive Taylor integrator in double precision at `tol` of the hand equations (or,
     with source="symbolic", of the derived ones in joint coordinates); tau = par[0:n]. Built once per
     process and reused (its state is set by `taylor_grid`)."""
@@ -91,7 +99,7 @@ def taylor_integrator(system: System, tol: float, *, compact: bool = False, sour
         raise HarnessError(f"no Taylor integrator of the '{source}' source; valid: hand, symbolic.")
     key = _key(system, "taylor", float(tol), compact, source)
 
-    def make() -> Any:
+    def make() -> taylor_adaptive_dbl:
         ode = symbolic_dynamics(system).ode if source == "hand" else derived_ode(system)
         n = system.nv
         return hy.taylor_adaptive(ode, np.zeros(2 * n), pars=np.zeros(n), tol=float(tol), compact_mode=compact)
@@ -100,12 +108,13 @@ def taylor_integrator(system: System, tol: float, *, compact: bool = False, sour
 
 
 def taylor_grid(
-    ta: Any, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, max_steps: int = 0
+    ta: taylor_adaptive_dbl, start: Start, t: np.ndarray, *, max_steps: int = 0
 ) -> tuple[str, np.ndarray, int]:
-    """The state (K, 2n) on the grid `t` from (q0, v0) at t[0] with input `tau`: (outcome, states,
+    """The state (K, 2n) on the grid `t` from `start` at t[0] (its input held): (outcome, states,
     steps). outcome "ok", or heyoka's own word when it stopped early (the rows it did not reach NaN).
     `max_steps` > 0 bounds the Taylor steps (a budget with no per-step callback, which would cost more
     than the step itself)."""
+    q0, v0, tau = start.q0, start.v0, start.tau
     ta.time = float(t[0])
     ta.state[:] = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
     ta.pars[:] = np.asarray(tau, dtype=float)
@@ -116,25 +125,25 @@ def taylor_grid(
     return ("ok" if word == "time_limit" else word), out, int(steps)
 
 
-def compiled_rhs(system: System) -> Callable[[float, Any, Any], np.ndarray]:
+def compiled_rhs(system: System) -> Callable[[float, np.ndarray, Floats], np.ndarray]:
     """f(t, y, tau) -> (2n,) [v, a] of the hand equations as one compiled call (a heyoka `cfunc`)."""
     hy = heyoka()
 
     key = _key(system, "cfunc")
 
-    def make() -> Any:
+    def make() -> cfunc_dbl:
         dyn = symbolic_dynamics(system)
         return hy.cfunc(list(dyn.rhs), list(dyn.state))
 
     cf = _COMPILED.get(key, make)
 
-    def rhs(t: float, y: Any, tau: Any) -> np.ndarray:
+    def rhs(t: float, y: np.ndarray, tau: Floats) -> np.ndarray:
         return cf(y, pars=tau)  # type: ignore[no-any-return]
 
     return rhs
 
 
-def _rk4_expressions(system: System, steps: int) -> tuple[list[Any], list[Any]]:
+def _rk4_expressions(system: System, steps: int) -> tuple[list[expression], list[expression]]:
     """`steps` RK4 steps of the hand equations as heyoka expressions of the state; tau = par[0:n],
     the timestep h = par[n]. MuJoCo's `mj_RungeKutta` operation for operation (mirror.py: the stage
     increments accumulated from 0 over the tableau's row, q_i = q + h dq, v_i = v + dv h, the final
@@ -146,10 +155,10 @@ def _rk4_expressions(system: System, steps: int) -> tuple[list[Any], list[Any]]:
     h = hy.par[n]
     names = [str(s) for s in state]
 
-    def rate(x: list[Any]) -> list[Any]:
+    def rate(x: list[expression]) -> list[expression]:
         return [hy.subs(e, dict(zip(names, x, strict=True))) for e in f[n:]]
 
-    def weighted(weights: tuple[float, ...], terms: list[list[Any]], i: int) -> Any:
+    def weighted(weights: tuple[float, ...], terms: list[list[expression]], i: int) -> expression:
         total = hy.expression(0.0)
         for w, term in zip(weights, terms, strict=False):
             total = total + term[i] * w
@@ -170,7 +179,7 @@ def _rk4_expressions(system: System, steps: int) -> tuple[list[Any], list[Any]]:
     return x, state
 
 
-def compiled_rk4(system: System, steps: int) -> Any:
+def compiled_rk4(system: System, steps: int) -> cfunc_dbl:
     """A heyoka `cfunc` doing `steps` RK4 steps of the hand equations: cf(y, pars=[tau..., h]) -> y'."""
     hy = heyoka()
 
@@ -178,7 +187,7 @@ def compiled_rk4(system: System, steps: int) -> Any:
         raise HarnessError(f"compiled RK4 needs at least one step per call; got {steps}.")
     key = _key(system, "rk4", steps)
 
-    def make() -> Any:
+    def make() -> cfunc_dbl:
         return hy.cfunc(*_rk4_expressions(system, steps))
 
     return _COMPILED.get(key, make)
@@ -195,11 +204,18 @@ def rk4_plan(dt_out: float, timestep: float, most: int = RK4_STEPS_PER_CALL) -> 
 
 
 def rk4_grid(
-    cf: Any, calls: int, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, timestep: float, deadline: float = np.inf
+    cf: cfunc_dbl,
+    calls: int,
+    start: Start,
+    t: np.ndarray,
+    *,
+    timestep: float,
+    deadline: float = np.inf,
 ) -> tuple[str, np.ndarray]:
     """The state (K, 2n) on the grid `t` by `calls` calls of the compiled RK4 steps `cf` per sample:
     ("ok" | "diverged" | "timeout", states; rows not reached are NaN). The deadline (perf_counter)
     and finiteness are checked once per sample."""
+    q0, v0, tau = start.q0, start.v0, start.tau
     y = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
     pars = np.concatenate([np.asarray(tau, dtype=float), [float(timestep)]])
     out = np.full((len(t), len(y)), np.nan)

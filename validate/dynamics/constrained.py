@@ -35,19 +35,15 @@ def until_constraint(
     q0, v0 = initial_state(system)
     t = time_grid(t_end, dt_out)
     q, when, what = constrained_run(system, source, t, q0, v0)
-    tau = np.zeros(system.nv)
-    ref, _ = reference_trajectory(system, q0, v0, tau, t[: len(q)], cache_dir=None)
+    start = Start.at_rest(q0, v0)
+    ref, _ = reference_trajectory(system, start, t[: len(q)], cache_dir=None)
     error = np.abs(q - ref.q).max(axis=1)
     from .estimate import mujoco_estimate
     from .integrate import Trajectory
 
     integrator = {0: "Euler", 1: "RK4", 2: "implicit", 3: "implicitfast"}.get(int(source.m.opt.integrator), "Euler")
     run = Trajectory("mujoco", f"MuJoCo {integrator}", t[: len(q)].copy(), q, np.zeros_like(q), {})
-    estimate = (
-        mujoco_estimate(system, source, run, Start.of(q0, v0, tau), integrator=integrator)[0]
-        if len(q) > 1
-        else np.zeros(1)
-    )
+    estimate = mujoco_estimate(system, source, run, start, integrator=integrator)[0] if len(q) > 1 else np.zeros(1)
     bound = threshold(estimate)
     # judged while the run's own threshold stays below TRUST: beyond, it cannot tell equations apart (trust.py)
     judged = np.cumprod(bound <= TRUST).astype(bool)

@@ -29,7 +29,7 @@ equations, never that its step is too coarse for the model: the estimate says th
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import TypedDict
 
 import numpy as np
 
@@ -39,7 +39,7 @@ from ..sources.base import Source, SteppedSource, stepped
 from ..systems import System
 from .drakerun import DRAKE_DEFAULT, drake_trajectory
 from .flow import SAFETY as FLOW_SAFETY
-from .integrate import SCIPY_DEFAULT, Trajectory, mujoco_trajectory, scipy_trajectory
+from .integrate import SCIPY_DEFAULT, ScipyOptions, Trajectory, mujoco_trajectory, scipy_trajectory
 
 SAFETY = FLOW_SAFETY  # 10: see the module docstring
 FLOOR = TOLERANCES.trajectory.rtol  # rad
@@ -64,8 +64,7 @@ def mujoco_estimate(
 ) -> tuple[np.ndarray, str]:
     """(K,) rad: the Richardson estimate of a MuJoCo run's error at its model timestep, and how."""
     dt = float(source.m.opt.timestep)
-    q0, v0, tau = start.q0, start.v0, start.tau
-    half = mujoco_trajectory(system, source, q0, v0, tau, tr.t, integrator=integrator, timestep=dt / 2)
+    half = mujoco_trajectory(system, source, start, tr.t, integrator=integrator, timestep=dt / 2)
     p = ORDER[integrator]
     factor = 2.0**p / (2.0**p - 1.0)
     est = np.abs(tr.q - half.q).max(axis=1) * factor
@@ -73,14 +72,13 @@ def mujoco_estimate(
 
 
 def scipy_estimate(
-    system: System, source: Source, tr: Trajectory, start: Start, *, opts: dict[str, Any] | None = None
+    system: System, source: Source, tr: Trajectory, start: Start, *, opts: ScipyOptions | None = None
 ) -> tuple[np.ndarray, str]:
     """(K,) rad: a scipy run's error estimated from CHECK_METHOD at a tenth of its tolerances (module
     docstring). A check run that stops early (budget, blow-up) gives NaN samples: no estimate there (the floor)."""
-    o = dict(opts or SCIPY_DEFAULT)
-    q0, v0, tau = start.q0, start.v0, start.tau
+    o = opts or SCIPY_DEFAULT
     fine = scipy_trajectory(
-        system, source, q0, v0, tau, tr.t, method=CHECK_METHOD, rtol=o["rtol"] / FINER, atol=o["atol"] / FINER
+        system, source, start, tr.t, method=CHECK_METHOD, rtol=o["rtol"] / FINER, atol=o["atol"] / FINER
     )
     diff = np.nan_to_num(np.abs(tr.q - fine.q).max(axis=1), nan=0.0)
     est = diff * FINER / (FINER - 1.0)
@@ -95,9 +93,8 @@ def drake_estimate(system: System, source: Source, tr: Trajectory, start: Start)
     """(K,) rad: a Drake error-controlled run's error estimated from the same scheme at a tenth of its
     target accuracy (DRAKE_DEFAULT's), as scipy's; a check run that stops gives no estimate there."""
     o = DRAKE_DEFAULT
-    q0, v0, tau = start.q0, start.v0, start.tau
     fine = drake_trajectory(
-        system, source, q0, v0, tau, tr.t, scheme=o["scheme"], accuracy=o["accuracy"] / FINER, max_step=o["max_step"]
+        system, source, start, tr.t, scheme=o["scheme"], accuracy=o["accuracy"] / FINER, max_step=o["max_step"]
     )
     est = np.nan_to_num(np.abs(tr.q - fine.q).max(axis=1), nan=0.0) * FINER / (FINER - 1.0)
     fine_acc, factor = o["accuracy"] / FINER, FINER / (FINER - 1)
@@ -124,18 +121,27 @@ def threshold(estimate: np.ndarray) -> np.ndarray:
 ABA_METHOD, ABA_RTOL = "DOP853", 1e-12  # the reference of a chain with no symbolic source (atol = rtol)
 
 
+class AbaReference(TypedDict):
+    """`aba_reference`'s account of itself: how the reference and its check were made, their largest
+    difference in q (rad) and the reference run's status."""
+
+    method: str
+    check: str
+    agreement_q: float
+    status: str
+
+
 def aba_reference(
     system: System, source: Source, start: Start, t: np.ndarray
-) -> tuple[Trajectory, Trajectory, dict[str, Any]]:
+) -> tuple[Trajectory, Trajectory, AbaReference]:
     """The reference of a chain with no symbolic source (no equations the Taylor method can trace):
     Pinocchio's ABA by scipy's ABA_METHOD at ABA_RTOL, and its check, the same at half the tolerances;
     info["agreement_q"] (rad) is the two runs' largest difference, the reference's stated accuracy."""
-    q0, v0, tau = start.q0, start.v0, start.tau
-    ref = scipy_trajectory(system, source, q0, v0, tau, t, method=ABA_METHOD, rtol=ABA_RTOL, atol=ABA_RTOL)
+    ref = scipy_trajectory(system, source, start, t, method=ABA_METHOD, rtol=ABA_RTOL, atol=ABA_RTOL)
     half = ABA_RTOL / 2
-    check = scipy_trajectory(system, source, q0, v0, tau, t, method=ABA_METHOD, rtol=half, atol=half)
+    check = scipy_trajectory(system, source, start, t, method=ABA_METHOD, rtol=half, atol=half)
     agreement = float(np.nanmax(np.abs(ref.q - check.q))) if np.isfinite(check.q).any() else float("nan")
-    info = {
+    info: AbaReference = {
         "method": f"Pinocchio ABA, scipy {ABA_METHOD} rtol {ABA_RTOL:g}",
         "check": f"the same at rtol {half:g}",
         "agreement_q": agreement,

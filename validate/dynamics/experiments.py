@@ -18,16 +18,24 @@ form that blows up or spends its budget is recorded with the reason ("diverged a
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from ..forms import Explicit, Implicit, NotApplicable
-from ..sources.fastpath import scalar_rhs
+from ..model.start import Start
+from ..sources.fastpath import ScalarRhs, scalar_rhs
 from ..sources.hand import HandSource
 from ..systems import System
 from .fast import accurate_trajectory
-from .integrate import DEFAULT_BUDGET, Budget, first_exceeding, initial_state, integrate_rhs, outcome, time_grid
+from .integrate import (
+    DEFAULT_BUDGET,
+    Budget,
+    RunStats,
+    first_exceeding,
+    initial_state,
+    integrate_rhs,
+    outcome,
+    time_grid,
+)
 
 PERTURBATION = 0.01  # rad, added to the last coordinate, as the notes perturb phi
 RESEMBLANCE = 0.5  # rad: half a radian apart, two pendulum animations no longer look alike
@@ -36,13 +44,13 @@ T_END = 10.0  # s, the notes' [0, 10]
 DT_OUT = 0.02  # s
 
 
-def dynamic_forms(system: System) -> list[tuple[str, Any]]:
+def dynamic_forms(system: System) -> list[tuple[str, Implicit | Explicit | None]]:
     """(name, variant) for the hand derivation (variant None) and every printed form with dynamics."""
     return [("hand derivation", None)] + [(v.name, v) for v in system.variants if isinstance(v, (Explicit, Implicit))]
 
 
 def _integrate(
-    rhs: Any,
+    rhs: ScalarRhs,
     q0: np.ndarray,
     v0: np.ndarray,
     tau: np.ndarray,
@@ -52,7 +60,7 @@ def _integrate(
     rtol: float,
     atol: float,
     budget: Budget = DEFAULT_BUDGET,
-) -> tuple[np.ndarray, dict[str, Any]]:
+) -> tuple[np.ndarray, RunStats]:
     """q (K, n) of the compiled right-hand side `rhs` (NaN after a stop) and {"status", "stopped_at",
     "reason", "nfev"} (validate/dynamics/integrate.py `outcome`); never raises for what `rhs` computes."""
     n = len(q0)
@@ -66,17 +74,17 @@ def _integrate(
         budget=budget,
         args=([float(x) for x in tau],),
     )
-    info = outcome(run, t, budget=budget, equations="printed form", solver=f"scipy {method}", n=n)
+    info: RunStats = {**outcome(run, t, budget=budget, equations="printed form", solver=f"scipy {method}", n=n)}
     info["nfev"] = run.nfev
     return run.y[:, :n].copy(), info
 
 
-def _status(info: dict[str, Any]) -> str:
+def _status(info: RunStats) -> str:
     """The run's status for the report: ok, or the one-line reason ("diverged at t = ...", ...)."""
     return "ok" if info["status"] == "ok" else str(info["reason"])
 
 
-def run_experiments(system: System) -> dict[str, Any]:
+def run_experiments(system: System) -> dict[str, object]:
     """Both initial conditions, both tolerances, every dynamic form; plain data for the report."""
     q0, v0 = initial_state(system)
     tau = np.zeros(system.nv)
@@ -85,9 +93,9 @@ def run_experiments(system: System) -> dict[str, Any]:
     q0b[-1] += PERTURBATION
     forms = dynamic_forms(system)
 
-    fast = accurate_trajectory(system, HandSource(system), q0, v0, tau, t)
+    fast = accurate_trajectory(system, HandSource(system), Start(q0, v0, tau), t)
     accurate, accurate_info = fast.q, fast.stats
-    runs: list[dict[str, Any]] = []
+    runs: list[dict[str, object]] = []
     for name, variant in forms:
         try:
             rhs = scalar_rhs(system, variant)

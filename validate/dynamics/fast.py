@@ -31,11 +31,11 @@ beside them as the path a user of scipy takes; the bench reports how far it is f
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import Any
 
 import numpy as np
 
 from ..core.errors import HarnessError
+from ..model.start import Start
 from ..results.stages import Clock, lap
 from ..sources.base import Source, stepped
 from ..systems import System
@@ -48,6 +48,8 @@ from .integrate import (
     EQUATION_ERRORS,
     SCIPY_DEFAULT,
     Budget,
+    RunStats,
+    ScipyOptions,
     Trajectory,
     initial_state,
     mujoco_trajectory,
@@ -66,9 +68,7 @@ def taylor_method(tol: float = FAST_TOLERANCE) -> str:
 def taylor_trajectory(
     system: System,
     source: str,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    start: Start,
     t: np.ndarray,
     *,
     tol: float = FAST_TOLERANCE,
@@ -87,7 +87,7 @@ def taylor_trajectory(
     if source not in TAYLOR_SOURCES:
         raise HarnessError(f"no Taylor trajectory of the '{source}' source; valid: {', '.join(TAYLOR_SOURCES)}.")
     n = system.nv
-    q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
+    q0, v0, tau = start.q0, start.v0, start.tau
     A = system.joint_map if source == "symbolic" else None
     if A is not None:  # q_notes = A q_joint; the inputs' work: tau_joint = A^T tau_notes
         q0, v0, tau = np.linalg.solve(A, q0), np.linalg.solve(A, v0), A.T @ tau
@@ -95,7 +95,7 @@ def taylor_trajectory(
     span = abs(float(t[-1] - t[0]))
     max_steps = int(budget.max_taylor_steps + budget.taylor_steps_per_s * span)
     try:
-        word, states, steps = taylor_grid(ta, q0, v0, tau, t, max_steps=max_steps)
+        word, states, steps = taylor_grid(ta, Start.of(q0, v0, tau), t, max_steps=max_steps)
     except EQUATION_ERRORS as exc:  # e.g. a non-finite time after a blow-up
         word, states, steps = f"failed ({exc})", np.full((len(t), 2 * n), np.nan), 0
     status, reason, k = "ok", "", len(t)
@@ -112,7 +112,7 @@ def taylor_trajectory(
     q, v = states[:, :n], states[:, n:]
     if A is not None:
         q, v = q @ A.T, v @ A.T
-    stats = {
+    stats: RunStats = {
         "steps": steps,
         "status": status,
         "stopped_at": float(t[max(k - 1, 0)]),
@@ -124,13 +124,11 @@ def taylor_trajectory(
 def accurate_trajectory(
     system: System,
     source: Source,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    start: Start,
     t: np.ndarray,
     *,
     budget: Budget = DEFAULT_BUDGET,
-    fallback: dict[str, Any] | None = None,
+    fallback: ScipyOptions | None = None,
 ) -> Trajectory:
     """The fastest accurate free run of a source the Taylor method can integrate (`taylor_trajectory`);
     scipy (`fallback`, default SCIPY_DEFAULT) for any other source, or where the equations cannot be
@@ -143,8 +141,8 @@ def accurate_trajectory(
             said = str(exc) if isinstance(exc, HarnessError) else f"{type(exc).__name__}: {exc}"
             why = f"not available ({said.strip()})"
         else:
-            return taylor_trajectory(system, source.name, q0, v0, tau, t, budget=budget)
-    traj = scipy_trajectory(system, source, q0, v0, tau, t, **(fallback or SCIPY_DEFAULT), budget=budget)
+            return taylor_trajectory(system, source.name, start, t, budget=budget)
+    traj = scipy_trajectory(system, source, start, t, **(fallback or SCIPY_DEFAULT), budget=budget)
     if why is not None:
         traj.stats["fast_path"] = why
     return traj
@@ -165,15 +163,14 @@ def run_trajectories(
     model's derived equations by the fast path (`accurate_trajectory`); Drake's own integrator
     (DRAKE_DEFAULT) where the drake source exists and `drake` asks for it. Each run's wall seconds go
     on `clock` as "trajectories: SOURCE"."""
-    q0, v0 = initial_state(system)
-    tau = np.zeros(system.nv)
+    start = Start.at_rest(*initial_state(system))
     t = time_grid(t_end, dt_out)
     runs: dict[str, Callable[[], Trajectory]] = {
-        "hand": lambda: scipy_trajectory(system, sources["hand"], q0, v0, tau, t, **SCIPY_DEFAULT),
-        "mujoco": lambda: mujoco_trajectory(system, stepped(sources["mujoco"]), q0, v0, tau, t, integrator="RK4"),
-        "pinocchio": lambda: scipy_trajectory(system, sources["pinocchio"], q0, v0, tau, t, **SCIPY_DEFAULT),
-        "symbolic": lambda: accurate_trajectory(system, sources["symbolic"], q0, v0, tau, t),
-        "drake": lambda: drake_trajectory(system, sources["drake"], q0, v0, tau, t),
+        "hand": lambda: scipy_trajectory(system, sources["hand"], start, t, **SCIPY_DEFAULT),
+        "mujoco": lambda: mujoco_trajectory(system, stepped(sources["mujoco"]), start, t, integrator="RK4"),
+        "pinocchio": lambda: scipy_trajectory(system, sources["pinocchio"], start, t, **SCIPY_DEFAULT),
+        "symbolic": lambda: accurate_trajectory(system, sources["symbolic"], start, t),
+        "drake": lambda: drake_trajectory(system, sources["drake"], start, t),
     }
     out = []
     for source, run in runs.items():

@@ -4,7 +4,7 @@ transfer of window errors, the error envelope, the predictability horizon (see d
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TypedDict
 
 import numpy as np
 
@@ -12,9 +12,10 @@ from ..core.cachedir import heyoka
 from ..core.errors import HarnessError
 from ..core.memo import Memo
 from ..core.tolerances import TOLERANCES
+from ..model.start import Start
 from ..systems import System
 from .integrate import DEFAULT_BUDGET, Budget, time_grid
-from .reference import TaylorGuard, param_key, symbolic_dynamics
+from .reference import Taylor, TaylorGuard, param_key, symbolic_dynamics
 
 SAFETY = 10.0
 HORIZON_CHUNK = 100  # grid samples per propagation of `horizon_from_rounding` (10 s at 0.1 s)
@@ -37,12 +38,12 @@ class Flow:
 _VAR_INTEGRATORS = Memo(maxsize=32)  # bounded: one per system, parameter set and precision (issue 36)
 
 
-def variational_integrator(system: System, precision: str) -> Any:
+def variational_integrator(system: System, precision: str) -> Taylor:
     hy = heyoka()
 
     key = (system.name, system.overrides, param_key(system), system.equations, precision)  # the module, not its id
 
-    def make() -> Any:
+    def make() -> Taylor:
         dyn = symbolic_dynamics(system)
         fp = {"double": float, "long double": np.longdouble}[precision]
         vsys = hy.var_ode_sys(dyn.ode, hy.var_args.vars, order=1)
@@ -58,7 +59,7 @@ def variational_integrator(system: System, precision: str) -> Any:
     return _VAR_INTEGRATORS.get(key, make)
 
 
-def reset_variational(ta: Any, n: int, x0: np.ndarray, tau: np.ndarray, t0: float, tangent: np.ndarray) -> None:
+def reset_variational(ta: Taylor, n: int, x0: np.ndarray, tau: np.ndarray, t0: float, tangent: np.ndarray) -> None:
     dtype = ta.state.dtype
     ta.time = dtype.type(t0)
     ta.state[: 2 * n] = np.asarray(x0, dtype=float).astype(dtype)
@@ -68,9 +69,7 @@ def reset_variational(ta: Any, n: int, x0: np.ndarray, tau: np.ndarray, t0: floa
 
 def flow(
     system: System,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    start: Start,
     t: np.ndarray,
     *,
     precision: str = "double",
@@ -79,6 +78,7 @@ def flow(
     """The trajectory and Phi(t) = dx(t)/dx(0) on the grid `t` (starting at t[0]).
 
     Raises IntegrationStopped (a HarnessError) when the equations blow up or spend `budget`."""
+    q0, v0, tau = start.q0, start.v0, start.tau
     n = system.nv
     ta = variational_integrator(system, precision)
     x0 = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
@@ -194,6 +194,29 @@ def predictability_horizon(t: np.ndarray, envelope: np.ndarray, tolerance: float
     return float(t[above[0]]) if len(above) else None
 
 
+class Judgement(TypedDict):
+    """`judge_free_run`'s verdict: passed, the horizon (s, None: the whole grid), how far it judged (s),
+    the safety factor and tolerance (rad), the largest error / envelope and the first violation (s)."""
+
+    passed: bool
+    horizon: float | None
+    judged_until: float
+    safety: float
+    tolerance: float
+    max_ratio: float
+    first_violation: float | None
+
+
+class RoundingHorizon(TypedDict):
+    """`horizon_from_rounding`'s answer: the rounding e0 of the start, the tolerance (rad), the horizon
+    (s, None: not within t_end) and the run's length t_end (s)."""
+
+    e0: float
+    tolerance: float
+    horizon: float | None
+    t_end: float
+
+
 def judge_free_run(
     t: np.ndarray,
     error: np.ndarray,
@@ -202,7 +225,7 @@ def judge_free_run(
     tolerance: float = DEFAULT_TOLERANCE,
     safety: float = SAFETY,
     until: float | None = None,
-) -> dict[str, Any]:
+) -> Judgement:
     """Whether a free-running error stays inside safety x envelope up to the predictability horizon
     (and no later than `until`, where another prediction ends: a mirror's, where its scheme's own
     truncation error leaves the tolerance and the reference's flow no longer bounds how the scheme
@@ -241,16 +264,15 @@ def sample_at(t: np.ndarray, y: np.ndarray, at: tuple[float, ...] = (1.0, 2.0, 5
 
 def horizon_from_rounding(
     system: System,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    start: Start,
     *,
     tolerance: float = DEFAULT_TOLERANCE,
     t_end: float = 200.0,
     dt_out: float = 0.1,
-) -> dict[str, Any]:
+) -> RoundingHorizon:
     """Predictability horizon of the initial state's own rounding (e0 = 2^-53 |x0|): the best any double
     precision integration can do. Phi from the variational equations in long double."""
+    q0, v0, tau = start.q0, start.v0, start.tau
     x0 = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
     e0 = float(np.finfo(float).eps) / 2 * max(float(np.linalg.norm(x0)), 1.0)
     t = time_grid(t_end, dt_out)
@@ -262,8 +284,8 @@ def horizon_from_rounding(
     reset_variational(ta, n, x0, np.asarray(tau, dtype=float), float(t[0]), np.eye(2 * n))
     guard = TaylorGuard(DEFAULT_BUDGET, n, float(t[0]))
     horizon = None
-    for start in range(0, max(len(t) - 1, 1), chunk):
-        grid = t[start : start + chunk + 1]  # each chunk starts where the last ended
+    for first in range(0, max(len(t) - 1, 1), chunk):
+        grid = t[first : first + chunk + 1]  # each chunk starts where the last ended
         outcome, *_, states = ta.propagate_grid(grid.astype(ta.state.dtype), callback=guard)
         guard.check(outcome, ta, source="hand", method=f"heyoka variational flow, {precision}")
         phi = states.astype(float)[:, 2 * n :].reshape(-1, 2 * n, 2 * n)

@@ -11,8 +11,10 @@ from typing import Any
 
 import numpy as np
 
+from ..core.arrays import Floats
 from ..core.cachedir import Cache
 from ..model.start import Start
+from ..results.schema import TrustSummary
 from ..results.stages import Clock, lap
 from ..sources.base import OneStateSource, Source, one_state
 from ..systems import System
@@ -72,14 +74,13 @@ def trajectory_results(
     estimate it cost ~5 s of a double pendulum's ~25, so it runs on request, `run --drake-run`)."""
 
     start = Start.at_rest(*integrate.initial_state(system))
-    q0, v0, tau = start.q0, start.v0, start.tau
     t = integrate.time_grid(t_end, dt_out)
-    ref, ref_info = reference_trajectory(system, q0, v0, tau, t, cache_dir=reference_dir(cache))
+    ref, ref_info = reference_trajectory(system, start, t, cache_dir=reference_dir(cache))
     lap(clock, "trajectories: reference")
     trajs = fast.run_trajectories(system, sources, t_end=t_end, dt_out=dt_out, clock=clock, drake=drake_run)
-    q0b = q0.copy()
+    q0b = start.q0.copy()
     q0b[-1] += experiments.PERTURBATION
-    perturbed = fast.accurate_trajectory(system, sources["hand"], q0b, v0, tau, t)
+    perturbed = fast.accurate_trajectory(system, sources["hand"], Start(q0b, start.v0, start.tau), t)
     perturbed.stats["label"] = f"{system.coordinates[-1]}0 + {experiments.PERTURBATION:g}"
     lap(clock, "trajectories: perturbed start")
     estimates = run_estimates(system, sources, trajs, start, cache)
@@ -108,7 +109,7 @@ def trajectory_results(
 
 
 def run_estimates(
-    system: System, sources: Mapping[str, Source], trajs: list[Any], start: Start, cache: Cache | None
+    system: System, sources: Mapping[str, Source], trajs: list[Trajectory], start: Start, cache: Cache | None
 ) -> list[tuple[np.ndarray, str]]:
     """Each run's own error estimate (dynamics/estimate.py), kept in `cache` by content: the system's,
     the start's and each run's own samples (its q digest), so an estimate is read back only for the
@@ -133,7 +134,7 @@ class _Samples:
 
 
 def _start_and_reference(
-    start: Start, grid: tuple[float, float, np.ndarray], reference: str, info: dict[str, Any]
+    start: Start, grid: tuple[float, float, np.ndarray], reference: str, info: Mapping[str, object]
 ) -> dict[str, Any]:
     """What every free-run record starts with: the start (q0, v0, tau), the grid (t_end, dt_out, t),
     the reference and the threshold."""
@@ -152,7 +153,11 @@ def _start_and_reference(
 
 
 def _run_entry(
-    system: System, sources: Mapping[str, Source], tr: Any, ref: Any, est: tuple[np.ndarray, str] | None = None
+    system: System,
+    sources: Mapping[str, Source],
+    tr: Trajectory,
+    ref: Trajectory,
+    est: tuple[np.ndarray, str] | None = None,
 ) -> dict[str, Any]:
     """One run against `ref`; `est`: its own error estimate (K,) and how it was made, which sets its
     threshold (dynamics/estimate.py); without one (runs not judged), the floor."""
@@ -188,7 +193,7 @@ def _run_entry(
     return run
 
 
-def judged_interval(t: np.ndarray, amplification: Any, chaos_failed: str | None = None) -> tuple[float, str]:
+def judged_interval(t: np.ndarray, amplification: Floats | None, chaos_failed: str | None = None) -> tuple[float, str]:
     """Until when the runs are judged, and why: where the amplification reaches JUDGE_AMPLIFICATION,
     or UNMEASURED_HORIZON where the chaos stage that measures it failed (`chaos_failed`: its outcome)."""
     if amplification is None:
@@ -209,7 +214,7 @@ def judged_interval(t: np.ndarray, amplification: Any, chaos_failed: str | None 
     )
 
 
-def judge_trajectories(traj: dict[str, Any], amplification: Any, chaos_failed: str | None = None) -> None:
+def judge_trajectories(traj: dict[str, Any], amplification: Floats | None, chaos_failed: str | None = None) -> None:
     """Marks each counted run passed or not: its error against the reference stays within its own
     threshold up to the judged interval's end (`judged_interval`), or earlier where that threshold
     passes MAX_THRESHOLD (the run's own error too large to tell equations apart; said per run)."""
@@ -263,8 +268,8 @@ def divergence_results(
     trajs = fast.run_trajectories(system, sources, t_end=t_end, dt_out=dt_out)
     ref = next(tr for tr in trajs if tr.source == "mujoco")
     reference = f"{ref.label} (the hand derivation disagrees with the engines, so it is not the reference)"
-    info: dict[str, Any] = {"method": ref.method}
-    trusted: dict[str, Any] | None = None
+    info: Mapping[str, object] = {"method": ref.method}
+    trusted: TrustSummary | None = None
     if aba_reference:
         ref, check, info = estimate.aba_reference(system, sources["pinocchio"], start, t)
         reference = f"{info['method']}; agrees with {info['check']} to {info['agreement_q']:.1e} rad"
@@ -285,7 +290,7 @@ def divergence_results(
 
 def trust_of(
     pinocchio: OneStateSource, runs: list[dict[str, Any]], ref: Trajectory, check: Trajectory, start: Start
-) -> dict[str, Any]:
+) -> TrustSummary:
     """Which engine departs from the reference, from when, and whether it is expected
     (dynamics/trust.py): the reference's own horizon, the Lyapunov exponent and predictability horizon,
     and each run's trusted interval with one sentence."""

@@ -10,20 +10,55 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, TypedDict, TypeVar
 
 import numpy as np
 
+from ..core.arrays import Floats
 from ..core.errors import HarnessError, unknown_name
+from ..model.start import Start
 from ..sources.base import MUJOCO_INTEGRATORS as MUJOCO_INTEGRATORS  # re-exported: dynamics names them
-from ..sources.base import Source, SteppedSource
+from ..sources.base import RightHandSide, Source, SteppedSource
 from ..systems import System
+
+
+class ScipyOptions(TypedDict):
+    """A scipy integration: `scipy_trajectory`'s method (a solve_ivp method or "odeint") and tolerances."""
+
+    method: str
+    rtol: float
+    atol: float
+
+
+class Outcome(TypedDict):
+    """How a guarded integration ended (`outcome`): "ok" or why not, and the last good sample's time (s)."""
+
+    status: str
+    stopped_at: float
+    reason: str
+
+
+class RunStats(TypedDict, total=False):
+    """What a run says of itself: its steps and right-hand-side evaluations, how it ended (`Outcome`'s
+    keys), why the fast path stood aside (dynamics/fast.py) and its label (a perturbed start)."""
+
+    steps: int | None  # None: a cached reference that did not record them
+    nfev: int
+    evaluations: int
+    status: str
+    stopped_at: float
+    reason: str
+    fast_path: str
+    label: str
+
+
+R = TypeVar("R")  # what a right-hand side returns (an array, or the generated code's list)
 
 DEFAULT_T_END = 10.0  # s
 DEFAULT_DT_OUT = 0.01  # s
 # The default scipy integration: the compiled LSODA driver (`odeint`), the fastest scipy driver to
 # 1e-9 rad at t = 2 s on the double pendulum (`lagrange-xval bench` measures it against the others).
-SCIPY_DEFAULT: dict[str, Any] = {"method": "odeint", "rtol": 1e-11, "atol": 1e-14}
+SCIPY_DEFAULT: ScipyOptions = {"method": "odeint", "rtol": 1e-11, "atol": 1e-14}
 
 
 def mujoco_integrator(name: str) -> Any:
@@ -40,7 +75,7 @@ class Trajectory:
     t: np.ndarray  # (K,) s
     q: np.ndarray  # (K, n) rad
     v: np.ndarray  # (K, n) rad/s
-    stats: dict[str, Any] = field(default_factory=dict)  # e.g. right-hand-side evaluations
+    stats: RunStats = field(default_factory=lambda: RunStats())  # e.g. right-hand-side evaluations
 
     @property
     def label(self) -> str:
@@ -133,7 +168,7 @@ _RING_MASK = 255  # odeint keeps its last 256 evaluation times: far more than on
 class _Stop(Exception):
     """Ends an integration from inside its right-hand side."""
 
-    def __init__(self, kind: str, t: float, y: Any, detail: str) -> None:
+    def __init__(self, kind: str, t: float, y: np.ndarray, detail: str) -> None:
         super().__init__(detail)
         self.kind, self.t, self.y, self.detail = kind, float(t), np.array(y, dtype=float, copy=True), detail
 
@@ -156,7 +191,7 @@ class _Guard:
     def nfev(self) -> int:
         return self._count()
 
-    def check(self, nfev: int, t: float, y: Any) -> int:
+    def check(self, nfev: int, t: float, y: np.ndarray) -> int:
         """Before evaluating at (t, y): raises _Stop past the budget or on a blow-up, else the next checkpoint."""
         b = self.budget
         if nfev >= b.max_rhs_evaluations:
@@ -169,7 +204,7 @@ class _Guard:
             raise _Stop("bound", t, y, what)
         return min(nfev + _CHECK_EVERY, b.max_rhs_evaluations)
 
-    def wrap(self, f: Callable[..., Any], *args: Any, record_times: bool = False) -> Callable[[float, Any], Any]:
+    def wrap(self, f: Callable[..., R], *args: object, record_times: bool = False) -> Callable[[float, np.ndarray], R]:
         """f(t, y, *args) guarded; one extra argument (the hand equations' tau) is passed without unpacking."""
         nfev = 0
         checkpoint = min(_CHECK_EVERY, self.budget.max_rhs_evaluations)
@@ -188,7 +223,7 @@ class _Guard:
             (arg,) = args
             ring = self.ring
 
-            def g1(t: float, y: Any) -> Any:
+            def g1(t: float, y: np.ndarray) -> R:
                 nonlocal nfev, checkpoint
                 if nfev >= checkpoint:
                     checkpoint = check(nfev, t, y)
@@ -202,7 +237,7 @@ class _Guard:
             return g1
         (arg,) = args
 
-        def g2(t: float, y: Any) -> Any:
+        def g2(t: float, y: np.ndarray) -> R:
             nonlocal nfev, checkpoint
             if nfev >= checkpoint:
                 checkpoint = check(nfev, t, y)
@@ -220,11 +255,11 @@ def _exception_line(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {text[0]}" if text else type(exc).__name__
 
 
-def _fmt(x: Any) -> str:
+def _fmt(x: Floats) -> str:
     return "[" + ", ".join(f"{float(v):.6g}" for v in np.ravel(x)) + "]"
 
 
-def source_rhs(source: Source, tau: np.ndarray) -> Callable[..., Any]:
+def source_rhs(source: Source, tau: np.ndarray) -> RightHandSide:
     """scipy's right-hand side f(t, y) for constant `tau`: the source's own one-state `rhs` where it
     has one (the hand equations' generated code, Pinocchio's ABA), else its batched forward dynamics."""
     if hasattr(source, "rhs"):
@@ -252,7 +287,7 @@ class Integration:
 
 
 def integrate_rhs(
-    f: Callable[..., Any],
+    f: Callable[..., Floats],
     y0: np.ndarray,
     t: np.ndarray,
     *,
@@ -260,7 +295,7 @@ def integrate_rhs(
     rtol: float,
     atol: float,
     budget: Budget = DEFAULT_BUDGET,
-    args: tuple[Any, ...] = (),
+    args: tuple[object, ...] = (),
 ) -> Integration:
     """scipy on `f(t, y, *args)` (at most one extra argument) over the grid `t` under `budget`; never
     raises for anything `f` computes.
@@ -279,7 +314,14 @@ def integrate_rhs(
 
 
 def _odeint(
-    f: Any, args: tuple[Any, ...], y0: np.ndarray, t: np.ndarray, *, rtol: float, atol: float, budget: Budget
+    f: Callable[..., Floats],
+    args: tuple[object, ...],
+    y0: np.ndarray,
+    t: np.ndarray,
+    *,
+    rtol: float,
+    atol: float,
+    budget: Budget,
 ) -> Integration:
     import warnings
 
@@ -287,7 +329,13 @@ def _odeint(
 
     guard = _Guard(budget)
     g = guard.wrap(f, *args, record_times=True)
-    kw: dict[str, Any] = {"tfirst": True, "rtol": rtol, "atol": atol, "full_output": True, "mxstep": 100000}
+    kw: dict[str, bool | float | int] = {
+        "tfirst": True,
+        "rtol": rtol,
+        "atol": atol,
+        "full_output": True,
+        "mxstep": 100000,
+    }
     out = np.full((len(t), len(y0)), np.nan)
     try:
         with warnings.catch_warnings():
@@ -343,8 +391,8 @@ def _last_accepted(guard: _Guard, stopped_at: float) -> float:
 
 
 def _solve_ivp(
-    f: Any,
-    args: tuple[Any, ...],
+    f: Callable[..., Floats],
+    args: tuple[object, ...],
     y0: np.ndarray,
     t: np.ndarray,
     *,
@@ -398,7 +446,7 @@ def outcome(
     solver: str,
     mass_matrix: Callable[[np.ndarray], np.ndarray] | None = None,
     n: int,
-) -> dict[str, Any]:
+) -> Outcome:
     """status, stopped_at, reason of a guarded integration, after truncating its samples in place at
     the first non-finite or blown-up sample. `mass_matrix` (q -> M, batched) names a singular or
     indefinite M(q) in the reason."""
@@ -481,9 +529,7 @@ def _mass_matrix_finding(
 def scipy_trajectory(
     system: System,
     source: Source,
-    q0: np.ndarray,
-    v0: np.ndarray,
-    tau: np.ndarray,
+    start: Start,
     t: np.ndarray,
     *,
     method: str = "DOP853",
@@ -498,16 +544,15 @@ def scipy_trajectory(
     STATUSES), "stopped_at" (s, the last good sample; t[-1] when "ok") and "reason" (one line, empty
     when "ok"); the samples after "stopped_at" are NaN.
     """
+    q0, v0, tau = start.q0, start.v0, start.tau
     n = system.nv
     f = source_rhs(source, tau)
     y0 = np.concatenate([q0, v0])
     run = integrate_rhs(f, y0, t, method=method, rtol=rtol, atol=atol, budget=budget)
     label = f"scipy {method}"
     mass = source.mass_matrix  # to say "singular M" where a run fails
-    stats: dict[str, Any] = {"nfev": run.nfev}
-    stats.update(
-        outcome(run, t, budget=budget, equations=f"{source.name} equations", solver=label, mass_matrix=mass, n=n)
-    )
+    ended = outcome(run, t, budget=budget, equations=f"{source.name} equations", solver=label, mass_matrix=mass, n=n)
+    stats: RunStats = {"nfev": run.nfev, **ended}
     return Trajectory(
         source.name,
         f"{label} rtol {rtol:g}",
@@ -521,9 +566,7 @@ def scipy_trajectory(
 def mujoco_trajectory(
     system: System,
     source: SteppedSource,
-    q0: np.ndarray,
-    v0: np.ndarray,
-    tau: np.ndarray,
+    start: Start,
     t: np.ndarray,
     *,
     integrator: str = "RK4",
@@ -532,7 +575,7 @@ def mujoco_trajectory(
     """MuJoCo stepping its own integrator; samples every round(dt_out / timestep) steps. A run that
     went unstable (a warning, after which MuJoCo resets the state, or a non-finite state) raises
     Diverged naming the interval: its samples are never data."""
-    from ..model.start import Scheme, Start
+    from ..model.start import Scheme
     from ..sources.mujoco import free_run
 
     dt = float(timestep or source.m.opt.timestep)
@@ -540,7 +583,7 @@ def mujoco_trajectory(
     steps = round(dt_out / dt)
     if steps < 1 or not np.isclose(steps * dt, dt_out, rtol=1e-9, atol=0.0):
         raise HarnessError(f"MuJoCo timestep {dt} must divide the output step {dt_out}.")
-    q, v, clock, raised = free_run(source, Start(q0, v0, tau), len(t), steps, Scheme(integrator, dt))
+    q, v, clock, raised = free_run(source, start, len(t), steps, Scheme(integrator, dt))
     # The first sample whose clock fell behind or whose state is not finite, or the last if only a
     # warning counter says so (checked once, after the loop: per sample it cost a tenth of the stepping).
     behind = np.abs(clock - (clock[0] + np.arange(len(t)) * steps * dt)) > 0.5 * dt
@@ -556,7 +599,14 @@ class Diverged(HarnessError):
 
 
 def _diverged(
-    system: System, integrator: str, dt: float, t: np.ndarray, k: int, q: Any, v: Any, raised: list[tuple[str, int]]
+    system: System,
+    integrator: str,
+    dt: float,
+    t: np.ndarray,
+    k: int,
+    q: Floats,
+    v: Floats,
+    raised: list[tuple[str, int]],
 ) -> None:
     """Refuses sample k of a MuJoCo run: one line naming the time and what went wrong."""
     names = [name for name, _ in raised]
@@ -572,13 +622,13 @@ def _diverged(
     )
 
 
-def energy(system: System, hand: Any, traj: Trajectory) -> np.ndarray:
+def energy(system: System, hand: Source, traj: Trajectory) -> np.ndarray:
     """Total energy T + V along a trajectory, by the hand equations (J)."""
     kin, pot = hand.energies(traj.q, traj.v)
     return kin + pot
 
 
-def energy_missing(meter: Any) -> str:
+def energy_missing(meter: object) -> str:
     """ "T not provided" (or V, or both) where the source that measures the energy leaves it out."""
     gone = set(getattr(meter, "not_provided", ()) or ())
     names = [x for x, f in (("T", "kinetic_energy"), ("V", "potential_energy")) if f in gone]

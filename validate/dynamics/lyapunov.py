@@ -4,18 +4,21 @@ from __future__ import annotations
 
 import functools
 import json
+import os
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, NotRequired, TypedDict
 
 import numpy as np
 
 from ..core import cache
 from ..core.errors import HarnessError, unknown_name
+from ..model.start import Start
 from ..results import dumps
 from ..systems import System
 from .flow import (
     DEFAULT_TOLERANCE,
+    RoundingHorizon,
     amplification,
     flow,
     horizon_from_rounding,
@@ -30,22 +33,50 @@ LYAPUNOV_T_END = 500.0  # s: finite-time estimates fluctuate by ~+-0.03/s around
 LYAPUNOV_INTERVAL = 0.5  # s between renormalisations (growth per interval e^0.12: far from overflow)
 
 
+# `lyapunov_exponent`'s answer (its keys below); "lambda" is a keyword, so the functional form
+Lyapunov = TypedDict(
+    "Lyapunov",
+    {
+        "lambda": float,
+        "method": str,
+        "t_end": float,
+        "interval": float,
+        "running": list[list[float]],
+        "spread": float,
+        "seconds": float,
+        "spectrum": NotRequired[list[float]],
+        "d0": NotRequired[float],
+    },
+)
+
+
+class ChaosSummary(TypedDict):
+    """`_chaos_summary`: the exponent by both methods and their agreement (1/s), the amplification
+    (at 1, 2, 5, 10 s and its largest) and the horizons, of the rounding and estimated from lambda (s)."""
+
+    lyapunov: Lyapunov
+    lyapunov_two_trajectories: Lyapunov
+    lyapunov_agreement: float
+    amplification_at: dict[str, float]
+    max_amplification: float
+    horizon_from_rounding: RoundingHorizon
+    horizon_estimate_from_lambda: float | None
+
+
 # ----------------------------------------------------------------------------------------------
 # Lyapunov exponent
 
 
 def lyapunov_exponent(
     system: System,
-    q0: Any,
-    v0: Any,
-    tau: Any = None,
+    start: Start,
     *,
     t_end: float = LYAPUNOV_T_END,
     interval: float = LYAPUNOV_INTERVAL,
     method: str = "variational",
     d0: float = 1e-9,
-) -> dict[str, Any]:
-    """The largest Lyapunov exponent (1/s) along the trajectory from (q0, v0), by Benettin's method.
+) -> Lyapunov:
+    """The largest Lyapunov exponent (1/s) along the trajectory from `start`, by Benettin's method.
 
     method "variational": Phi restarted from Q of its QR every `interval`; the log of R's diagonal
     accumulates the whole spectrum (a Hamiltonian system's sums to ~0 and pairs +-lambda: a check).
@@ -56,10 +87,10 @@ def lyapunov_exponent(
              "running": [[t, lambda(t)], ...] every 10 % of t_end, "spread": max-min of lambda(t)
              over the second half, "seconds"}.
     """
-    start = time.perf_counter()
+    began = time.perf_counter()
     n = system.nv
-    tau = np.zeros(n) if tau is None else np.asarray(tau, dtype=float)
-    x0 = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
+    tau = start.tau
+    x0 = np.concatenate([start.q0, start.v0])
     steps = round(t_end / interval)
     if steps < 1 or not np.isclose(steps * interval, t_end, rtol=1e-9, atol=0.0):
         raise HarnessError(f"t_end ({t_end}) must be a whole multiple of interval ({interval}).")
@@ -76,14 +107,14 @@ def lyapunov_exponent(
     running_arr = np.array(running)
     times = interval * np.arange(1, steps + 1)
     tenth = max(steps // 10, 1)
-    out = {
+    out: Lyapunov = {
         "lambda": float(running_arr[-1]),
         "method": method,
         "t_end": t_end,
         "interval": interval,
         "running": [[float(times[i]), float(running_arr[i])] for i in range(tenth - 1, steps, tenth)],
         "spread": float(np.ptp(running_arr[steps // 2 :])),
-        "seconds": time.perf_counter() - start,
+        "seconds": time.perf_counter() - began,
     }
     if method == "variational":
         out["spectrum"] = [float(x) for x in logs / t_end]
@@ -146,20 +177,18 @@ def _two_trajectory_logs(
 
 
 @functools.lru_cache(maxsize=64)  # one per (system, start): bounded, recomputed when dropped
-def _lyapunov_cached(system: System, x0: tuple[float, ...], tau: tuple[float, ...], method: str) -> dict[str, Any]:
+def _lyapunov_cached(system: System, x0: tuple[float, ...], tau: tuple[float, ...], method: str) -> Lyapunov:
     n = system.nv
-    return lyapunov_exponent(system, x0[:n], x0[n:], tau, method=method)
+    return lyapunov_exponent(system, Start.of(x0[:n], x0[n:], tau), method=method)
 
 
 def chaos_summary(
     system: System,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    start: Start,
     *,
     t: np.ndarray | None = None,
     tolerance: float = DEFAULT_TOLERANCE,
-    cache_dir: Any = DEFAULT_CACHE_DIR,
+    cache_dir: str | os.PathLike[str] | None = DEFAULT_CACHE_DIR,
 ) -> dict[str, Any]:
     """Lyapunov exponent (two methods), amplification at 2 s and 10 s, and horizons, for one start.
 
@@ -168,14 +197,14 @@ def chaos_summary(
     start, input, grid, tolerance); a loaded summary must also be consistent in itself
     (`_summary_problem`). `cache` in the result says "hit", "miss" or "off"."""
 
-    q0, v0, tau = (np.asarray(x, dtype=float) for x in (q0, v0, tau))
+    q0, v0, tau = start.q0, start.v0, start.tau
     t = time_grid(DEFAULT_T_END, DEFAULT_DT_OUT) if t is None else t
     if isinstance(cache_dir, str) and cache_dir == cache.DEFAULT:
         where = cache.folder(cache_dir, "chaos")
     else:  # an explicit reference folder: the chaos entries go beside it
         where = None if cache_dir is None else Path(cache_dir).parent / "chaos"
     if where is None:
-        return {**json.loads(dumps(_chaos_summary(system, q0, v0, tau, t=t, tolerance=tolerance))), "cache": "off"}
+        return {**json.loads(dumps(_chaos_summary(system, start, t=t, tolerance=tolerance))), "cache": "off"}
     key = cache_key(system, q0, v0, tau, t, check=f"chaos {tolerance!r} {source_hash(__file__)}")
     path = where / f"{system.name}-{key}.npz"
     entry = cache.load(path, key)
@@ -184,7 +213,7 @@ def chaos_summary(
         if problem is None:
             return {**entry[1], "cache": "hit"}
         cache.invalid(path, problem)
-    out = json.loads(dumps(_chaos_summary(system, q0, v0, tau, t=t, tolerance=tolerance)))
+    out = json.loads(dumps(_chaos_summary(system, start, t=t, tolerance=tolerance)))
     cache.store(path, key, {}, out)
     return {**out, "cache": "miss"}
 
@@ -209,14 +238,13 @@ def _summary_problem(summary: dict[str, Any], tolerance: float) -> str | None:
     return None
 
 
-def _chaos_summary(
-    system: System, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, *, t: np.ndarray, tolerance: float
-) -> dict[str, Any]:
-    x0 = tuple(float(x) for x in np.concatenate([q0, v0]))
+def _chaos_summary(system: System, start: Start, *, t: np.ndarray, tolerance: float) -> ChaosSummary:
+    tau = start.tau
+    x0 = tuple(float(x) for x in np.concatenate([start.q0, start.v0]))
     lyap = _lyapunov_cached(system, x0, tuple(float(x) for x in tau), "variational")
     lyap2 = _lyapunov_cached(system, x0, tuple(float(x) for x in tau), "two trajectories")
-    amp = amplification(flow(system, q0, v0, tau, t))
-    rounding = horizon_from_rounding(system, q0, v0, tau, tolerance=tolerance)
+    amp = amplification(flow(system, start, t))
+    rounding = horizon_from_rounding(system, start, tolerance=tolerance)
     lam = lyap["lambda"]
     estimate = float(np.log(tolerance / rounding["e0"]) / lam) if lam > 0 else None
     return {

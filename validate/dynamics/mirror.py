@@ -41,18 +41,39 @@ import functools
 import itertools
 import math
 import time
-from collections.abc import Mapping
-from typing import Any
+from collections.abc import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, TypeAlias, TypedDict, cast
 
 import numpy as np
 
+from ..core.arrays import Floats
 from ..core.errors import HarnessError, unknown_name
-from ..model.start import Scheme
+from ..model.start import Scheme, Start
 from ..sources.base import Source, SteppedSource, stepped
 from ..sources.hand import HandSource, solve_or_nan
 from ..systems import System
 from .compiled import RK4_A, RK4_B, RK4_STEPS_PER_CALL, UNROLLED_MAX_DOF, compiled_rk4, rk4_plan
 from .integrate import DEFAULT_BUDGET, EQUATION_ERRORS, MUJOCO_INTEGRATORS, Budget, Trajectory
+
+if TYPE_CHECKING:  # heyoka is imported when first used (core/cachedir.heyoka)
+    from heyoka import cfunc_dbl
+
+# a source's one-state right-hand side f(t, y) -> (v, a), called on an array or on the scheme's list of floats
+OneStateRhs: TypeAlias = Callable[[float, np.ndarray | list[float]], np.ndarray | Sequence[float]]
+# the generated scheme (`_scheme_code`): run(f, q, v, h, steps) -> (q, v) after `steps` steps
+SchemeRun: TypeAlias = Callable[[OneStateRhs, list[float], list[float], float, int], tuple[list[float], list[float]]]
+
+
+class Lockstep(TypedDict):
+    """`lockstep`'s windows: the scheme, the steps per window, the states, and per pair of sources
+    ("a~b") the largest differences: "q" (rad), "v" (rad/s), "q_ulps", "v_ulps"."""
+
+    integrator: str
+    timestep: float
+    window_steps: int
+    n_states: int
+    pairs: dict[str, dict[str, float]]
+
 
 INTEGRATORS = MUJOCO_INTEGRATORS
 DERIVATIVE_STEP = 1.0  # rad/s: central differences are exact for F quadratic in v, so a large step only cuts rounding
@@ -110,16 +131,17 @@ def eulerdamp_active(system: System) -> bool:
 class Stepper:
     """One of MuJoCo's schemes on a source's dynamics, batched over N states."""
 
-    def __init__(self, system: System, source: Source, *, integrator: str, timestep: float) -> None:
+    def __init__(self, system: System, source: Source, stepping: Scheme) -> None:
+        integrator, timestep = stepping.integrator, stepping.timestep
         _check_integrator(integrator)
         if not timestep > 0:
             raise HarnessError(f"timestep must be positive; got {timestep}.")
         self.system, self.source, self.integrator, self.h = system, source, integrator, float(timestep)
         self.eulerdamp = integrator == "Euler" and eulerdamp_active(system)
         self.evaluations = 0  # forward-dynamics evaluations (states), a cost guard for tests
-        self._scalars: dict[tuple[tuple[float, ...], float | None], Any] = {}  # `_scalar` per (tau, damped)
+        self._scalars: dict[tuple[tuple[float, ...], float | None], OneStateRhs | None] = {}  # per (tau, damped)
 
-    def _scalar(self, tau: np.ndarray) -> Any:
+    def _scalar(self, tau: np.ndarray) -> OneStateRhs | None:
         """A one-state right-hand side f(t, y) without batch overhead, or None for MuJoCo's own."""
         damped = self.h if self.eulerdamp else None  # Euler's implicit damping: (M + h D)^-1 f
         key = (tuple(float(x) for x in tau), damped)
@@ -187,7 +209,7 @@ class _Blowup(Exception):
     """A free run's state left the budget's bound (or is not finite), or its wall time ran out."""
 
 
-def _check_sample(q: Any, v: Any, budget: Budget, deadline: float) -> None:
+def _check_sample(q: Sequence[float], v: Sequence[float], budget: Budget, deadline: float) -> None:
     """Between samples: raises _Blowup past the blow-up bound (or at a non-finite entry) or the wall time."""
     bound = budget.max_abs_state
     for x in (*q, *v):
@@ -198,7 +220,7 @@ def _check_sample(q: Any, v: Any, budget: Budget, deadline: float) -> None:
 
 
 @functools.lru_cache(maxsize=32)  # two schemes x the few coordinate counts of the systems run
-def _scheme_code(integrator: str, n: int) -> Any:
+def _scheme_code(integrator: str, n: int) -> SchemeRun:
     """`run(f, q, v, h, steps) -> (q, v)`: `steps` steps of `Stepper.step`'s one-state scheme (RK4 or
     semi-implicit Euler) on Python floats, generated as straight-line code for n coordinates with the
     same operations in the same order (the zero tableau entries included), so it rounds as the loop
@@ -239,9 +261,9 @@ def _scheme_code(integrator: str, n: int) -> Any:
         *[f"        {line}" for line in body],
         f"    return [{', '.join(qs)}], [{', '.join(vs)}]",
     ]
-    namespace: dict[str, Any] = {}
+    namespace: dict[str, object] = {}
     exec(compile("\n".join(lines) + "\n", f"<mirror {integrator} n={n}>", "exec"), namespace)  # noqa: S102 - ours
-    return namespace["run"]
+    return cast(SchemeRun, namespace["run"])  # the function written above
 
 
 def _nest(expr: str) -> str:
@@ -254,7 +276,7 @@ def _nest(expr: str) -> str:
 
 
 def _scalar_run(
-    f: Any,
+    f: OneStateRhs,
     integrator: str,
     h: float,
     steps: int,
@@ -278,7 +300,7 @@ def _scalar_run(
         qs[k], vs[k] = q, v
 
 
-def compiled_steps(source: Source, integrator: str, steps: int) -> tuple[Any, int] | None:
+def compiled_steps(source: Source, integrator: str, steps: int) -> tuple[cfunc_dbl, int] | None:
     """(cf, calls): MuJoCo's RK4 compiled (compiled.py `compiled_rk4`, cf(y, pars=[tau..., h]) does
     `steps / calls` steps, on one state (2n,) or a batch (2n, N)) for the hand equations of the
     source's system (a HandSource itself: a subclass may compute other dynamics than the module it
@@ -299,7 +321,14 @@ _BLOCK = 16  # samples of a compiled run between blow-up and wall-time checks (a
 
 
 def _compiled_run(
-    cf: Any, calls: int, h: float, tau: np.ndarray, qs: np.ndarray, vs: np.ndarray, budget: Budget, deadline: float
+    cf: cfunc_dbl,
+    calls: int,
+    h: float,
+    tau: np.ndarray,
+    qs: np.ndarray,
+    vs: np.ndarray,
+    budget: Budget,
+    deadline: float,
 ) -> None:
     """The compiled steps sample by sample; fills rows 1.. of qs, vs. Every _BLOCK samples (and at the
     end) the block is checked against the blow-up bound and the deadline: raises _Blowup with the rows
@@ -339,7 +368,7 @@ def _step_samples(
     stepper: Stepper,
     source: Source,
     integrator: str,
-    compiled: tuple[Any, int] | None,
+    compiled: tuple[cfunc_dbl, int] | None,
     q: np.ndarray,
     v: np.ndarray,
     tau_b: np.ndarray,
@@ -393,9 +422,7 @@ def _stopped(t: np.ndarray, qs: np.ndarray, vs: np.ndarray, status: str, reason:
 def mirror_trajectory(
     system: System,
     source: Source,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    start: Start,
     t: np.ndarray,
     *,
     integrator: str,
@@ -405,7 +432,7 @@ def mirror_trajectory(
     """MuJoCo's `integrator` applied to `source` (hand, Pinocchio, or MuJoCo's own forward dynamics).
 
     Args:
-        q0, v0, tau: (n,) initial state and constant input.
+        start: the (n,) initial state and constant input.
         t: (K,) uniform output grid starting at 0; `timestep` (default: the MJCF's) must divide its step.
         budget: the wall time and blow-up bound of the run (its evaluations are fixed by the steps).
 
@@ -414,9 +441,10 @@ def mirror_trajectory(
         budget" or "failed"), "stopped_at" (s, the last good sample) and "reason" (one line, empty
         when ok). Samples after "stopped_at" are NaN. Never raises for what the equations compute.
     """
+    q0, v0, tau = start.q0, start.v0, start.tau
     dt = float(timestep or system.mujoco_model().opt.timestep)
     steps = _steps_per_sample(t, dt)
-    stepper = Stepper(system, source, integrator=integrator, timestep=dt)
+    stepper = Stepper(system, source, Scheme(integrator, dt))
     q = np.asarray(q0, dtype=float)[None].copy()
     v = np.asarray(v0, dtype=float)[None].copy()
     tau_b = np.asarray(tau, dtype=float)[None]
@@ -447,25 +475,24 @@ def mirror_steps(
     q: np.ndarray,
     v: np.ndarray,
     tau: np.ndarray,
+    stepping: Scheme,
     *,
-    integrator: str,
-    timestep: float,
     steps: int = 1,
 ) -> tuple[np.ndarray, np.ndarray]:
     """`steps` mirror steps from each of N states at once, (N, n) in and out (compiled in one call
     per group of steps for a source `compiled_steps` accepts: non-finite rows where it blows up)."""
     q, v = np.array(q, dtype=float), np.array(v, dtype=float)
     tau = np.broadcast_to(np.asarray(tau, dtype=float), q.shape)
-    compiled = compiled_steps(source, integrator, steps) if len(q) else None
+    compiled = compiled_steps(source, stepping.integrator, steps) if len(q) else None
     if compiled is not None:
         cf, calls = compiled
         n = q.shape[1]
         y = np.ascontiguousarray(np.concatenate([q, v], axis=1).T)
-        pars = np.ascontiguousarray(np.concatenate([tau, np.full((len(q), 1), float(timestep))], axis=1).T)
+        pars = np.ascontiguousarray(np.concatenate([tau, np.full((len(q), 1), float(stepping.timestep))], axis=1).T)
         for _ in range(calls):
             y = cf(y, pars=pars)
         return np.ascontiguousarray(y[:n].T), np.ascontiguousarray(y[n:].T)
-    stepper = Stepper(system, source, integrator=integrator, timestep=timestep)
+    stepper = Stepper(system, source, stepping)
     with np.errstate(all="ignore"):  # a wrong derivation's overflow is NaN in its rows, not a warning
         for _ in range(steps):
             q, v = stepper.step(q, v, tau)
@@ -477,29 +504,28 @@ def mujoco_steps(
     q: np.ndarray,
     v: np.ndarray,
     tau: np.ndarray,
+    stepping: Scheme,
     *,
-    integrator: str,
-    timestep: float,
     steps: int = 1,
 ) -> tuple[np.ndarray, np.ndarray]:
     """`steps` calls of `mj_step` from each of N states (the MuJoCo side of a lockstep), (N, n). A
     state from which MuJoCo warns (and resets) gives NaN rows, never the reset state as data."""
     from ..sources import mujoco as engine
 
-    _check_integrator(integrator)
-    return engine.step_states(source, q, v, tau, Scheme(integrator, timestep), steps=steps)
+    _check_integrator(stepping.integrator)
+    return engine.step_states(source, q, v, tau, stepping, steps=steps)
 
 
 def lockstep(
     system: System,
     sources: Mapping[str, Source],
-    states: Any,
+    states: np.ndarray | tuple[Floats, Floats],
     *,
     integrator: str,
     timestep: float | None = None,
     window_steps: int = 1,
-    tau: Any = None,
-) -> dict[str, Any]:
+    tau: Floats | None = None,
+) -> Lockstep:
     """Every source advanced `window_steps` steps from the same states; the largest differences per pair.
 
     The MuJoCo source (name "mujoco") steps with `mj_step`; every other source with its mirror.
@@ -532,9 +558,9 @@ def lockstep(
     ends = {}
     for name, src in sources.items():
         if name == "mujoco":
-            ends[name] = mujoco_steps(stepped(src), q, v, tau_b, integrator=integrator, timestep=dt, steps=window_steps)
+            ends[name] = mujoco_steps(stepped(src), q, v, tau_b, Scheme(integrator, dt), steps=window_steps)
         else:
-            ends[name] = mirror_steps(system, src, q, v, tau_b, integrator=integrator, timestep=dt, steps=window_steps)
+            ends[name] = mirror_steps(system, src, q, v, tau_b, Scheme(integrator, dt), steps=window_steps)
     pairs = {}
     for a, b in itertools.combinations(sorted(ends), 2):
         entry = {}

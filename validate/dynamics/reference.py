@@ -32,22 +32,31 @@ import json
 import os
 import time
 import types
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeAlias, TypedDict
 
 import numpy as np
 
 from .. import forms
 from ..core import cache
+from ..core.arrays import Floats
 from ..core.cachedir import heyoka
 from ..core.errors import HarnessError, IntegrationStopped, unknown_name
 from ..core.memo import Memo
 from ..handwritten import tracing
 from ..handwritten.forms import accelerations_only
+from ..model.start import Start
 from ..sources.hand import HandSource
 from ..systems import System
 from .integrate import DEFAULT_BUDGET, Budget, Trajectory
+
+if TYPE_CHECKING:  # heyoka is imported when first used (core/cachedir.heyoka)
+    from heyoka import cfunc_dbl, expression, taylor_adaptive_dbl, taylor_adaptive_f128, taylor_adaptive_ldbl
+
+# a compiled Taylor integrator in one of the precisions (PRIMARY, CHECK, double)
+Taylor: TypeAlias = "taylor_adaptive_dbl | taylor_adaptive_ldbl | taylor_adaptive_f128"
 
 CACHE_VERSION = 2  # bump when the cached content changes meaning
 DEFAULT_CACHE_DIR = cache.DEFAULT  # the configured cache (validate/core/cache.py), "reference" folder
@@ -70,11 +79,11 @@ class SymbolicDynamics:
     """The hand equations as heyoka expressions: x' = rhs(x, tau), x = (q, v), tau = par[0:n]."""
 
     n: int
-    state: tuple[Any, ...]  # (2n,) heyoka variables q0.., v0..
-    rhs: tuple[Any, ...]  # (2n,) expressions: v, then a = M^-1 (tau + passive - bias)
+    state: tuple[expression, ...]  # (2n,) heyoka variables q0.., v0..
+    rhs: tuple[expression, ...]  # (2n,) expressions: v, then a = M^-1 (tau + passive - bias)
 
     @property
-    def ode(self) -> list[tuple[Any, Any]]:
+    def ode(self) -> list[tuple[expression, expression]]:
         return list(zip(self.state, self.rhs, strict=True))
 
 
@@ -83,7 +92,7 @@ def param_key(system: System) -> tuple[tuple[str, str], ...]:
 
 
 @functools.lru_cache(maxsize=64)  # one per parameter set: probes and overrides make many
-def _symbolic(name: str, module: types.ModuleType, p: Any, n: int) -> SymbolicDynamics:
+def _symbolic(name: str, module: types.ModuleType, p: object, n: int) -> SymbolicDynamics:
     hy = heyoka()
 
     qs = [hy.expression(f"q{i}") for i in range(n)]
@@ -127,7 +136,7 @@ def rhs_check(system: System, *, n_states: int = 64, seed: int = 0) -> float:
 
 
 @functools.lru_cache(maxsize=64)  # one per SymbolicDynamics, as _symbolic (compiled code: a few MB each)
-def _cfunc(dyn: SymbolicDynamics) -> Any:
+def _cfunc(dyn: SymbolicDynamics) -> cfunc_dbl:
     hy = heyoka()
 
     return hy.cfunc(list(dyn.rhs[dyn.n :]), list(dyn.state))
@@ -137,7 +146,7 @@ def _cfunc(dyn: SymbolicDynamics) -> Any:
 # Taylor integration
 
 
-def _fp_types() -> dict[str, Any]:
+def _fp_types() -> dict[str, type]:
     hy = heyoka()
 
     return {"double": float, "long double": np.longdouble, "quad": hy.real128}
@@ -150,7 +159,7 @@ def _extended_available() -> bool:
 _INTEGRATORS = Memo(maxsize=64)  # bounded: one per system, parameter set, precision and tolerance (issue 36)
 
 
-def taylor_integrator(system: System, precision: str, tol: float | None) -> Any:
+def taylor_integrator(system: System, precision: str, tol: float | None) -> Taylor:
     """A compiled heyoka integrator for the system (kept for the process; state reset per use)."""
     hy = heyoka()
 
@@ -158,13 +167,13 @@ def taylor_integrator(system: System, precision: str, tol: float | None) -> Any:
     # the module itself, not its id or name: a mutated module of the same name gets its own integrator
     key = (system.name, system.overrides, param_key(system), system.equations, precision, tol)
 
-    def make() -> Any:
+    def make() -> Taylor:
         dyn = symbolic_dynamics(system)
         state = np.zeros(2 * dyn.n, dtype=fp) if fp is not hy.real128 else np.array([hy.real128(0)] * 2 * dyn.n)
         pars = np.zeros(dyn.n, dtype=fp) if fp is not hy.real128 else np.array([hy.real128(0)] * dyn.n)
         # compact mode: compiling the unrolled Taylor code took 4 s in quad and 0.7 s in long double per
         # system (the whole of a cold run's extra time); compact code compiles in 0.2 s and runs as fast.
-        kwargs: dict[str, Any] = {"fp_type": fp, "pars": pars, "compact_mode": True, "opt_level": 1}
+        kwargs: dict[str, object] = {"fp_type": fp, "pars": pars, "compact_mode": True, "opt_level": 1}
         if tol is not None:
             kwargs["tol"] = tol
         return hy.taylor_adaptive(dyn.ode, state, **kwargs)
@@ -196,7 +205,7 @@ class TaylorGuard:
         self.deadline = time.perf_counter() + budget.max_wall_s
         self.why: str | None = None
 
-    def __call__(self, ta: Any) -> bool:
+    def __call__(self, ta: Taylor) -> bool:
         self.steps += 1
         b = self.budget
         if self.steps > b.max_taylor_steps:
@@ -216,7 +225,7 @@ class TaylorGuard:
         self.why = "diverged: a non-finite state" if not np.isfinite(largest) else f"diverged: |x| = {largest:.3g}"
         return False
 
-    def check(self, outcome: Any, ta: Any, *, source: str, method: str) -> None:
+    def check(self, outcome: object, ta: Taylor, *, source: str, method: str) -> None:
         """Raises IntegrationStopped unless a propagation's `outcome` reached its time limit."""
         if "time_limit" in str(outcome):
             return
@@ -232,6 +241,19 @@ class TaylorGuard:
         raise IntegrationStopped(source=source, method=method, t=float(ta.time), reason=f"{reason} (x = {x.tolist()})")
 
 
+class TaylorRun(TypedDict):
+    """How `taylor_solve` ran: its method in words, precision, tolerance and order, the Taylor steps
+    taken and the seconds spent compiling and integrating."""
+
+    method: str
+    precision: str
+    tolerance: float
+    order: int
+    steps: int
+    compile_s: float
+    integrate_s: float
+
+
 def taylor_solve(
     system: System,
     q0: np.ndarray,
@@ -242,7 +264,7 @@ def taylor_solve(
     precision: str = PRIMARY,
     tol: float | None = None,
     budget: Budget = DEFAULT_BUDGET,
-) -> tuple[np.ndarray, dict[str, Any]]:
+) -> tuple[np.ndarray, TaylorRun]:
     """The state (K, 2n) on the grid `t` by heyoka's Taylor method, in the precision's own dtype.
 
     `tol` defaults to heyoka's: the machine epsilon of the precision. Bounded by `budget` (steps,
@@ -331,7 +353,7 @@ def cache_key(
     return hashlib.sha256(json.dumps(blob, sort_keys=True).encode()).hexdigest()[:24]
 
 
-def _check_inputs(system: System, q0: Any, v0: Any, tau: Any, t: Any) -> tuple[np.ndarray, ...]:
+def _check_inputs(system: System, q0: Floats, v0: Floats, tau: Floats, t: Floats) -> tuple[np.ndarray, ...]:
     n = system.nv
     arrays = []
     for name, x in (("q0", q0), ("v0", v0), ("tau", tau)):
@@ -349,10 +371,8 @@ def _check_inputs(system: System, q0: Any, v0: Any, tau: Any, t: Any) -> tuple[n
 
 def reference_trajectory(
     system: System,
-    q0: Any,
-    v0: Any,
-    tau: Any,
-    t: Any,
+    start: Start,
+    t: Floats,
     *,
     cache_dir: str | os.PathLike[str] | None = DEFAULT_CACHE_DIR,
     check: str | None = CHECK,
@@ -361,7 +381,7 @@ def reference_trajectory(
 
     Args:
         system: a `System`.
-        q0, v0, tau: (n,) initial state and constant input.
+        start: the (n,) initial state and constant input.
         t: (K,) increasing output times, s.
         cache_dir: where results are cached (None: no cache).
         check: precision of the second, independent run ("quad", "double", or None to skip).
@@ -371,15 +391,15 @@ def reference_trajectory(
         method, tolerance, order, check_method, agreement_q / agreement_v (max |difference| between
         the two runs over the grid, rad and rad/s), rhs_check, timing (s), cache ("hit"/"miss"/"off").
     """
-    q0, v0, tau, t = _check_inputs(system, q0, v0, tau, t)
-    start = time.perf_counter()
+    q0, v0, tau, t = _check_inputs(system, start.q0, start.v0, start.tau, t)
+    began = time.perf_counter()
     n = system.nv
     where = cache.folder(cache_dir, "reference")
     path = key = None
     if where is not None:
         key = cache_key(system, q0, v0, tau, t, check=check)
         path = where / f"{system.name}-{key}.npz"
-        hit = _cached_reference(system, path, key, q0, v0, tau, t, start=start)
+        hit = _cached_reference(system, path, key, q0, v0, tau, t, start=began)
         if hit is not None:
             return hit
 
@@ -410,7 +430,7 @@ def reference_trajectory(
     if not (np.all(np.isfinite(traj.q)) and np.all(np.isfinite(traj.v))):
         k = int(np.argwhere(~np.isfinite(np.hstack([traj.q, traj.v])))[0][0])
         raise HarnessError(f"{system.name}: the reference solution is not finite at t = {t[k]:g} s (heyoka {primary}).")
-    info["timing"]["total_s"] = time.perf_counter() - start
+    info["timing"]["total_s"] = time.perf_counter() - began
     if path is not None and key is not None:
         written = cache.store(path, key, {"t": traj.t, "q": traj.q, "v": traj.v}, info)
         info.update(cache="miss", cache_file=str(path) if written else None)
@@ -493,7 +513,7 @@ def window_check(system: System, traj: Trajectory, tau: np.ndarray) -> float:
     return float(np.abs(end - stored).max())
 
 
-def _window_rhs(system: System, u: np.ndarray) -> Any:
+def _window_rhs(system: System, u: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
     """f(y) = (v, a) for rows y = (q, v) at the inputs u (K, n): the hand equations' traced code (a tenth
     of the numpy module's cost per call; `reference_trajectory` checks the trace against the module
     before a stored entry is window-checked), or the module itself where the trace cannot stand in
@@ -518,7 +538,7 @@ def _window_rhs(system: System, u: np.ndarray) -> Any:
     return module
 
 
-def _rk4_windows(f: Any, x: np.ndarray, h: np.ndarray, steps: int) -> np.ndarray:
+def _rk4_windows(f: Callable[[np.ndarray], np.ndarray], x: np.ndarray, h: np.ndarray, steps: int) -> np.ndarray:
     """Classic RK4, `steps` steps of h (one per window, (K, 1)) from every row of x at once."""
     for _ in range(steps):
         k1 = f(x)

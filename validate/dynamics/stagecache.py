@@ -23,6 +23,7 @@ from ..core import cache
 from ..core.cachedir import Cache
 from ..core.package import installed_version
 from ..sources.base import Source, stepped
+from ..sources.baselines import StateBatch
 from ..systems import System
 from .reference import param_key, source_hash, symbolic_dynamics
 
@@ -40,7 +41,7 @@ def _mjb(source: Source) -> str:
     return model_digest(stepped(source).m)
 
 
-def states_digest(states: Any) -> str:
+def states_digest(states: StateBatch) -> str:
     """SHA-256 of sample states' q, v and tau (a stage judged at them is keyed by them)."""
     h = hashlib.sha256()
     for x in (states.q, states.v, states.tau):
@@ -48,7 +49,7 @@ def states_digest(states: Any) -> str:
     return h.hexdigest()
 
 
-def content_key(system: System, sources: Mapping[str, Source], stage: str, arguments: Any) -> str:
+def content_key(system: System, sources: Mapping[str, Source], stage: str, arguments: object) -> str:
     """Hash of everything `stage` of `system` depends on (see the module docstring)."""
     module_file = getattr(system.equations, "__file__", None)
     blob = {
@@ -70,12 +71,12 @@ def content_key(system: System, sources: Mapping[str, Source], stage: str, argum
     return hashlib.sha256(json.dumps(blob, sort_keys=True, default=repr).encode()).hexdigest()[:32]
 
 
-def _plain(x: Any) -> Any:
+def _plain(x: object) -> object:
     """numpy's arrays and scalars as the lists and numbers JSON holds (NaN kept: the json module reads it back)."""
     return x.tolist() if hasattr(x, "tolist") else repr(x)
 
 
-def as_stored(value: dict[str, Any]) -> dict[str, Any]:
+def as_stored(value: Mapping[str, object]) -> dict[str, Any]:
     """`value` as an entry holds it: what a hit returns, so that a computed and a read stage are alike."""
     return json.loads(json.dumps(value, default=_plain))  # type: ignore[no-any-return]
 
@@ -85,8 +86,8 @@ def cached_stage(
     system: System,
     sources: Mapping[str, Source],
     stage: str,
-    arguments: Any,
-    compute: Callable[[], dict[str, Any]],
+    arguments: object,
+    compute: Callable[[], Mapping[str, object]],
 ) -> dict[str, Any]:
     """`compute()` (a dict of lists, numbers and arrays) as stored, with "cache": "hit" (read back),
     "miss" (computed and written) or "off" (no cache, or a key that cannot be made: equations that

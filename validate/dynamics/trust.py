@@ -19,7 +19,7 @@ the chaos); one that passes its threshold does not solve the reference's equatio
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NotRequired, TypedDict
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -73,7 +73,17 @@ def horizon(rate: float) -> float | None:
     return float(np.log(TRUST / ROUNDING) / rate) if np.isfinite(rate) and rate > 0 else None
 
 
-def run_trust(run: dict[str, Any], t: np.ndarray, reference_limit: float) -> dict[str, Any]:
+class RunTrust(TypedDict):
+    """`run_trust`'s answer: until when (s) and why a run is trusted, when it departs from the reference
+    by more than TRUST (s, None: never) and, where it does, whether its own error estimate expected it."""
+
+    trusted_until: float
+    why: str
+    departs_at: float | None
+    expected: NotRequired[bool]
+
+
+def run_trust(run: dict[str, Any], t: np.ndarray, reference_limit: float) -> RunTrust:
     """Until when one run agrees with the reference, why it stops there, and whether its departure (if
     any) is expected of its integrator."""
     err = np.nan_to_num(np.asarray(run["error_vs_hand"], dtype=float), nan=np.inf)
@@ -87,13 +97,13 @@ def run_trust(run: dict[str, Any], t: np.ndarray, reference_limit: float) -> dic
     found = {why: at for why, at in limits.items() if at is not None}
     why, until = min(found.items(), key=lambda kv: kv[1]) if found else ("the end of the run", float(t[-1]))
     departs = first_time(t, err > TRUST)
-    out: dict[str, Any] = {"trusted_until": until, "why": why, "departs_at": departs}
+    out: RunTrust = {"trusted_until": until, "why": why, "departs_at": departs}
     if departs is not None:
         out["expected"] = bool(err[t == departs][0] <= thr[t == departs][0])
     return out
 
 
-def statement(label: str, trust: dict[str, Any], t_end: float) -> str:
+def statement(label: str, trust: RunTrust, t_end: float) -> str:
     """One sentence per engine: how far it is trusted, and of its departure."""
     until = trust["trusted_until"]
     text = (

@@ -103,7 +103,7 @@ class MappedSource(Generic[S]):
         return f
 
     def evaluate(
-        self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray | None = None, **options: Any
+        self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray | None = None, **options: int | None
     ) -> dict[str, np.ndarray]:
         a = None if a_ref is None else self._j(a_ref)
         out = self.inner.evaluate(self._j(q), self._j(v), tau @ self.A, a, **options)

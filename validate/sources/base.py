@@ -3,15 +3,17 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Protocol, TypeVar, runtime_checkable
+from typing import TYPE_CHECKING, Protocol, TypeVar, runtime_checkable
 
 import numpy as np
 
 from ..core.errors import HarnessError
 
 if TYPE_CHECKING:
+    import mujoco
+
     from ..systems import System
 
 # MuJoCo's integrators by the names the harness uses (defined once; the enums live in sources/mujoco.py).
@@ -87,8 +89,9 @@ class PosedSource(Source, Protocol):
     def kinematics(self, q: np.ndarray, v: np.ndarray) -> Kinematics: ...
 
 
-# scipy's right-hand side f(t, y) of one state y = (q, v), for a constant input.
-RightHandSide = Callable[[float, np.ndarray], np.ndarray]
+# scipy's right-hand side f(t, y) of one state y = (q, v), for a constant input: (v, a) as an array, or
+# as the list of floats the hand equations' generated code returns (sources/fastpath.py)
+RightHandSide = Callable[[float, np.ndarray], np.ndarray | Sequence[float]]
 
 
 @runtime_checkable
@@ -104,8 +107,8 @@ class SteppedSource(Source, Protocol):
     """MuJoCo's source: a compiled model and its data, set to a state and stepped by MuJoCo itself
     (sources/mujoco.py's runs). `m` and `d` are mujoco.MjModel and mujoco.MjData (untyped)."""
 
-    m: Any
-    d: Any
+    m: mujoco.MjModel
+    d: mujoco.MjData
     qadr: np.ndarray  # the coordinates' places in MuJoCo's qpos and qvel
     dadr: np.ndarray
 

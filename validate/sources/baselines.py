@@ -4,7 +4,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Protocol
 
 import numpy as np
 
@@ -12,7 +12,18 @@ from ..systems import System
 from .base import Source, engine_of
 
 
-def joint_coordinates(system: System, states: Any, a: np.ndarray) -> tuple[np.ndarray, ...]:
+class StateBatch(Protocol):
+    """N states in the notes' coordinates (verdict/pointwise.States): (N, n) each."""
+
+    @property
+    def q(self) -> np.ndarray: ...
+    @property
+    def v(self) -> np.ndarray: ...
+    @property
+    def tau(self) -> np.ndarray: ...
+
+
+def joint_coordinates(system: System, states: StateBatch, a: np.ndarray) -> tuple[np.ndarray, ...]:
     """q, v, a, tau in joint coordinates (engines see joints; JOINT_MAP maps them to the notes')."""
     A = system.joint_map
     if A is None:
@@ -33,7 +44,7 @@ def to_notes(system: System, out: dict[str, np.ndarray]) -> dict[str, np.ndarray
     return out
 
 
-def raw_mujoco(system: System, source: Source, states: Any, a_ref: np.ndarray) -> dict[str, np.ndarray]:
+def raw_mujoco(system: System, source: Source, states: StateBatch, a_ref: np.ndarray) -> dict[str, np.ndarray]:
     """Per state: write qpos/qvel/ctrl (or qfrc_applied), mj_forward, mj_fullM; write qacc = a_ref,
     mj_inverse. The same outputs as `MujocoSource.evaluate`, in the notes' coordinates."""
     import mujoco
@@ -50,8 +61,8 @@ def raw_mujoco(system: System, source: Source, states: Any, a_ref: np.ndarray) -
     applied = np.zeros((n_states, m.nv))
     applied[:, mj.dadr[~driven]] = tauj[:, ~driven]
     ident = np.array_equal(mj.qadr, np.arange(m.nq)) and np.array_equal(mj.dadr, np.arange(m.nv)) and m.nv == n
-    qa: Any = slice(None) if ident else mj.qadr
-    da: Any = slice(None) if ident else mj.dadr
+    qa: slice | np.ndarray = slice(None) if ident else mj.qadr
+    da: slice | np.ndarray = slice(None) if ident else mj.dadr
     ix = np.ix_(mj.dadr, mj.dadr)
     bodies = mj.body_ids
     full = np.zeros((m.nv, m.nv))
@@ -89,7 +100,7 @@ def raw_mujoco(system: System, source: Source, states: Any, a_ref: np.ndarray) -
     return to_notes(system, out)
 
 
-def raw_pinocchio(system: System, source: Source, states: Any, a_ref: np.ndarray) -> dict[str, np.ndarray]:
+def raw_pinocchio(system: System, source: Source, states: StateBatch, a_ref: np.ndarray) -> dict[str, np.ndarray]:
     """Per state: crba, rnea at zero acceleration (the bias), aba, rnea, computeKineticEnergy,
     computePotentialEnergy (which also places the joints, read for the body poses). The same outputs as
     `PinocchioSource.evaluate`."""
@@ -150,7 +161,7 @@ def raw_pinocchio(system: System, source: Source, states: Any, a_ref: np.ndarray
     return to_notes(system, out)
 
 
-def raw_symbolic(system: System, source: Source, states: Any) -> list[Any]:
+def raw_symbolic(system: System, source: Source, states: StateBatch) -> list[list[np.ndarray | float]]:
     """The derived equations' generated numpy code (dynamics and the bodies' kinematics) called once on
     the batch, nothing unpacked or solved: the least the symbolic source can cost."""
     from .symbolic import SymbolicSource

@@ -3,11 +3,10 @@ that acts, for `check --constraints` (validate/dynamics/constrained.py judges it
 
 from __future__ import annotations
 
-from typing import Any
-
 import mujoco
 import numpy as np
 
+from ..core.arrays import Floats
 from ..systems import System
 from .base import SteppedSource
 
@@ -20,7 +19,7 @@ _WHAT = {
 }
 
 
-def _which(m: Any, d: Any) -> str:
+def _which(m: mujoco.MjModel, d: mujoco.MjData) -> str:
     """The first active constraint row, in words."""
     kind, i = int(d.efc_type[0]), int(d.efc_id[0])
     if kind in _WHAT:
@@ -38,7 +37,7 @@ def _which(m: Any, d: Any) -> str:
 
 
 def constrained_run(
-    system: System, source: SteppedSource, t: np.ndarray, q0: Any, v0: Any
+    system: System, source: SteppedSource, t: np.ndarray, q0: Floats, v0: Floats
 ) -> tuple[np.ndarray, float | None, str]:
     """MuJoCo's run of the model as published (constraints on) sampled on `t` until the first active
     constraint: (samples (k, n) up to it, its time or None, what it was)."""

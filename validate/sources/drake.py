@@ -25,10 +25,12 @@ from __future__ import annotations
 
 import importlib.util
 import logging
-from typing import Any
+from collections.abc import Callable
+from typing import Any, TypedDict
 
 import numpy as np
 
+from ..core.arrays import Floats
 from ..core.errors import HarnessError
 from ..model.modelview import names
 from ..systems import System
@@ -231,6 +233,16 @@ def build_plant(system: System) -> tuple[Any, list[str], dict[str, tuple[float, 
     return plant, warnings + aligned, parsed
 
 
+class DrakeRunStats(TypedDict):
+    """What `DrakeSource.free_run` says of its run: Drake's steps and derivative evaluations, "ok" or
+    "failed", and why it stopped."""
+
+    steps: int
+    evaluations: int
+    status: str
+    reason: str
+
+
 class DrakeSource:
     name = "drake"
 
@@ -355,7 +367,7 @@ class DrakeSource:
         scheme: str = "runge_kutta3",
         accuracy: float | None = None,
         max_step: float = 0.01,
-    ) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+    ) -> tuple[np.ndarray, np.ndarray, DrakeRunStats]:
         """Drake's own integration of the continuous plant (joint damping as its force elements apply
         it) from (q0, v0) with constant `tau`, sampled by AdvanceTo at each time of `t` (t[0] the start):
         q, v (K, n) in the system's joint coordinates (mapped by joint name) and stats. `scheme`: one of
@@ -383,7 +395,7 @@ class DrakeSource:
                 q[k], v[k] = x[self.qidx], x[self.plant.num_positions() + self.vidx]
         except RuntimeError as exc:  # Drake's step-size or state errors
             status, reason = "failed", f"Drake stopped at t = {ctx.get_time():.6g} s: {str(exc).splitlines()[0]}"
-        stats = {
+        stats: DrakeRunStats = {
             "steps": int(integrator.get_num_steps_taken()),
             "evaluations": int(integrator.get_num_derivative_evaluations()),
             "status": status,
@@ -406,7 +418,7 @@ class DrakeSource:
         return ctx
 
     # -- batches ------------------------------------------------------------------------------
-    def _each(self, q: np.ndarray, v: np.ndarray, fn: Any) -> np.ndarray:
+    def _each(self, q: np.ndarray, v: np.ndarray, fn: Callable[[int], Floats]) -> np.ndarray:
         rows = []
         for i in range(len(q)):
             self._set(q[i], v[i])
@@ -519,11 +531,11 @@ class DrakeSource:
         V = plant.EvalBodySpatialVelocityInWorld(ctx, body)
         return 0.5 * float(V.dot(M_W * V))
 
-    def reading(self) -> dict[str, Any]:
+    def reading(self) -> dict[str, float | np.ndarray]:
         """How Drake read each compared body and joint, keyed as validate/audit/audit.py compares them:
         mass, centre of mass and inertia about it in the body's frame (with the bodies welded to it),
         and at q = 0 each joint's anchor and axis in the world, its limits, damping and armature."""
-        out: dict[str, Any] = {}
+        out: dict[str, float | np.ndarray] = {}
         self._set(np.zeros(len(self.qidx)), np.zeros(len(self.vidx)))
         for b, k in zip(self.system.bodies, range(len(self.bodies)), strict=True):
             mass, com, inertia = self._group_inertia(k)
@@ -551,7 +563,7 @@ class DrakeSource:
         inertia = total.Shift(com).CalcRotationalInertia().CopyToFullMatrix3()
         return mass, com, np.array(inertia, dtype=float)
 
-    def _joint_reading(self, j: str) -> dict[str, Any]:
+    def _joint_reading(self, j: str) -> dict[str, float | np.ndarray]:
         """Joint j at q = 0: anchor and motion axis (linear, angular) in the world, limits, damping and
         armature as Drake's parser read them (before any alignment)."""
         plant, ctx = self.plant, self.context

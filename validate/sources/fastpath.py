@@ -10,14 +10,25 @@ reference; tests compare the two at random states.
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable, Hashable, Sequence
+from typing import TYPE_CHECKING, TypeAlias, cast
 
-from ..forms import Implicit
+import numpy as np
+
+from ..forms import Explicit, Implicit
 from ..handwritten import tracing
 from ..systems import System
 
+if TYPE_CHECKING:  # sympy is imported when first used
+    import sympy as sp
 
-def _symbols(n: int) -> tuple[list[Any], list[Any], list[Any], list[Any]]:
+# the generated one-state right-hand side: rhs(t, y, tau) -> [v..., a...]
+ScalarRhs: TypeAlias = Callable[[float, np.ndarray | Sequence[float], Sequence[float]], list[float]]
+# a = M^-1 f symbolically, and the symbols of q, v and tau it is in
+Accelerations: TypeAlias = "tuple[list[sp.Expr], list[sp.Symbol], list[sp.Symbol], list[sp.Symbol]]"
+
+
+def _symbols(n: int) -> tuple[list[sp.Symbol], list[sp.Symbol], list[sp.Symbol], list[sp.Symbol]]:
     import sympy as sp
 
     return (
@@ -28,7 +39,7 @@ def _symbols(n: int) -> tuple[list[Any], list[Any], list[Any], list[Any]]:
     )
 
 
-def _solve(A: Any, b: list[Any]) -> list[Any]:
+def _solve(A: list[list[sp.Expr]], b: list[sp.Expr]) -> list[sp.Expr]:
     """A^-1 b; Cramer's rule for n <= 2 (shortest expressions), elimination beyond."""
     n = len(b)
     if n == 1:
@@ -39,9 +50,7 @@ def _solve(A: Any, b: list[Any]) -> list[Any]:
     return tracing.solve_spd(A, b)
 
 
-def hand_accelerations(
-    system: System, damped_step: float | None = None
-) -> tuple[list[Any], list[Any], list[Any], list[Any]]:
+def hand_accelerations(system: System, damped_step: float | None = None) -> Accelerations:
     """a = M^-1 (tau + passive - bias) of the hand equations, symbolically; with `damped_step` h,
     MuJoCo's Euler with implicit joint damping instead: a = (M + h D)^-1 (tau + passive - bias),
     D = diag(-d passive_i / d v_i) (exact: the derivative is symbolic)."""
@@ -58,7 +67,7 @@ def hand_accelerations(
     return _solve(M, [t + p - b for t, p, b in zip(taus, passive, bias, strict=True)]), qs, vs, taus
 
 
-def variant_accelerations(system: System, variant: Any) -> tuple[list[Any], list[Any], list[Any], list[Any]]:
+def variant_accelerations(system: System, variant: Implicit | Explicit) -> Accelerations:
     """The accelerations a printed dynamic form implies, symbolically (implicit forms solved for a)."""
     import sympy as sp
 
@@ -75,7 +84,7 @@ def variant_accelerations(system: System, variant: Any) -> tuple[list[Any], list
     return tracing.vector(variant.acceleration(p, q, v, tau), n, backend), qs, vs, taus
 
 
-def rhs_source(acc: list[Any], qs: list[Any], vs: list[Any], taus: list[Any]) -> str:
+def rhs_source(acc: list[sp.Expr], qs: list[sp.Symbol], vs: list[sp.Symbol], taus: list[sp.Symbol]) -> str:
     """Python source of `rhs(t, y, tau)` -> [v..., a...] using only `math`."""
     import sympy as sp
     from sympy.printing.pycode import PythonCodePrinter
@@ -92,15 +101,15 @@ def rhs_source(acc: list[Any], qs: list[Any], vs: list[Any], taus: list[Any]) ->
     return "\n".join(lines) + "\n"
 
 
-def _compile(source: str, label: str) -> Any:
+def _compile(source: str, label: str) -> ScalarRhs:
     import math
 
-    namespace: dict[str, Any] = {"math": math}
+    namespace: dict[str, object] = {"math": math}
     exec(compile(source, f"<fastpath {label}>", "exec"), namespace)  # noqa: S102 - code we generated
-    return namespace["rhs"]
+    return cast(ScalarRhs, namespace["rhs"])  # the function `rhs_source` wrote
 
 
-def _key(system: System, variant: Any, damped_step: float | None = None) -> tuple[Any, ...]:
+def _key(system: System, variant: Implicit | Explicit | None, damped_step: float | None = None) -> tuple[Hashable, ...]:
     """What the generated code depends on, by identity: the equations module and the functions traced
     (a mutated or reloaded module of the same name has other function objects), the parameter values
     and the variant's own function. Never the system's name alone: a module's functions replaced in
@@ -113,7 +122,9 @@ def _key(system: System, variant: Any, damped_step: float | None = None) -> tupl
     return ("scalar_rhs", eq, params, variant.name, own, id(variant))
 
 
-def scalar_rhs(system: System, variant: Any = None, *, damped_step: float | None = None) -> Any:
+def scalar_rhs(
+    system: System, variant: Implicit | Explicit | None = None, *, damped_step: float | None = None
+) -> ScalarRhs:
     """The compiled scalar right-hand side `rhs(t, y, tau) -> list` of the hand equations, or of a
     printed dynamic form; kept in the System's memo, keyed by what it was generated from (`_key`).
     `damped_step` h (hand equations only): the accelerations of MuJoCo's Euler step with implicit
@@ -123,7 +134,8 @@ def scalar_rhs(system: System, variant: Any = None, *, damped_step: float | None
     OverflowError or ValueError (a math domain error); the integrators turn these into a finding
     (validate/dynamics/integrate.py EQUATION_ERRORS)."""
 
-    def make() -> tuple[Any, Any]:
+    def make() -> tuple[Implicit | Explicit | None, ScalarRhs]:
+
         acc = hand_accelerations(system, damped_step) if variant is None else variant_accelerations(system, variant)
         label = f"{system.name} ({system.derivation.__name__}) {variant.name if variant else 'hand'}"
         return variant, _compile(rhs_source(*acc), label)  # the variant kept alive: id() in the key

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from ..core.errors import HarnessError
 from ..handwritten.forms import accelerations_only, not_provided_in, written_form, written_function
 from ..handwritten.values import real_array
 from ..systems import System
+from .base import RightHandSide
 
 
 def solve_or_nan(M: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -45,7 +44,7 @@ class HandSource:
         self.eq = system.derivation
         self.p = system.params
 
-    def rhs(self, tau: np.ndarray) -> Any:
+    def rhs(self, tau: np.ndarray) -> RightHandSide:
         """The one-state right-hand side f(t, y) -> [v..., a...] for constant `tau`: the scalar code
         generated from the equations (sources/fastpath.py), no batch overhead; the batched numpy
         equations one state at a time where the module cannot be traced (`traced_rhs` says why)."""
@@ -60,7 +59,7 @@ class HandSource:
             return self._numeric_rhs(np.asarray(tau, dtype=float))
         return lambda t, y: fast(t, y, tau_list)
 
-    def _numeric_rhs(self, tau: np.ndarray) -> Any:
+    def _numeric_rhs(self, tau: np.ndarray) -> RightHandSide:
         n = len(tau)
 
         def rhs(t: float, y: np.ndarray) -> np.ndarray:
@@ -69,7 +68,7 @@ class HandSource:
 
         return rhs
 
-    def damped_rhs(self, tau: np.ndarray, h: float) -> Any:
+    def damped_rhs(self, tau: np.ndarray, h: float) -> RightHandSide | None:
         """As `rhs`, for MuJoCo's Euler step with implicit joint damping: a = (M + h D)^-1 f; None for
         explicit accelerations (form c), whose M is the inverse of d qacc / d tau: solved again with
         h D added, its generated code divides by terms that vanish (the batched path stands in)."""

@@ -8,11 +8,12 @@ from __future__ import annotations
 import contextlib
 import os
 from collections.abc import Iterator
-from typing import Any
+from typing import TypedDict
 
 import mujoco
 import numpy as np
 
+from ..core.arrays import Matrix
 from ..core.errors import HarnessError, unknown_name
 from ..model.scope import joint_actuators
 from ..model.start import Scheme, Start
@@ -54,7 +55,13 @@ ROW_SHAPES = {
 
 
 def _rows(
-    m: Any, d: Any, states: np.ndarray, accel: np.ndarray | None, out: dict[str, np.ndarray], lo: int, hi: int
+    m: mujoco.MjModel,
+    d: mujoco.MjData,
+    states: np.ndarray,
+    accel: np.ndarray | None,
+    out: dict[str, np.ndarray],
+    lo: int,
+    hi: int,
 ) -> None:
     """States lo..hi-1 of a batch into `out` (keys of ROW_SHAPES): per state one mj_setState, mj_forward
     (when anything but the inverse dynamics is asked for), mj_fullM, copies of whole MjData arrays, and
@@ -321,7 +328,7 @@ class MujocoSource:
 # for the call and restored after, and MuJoCo's warnings read (it resets the state after one).
 
 
-def model_digest(m: Any) -> str:
+def model_digest(m: mujoco.MjModel) -> str:
     """SHA-256 of a compiled model's binary (MJB) form: every number, option and flag it holds."""
     import hashlib
 
@@ -330,29 +337,29 @@ def model_digest(m: Any) -> str:
     return hashlib.sha256(buf.tobytes()).hexdigest()
 
 
-def integrator_enum(name: str) -> Any:
+def integrator_enum(name: str) -> mujoco.mjtIntegrator:
     """MuJoCo's enum value for an integrator name; an unknown name lists the valid ones."""
     if name not in MUJOCO_INTEGRATORS:
         raise unknown_name("MuJoCo integrator", name, MUJOCO_INTEGRATORS)
     return getattr(mujoco.mjtIntegrator, INTEGRATOR_ENUMS[name])
 
 
-def eulerdamp_active(model: Any) -> bool:
+def eulerdamp_active(model: mujoco.MjModel) -> bool:
     """Whether MuJoCo's Euler treats joint damping implicitly for this model (flags and damping)."""
     off = int(mujoco.mjtDisableBit.mjDSBL_EULERDAMP) | int(mujoco.mjtDisableBit.mjDSBL_DAMPER)
     return not (model.opt.disableflags & off) and bool(np.any(model.dof_damping > 0))
 
 
-def warnings_raised(d: Any) -> list[tuple[str, int]]:
+def warnings_raised(d: mujoco.MjData) -> list[tuple[str, int]]:
     """(name, last DOF) of every warning MuJoCo counted in `d` (after one it resets the state)."""
     return [(mujoco.mjtWarning(w).name, int(stat.lastinfo)) for w, stat in enumerate(d.warning) if stat.number]
 
 
 @contextlib.contextmanager
-def scheme(m: Any, integrator: str, timestep: float) -> Iterator[None]:
-    """The model steps with `integrator` at `timestep` inside the block; its own options after."""
+def scheme(m: mujoco.MjModel, stepping: Scheme) -> Iterator[None]:
+    """The model steps with `stepping` (its integrator at its timestep) inside the block; its own options after."""
     saved = (m.opt.integrator, m.opt.timestep)
-    m.opt.integrator, m.opt.timestep = integrator_enum(integrator), float(timestep)
+    m.opt.integrator, m.opt.timestep = integrator_enum(stepping.integrator), float(stepping.timestep)
     try:
         yield
     finally:
@@ -373,7 +380,7 @@ def step_states(
     m, d = source.m, source.d
     tau = np.broadcast_to(np.asarray(tau, dtype=float), np.shape(q))
     q_out, v_out = np.empty(np.shape(q)), np.empty(np.shape(v))
-    with scheme(m, stepping.integrator, stepping.timestep):
+    with scheme(m, stepping):
         for i in range(len(q)):
             mujoco.mj_resetData(m, d)
             source.set_state(q[i], v[i], tau[i])
@@ -395,7 +402,7 @@ def free_run(
     q0, v0, tau = start.q0, start.v0, start.tau
     n = len(np.atleast_1d(q0))
     q, v, clock = np.empty((samples, n)), np.empty((samples, n)), np.empty(samples)
-    with scheme(m, stepping.integrator, stepping.timestep):
+    with scheme(m, stepping):
         mujoco.mj_resetData(m, d)
         source.set_state(q0, v0, tau)
         q[0], v[0], clock[0] = q0, v0, d.time
@@ -419,7 +426,7 @@ def axis_rotation(axis: np.ndarray, angles: np.ndarray) -> np.ndarray:
 
 
 @contextlib.contextmanager
-def disabled(m: Any, flags: int) -> Iterator[None]:
+def disabled(m: mujoco.MjModel, flags: int) -> Iterator[None]:
     """The model steps with `opt.disableflags = flags` inside the block; its own flags after."""
     saved = m.opt.disableflags
     m.opt.disableflags = int(flags)
@@ -438,8 +445,9 @@ def disable_flag_names(flags: int) -> list[str]:
     )
 
 
-def steps_from(source: SteppedSource, q0: Any, v0: Any, tau: Any, steps: int) -> None:
-    """`steps` calls of `mj_step` from (q0, v0) with the model's current options (for timing)."""
+def steps_from(source: SteppedSource, start: Start, steps: int) -> None:
+    """`steps` calls of `mj_step` from `start` with the model's current options (for timing)."""
+    q0, v0, tau = start.q0, start.v0, start.tau
     mujoco.mj_resetData(source.m, source.d)
     source.set_state(np.asarray(q0, dtype=float), np.asarray(v0, dtype=float), np.asarray(tau, dtype=float))
     mujoco.mj_step(source.m, source.d, nstep=steps)
@@ -448,23 +456,47 @@ def steps_from(source: SteppedSource, q0: Any, v0: Any, tau: Any, steps: int) ->
 BAD_STATE_WARNINGS = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")
 
 
+class TimedRun(TypedDict):
+    """`timed_run`'s free run: (samples, n) q and v (NaN after a stop), its CPU and wall seconds, the
+    sample where the deadline stopped it (None: not stopped), the bad-state warnings and MuJoCo's texts."""
+
+    q: Matrix
+    v: Matrix
+    cpu_s: float
+    wall_s: float
+    stopped_at: int | None
+    bad: list[str]
+    printed: list[str]
+
+
+class RolloutRun(TypedDict):
+    """`rollout_run`'s free run: the first trajectory's (samples, n) q and v, whether the batch's were
+    identical, the batch's CPU and wall seconds, the bad-state warnings and the threads used."""
+
+    q: Matrix
+    v: Matrix
+    identical: bool
+    cpu_s: float
+    wall_s: float
+    bad: list[str]
+    threads: int
+
+
 def timed_run(
     source: SteppedSource,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    start: Start,
     samples: int,
     steps: int,
+    stepping: Scheme,
     *,
-    integrator: str,
-    timestep: float,
     deadline: float,
-) -> dict[str, Any]:
+) -> TimedRun:
     """A free run for the benchmark: only the stepping loop is timed (CPU and wall), it stops at
     `deadline` (perf_counter), and MuJoCo's warning texts are collected instead of printed.
 
     Returns {"q", "v" (samples, n; NaN after a stop), "cpu_s", "wall_s", "stopped_at" (the sample
     index where the deadline hit, or None), "bad" (bad-state warnings raised), "printed" (texts)}."""
+    q0, v0, tau = start.q0, start.v0, start.tau
     import time
 
     m, d = source.m, source.d
@@ -474,7 +506,7 @@ def timed_run(
     mujoco.set_mju_user_warning(lambda msg: printed.append(str(msg).strip()))
     stopped_at = None
     try:
-        with scheme(m, integrator, timestep):
+        with scheme(m, stepping):
             mujoco.mj_resetData(m, d)
             source.set_state(np.asarray(q0, dtype=float), np.asarray(v0, dtype=float), np.asarray(tau, dtype=float))
             qpos[0], qvel[0] = d.qpos, d.qvel
@@ -497,23 +529,21 @@ def timed_run(
 
 def rollout_run(
     source: SteppedSource,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    start: Start,
     samples: int,
     steps: int,
+    stepping: Scheme,
     *,
-    integrator: str,
-    timestep: float,
     batch: int = 1,
     nthread: int | None = None,
-) -> dict[str, Any]:
+) -> RolloutRun:
     """The same free run as `timed_run` through MuJoCo's multithreaded `mujoco.rollout` (C loops, no
     Python per step), for `batch` copies of the start at once; only the rollout call is timed.
 
     The state of every step is recorded (rollout has no stride), the samples are every `steps`-th.
     Returns {"q", "v" (samples, n) of the first trajectory, "identical" (every trajectory of the batch
     gave the same bits), "cpu_s", "wall_s" (the whole batch), "bad" (bad-state warnings), "threads"}."""
+    q0, v0, tau = start.q0, start.v0, start.tau
     import time
 
     from mujoco import rollout
@@ -522,7 +552,7 @@ def rollout_run(
     threads = max(1, min(batch, nthread or 1, os.cpu_count() or 1))
     spec = int(mujoco.mjtState.mjSTATE_FULLPHYSICS)
     control_spec = int(mujoco.mjtState.mjSTATE_CTRL) | int(mujoco.mjtState.mjSTATE_QFRC_APPLIED)
-    with scheme(m, integrator, timestep):
+    with scheme(m, stepping):
         mujoco.mj_resetData(m, d)
         source.set_state(np.asarray(q0, dtype=float), np.asarray(v0, dtype=float), np.asarray(tau, dtype=float))
         x0 = np.empty(mujoco.mj_stateSize(m, spec))
@@ -569,25 +599,23 @@ def collected_warnings() -> Iterator[list[str]]:
 
 def sampled_run(
     source: SteppedSource,
-    q0: np.ndarray,
-    v0: np.ndarray,
-    tau: np.ndarray,
+    start: Start,
     chunks: int,
     sample_steps: int,
+    stepping: Scheme,
     *,
-    integrator: str,
-    timestep: float,
     eulerdamp: bool = True,
 ) -> tuple[list[np.ndarray], list[np.ndarray], str | None, int | None]:
     """Up to `chunks` samples `sample_steps` steps apart, stopping at the first whose state MuJoCo
     warned about (it then resets the state) or that is not finite. `eulerdamp=False` disables Euler's
     implicit damping for the run. Returns the samples after the start (q, v lists), the failure (the
     warnings' names or "non-finite state") and the chunk where it happened, or None, None."""
+    q0, v0, tau = start.q0, start.v0, start.tau
     m, d = source.m, source.d
     flags = int(m.opt.disableflags) | (0 if eulerdamp else int(mujoco.mjtDisableBit.mjDSBL_EULERDAMP))
     qs: list[np.ndarray] = []
     vs: list[np.ndarray] = []
-    with scheme(m, integrator, timestep), disabled(m, flags):
+    with scheme(m, stepping), disabled(m, flags):
         mujoco.mj_resetData(m, d)
         source.set_state(q0, v0, tau)
         for k in range(1, chunks + 1):

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import os
 import tempfile
-from typing import Any
+from collections.abc import Callable
 
 import numpy as np
 import pinocchio as pin
@@ -30,7 +30,7 @@ from .readers import failure
 LOCAL = pin.Convention.LOCAL
 
 
-def build_model(system: System) -> Any:
+def build_model(system: System) -> pin.Model:
     """Pinocchio's model of the system's MJCF (with any overrides) or URDF, gravity copied from MuJoCo."""
     if system.reads_urdf:
         try:
@@ -82,7 +82,7 @@ COMPOSITE = (
 )
 
 
-def joint_indices(model: Any, system: System) -> dict[str, tuple[int, int, int]]:
+def joint_indices(model: pin.Model, system: System) -> dict[str, tuple[int, int, int]]:
     """Each one-coordinate joint of Pinocchio's model by its MJCF name: (Pinocchio joint id, q index, v
     index). Several joints in one body (a planar root: slide x, slide z, hinge y) are one composite joint
     in Pinocchio, named after the first; its parts are the body's joints in MuJoCo's order."""
@@ -137,7 +137,7 @@ class PinocchioSource:
         self.gravity = np.array(system.view["gravity"], dtype=float)
         self.centres = self._centres()
         self.q_neutral = pin.neutral(self.model)
-        self._pool: Any = None  # Pinocchio's ModelPool for the batched algorithms, made when first used
+        self._pool: pin.ModelPool | None = None  # for the batched algorithms, made when first used
 
     def _q(self, q: np.ndarray) -> np.ndarray:
         full = pin.neutral(self.model)
@@ -163,7 +163,7 @@ class PinocchioSource:
     def _vs(self, v: np.ndarray) -> np.ndarray:
         return self._columns(v, self.vidx, np.zeros(self.model.nv))
 
-    def _in_c(self, algorithm: Any, qs: np.ndarray, vs: np.ndarray, x: np.ndarray) -> np.ndarray:
+    def _in_c(self, algorithm: Callable[..., None], qs: np.ndarray, vs: np.ndarray, x: np.ndarray) -> np.ndarray:
         """RNEA at N states in one call: Pinocchio's C++ loop over the columns (`rneaInParallel` on one
         thread, so no OpenMP thread outlives the call; equal bit for bit to `rnea` called per state,
         tests/unit/sources/test_base.py). `qs`, `vs`: the states as `_qs`, `_vs` give them (built once per batch);

@@ -23,13 +23,20 @@ import tempfile
 import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
+from ..core.arrays import Vector
 from ..core.errors import HarnessError
 from ..model.meaning import Inertial, JointRead, Reading, composite
 from ..model.urdf import without_geometry
+
+if TYPE_CHECKING:  # each library is imported when its reader runs
+    import mujoco
+    import pinocchio as pin
+
+T = TypeVar("T")
 
 LABEL = {"meaning": "the format", "mujoco": "MuJoCo", "pinocchio": "Pinocchio", "drake": "Drake"}
 # Library messages and what usually causes them (the element is quoted from the message when it names one).
@@ -104,7 +111,7 @@ def failure(reader: str, source: str, exc: BaseException, text: str = "") -> Har
     )
 
 
-def _guarded(reader: str, source: str, fn: Callable[[], Any], text: str) -> Any:
+def _guarded(reader: str, source: str, fn: Callable[[], T], text: str) -> T:
     try:
         return fn()
     except HarnessError:
@@ -155,7 +162,7 @@ def _as_file(path: Path, text: str) -> Iterator[str]:
 # --- MuJoCo ---------------------------------------------------------------------------------------
 
 
-def mujoco_model(path: Path, text: str, fmt: str) -> tuple[Any, list[str]]:
+def mujoco_model(path: Path, text: str, fmt: str) -> tuple[mujoco.MjModel, list[str]]:
     """MuJoCo's compiled model of the file and its warnings."""
     import mujoco
 
@@ -184,7 +191,7 @@ def _absolute(text: str, path: Path) -> str:
     return re.sub(r'\b(file|meshdir|texturedir|assetdir)="([^"]*)"', fix, text)
 
 
-def _mujoco_group(m: Any, b: int) -> int:
+def _mujoco_group(m: mujoco.MjModel, b: int) -> int:
     """The id of the joint that moves body b (its last joint, else its parent's), -1: the world."""
     while b > 0:
         if m.body_jntnum[b]:
@@ -193,14 +200,20 @@ def _mujoco_group(m: Any, b: int) -> int:
     return -1
 
 
-def _namer(m: Any) -> Callable[[Any, int], str]:
+def _namer(m: mujoco.MjModel) -> Callable[[mujoco.mjtObj, int], str]:
     """An element's name, or MuJoCo's id for an unnamed one ("joint 3")."""
     import mujoco
 
     return lambda obj, i: mujoco.mj_id2name(m, obj, i) or f"{obj.name[6:].lower()} {i}"
 
 
-def _mujoco_joint(m: Any, d: Any, j: int, name: Callable[[Any, int], str], mimic: Any) -> JointRead | None:
+def _mujoco_joint(
+    m: mujoco.MjModel,
+    d: mujoco.MjData,
+    j: int,
+    name: Callable[[mujoco.mjtObj, int], str],
+    mimic: tuple[str, float, float] | None,
+) -> JointRead | None:
     """Hinge or slide joint j at qpos0, in the world (None for a ball or free joint)."""
     import mujoco
 
@@ -227,7 +240,7 @@ def _mujoco_joint(m: Any, d: Any, j: int, name: Callable[[Any, int], str], mimic
     )
 
 
-def _mujoco_actuators(m: Any, name: Callable[[Any, int], str]) -> dict[str, tuple[str, float]]:
+def _mujoco_actuators(m: mujoco.MjModel, name: Callable[[mujoco.mjtObj, int], str]) -> dict[str, tuple[str, float]]:
     """Each actuator on a joint: (joint, gear)."""
     import mujoco
 
@@ -275,7 +288,7 @@ def mujoco_reading(path: Path, text: str, fmt: str) -> Reading:
     )
 
 
-def _mujoco_parent(m: Any, j: int, name: Callable[[Any, int], str]) -> str:
+def _mujoco_parent(m: mujoco.MjModel, j: int, name: Callable[[mujoco.mjtObj, int], str]) -> str:
     """The joint above joint j: the previous joint of its body, else the joint moving its parent body."""
     import mujoco
 
@@ -284,7 +297,7 @@ def _mujoco_parent(m: Any, j: int, name: Callable[[Any, int], str]) -> str:
     return "" if above < 0 else name(mujoco.mjtObj.mjOBJ_JOINT, above)
 
 
-def _mujoco_mimics(m: Any, name: Callable[[Any, int], str]) -> dict[str, tuple[str, float, float]]:
+def _mujoco_mimics(m: mujoco.MjModel, name: Callable[[mujoco.mjtObj, int], str]) -> dict[str, tuple[str, float, float]]:
     """joint -> (leader, multiplier, offset) of every joint equality q1 = offset + multiplier q2."""
     import mujoco
 
@@ -300,7 +313,7 @@ def _mujoco_mimics(m: Any, name: Callable[[Any, int], str]) -> dict[str, tuple[s
 # --- Pinocchio ------------------------------------------------------------------------------------
 
 
-def pinocchio_model(path: Path, text: str, fmt: str) -> Any:
+def pinocchio_model(path: Path, text: str, fmt: str) -> pin.Model:
     import pinocchio as pin
 
     if fmt == "urdf":
@@ -309,7 +322,7 @@ def pinocchio_model(path: Path, text: str, fmt: str) -> Any:
         return pin.buildModelFromMJCF(name)
 
 
-def _reference(model: Any) -> Any:
+def _reference(model: pin.Model) -> Vector:
     """Pinocchio's reference configuration: the MJCF's qpos0 (its joints' `ref`) where it read one."""
     import pinocchio as pin
 
@@ -361,7 +374,7 @@ def pinocchio_reading(path: Path, text: str, fmt: str) -> Reading:
     return Reading("pinocchio", joints, groups, None, gravity=np.array(model.gravity.linear, dtype=float))
 
 
-def _pinocchio_parent(model: Any, jid: int) -> str:
+def _pinocchio_parent(model: pin.Model, jid: int) -> str:
     """The nearest one-degree-of-freedom joint above joint jid ("": the world)."""
     k = int(model.parents[jid])
     while k > 0 and model.joints[k].nv != 1:
@@ -465,6 +478,7 @@ def drake_reading(path: Path, text: str, fmt: str) -> Reading:
 
 
 def _drake_joint(plant: Any, ctx: Any, joint: Any, motor: Any) -> JointRead:
+
     X = joint.frame_on_child().CalcPoseInWorld(ctx)
     R = joint.frame_on_parent().CalcPoseInWorld(ctx).rotation().matrix()
     hinge = hasattr(joint, "revolute_axis")

@@ -10,15 +10,24 @@ probes, which change only values, reuse them; the parameter values are arguments
 from __future__ import annotations
 
 import threading
-from typing import Any
+from collections.abc import Callable, Hashable
+from typing import TYPE_CHECKING, TypeAlias
 
 import numpy as np
 
 from ..core.memo import Memo
 from ..symbolic.derivation import Derivation, derive, parameter_values, structure_key
 from ..systems import System
-from .base import Kinematics
+from .base import Kinematics, RightHandSide
 from .hand import solve_or_nan
+
+if TYPE_CHECKING:  # sympy is imported when first used
+    import sympy as sp
+
+# code sympy generated for one part: f(q..., v..., params...) -> its flat outputs (arrays on a batch,
+# floats at one state)
+Generated: TypeAlias = Callable[..., list[np.ndarray | float]]
+Layout: TypeAlias = list[tuple[str, tuple[int, ...]]]  # each output's name and shape, in order
 
 _LOCK = threading.Lock()
 # Bounded (a watch re-judges for hours; issue 36): a model structure's derivation and its code, the least
@@ -27,7 +36,7 @@ _DERIVED = Memo(maxsize=32)
 _CODE = Memo(maxsize=128)
 
 
-def derivation_of(system: System, key: Any = None) -> Derivation:
+def derivation_of(system: System, key: tuple[Hashable, ...] | None = None) -> Derivation:
     """The symbolic derivation of `system`'s model in its joints' coordinates (kept per structure;
     `key`: its structure_key, if already computed)."""
     key = structure_key(system.view, system.joints) if key is None else key
@@ -36,7 +45,7 @@ def derivation_of(system: System, key: Any = None) -> Derivation:
         return derivation
 
 
-def _flat(d: Derivation, part: str) -> tuple[list[Any], list[tuple[str, tuple[int, ...]]]]:
+def _flat(d: Derivation, part: str) -> tuple[list[sp.Expr], Layout]:
     """The expressions of one part of the derivation, flattened, and how to reshape them."""
     if part == "dynamics":
         items = {"M": d.M, "Cv": d.Cv, "G": d.G, "passive": d.passive, "T": d.T, "V": d.V}
@@ -56,14 +65,14 @@ def _flat(d: Derivation, part: str) -> tuple[list[Any], list[tuple[str, tuple[in
     return exprs, layout
 
 
-def _code(d: Derivation, key: Any, part: str) -> Any:
+def _code(d: Derivation, key: tuple[Hashable, ...], part: str) -> tuple[Generated, Layout]:
     """numpy code for one part, generated once per structure: f(q..., v..., params...) -> list; for
     "scalar", `math` code of M (row-major) and C v + G - passive at one state, for the integrators."""
     with _LOCK:
         return _CODE.get((key, part), lambda: _generated(d, part))
 
 
-def _generated(d: Derivation, part: str) -> tuple[Any, list[tuple[str, tuple[int, ...]]]]:
+def _generated(d: Derivation, part: str) -> tuple[Generated, Layout]:
     """`_code`'s (function, layout), generated."""
     import sympy as sp
 
@@ -89,7 +98,7 @@ class SymbolicSource:
         body_index = {b: i for i, b in enumerate(self.derivation.bodies)}
         self.bodies = [body_index[b] for b in system.bodies]
 
-    def rhs(self, tau: np.ndarray) -> Any:
+    def rhs(self, tau: np.ndarray) -> RightHandSide:
         """scipy's right-hand side f(t, y) -> [v..., a...] for constant `tau`: generated scalar `math`
         code for M and the forces, one small solve per call."""
         fn, _ = _code(self.derivation, self.key, "scalar")
@@ -103,7 +112,9 @@ class SymbolicSource:
 
         return f
 
-    def _raw(self, part: str, q: np.ndarray, v: np.ndarray) -> tuple[list[Any], dict[str, Any], tuple[int, ...]]:
+    def _raw(
+        self, part: str, q: np.ndarray, v: np.ndarray
+    ) -> tuple[list[np.ndarray | float], dict[str, tuple[int, tuple[int, ...]]], tuple[int, ...]]:
         """The generated code of one part called once on the batch: its flat outputs, where each named
         output lies in them ({name: (start, shape)}) and the batch shape."""
         fn, layout = _code(self.derivation, self.key, part)
@@ -117,7 +128,12 @@ class SymbolicSource:
         return raw, where, batch
 
     @staticmethod
-    def _columns(raw: list[Any], where: dict[str, Any], batch: tuple[int, ...], names: list[str]) -> np.ndarray:
+    def _columns(
+        raw: list[np.ndarray | float],
+        where: dict[str, tuple[int, tuple[int, ...]]],
+        batch: tuple[int, ...],
+        names: list[str],
+    ) -> np.ndarray:
         """The outputs `names`, flattened and side by side in one array (*batch, total size): one copy."""
         cols = []
         for name in names:
@@ -185,7 +201,7 @@ class SymbolicSource:
             "body_rotations": rotations.reshape(*batch, len(bodies), 3, 3),
         }
 
-    def generated(self, part: str) -> tuple[Any, list[float]]:
+    def generated(self, part: str) -> tuple[Generated, list[float]]:
         """The generated numpy function of one part ("dynamics" or "kinematics"), called as
         f(q..., v..., *params) on arrays of states in joint coordinates, and the parameter values it
         takes: the bench's baseline of this source (its raw calls)."""

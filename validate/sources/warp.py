@@ -13,7 +13,9 @@ compiled on first use and kept in Warp's kernel cache (`~/.cache/warp`, or `WARP
 from __future__ import annotations
 
 import time
-from typing import Any
+import types
+from collections.abc import Callable
+from typing import TYPE_CHECKING, TypedDict
 
 import numpy as np
 
@@ -22,13 +24,25 @@ from ..systems import System
 from .base import INTEGRATOR_ENUMS, Source, engine_of
 from .mujoco import MujocoSource
 
+if TYPE_CHECKING:  # imported when a source is made (the optional extra)
+    import mujoco_warp as mjw
+
 OUTPUTS = ("M", "bias", "passive", "qacc", "tau_inverse")
 EXTRA_MISSING = (
     "MuJoCo Warp is not installed: pip install 'lagrange-xval[warp]' (mujoco-warp 4.0.0 and warp-lang, a 149 MB wheel)"
 )
 
 
-def warp_modules() -> tuple[Any, Any]:
+class WarpRun(TypedDict):
+    """`WarpSource.run`'s states: (N, samples, n) q and v, float64 of the float32 states, and the wall
+    time per step after the first (s)."""
+
+    q: np.ndarray
+    v: np.ndarray
+    step_s: float
+
+
+def warp_modules() -> tuple[types.ModuleType, types.ModuleType]:
     """(warp, mujoco_warp), imported and initialised quietly; a HarnessError saying how to install them."""
     try:
         import mujoco_warp
@@ -65,7 +79,7 @@ class WarpSource:
         self.m = self.c.m
         with self.wp.ScopedDevice(self.device):
             self.model = self.mjw.put_model(self.m)
-        self._data: dict[int, Any] = {}
+        self._data: dict[int, mjw.Data] = {}
         self.first_call_s: dict[str, float] = {}  # first call of each kernel set, s (compiled or loaded from cache)
 
     @property
@@ -81,14 +95,14 @@ class WarpSource:
         return float(self.m.opt.timestep)
 
     # -- batches -------------------------------------------------------------------------------
-    def data(self, n: int) -> Any:
+    def data(self, n: int) -> mjw.Data:
         """The Warp `Data` with `n` worlds (made once per size)."""
         if n not in self._data:
             with self.wp.ScopedDevice(self.device):
                 self._data[n] = self.mjw.make_data(self.m, nworld=n)
         return self._data[n]
 
-    def _load(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray | None) -> Any:
+    def _load(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray | None) -> mjw.Data:
         """A Data whose world i holds state i: qpos0 where no coordinate says otherwise, tau as inputs."""
         m, c, n = self.m, self.c, len(q)
         qpos = np.tile(m.qpos0, (n, 1))
@@ -106,7 +120,7 @@ class WarpSource:
         d.qfrc_applied.assign(applied.astype(np.float32))
         return d
 
-    def _timed(self, label: str, call: Any, *args: Any) -> None:
+    def _timed(self, label: str, call: Callable[..., None], *args: object) -> None:
         """`call(*args)` on the device, waited for; its first call's time kept in `first_call_s`."""
         start = time.perf_counter()
         with self.wp.ScopedDevice(self.device):
@@ -114,7 +128,7 @@ class WarpSource:
             self.wp.synchronize_device(self.device)
         self.first_call_s.setdefault(label, time.perf_counter() - start)
 
-    def _dense_m(self, d: Any) -> np.ndarray:
+    def _dense_m(self, d: mjw.Data) -> np.ndarray:
         """(N, nv, nv) float64 from Warp's sparse rows (C MuJoCo's layout, as mj_fullM scatters it)."""
         sparse = d.M.numpy().astype(float)
         out = np.zeros((len(sparse), self.m.nv, self.m.nv))
@@ -123,7 +137,7 @@ class WarpSource:
         return out
 
     def evaluate(
-        self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray | None = None, **_: Any
+        self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, a_ref: np.ndarray | None = None, **_: object
     ) -> dict[str, np.ndarray]:
         """M, bias, passive and qacc at tau by one `forward` over N worlds; with `a_ref`, tau_inverse
         by `inverse` at those accelerations. Float32 values, returned as float64 in the coordinates."""
@@ -166,7 +180,7 @@ class WarpSource:
         raise HarnessError("the MuJoCo Warp source gives M, bias, passive, qacc and tau_inverse, not body positions.")
 
     # -- trajectories --------------------------------------------------------------------------
-    def run(self, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, samples: int, steps: int) -> dict[str, Any]:
+    def run(self, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, samples: int, steps: int) -> WarpRun:
         """MuJoCo Warp's own `step` (the model's integrator and timestep) from (q0, v0) (each (N, n):
         N runs as N worlds), `samples` states `steps` steps apart, the first the start.
 
@@ -191,14 +205,15 @@ class WarpSource:
 
 def run_in_coordinates(
     system: System, source: Source, q0: np.ndarray, v0: np.ndarray, tau: np.ndarray, *, samples: int, steps: int
-) -> dict[str, Any]:
+) -> WarpRun:
     """Warp's own run in the system's coordinates: it steps in the joints' (`WarpSource.run`), so where
     the coordinates map them (JOINT_MAP: q = A q_joints, tau_joints = A^T tau) the start goes in mapped
     and the states come back mapped (`source` may be the mapped adapter around a WarpSource)."""
     engine = engine_of(source, WarpSource)
     A = system.joint_map
     if A is None:
-        return dict(engine.run(q0, v0, tau, samples, steps))
+        return {**engine.run(q0, v0, tau, samples, steps)}
+
     Ainv = np.linalg.inv(A)
     run = engine.run(Ainv @ q0, Ainv @ v0, A.T @ tau, samples, steps)
     return {**run, "q": run["q"] @ A.T, "v": run["v"] @ A.T}

@@ -24,6 +24,7 @@ from ..dynamics.integrate import (
     initial_state,
     time_grid,
 )
+from ..model.start import Start
 from ..results.schema import Equivalence, EquivalenceRow
 from ..sources.hand import HandSource
 from ..systems import System, load
@@ -125,8 +126,8 @@ def check_equivalence(
     q0, v0 = initial_state(other_sys)
     t = time_grid(t_end, DEFAULT_DT_OUT)
     tau = np.zeros(system.nv)
-    tr_o = accurate_trajectory(other_sys, that, q0, v0, tau, t)
-    tr_t = accurate_trajectory(system, this, B @ q0, B @ v0, tau, t)
+    tr_o = accurate_trajectory(other_sys, that, Start.of(q0, v0, tau), t)
+    tr_t = accurate_trajectory(system, this, Start.of(B @ q0, B @ v0, tau), t)
     err = np.abs(tr_t.q - tr_o.q @ B.T).max(axis=1)
     worst = float(np.nanmax(err)) if np.isfinite(err).any() else float("inf")
     rows.append(

@@ -287,7 +287,7 @@ def _reference_run(system: System, q0: np.ndarray, v0: np.ndarray, t: np.ndarray
     """The reference solution on the grid `t`: heyoka on the hand equations, or DOP853 on Pinocchio."""
     tau = np.zeros(system.nv)
     if system.equations is not None:
-        ref, info = reference_trajectory(system, q0, v0, tau, t, cache_dir=cache_dir)
+        ref, info = reference_trajectory(system, Start.of(q0, v0, tau), t, cache_dir=cache_dir)
         return {"q": ref.q, "method": str(info.get("method"))}
     from scipy.integrate import solve_ivp
 

@@ -30,13 +30,25 @@ from __future__ import annotations
 
 import functools
 import re
+from collections.abc import Hashable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, TypeAlias
 
 import numpy as np
 
+from ..core.arrays import Floats
 from ..core.errors import HarnessError
-from ..model.modelview import names
+from ..model.modelview import ModelView, names
+
+if TYPE_CHECKING:  # sympy is imported when first used
+    import sympy as sp
+
+# where a parameter's number is read in its model key's value: None the value itself, "norm" its length,
+# i a vector's entry, (i, j) an inertia's (symmetrized)
+Entry: TypeAlias = int | tuple[int, int] | str | None
+# one body's share of the mass matrix: its mass, J_com, rotation, J_omega (world) and inertia
+BodyTerms: TypeAlias = "tuple[sp.Expr, sp.Matrix, sp.Matrix, sp.Matrix, sp.Matrix]"
+Frame: TypeAlias = "tuple[sp.Matrix, sp.Matrix, sp.Matrix]"  # a body frame's origin, rotation, J_omega (world)
 
 # a body frame's rotation entry within this of 0 or +-1 is that number: the float noise of a URDF's rpy
 # angles (the UR5's pi/2 leaves 4.9e-12 in two entries of a rotation, and then in every term after it)
@@ -49,27 +61,27 @@ class Derivation:
     """The symbolic equations of one model structure (sympy expressions in joint coordinates)."""
 
     joints: tuple[str, ...]
-    q: list[Any]  # sympy symbols, one per joint
-    v: list[Any]
+    q: list[sp.Symbol]  # one per joint
+    v: list[sp.Symbol]
     bodies: tuple[str, ...]  # every moving body, in model order
-    T: Any
-    V: Any
-    M: Any  # sympy Matrix (n, n)
-    C: Any  # Coriolis matrix, C v = the velocity terms
-    Cv: Any  # (n,) Matrix
-    G: Any  # (n,) Matrix
-    passive: Any  # (n,) Matrix
-    com: dict[str, Any]  # body -> (3,) Matrix, centre of mass in world
-    origin: dict[str, Any]  # body -> (3,) Matrix, frame origin in world
-    rotation: dict[str, Any]  # body -> (3, 3) Matrix, body frame in world
-    J_com: dict[str, Any]  # body -> (3, n) Jacobian of the centre of mass
-    J_origin: dict[str, Any]  # body -> (3, n)
-    J_omega: dict[str, Any]  # body -> (3, n) angular velocity Jacobian, world frame
-    T_body: dict[str, Any]
-    V_body: dict[str, Any]
-    parameters: dict[Any, str] = field(default_factory=dict)  # symbol -> what it is (model key and unit)
-    source: dict[Any, tuple[str, Any]] = field(default_factory=dict)  # symbol -> (model key, entry)
-    signs: dict[Any, int] = field(default_factory=dict)  # symbol -> sign of the model's number (symbols are > 0)
+    T: sp.Expr
+    V: sp.Expr
+    M: sp.Matrix  # (n, n)
+    C: sp.Matrix  # Coriolis matrix, C v = the velocity terms
+    Cv: sp.Matrix  # (n,) Matrix
+    G: sp.Matrix  # (n,) Matrix
+    passive: sp.Matrix  # (n,) Matrix
+    com: dict[str, sp.Matrix]  # body -> (3,) Matrix, centre of mass in world
+    origin: dict[str, sp.Matrix]  # body -> (3,) Matrix, frame origin in world
+    rotation: dict[str, sp.Matrix]  # body -> (3, 3) Matrix, body frame in world
+    J_com: dict[str, sp.Matrix]  # body -> (3, n) Jacobian of the centre of mass
+    J_origin: dict[str, sp.Matrix]  # body -> (3, n)
+    J_omega: dict[str, sp.Matrix]  # body -> (3, n) angular velocity Jacobian, world frame
+    T_body: dict[str, sp.Expr]
+    V_body: dict[str, sp.Expr]
+    parameters: dict[sp.Symbol, str] = field(default_factory=dict)  # symbol -> what it is (model key and unit)
+    source: dict[sp.Symbol, tuple[str, Entry]] = field(default_factory=dict)  # symbol -> (model key, entry)
+    signs: dict[sp.Symbol, int] = field(default_factory=dict)  # symbol -> sign of the model's number (symbols are > 0)
     rounded: int = 0  # rotation entries within ROTATION_ROUND of 0 or +-1 made exact (said in derive's header)
 
 
@@ -78,7 +90,7 @@ def _clean(name: str) -> str:
 
 
 @functools.cache  # built once: making these sympy numbers on every call cost 0.8 s of a `check`
-def _exact_candidates() -> tuple[tuple[float, Any], ...]:
+def _exact_candidates() -> tuple[tuple[float, sp.Expr], ...]:
     """(value, exact sympy number) of the simple structural numbers, each sign, in the order `exact` tries them."""
     import sympy as sp
 
@@ -95,7 +107,7 @@ def _exact_candidates() -> tuple[tuple[float, Any], ...]:
     return tuple((sign * float(c), sign * c) for c in numbers for sign in (1, -1))
 
 
-def exact(x: float) -> Any:
+def exact(x: float) -> sp.Expr:
     """A structural number as an exact sympy number when it is a simple one (0, +-1, +-1/2,
     +-sqrt(2)/2, +-sqrt(3)/2), else as a Float."""
     import sympy as sp
@@ -110,16 +122,16 @@ class _Params:
     """Symbols for the model's numbers: where each is read (model key, entry), and the structure the
     derivation leaves exact (zero patterns, signs, axes, orientations)."""
 
-    def __init__(self, view: Any, *, readable: bool = False) -> None:
+    def __init__(self, view: ModelView, *, readable: bool = False) -> None:
         self.view = view
         self.readable = readable
-        self.source: dict[Any, tuple[str, Any]] = {}  # symbol -> (model key, entry index or None)
-        self.meaning: dict[Any, str] = {}
-        self.sign: dict[Any, int] = {}
-        self.structure: list[Any] = []
+        self.source: dict[sp.Symbol, tuple[str, Entry]] = {}  # symbol -> (model key, entry index or None)
+        self.meaning: dict[sp.Symbol, str] = {}
+        self.sign: dict[sp.Symbol, int] = {}
+        self.structure: list[tuple[str, int | tuple[str, ...]]] = []
         self.rounded = 0  # rotation entries made exact (`rotation`)
 
-    def read(self, key: str, entry: Any = None) -> float:
+    def read(self, key: str, entry: Entry = None) -> float:
         x = np.asarray(self.view[key], dtype=float)
         if entry is None:
             return float(x)
@@ -130,7 +142,7 @@ class _Params:
             return float(0.5 * (x[i, j] + x[j, i]))
         return float(x[entry])
 
-    def scalar(self, name: str, key: str, entry: Any, unit: str, value: float | None = None) -> Any:
+    def scalar(self, name: str, key: str, entry: Entry, unit: str, value: float | None = None) -> sp.Expr:
         """A symbol for a non-zero number (positive, with the sign kept in the expression), 0 for zero."""
         import sympy as sp
 
@@ -145,7 +157,7 @@ class _Params:
         self.structure.append((name, int(np.sign(value))))
         return sym if value > 0 else -sym
 
-    def vector(self, name: str, key: str, unit: str) -> Any:
+    def vector(self, name: str, key: str, unit: str) -> sp.Matrix:
         """A 3-vector: one symbol `name` when a single entry is non-zero (signed), else one per entry."""
         import sympy as sp
 
@@ -157,7 +169,7 @@ class _Params:
             return sp.Matrix(out)
         return sp.Matrix([self.scalar(f"{name}_{'xyz'[i]}", key, i, unit) for i in range(3)])
 
-    def inertia(self, body: str, key: str) -> Any:
+    def inertia(self, body: str, key: str) -> sp.Matrix:
         import sympy as sp
 
         value = np.asarray(self.view[key], dtype=float)
@@ -170,7 +182,7 @@ class _Params:
             out[i, j] = out[j, i] = self.scalar(f"I_{body}_{'xyz'[i]}{'xyz'[j]}", key, (i, j), "kg m^2", value=x)
         return out
 
-    def rotation(self, R: Any) -> Any:
+    def rotation(self, R: sp.Matrix) -> sp.Matrix:
         """A body frame's rotation with each numeric entry within ROTATION_ROUND of 0 or +-1 made that
         number (counted in `rounded`)."""
         import sympy as sp
@@ -178,7 +190,7 @@ class _Params:
         if not self.readable:
             return R
 
-        def clean(x: Any) -> Any:
+        def clean(x: sp.Expr) -> sp.Expr:
             if not x.is_Number or x in (0, 1, -1):
                 return x
             for target in (0, 1, -1):
@@ -189,14 +201,14 @@ class _Params:
 
         return R.applyfunc(clean)
 
-    def fixed(self, name: str, values: Any) -> Any:
+    def fixed(self, name: str, values: Floats) -> list[sp.Expr]:
         """Structural numbers, exact: they are part of the structure key."""
         exacts = [exact(float(x)) for x in np.ravel(values)]
         self.structure.append((name, tuple(str(e) for e in exacts)))
         return exacts
 
 
-def read_as(key: str, entry: Any, sign: int) -> str:
+def read_as(key: str, entry: Entry, sign: int) -> str:
     """How a symbol is read from the model, as the symbol table prints it: the symbols are positive,
     so a negative number's symbol is minus its entry ("-body/link1/com[2]"), a norm |key|."""
     if entry == "norm":
@@ -205,15 +217,15 @@ def read_as(key: str, entry: Any, sign: int) -> str:
     return ("-" if sign < 0 else "") + where
 
 
-def parameter_values(derivation: Derivation, view: Any) -> dict[Any, float]:
+def parameter_values(derivation: Derivation, view: ModelView) -> dict[sp.Symbol, float]:
     """The value of each of the derivation's parameter symbols in the model `view` (same structure)."""
     reader = _Params(view)
     return {sym: abs(reader.read(key, entry)) for sym, (key, entry) in derivation.source.items()}
 
 
-def structure_key(view: Any, joints: tuple[str, ...]) -> tuple[Any, ...]:
+def structure_key(view: ModelView, joints: tuple[str, ...]) -> tuple[Hashable, ...]:
     """What fixes the form of the derivation: names, topology, zero patterns, signs, axes, orientations."""
-    key: list[Any] = [tuple(joints)]
+    key: list[Hashable] = [tuple(joints)]
     for k in sorted(view):
         x = view[k]
         if isinstance(x, str):
@@ -228,7 +240,7 @@ def structure_key(view: Any, joints: tuple[str, ...]) -> tuple[Any, ...]:
     return tuple(key)
 
 
-def _quat_matrix(w: Any, x: Any, y: Any, z: Any) -> Any:
+def _quat_matrix(w: sp.Expr, x: sp.Expr, y: sp.Expr, z: sp.Expr) -> sp.Matrix:
     import sympy as sp
 
     return sp.Matrix(
@@ -240,7 +252,7 @@ def _quat_matrix(w: Any, x: Any, y: Any, z: Any) -> Any:
     )
 
 
-def axis_rotation(axis: Any, angle: Any) -> Any:
+def axis_rotation(axis: sp.Matrix, angle: sp.Expr) -> sp.Matrix:
     """Rodrigues' rotation about a unit axis; R_z(angle) etc. exactly for the coordinate axes."""
     import sympy as sp
 
@@ -249,7 +261,7 @@ def axis_rotation(axis: Any, angle: Any) -> Any:
     return sp.eye(3) + sp.sin(angle) * K + (1 - sp.cos(angle)) * (K * K)
 
 
-def _bodies_and_joints(view: Any, joints: tuple[str, ...]) -> tuple[list[str], list[str]]:
+def _bodies_and_joints(view: ModelView, joints: tuple[str, ...]) -> tuple[list[str], list[str]]:
     """The model's moving bodies and its joints, in model order; each joint must be one of `joints`."""
     order, all_joints = names(view, "body", "mass"), names(view, "joint", "type")
     missing = [j for j in joints if j not in all_joints]
@@ -261,7 +273,7 @@ def _bodies_and_joints(view: Any, joints: tuple[str, ...]) -> tuple[list[str], l
     return order, all_joints
 
 
-def _gravity(view: Any, P: _Params) -> Any:
+def _gravity(view: ModelView, P: _Params) -> sp.Matrix:
     """The gravity vector: the symbol g times the model's direction of gravity, exact."""
     import sympy as sp
 
@@ -271,7 +283,9 @@ def _gravity(view: Any, P: _Params) -> Any:
     return sp.Matrix(P.fixed("gravity direction", g_vec / g_norm if g_norm else np.zeros(3))) * g
 
 
-def _through_joint(view: Any, P: _Params, j: str, qi: Any, i: int, x: Any, R: Any, Jw: Any) -> tuple[Any, Any]:
+def _through_joint(
+    view: ModelView, P: _Params, j: str, qi: sp.Symbol, i: int, x: sp.Matrix, R: sp.Matrix, Jw: sp.Matrix
+) -> tuple[sp.Matrix, sp.Matrix]:
     """Step 1 for joint `j` (coordinate `qi`, column `i`): a hinge turns the frame (x, R) about its axis
     through its anchor and writes its world axis into column i of Jw; a slide moves it along its axis."""
     import sympy as sp
@@ -290,8 +304,8 @@ def _through_joint(view: Any, P: _Params, j: str, qi: Any, i: int, x: Any, R: An
 
 
 def _body_frame(
-    view: Any, P: _Params, b: str, parent: tuple[Any, Any, Any], joints: list[str], q: list[Any], index: dict[str, int]
-) -> tuple[Any, Any, Any]:
+    view: ModelView, P: _Params, b: str, parent: Frame, joints: list[str], q: list[sp.Symbol], index: dict[str, int]
+) -> Frame:
     """Step 1 for body `b`: its frame's origin, rotation and angular-velocity Jacobian (world), from its
     parent's frame, its placement and its `joints`."""
     x, R, Jw = parent
@@ -306,25 +320,25 @@ def _body_frame(
 
 
 def _bodies(
-    view: Any,
+    view: ModelView,
     P: _Params,
     order: list[str],
     all_joints: list[str],
     *,
-    q: list[Any],
-    v: list[Any],
+    q: list[sp.Symbol],
+    v: list[sp.Symbol],
     index: dict[str, int],
-    gravity: Any,
-) -> tuple[dict[str, dict[str, Any]], dict[str, tuple[Any, ...]]]:
+    gravity: sp.Matrix,
+) -> tuple[dict[str, dict[str, sp.Expr | sp.Matrix]], dict[str, BodyTerms]]:
     """Steps 1-4 body by body, parents before children whatever the model's order: each body's frame,
     centre of mass, Jacobians and energies (by quantity, then body), and the mass, Jacobians and inertia
     its share of the mass matrix is made of (by body). `index`: each joint's coordinate."""
     import sympy as sp
 
-    frames: dict[str, tuple[Any, Any, Any]] = {"world": (sp.zeros(3, 1), sp.eye(3), sp.zeros(3, len(q)))}
+    frames: dict[str, Frame] = {"world": (sp.zeros(3, 1), sp.eye(3), sp.zeros(3, len(q)))}
     quantities = ("com", "origin", "rotation", "J_com", "J_origin", "J_omega", "T_body", "V_body")
-    out: dict[str, dict[str, Any]] = {k: {} for k in quantities}
-    terms: dict[str, tuple[Any, ...]] = {}
+    out: dict[str, dict[str, sp.Expr | sp.Matrix]] = {k: {} for k in quantities}
+    terms: dict[str, BodyTerms] = {}
     joints_of = {b: [j for j in all_joints if view[f"joint/{j}/body"] == b] for b in order}
     remaining = list(order)
     while remaining:
@@ -346,7 +360,7 @@ def _bodies(
     return out, terms
 
 
-def _mass_matrix(terms: dict[str, tuple[Any, ...]], order: list[str], n: int) -> Any:
+def _mass_matrix(terms: dict[str, BodyTerms], order: list[str], n: int) -> sp.Matrix:
     """Step 3: M(q) = sum_b m_b J_c^T J_c + J_b^T I_b J_b, with J_b = R_b^T J_w in the body frame."""
     import sympy as sp
 
@@ -358,7 +372,7 @@ def _mass_matrix(terms: dict[str, tuple[Any, ...]], order: list[str], n: int) ->
     return M
 
 
-def _joint_parameters(P: _Params, joints: tuple[str, ...]) -> tuple[list[Any], list[Any], list[Any]]:
+def _joint_parameters(P: _Params, joints: tuple[str, ...]) -> tuple[list[sp.Expr], list[sp.Expr], list[sp.Expr]]:
     """Each joint's armature, damping and stiffness symbols, in the coordinates' order."""
     armature, damping, stiffness = [], [], []
     for j in joints:
@@ -368,7 +382,7 @@ def _joint_parameters(P: _Params, joints: tuple[str, ...]) -> tuple[list[Any], l
     return armature, damping, stiffness
 
 
-def _springrefs(P: _Params, view: Any, joints: tuple[str, ...]) -> list[Any]:
+def _springrefs(P: _Params, view: ModelView, joints: tuple[str, ...]) -> list[sp.Expr]:
     """Each joint's spring reference (a symbol where the model has one, else 0)."""
     import sympy as sp
 
@@ -380,7 +394,7 @@ def _springrefs(P: _Params, view: Any, joints: tuple[str, ...]) -> list[Any]:
     ]
 
 
-def _coriolis(M: Any, q: list[Any], v: list[Any]) -> Any:
+def _coriolis(M: sp.Matrix, q: list[sp.Symbol], v: list[sp.Symbol]) -> sp.Matrix:
     """Step 5: C_ij = sum_k Gamma_ijk v_k, from the Christoffel symbols of M."""
     import sympy as sp
 
@@ -393,7 +407,7 @@ def _coriolis(M: Any, q: list[Any], v: list[Any]) -> Any:
     return C
 
 
-def derive(view: Any, joints: tuple[str, ...], *, readable: bool = False) -> Derivation:
+def derive(view: ModelView, joints: tuple[str, ...], *, readable: bool = False) -> Derivation:
     """The equations of motion of the model `view` in the coordinates of `joints` (one per joint).
     `readable`: rotation entries within ROTATION_ROUND of 0 or +-1 made exact, for a person to read (never
     for the symbolic source: the rounding changes the model by up to ROTATION_ROUND)."""

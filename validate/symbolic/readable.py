@@ -13,12 +13,16 @@ from __future__ import annotations
 import functools
 from collections import defaultdict
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..core.arrays import Floats, JsonObject
 from ..systems.scaffold import field_of
-from .derivation import Derivation
+from .derivation import Derivation, Entry
+
+if TYPE_CHECKING:  # sympy is imported when first used
+    import sympy as sp
 
 
 @dataclass(frozen=True)
@@ -26,32 +30,32 @@ class Equations:
     """The simplified equations of motion in named coordinates: M(q) q'' + C(q, q') q' + G(q) = tau + passive."""
 
     coordinates: tuple[str, ...]
-    q: tuple[Any, ...]
-    v: tuple[Any, ...]
-    a: tuple[Any, ...]
-    tau: tuple[Any, ...]
-    T: Any
-    V: Any
-    M: Any  # sympy Matrix
-    Cv: Any
-    G: Any
-    passive: Any
+    q: tuple[sp.Symbol, ...]
+    v: tuple[sp.Symbol, ...]
+    a: tuple[sp.Symbol, ...]
+    tau: tuple[sp.Symbol, ...]
+    T: sp.Expr
+    V: sp.Expr
+    M: sp.Matrix
+    Cv: sp.Matrix
+    G: sp.Matrix
+    passive: sp.Matrix
     parameters: dict[str, str]  # symbol name -> model key and unit
-    reads: dict[str, tuple[str, Any, int]] = field(default_factory=dict)  # symbol name -> (key, entry, sign)
+    reads: dict[str, tuple[str, Entry, int]] = field(default_factory=dict)  # symbol name -> (key, entry, sign)
     simplified: bool = True  # False: exact as derived (printed with common subexpressions), not simplified
     rounded: int = 0  # rotation entries rounded to 0 or +-1 (symbolic/derivation.py ROTATION_ROUND)
 
 
-def tidy(expr: Any, q: list[Any]) -> Any:
+def tidy(expr: sp.Expr, q: list[sp.Symbol]) -> sp.Expr:
     """`expr` expanded, with the trigonometric sum beside each parameter-and-velocity factor simplified."""
     import sympy as sp
 
     expr = sp.expand(expr)
-    trig_of: dict[Any, Any] = defaultdict(lambda: sp.Integer(0))
+    trig_of: dict[sp.Expr, sp.Expr] = defaultdict(lambda: sp.Integer(0))
     for term in sp.Add.make_args(expr):
         coeff, trig = term.as_independent(*q, as_Add=False)
         trig_of[trig] += coeff
-    by_factor: dict[Any, Any] = defaultdict(lambda: sp.Integer(0))
+    by_factor: dict[sp.Expr, sp.Expr] = defaultdict(lambda: sp.Integer(0))
     for trig, coeff in trig_of.items():
         for c in sp.Add.make_args(sp.expand(coeff)):
             number, factor = c.as_coeff_Mul()
@@ -59,7 +63,7 @@ def tidy(expr: Any, q: list[Any]) -> Any:
     return sp.Add(*(factor * _trigsimp(trig) for factor, trig in by_factor.items()))
 
 
-def _trigsimp(trig: Any) -> Any:
+def _trigsimp(trig: sp.Expr) -> sp.Expr:
     """`trigsimp(trig)`, computed once per trigonometric sum up to a numeric factor: in a spatial arm's
     equations the same sum stands beside many parameter factors (its M, C v and T: 370 sums, most
     repeated, each 0.2-0.8 s)."""
@@ -70,7 +74,7 @@ def _trigsimp(trig: Any) -> Any:
 
 
 @functools.lru_cache(maxsize=4096)
-def _trigsimp_primitive(trig: Any) -> Any:
+def _trigsimp_primitive(trig: sp.Expr) -> sp.Expr:
     import sympy as sp
 
     # sin^2 = 1 - cos^2 turns a sum that is a constant into that constant at once (trigsimp: 0.5 s each);
@@ -80,7 +84,9 @@ def _trigsimp_primitive(trig: Any) -> Any:
     return reduced if reduced.is_number else sp.trigsimp(trig)
 
 
-def in_coordinates(d: Derivation, coordinates: tuple[str, ...], joint_map: Any, expr: Any) -> Any:
+def in_coordinates(
+    d: Derivation, coordinates: tuple[str, ...], joint_map: Floats | None, expr: sp.Expr | sp.Matrix
+) -> tuple[sp.Expr | sp.Matrix, sp.Matrix]:
     """`expr` (in the derivation's joint coordinates and rates) in the named coordinates, where
     q = joint_map @ (joint coordinates); returns (expr, A^-1 as a sympy Matrix)."""
     import sympy as sp
@@ -97,7 +103,9 @@ def in_coordinates(d: Derivation, coordinates: tuple[str, ...], joint_map: Any, 
     return sp.sympify(expr).xreplace(subs), Ainv
 
 
-def transformed(d: Derivation, coordinates: tuple[str, ...], joint_map: Any, part: str) -> Any:
+def transformed(
+    d: Derivation, coordinates: tuple[str, ...], joint_map: Floats | None, part: str
+) -> sp.Expr | sp.Matrix:
     """One part of the derivation ("M", "Cv", "G", "passive", "T", "V") in the named coordinates,
     q = joint_map @ (joint coordinates), not simplified: forces map by A^-T, M by A^-T M A^-1."""
     expr, Ainv = in_coordinates(d, coordinates, joint_map, getattr(d, part))
@@ -109,7 +117,7 @@ def transformed(d: Derivation, coordinates: tuple[str, ...], joint_map: Any, par
 
 
 def equations(
-    d: Derivation, coordinates: tuple[str, ...] | None = None, joint_map: Any = None, *, simplify: bool = True
+    d: Derivation, coordinates: tuple[str, ...] | None = None, joint_map: Floats | None = None, *, simplify: bool = True
 ) -> Equations:
     """The derivation in the coordinates `coordinates` (default: the joints' names), where
     q = joint_map @ (joint coordinates) if a map is given; simplified unless `simplify` is False (exact
@@ -121,7 +129,7 @@ def equations(
     A = None if joint_map is None else np.asarray(joint_map, dtype=float)
     q = [sp.Symbol(n, real=True) for n in names]
 
-    def part(name: str) -> Any:
+    def part(name: str) -> sp.Expr | sp.Matrix:
         expr = transformed(d, names, A, name)
         if not simplify:
             return expr
@@ -159,7 +167,7 @@ def rounding_note(e: Equations) -> list[str]:
     ]
 
 
-def _rows(e: Equations) -> list[Any]:
+def _rows(e: Equations) -> list[sp.Eq]:
     """Lagrange's equations, one per coordinate: sum_j M_ij q''_j + (C q')_i + G_i - passive_i = tau_i."""
     import sympy as sp
 
@@ -170,7 +178,7 @@ def _rows(e: Equations) -> list[Any]:
     ]
 
 
-def _dots(e: Equations) -> dict[Any, str]:
+def _dots(e: Equations) -> dict[sp.Symbol, str]:
     """LaTeX names of the rates and accelerations: \\dot{theta}, \\ddot{theta}."""
     import sympy as sp
 
@@ -191,7 +199,7 @@ def as_text(e: Equations, fmt: str = "text") -> str:
     if fmt == "latex":
         dots = _dots(e)
 
-        def show(x: Any) -> str:
+        def show(x: sp.Basic) -> str:
             return str(sp.latex(x, symbol_names=dots))
     else:
         show = sp.sstr
@@ -218,7 +226,7 @@ def as_text(e: Equations, fmt: str = "text") -> str:
     return "\n".join(lines) + "\n"
 
 
-def _named_terms(e: Equations) -> list[tuple[str, Any]]:
+def _named_terms(e: Equations) -> list[tuple[str, sp.Expr]]:
     n = len(e.q)
     out = [("T", e.T), ("V", e.V)]
     out += [(f"M[{e.coordinates[i]}, {e.coordinates[j]}]", e.M[i, j]) for i in range(n) for j in range(i, n)]
@@ -247,7 +255,7 @@ def _exact_text(e: Equations) -> str:
     return "\n".join(lines) + "\n"
 
 
-def as_data(e: Equations) -> dict[str, Any]:
+def as_data(e: Equations) -> JsonObject:
     """The equations as strings for the results: plain text and LaTeX of each term."""
     import sympy as sp
 
@@ -255,7 +263,7 @@ def as_data(e: Equations) -> dict[str, Any]:
 
     dots = _dots(e)
 
-    def both(x: Any) -> dict[str, str]:
+    def both(x: sp.Expr) -> JsonObject:
         return {"text": sp.sstr(x), "latex": sp.latex(x, symbol_names=dots)}
 
     return {
@@ -290,7 +298,7 @@ _FUNCTIONS = (
 )
 
 
-def _local_names(e: Equations) -> dict[Any, Any]:
+def _local_names(e: Equations) -> dict[sp.Symbol, sp.Symbol]:
     """Python-safe local names for the coordinates and rates: a joint's name may not be an identifier,
     and must not shadow an argument, the imports or a parameter."""
     import re
@@ -298,7 +306,7 @@ def _local_names(e: Equations) -> dict[Any, Any]:
     import sympy as sp
 
     taken = {"p", "q", "v", "np", "stack_matrix", "stack_vector", *e.reads}  # and names starting cse_ (below)
-    out: dict[Any, Any] = {}
+    out: dict[sp.Symbol, sp.Symbol] = {}
     for sym in (*e.q, *e.v):
         name = re.sub(r"\W", "_", str(sym))
         name = name if name.isidentifier() and not name.startswith("cse_") else f"_{name}"
@@ -309,7 +317,9 @@ def _local_names(e: Equations) -> dict[Any, Any]:
     return out
 
 
-def _function(e: Equations, spec: tuple[str, str, str, tuple[str, ...], str], names: dict[Any, Any]) -> list[str]:
+def _function(
+    e: Equations, spec: tuple[str, str, str, tuple[str, ...], str], names: dict[sp.Symbol, sp.Symbol]
+) -> list[str]:
     """One function of the generated module: bind what its expression uses, return the expression."""
     import sympy as sp
 
@@ -323,7 +333,8 @@ def _function(e: Equations, spec: tuple[str, str, str, tuple[str, ...], str], na
     used = set().union(*(x.free_symbols for x in exprs))
     printer = sp.printing.numpy.NumPyPrinter({"fully_qualified_modules": True})
 
-    def code(x: Any) -> str:
+    def code(x: sp.Expr) -> str:
+
         return str(printer.doprint(x)).replace("numpy.", "np.")
 
     out = ["", "", f"def {fn}({args}):", f'    """{doc}"""']

@@ -48,7 +48,7 @@ _BODY_FIELDS = {"mass": "m", "com": "c", "inertia": "I", "pos": "p"}
 _JOINT_FIELDS = {"pos": "j", "damping": "d", "armature": "arm", "stiffness": "k"}
 
 
-def field_of(key: str, entry: int | tuple[int, ...] | None = None) -> str:
+def field_of(key: str, entry: int | tuple[int, ...] | str | None = None) -> str:
     """The Params field `new` writes for one number of the model, given as its model key and the entry
     of the key's value (None: the value itself; "norm": gravity's magnitude; i: a vector's; (i, j): an
     inertia's): `field_of("body/link/com", 1)` is "cy_link". `derive --python` binds its symbols so."""
@@ -62,7 +62,7 @@ def field_of(key: str, entry: int | tuple[int, ...] | None = None) -> str:
     if isinstance(entry, tuple):
         suffix = "".join("xyz"[k] for k in sorted(entry))
     else:
-        suffix = "" if entry is None else "xyz"[entry]
+        suffix = "" if entry is None or isinstance(entry, str) else "xyz"[entry]  # "norm" is gravity's alone
     return f"{table[what]}{suffix}_{identifier(name)}"
 
 

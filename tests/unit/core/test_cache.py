@@ -15,6 +15,7 @@ from lagrange_xval.core import cache
 from lagrange_xval.core.errors import HarnessError
 from lagrange_xval.dynamics import chaos, reference
 from lagrange_xval.dynamics.integrate import time_grid
+from lagrange_xval.model.start import Start
 
 POINT = systems.load("double_pendulum_point")
 START = (np.array([0.0, 3.0]), np.zeros(2), np.zeros(2))
@@ -22,7 +23,7 @@ GRID = time_grid(2.0, 0.01)
 
 
 def _reference(folder):
-    return reference.reference_trajectory(POINT, *START, GRID, cache_dir=folder, check=None)
+    return reference.reference_trajectory(POINT, Start.of(*START), GRID, cache_dir=folder, check=None)
 
 
 @pytest.fixture(scope="module")
@@ -83,7 +84,7 @@ def _forged_nan(path):
 def _forged_splice(path):
     """The second half from another start: every sample finite, the start right, one window wrong."""
     other, _ = reference.reference_trajectory(
-        POINT, [0.0, 2.9], [0.0, 0.0], [0.0, 0.0], GRID, cache_dir=None, check=None
+        POINT, Start.of([0.0, 2.9], [0.0, 0.0], [0.0, 0.0]), GRID, cache_dir=None, check=None
     )
     q, v = _entry(path)["q"].copy(), _entry(path)["v"].copy()
     q[100:], v[100:] = other.q[100:], other.v[100:]
@@ -223,7 +224,7 @@ def test_the_configured_folder_and_no_cache(tmp_path, monkeypatch):
 def summary(tmp_path_factory):
     folder = tmp_path_factory.mktemp("chaos") / "reference"
     system = systems.load("simple_pendulum")
-    args = (system, [0.5], [0.0], [0.0])
+    args = (system, Start.of([0.5], [0.0], [0.0]))
     first = chaos.chaos_summary(*args, cache_dir=folder)
     assert first["cache"] == "miss"
     (path,) = (folder.parent / "chaos").iterdir()

@@ -13,6 +13,7 @@ import pytest
 from lagrange_xval import cli, systems
 from lagrange_xval.cli import main
 from lagrange_xval.dynamics import integrate
+from lagrange_xval.model.start import Start
 from lagrange_xval.sources import make_source
 
 CLI = [sys.executable, "-m", "lagrange_xval.cli"]
@@ -155,8 +156,8 @@ def test_mujoco_trajectory_raises_diverged_never_returns_zeros():
     src = make_source(system, "mujoco")
     t = integrate.time_grid(1.0, 0.1)
     with pytest.raises(integrate.Diverged):
-        integrate.mujoco_trajectory(system, src, np.array([0.0, 3.0]), np.array([1e4, -1e4]), np.zeros(2), t)
-    ok = integrate.mujoco_trajectory(system, src, np.array([0.0, 3.0]), np.zeros(2), np.zeros(2), t)
+        integrate.mujoco_trajectory(system, src, Start.of(np.array([0.0, 3.0]), np.array([1e4, -1e4]), np.zeros(2)), t)
+    ok = integrate.mujoco_trajectory(system, src, Start.of(np.array([0.0, 3.0]), np.zeros(2), np.zeros(2)), t)
     assert np.all(np.isfinite(ok.q)) and np.abs(ok.q[-1]).max() > 0  # the warning counters were reset
 
 
@@ -253,8 +254,10 @@ def test_stdout_holds_only_the_commands_output_when_a_library_logs(tmp_path):
         "import sys; from lagrange_xval import cli, systems;"
         "from lagrange_xval.dynamics import reference;"
         "from lagrange_xval.dynamics.integrate import time_grid;"
+        "from lagrange_xval.model.start import Start;"
         "s = systems.load('simple_pendulum');"
-        "cli.COMMANDS['list'] = lambda a: (reference.reference_trajectory(s, [0.5], [0.0], [0.0], time_grid(1, 0.1),"
+        "cli.COMMANDS['list'] = lambda a: (reference.reference_trajectory(s, Start.of([0.5], [0.0], [0.0]),"
+        " time_grid(1, 0.1),"
         " cache_dir=None, check=None), print('{\"ok\": true}'), 0)[-1];"
         "sys.exit(cli.main(['list']))"
     )

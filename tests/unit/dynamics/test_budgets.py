@@ -16,6 +16,7 @@ import pytest
 from lagrange_xval import systems
 from lagrange_xval.core.errors import IntegrationStopped
 from lagrange_xval.dynamics import chaos, experiments, integrate, mirror, reference
+from lagrange_xval.model.start import Scheme, Start
 from lagrange_xval.sources import fastpath, make_source
 from lagrange_xval.sources.hand import HandSource
 
@@ -68,7 +69,7 @@ def test_wrong_friction_sign_default_odeint_run_is_stopped_by_its_budget():
     "stopped: budget" within the evaluation budget, the run kept up to there."""
     s = mutated(*FRICTION_SIGN)
     q0, v0, tau = start(s)
-    tr = integrate.scipy_trajectory(s, make_source(s, "hand"), q0, v0, tau, integrate.time_grid(10.0, 0.01))
+    tr = integrate.scipy_trajectory(s, make_source(s, "hand"), Start.of(q0, v0, tau), integrate.time_grid(10.0, 0.01))
     assert tr.stats["status"] in ("diverged", "stopped: budget"), tr.stats
     assert tr.stats["nfev"] <= integrate.DEFAULT_BUDGET.max_rhs_evaluations, tr.stats
     assert tr.stats["stopped_at"] < 10.0 and tr.stats["reason"].startswith(("diverged at t =", "stopped: budget"))
@@ -82,7 +83,7 @@ def test_an_evaluation_budget_is_spent_exactly(method):
     q0, v0, tau = start(s)
     budget = integrate.Budget(max_rhs_evaluations=5_000)
     tr = integrate.scipy_trajectory(
-        s, make_source(s, "hand"), q0, v0, tau, integrate.time_grid(10.0, 0.01), method=method, budget=budget
+        s, make_source(s, "hand"), Start.of(q0, v0, tau), integrate.time_grid(10.0, 0.01), method=method, budget=budget
     )
     assert tr.stats["status"] == "stopped: budget" and tr.stats["nfev"] == 5_000, tr.stats
     assert_kept_until_stop(tr)
@@ -93,7 +94,7 @@ def test_wrong_friction_sign_mirror_is_diverged_and_kept_up_to_there():
     s = mutated(*FRICTION_SIGN)
     q0, v0, tau = start(s)
     tr = mirror.mirror_trajectory(
-        s, make_source(s, "hand"), q0, v0, tau, integrate.time_grid(10.0, 0.01), integrator="Euler"
+        s, make_source(s, "hand"), Start.of(q0, v0, tau), integrate.time_grid(10.0, 0.01), integrator="Euler"
     )
     assert tr.stats["status"] == "diverged" and tr.stats["reason"].startswith("diverged at t ="), tr.stats
     assert_kept_until_stop(tr)
@@ -126,7 +127,7 @@ def test_taylor_reference_of_the_exploding_gimbal_raises_integration_stopped():
     assert exc.source == "hand" and exc.method.startswith("heyoka Taylor") and 0 < exc.t < 10.0, str(exc)
     assert exc.reason.startswith(("stopped: budget", "diverged")), str(exc)
     with pytest.raises(IntegrationStopped):
-        chaos.flow(s, q0, v0, tau, t)
+        chaos.flow(s, Start.of(q0, v0, tau), t)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -154,7 +155,13 @@ def test_singular_mass_matrix_trajectory_is_a_finding_naming_M(method):
     s = mutated(*M12_SIGN)
     q0, v0, tau = start(s)
     tr = integrate.scipy_trajectory(
-        s, make_source(s, "hand"), q0, v0, tau, integrate.time_grid(3.0, 0.01), method=method, rtol=1e-8, atol=1e-8
+        s,
+        make_source(s, "hand"),
+        Start.of(q0, v0, tau),
+        integrate.time_grid(3.0, 0.01),
+        method=method,
+        rtol=1e-8,
+        atol=1e-8,
     )
     assert tr.stats["status"] in ("failed", "diverged"), tr.stats
     assert "M(q) is" in tr.stats["reason"], tr.stats["reason"]
@@ -189,12 +196,12 @@ def test_lost_factor_two_in_M_is_a_finding_not_an_exception():
     t = integrate.time_grid(3.0, 0.01)
     hand = make_source(s, "hand")
     small = integrate.Budget(max_rhs_evaluations=20_000)  # the default run spends 200,000 by t = 1.09 s
-    tr = integrate.scipy_trajectory(s, hand, q0, v0, tau, t, **integrate.SCIPY_DEFAULT, budget=small)
+    tr = integrate.scipy_trajectory(s, hand, Start.of(q0, v0, tau), t, **integrate.SCIPY_DEFAULT, budget=small)
     assert tr.stats["status"] in integrate.STATUSES and (tr.stats["status"] == "ok") == (tr.stats["reason"] == "")
     if tr.stats["status"] != "ok":
         assert_kept_until_stop(tr)
     for name in mirror.INTEGRATORS:
-        m = mirror.mirror_trajectory(s, hand, q0, v0, tau, t, integrator=name)
+        m = mirror.mirror_trajectory(s, hand, Start.of(q0, v0, tau), t, integrator=name)
         assert m.stats["status"] in integrate.STATUSES, (name, m.stats)
 
 
@@ -219,10 +226,10 @@ def test_correct_systems_are_ok_and_bit_for_bit_the_plain_solvers(name):
         ("DOP853", lambda: solve_ivp(f, (t[0], t[-1]), y0, "DOP853", t, args=(tau_list,), rtol=1e-12, atol=1e-12).y.T),
     ):
         kw = integrate.SCIPY_DEFAULT if method == "odeint" else {"method": "DOP853", "rtol": 1e-12, "atol": 1e-12}
-        tr = integrate.scipy_trajectory(s, hand, q0, v0, tau, t, **kw)
+        tr = integrate.scipy_trajectory(s, hand, Start.of(q0, v0, tau), t, **kw)
         assert tr.stats["status"] == "ok" and tr.stats["reason"] == "" and tr.stats["stopped_at"] == t[-1], tr.stats
         assert np.array_equal(np.concatenate([tr.q, tr.v], axis=1), plain()), f"{name} {method}"
-    m = mirror.mirror_trajectory(s, hand, q0, v0, tau, t, integrator="RK4")
+    m = mirror.mirror_trajectory(s, hand, Start.of(q0, v0, tau), t, integrator="RK4")
     assert m.stats["status"] == "ok" and np.isfinite(m.q).all(), m.stats
 
 
@@ -262,6 +269,6 @@ def test_lockstep_mujoco_side_never_reports_a_reset_state():
     source = make_source(systems.load("double_pendulum_point"), "mujoco")
     q = np.array([[0.1, 0.2], [0.1, 0.2]])
     v = np.array([[0.0, 0.0], [1e12, -1e12]])  # MuJoCo's bad-qacc warning, then its reset
-    q1, v1 = mirror.mujoco_steps(source, q, v, np.zeros(2), integrator="Euler", timestep=0.001, steps=3)
+    q1, v1 = mirror.mujoco_steps(source, q, v, np.zeros(2), Scheme("Euler", 0.001), steps=3)
     assert np.all(np.isfinite(q1[0])) and np.all(np.isfinite(v1[0]))
     assert np.all(np.isnan(q1[1])) and np.all(np.isnan(v1[1]))

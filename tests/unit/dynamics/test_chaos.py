@@ -8,7 +8,7 @@ from lagrange_xval import systems
 from lagrange_xval.dynamics import chaos
 from lagrange_xval.dynamics.integrate import initial_state, mujoco_trajectory, time_grid
 from lagrange_xval.dynamics.reference import reference_trajectory
-from lagrange_xval.model.start import Scheme
+from lagrange_xval.model.start import Scheme, Start
 from lagrange_xval.sources import make_sources
 
 NOTES_START = (np.array([0.0, 3.0]), np.zeros(2))  # theta = 0, phi = 3, at rest (the notes' ode45 run)
@@ -29,7 +29,7 @@ def point():
 @pytest.fixture(scope="module")
 def lyapunov(point):
     q0, v0 = NOTES_START
-    return chaos.lyapunov_exponent(point, q0, v0, method="variational")
+    return chaos.lyapunov_exponent(point, Start.at_rest(q0, v0), method="variational")
 
 
 def test_lyapunov_exponent_of_the_notes_experiment(lyapunov):
@@ -50,7 +50,7 @@ def test_two_lyapunov_methods_agree(point, lyapunov):
     """Two nearby trajectories (the simple path) and the variational QR method agree within the finite-time
     scatter (measured 0.206 vs 0.229 /s at 500 s)."""
     q0, v0 = NOTES_START
-    two = chaos.lyapunov_exponent(point, q0, v0, method="two trajectories")
+    two = chaos.lyapunov_exponent(point, Start.at_rest(q0, v0), method="two trajectories")
     assert abs(two["lambda"] - lyapunov["lambda"]) < 0.05, f"{two['lambda']:.3f} vs {lyapunov['lambda']:.3f} /s"
 
 
@@ -58,7 +58,7 @@ def test_amplification_is_the_finite_difference_sensitivity(point):
     """Phi(2 s) from the variational equations equals central differences of the reference (the simple path)."""
     q0, v0 = NOTES_START
     t = time_grid(2.0, 0.01)
-    fl = chaos.flow(point, q0, v0, np.zeros(2), t)
+    fl = chaos.flow(point, Start.of(q0, v0, np.zeros(2)), t)
     eps = 1e-6
     cols = []
     for j in range(4):
@@ -66,7 +66,7 @@ def test_amplification_is_the_finite_difference_sensitivity(point):
         for sign in (1, -1):
             x0 = np.concatenate([q0, v0])
             x0[j] += sign * eps
-            ref, _ = reference_trajectory(point, x0[:2], x0[2:], np.zeros(2), t, cache_dir=None, check=None)
+            ref, _ = reference_trajectory(point, Start.of(x0[:2], x0[2:], np.zeros(2)), t, cache_dir=None, check=None)
             ends.append(np.concatenate([ref.q[-1], ref.v[-1]]))
         cols.append((ends[0] - ends[1]) / (2 * eps))
     fd = np.stack(cols, axis=1)
@@ -82,17 +82,17 @@ def test_envelope_bounds_mujoco_rk4_and_the_judge_can_fail(point):
     q0, v0 = NOTES_START
     tau = np.zeros(2)
     t = time_grid(10.0, 0.01)
-    ref, _ = reference_trajectory(point, q0, v0, tau, t, cache_dir=None, check=None)
-    out = chaos.free_run_check(point, src, q0, v0, tau, t, integrator="RK4", ref=ref)
+    ref, _ = reference_trajectory(point, Start.of(q0, v0, tau), t, cache_dir=None, check=None)
+    out = chaos.free_run_check(point, src, Start.of(q0, v0, tau), t, integrator="RK4", ref=ref)
     assert out["judge"]["passed"] and out["judge"]["max_ratio"] < 1, out["judge"]
     # the linear propagation of the window errors is not just a bound: it reproduces the error (measured 1e-3)
     assert out["prediction_mismatch"] < 1e-2, (out["error_at"], out["predicted_at"])
     env = chaos.error_envelope(
-        chaos.flow(point, q0, v0, tau, t),
+        chaos.flow(point, Start.of(q0, v0, tau), t),
         window_errors=chaos.window_errors(point, src, "mujoco", ref, tau, Scheme("RK4", 1e-3)),
         floor=chaos.rounding_floor(ref),
     )
-    wrong = mujoco_trajectory(point, src["mujoco"], q0 + [0.0, 1e-7], v0, tau, t, integrator="RK4")
+    wrong = mujoco_trajectory(point, src["mujoco"], Start.of(q0 + [0.0, 1e-7], v0, tau), t, integrator="RK4")
     verdict = chaos.judge_free_run(t, np.abs(wrong.q - ref.q).max(axis=1), env)
     assert not verdict["passed"] and verdict["first_violation"] < 0.1, verdict
 
@@ -101,7 +101,7 @@ def test_horizon_from_rounding_matches_lambda(point, lyapunov):
     """The horizon at 1e-6 rad of the initial state's rounding, from the envelope (measured 73 s), is within
     a factor 1.5 of ln(tol / e0) / lambda (95 s)."""
     q0, v0 = NOTES_START
-    h = chaos.horizon_from_rounding(point, q0, v0, np.zeros(2), tolerance=1e-6)
+    h = chaos.horizon_from_rounding(point, Start.of(q0, v0, np.zeros(2)), tolerance=1e-6)
     estimate = np.log(1e-6 / h["e0"]) / lyapunov["lambda"]
     assert h["horizon"] is not None and 1 / 1.5 < h["horizon"] / estimate < 1.5, (h, estimate)
 
@@ -120,9 +120,7 @@ def test_convergence_order(system, integrator, band, tmp_path_factory):
     out = chaos.convergence_order(
         system,
         sources_of(system),
-        q0,
-        v0,
-        tau,
+        Start.of(q0, v0, tau),
         integrator=integrator,
         cache_dir=tmp_path_factory.getbasetemp() / "reference",
         check=None,
@@ -142,9 +140,9 @@ def test_energy_drift_rk4_against_euler(name):
     q0, v0 = initial_state(system)
     tau = np.zeros(system.nv)
     t = time_grid(10.0, 0.01)
-    ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=None, check=None)
-    rk4 = chaos.energy_drift(system, sources_of(system), q0, v0, tau, t, integrator="RK4", ref=ref)
-    euler = chaos.energy_drift(system, sources_of(system), q0, v0, tau, t, integrator="Euler", ref=ref)
+    ref, _ = reference_trajectory(system, Start.of(q0, v0, tau), t, cache_dir=None, check=None)
+    rk4 = chaos.energy_drift(system, sources_of(system), Start.of(q0, v0, tau), t, integrator="RK4", ref=ref)
+    euler = chaos.energy_drift(system, sources_of(system), Start.of(q0, v0, tau), t, integrator="Euler", ref=ref)
     assert rk4["relative"] < 1e-7, rk4
     assert euler["relative"] > 1e-3, euler
 

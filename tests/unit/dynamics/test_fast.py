@@ -11,6 +11,7 @@ import pytest
 from lagrange_xval import systems
 from lagrange_xval.dynamics import compiled, fast, integrate, mirror
 from lagrange_xval.dynamics.reference import reference_trajectory
+from lagrange_xval.model.start import Scheme, Start
 from lagrange_xval.sources import make_source, make_sources
 from lagrange_xval.sources.hand import HandSource
 from lagrange_xval.studies.bench import FULL, checks
@@ -26,10 +27,10 @@ def test_taylor_trajectories_of_hand_and_derived_equations_follow_the_reference(
     s = systems.load(name)
     q0, v0, tau = start(s)
     t = integrate.time_grid(10.0, 0.01)
-    ref, _ = reference_trajectory(s, q0, v0, tau, t)
+    ref, _ = reference_trajectory(s, Start.of(q0, v0, tau), t)
     sources = make_sources(s)
     for src in ("hand", "symbolic"):
-        tr = fast.accurate_trajectory(s, sources[src], q0, v0, tau, t)
+        tr = fast.accurate_trajectory(s, sources[src], Start.of(q0, v0, tau), t)
         assert tr.method.startswith("heyoka Taylor (double)") and tr.source == src, tr.method
         assert tr.stats["status"] == "ok" and tr.stats["stopped_at"] == t[-1], tr.stats
         assert np.abs(tr.q - ref.q).max() < 1e-11 and np.abs(tr.v - ref.v).max() < 1e-10, (src, tr.stats)
@@ -40,7 +41,7 @@ def test_a_run_away_derivation_ends_as_a_finding_with_its_samples_kept():
     status and reason (never raises, never hangs), finite up to the stop and NaN after."""
     s = mutated(*FRICTION_SIGN)
     q0, v0, tau = start(s)
-    tr = fast.taylor_trajectory(s, "hand", q0, v0, tau, integrate.time_grid(10.0, 0.01))
+    tr = fast.taylor_trajectory(s, "hand", Start.of(q0, v0, tau), integrate.time_grid(10.0, 0.01))
     assert tr.stats["status"] in ("diverged", "stopped: budget"), tr.stats
     assert tr.stats["reason"] and 0 < tr.stats["stopped_at"] < 10.0, tr.stats
     assert_kept_until_stop(tr)
@@ -51,8 +52,8 @@ def test_a_smaller_bound_stops_the_run_where_the_state_passes_it():
     q0, v0, tau = start(s)
     t = integrate.time_grid(10.0, 0.01)
     tight = integrate.Budget(max_abs_state=4.0)
-    tr = fast.taylor_trajectory(s, "hand", q0, v0, tau, t, budget=tight)
-    full = fast.taylor_trajectory(s, "hand", q0, v0, tau, t)
+    tr = fast.taylor_trajectory(s, "hand", Start.of(q0, v0, tau), t, budget=tight)
+    full = fast.taylor_trajectory(s, "hand", Start.of(q0, v0, tau), t)
     k = int(np.argmax((np.abs(np.concatenate([full.q, full.v], axis=1)) > 4.0).any(axis=1)))
     assert 0 < k < len(t) and tr.stats["status"] == "diverged", tr.stats
     assert np.array_equal(tr.q[:k], full.q[:k]) and np.isnan(tr.q[k:]).all()
@@ -65,10 +66,10 @@ def test_equations_heyoka_cannot_take_fall_back_to_scipy_and_say_so(monkeypatch)
     monkeypatch.setattr(fast, "taylor_integrator", refuse)
     s = systems.load("simple_pendulum")
     q0, v0, tau = start(s)
-    tr = fast.accurate_trajectory(s, make_source(s, "hand"), q0, v0, tau, integrate.time_grid(1.0, 0.01))
+    tr = fast.accurate_trajectory(s, make_source(s, "hand"), Start.of(q0, v0, tau), integrate.time_grid(1.0, 0.01))
     assert tr.method.startswith("scipy odeint") and "cannot trace" in tr.stats["fast_path"], tr.stats
     with pytest.raises(Exception, match="no Taylor trajectory of the 'pinocchio' source"):
-        fast.taylor_trajectory(s, "pinocchio", q0, v0, tau, integrate.time_grid(1.0, 0.01))
+        fast.taylor_trajectory(s, "pinocchio", Start.of(q0, v0, tau), integrate.time_grid(1.0, 0.01))
 
 
 class PlainHand(HandSource):
@@ -84,18 +85,16 @@ def test_the_compiled_mirror_of_rk4_rounds_as_the_python_scheme_does(name):
     q0, v0, tau = start(s)
     t = integrate.time_grid(2.0, 0.01)
     hand, plain = make_source(s, "hand"), PlainHand(s)
-    a = mirror.mirror_trajectory(s, hand, q0, v0, tau, t, integrator="RK4")
-    b = mirror.mirror_trajectory(s, plain, q0, v0, tau, t, integrator="RK4")
+    a = mirror.mirror_trajectory(s, hand, Start.of(q0, v0, tau), t, integrator="RK4")
+    b = mirror.mirror_trajectory(s, plain, Start.of(q0, v0, tau), t, integrator="RK4")
     assert a.method.endswith("(compiled)") and not b.method.endswith("(compiled)")
     assert a.stats["status"] == b.stats["status"] == "ok"
     assert np.abs(a.q - b.q).max() < 1e-11, np.abs(a.q - b.q).max()
-    ref, _ = reference_trajectory(s, q0, v0, tau, t)
+    ref, _ = reference_trajectory(s, Start.of(q0, v0, tau), t)
     ulp = np.spacing(np.abs(np.concatenate([ref.q, ref.v], axis=1)).max())
-    qa, va = mirror.mirror_steps(s, hand, ref.q[:-1], ref.v[:-1], tau, integrator="RK4", timestep=1e-3, steps=10)
-    qb, vb = mirror.mirror_steps(s, plain, ref.q[:-1], ref.v[:-1], tau, integrator="RK4", timestep=1e-3, steps=10)
-    qm, vm = mirror.mujoco_steps(
-        make_source(s, "mujoco"), ref.q[:-1], ref.v[:-1], tau, integrator="RK4", timestep=1e-3, steps=10
-    )
+    qa, va = mirror.mirror_steps(s, hand, ref.q[:-1], ref.v[:-1], tau, Scheme("RK4", 1e-3), steps=10)
+    qb, vb = mirror.mirror_steps(s, plain, ref.q[:-1], ref.v[:-1], tau, Scheme("RK4", 1e-3), steps=10)
+    qm, vm = mirror.mujoco_steps(make_source(s, "mujoco"), ref.q[:-1], ref.v[:-1], tau, Scheme("RK4", 1e-3), steps=10)
     assert max(np.abs(qa - qb).max(), np.abs(va - vb).max()) <= 4 * ulp
     assert max(np.abs(qa - qm).max(), np.abs(va - vm).max()) <= 16 * ulp
 
@@ -104,7 +103,7 @@ def test_the_compiled_mirror_of_a_run_away_derivation_is_diverged_and_kept_up_to
     s = mutated(*FRICTION_SIGN)
     q0, v0, tau = start(s)
     tr = mirror.mirror_trajectory(
-        s, make_source(s, "hand"), q0, v0, tau, integrate.time_grid(10.0, 0.01), integrator="RK4"
+        s, make_source(s, "hand"), Start.of(q0, v0, tau), integrate.time_grid(10.0, 0.01), integrator="RK4"
     )
     assert tr.method.endswith("(compiled)"), tr.method
     assert tr.stats["status"] == "diverged" and tr.stats["reason"].startswith("diverged at t ="), tr.stats

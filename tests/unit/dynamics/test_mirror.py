@@ -17,6 +17,7 @@ from lagrange_xval.dynamics import chaos
 from lagrange_xval.dynamics.integrate import initial_state, mujoco_trajectory, time_grid
 from lagrange_xval.dynamics.mirror import INTEGRATORS, Stepper, eulerdamp_active, lockstep, mirror_trajectory
 from lagrange_xval.dynamics.reference import reference_trajectory
+from lagrange_xval.model.start import Scheme, Start
 from lagrange_xval.sources import make_sources
 from lagrange_xval.sources.hand import HandSource
 from lagrange_xval.verdict import pointwise as compare
@@ -60,8 +61,8 @@ def test_mirror_of_mujoco_forward_is_mj_step_bit_for_bit(name, integrator):
     src = sources_of(system)
     q0, v0, tau = start(system)
     t = time_grid(1.0, 0.01)
-    stepped = mujoco_trajectory(system, src["mujoco"], q0, v0, tau, t, integrator=integrator)
-    mirrored = mirror_trajectory(system, src["mujoco"], q0, v0, tau, t, integrator=integrator)
+    stepped = mujoco_trajectory(system, src["mujoco"], Start.of(q0, v0, tau), t, integrator=integrator)
+    mirrored = mirror_trajectory(system, src["mujoco"], Start.of(q0, v0, tau), t, integrator=integrator)
     diff = np.abs(stepped.q - mirrored.q).max()
     assert np.array_equal(stepped.q, mirrored.q) and np.array_equal(stepped.v, mirrored.v), (
         f"{name} {integrator}: mirror of mj_forward differs from mj_step by {diff:.1e} rad"
@@ -93,8 +94,8 @@ def test_lockstep_tells_the_schemes_apart():
     from lagrange_xval.dynamics.mirror import mirror_steps, mujoco_steps
 
     for mirrored, stepped in [("RK4", "Euler"), ("Euler", "implicit"), ("implicit", "implicitfast")]:
-        qm, vm = mirror_steps(system, src["hand"], states.q, states.v, states.tau, integrator=mirrored, timestep=1e-3)
-        qs, vs = mujoco_steps(src["mujoco"], states.q, states.v, states.tau, integrator=stepped, timestep=1e-3)
+        qm, vm = mirror_steps(system, src["hand"], states.q, states.v, states.tau, Scheme(mirrored, 1e-3))
+        qs, vs = mujoco_steps(src["mujoco"], states.q, states.v, states.tau, Scheme(stepped, 1e-3))
         assert np.abs(vm - vs).max() > 1e-9, f"mirror {mirrored} is indistinguishable from MuJoCo {stepped}"
 
 
@@ -109,8 +110,8 @@ def test_free_running_mirror_stays_inside_the_round_off_envelope(system, engine,
     src = sources_of(system)
     q0, v0, tau = start(system)
     t = time_grid(10.0, 0.01)
-    ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=None, check=None)
-    out = chaos.pair_check(system, src, "mujoco", engine, q0, v0, tau, t, integrator=integrator, ref=ref)
+    ref, _ = reference_trajectory(system, Start.of(q0, v0, tau), t, cache_dir=None, check=None)
+    out = chaos.pair_check(system, src, "mujoco", engine, Start.of(q0, v0, tau), t, integrator=integrator, ref=ref)
     # The envelope is built from the window differences, so first: those are round-off (measured <= 3 ulps).
     assert out["window_ulps"] <= chaos.ROUND_OFF_ULPS, (
         f"{system.name} {integrator} mujoco~{engine}: restarted windows differ by {out['window_ulps']:.0f} ulps "
@@ -136,8 +137,8 @@ def test_mirror_verdict_catches_a_slightly_wrong_term():
     src = dict(sources_of(system), hand=WrongBias(system))
     q0, v0, tau = start(system)
     t = time_grid(2.0, 0.01)
-    ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=None, check=None)
-    out = chaos.pair_check(system, src, "mujoco", "hand", q0, v0, tau, t, integrator="RK4", ref=ref)
+    ref, _ = reference_trajectory(system, Start.of(q0, v0, tau), t, cache_dir=None, check=None)
+    out = chaos.pair_check(system, src, "mujoco", "hand", Start.of(q0, v0, tau), t, integrator="RK4", ref=ref)
     assert out["window_ulps"] > 1e3 * chaos.ROUND_OFF_ULPS and not out["passed"], out
 
 
@@ -152,9 +153,9 @@ def test_eulerdamp_semantics_with_joint_damping():
         src = sources_of(system)
         q0, v0, tau = start(system)
         t = time_grid(2.0, 0.01)
-        stepped = mujoco_trajectory(system, src["mujoco"], q0, v0, tau, t, integrator="Euler")
-        mirrored = mirror_trajectory(system, src["hand"], q0, v0, tau, t, integrator="Euler")
-        stepper = Stepper(system, src["hand"], integrator="Euler", timestep=system.mujoco_model().opt.timestep)
+        stepped = mujoco_trajectory(system, src["mujoco"], Start.of(q0, v0, tau), t, integrator="Euler")
+        mirrored = mirror_trajectory(system, src["hand"], Start.of(q0, v0, tau), t, integrator="Euler")
+        stepper = Stepper(system, src["hand"], Scheme("Euler", system.mujoco_model().opt.timestep))
         stepper.eulerdamp = False
         q, v = q0[None].copy(), v0[None].copy()
         explicit = [q[0]]
@@ -176,8 +177,12 @@ def test_mirror_counts_evaluations():
     src = sources_of(system)
     q0, v0, tau = start(system)
     t = time_grid(0.1, 0.01)
-    assert mirror_trajectory(system, src["hand"], q0, v0, tau, t, integrator="RK4").stats["evaluations"] == 400
-    assert mirror_trajectory(system, src["hand"], q0, v0, tau, t, integrator="Euler").stats["evaluations"] == 100
+    assert (
+        mirror_trajectory(system, src["hand"], Start.of(q0, v0, tau), t, integrator="RK4").stats["evaluations"] == 400
+    )
+    assert (
+        mirror_trajectory(system, src["hand"], Start.of(q0, v0, tau), t, integrator="Euler").stats["evaluations"] == 100
+    )
 
 
 @pytest.mark.parametrize("engine", ["hand", "pinocchio"])
@@ -191,8 +196,8 @@ def test_scalar_eulerdamp_path_is_the_batched_one(engine):
         src = sources_of(system)
         q0, v0, tau = start(system)
         t = time_grid(0.5, 0.01)
-        free = mirror_trajectory(system, src[engine], q0, v0, tau, t, integrator="Euler")
-        stepper = Stepper(system, src[engine], integrator="Euler", timestep=system.mujoco_model().opt.timestep)
+        free = mirror_trajectory(system, src[engine], Start.of(q0, v0, tau), t, integrator="Euler")
+        stepper = Stepper(system, src[engine], Scheme("Euler", system.mujoco_model().opt.timestep))
         assert stepper.eulerdamp and stepper._scalar(tau) is not None, f"{name}: no one-state eulerdamp path"
         q, v = np.repeat(q0[None], 2, axis=0), np.repeat(v0[None], 2, axis=0)  # two states: the batched path
         batched = [q[0]]

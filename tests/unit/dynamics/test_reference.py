@@ -8,6 +8,7 @@ from lagrange_xval import systems
 from lagrange_xval.core.errors import HarnessError
 from lagrange_xval.dynamics import reference
 from lagrange_xval.dynamics.integrate import initial_state, scipy_trajectory, time_grid
+from lagrange_xval.model.start import Start
 from lagrange_xval.sources.hand import HandSource
 
 SYSTEMS = systems.system_names()
@@ -18,7 +19,9 @@ def test_long_double_and_quad_runs_agree_over_10_s(tmp_path):
     """heyoka in long double (tol 1.1e-19) and in quad (tol 1.9e-34) agree to < 1e-12 rad over 10 s from (0, 3)."""
     system = systems.load("double_pendulum_point")
     q0, v0 = NOTES_START
-    _, info = reference.reference_trajectory(system, q0, v0, np.zeros(2), time_grid(10.0, 0.01), cache_dir=tmp_path)
+    _, info = reference.reference_trajectory(
+        system, Start.of(q0, v0, np.zeros(2)), time_grid(10.0, 0.01), cache_dir=tmp_path
+    )
     assert info["precision"] == "long double" and info["check_method"].startswith("heyoka Taylor, quad")
     # measured: 4.0e-17 rad (q), 1.4e-16 rad/s (v)
     assert info["agreement_q"] < 1e-12, f"long double vs quad: {info['agreement_q']:.2e} rad"
@@ -30,8 +33,12 @@ def test_cache_hit_returns_identical_arrays(tmp_path):
     system = systems.load("double_pendulum_point")
     q0, v0 = NOTES_START
     t = time_grid(2.0, 0.01)
-    first, info1 = reference.reference_trajectory(system, q0, v0, np.zeros(2), t, cache_dir=tmp_path, check=None)
-    second, info2 = reference.reference_trajectory(system, q0, v0, np.zeros(2), t, cache_dir=tmp_path, check=None)
+    first, info1 = reference.reference_trajectory(
+        system, Start.of(q0, v0, np.zeros(2)), t, cache_dir=tmp_path, check=None
+    )
+    second, info2 = reference.reference_trajectory(
+        system, Start.of(q0, v0, np.zeros(2)), t, cache_dir=tmp_path, check=None
+    )
     assert (info1["cache"], info2["cache"]) == ("miss", "hit")
     assert info1["cache_file"] == info2["cache_file"]
     for name in ("t", "q", "v"):
@@ -80,9 +87,9 @@ def test_dop853_agrees_with_the_reference_in_units_of_its_tolerance(system):
     q0, v0 = initial_state(system)
     tau = np.zeros(system.nv)
     t = time_grid(1.0, 0.01)
-    ref, _ = reference.reference_trajectory(system, q0, v0, tau, t, cache_dir=None, check=None)
+    ref, _ = reference.reference_trajectory(system, Start.of(q0, v0, tau), t, cache_dir=None, check=None)
     rtol = 1e-12
-    run = scipy_trajectory(system, HandSource(system), q0, v0, tau, t, rtol=rtol, atol=rtol)
+    run = scipy_trajectory(system, HandSource(system), Start.of(q0, v0, tau), t, rtol=rtol, atol=rtol)
     units = np.abs(run.q - ref.q).max() / rtol
     assert units < 20, f"{system.name}: DOP853 error is {units:.1f} x rtol against the reference"
 
@@ -96,7 +103,7 @@ def test_reference_conserves_energy(name):
     system = systems.load(name)
     q0, v0 = initial_state(system)
     ref, _ = reference.reference_trajectory(
-        system, q0, v0, np.zeros(system.nv), time_grid(10.0, 0.01), cache_dir=None, check=None
+        system, Start.of(q0, v0, np.zeros(system.nv)), time_grid(10.0, 0.01), cache_dir=None, check=None
     )
     kin, pot = HandSource(system).energies(ref.q, ref.v)
     e = kin + pot
@@ -107,8 +114,10 @@ def test_reference_conserves_energy(name):
 def test_bad_inputs_name_the_argument():
     system = systems.load("double_pendulum_point")
     with pytest.raises(HarnessError, match="q0 must have shape"):
-        reference.reference_trajectory(system, [0.0], [0.0, 0.0], [0.0, 0.0], time_grid(1.0, 0.1), cache_dir=None)
+        reference.reference_trajectory(
+            system, Start.of([0.0], [0.0, 0.0], [0.0, 0.0]), time_grid(1.0, 0.1), cache_dir=None
+        )
     with pytest.raises(HarnessError, match="non-finite"):
         reference.reference_trajectory(
-            system, [0.0, np.nan], [0.0, 0.0], [0.0, 0.0], time_grid(1.0, 0.1), cache_dir=None
+            system, Start.of([0.0, np.nan], [0.0, 0.0], [0.0, 0.0]), time_grid(1.0, 0.1), cache_dir=None
         )

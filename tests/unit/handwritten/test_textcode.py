@@ -22,6 +22,7 @@ from lagrange_xval import systems
 from lagrange_xval.core.guard import Stopped
 from lagrange_xval.handwritten import textform
 from lagrange_xval.handwritten.worker import Raised
+from lagrange_xval.model.start import Scheme
 from lagrange_xval.sources.hand import HandSource
 from lagrange_xval.systems import System, load_module, model_view
 
@@ -226,7 +227,7 @@ def test_an_implicit_mirror_step_asks_m_passive_and_bias_together(tmp_path: Path
     source, worker = HandSource(system), system.equations.WORKER
     q, v, tau = np.array([[0.3], [0.9]]), np.array([[0.5], [-1.0]]), np.array([[0.2], [0.0]])
     before = worker.calls
-    batched = Stepper(system, source, integrator="implicit", timestep=0.01).step(q, v, tau)
+    batched = Stepper(system, source, Scheme("implicit", 0.01)).step(q, v, tau)
     assert worker.calls == before + 2  # M, passive and bias; then bias at the shifted velocities
-    alone = Stepper(system, _OneByOne(source), integrator="implicit", timestep=0.01).step(q, v, tau)  # type: ignore[arg-type]
+    alone = Stepper(system, _OneByOne(source), Scheme("implicit", 0.01)).step(q, v, tau)  # type: ignore[arg-type]
     assert all(np.array_equal(a, b) for a, b in zip(batched, alone, strict=True))

@@ -104,8 +104,8 @@ def test_drakes_free_run_agrees_with_the_reference_within_its_own_threshold(name
     sources = make_sources(system)
     q0, v0 = integrate.initial_state(system)
     tau, t = np.zeros(system.nv), integrate.time_grid(10.0, 0.01)
-    ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=None)
-    run = drakerun.drake_trajectory(system, sources["drake"], q0, v0, tau, t)
+    ref, _ = reference_trajectory(system, Start.of(q0, v0, tau), t, cache_dir=None)
+    run = drakerun.drake_trajectory(system, sources["drake"], Start.of(q0, v0, tau), t)
     assert run.source == "drake" and run.method == "Drake runge_kutta3 accuracy 1e-08" and run.stats["status"] == "ok"
     est, how = estimate.run_estimate(system, sources, run, Start.of(q0, v0, tau))
     assert "against 1e-09" in how
@@ -157,7 +157,7 @@ def test_bench_times_drakes_integrators():
     row = runners.execute(spec, case, plan=replace(FULL, budget=5.0, min_timed=0.0))
     assert row["status"] == "ok" and row["cpu_s"] > 0 and row["steps"] > 1000
     ref, _ = reference_trajectory(
-        load("simple_pendulum"), case["q0"], case["v0"], case["tau"], row["t"], cache_dir=None
+        load("simple_pendulum"), Start.of(case["q0"], case["v0"], case["tau"]), row["t"], cache_dir=None
     )
     assert np.abs(row["q"] - ref.q).max() < 1e-6
     fixed = next(s for s in specs if s["scheme"] == "runge_kutta2" and s["value"] == 1e-3)

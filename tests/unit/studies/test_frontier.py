@@ -13,6 +13,7 @@ from lagrange_xval import systems
 from lagrange_xval.dynamics import compiled
 from lagrange_xval.dynamics.integrate import time_grid
 from lagrange_xval.dynamics.mirror import mirror_trajectory
+from lagrange_xval.model.start import Start
 from lagrange_xval.sources.fastpath import scalar_rhs
 from lagrange_xval.studies import bench
 from lagrange_xval.studies.bench import FULL, QUICK
@@ -52,7 +53,7 @@ def test_taylor_stopped_by_its_step_budget_is_not_ok():
     system = systems.load(DP)
     ta = compiled.taylor_integrator(system, 1e-9)
     outcome, states, steps = compiled.taylor_grid(
-        ta, [3.0, 0.0], [0.0, 0.0], [0.0, 0.0], time_grid(10.0, 0.01), max_steps=5
+        ta, Start.of([3.0, 0.0], [0.0, 0.0], [0.0, 0.0]), time_grid(10.0, 0.01), max_steps=5
     )
     assert outcome != "ok" and steps <= 5
     assert np.isnan(states[-1]).all()
@@ -77,11 +78,13 @@ def test_compiled_rk4_is_the_rk4_mirror_up_to_rounding():
     q0, v0, tau = np.array([3.0, 0.0]), np.zeros(2), np.zeros(2)
     per_call, calls = compiled.rk4_plan(0.01, 1e-3)
     assert (per_call, calls) == (10, 1)
-    status, states = compiled.rk4_grid(compiled.compiled_rk4(system, per_call), calls, q0, v0, tau, t, timestep=1e-3)
-    mirror = mirror_trajectory(system, sources["hand"], q0, v0, tau, t, integrator="RK4", timestep=1e-3)
+    status, states = compiled.rk4_grid(
+        compiled.compiled_rk4(system, per_call), calls, Start.of(q0, v0, tau), t, timestep=1e-3
+    )
+    mirror = mirror_trajectory(system, sources["hand"], Start.of(q0, v0, tau), t, integrator="RK4", timestep=1e-3)
     assert status == "ok"
     assert np.abs(states[:, :2] - mirror.q).max() < 1e-11
-    coarse = compiled.rk4_grid(compiled.compiled_rk4(system, 1), 1, q0, v0, tau, t, timestep=1e-2)[1]
+    coarse = compiled.rk4_grid(compiled.compiled_rk4(system, 1), 1, Start.of(q0, v0, tau), t, timestep=1e-2)[1]
     assert np.abs(coarse[:, :2] - mirror.q).max() > 1e-8  # the comparison can tell another timestep
 
 
@@ -91,10 +94,10 @@ def test_compiled_rk4_stops_at_its_deadline_and_on_blow_up():
     t = time_grid(10.0, 0.01)
     zero = np.zeros(2)
     assert (
-        compiled.rk4_grid(cf, 10, [3.0, 0.0], zero, zero, t, timestep=1e-3, deadline=time.perf_counter())[0]
+        compiled.rk4_grid(cf, 10, Start.of([3.0, 0.0], zero, zero), t, timestep=1e-3, deadline=time.perf_counter())[0]
         == "timeout"
     )
-    assert compiled.rk4_grid(cf, 1, [3.0, 0.0], [1e200, 0.0], zero, t, timestep=1e-2)[0] == "diverged"
+    assert compiled.rk4_grid(cf, 1, Start.of([3.0, 0.0], [1e200, 0.0], zero), t, timestep=1e-2)[0] == "diverged"
 
 
 @pytest.mark.parametrize("batch", [1, 3])

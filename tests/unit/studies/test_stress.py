@@ -12,6 +12,7 @@ from lagrange_xval import systems
 from lagrange_xval.core.errors import HarnessError
 from lagrange_xval.dynamics.integrate import initial_state, mujoco_trajectory
 from lagrange_xval.dynamics.mirror import mirror_trajectory
+from lagrange_xval.model.start import Scheme, Start
 from lagrange_xval.sources import make_sources
 from lagrange_xval.studies import stress
 
@@ -44,9 +45,11 @@ def test_mirror_runs_in_chunks_equal_one_run(integrator):
     system, sources, _ = loaded("double_pendulum_point")
     q0, v0 = initial_state(system)
     run = stress.simulate(
-        system, sources, "mirror", integrator, q0, v0, np.zeros(2), timestep=1e-3, t_end=0.5, sample_steps=50
+        system, sources, "mirror", Start.of(q0, v0, np.zeros(2)), Scheme(integrator, 1e-3), t_end=0.5, sample_steps=50
     )
-    whole = mirror_trajectory(system, sources["hand"], q0, v0, np.zeros(2), run.t, integrator=integrator, timestep=1e-3)
+    whole = mirror_trajectory(
+        system, sources["hand"], Start.of(q0, v0, np.zeros(2)), run.t, integrator=integrator, timestep=1e-3
+    )
     assert run.failure is None
     assert np.array_equal(run.q, whole.q) and np.array_equal(run.v, whole.v)
 
@@ -57,9 +60,11 @@ def test_mujoco_runs_equal_mujoco_trajectory(integrator):
     system, sources, _ = loaded("double_pendulum_point")
     q0, v0 = initial_state(system)
     run = stress.simulate(
-        system, sources, "mujoco", integrator, q0, v0, np.zeros(2), timestep=1e-3, t_end=0.5, sample_steps=10
+        system, sources, "mujoco", Start.of(q0, v0, np.zeros(2)), Scheme(integrator, 1e-3), t_end=0.5, sample_steps=10
     )
-    ref = mujoco_trajectory(system, sources["mujoco"], q0, v0, np.zeros(2), run.t, integrator=integrator, timestep=1e-3)
+    ref = mujoco_trajectory(
+        system, sources["mujoco"], Start.of(q0, v0, np.zeros(2)), run.t, integrator=integrator, timestep=1e-3
+    )
     assert np.array_equal(run.q, ref.q) and np.array_equal(run.v, ref.v)
 
 
@@ -68,7 +73,13 @@ def test_mujoco_warning_stops_a_run():
     system, sources, _ = loaded("double_pendulum_point")
     q0, _ = initial_state(system)
     run = stress.simulate(
-        system, sources, "mujoco", "Euler", q0, np.full(2, 50.0), np.zeros(2), timestep=0.05, t_end=10.0, sample_steps=1
+        system,
+        sources,
+        "mujoco",
+        Start.of(q0, np.full(2, 50.0), np.zeros(2)),
+        Scheme("Euler", 0.05),
+        t_end=10.0,
+        sample_steps=1,
     )
     assert run.failure is not None and "mjWARN_BADQACC" in run.failure, run.failure
     assert run.t_fail is not None and run.t_fail < 10.0
@@ -110,7 +121,7 @@ def test_bisection_finds_the_boundary_of_euler_on_the_fast_simple_pendulum():
 
     def trial(dt):
         return stress.stability_trial(
-            system, sources, "mujoco", "Euler", q0, v0, tau, timestep=dt, t_end=100.0, V_min=V_min
+            system, sources, "mujoco", Start.of(q0, v0, tau), Scheme("Euler", dt), t_end=100.0, V_min=V_min
         )
 
     found = stress.max_stable_timestep(trial, dt_range=(1e-2, 2.0))
@@ -133,11 +144,8 @@ def _energy(integrator, dt, t_end=20.0):
         system,
         sources,
         "mujoco",
-        integrator,
-        q0,
-        v0,
-        np.zeros(1),
-        timestep=dt,
+        Start.of(q0, v0, np.zeros(1)),
+        Scheme(integrator, dt),
         t_end=t_end,
         sample_steps=max(1, round(0.1 / dt)),
     )
@@ -299,10 +307,10 @@ def test_eulerdamp_keeps_stiff_friction_stable():
     )
     sources = make_sources(damped)
     q0, v0 = initial_state(damped)
-    kw = {"timestep": 5e-3, "t_end": 1.0, "sample_steps": 20}
-    with_damp = stress.simulate(damped, sources, "mujoco", "Euler", q0, v0, np.zeros(2), **kw)
-    mirror = stress.simulate(damped, sources, "mirror", "Euler", q0, v0, np.zeros(2), **kw)
-    without = stress.simulate(damped, sources, "mujoco", "Euler", q0, v0, np.zeros(2), eulerdamp=False, **kw)
+    start, euler, kw = Start.of(q0, v0, np.zeros(2)), Scheme("Euler", 5e-3), {"t_end": 1.0, "sample_steps": 20}
+    with_damp = stress.simulate(damped, sources, "mujoco", start, euler, **kw)
+    mirror = stress.simulate(damped, sources, "mirror", start, euler, **kw)
+    without = stress.simulate(damped, sources, "mujoco", start, euler, eulerdamp=False, **kw)
     assert with_damp.failure is None and mirror.failure is None
     assert np.abs(with_damp.q - mirror.q).max() < 1e-12
     E = stress.run_energy(sources["hand"], without)

@@ -133,8 +133,8 @@ def test_richardson_estimate_tracks_mujoco_rk4_error():
     q0, v0 = integrate.initial_state(system)
     tau = np.zeros(system.nv)
     t = integrate.time_grid(10.0, 0.01)
-    ref, _ = reference_trajectory(system, q0, v0, tau, t)
-    run = integrate.mujoco_trajectory(system, sources["mujoco"], q0, v0, tau, t)
+    ref, _ = reference_trajectory(system, Start.of(q0, v0, tau), t)
+    run = integrate.mujoco_trajectory(system, sources["mujoco"], Start.of(q0, v0, tau), t)
     est, how = estimate.mujoco_estimate(system, sources["mujoco"], run, Start.of(q0, v0, tau))
     err = integrate.error_against(run, ref)
     assert 0.8 < err.max() / est.max() < 1.2, (err.max(), est.max(), how)
@@ -182,11 +182,11 @@ def test_stiff_model_convergence_and_its_fresh_reference():
     sources = make_sources(system)
     q0, v0 = integrate.initial_state(system)
     tau = np.zeros(system.nv)
-    out = chaos.convergence_order(system, sources, q0, v0, tau, integrator="RK4", check=None)
+    out = chaos.convergence_order(system, sources, Start.of(q0, v0, tau), integrator="RK4", check=None)
     assert out["stable_timestep"] is not None and out["timesteps"][0] < 0.02
     assert 3.5 <= out["order"] <= 4.5, out
     t = integrate.time_grid(2.0, 0.01)
-    ref, _ = reference_trajectory(system, q0, v0, tau, t, check=None)
+    ref, _ = reference_trajectory(system, Start.of(q0, v0, tau), t, check=None)
     assert window_check(system, ref, tau) <= WINDOW_CHECK_TOLERANCE
 
 

@@ -40,6 +40,7 @@ from ...dynamics.fast import accurate_trajectory
 from ...dynamics.integrate import SCIPY_DEFAULT, Trajectory, scipy_trajectory, time_grid
 from ...dynamics.mirror import mirror_steps, mirror_trajectory, mujoco_steps
 from ...dynamics.reference import DEFAULT_CACHE_DIR, reference_trajectory
+from ...model.start import Scheme, Start
 from ...sources.base import stepped
 from .plan import GRID_DRIVERS, Plan
 from .ratios import interleaved_medians
@@ -79,33 +80,35 @@ def check_jobs(name: str, plan: Plan) -> dict[str, tuple[str, str, Callable[[], 
     dt = float(stepped(sources["mujoco"]).m.opt.timestep)
     hand = sources["hand"]
     jobs: dict[str, tuple[str, str, Callable[[], Trajectory]]] = {
-        "hand accurate run": ("hand", "accurate", lambda: accurate_trajectory(system, hand, q0, v0, tau, t)),
+        "hand accurate run": ("hand", "accurate", lambda: accurate_trajectory(system, hand, Start.of(q0, v0, tau), t)),
         "hand scipy run (the user's path)": (
             "hand",
             "user",
-            lambda: scipy_trajectory(system, hand, q0, v0, tau, t, **SCIPY_DEFAULT),
+            lambda: scipy_trajectory(system, hand, Start.of(q0, v0, tau), t, **SCIPY_DEFAULT),
         ),
         "hand mirror RK4": (
             "hand",
             "scheme",
-            lambda: mirror_trajectory(system, hand, q0, v0, tau, t, integrator="RK4", timestep=dt),
+            lambda: mirror_trajectory(system, hand, Start.of(q0, v0, tau), t, integrator="RK4", timestep=dt),
         ),
         "pinocchio mirror RK4": (
             "pinocchio",
             "scheme",
-            lambda: mirror_trajectory(system, sources["pinocchio"], q0, v0, tau, t, integrator="RK4", timestep=dt),
+            lambda: mirror_trajectory(
+                system, sources["pinocchio"], Start.of(q0, v0, tau), t, integrator="RK4", timestep=dt
+            ),
         ),
         "pinocchio scipy run": (
             "pinocchio",
             "accurate",
-            lambda: scipy_trajectory(system, sources["pinocchio"], q0, v0, tau, t, **SCIPY_DEFAULT),
+            lambda: scipy_trajectory(system, sources["pinocchio"], Start.of(q0, v0, tau), t, **SCIPY_DEFAULT),
         ),
     }
     if "symbolic" in sources:
         jobs["symbolic accurate run"] = (
             "symbolic",
             "accurate",
-            lambda: accurate_trajectory(system, sources["symbolic"], q0, v0, tau, t),
+            lambda: accurate_trajectory(system, sources["symbolic"], Start.of(q0, v0, tau), t),
         )
     return jobs
 
@@ -119,7 +122,7 @@ def measure_checks(name: str, *, plan: Plan, reps: int, cache_dir: CacheDir = DE
     case = case_for(system, plan)
     t = time_grid(case["t_end"], case["dt_out"])
     q0, v0, tau = (np.asarray(case[k], dtype=float) for k in ("q0", "v0", "tau"))
-    ref, _ = reference_trajectory(system, q0, v0, tau, t, cache_dir=cache_dir)
+    ref, _ = reference_trajectory(system, Start.of(q0, v0, tau), t, cache_dir=cache_dir)
     mj = stepped(sources["mujoco"])
     dt = float(mj.m.opt.timestep)
     steps = round(float(t[1] - t[0]) / dt)
@@ -127,10 +130,8 @@ def measure_checks(name: str, *, plan: Plan, reps: int, cache_dir: CacheDir = DE
     jobs = check_jobs(name, plan)
     qw, vw = ref.q[:-1], ref.v[:-1]
     windows = {
-        "hand mirror RK4 windows": lambda: mirror_steps(
-            system, hand, qw, vw, tau, integrator="RK4", timestep=dt, steps=steps
-        ),
-        "MuJoCo RK4 windows": lambda: mujoco_steps(mj, qw, vw, tau, integrator="RK4", timestep=dt, steps=steps),
+        "hand mirror RK4 windows": lambda: mirror_steps(system, hand, qw, vw, tau, Scheme("RK4", dt), steps=steps),
+        "MuJoCo RK4 windows": lambda: mujoco_steps(mj, qw, vw, tau, Scheme("RK4", dt), steps=steps),
     }
     outputs = {k: fn() for k, (_, _, fn) in jobs.items()}  # compiles, and gives the errors
     ends = {k: fn() for k, fn in windows.items()}

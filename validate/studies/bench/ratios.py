@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ...dynamics.integrate import source_rhs
+from ...model.start import Scheme, Start
 from ...results.stages import seconds_of
 from ...sources import make_source
 from ...sources.base import Source, stepped
@@ -200,8 +201,8 @@ def flags_ratio(name: str, plan: Plan, *, reps: int) -> list[FlagsRow]:
 
         def stepping(flags: int, integ: str = integ) -> Callable[[], None]:
             def run() -> None:
-                with engine.scheme(src.m, integ, timestep), engine.disabled(src.m, flags):
-                    engine.steps_from(src, case["q0"], case["v0"], case["tau"], steps)
+                with engine.scheme(src.m, Scheme(integ, timestep)), engine.disabled(src.m, flags):
+                    engine.steps_from(src, Start.of(case["q0"], case["v0"], case["tau"]), steps)
 
             return run
 

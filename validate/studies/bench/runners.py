@@ -23,6 +23,7 @@ from ...dynamics.drakerun import drake_trajectory
 from ...dynamics.integrate import SCIPY_DEFAULT, initial_state, scipy_trajectory, time_grid
 from ...dynamics.mirror import mirror_trajectory
 from ...dynamics.reference import DEFAULT_CACHE_DIR, reference_trajectory
+from ...model.start import Scheme, Start
 from ...sources import Sources, make_sources
 from ...sources.base import OneStateSource, Source, SteppedSource, one_state, stepped
 from ...sources.fastpath import scalar_rhs
@@ -88,9 +89,13 @@ def prepare(name: str, plan: Plan, cache_dir: CacheDir = DEFAULT_CACHE_DIR) -> P
     system, _ = resources(name)
     case = case_for(system, plan)
     t = time_grid(case["t_end"], case["dt_out"])
-    ref, info = reference_trajectory(system, case["q0"], case["v0"], case["tau"], t, cache_dir=cache_dir)
+    ref, info = reference_trajectory(system, Start.of(case["q0"], case["v0"], case["tau"]), t, cache_dir=cache_dir)
     summary = chaos_summary(
-        system, case["q0"], case["v0"], case["tau"], t=t, tolerance=plan.horizon_tolerance, cache_dir=cache_dir
+        system,
+        Start.of(case["q0"], case["v0"], case["tau"]),
+        t=t,
+        tolerance=plan.horizon_tolerance,
+        cache_dir=cache_dir,
     )
     horizon = summary["horizon_from_rounding"]["horizon"]
     return {
@@ -298,36 +303,30 @@ def _run_ode(
 def run_mujoco(
     system: System,
     source: SteppedSource,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    start: Start,
     t: np.ndarray,
+    stepping: Scheme,
     *,
-    integrator: str,
-    timestep: float,
     deadline: float,
 ) -> Outcome:
-    """MuJoCo stepping its own integrator from (q0, v0); only the stepping loop is timed.
+    """MuJoCo stepping its own integrator from `start`; only the stepping loop is timed.
 
     The model's integrator and timestep are set for the run and restored after it. A run that sets
     any of MuJoCo's bad-state warnings (MuJoCo then resets the state and carries on) has diverged.
     """
     from ...sources import mujoco as engine  # imports MuJoCo: loaded when first used
 
-    dt_out = float(t[1] - t[0])
+    dt_out, timestep = float(t[1] - t[0]), stepping.timestep
     steps = round(dt_out / timestep)
     if steps < 1 or not np.isclose(steps * timestep, dt_out, rtol=1e-9, atol=0.0):
         raise HarnessError(f"MuJoCo timestep {timestep} must divide the output step {dt_out}.")
-    out = engine.timed_run(
-        source, q0, v0, tau, len(t), steps, integrator=integrator, timestep=timestep, deadline=deadline
-    )
+    out = engine.timed_run(source, start, len(t), steps, stepping, deadline=deadline)
     cpu, wall, bad, printed, k = out["cpu_s"], out["wall_s"], out["bad"], out["printed"], out["stopped_at"]
-    timed_out = k is not None
     total = steps * (len(t) - 1)
     if bad:
         first = f" (first: {printed[0]})" if printed else ""
         return result_row("diverged", f"MuJoCo warnings: {', '.join(bad)}{first}", cpu, wall, steps=total)
-    if timed_out:
+    if k is not None:  # stopped by the deadline
         return result_row("timeout", f"stopped at t = {t[k]:g} s", cpu, wall, steps=steps * k)
     q = out["q"]
     A = system.joint_map
@@ -355,43 +354,41 @@ class GuardedSource:
 def run_mirror(
     system: System,
     source: Source,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    start: Start,
     t: np.ndarray,
+    stepping: Scheme,
     *,
-    integrator: str,
-    timestep: float,
     deadline: float,
 ) -> Outcome:
     """`mirror_trajectory` (MuJoCo's scheme on an engine's per-call rhs), timed around the call."""
     src = GuardedSource(one_state(source), deadline)
     c0, w0 = time.process_time(), time.perf_counter()
     try:
-        traj = mirror_trajectory(system, src, q0, v0, tau, t, integrator=integrator, timestep=timestep)
+        traj = mirror_trajectory(system, src, start, t, integrator=stepping.integrator, timestep=stepping.timestep)
     except Stop:
         cpu, wall = time.process_time() - c0, time.perf_counter() - w0
         s = src.stats()
         return result_row(str(s["stop"]), f"stopped after {s['nfev']} evaluations", cpu, wall, nfev=s["nfev"])
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     return result_row(
-        "ok", "", cpu, wall, t=t, q=traj.q, nfev=int(traj.stats["evaluations"]), steps=int(traj.stats["steps"])
+        "ok", "", cpu, wall, t=t, q=traj.q, nfev=int(traj.stats["evaluations"]), steps=traj.stats["steps"]
     )
 
 
 def run_taylor(
-    system: System, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, tol: float, max_steps: int, source: str = "hand"
+    system: System, start: Start, t: np.ndarray, *, tol: float, max_steps: int, source: str = "hand"
 ) -> Outcome:
     """heyoka's Taylor integrator in double precision at `tol` on the hand equations or the derived
     ones ("symbolic": joint coordinates, JOINT_MAP applied outside the clock); compiled before the
     clock starts, `propagate_grid` alone timed. At most `max_steps` steps."""
+    q0, v0, tau = start.q0, start.v0, start.tau
     n = len(q0)
     A = system.joint_map if source == "symbolic" else None
     if A is not None:  # q_notes = A q_joint, and the inputs' work: tau_joint = A^T tau_notes
         q0, v0, tau = np.linalg.solve(A, q0), np.linalg.solve(A, v0), A.T @ np.asarray(tau, dtype=float)
     ta = taylor_integrator(system, tol, source=source)
     c0, w0 = time.process_time(), time.perf_counter()
-    outcome, states, steps = taylor_grid(ta, q0, v0, tau, t, max_steps=max_steps)
+    outcome, states, steps = taylor_grid(ta, Start.of(q0, v0, tau), t, max_steps=max_steps)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     if outcome != "ok":
         status = "diverged" if "nf_state" in outcome else "failed"
@@ -400,16 +397,14 @@ def run_taylor(
     return result_row("ok", "", cpu, wall, t=t, q=np.ascontiguousarray(q), steps=steps)
 
 
-def run_compiled_rk4(
-    system: System, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, timestep: float, deadline: float
-) -> Outcome:
+def run_compiled_rk4(system: System, start: Start, t: np.ndarray, *, timestep: float, deadline: float) -> Outcome:
     """Classic RK4 with its steps compiled (heyoka cfunc, `compiled.rk4_plan` steps per call), one
     Python call per group of steps; the loop over the samples is timed."""
-    n = len(q0)
+    n = len(start.q0)
     per_call, calls = rk4_plan(float(t[1] - t[0]), timestep)
     cf = compiled_rk4(system, per_call)
     c0, w0 = time.process_time(), time.perf_counter()
-    status, states = rk4_grid(cf, calls, q0, v0, tau, t, timestep=timestep, deadline=deadline)
+    status, states = rk4_grid(cf, calls, start, t, timestep=timestep, deadline=deadline)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     total = calls * per_call * (len(t) - 1)
     if status != "ok":
@@ -420,23 +415,18 @@ def run_compiled_rk4(
 def run_rollout(
     system: System,
     source: SteppedSource,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    start: Start,
     t: np.ndarray,
+    stepping: Scheme,
     *,
-    integrator: str,
-    timestep: float,
     batch: int,
 ) -> Outcome:
     """MuJoCo's `rollout` of `batch` copies of the start (sources/mujoco.rollout_run); the row's time is
     the batch's CPU time divided by `batch` (per trajectory), its samples those of the first copy."""
     from ...sources import mujoco as engine  # imports MuJoCo: loaded when first used
 
-    steps = round(float(t[1] - t[0]) / timestep)
-    out = engine.rollout_run(
-        source, q0, v0, tau, len(t), steps, integrator=integrator, timestep=timestep, batch=batch, nthread=batch
-    )
+    steps = round(float(t[1] - t[0]) / stepping.timestep)
+    out = engine.rollout_run(source, start, len(t), steps, stepping, batch=batch, nthread=batch)
     cpu, wall, total = out["cpu_s"] / batch, out["wall_s"] / batch, steps * (len(t) - 1)
     if out["bad"]:
         return result_row("diverged", f"MuJoCo warnings: {', '.join(out['bad'])}", cpu, wall, steps=total)
@@ -446,7 +436,7 @@ def run_rollout(
     return result_row("ok", "", cpu, wall, t=t, q=np.ascontiguousarray(q), steps=total)
 
 
-def run_drake(system: System, source: Source, q0: Any, v0: Any, tau: Any, t: np.ndarray, *, spec: Spec) -> Outcome:
+def run_drake(system: System, source: Source, start: Start, t: np.ndarray, *, spec: Spec) -> Outcome:
     """Drake's own integrator on its continuous plant (dynamics/integrate.py `drake_trajectory`): at a
     target accuracy (setting "accuracy", max step one output interval) or fixed steps ("timestep");
     the whole run, context and Simulator setup included, is timed."""
@@ -458,21 +448,21 @@ def run_drake(system: System, source: Source, q0: Any, v0: Any, tau: Any, t: np.
         "max_step": spec["value"] if fixed else dt_out,
     }
     c0, w0 = time.process_time(), time.perf_counter()
-    traj = drake_trajectory(system, source, q0, v0, tau, t, **opts)
+    traj = drake_trajectory(system, source, start, t, **opts)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
-    steps = int(traj.stats["steps"])
+    steps = traj.stats["steps"]  # an int: Drake counts its steps
     if traj.stats["status"] != "ok":
         return result_row("failed", traj.stats["reason"], cpu, wall, steps=steps)
     nfev = int(traj.stats["evaluations"])
     return result_row("ok", "", cpu, wall, t=t, q=np.ascontiguousarray(traj.q), nfev=nfev, steps=steps)
 
 
-def run_default(system: System, source: Source, q0: Any, v0: Any, tau: Any, t: np.ndarray) -> Outcome:
+def run_default(system: System, source: Source, start: Start, t: np.ndarray) -> Outcome:
     """The harness's default scipy integration, as `run` calls it (no budget: it has no hook)."""
     c0, w0 = time.process_time(), time.perf_counter()
     try:
         default: dict[str, Any] = dict(SCIPY_DEFAULT)
-        traj = scipy_trajectory(system, source, np.asarray(q0), np.asarray(v0), np.asarray(tau), t, **default)
+        traj = scipy_trajectory(system, source, start, t, **default)
     except HarnessError as exc:
         return result_row("failed", str(exc), time.process_time() - c0, time.perf_counter() - w0)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
@@ -483,7 +473,8 @@ def run_once(spec: Spec, case: Case, plan: Plan) -> Outcome:
     """One execution of one spec on one case, in this process, within the plan's budget."""
     system, sources = resources(case["system"])
     t = time_grid(case["t_end"], case["dt_out"])
-    q0, v0, tau = (np.asarray(case[k], dtype=float) for k in ("q0", "v0", "tau"))
+    start = Start.of(case["q0"], case["v0"], case["tau"])
+    q0, v0, tau = start.q0, start.v0, start.tau
     driver, engine, budget = spec["driver"], spec["engine"], plan.budget
     if driver in SCIPY_DRIVERS:
         atol = spec["atol"]
@@ -506,12 +497,9 @@ def run_once(spec: Spec, case: Case, plan: Plan) -> Outcome:
         return run_mujoco(
             system,
             stepped(sources["mujoco"]),
-            q0,
-            v0,
-            tau,
+            start,
             t,
-            integrator=spec["scheme"],
-            timestep=spec["value"],
+            Scheme(spec["scheme"], spec["value"]),
             deadline=time.perf_counter() + budget,
         )
     if driver == "mirror":
@@ -520,40 +508,29 @@ def run_once(spec: Spec, case: Case, plan: Plan) -> Outcome:
         return run_mirror(
             system,
             sources[engine],
-            q0,
-            v0,
-            tau,
+            start,
             t,
-            integrator=spec["scheme"],
-            timestep=spec["value"],
+            Scheme(spec["scheme"], spec["value"]),
             deadline=time.perf_counter() + budget,
         )
     if driver == "taylor":
         if engine not in sources:
             return result_row("skipped", f"no {engine} source for {system.name}", 0.0, 0.0)
-        return run_taylor(system, q0, v0, tau, t, tol=spec["value"], max_steps=plan.taylor_max_steps, source=engine)
+        return run_taylor(system, start, t, tol=spec["value"], max_steps=plan.taylor_max_steps, source=engine)
     if driver == "compiled_rk4":
-        return run_compiled_rk4(system, q0, v0, tau, t, timestep=spec["value"], deadline=time.perf_counter() + budget)
+        return run_compiled_rk4(system, start, t, timestep=spec["value"], deadline=time.perf_counter() + budget)
     if driver in ("rollout", "rollout_batch"):
         batch = spec["batch"] if driver == "rollout_batch" else 1
         return run_rollout(
-            system,
-            stepped(sources["mujoco"]),
-            q0,
-            v0,
-            tau,
-            t,
-            integrator=spec["scheme"],
-            timestep=spec["value"],
-            batch=batch,
+            system, stepped(sources["mujoco"]), start, t, Scheme(spec["scheme"], spec["value"]), batch=batch
         )
     if driver == "drake":
         if "drake" not in sources:
             return result_row("skipped", f"no drake source for {system.name}", 0.0, 0.0)
-        return run_drake(system, sources["drake"], q0, v0, tau, t, spec=spec)
+        return run_drake(system, sources["drake"], start, t, spec=spec)
     if driver == "default":
         scalar_rhs(system)
-        return run_default(system, sources["hand"], q0, v0, tau, t)
+        return run_default(system, sources["hand"], start, t)
     raise HarnessError(f"unknown driver '{driver}'.")
 
 

@@ -10,6 +10,7 @@ import numpy as np
 
 from ...core.arrays import Floats
 from ...dynamics.integrate import initial_state
+from ...model.start import Scheme, Start
 from ...sources.base import Source
 from ...systems import System
 from .runs import downsample, run_energy, simulate
@@ -173,7 +174,13 @@ def drift_rows(system: System, sources: Mapping[str, Source], settings: Settings
     runs = [("mujoco", i) for i in MUJOCO_INTEGRATORS] + [("mirror", i) for i in MIRROR_INTEGRATORS]
     for engine, integrator in runs:
         run = simulate(
-            system, sources, engine, integrator, q0, v0, tau, timestep=dt, t_end=horizon, sample_steps=sample_steps
+            system,
+            sources,
+            engine,
+            Start.of(q0, v0, tau),
+            Scheme(integrator, dt),
+            t_end=horizon,
+            sample_steps=sample_steps,
         )
         E = run_energy(sources["hand"], run)
         for h in settings.drift_horizons:

@@ -7,12 +7,12 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from contextlib import AbstractContextManager
-from typing import Any
 
 import numpy as np
 
 from ...core.errors import HarnessError, unknown_name
 from ...dynamics.mirror import mirror_trajectory
+from ...model.start import Scheme, Start
 from ...sources.base import Source, stepped
 from ...systems import System
 from .settings import MIRROR_INTEGRATORS, MUJOCO_INTEGRATORS, SERIES_POINTS, Run
@@ -30,12 +30,9 @@ def simulate(
     system: System,
     sources: Mapping[str, Source],
     engine: str,
-    integrator: str,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    start: Start,
+    stepping: Scheme,
     *,
-    timestep: float,
     t_end: float,
     sample_steps: int,
     eulerdamp: bool = True,
@@ -44,16 +41,18 @@ def simulate(
 
     Args:
         engine: "mujoco" (mj_step) or "mirror" (MuJoCo's scheme on the hand equations, validate/dynamics/mirror.py).
-        q0, v0, tau: (n,) initial state and constant input.
-        timestep: s; the run takes ceil(t_end / timestep) steps (a whole number of samples).
+        start: the (n,) initial state and constant input.
+        stepping: the integrator and timestep (s); the run takes ceil(t_end / timestep) steps (a whole
+            number of samples).
         eulerdamp: False disables MuJoCo's implicit treatment of joint damping in Euler (mujoco only).
     """
+    integrator, timestep = stepping.integrator, stepping.timestep
     if integrator not in MUJOCO_INTEGRATORS or (engine == "mirror" and integrator not in MIRROR_INTEGRATORS):
         raise unknown_name(
             f"{engine} integrator", integrator, MUJOCO_INTEGRATORS if engine == "mujoco" else MIRROR_INTEGRATORS
         )
     n = system.nv
-    q0, v0, tau = (np.asarray(x, dtype=float).copy() for x in (q0, v0, tau))
+    q0, v0 = start.q0.copy(), start.v0.copy()
     steps = max(1, math.ceil(t_end / timestep - 1e-9))
     chunks = max(1, math.ceil(steps / sample_steps))
     qs, vs, ts = [q0], [v0], [0.0]
@@ -63,13 +62,10 @@ def simulate(
 
         done_q, done_v, failure, k_fail = mj.sampled_run(
             stepped(sources["mujoco"]),
-            q0,
-            v0,
-            tau,
+            start,
             chunks,
             sample_steps,
-            integrator=integrator,
-            timestep=timestep,
+            stepping,
             eulerdamp=eulerdamp,
         )
         qs += done_q
@@ -78,7 +74,7 @@ def simulate(
         t_fail = None if k_fail is None else k_fail * sample_steps * timestep
     elif engine == "mirror":  # one run over the whole grid: compiled RK4 where the equations trace
         grid = np.arange(chunks + 1) * (sample_steps * timestep)
-        tr = mirror_trajectory(system, sources["hand"], q0, v0, tau, grid, integrator=integrator, timestep=timestep)
+        tr = mirror_trajectory(system, sources["hand"], start, grid, integrator=integrator, timestep=timestep)
         good = ~np.isnan(tr.q).any(axis=1) & ~np.isnan(tr.v).any(axis=1)
         k = int(np.argmin(good)) if not good.all() else len(grid)
         qs, vs, ts = list(tr.q[:k]), list(tr.v[:k]), list(grid[:k])

@@ -5,13 +5,13 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Mapping
-from typing import Any
 
 import numpy as np
 
 from ...core.errors import HarnessError
 from ...dynamics.integrate import Trajectory, energy_missing, initial_state, scipy_trajectory, time_grid
 from ...dynamics.mirror import eulerdamp_active
+from ...model.start import Scheme, Start
 from ...sources import make_sources
 from ...sources.base import Source
 from ...systems import System
@@ -35,49 +35,38 @@ def stability_trial(
     system: System,
     sources: Mapping[str, Source],
     engine: str,
-    integrator: str,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    start: Start,
+    stepping: Scheme,
     *,
-    timestep: float,
     t_end: float,
     V_min: float,
     eulerdamp: bool = True,
     growth: float = GROWTH,
 ) -> Trial:
     """One run at one timestep: stable or not, and why."""
-    run, E = trial_run(
-        system, sources, engine, integrator, q0, v0, tau, timestep=timestep, t_end=t_end, eulerdamp=eulerdamp
-    )
-    return judged(run, E, timestep=timestep, V_min=V_min, growth=growth)
+    run, E = trial_run(system, sources, engine, start, stepping, t_end=t_end, eulerdamp=eulerdamp)
+    return judged(run, E, timestep=stepping.timestep, V_min=V_min, growth=growth)
 
 
 def trial_run(
     system: System,
     sources: Mapping[str, Source],
     engine: str,
-    integrator: str,
-    q0: Any,
-    v0: Any,
-    tau: Any,
+    start: Start,
+    stepping: Scheme,
     *,
-    timestep: float,
     t_end: float,
     eulerdamp: bool = True,
 ) -> tuple[Run, np.ndarray | None]:
     """One stability run and its energy E = T + V by the hand equations (None where the module leaves
     T or V out: then divergence alone is judged)."""
-    steps = max(1, math.ceil(t_end / timestep - 1e-9))
+    steps = max(1, math.ceil(t_end / stepping.timestep - 1e-9))
     run = simulate(
         system,
         sources,
         engine,
-        integrator,
-        q0,
-        v0,
-        tau,
-        timestep=timestep,
+        start,
+        stepping,
         t_end=t_end,
         sample_steps=sample_steps(engine, steps),
         eulerdamp=eulerdamp,
@@ -172,11 +161,11 @@ def mirror_step_cost(
     """Seconds one mirror step of `integrator` takes on the person's equations (from q0 at v0): what
     bounds how far down its search goes (`search_range`). The compiled RK4 is built first."""
     q0, _ = initial_state(system)
-    tau = np.zeros(system.nv)
-    simulate(system, sources, "mirror", integrator, q0, v0, tau, timestep=1e-3, t_end=steps * 1e-3, sample_steps=steps)
-    start = time.perf_counter()
-    simulate(system, sources, "mirror", integrator, q0, v0, tau, timestep=1e-3, t_end=steps * 1e-3, sample_steps=steps)
-    return (time.perf_counter() - start) / steps
+    start, stepping = Start.at_rest(q0, v0), Scheme(integrator, 1e-3)
+    simulate(system, sources, "mirror", start, stepping, t_end=steps * 1e-3, sample_steps=steps)
+    began = time.perf_counter()
+    simulate(system, sources, "mirror", start, stepping, t_end=steps * 1e-3, sample_steps=steps)
+    return (time.perf_counter() - began) / steps
 
 
 def stability_rows(
@@ -231,7 +220,7 @@ def searches(
     def run_at(dt: float) -> tuple[Run, np.ndarray | None]:
         if dt not in made:
             made[dt] = trial_run(
-                system, sources, engine, integrator, q0, v0, tau, timestep=dt, t_end=settings.stability_t_end
+                system, sources, engine, Start.of(q0, v0, tau), Scheme(integrator, dt), t_end=settings.stability_t_end
             )
         return made[dt]
 
@@ -262,7 +251,9 @@ def stiff_rows(system: System, settings: Settings, V_min: float | None = None) -
         extra = tuple((f"joint/{j}/damping", float(system.view[f"joint/{j}/damping"]) * factor) for j in system.joints)
         damped = system.derive(overrides=(*system.overrides, *extra))
         sources = make_sources(damped)
-        ref = scipy_trajectory(damped, sources["hand"], q0, v0, tau, t, method="DOP853", rtol=1e-12, atol=1e-12)
+        ref = scipy_trajectory(
+            damped, sources["hand"], Start.of(q0, v0, tau), t, method="DOP853", rtol=1e-12, atol=1e-12
+        )
         runs = [("mujoco", i, True) for i in MUJOCO_INTEGRATORS] + [("mirror", "Euler", True)]
         if eulerdamp_active(damped):
             runs.append(("mujoco", NO_EULERDAMP, False))
@@ -298,11 +289,8 @@ def stiff_rows(system: System, settings: Settings, V_min: float | None = None) -
                     damped,
                     sources,
                     engine,
-                    "Euler" if integrator == NO_EULERDAMP else integrator,
-                    q0,
-                    v0,
-                    tau,
-                    timestep=dt,
+                    Start.of(q0, v0, tau),
+                    Scheme("Euler" if integrator == NO_EULERDAMP else integrator, dt),
                     t_end=settings.stiff_t_end,
                     sample_steps=steps,
                     eulerdamp=eulerdamp,
