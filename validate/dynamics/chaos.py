@@ -51,18 +51,19 @@ import numpy as np
 from ..core.errors import unknown_name
 from ..handwritten.forms import accelerations_only
 from ..model.start import Scheme, Start
+from ..results.schema import Convergence, FreeRunCheck, MirrorVerdict, RoundOff
 from ..sources.base import Source, stepped
 from ..systems import System
 from .flow import DEFAULT_TOLERANCE as DEFAULT_TOLERANCE
 from .flow import SAFETY as SAFETY
 from .flow import Flow as Flow
-from .flow import Judgement, predicted_error, sample_at, transfer_norms
 from .flow import amplification as amplification
 from .flow import error_envelope as error_envelope
 from .flow import flow as flow
 from .flow import horizon_from_rounding as horizon_from_rounding
 from .flow import judge_free_run as judge_free_run
 from .flow import predictability_horizon as predictability_horizon
+from .flow import predicted_error, sample_at, transfer_norms
 from .integrate import DEFAULT_DT_OUT, DEFAULT_T_END, Trajectory, energy, initial_state, mujoco_trajectory, time_grid
 from .lyapunov import chaos_summary as chaos_summary
 from .lyapunov import lyapunov_exponent as lyapunov_exponent
@@ -97,48 +98,6 @@ STABLE_FRACTION = 0.5  # well inside the region, where the error is in its asymp
 JACOBIAN_STEP = 1e-6  # central differences of the accelerations, relative to max(|x|, 1)
 
 
-class FreeRunCheck(TypedDict):
-    """`free_run_check`: a free run against the reference (errors in rad, max over q; window errors as
-    state 2-norms; "..._at" sampled at 1, 2, 5, 10 s), judged against its propagated window errors."""
-
-    engine: str
-    integrator: str
-    timestep: float
-    max_error: float
-    error_at: dict[str, float]
-    max_window_error: float
-    envelope_at: dict[str, float]
-    predicted_at: dict[str, float]
-    predicted_horizon: float | None
-    prediction_mismatch: float
-    judge: Judgement
-
-
-class RoundOffLimit(TypedDict):
-    """`round_off_limit`: the window ulps two sources under one scheme may differ by, and what it is made of."""
-
-    limit: float
-    formula: str
-    cond_max: float
-    max_acceleration: float
-    max_state: float
-    steps: int
-    timestep: float
-
-
-class MirrorVerdict(TypedDict):
-    """`_mirror_verdict`: round-off windows (in ulps of max |x|, within the limit) and the free-run
-    difference judged inside the envelope."""
-
-    max_window_difference: float
-    window_ulps: float
-    window_ulps_limit: float
-    round_off: bool
-    envelope_at: dict[str, float]
-    judge: Judgement
-    passed: bool
-
-
 class PairCheck(MirrorVerdict):
     """`pair_check`: two free runs of one scheme ("a~b"), their largest difference (rad) and its verdict."""
 
@@ -147,22 +106,6 @@ class PairCheck(MirrorVerdict):
     timestep: float
     max_difference: float
     difference_at: dict[str, float]
-
-
-class ConvergenceOrder(TypedDict):
-    """`convergence_order`: the sweep's timesteps (s) and errors (rad), the fitted and pairwise orders
-    (None where too few runs stayed finite) and the scheme's expected order."""
-
-    engine: str
-    integrator: str
-    t_end: float
-    timesteps: list[float]
-    stable_timestep: float | None
-    timesteps_from: str
-    errors: list[float]
-    order: float | None
-    pairwise_orders: list[float] | None
-    expected: int
 
 
 class EnergyDrift(TypedDict):
@@ -313,7 +256,7 @@ def pair_check(
     }
 
 
-def round_off_limit(hand: Source, ref: Trajectory, tau: np.ndarray, *, timestep: float) -> RoundOffLimit:
+def round_off_limit(hand: Source, ref: Trajectory, tau: np.ndarray, *, timestep: float) -> RoundOff:
     """The window ulps two sources under one scheme may differ by on this model and run (see ROUND_OFF_ULPS)."""
     cond = float(np.linalg.cond(hand.mass_matrix(ref.q)).max())
     a = float(np.abs(hand.forward(ref.q, ref.v, np.broadcast_to(tau, ref.q.shape))).max())
@@ -409,7 +352,7 @@ def convergence_order(
     engine: str = "mujoco",
     cache_dir: str | os.PathLike[str] | None = DEFAULT_CACHE_DIR,
     check: str | None = CHECK,
-) -> ConvergenceOrder:
+) -> Convergence:
     """The observed order of `integrator` from a timestep sweep against the reference.
 
     error(dt) = max over the grid (output step: the largest timestep) of max |q - q_ref|; the order is

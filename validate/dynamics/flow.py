@@ -4,7 +4,6 @@ transfer of window errors, the error envelope, the predictability horizon (see d
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TypedDict
 
 import numpy as np
 
@@ -13,6 +12,7 @@ from ..core.errors import HarnessError
 from ..core.memo import Memo
 from ..core.tolerances import TOLERANCES
 from ..model.start import Start
+from ..results.schema import Judgement, RoundingHorizon
 from ..systems import System
 from .integrate import DEFAULT_BUDGET, Budget, time_grid
 from .reference import Taylor, TaylorGuard, param_key, symbolic_dynamics
@@ -192,29 +192,6 @@ def predictability_horizon(t: np.ndarray, envelope: np.ndarray, tolerance: float
     """The first grid time at which the envelope reaches `tolerance` (None: not within the grid)."""
     above = np.nonzero(np.asarray(envelope) >= tolerance)[0]
     return float(t[above[0]]) if len(above) else None
-
-
-class Judgement(TypedDict):
-    """`judge_free_run`'s verdict: passed, the horizon (s, None: the whole grid), how far it judged (s),
-    the safety factor and tolerance (rad), the largest error / envelope and the first violation (s)."""
-
-    passed: bool
-    horizon: float | None
-    judged_until: float
-    safety: float
-    tolerance: float
-    max_ratio: float
-    first_violation: float | None
-
-
-class RoundingHorizon(TypedDict):
-    """`horizon_from_rounding`'s answer: the rounding e0 of the start, the tolerance (rad), the horizon
-    (s, None: not within t_end) and the run's length t_end (s)."""
-
-    e0: float
-    tolerance: float
-    horizon: float | None
-    t_end: float
 
 
 def judge_free_run(

@@ -7,7 +7,7 @@ import json
 import os
 import time
 from pathlib import Path
-from typing import Any, NotRequired, TypedDict
+from typing import Any
 
 import numpy as np
 
@@ -15,10 +15,10 @@ from ..core import cache
 from ..core.errors import HarnessError, unknown_name
 from ..model.start import Start
 from ..results import dumps
+from ..results.schema import ChaosSummary, Lyapunov
 from ..systems import System
 from .flow import (
     DEFAULT_TOLERANCE,
-    RoundingHorizon,
     amplification,
     flow,
     horizon_from_rounding,
@@ -31,36 +31,6 @@ from .reference import DEFAULT_CACHE_DIR, TaylorGuard, cache_key, source_hash, t
 
 LYAPUNOV_T_END = 500.0  # s: finite-time estimates fluctuate by ~+-0.03/s around 0.23/s at 100-2000 s
 LYAPUNOV_INTERVAL = 0.5  # s between renormalisations (growth per interval e^0.12: far from overflow)
-
-
-# `lyapunov_exponent`'s answer (its keys below); "lambda" is a keyword, so the functional form
-Lyapunov = TypedDict(
-    "Lyapunov",
-    {
-        "lambda": float,
-        "method": str,
-        "t_end": float,
-        "interval": float,
-        "running": list[list[float]],
-        "spread": float,
-        "seconds": float,
-        "spectrum": NotRequired[list[float]],
-        "d0": NotRequired[float],
-    },
-)
-
-
-class ChaosSummary(TypedDict):
-    """`_chaos_summary`: the exponent by both methods and their agreement (1/s), the amplification
-    (at 1, 2, 5, 10 s and its largest) and the horizons, of the rounding and estimated from lambda (s)."""
-
-    lyapunov: Lyapunov
-    lyapunov_two_trajectories: Lyapunov
-    lyapunov_agreement: float
-    amplification_at: dict[str, float]
-    max_amplification: float
-    horizon_from_rounding: RoundingHorizon
-    horizon_estimate_from_lambda: float | None
 
 
 # ----------------------------------------------------------------------------------------------

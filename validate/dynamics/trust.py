@@ -19,12 +19,13 @@ the chaos); one that passes its threshold does not solve the reference's equatio
 
 from __future__ import annotations
 
-from typing import Any, NotRequired, TypedDict
+from typing import Any
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
 from ..model.start import Start
+from ..results.schema import RunTrust
 from ..sources.base import OneStateSource
 from . import estimate
 from .integrate import Trajectory
@@ -71,16 +72,6 @@ def lyapunov(source: OneStateSource, start: Start, t_end: float) -> float:
 def horizon(rate: float) -> float | None:
     """t_p = ln(TRUST / ROUNDING) / lambda (s); None where lambda is not positive (no exponential growth)."""
     return float(np.log(TRUST / ROUNDING) / rate) if np.isfinite(rate) and rate > 0 else None
-
-
-class RunTrust(TypedDict):
-    """`run_trust`'s answer: until when (s) and why a run is trusted, when it departs from the reference
-    by more than TRUST (s, None: never) and, where it does, whether its own error estimate expected it."""
-
-    trusted_until: float
-    why: str
-    departs_at: float | None
-    expected: NotRequired[bool]
 
 
 def run_trust(run: dict[str, Any], t: np.ndarray, reference_limit: float) -> RunTrust:

@@ -127,9 +127,11 @@ def chaos_facts(s: SystemResult) -> ChaosFacts | None:
     """Whether the motion from the system's start is chaotic, with the numbers that say so; None when
     the results hold no chaos study. Chaotic: the largest Lyapunov exponent is at least CHAOS_LAMBDA
     and the initial state's own rounding grows to the horizon tolerance within the study's time."""
-    ch = (s.get("chaos") or {}).get("chaos") or {}
-    lam = (ch.get("lyapunov") or {}).get("lambda")
-    if lam is None:
+    study = s.get("chaos")
+    ch = study.get("chaos") if study else None
+    lyapunov = ch.get("lyapunov") if ch else None
+    lam = lyapunov.get("lambda") if lyapunov else None
+    if ch is None or lam is None:
         return None
     lam = _float(lam)
     hz = ch.get("horizon_from_rounding") or {}

@@ -358,7 +358,9 @@ def _integrators_table(doc: Document, name: str, s: SystemResult, cx: ChaosStudy
     short: list[str] = []
     t_end = as_float(cx.get("t_end", (s.get("trajectories") or {}).get("t_end")))
     for iname, r in sorted(integ.items()):
-        fr = r.get("free_run", {})
+        if "free_run" not in r:
+            continue  # every integrator's entry has one (dynamics/chaos._integrator_entry)
+        fr = r["free_run"]
         judge = fr.get("judge", {})
         mirrors = r.get("mirrors", {})
         conv = r.get("convergence", {})
@@ -386,8 +388,8 @@ def _integrators_table(doc: Document, name: str, s: SystemResult, cx: ChaosStudy
                 iname,
                 Num(fr.get("max_error")),
                 verdict,
-                Num((mirrors.get("mujoco~hand") or {}).get("max_difference")),
-                Num((mirrors.get("mujoco~pinocchio") or {}).get("max_difference")),
+                Num(_difference(mirrors, "mujoco~hand")),
+                Num(_difference(mirrors, "mujoco~pinocchio")),
                 Num(conv.get("order"), 3),
                 Num(conv.get("expected"), 2),
                 Num(energy.get("relative")),
@@ -419,6 +421,12 @@ def _integrators_table(doc: Document, name: str, s: SystemResult, cx: ChaosStudy
     short += [note for iname, r in sorted(integ.items()) for note in mirror_notes(iname, r.get("mirrors", {}))]
     if short:
         doc.items(short)
+
+
+def _difference(mirrors: Mapping[str, MirrorCheck], pair: str) -> float | None:
+    """A mirror's largest difference from MuJoCo (rad); None where there is no such mirror."""
+    mirror = mirrors.get(pair)
+    return None if mirror is None else mirror.get("max_difference")
 
 
 MIRROR_OF = {"mujoco~hand": "the hand equations", "mujoco~pinocchio": "Pinocchio's ABA"}

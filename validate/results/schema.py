@@ -232,13 +232,13 @@ class TrustSummary(TypedDict):
     horizon_rule: str
 
 
-class RunTrust(TypedDict, total=False):
+class RunTrust(TypedDict):
     """Until when one run agrees with the reference, and why (dynamics/trust.run_trust)."""
 
     trusted_until: float  # s
     why: str
-    departs_at: float | None  # s: its distance to the reference passes the trust limit
-    expected: bool  # the departure is within the run's own threshold
+    departs_at: float | None  # s: its distance to the reference passes the trust limit; None: never
+    expected: NotRequired[bool]  # where it departs: the departure is within the run's own threshold
 
 
 class ReferenceInfo(TypedDict, total=False):
@@ -375,14 +375,13 @@ Lyapunov = TypedDict(
         "running": list[list[float]],
         "spread": float,
         "seconds": float,
-        "spectrum": list[float],
-        "d0": float,
+        "spectrum": NotRequired[list[float]],
+        "d0": NotRequired[float],
     },
-    total=False,
 )
 
 
-class RoundingHorizon(TypedDict, total=False):
+class RoundingHorizon(TypedDict):
     """When the rounding of the start grows to `tolerance` (dynamics/flow.horizon_from_rounding)."""
 
     e0: float  # rad: the rounding
@@ -391,7 +390,7 @@ class RoundingHorizon(TypedDict, total=False):
     t_end: float
 
 
-class ChaosSummary(TypedDict, total=False):
+class ChaosSummary(TypedDict):
     """Lyapunov exponents, amplification and horizons from one start (dynamics/lyapunov.chaos_summary)."""
 
     lyapunov: Lyapunov
@@ -401,10 +400,10 @@ class ChaosSummary(TypedDict, total=False):
     max_amplification: float
     horizon_from_rounding: RoundingHorizon
     horizon_estimate_from_lambda: float | None  # s
-    cache: str
+    cache: NotRequired[str]  # the stage cache's "hit", "miss" or "off"
 
 
-class Judgement(TypedDict, total=False):
+class Judgement(TypedDict):
     """A free-running error against its envelope (dynamics/flow.judge_free_run)."""
 
     passed: bool
@@ -416,8 +415,9 @@ class Judgement(TypedDict, total=False):
     first_violation: float | None  # s
 
 
-class FreeRunCheck(TypedDict, total=False):
-    """One MuJoCo integrator's free run against the reference (dynamics/chaos.free_run_check)."""
+class FreeRunCheck(TypedDict):
+    """One MuJoCo integrator's free run against the reference (dynamics/chaos.free_run_check): errors in rad,
+    max over q; window errors as state 2-norms; "..._at" sampled at 1, 2, 5, 10 s."""
 
     engine: str
     integrator: str
@@ -432,11 +432,10 @@ class FreeRunCheck(TypedDict, total=False):
     judge: Judgement
 
 
-class MirrorCheck(TypedDict, total=False):
-    """MuJoCo against a mirror of its scheme on another source (dynamics/chaos._mirror_verdict)."""
+class MirrorVerdict(TypedDict):
+    """Round-off windows (in ulps of max |x|, within the limit) and the free-run difference judged inside
+    the envelope (dynamics/chaos._mirror_verdict)."""
 
-    max_difference: float  # rad
-    difference_at: dict[str, float]
     max_window_difference: float
     window_ulps: float
     window_ulps_limit: float
@@ -444,15 +443,24 @@ class MirrorCheck(TypedDict, total=False):
     envelope_at: dict[str, float]
     judge: Judgement
     passed: bool
-    status: str  # a mirror that diverged or stopped
-    reason: str
-    judged: bool  # False: cannot be built (an explicit form with damping)
-    why_not_judged: str
-    judged_short: str  # the harness's wall-time budget stopped it: judged until then (the stop, said)
 
 
-class Convergence(TypedDict, total=False):
-    """The observed order of an integrator from a timestep sweep (dynamics/chaos.convergence_order)."""
+class MirrorCheck(MirrorVerdict):
+    """MuJoCo against a mirror of its scheme on another source (dynamics/chaos._integrator_entry)."""
+
+    max_difference: float  # rad
+    difference_at: dict[str, float]
+    status: NotRequired[str]  # a mirror that diverged, failed or was stopped
+    reason: NotRequired[str]
+    judged: NotRequired[bool]  # False: cannot be built (an explicit form with damping)
+    why_not_judged: NotRequired[str]
+    judged_short: NotRequired[str]  # the harness's wall-time budget stopped it: judged until then (the stop, said)
+
+
+class Convergence(TypedDict):
+    """The observed order of an integrator from a timestep sweep (dynamics/chaos.convergence_order): the
+    sweep's timesteps (s) and errors (rad), the fitted and pairwise orders (None where too few runs stayed
+    finite) and the scheme's expected order."""
 
     engine: str
     integrator: str
@@ -484,8 +492,9 @@ class IntegratorStudy(TypedDict, total=False):
     energy: EnergyChange
 
 
-class RoundOff(TypedDict, total=False):
-    """The window ulps two sources under one scheme may differ by (dynamics/chaos.round_off_limit)."""
+class RoundOff(TypedDict):
+    """The window ulps two sources under one scheme may differ by, and what it is made of
+    (dynamics/chaos.round_off_limit)."""
 
     limit: float
     formula: str
