@@ -7,7 +7,7 @@ documented where they are made (dynamics/chaos.py, dynamics/experiments.py, stag
 Non-finite numbers are written as strings ("inf", "nan"): JSON has none.
 """
 
-from typing import NotRequired, TypedDict
+from typing import NotRequired, Required, TypedDict
 
 from ..core.arrays import Json, Matrix
 from .stages import Stage
@@ -812,17 +812,20 @@ class StressResults(TypedDict, total=False):
     stiff_friction: list[StiffRun]
 
 
-class SymbolicCost(TypedDict, total=False):
+class SymbolicCost(TypedDict):
+    """One chain's derivation and code generation times (codegen_s: where the derivation was in budget)."""
+
     derive_s: float
-    codegen_s: float
-    ops_M_Cv: int
+    ops_M_Cv: int  # sympy's count_ops of M and C v
+    codegen_s: NotRequired[float]
 
 
 class ChainRow(TypedDict, total=False):
-    """One generated chain (studies/chains.py)."""
+    """One generated chain (studies/chains.py): its sources' time per state, the symbolic times, their
+    agreement and cond(M)."""
 
-    kind: str  # "planar" or "spatial"
-    n: int
+    kind: Required[str]  # "planar" or "spatial"
+    n: Required[int]
     per_state_s: dict[str, dict[str, float]]  # source -> operation ("M", "forward", ...) -> s
     symbolic: SymbolicCost
     worst_scaled: dict[str, float]  # "quantity pair" -> scaled disagreement
@@ -830,12 +833,14 @@ class ChainRow(TypedDict, total=False):
     cond_M_max: float
 
 
-class ChainStop(TypedDict, total=False):
+class ChainStop(TypedDict):
+    """Where the symbolic source stopped, and why."""
+
     n: int
     why: str
 
 
-class ChainsStudy(TypedDict, total=False):
+class ChainsStudy(TypedDict):
     """chains.json (studies/chains.py)."""
 
     rows: list[ChainRow]
