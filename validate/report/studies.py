@@ -9,12 +9,12 @@ from ..results.schema import (
     BenchRow,
     CheckCost,
     Checks,
-    ConditioningPoint,
+    ConditioningRow,
     ConditioningSummary,
     DriftRow,
     Frontier,
     StabilityRow,
-    StiffRun,
+    StiffRow,
     StressResults,
 )
 from .document import NOT_RUN, PAIR_COLOURS, Cell, Document, Num, as_float, pass_mark, sci, slug
@@ -295,7 +295,7 @@ def drift_section(doc: Document, drift: list[DriftRow]) -> None:
     )
 
 
-def conditioning_section(doc: Document, cond: list[ConditioningSummary], points: list[ConditioningPoint]) -> None:
+def conditioning_section(doc: Document, cond: list[ConditioningSummary], points: list[ConditioningRow]) -> None:
     """The sources' disagreement against cond(M): the summary of each sweep (cond) and the figure of every
     sweep point (points)."""
     doc.table(
@@ -323,7 +323,7 @@ def conditioning_section(doc: Document, cond: list[ConditioningSummary], points:
     )
 
 
-def stiff_friction(doc: Document, stiff: list[StiffRun]) -> None:
+def stiff_friction(doc: Document, stiff: list[StiffRow]) -> None:
     """The stiff-friction sweep as a compact grid (the largest stable timestep of each integrator at each
     damping factor), every run folded below it."""
     factors = sorted({as_float(r.get("damping_factor")) for r in stiff})
@@ -399,7 +399,7 @@ def _drift_figure(drift: list[DriftRow]) -> bytes:
         return png(fig)
 
 
-def _conditioning_figure(rows: list[ConditioningPoint]) -> bytes:
+def _conditioning_figure(rows: list[ConditioningRow]) -> bytes:
     eps = float(np.finfo(float).eps)
     pts = [(as_float(r.get("cond_max")), as_float(r.get("scaled"))) for r in rows if r.get("quantity") == "qacc"]
     pts = [(c, e) for c, e in pts if c > 0 and np.isfinite(e)]

@@ -9,6 +9,8 @@ Non-finite numbers are written as strings ("inf", "nan"): JSON has none.
 
 from typing import NotRequired, Required, TypedDict
 
+import numpy as np
+
 from ..core.arrays import Json, Matrix
 from .stages import Stage
 
@@ -639,8 +641,9 @@ class RunResults(TypedDict):
     passed: bool
 
 
-# bench.json, stress.json and chains.json as the report reads them (studies/bench, studies/stress,
-# studies/chains.py write them; every key optional: a file of an older harness may lack one).
+# bench.json, stress.json and chains.json, defined once: studies/bench, studies/stress and studies/chains.py
+# write them (importing these types), the report reads them. A key is required where every record written
+# has it; the keys only an older harness wrote are NotRequired and say so.
 
 
 class BenchConfig(TypedDict, total=False):
@@ -731,85 +734,240 @@ class BenchResults(TypedDict, total=False):
     time_to_epsilon: list[TimeToEpsilon]
 
 
-class StabilityRow(TypedDict, total=False):
-    """The largest stable timestep of one system, integrator, engine and initial speed, by one criterion."""
-
-    system: str
-    integrator: str
-    engine: str
-    speed: float  # rad/s
-    criterion: str  # "energy x2" or "divergence"
-    max_stable: float | None  # s
-
-
-class EnergySeries(TypedDict, total=False):
-    t: list[float]
-    dE: list[float]  # J
-
-
-# One long-horizon energy run (studies/stress/energy.py; "class", a keyword, is how the energy behaves)
-DriftRow = TypedDict(
-    "DriftRow",
+# One run's energy behaviour (energy.classify_energy); "class" is a keyword, hence the call form.
+EnergyClass = TypedDict(
+    "EnergyClass",
     {
-        "system": str,
-        "integrator": str,
-        "engine": str,
-        "horizon": float,
-        "class": str,
+        "E0": float,
+        "V_min": float,
+        "available": float,  # J: E0 - V_min
+        "direction": str | None,  # "loss", "gain" or None
+        "t_fail": float | None,
+        "rate": float | None,  # J/s
+        "r2": float | None,
+        "early_envelope": float | None,
+        "late_envelope": float | None,
+        "max_abs": float,
+        "final": float,
         "relative_max": float,
-        "rate": float,
-        "series": EnergySeries,
+        "relative_final": float,
+        "class": str,
+        "reason": str | None,
     },
     total=False,
 )
 
 
-class ConditioningSummary(TypedDict, total=False):
-    """One conditioning sweep of one quantity (studies/stress/conditioning.py)."""
+class EnergySeries(TypedDict):
+    """A drift row's energy change over its horizon, downsampled."""
+
+    t: list[float]
+    dE: list[float]  # J
+
+
+class DriftRow(EnergyClass):
+    """Energy over one horizon of one long run (studies/stress/energy.py, drift_rows)."""
+
+    system: str
+    engine: str
+    integrator: str
+    timestep: float
+    horizon: float
+    q0: np.ndarray
+    v0: np.ndarray
+    series: EnergySeries
+
+
+class Trial(TypedDict):
+    """A stability run at one timestep judged (studies/stress/stability.py, judged)."""
+
+    timestep: float
+    stable: bool
+    reason: str | None
+    t_fail: float | None
+    relative_max: float | None
+
+
+class Search(TypedDict):
+    """The bisection's result (studies/stress/stability.py, max_stable_timestep)."""
+
+    max_stable: float | None  # s
+    min_unstable: float | None  # s
+    trials: list[Trial]
+    reason: str | None
+
+
+class Found(Search):
+    """A bisection with the range it searched and a mirror step's cost (studies/stress/stability.py, searches)."""
+
+    range: list[float]
+    step_cost_s: float | None
+
+
+class StabilityRow(Found):
+    """The largest stable timestep of one engine and integrator at one speed and criterion."""
+
+    system: str
+    engine: str
+    integrator: str
+    speed: float  # rad/s
+    criterion: str  # "energy x2" or "divergence"
+    growth_factor: float | None
+    q0: np.ndarray
+    v0: np.ndarray
+    t_end: float
+    bisection_ratio: float
+
+
+class StiffOutcome(TypedDict):
+    """A stiff-friction run judged (none: not run, with why)."""
+
+    stable: bool | None
+    reason: str | None
+    t_fail: float | None
+    max_error: float | None  # rad
+    final_error: NotRequired[float | None]
+    energy_relative_max: NotRequired[float | None]
+
+
+class StiffBase(TypedDict):
+    """A damping factor on one system: the damping per joint and the reference's method."""
+
+    system: str
+    damping_factor: float
+    t_end: float
+    damping: dict[str, float]
+    reference: str
+
+
+class StiffRun(StiffBase):
+    """One engine, integrator and timestep at a damping factor."""
+
+    engine: str
+    integrator: str
+    eulerdamp: bool
+    timestep: float  # s
+
+
+class StiffRow(StiffRun, StiffOutcome):
+    """A stiff-friction row (studies/stress/stability.py, stiff_rows)."""
+
+
+class SweepBase(TypedDict):
+    """One ratio of one conditioning sweep."""
 
     system: str
     sweep: str
     kind: str
+    ratio: float
+    overrides: list[list[str | float]]
+
+
+class ConditioningRow(SweepBase, total=False):
+    """A conditioning row: a quantity and pair at one ratio, or the ratio refused (quantity None)."""
+
+    quantity: str | None
+    pair: str | None
+    refused: str
+    cond_median: float
+    cond_max: float
+    cond_random_max: float
+    cond_eq_median: float
+    cond_eq_max: float
+    q_worst: np.ndarray
+    n_states: int
+    n_targeted: int
+    scaled: float
+    max_abs: float
+    scale: float
+    tier: str
+    tolerance: float
+    passed: bool
+    base_tolerance: float
+    passed_base: bool
+    c_state: float
+    c_state_eq: float
+    c_state_all: float
+    c_state_eq_all: float
+    worst_state_cond: float
+    per_cond_eps: float
+
+
+class Skipped(TypedDict):
+    """A section not run on a system, and why."""
+
+    system: str
+    section: str
+    why: str
+
+
+class SummarySeries(TypedDict):
+    """A sweep's points, for a plot."""
+
+    ratio: list[float]
+    cond_max: list[float]
+    cond_eq_max: list[float]
+    scaled: list[float]
+    tolerance: list[float]
+
+
+class ConditioningSummary(TypedDict):
+    """Per system, sweep and quantity: disagreement against cond(M), its slope, C and where tiers fail."""
+
+    system: str
+    sweep: str
+    kind: NotRequired[str]  # stress.json before the key was named "sweep"
     quantity: str
+    points: int
     cond_range: list[float]
     disagreement_range: list[float]
+    slope: float | None
+    c_state: float
+    c_state_eq: float
+    c_state_all: float
+    c_state_eq_all: float
+    base_tolerance: float
     base_tier_fails_from_cond: float | None
-
-
-class ConditioningPoint(TypedDict, total=False):
-    system: str
-    quantity: str
-    cond_max: float
-    scaled: float
+    tier_fails_from_cond: float | None
+    series: SummarySeries
 
 
 class SolveTierProposal(TypedDict, total=False):
-    measured_C_cond: float
+    """The per-state solve tier the measurements support ({} when nothing was measured)."""
+
     formula: str
+    rtol: float
+    eps: float
+    margin: float
+    current_cond_factor: float | None
+    measured_C_cond: float
+    measured_C_cond_all_states: float
+    C_cond: float
+    kappa_from_cond: float | None
+    measured_C_cond_eq: float
+    measured_C_cond_eq_all_states: float
+    C_cond_eq: float
+    kappa_from_cond_eq: float | None
 
 
-class StiffRun(TypedDict, total=False):
-    damping_factor: float
-    integrator: str
-    engine: str
-    timestep: float  # s
-    stable: bool
-    max_error: float  # rad
-
-
-class StressResults(TypedDict, total=False):
+class StressResults(TypedDict):
     """stress.json (studies/stress/output.py)."""
 
     meta: Provenance
-    provenance: Provenance  # stress.json before the block was named "meta"
+    provenance: NotRequired[Provenance]  # stress.json before the block was named "meta"
     quick: bool
+    settings: dict[str, object]  # dataclasses.asdict(Settings)
+    overrides: list[list[str | float]]
+    systems: list[str]
     criteria: dict[str, str]
-    stability: list[StabilityRow]
     drift: list[DriftRow]
-    conditioning: list[ConditioningPoint]
-    conditioning_summary: list[ConditioningSummary]
-    solve_tier_proposal: SolveTierProposal
-    stiff_friction: list[StiffRun]
+    stability: list[StabilityRow]
+    conditioning: list[ConditioningRow]
+    stiff_friction: list[StiffRow]
+    skipped: list[Skipped]
+    timing: dict[str, float]
+    conditioning_summary: NotRequired[list[ConditioningSummary]]
+    solve_tier_proposal: NotRequired[SolveTierProposal]
 
 
 class SymbolicCost(TypedDict):
