@@ -13,6 +13,8 @@ from ..results.schema import (
     ConditioningSummary,
     DriftRow,
     Frontier,
+    FrontPoint,
+    RunBrief,
     StabilityRow,
     StiffRow,
     StressResults,
@@ -61,7 +63,7 @@ def section_bench(doc: Document, bench: BenchResults | None) -> None:
             f"Work-precision diagram of {system}",
             "CPU time against the error at t = 10 s, one line per method (log-log); lower left is better.",
         )
-        front = (bench.get("pareto", {}) or {}).get(system, [])
+        front: dict[str, list[FrontPoint]] | list[FrontPoint] = (bench.get("pareto", {}) or {}).get(system, [])
         if isinstance(front, dict):
             front = front.get("10s") or front.get("error_10s") or next(iter(front.values()), [])
         if front:
@@ -101,7 +103,7 @@ def frontier_section(doc: Document, frontier: Frontier | None) -> None:
     if not isinstance(frontier, dict) or not frontier.get("per_system"):
         return
 
-    def run(r: BenchRow | None) -> str:
+    def run(r: RunBrief | None) -> str:
         if not isinstance(r, dict):
             return "not reached"
         return f"{r.get('method')} ({r.get('setting')} {sci(r.get('value'))}): {sci(r.get('cpu_s'))} s"
