@@ -1,5 +1,6 @@
-"""The shapes of the bench's data: a run's spec and case, what a worker returns, the sweep's rows, and
-bench.json's sections (the ratios, the checks, the configuration)."""
+"""The shapes of the bench's own data: what a worker returns, a system's prepared reference, a run's errors,
+a timing, a worker's checks. bench.json and its rows, ratios and checks are defined once, in
+results/schema.py (imported here and by the bench's modules)."""
 
 from __future__ import annotations
 
