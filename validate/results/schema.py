@@ -697,13 +697,18 @@ class BenchRow(TypedDict):
     deterministic: bool
 
 
-class FrontPoint(TypedDict, total=False):
+class RunSetting(TypedDict):
+    """A run of the sweep by its method and setting (the base of FrontPoint and RunBrief)."""
+
+    method: str
+    setting: str
+    value: float
+
+
+class FrontPoint(RunSetting, total=False):
     """A run on a Pareto front: its method and setting, its cost and its error (analysis.pareto_front: the
     front's cost key and error key only)."""
 
-    method: Required[str]
-    setting: Required[str]
-    value: Required[float]
     cpu_s: float | None
     wall_s: float | None
     error_2s: float | None
@@ -832,12 +837,9 @@ class DefaultRatio(TypedDict, total=False):
     how: str
 
 
-class RunBrief(TypedDict):
-    """A run of the sweep in brief (ratios.frontier_ratios)."""
+class RunBrief(RunSetting):
+    """A run of the sweep in brief (ratios.frontier_ratios): every cost and error."""
 
-    method: str
-    setting: str
-    value: float
     cpu_s: float | None
     wall_s: float | None
     error_2s: float | None
