@@ -9,12 +9,14 @@ from ..results.schema import (
     BenchRow,
     CheckCost,
     Checks,
-    ConditioningPoint,
+    ConditioningRow,
     ConditioningSummary,
     DriftRow,
     Frontier,
+    FrontPoint,
+    RunBrief,
     StabilityRow,
-    StiffRun,
+    StiffRow,
     StressResults,
 )
 from .document import NOT_RUN, PAIR_COLOURS, Cell, Document, Num, as_float, pass_mark, sci, slug
@@ -61,7 +63,7 @@ def section_bench(doc: Document, bench: BenchResults | None) -> None:
             f"Work-precision diagram of {system}",
             "CPU time against the error at t = 10 s, one line per method (log-log); lower left is better.",
         )
-        front = (bench.get("pareto", {}) or {}).get(system, [])
+        front: dict[str, list[FrontPoint]] | list[FrontPoint] = (bench.get("pareto", {}) or {}).get(system, [])
         if isinstance(front, dict):
             front = front.get("10s") or front.get("error_10s") or next(iter(front.values()), [])
         if front:
@@ -101,7 +103,7 @@ def frontier_section(doc: Document, frontier: Frontier | None) -> None:
     if not isinstance(frontier, dict) or not frontier.get("per_system"):
         return
 
-    def run(r: BenchRow | None) -> str:
+    def run(r: RunBrief | None) -> str:
         if not isinstance(r, dict):
             return "not reached"
         return f"{r.get('method')} ({r.get('setting')} {sci(r.get('value'))}): {sci(r.get('cpu_s'))} s"
@@ -295,7 +297,7 @@ def drift_section(doc: Document, drift: list[DriftRow]) -> None:
     )
 
 
-def conditioning_section(doc: Document, cond: list[ConditioningSummary], points: list[ConditioningPoint]) -> None:
+def conditioning_section(doc: Document, cond: list[ConditioningSummary], points: list[ConditioningRow]) -> None:
     """The sources' disagreement against cond(M): the summary of each sweep (cond) and the figure of every
     sweep point (points)."""
     doc.table(
@@ -323,7 +325,7 @@ def conditioning_section(doc: Document, cond: list[ConditioningSummary], points:
     )
 
 
-def stiff_friction(doc: Document, stiff: list[StiffRun]) -> None:
+def stiff_friction(doc: Document, stiff: list[StiffRow]) -> None:
     """The stiff-friction sweep as a compact grid (the largest stable timestep of each integrator at each
     damping factor), every run folded below it."""
     factors = sorted({as_float(r.get("damping_factor")) for r in stiff})
@@ -399,7 +401,7 @@ def _drift_figure(drift: list[DriftRow]) -> bytes:
         return png(fig)
 
 
-def _conditioning_figure(rows: list[ConditioningPoint]) -> bytes:
+def _conditioning_figure(rows: list[ConditioningRow]) -> bytes:
     eps = float(np.finfo(float).eps)
     pts = [(as_float(r.get("cond_max")), as_float(r.get("scaled"))) for r in rows if r.get("quantity") == "qacc"]
     pts = [(c, e) for c, e in pts if c > 0 and np.isfinite(e)]

@@ -7,7 +7,9 @@ documented where they are made (dynamics/chaos.py, dynamics/experiments.py, stag
 Non-finite numbers are written as strings ("inf", "nan"): JSON has none.
 """
 
-from typing import NotRequired, TypedDict
+from typing import NotRequired, Required, TypedDict
+
+import numpy as np
 
 from ..core.arrays import Json, Matrix
 from .stages import Stage
@@ -648,190 +650,616 @@ class RunResults(TypedDict):
     passed: bool
 
 
-# bench.json, stress.json and chains.json as the report reads them (studies/bench, studies/stress,
-# studies/chains.py write them; every key optional: a file of an older harness may lack one).
+# bench.json, stress.json and chains.json, defined once: studies/bench, studies/stress and studies/chains.py
+# write them (importing these types), the report reads them. A key is required where every record written
+# has it; the keys only an older harness wrote are NotRequired and say so.
 
 
-class BenchConfig(TypedDict, total=False):
-    quick: bool
-    repeats: int
+class Spec(TypedDict):
+    """One run of the sweep (plan.py): its engine, driver, scheme, setting and value; atol (rtol only)."""
+
+    engine: str
+    driver: str
+    scheme: str
+    setting: str
+    value: float
+    atol: float | None
+    method: NotRequired[str]  # added by Plan.specs
+    batch: NotRequired[int]  # a "rollout_batch" run's copies
 
 
-class BenchRow(TypedDict, total=False):
-    """One method at one setting on one system: its CPU time and errors."""
+class Case(TypedDict):
+    """The start the bench integrates from (runners.case_for): JSON-able, found again by `system`."""
+
+    system: str
+    q0: list[float]
+    v0: list[float]
+    tau: list[float]
+    t_end: float
+    dt_out: float
+
+
+class BenchRow(TypedDict):
+    """One row of bench.json: a spec on a system, its status, errors, times and counts."""
 
     system: str
     method: str
+    engine: str
+    driver: str
+    scheme: str
     setting: str
     value: float  # the setting's value (a tolerance, a timestep)
+    atol: NotRequired[float | None]  # rtol runs only
     status: str  # "ok", or why the run failed
-    cpu_s: float
-    error_2s: float  # rad
-    error_10s: float  # rad
+    message: str
+    error_2s: float | None  # rad
+    error_10s: float | None  # rad
+    error_horizon: float | None
+    t_exceeds_tolerance: float | None
+    cpu_s: float | None
+    wall_s: float | None
+    cpu_s_repeats: list[float]
+    wall_s_repeats: list[float]
+    executions: int | None
+    nfev: int | None
+    steps: int | None
+    deterministic: bool
 
 
-class TimeToEpsilon(TypedDict, total=False):
+class RunSetting(TypedDict):
+    """A run of the sweep by its method and setting (the base of FrontPoint and RunBrief)."""
+
+    method: str
+    setting: str
+    value: float
+
+
+class FrontPoint(RunSetting, total=False):
+    """A run on a Pareto front: its method and setting, its cost and its error (analysis.pareto_front: the
+    front's cost key and error key only)."""
+
+    cpu_s: float | None
+    wall_s: float | None
+    error_2s: float | None
+    error_10s: float | None
+
+
+class TimeToEpsilon(TypedDict):
+    """Time to reach an error (analysis.time_to_epsilon): the cheapest run of a method reaching it, or none."""
+
     system: str
     method: str
     epsilon: float  # rad
-    cpu_s: float
-    result: str  # "reached" or why not
+    result: str  # "reached" or "not reached"
+    setting: str | None
+    value: float | None
+    cpu_s: float | None
+    wall_s: float | None
+    error: float | None
 
 
-class FrontierEntry(TypedDict, total=False):
-    """The fastest method measured at one error, and the harness's default path at the same error."""
+class RhsRatio(TypedDict, total=False):
+    """Ratio 1: the generated right-hand side against hand-written math (or why it was not measured)."""
+
+    system: str
+    value: float | None
+    target: float
+    passed: bool | None
+    per_call_us: dict[str, float]
+    numpy_vs_hand_math: float
+    calls_per_measurement: int
+    repeats: int
+    how: str
+    why: str
+
+
+class BySource(TypedDict):
+    """One source's own evaluate against its raw calls."""
+
+    harness_us_per_state: float
+    raw_us_per_state: float
+    ratio: float
+
+
+class PointwiseSize(TypedDict):
+    """The pointwise ratio at one batch size."""
+
+    n_states: int
+    value: float
+    harness_us_per_state: float
+    raw_us_per_state: float
+    harness_wall_s: float
+    raw_wall_s: float
+    by_source: dict[str, BySource]
+
+
+class PointwiseRatio(TypedDict):
+    """Ratio 2 on one system: the worst size's ratio and every size's."""
+
+    system: str
+    value: float
+    target: float
+    passed: bool
+    per_size: list[PointwiseSize]
+    by_source: dict[str, BySource]
+    repeats: int
+
+
+class PointwiseSummary(TypedDict):
+    """Ratio 2 over every system."""
+
+    value: float
+    target: float
+    passed: bool
+    per_system: list[PointwiseRatio]
+    how: str
+
+
+class FlagsRow(TypedDict):
+    """MuJoCo's step cost on one system and integrator, with the model's disable flags and without."""
+
+    system: str
+    integrator: str
+    timestep: float
+    model_flags: list[str]
+    us_per_step_model_flags: float
+    us_per_step_all_enabled: float
+    all_enabled_over_model: float
+    saving: float
+    steps: int
+    repeats: int
+
+
+class FlagsRatio(TypedDict):
+    """MuJoCo's disable flags on every system (no target)."""
+
+    target: None
+    rows: list[FlagsRow]
+    how: str
+
+
+class ScipyBrief(TypedDict):
+    """A scipy run of the sweep in brief (ratios.default_ratio); the default's says whether it reached eps."""
+
+    method: str
+    rtol: float
+    atol: float | None
+    cpu_s: float | None
+    error_2s: float | None
+    reached: NotRequired[bool]
+
+
+class DefaultRatio(TypedDict, total=False):
+    """Ratio 3: default scipy against the fastest scipy run at its epsilon (or why it was not measured)."""
+
+    system: str
+    epsilon: float
+    target: float
+    value: float | None
+    passed: bool | None
+    why: str
+    default: ScipyBrief
+    fastest: ScipyBrief
+    fastest_solve_ivp: ScipyBrief | None
+    default_over_fastest_solve_ivp: float | None
+    would_pass: list[ScipyBrief]
+    how: str
+
+
+class RunBrief(RunSetting):
+    """A run of the sweep in brief (ratios.frontier_ratios): every cost and error."""
+
+    cpu_s: float | None
+    wall_s: float | None
+    error_2s: float | None
+    error_10s: float | None
+
+
+class FrontierEntry(TypedDict):
+    """The default path against the fastest run measured at one epsilon."""
 
     epsilon: float
-    fastest: BenchRow | None
-    default_path: BenchRow | None
+    default_path: RunBrief | None
+    fastest: RunBrief | None
+    fastest_contender: RunBrief | None
     ratio: float | None  # default / fastest (CPU)
-    why: str  # no ratio: why
+    why: str | None  # no ratio: why
 
 
-class Frontier(TypedDict, total=False):
+class Frontier(TypedDict):
+    """The default trajectory path against the frontier, per system (no target)."""
+
+    target: None
+    epsilons: list[float]
     per_system: dict[str, list[FrontierEntry]]
+    how: str
 
 
-class Paired(TypedDict, total=False):
-    """A check timed again side by side with its fastest run."""
+class RunWallTimes(TypedDict, total=False):
+    """`lagrange-xval run`'s wall time per condition (ratios.run_wall_times), or why it was not measured."""
+
+    value: float | None
+    target: float
+    passed: bool | None
+    median_s: dict[str, float]
+    wall_s_all: dict[str, list[float]]
+    cpu_s_all: dict[str, list[float]]
+    stages_s: dict[str, dict[str, float]]
+    exit_codes: list[int]
+    repeats: int
+    conditions: dict[str, str]
+    how: str
+    why: str
+
+
+class CheckRow(TypedDict):
+    """One of the harness's own trajectory checks, timed (checks.measure_checks)."""
+
+    system: str
+    check: str
+    engine: str
+    kind: str  # "accurate", "user", "scheme" or "windows"
+    method: str
+    cpu_s: float
+    wall_s: float
+    error_2s: float | None  # rad
+    status: str
+    timestep: float | None
+    windows_ulps_vs_mujoco: NotRequired[float]
+    mujoco_windows_cpu_s: NotRequired[float]
+
+
+class Paired(TypedDict):
+    """A check and its fastest run timed again side by side (checks.paired_timings)."""
 
     cpu_s: float
     fastest_cpu_s: float
 
 
-class CheckCost(TypedDict, total=False):
-    """One of the harness's trajectory checks against the fastest run computing the same at its error."""
+class CheckBest(TypedDict):
+    """The fastest run computing what a check computes; `spec`: a sweep run's, to time it again."""
 
-    system: str
-    check: str
-    kind: str  # "windows", "user", ...
     method: str
-    cpu_s: float
-    error_2s: float
-    windows_ulps_vs_mujoco: float
-    fastest: BenchRow | None
-    why: str
+    setting: str
+    value: float | None  # MuJoCo's windows: their timestep
+    cpu_s: float | None
+    error_2s: float | None
+    spec: NotRequired[Spec]
+
+
+class CheckCost(CheckRow):
+    """A check against its fastest run (checks.checks_ratios)."""
+
+    fastest: CheckBest | None
     ratio: float | None
-    paired: Paired | None
     sweep_ratio: float | None
-    passed: bool | None
+    paired: Paired | None
     target: float | None
+    passed: bool | None
+    why: str | None
 
 
-class Checks(TypedDict, total=False):
-    rows: list[CheckCost]
+class Checks(TypedDict):
+    """The harness's checks against the fastest runs computing the same."""
+
+    value: float | None
     target: float
+    passed: bool
+    rows: list[CheckCost]
+    how: str
 
 
-class BenchRatios(TypedDict, total=False):
+class BenchRatios(TypedDict):
+    """bench.json's "ratios"."""
+
+    rhs_fast_path_vs_hand_math: RhsRatio
+    pointwise_vs_raw_engine_calls: PointwiseSummary
+    default_scipy_vs_fastest_scipy: DefaultRatio
     default_path_vs_frontier: Frontier
-    harness_checks_vs_fastest: Checks
+    mujoco_disable_flags: FlagsRatio
+    run_wall_time: RunWallTimes
+    harness_checks_vs_fastest: NotRequired[Checks]
 
 
-class BenchResults(TypedDict, total=False):
+class BenchConfig(TypedDict):
+    """bench.json's "config": the plan it ran."""
+
+    quick: bool
+    systems: list[str]
+    repeats: int
+    budget_s: float
+    min_timed_s: float
+    t_end: float
+    dt_out: float
+    error_times: list[float]
+    atol: str
+    horizon_tolerance: float
+    epsilons: list[float]
+    workers: int | None
+    cost: str
+    executor: NotRequired[str]
+
+
+class SystemReference(TypedDict):
+    """bench.json's "systems" entry: a system's case, reference and horizon."""
+
+    case: Case
+    reference: dict[str, Json]
+    horizon_s: float | None
+    horizon_window_s: float
+    lyapunov_per_s: float | None
+
+
+class Durations(TypedDict):
+    """How long the bench took, and its sweep."""
+
+    duration_s: float
+    sweep_s: float
+
+
+class BenchResults(Durations):
     """bench.json (studies/bench/output.py)."""
 
     meta: Provenance
     config: BenchConfig
-    ratios: BenchRatios
-    systems: list[str]
+    systems: dict[str, SystemReference]
     rows: list[BenchRow]
-    pareto: dict[str, list[BenchRow] | dict[str, list[BenchRow]]]  # per system (older files: per horizon)
+    pareto: dict[str, dict[str, list[FrontPoint]]]  # per system, per error ("error_2s", "error_10s")
     time_to_epsilon: list[TimeToEpsilon]
+    ratios: BenchRatios
+    quick_target_s: float | None
 
 
-class StabilityRow(TypedDict, total=False):
-    """The largest stable timestep of one system, integrator, engine and initial speed, by one criterion."""
-
-    system: str
-    integrator: str
-    engine: str
-    speed: float  # rad/s
-    criterion: str  # "energy x2" or "divergence"
-    max_stable: float | None  # s
-
-
-class EnergySeries(TypedDict, total=False):
-    t: list[float]
-    dE: list[float]  # J
-
-
-# One long-horizon energy run (studies/stress/energy.py; "class", a keyword, is how the energy behaves)
-DriftRow = TypedDict(
-    "DriftRow",
+# One run's energy behaviour (energy.classify_energy); "class" is a keyword, hence the call form.
+EnergyClass = TypedDict(
+    "EnergyClass",
     {
-        "system": str,
-        "integrator": str,
-        "engine": str,
-        "horizon": float,
-        "class": str,
+        "E0": float,
+        "V_min": float,
+        "available": float,  # J: E0 - V_min
+        "direction": str | None,  # "loss", "gain" or None
+        "t_fail": float | None,
+        "rate": float | None,  # J/s
+        "r2": float | None,
+        "early_envelope": float | None,
+        "late_envelope": float | None,
+        "max_abs": float,
+        "final": float,
         "relative_max": float,
-        "rate": float,
-        "series": EnergySeries,
+        "relative_final": float,
+        "class": str,
+        "reason": str | None,
     },
     total=False,
 )
 
 
-class ConditioningSummary(TypedDict, total=False):
-    """One conditioning sweep of one quantity (studies/stress/conditioning.py)."""
+class EnergySeries(TypedDict):
+    """A drift row's energy change over its horizon, downsampled."""
+
+    t: list[float]
+    dE: list[float]  # J
+
+
+class DriftRow(EnergyClass):
+    """Energy over one horizon of one long run (studies/stress/energy.py, drift_rows)."""
+
+    system: str
+    engine: str
+    integrator: str
+    timestep: float
+    horizon: float
+    q0: np.ndarray
+    v0: np.ndarray
+    series: EnergySeries
+
+
+class Trial(TypedDict):
+    """A stability run at one timestep judged (studies/stress/stability.py, judged)."""
+
+    timestep: float
+    stable: bool
+    reason: str | None
+    t_fail: float | None
+    relative_max: float | None
+
+
+class Search(TypedDict):
+    """The bisection's result (studies/stress/stability.py, max_stable_timestep)."""
+
+    max_stable: float | None  # s
+    min_unstable: float | None  # s
+    trials: list[Trial]
+    reason: str | None
+
+
+class Found(Search):
+    """A bisection with the range it searched and a mirror step's cost (studies/stress/stability.py, searches)."""
+
+    range: list[float]
+    step_cost_s: float | None
+
+
+class StabilityRow(Found):
+    """The largest stable timestep of one engine and integrator at one speed and criterion."""
+
+    system: str
+    engine: str
+    integrator: str
+    speed: float  # rad/s
+    criterion: str  # "energy x2" or "divergence"
+    growth_factor: float | None
+    q0: np.ndarray
+    v0: np.ndarray
+    t_end: float
+    bisection_ratio: float
+
+
+class StiffOutcome(TypedDict):
+    """A stiff-friction run judged (none: not run, with why)."""
+
+    stable: bool | None
+    reason: str | None
+    t_fail: float | None
+    max_error: float | None  # rad
+    final_error: NotRequired[float | None]
+    energy_relative_max: NotRequired[float | None]
+
+
+class StiffBase(TypedDict):
+    """A damping factor on one system: the damping per joint and the reference's method."""
+
+    system: str
+    damping_factor: float
+    t_end: float
+    damping: dict[str, float]
+    reference: str
+
+
+class StiffRun(StiffBase):
+    """One engine, integrator and timestep at a damping factor."""
+
+    engine: str
+    integrator: str
+    eulerdamp: bool
+    timestep: float  # s
+
+
+class StiffRow(StiffRun, StiffOutcome):
+    """A stiff-friction row (studies/stress/stability.py, stiff_rows)."""
+
+
+class SweepBase(TypedDict):
+    """One ratio of one conditioning sweep."""
 
     system: str
     sweep: str
     kind: str
+    ratio: float
+    overrides: list[list[str | float]]
+
+
+class ConditioningRow(SweepBase, total=False):
+    """A conditioning row: a quantity and pair at one ratio, or the ratio refused (quantity None)."""
+
+    quantity: str | None
+    pair: str | None
+    refused: str
+    cond_median: float
+    cond_max: float
+    cond_random_max: float
+    cond_eq_median: float
+    cond_eq_max: float
+    q_worst: np.ndarray
+    n_states: int
+    n_targeted: int
+    scaled: float
+    max_abs: float
+    scale: float
+    tier: str
+    tolerance: float
+    passed: bool
+    base_tolerance: float
+    passed_base: bool
+    c_state: float
+    c_state_eq: float
+    c_state_all: float
+    c_state_eq_all: float
+    worst_state_cond: float
+    per_cond_eps: float
+
+
+class Skipped(TypedDict):
+    """A section not run on a system, and why."""
+
+    system: str
+    section: str
+    why: str
+
+
+class SummarySeries(TypedDict):
+    """A sweep's points, for a plot."""
+
+    ratio: list[float]
+    cond_max: list[float]
+    cond_eq_max: list[float]
+    scaled: list[float]
+    tolerance: list[float]
+
+
+class ConditioningSummary(TypedDict):
+    """Per system, sweep and quantity: disagreement against cond(M), its slope, C and where tiers fail."""
+
+    system: str
+    sweep: str
+    kind: NotRequired[str]  # stress.json before the key was named "sweep"
     quantity: str
+    points: int
     cond_range: list[float]
     disagreement_range: list[float]
+    slope: float | None
+    c_state: float
+    c_state_eq: float
+    c_state_all: float
+    c_state_eq_all: float
+    base_tolerance: float
     base_tier_fails_from_cond: float | None
-
-
-class ConditioningPoint(TypedDict, total=False):
-    system: str
-    quantity: str
-    cond_max: float
-    scaled: float
+    tier_fails_from_cond: float | None
+    series: SummarySeries
 
 
 class SolveTierProposal(TypedDict, total=False):
-    measured_C_cond: float
+    """The per-state solve tier the measurements support ({} when nothing was measured)."""
+
     formula: str
+    rtol: float
+    eps: float
+    margin: float
+    current_cond_factor: float | None
+    measured_C_cond: float
+    measured_C_cond_all_states: float
+    C_cond: float
+    kappa_from_cond: float | None
+    measured_C_cond_eq: float
+    measured_C_cond_eq_all_states: float
+    C_cond_eq: float
+    kappa_from_cond_eq: float | None
 
 
-class StiffRun(TypedDict, total=False):
-    damping_factor: float
-    integrator: str
-    engine: str
-    timestep: float  # s
-    stable: bool
-    max_error: float  # rad
-
-
-class StressResults(TypedDict, total=False):
+class StressResults(TypedDict):
     """stress.json (studies/stress/output.py)."""
 
     meta: Provenance
-    provenance: Provenance  # stress.json before the block was named "meta"
+    provenance: NotRequired[Provenance]  # stress.json before the block was named "meta"
     quick: bool
+    settings: dict[str, object]  # dataclasses.asdict(Settings)
+    overrides: list[list[str | float]]
+    systems: list[str]
     criteria: dict[str, str]
-    stability: list[StabilityRow]
     drift: list[DriftRow]
-    conditioning: list[ConditioningPoint]
-    conditioning_summary: list[ConditioningSummary]
-    solve_tier_proposal: SolveTierProposal
-    stiff_friction: list[StiffRun]
+    stability: list[StabilityRow]
+    conditioning: list[ConditioningRow]
+    stiff_friction: list[StiffRow]
+    skipped: list[Skipped]
+    timing: dict[str, float]
+    conditioning_summary: NotRequired[list[ConditioningSummary]]
+    solve_tier_proposal: NotRequired[SolveTierProposal]
 
 
-class SymbolicCost(TypedDict, total=False):
+class SymbolicCost(TypedDict):
+    """One chain's derivation and code generation times (codegen_s: where the derivation was in budget)."""
+
     derive_s: float
-    codegen_s: float
-    ops_M_Cv: int
+    ops_M_Cv: int  # sympy's count_ops of M and C v
+    codegen_s: NotRequired[float]
 
 
 class ChainRow(TypedDict, total=False):
-    """One generated chain (studies/chains.py)."""
+    """One generated chain (studies/chains.py): its sources' time per state, the symbolic times, their
+    agreement and cond(M)."""
 
-    kind: str  # "planar" or "spatial"
-    n: int
+    kind: Required[str]  # "planar" or "spatial"
+    n: Required[int]
     per_state_s: dict[str, dict[str, float]]  # source -> operation ("M", "forward", ...) -> s
     symbolic: SymbolicCost
     worst_scaled: dict[str, float]  # "quantity pair" -> scaled disagreement
@@ -839,12 +1267,14 @@ class ChainRow(TypedDict, total=False):
     cond_M_max: float
 
 
-class ChainStop(TypedDict, total=False):
+class ChainStop(TypedDict):
+    """Where the symbolic source stopped, and why."""
+
     n: int
     why: str
 
 
-class ChainsStudy(TypedDict, total=False):
+class ChainsStudy(TypedDict):
     """chains.json (studies/chains.py)."""
 
     rows: list[ChainRow]

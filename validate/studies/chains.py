@@ -19,11 +19,12 @@ from argparse import Namespace
 from collections.abc import Callable
 from concurrent.futures import Executor
 from pathlib import Path
-from typing import NotRequired, Required, TypedDict
+from typing import NotRequired
 
 import numpy as np
 
 from ..results import atomic_write
+from ..results.schema import ChainRow, ChainsStudy, ChainStop, SymbolicCost
 from ..sources import make_source
 from ..sources.base import Source
 from ..symbolic.derivation import derive
@@ -51,49 +52,10 @@ PYTHON_FACTOR = 1.2
 Progress = Callable[[str], None] | None
 
 
-class SymbolicTimes(TypedDict):
-    """One chain's derivation and code generation times (codegen_s: where the derivation was in budget)."""
-
-    derive_s: float
-    ops_M_Cv: int  # sympy's count_ops of M and C v
-    codegen_s: NotRequired[float]
-
-
-class Symbolic(SymbolicTimes):
+class Symbolic(SymbolicCost):
     """`_symbolic`: the times, and the symbolic source where its code was generated."""
 
     source: NotRequired[Source]
-
-
-class ChainRow(TypedDict, total=False):
-    """One chain: its sources' time per state, the symbolic times, their agreement and cond(M)."""
-
-    kind: Required[str]  # "planar" or "spatial"
-    n: Required[int]
-    symbolic: SymbolicTimes
-    per_state_s: dict[str, dict[str, float]]  # {source: {operation: s}}
-    worst_scaled: dict[str, float]  # {"quantity pair": scaled error}
-    all_within_tiers: bool
-    cond_M_max: float
-
-
-class Stopped(TypedDict):
-    """Where the symbolic source stopped, and why."""
-
-    n: int
-    why: str
-
-
-class ChainsResults(TypedDict):
-    """chains.json."""
-
-    ns: list[int]
-    n_states: int
-    repeats: int
-    symbolic_budget_s: float
-    rows: list[ChainRow]
-    symbolic_stopped_at: dict[str, Stopped]
-    slopes: dict[str, dict[str, float]]
 
 
 def predicted_derive_s(n: int, *, spatial: bool = False, python: bool = False) -> float:
@@ -176,9 +138,9 @@ def _symbolic(system: System, budget: float) -> Symbolic:
     return out
 
 
-def _times(sym: Symbolic) -> SymbolicTimes:
+def _times(sym: Symbolic) -> SymbolicCost:
     """What a row keeps of `_symbolic`: its times and sizes, not the source."""
-    times: SymbolicTimes = {"derive_s": sym["derive_s"], "ops_M_Cv": sym["ops_M_Cv"]}
+    times: SymbolicCost = {"derive_s": sym["derive_s"], "ops_M_Cv": sym["ops_M_Cv"]}
     if "codegen_s" in sym:
         times["codegen_s"] = sym["codegen_s"]
     return times
@@ -186,11 +148,11 @@ def _times(sym: Symbolic) -> SymbolicTimes:
 
 def kind_rows(
     kind: str, ns: tuple[int, ...], n_states: int, repeats: int, budget: float, progress: Progress = None
-) -> tuple[list[ChainRow], Stopped | None]:
+) -> tuple[list[ChainRow], ChainStop | None]:
     """One kind's chains ("planar" or "spatial"), every n in turn: the rows, and where the symbolic
     source stopped (None if it ran at every n). One task of the study: it runs in a worker as it does here."""
     rows: list[ChainRow] = []
-    stopped: Stopped | None = None
+    stopped: ChainStop | None = None
     symbolic_on, last = True, None  # last: (n, derivation + code seconds) of the previous chain
     with tempfile.TemporaryDirectory(prefix="lagrange_xval_chains_") as folder:
         for n in ns:
@@ -242,7 +204,7 @@ def run_chains(
     progress: Progress = None,
     ns: tuple[int, ...] = (),
     executor: Executor | None = None,
-) -> ChainsResults:
+) -> ChainsStudy:
     """The scaling study: every chain, every source; see the module docstring (`ns`: other chain lengths).
     With an `executor` (e.g. a dask cluster's), the planar and the spatial chains are two tasks run
     there side by side; without, both run in this process one after the other (each timing alone)."""

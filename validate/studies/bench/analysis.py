@@ -14,9 +14,10 @@ import numpy as np
 
 from ...core.errors import HarnessError
 from ...core.parallel import completed
+from ...results.schema import BenchRow, FrontPoint, Spec, TimeToEpsilon
 from .plan import ERROR_TIMES, Plan
 from .runners import execute
-from .shapes import CostKey, ErrorKey, Errors, Execution, FrontPoint, Prepared, Reached, Row, Spec
+from .shapes import CostKey, ErrorKey, Errors, Execution, Prepared
 
 T = TypeVar("T")
 
@@ -44,7 +45,7 @@ def errors_against(
     }
 
 
-def row_of(system: str, spec: Spec) -> Row:
+def row_of(system: str, spec: Spec) -> BenchRow:
     return {
         "system": system,
         "method": spec["method"],
@@ -71,11 +72,11 @@ def row_of(system: str, spec: Spec) -> Row:
     }
 
 
-def sort_key(row: Row) -> tuple[str, str, float]:
+def sort_key(row: BenchRow) -> tuple[str, str, float]:
     return (row["system"], row["method"], -row["value"])
 
 
-def pareto_front(rows: Iterable[Row], error: ErrorKey, *, cost: CostKey = "cpu_s") -> list[FrontPoint]:
+def pareto_front(rows: Iterable[BenchRow], error: ErrorKey, *, cost: CostKey = "cpu_s") -> list[FrontPoint]:
     """The runs no other run beats in both `cost` and `error` (status ok, finite values), cheapest first."""
     ok = [
         (c, e, r)
@@ -99,18 +100,18 @@ def pareto_front(rows: Iterable[Row], error: ErrorKey, *, cost: CostKey = "cpu_s
 
 
 def time_to_epsilon(
-    rows: Iterable[Row],
+    rows: Iterable[BenchRow],
     epsilons: Iterable[float],
     *,
     error: ErrorKey = "error_2s",
     cost: CostKey = "cpu_s",
-) -> list[Reached]:
+) -> list[TimeToEpsilon]:
     """Per system, method and epsilon: the cheapest run of that method with `error` <= epsilon, or
     "not reached". Sorted by system, method, epsilon (largest first)."""
-    groups: dict[tuple[str, str], list[Row]] = {}
+    groups: dict[tuple[str, str], list[BenchRow]] = {}
     for r in rows:
         groups.setdefault((r["system"], r["method"]), []).append(r)
-    out: list[Reached] = []
+    out: list[TimeToEpsilon] = []
     for (system, method), runs in sorted(groups.items()):
         for eps in sorted(epsilons, reverse=True):
             good = [
@@ -124,7 +125,7 @@ def time_to_epsilon(
     return out
 
 
-def _reached(system: str, method: str, eps: float, best: Row | None, error: ErrorKey) -> Reached:
+def _reached(system: str, method: str, eps: float, best: BenchRow | None, error: ErrorKey) -> TimeToEpsilon:
     """`time_to_epsilon`'s entry: the cheapest run reaching eps (`best`), or "not reached"."""
     if best is None:
         return {
@@ -180,7 +181,7 @@ def sweep(
     executor: Executor,
     progress: Callable[[str], None] | None = None,
     extra: Tasks | None = None,
-) -> tuple[list[Row], dict[str, object]]:
+) -> tuple[list[BenchRow], dict[str, object]]:
     """Every spec on every prepared system, `plan.repeats` times, interleaved; rows sorted.
 
     Args:
@@ -231,7 +232,7 @@ def method_groups(prepared: dict[str, Prepared], specs: list[Spec]) -> dict[tupl
 def collect(
     futures: dict[Future[Any], Task],  # Any: one pool runs `execute` and the extra tasks (Future is invariant)
     extra_futures: dict[Future[Any], str],
-    rows: dict[Key, Row],
+    rows: dict[Key, BenchRow],
     digests: dict[Key, str | None],
     extras: dict[str, object],
     *,
@@ -268,7 +269,7 @@ def collect(
             progress(f"repeat {rep + 1}/{plan.repeats}: {done}/{len(futures)} runs")
 
 
-def record_first(row: Row, res: Execution, ref: Prepared, plan: Plan) -> None:
+def record_first(row: BenchRow, res: Execution, ref: Prepared, plan: Plan) -> None:
     """The first repeat of a run: its status, counts, errors against the reference (when ok) and times."""
     row.update(
         {
@@ -287,7 +288,7 @@ def record_first(row: Row, res: Execution, ref: Prepared, plan: Plan) -> None:
     add_times(row, res)
 
 
-def record_repeat(row: Row, res: Execution, first_digest: str | None, rep: int) -> None:
+def record_repeat(row: BenchRow, res: Execution, first_digest: str | None, rep: int) -> None:
     """A later repeat: its times, and the run marked not deterministic where it failed or gave other bits."""
     if res["status"] != "ok" or res["digest"] != first_digest:
         row["deterministic"] = False
@@ -297,14 +298,16 @@ def record_repeat(row: Row, res: Execution, first_digest: str | None, rep: int) 
     add_times(row, res)
 
 
-def add_times(row: Row, res: Execution) -> None:
+def add_times(row: BenchRow, res: Execution) -> None:
     """A timed execution's CPU and wall seconds among the row's repeats (a skipped run has none)."""
     if res["status"] in ("ok", "timeout", "diverged", "failed"):
         row["cpu_s_repeats"].append(res["cpu_s"])
         row["wall_s_repeats"].append(res["wall_s"])
 
 
-def skip_tighter(futures: dict[Future[Any], Task], rows: dict[Key, Row], timed_out: Task, *, budget: float) -> None:
+def skip_tighter(
+    futures: dict[Future[Any], Task], rows: dict[Key, BenchRow], timed_out: Task, *, budget: float
+) -> None:
     """Cancel the settings of the same method tighter than one that timed out, their rows "skipped"."""
     name, s = timed_out
     for other, (oname, os_) in futures.items():

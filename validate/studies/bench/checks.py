@@ -41,11 +41,12 @@ from ...dynamics.integrate import SCIPY_DEFAULT, Trajectory, scipy_trajectory, t
 from ...dynamics.mirror import mirror_steps, mirror_trajectory, mujoco_steps
 from ...dynamics.reference import DEFAULT_CACHE_DIR, reference_trajectory
 from ...model.start import Scheme, Start
+from ...results.schema import BenchRow, CheckBest, CheckCost, CheckRow, Checks, Paired, Spec
 from ...sources.base import stepped
 from .plan import GRID_DRIVERS, Plan
 from .ratios import interleaved_medians
 from .runners import CacheDir, case_for, execute, resources
-from .shapes import CheckBest, CheckEntry, CheckRow, ChecksRatios, MeasuredChecks, Paired, Row, Spec, cpu_of
+from .shapes import MeasuredChecks, cpu_of
 
 SAME_EQUATIONS = {"hand": ("hand", "hand-cfunc"), "symbolic": ("symbolic",), "pinocchio": ("pinocchio",)}
 
@@ -206,7 +207,7 @@ def paired_timings(name: str, pairs: list[tuple[str, Spec]], *, plan: Plan, reps
     return out
 
 
-def pairs_to_time(ratios: ChecksRatios) -> dict[str, list[tuple[str, Spec]]]:
+def pairs_to_time(ratios: Checks) -> dict[str, list[tuple[str, Spec]]]:
     """From `checks_ratios`: per system, the targeted checks set against a sweep run, with that run's spec."""
     out: dict[str, list[tuple[str, Spec]]] = {}
     for e in ratios["rows"]:
@@ -215,7 +216,7 @@ def pairs_to_time(ratios: ChecksRatios) -> dict[str, list[tuple[str, Spec]]]:
     return out
 
 
-def _fastest(check: CheckRow, rows: list[Row]) -> Row | None:
+def _fastest(check: CheckRow, rows: list[BenchRow]) -> BenchRow | None:
     """The sweep's fastest run computing what `check` computes (module docstring), or None."""
     mine = [
         r
@@ -242,7 +243,7 @@ def _fastest(check: CheckRow, rows: list[Row]) -> Row | None:
     return min(same, key=cpu_of) if same else None
 
 
-def _best(check: CheckRow, rows: list[Row]) -> CheckBest | None:
+def _best(check: CheckRow, rows: list[BenchRow]) -> CheckBest | None:
     """What `check` is set against: MuJoCo's windows for the windows, else the sweep's fastest run (with
     its spec, to time it again), or None."""
     if check["kind"] == "windows":
@@ -276,16 +277,16 @@ def _best(check: CheckRow, rows: list[Row]) -> CheckBest | None:
 
 def checks_ratios(
     measured: list[MeasuredChecks],
-    rows: list[Row],
+    rows: list[BenchRow],
     paired: dict[str, dict[str, Paired]] | None = None,
     *,
     target: float,
-) -> ChecksRatios:
+) -> Checks:
     """Per check: the ratio of its CPU time to the fastest comparable run (the sweep's, or MuJoCo's
     windows for the windows); `target` (the plan's `checks_target`) applies to every check but the user's path.
     `paired` ({system: `paired_timings`}): where a check and its fastest run were timed again side by
     side, the ratio is theirs (the separate timings stay in the entry, as `sweep_ratio`)."""
-    entries: list[CheckEntry] = []
+    entries: list[CheckCost] = []
     for per_system in measured:
         for check in per_system["rows"]:
             best = _best(check, rows)

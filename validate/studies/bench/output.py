@@ -16,6 +16,21 @@ from ...core.guard import DEFAULT_TIME_LIMIT
 from ...core.parallel import completed, executor_for
 from ...dynamics.reference import DEFAULT_CACHE_DIR
 from ...results import atomic_write, dumps, provenance
+from ...results.schema import (
+    BenchRatios,
+    BenchResults,
+    BenchRow,
+    DefaultRatio,
+    Durations,
+    FlagsRatio,
+    FlagsRow,
+    Paired,
+    PointwiseRatio,
+    PointwiseSummary,
+    RhsRatio,
+    RunWallTimes,
+    SystemReference,
+)
 from ...systems import System, key_of, load_all, system_names
 from .analysis import Tasks, pareto_front, sweep, time_to_epsilon
 from .checks import checks_ratios, measure_checks, paired_timings, pairs_to_time
@@ -30,23 +45,7 @@ from .ratios import (
     run_wall_times,
 )
 from .runners import CacheDir, prepare
-from .shapes import (
-    BenchResults,
-    DefaultRatio,
-    Durations,
-    FlagsRatio,
-    FlagsRow,
-    MeasuredChecks,
-    Paired,
-    PointwiseRatio,
-    PointwiseSummary,
-    Prepared,
-    Ratios,
-    RhsRatio,
-    Row,
-    RunWallTimes,
-    SystemReference,
-)
+from .shapes import MeasuredChecks, Prepared
 from .tables import summary
 
 Progress = Callable[[str], None] | None
@@ -129,7 +128,9 @@ def ratio_tasks(chosen: list[str], plan: Plan, cache_dir: CacheDir) -> Tasks:
     return extra
 
 
-def ratios_of(rows: list[Row], extras: dict[str, object], chosen: list[str], plan: Plan, progress: Progress) -> Ratios:
+def ratios_of(
+    rows: list[BenchRow], extras: dict[str, object], chosen: list[str], plan: Plan, progress: Progress
+) -> BenchRatios:
     """The fast-harness ratios from the sweep's rows and the ratio measurements; `lagrange-xval run`
     timed here where the plan says so (after the pool is shut down: nothing else of ours running)."""
     rhs: RhsRatio = {"value": None, "passed": False, "why": f"{plan.rhs_system} not available"}
@@ -199,7 +200,7 @@ def pointwise_summary(point: list[PointwiseRatio], plan: Plan) -> PointwiseSumma
 
 def paired_checks(
     measured: list[MeasuredChecks],
-    rows: list[Row],
+    rows: list[BenchRow],
     named: dict[str, str],
     plan: Plan,
     *,
@@ -224,9 +225,9 @@ def paired_checks(
 
 
 def bench_results(
-    rows: list[Row],
+    rows: list[BenchRow],
     prepared: dict[str, Prepared],
-    ratios: Ratios,
+    ratios: BenchRatios,
     plan: Plan,
     *,
     workers: int | None,

@@ -11,9 +11,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ...dynamics.integrate import SCIPY_DEFAULT
+from ...results.schema import Spec
 from ...sources import drake as drake_engine  # imports no pydrake: `unavailable` looks it up
 from ...sources.base import MUJOCO_INTEGRATORS  # every one is swept
-from .shapes import Spec
 
 ERROR_TIMES = (2.0, 10.0)  # s: the samples of the rows' "error_2s" and "error_10s"
 

@@ -20,6 +20,19 @@ import numpy as np
 
 from ...dynamics.integrate import source_rhs
 from ...model.start import Scheme, Start
+from ...results.schema import (
+    BenchRow,
+    DefaultRatio,
+    FlagsRow,
+    Frontier,
+    FrontierEntry,
+    PointwiseRatio,
+    PointwiseSize,
+    RhsRatio,
+    RunBrief,
+    RunWallTimes,
+    ScipyBrief,
+)
 from ...results.stages import seconds_of
 from ...sources import make_source
 from ...sources.base import Source, stepped
@@ -30,21 +43,7 @@ from ...verdict import pointwise as compare
 from .baselines import hand_math_rhs, numpy_solve_rhs, raw_hand, raw_pointwise
 from .plan import CONTENDER_DRIVERS, GRID_DRIVERS, Plan
 from .runners import case_for, resources
-from .shapes import (
-    DefaultRatio,
-    FlagsRow,
-    FrontierEntry,
-    FrontierRatios,
-    PointwiseRatio,
-    PointwiseSize,
-    RhsRatio,
-    Row,
-    RunBrief,
-    RunWallTimes,
-    ScipyBrief,
-    Timed,
-    cpu_of,
-)
+from .shapes import Timed, cpu_of
 
 
 def interleaved_medians(fns: dict[str, Callable[[], object]], reps: int) -> dict[str, Timed]:
@@ -226,7 +225,7 @@ def flags_ratio(name: str, plan: Plan, *, reps: int) -> list[FlagsRow]:
     return out
 
 
-def default_ratio(rows: list[Row], plan: Plan) -> DefaultRatio:
+def default_ratio(rows: list[BenchRow], plan: Plan) -> DefaultRatio:
     """From the sweep, on the plan's `rhs_system`: the default's CPU time over that of the fastest scipy run
     on the hand equations reaching `default_epsilon` at t = 2 s (drivers giving the whole 10 ms grid, as
     the default must), and which (method, rtol) runs would meet `default_target`."""
@@ -251,7 +250,7 @@ def default_ratio(rows: list[Row], plan: Plan) -> DefaultRatio:
     reached = default["status"] == "ok" and default["error_2s"] is not None and default["error_2s"] <= epsilon
     ratio = cpu_of(default) / cpu_of(fastest)
 
-    def brief(r: Row) -> ScipyBrief:
+    def brief(r: BenchRow) -> ScipyBrief:
         return {
             "method": r["method"],
             "rtol": r["value"],
@@ -274,14 +273,14 @@ def default_ratio(rows: list[Row], plan: Plan) -> DefaultRatio:
     }
 
 
-def frontier_ratios(rows: list[Row], epsilons: tuple[float, ...]) -> FrontierRatios:
+def frontier_ratios(rows: list[BenchRow], epsilons: tuple[float, ...]) -> Frontier:
     """From the sweep, per system and eps: the harness's default trajectory path (its driver, `odeint`
     on the hand equations' generated right-hand side, at the cheapest rtol reaching eps at t = 2 s; the
     default rtol itself as one of them) against the fastest run of any method reaching eps that gives
     the whole 10 ms grid (as the harness's trajectories must). CPU time ratios; nothing is asserted."""
     out: dict[str, list[FrontierEntry]] = {}
 
-    def brief(r: Row | None) -> RunBrief | None:
+    def brief(r: BenchRow | None) -> RunBrief | None:
         if r is None:
             return None
         return {
@@ -294,7 +293,7 @@ def frontier_ratios(rows: list[Row], epsilons: tuple[float, ...]) -> FrontierRat
             "error_10s": r["error_10s"],
         }
 
-    def reaching(rs: list[Row], eps: float) -> list[Row]:
+    def reaching(rs: list[BenchRow], eps: float) -> list[BenchRow]:
         return [
             r
             for r in rs

@@ -24,12 +24,13 @@ from ...dynamics.integrate import SCIPY_DEFAULT, initial_state, scipy_trajectory
 from ...dynamics.mirror import mirror_trajectory
 from ...dynamics.reference import DEFAULT_CACHE_DIR, reference_trajectory
 from ...model.start import Scheme, Start
+from ...results.schema import Case, Spec
 from ...sources import Sources, make_sources
 from ...sources.base import OneStateSource, Source, SteppedSource, one_state, stepped
 from ...sources.fastpath import scalar_rhs
 from ...systems import System, from_key, key_of
 from .plan import CHECK_EVERY, ERROR_TIMES, SCIPY_DRIVERS, Plan
-from .shapes import Case, Execution, Outcome, Prepared, Spec
+from .shapes import Execution, Outcome, Prepared
 
 CacheDir = Path | str | None  # reference_trajectory's cache_dir: a folder, None (no cache) or cache.DEFAULT
 

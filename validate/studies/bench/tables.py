@@ -7,19 +7,19 @@ import sys
 from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING
 
-from .shapes import (
+from ...results.schema import (
+    BenchRatios,
     BenchResults,
-    CheckEntry,
-    ChecksRatios,
+    CheckCost,
+    Checks,
     DefaultRatio,
     FlagsRatio,
-    FrontierRatios,
+    Frontier,
     PointwiseSummary,
-    Ratios,
-    Reached,
     RhsRatio,
     RunBrief,
     RunWallTimes,
+    TimeToEpsilon,
 )
 
 if TYPE_CHECKING:  # rich is imported when the summary is printed
@@ -101,14 +101,14 @@ def system_section(results: BenchResults, name: str, console: Console) -> None:
         )
 
 
-def _reached(e: Reached) -> str:
+def _reached(e: TimeToEpsilon) -> str:
     """A time-to-eps cell: the cheapest run's time and setting, or "not reached"."""
     if e["result"] != "reached":
         return "not reached"
     return f"{fmt_ms(e['cpu_s'])} ({fmt_setting(e['setting'], e['value'])})"
 
 
-def ratios_table(ratios: Ratios, console: Console) -> None:
+def ratios_table(ratios: BenchRatios, console: Console) -> None:
     """The fast-harness ratios against their targets; where default scipy misses, the runs that would pass."""
     from rich.table import Table
 
@@ -217,7 +217,7 @@ def flags_table(flags: FlagsRatio, console: Console) -> None:
     console.print(table)
 
 
-def frontier_table(frontier: FrontierRatios, console: Console) -> None:
+def frontier_table(frontier: Frontier, console: Console) -> None:
     """The harness's default trajectory path against the fastest method at equal error, per system."""
     from rich.table import Table
 
@@ -247,7 +247,7 @@ def frontier_table(frontier: FrontierRatios, console: Console) -> None:
     console.print(table)
 
 
-def checks_table(checks: ChecksRatios, console: Console) -> None:
+def checks_table(checks: Checks, console: Console) -> None:
     """The harness's own trajectory checks against the fastest run computing the same at their error."""
     from rich.table import Table
 
@@ -285,7 +285,7 @@ def checks_table(checks: ChecksRatios, console: Console) -> None:
     console.print(table)
 
 
-def _ratio_cell(e: CheckEntry, fmt: Callable[[float | None], str]) -> str:
+def _ratio_cell(e: CheckCost, fmt: Callable[[float | None], str]) -> str:
     """The ratio, and where it was timed again beside its fastest run, both times and the ratio apart."""
     if e.get("ratio") is None:
         return "-"

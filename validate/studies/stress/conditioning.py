@@ -12,23 +12,14 @@ import numpy as np
 
 from ...core.errors import HarnessError
 from ...core.tolerances import TOLERANCES
+from ...results.schema import ConditioningRow, ConditioningSummary, SolveTierProposal, SweepBase
 from ...sources import make_sources
 from ...sources.base import Source
 from ...sources.hand import HandSource
 from ...systems import System
 from ...verdict import pointwise as compare
 from .settings import EPS, FIT_FROM_COND, MAX_FACTOR, PROPOSAL_MARGIN, TARGET_DISTANCES, TARGETED_STATES, Settings
-from .shapes import (
-    CondInfo,
-    ConditioningRow,
-    ConditioningSummary,
-    CondPoint,
-    CondRow,
-    Measured,
-    SolveTierProposal,
-    SweepBase,
-    SweepPoint,
-)
+from .shapes import CondInfo, CondPoint, CondRow, Measured, SweepPoint
 
 
 def equilibrated_cond(M: np.ndarray) -> np.ndarray:

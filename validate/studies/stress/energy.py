@@ -11,6 +11,7 @@ import numpy as np
 from ...core.arrays import Floats
 from ...dynamics.integrate import initial_state
 from ...model.start import Scheme, Start
+from ...results.schema import DriftRow, EnergyClass
 from ...sources.base import Source
 from ...systems import System
 from .runs import downsample, run_energy, simulate
@@ -24,7 +25,7 @@ from .settings import (
     STEADY_R2,
     Settings,
 )
-from .shapes import DriftRow, EnergyClass, Trend
+from .shapes import Trend
 
 
 def classify_energy(

@@ -18,6 +18,16 @@ from ...core.parallel import completed
 from ...dynamics.integrate import energy_missing
 from ...model.overrides import parse
 from ...results import atomic_write, dumps, provenance
+from ...results.schema import (
+    ConditioningRow,
+    ConditioningSummary,
+    DriftRow,
+    Skipped,
+    SolveTierProposal,
+    StabilityRow,
+    StiffRow,
+    StressResults,
+)
 from ...sources import Sources, make_sources
 from ...systems import System, from_key, key_of, load, system_names
 from .conditioning import conditioning_rows, conditioning_summary, no_sweep_reason, proposed_solve_tier
@@ -37,18 +47,7 @@ from .settings import (
     STEADY_R2,
     Settings,
 )
-from .shapes import (
-    ConditioningRow,
-    ConditioningSummary,
-    DriftRow,
-    Section,
-    SectionRows,
-    Skipped,
-    SolveTierProposal,
-    StabilityRow,
-    StiffRow,
-    StressResults,
-)
+from .shapes import Section, SectionRows
 from .stability import stability_rows, stiff_rows
 
 if TYPE_CHECKING:  # rich is imported when the summary is printed

@@ -12,6 +12,7 @@ from ...core.errors import HarnessError
 from ...dynamics.integrate import Trajectory, energy_missing, initial_state, scipy_trajectory, time_grid
 from ...dynamics.mirror import eulerdamp_active
 from ...model.start import Scheme, Start
+from ...results.schema import Found, Search, StabilityRow, StiffBase, StiffOutcome, StiffRow, StiffRun, Trial
 from ...sources import make_sources
 from ...sources.base import Source
 from ...systems import System
@@ -28,7 +29,6 @@ from .settings import (
     Run,
     Settings,
 )
-from .shapes import Found, Search, StabilityRow, StiffBase, StiffOutcome, StiffRow, StiffRun, Trial
 
 
 def stability_trial(
