@@ -29,5 +29,8 @@ class Memo:
         value: T = self._values[key]
         return value
 
+    def __contains__(self, key: Hashable) -> bool:
+        return key in self._values
+
     def __len__(self) -> int:
         return len(self._values)

@@ -26,8 +26,9 @@ from ..core.errors import HarnessError
 from ..core.tolerances import TOLERANCES, Tolerances
 from ..results.schema import Derivation, ModelChecks, Pointwise
 from ..results.stages import Clock, lap
-from ..sources import Sources, make_sources
+from ..sources import SYMBOLIC_MAX_DOF, Sources, make_sources
 from ..sources.base import Source
+from ..sources.symbolic import keep_derivation
 from ..systems import System
 from . import modelsync, verdict, words
 from . import pointwise as compare
@@ -148,6 +149,8 @@ def decide(
     why = _unreadable(system)
     if why:
         return Decision(system, unreadable_derivation(why), unreadable=why)
+    if system.nv <= SYMBOLIC_MAX_DOF:  # the model's own derivation, read back where it was kept
+        keep_derivation(system, cache)
     sources = make_sources(system)
     model = with_drake(modelsync.check(system, sources["pinocchio"]), sources)
     lap(clock, "model checks")

@@ -403,3 +403,32 @@ def test_the_symbol_table_substituted_back_gives_the_engines_m_and_bias(model):
         bias = np.array([ev(data["Cv"][i]["text"]) + ev(data["G"][i]["text"]) for i in range(n)])
         np.testing.assert_allclose(M, M_mj, rtol=1e-10, atol=1e-12)
         np.testing.assert_allclose(bias, b_mj, rtol=1e-10, atol=1e-10)
+
+
+def test_a_kept_derivation_is_read_back_not_derived_again(tmp_path, monkeypatch):
+    """keep_derivation: the first call derives and keeps the derivation in the cache; in a fresh memo the
+    second reads it back (nothing derived) and it is the same; an edited entry is refused and derived anew."""
+    from lagrange_xval.core.cachedir import Cache
+    from lagrange_xval.core.memo import Memo
+    from lagrange_xval.sources import symbolic
+
+    system, store = load("double_pendulum_point"), Cache.at(tmp_path)
+    monkeypatch.setattr(symbolic, "_DERIVED", Memo(maxsize=4))
+    symbolic.keep_derivation(system, store)
+    first = symbolic.derivation_of(system)
+    (entry,) = (tmp_path / "derive").glob("double_pendulum_point-derivation-*.npz")
+
+    derived = []
+    monkeypatch.setattr(symbolic, "_DERIVED", Memo(maxsize=4))
+    monkeypatch.setattr(symbolic, "derive", lambda *args: derived.append(args) or first)
+    symbolic.keep_derivation(system, store)
+    assert not derived and symbolic.derivation_of(system).M == first.M
+    assert symbolic.derivation_of(system).source == first.source
+
+    data = bytearray(entry.read_bytes())
+    data[len(data) // 2] ^= 0xFF  # an edited entry
+    entry.write_bytes(bytes(data))
+    monkeypatch.setattr(symbolic, "_DERIVED", Memo(maxsize=4))
+    symbolic.keep_derivation(system, store)
+    assert len(derived) == 1
+    symbolic.keep_derivation(system, Cache.off())  # no cache: nothing read, nothing derived here
