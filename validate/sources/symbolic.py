@@ -9,11 +9,15 @@ probes, which change only values, reuse them; the parameter values are arguments
 
 from __future__ import annotations
 
+import functools
 import hashlib
+import inspect
+import json
 import pickle  # noqa: S403 - a signed cache entry only (keep_derivation)
 import threading
 from collections.abc import Callable, Hashable
-from typing import TYPE_CHECKING, TypeAlias
+from pathlib import Path
+from typing import TYPE_CHECKING, TypeAlias, cast
 
 import numpy as np
 
@@ -38,6 +42,7 @@ _LOCK = threading.Lock()
 # recently used dropped and made again when asked for.
 _DERIVED = Memo(maxsize=32)
 _CODE = Memo(maxsize=128)
+_KEPT = Memo(maxsize=32)  # structure -> (folder, digest) where keep_derivation keeps its entries (and its code's)
 
 
 def derivation_of(system: System, key: tuple[Hashable, ...] | None = None) -> Derivation:
@@ -76,6 +81,7 @@ def keep_derivation(system: System, store: Cache | None) -> None:
         cache.store_bytes(path, digest, pickle.dumps(derivation))
     with _LOCK:
         _DERIVED.get(key, lambda: derivation)
+        _KEPT.get(key, lambda: (where, digest))
 
 
 def _flat(d: Derivation, part: str) -> tuple[list[sp.Expr], Layout]:
@@ -102,7 +108,42 @@ def _code(d: Derivation, key: tuple[Hashable, ...], part: str) -> tuple[Generate
     """numpy code for one part, generated once per structure: f(q..., v..., params...) -> list; for
     "scalar", `math` code of M (row-major) and C v + G - passive at one state, for the integrators."""
     with _LOCK:
-        return _CODE.get((key, part), lambda: _generated(d, part))
+        return _CODE.get((key, part), lambda: _kept_code(d, key, part))
+
+
+def _kept_code(d: Derivation, key: tuple[Hashable, ...], part: str) -> tuple[Generated, Layout]:
+    """`_generated`, read back as source text where keep_derivation keeps this structure's entries (a
+    signed JSON entry beside the derivation's), else generated and kept there: sympy's code generation
+    (0.1 s a system) is done once per structure and harness."""
+    if key not in _KEPT:
+        return _generated(d, part)
+    where, digest = _KEPT.get(key, lambda: (Path(), ""))
+    path, entry = where / f"code-{part}-{digest}.npz", f"{digest}-{part}"
+    found = cache.load_bytes(path, entry)
+    if found is not None:
+        kept = json.loads(found)
+        return _compiled(kept["source"], part), [(name, tuple(shape)) for name, shape in kept["layout"]]
+    fn, layout = _generated(d, part)
+    text = json.dumps({"source": inspect.getsource(fn), "layout": layout})
+    cache.store_bytes(path, entry, text.encode())
+    return fn, layout
+
+
+def _compiled(source: str, part: str) -> Generated:
+    """Kept generated code as a function again, in the namespace lambdify gives code of its kind."""
+    namespace = dict(_namespace("math" if part == "scalar" else "numpy"))
+    exec(compile(source, f"<symbolic {part}>", "exec"), namespace)  # noqa: S102 - the harness's own code, signed
+    fn = namespace["_lambdifygenerated"]
+    assert callable(fn)  # the function the kept source defines
+    return cast(Generated, fn)
+
+
+@functools.lru_cache(maxsize=2)  # "math" and "numpy"
+def _namespace(modules: str) -> dict[str, object]:
+    """The names lambdify's code of `modules` is run with (sin, cos, ... as `modules` has them)."""
+    import sympy as sp
+
+    return dict(sp.lambdify([], 0, modules=modules).__globals__)
 
 
 def _generated(d: Derivation, part: str) -> tuple[Generated, Layout]:

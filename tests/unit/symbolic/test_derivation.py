@@ -418,12 +418,19 @@ def test_a_kept_derivation_is_read_back_not_derived_again(tmp_path, monkeypatch)
     first = symbolic.derivation_of(system)
     (entry,) = (tmp_path / "derive").glob("double_pendulum_point-derivation-*.npz")
 
-    derived = []
-    monkeypatch.setattr(symbolic, "_DERIVED", Memo(maxsize=4))
+    states = np.random.default_rng(0).uniform(-2, 2, (2, 7, system.nv))
+    before = symbolic.SymbolicSource(system).evaluate(states[0], states[1], states[0])  # its code kept too
+
+    derived, generated = [], []
+    for memo in ("_DERIVED", "_CODE", "_KEPT"):
+        monkeypatch.setattr(symbolic, memo, Memo(maxsize=4))
     monkeypatch.setattr(symbolic, "derive", lambda *args: derived.append(args) or first)
+    monkeypatch.setattr(symbolic, "_generated", lambda *args: generated.append(args))
     symbolic.keep_derivation(system, store)
     assert not derived and symbolic.derivation_of(system).M == first.M
     assert symbolic.derivation_of(system).source == first.source
+    after = symbolic.SymbolicSource(system).evaluate(states[0], states[1], states[0])
+    assert not generated and all(np.array_equal(before[k], after[k]) for k in before)
 
     data = bytearray(entry.read_bytes())
     data[len(data) // 2] ^= 0xFF  # an edited entry
