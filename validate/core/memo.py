@@ -29,6 +29,13 @@ class Memo:
         value: T = self._values[key]
         return value
 
+    def set(self, key: Hashable, value: object) -> None:
+        """`key`'s value from now on (the most recently used), replacing any."""
+        self._values.pop(key, None)
+        self._values[key] = value
+        if self.maxsize is not None and len(self._values) > self.maxsize:
+            self._values.popitem(last=False)
+
     def __contains__(self, key: Hashable) -> bool:
         return key in self._values
 

@@ -63,25 +63,33 @@ def keep_derivation(system: System, store: Cache | None) -> None:
     if where is None:
         return
     key = structure_key(system.view, system.joints)
-    with _LOCK:
-        if key in _DERIVED:
-            return
     import sympy as sp
 
     digest = hashlib.sha256(f"{key!r}\0{cache.harness_hash()}\0{sp.__version__}".encode()).hexdigest()[:32]
-    path = where / f"{system.name}-derivation-{digest}.npz"
+    with _LOCK:
+        known = key in _DERIVED
+    if not known:
+        derivation = _kept(system, where / f"{system.name}-derivation-{digest}.npz", digest)
+        if derivation is None:
+            return  # the symbolic source says why where it is made, as without a cache
+        with _LOCK:
+            _DERIVED.get(key, lambda: derivation)
+    with _LOCK:
+        _KEPT.set(key, (where, digest))  # this store's, where the code is kept too
+
+
+def _kept(system: System, path: Path, digest: str) -> Derivation | None:
+    """The derivation read back from `path`, or derived and kept there; None where it cannot be derived."""
     found = cache.load_bytes(path, digest)
     if found is not None:
-        derivation = pickle.loads(found)  # noqa: S301 - signed by the user's own key, verified above
-    else:
-        try:
-            derivation = derive(system.view, system.joints)
-        except Exception:  # noqa: BLE001 - the symbolic source says why where it is made, as without a cache
-            return
-        cache.store_bytes(path, digest, pickle.dumps(derivation))
-    with _LOCK:
-        _DERIVED.get(key, lambda: derivation)
-        _KEPT.get(key, lambda: (where, digest))
+        kept: Derivation = pickle.loads(found)  # noqa: S301 - signed by the user's own key, verified above
+        return kept
+    try:
+        derivation = derive(system.view, system.joints)
+    except Exception:  # noqa: BLE001 - no derivation: none kept
+        return None
+    cache.store_bytes(path, digest, pickle.dumps(derivation))
+    return derivation
 
 
 def _flat(d: Derivation, part: str) -> tuple[list[sp.Expr], Layout]:

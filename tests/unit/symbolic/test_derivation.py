@@ -413,7 +413,8 @@ def test_a_kept_derivation_is_read_back_not_derived_again(tmp_path, monkeypatch)
     from lagrange_xval.sources import symbolic
 
     system, store = load("double_pendulum_point"), Cache.at(tmp_path)
-    monkeypatch.setattr(symbolic, "_DERIVED", Memo(maxsize=4))
+    for memo in ("_DERIVED", "_CODE", "_KEPT"):  # as in a fresh process
+        monkeypatch.setattr(symbolic, memo, Memo(maxsize=4))
     symbolic.keep_derivation(system, store)
     first = symbolic.derivation_of(system)
     (entry,) = (tmp_path / "derive").glob("double_pendulum_point-derivation-*.npz")
