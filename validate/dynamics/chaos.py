@@ -51,7 +51,7 @@ import numpy as np
 from ..core.errors import unknown_name
 from ..handwritten.forms import accelerations_only
 from ..model.start import Scheme, Start
-from ..results.schema import Convergence, FreeRunCheck, MirrorVerdict, RoundOff
+from ..results.schema import Convergence, FreeRunCheck, MirrorCheck, MirrorVerdict, RoundOff
 from ..sources.base import Source, stepped
 from ..systems import System
 from .flow import DEFAULT_TOLERANCE as DEFAULT_TOLERANCE
@@ -64,7 +64,16 @@ from .flow import horizon_from_rounding as horizon_from_rounding
 from .flow import judge_free_run as judge_free_run
 from .flow import predictability_horizon as predictability_horizon
 from .flow import predicted_error, sample_at, transfer_norms
-from .integrate import DEFAULT_DT_OUT, DEFAULT_T_END, Trajectory, energy, initial_state, mujoco_trajectory, time_grid
+from .integrate import (
+    DEFAULT_DT_OUT,
+    DEFAULT_T_END,
+    Trajectory,
+    energy,
+    initial_state,
+    mujoco_trajectory,
+    time_grid,
+    wall_time_stop,
+)
 from .lyapunov import chaos_summary as chaos_summary
 from .lyapunov import lyapunov_exponent as lyapunov_exponent
 from .mirror import INTEGRATORS, lockstep, mirror_steps, mirror_trajectory, mujoco_steps
@@ -550,26 +559,13 @@ def _integrator_entry(
         ),
         "mirrors": {},
     }
+    horizon = entry["free_run"]["judge"]["horizon"]
     for engine in mirror_engines:
-        diff = np.abs(runs["mujoco"].q - runs[engine].q).max(axis=1)
         w = windows["mujoco"] - windows[engine]
         env_m = error_envelope(fl, window_errors=w, floor=floor, transfer=transfer)
-        # judged while the scheme's own error leaves the tolerance unreached (its free run's horizon), and
-        # no later than where the harness's wall-time budget stopped the mirror (no evidence about the
-        # derivation: a loaded machine, or a slow module, spends it)
-        until, stats = entry["free_run"]["judge"]["horizon"], runs[engine].stats
-        short = stats.get("status") == "stopped: budget"
-        if short:
-            until = min(until, stats["stopped_at"]) if until is not None else stats["stopped_at"]
-        entry["mirrors"][f"mujoco~{engine}"] = {
-            "max_difference": float(np.nanmax(diff)) if short else float(diff.max()),
-            "difference_at": sample_at(t, diff),
-            **_mirror_verdict(t, diff, w, env_m, ref, tolerance, limit, until),
-        }
-        if short:
-            entry["mirrors"][f"mujoco~{engine}"].update(status=stats["status"], judged_short=stats["reason"])
-        elif stats.get("status", "ok") != "ok":  # a mirror that diverged fails, with its reason
-            entry["mirrors"][f"mujoco~{engine}"].update(passed=False, status=stats["status"], reason=stats["reason"])
+        entry["mirrors"][f"mujoco~{engine}"] = _mirror_entry(
+            t, runs["mujoco"], runs[engine], w, env_m, ref, tolerance, limit, horizon
+        )
     entry["lockstep"] = lockstep(
         system,
         {k: sources[k] for k in ("mujoco", *mirror_engines)},
@@ -587,6 +583,36 @@ def _integrator_entry(
         "rate": _slope(t, e_run - e_ref),
     }
     return entry
+
+
+def _mirror_entry(
+    t: np.ndarray,
+    stepped: Trajectory,
+    mirror: Trajectory,
+    w: np.ndarray,
+    env: np.ndarray,
+    ref: Trajectory,
+    tolerance: float,
+    limit: float,
+    horizon: float | None,
+) -> MirrorCheck:
+    """MuJoCo's run against its mirror's: judged while the scheme's own error leaves the tolerance unreached
+    (`horizon`, its free run's), and no later than where the wall-time budget stopped the mirror (no
+    evidence about the derivation: `integrate.wall_time_stop`); a mirror that diverged or failed fails."""
+    diff = np.abs(stepped.q - mirror.q).max(axis=1)
+    stop = wall_time_stop(mirror.stats)
+    until = horizon if stop is None else stop if horizon is None else min(horizon, stop)
+    out: MirrorCheck = {
+        "max_difference": float(diff.max() if stop is None else np.nanmax(diff)),
+        "difference_at": sample_at(t, diff),
+        **_mirror_verdict(t, diff, w, env, ref, tolerance, limit, until),
+    }
+    status, reason = str(mirror.stats.get("status", "ok")), str(mirror.stats.get("reason", ""))
+    if stop is not None:
+        out.update({"status": status, "judged_short": reason})
+    elif status != "ok":
+        out.update({"passed": False, "status": status, "reason": reason})
+    return out
 
 
 NO_DAMPED_MIRROR = (

@@ -19,7 +19,7 @@ from ..results.stages import Clock, lap
 from ..sources.base import OneStateSource, Source, one_state
 from ..systems import System
 from . import estimate, experiments, fast, integrate, trust
-from .integrate import Trajectory
+from .integrate import Trajectory, wall_time_stop
 from .reference import reference_trajectory
 from .stagecache import cached_stage, states_digest
 
@@ -243,15 +243,13 @@ def judge_trajectories(traj: dict[str, Any], amplification: Floats | None, chaos
 
 def _wall_time_stop(run: dict[str, Any], end: float) -> float:
     """Where the harness's wall-time budget stopped the run, when before `end`: it is judged until then
-    (said on the run). That budget guards against a slow source; a loaded machine can spend it on a right
-    derivation, so its stop is no evidence (the evaluation budget's is: a wrong derivation spends it)."""
+    (said on the run; `integrate.wall_time_stop`)."""
     stats = run.get("stats") or {}
-    reason = str(stats.get("reason", ""))
-    if stats.get("status") != "stopped: budget" or not reason.startswith("stopped: budget: wall time"):
+    stop = wall_time_stop(stats)
+    if stop is None:
         return end
-    stop = float(stats["stopped_at"])
     if stop < end:
-        spent = reason.removeprefix("stopped: budget: ")
+        spent = str(stats["reason"]).removeprefix("stopped: budget: ")
         run["judged_because"] = f"the harness's wall-time budget ran out then ({spent})"
     return min(end, stop)
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any, TypedDict, TypeVar
 
@@ -110,6 +110,17 @@ def time_grid(t_end: float, dt_out: float) -> np.ndarray:
 # reported as a finding (Trajectory.stats["status"]), never raised.
 
 STATUSES = ("ok", "diverged", "stopped: budget", "failed")
+WALL_TIME_STOP = "stopped: budget: wall time"  # how a reason starts where the wall-time budget stopped a run
+
+
+def wall_time_stop(stats: Mapping[str, object]) -> float | None:
+    """Where the harness's wall-time budget stopped a run (s, its last good sample), or None. That budget
+    guards against a slow source; a loaded machine can spend it on a right derivation, so its stop is no
+    evidence about the equations (the evaluation budget's is: a wrong derivation spends it)."""
+    if stats.get("status") != "stopped: budget" or not str(stats.get("reason", "")).startswith(WALL_TIME_STOP):
+        return None
+    stop = stats["stopped_at"]
+    return float(stop) if isinstance(stop, int | float) else None
 
 
 @dataclass(frozen=True, kw_only=True)

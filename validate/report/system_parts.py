@@ -361,28 +361,11 @@ def _integrators_table(doc: Document, name: str, s: SystemResult, cx: ChaosStudy
         if "free_run" not in r:
             continue  # every integrator's entry has one (dynamics/chaos._integrator_entry)
         fr = r["free_run"]
-        judge = fr.get("judge", {})
         mirrors = r.get("mirrors", {})
         conv = r.get("convergence", {})
         energy = r.get("energy", {})
-        until = judge.get("judged_until")
-        same = same_run(s, iname, fr)
-        if same is not None:
-            verdict = run_verdict(same, s.get("trajectories") or {})
-            if isinstance(verdict, Mark):
-                verdict = Mark(verdict.state, f"{verdict.text} (the trajectory table's run)")
-        else:
-            why = f"its own error, propagated, reaches {sci(judge.get('tolerance'))} rad there"
-            verdict = judged_verdict(
-                judge.get("passed"), until, t_end, why, fr.get("max_error"), judge.get("tolerance")
-            )
-            if judge.get("passed") is True and until is not None and not (as_float(until) >= t_end):
-                short.append(
-                    f"MuJoCo {iname}: its own error per output interval (up to {sci(fr.get('max_window_error'))} "
-                    f"rad), propagated, reaches {sci(judge.get('tolerance'))} rad at {as_float(until):g} s, so its "
-                    f"free run is judged only until then; its whole-run error {sci(fr.get('max_error'))} rad is "
-                    "shown, not judged."
-                )
+        verdict, note = _free_run_verdict(s, iname, fr, t_end)
+        short += [note] if note else []
         rows.append(
             (
                 iname,
@@ -421,6 +404,29 @@ def _integrators_table(doc: Document, name: str, s: SystemResult, cx: ChaosStudy
     short += [note for iname, r in sorted(integ.items()) for note in mirror_notes(iname, r.get("mirrors", {}))]
     if short:
         doc.items(short)
+
+
+def _free_run_verdict(s: SystemResult, integrator: str, fr: FreeRunCheck, t_end: float) -> tuple[Mark | str, str]:
+    """A MuJoCo integrator's free run: its verdict (the trajectory table's, where it is that run), and why it
+    is judged short of the run where it is (else "")."""
+    same = same_run(s, integrator, fr)
+    if same is not None:
+        stated = run_verdict(same, s.get("trajectories") or {})
+        if isinstance(stated, Mark):
+            stated = Mark(stated.state, f"{stated.text} (the trajectory table's run)")
+        return stated, ""
+    judge = fr.get("judge", {})
+    until = judge.get("judged_until")
+    why = f"its own error, propagated, reaches {sci(judge.get('tolerance'))} rad there"
+    verdict = judged_verdict(judge.get("passed"), until, t_end, why, fr.get("max_error"), judge.get("tolerance"))
+    if not (judge.get("passed") is True and until is not None and not (as_float(until) >= t_end)):
+        return verdict, ""
+    return verdict, (
+        f"MuJoCo {integrator}: its own error per output interval (up to {sci(fr.get('max_window_error'))} "
+        f"rad), propagated, reaches {sci(judge.get('tolerance'))} rad at {as_float(until):g} s, so its "
+        f"free run is judged only until then; its whole-run error {sci(fr.get('max_error'))} rad is "
+        "shown, not judged."
+    )
 
 
 def _difference(mirrors: Mapping[str, MirrorCheck], pair: str) -> float | None:
