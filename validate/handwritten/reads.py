@@ -12,6 +12,7 @@ declaration: the model numbers a probe may move (each independently, at full pre
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
@@ -54,15 +55,14 @@ def hashable(params: DataclassInstance) -> DataclassInstance:
     cls = type(params)
     if cls.__hash__ is not None:
         return params
-    copy = object.__new__(cls)
-    copy.__dict__.update(params.__dict__)
-    copy.__class__ = _by_identity(cls)
-    return copy
+    kept = copy.copy(params)  # a slotted dataclass too
+    kept.__class__ = _by_identity(cls)
+    return kept
 
 
 def _by_identity(cls: type) -> type:
     """A subclass of `cls` hashed and compared as `object` is (named as `cls`, for messages)."""
-    namespace = {"__hash__": object.__hash__, "__eq__": object.__eq__, "__module__": cls.__module__}
+    namespace = {"__hash__": object.__hash__, "__eq__": object.__eq__, "__module__": cls.__module__, "__slots__": ()}
     return type(cls.__name__, (cls,), {**namespace, "__qualname__": cls.__qualname__})
 
 
