@@ -12,14 +12,24 @@ module writes its equations in them. Each converted joint is listed in the align
 
 An unnamed body or joint is named by MuJoCo's own id (`body#3`, `joint#5`), shown as such.
 
+A `<keyframe>`'s `<key qpos qvel>` are converted with the coordinates (from MuJoCo's compiled keys): a
+free joint's position and quaternion become the slides' displacement in the body's frame and the
+Z-Y-X angles of its turn from the body's orientation, its world linear and body angular velocity the
+slides' and angles' rates; a ball joint's quaternion and angular velocity likewise.
+
 Joint names: `<name>_tx`, `_ty`, `_tz`, `_rz`, `_ry`, `_rx` (an unnamed free joint is called `free#<k>`,
 a ball `ball#<k>`, by its order in the file).
 """
 
 from __future__ import annotations
 
+import functools
+import math
 import xml.etree.ElementTree as ET
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
+
+if TYPE_CHECKING:
+    import numpy as np
 
 SLIDES = (("tx", "1 0 0"), ("ty", "0 1 0"), ("tz", "0 0 1"))
 HINGES = (("rz", "0 0 1"), ("ry", "0 1 0"), ("rx", "1 0 0"))
@@ -114,4 +124,84 @@ def convert(text: str) -> Converted:
             )
     if not lines:
         return Converted(text, [])
+    if sum(count.values()):
+        _convert_keys(root, text)
     return Converted(ET.tostring(root, encoding="unicode"), lines, frozenset(middle))
+
+
+def _convert_keys(root: ET.Element, text: str) -> None:
+    """Each `<key>`'s qpos and qvel (those it states) in the converted coordinates (module docstring)."""
+    keys = [key for frame in root.findall("keyframe") for key in frame.findall("key")]
+    if not any(key.get("qpos") or key.get("qvel") for key in keys):
+        return
+    converted = _key_values(text)
+    if converted is None or len(converted) != len(keys):
+        return  # MuJoCo does not compile the model: its own error says why, at the compile that follows
+    for key, (qpos, qvel) in zip(keys, converted, strict=True):
+        for attribute, values in (("qpos", qpos), ("qvel", qvel)):
+            if key.get(attribute):
+                key.set(attribute, " ".join(repr(float(x)) for x in values))
+
+
+@functools.lru_cache(maxsize=8)
+def _key_values(text: str) -> tuple[tuple[tuple[float, ...], tuple[float, ...]], ...] | None:
+    """(qpos, qvel) of each key of the (self-contained) MJCF `text` in the converted coordinates; None
+    where MuJoCo does not compile it."""
+    import mujoco
+    import numpy as np
+
+    try:
+        m = mujoco.MjModel.from_xml_string(text)
+    except Exception:  # mujoco raises ValueError with the model's error
+        return None
+    out = []
+    for k in range(m.nkey):
+        qpos, qvel = [], []
+        for j in range(m.njnt):
+            a, d, kind = int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j]), int(m.jnt_type[j])
+            if kind == int(mujoco.mjtJoint.mjJNT_FREE):
+                b = int(m.jnt_bodyid[j])
+                base = _rotation(m.body_quat[b])
+                turn = base.T @ _rotation(m.key_qpos[k, a + 3 : a + 7])
+                qpos += [*(base.T @ (m.key_qpos[k, a : a + 3] - m.body_pos[b])), *_angles(turn)]
+                qvel += [*(base.T @ m.key_qvel[k, d : d + 3]), *_rates(turn, m.key_qvel[k, d + 3 : d + 6])]
+            elif kind == int(mujoco.mjtJoint.mjJNT_BALL):
+                turn = _rotation(m.key_qpos[k, a : a + 4])
+                qpos += _angles(turn)
+                qvel += _rates(turn, m.key_qvel[k, d : d + 3])
+            else:
+                qpos.append(float(m.key_qpos[k, a]))
+                qvel.append(float(m.key_qvel[k, d]))
+        out.append((tuple(map(float, qpos)), tuple(map(float, np.asarray(qvel, dtype=float)))))
+    return tuple(out)
+
+
+def _rotation(quat: np.ndarray) -> np.ndarray:
+    """The rotation matrix of a MuJoCo quaternion (w, x, y, z), normalized as MuJoCo normalizes it."""
+    import numpy as np
+
+    w, x, y, z = np.asarray(quat, dtype=float) / np.linalg.norm(quat)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def _angles(turn: np.ndarray) -> list[float]:
+    """(rz, ry, rx) with turn = Rz(rz) Ry(ry) Rx(rx): the hinges' angles, intrinsic Z-Y-X."""
+    ry = math.asin(max(-1.0, min(1.0, -float(turn[2, 0]))))
+    return [math.atan2(float(turn[1, 0]), float(turn[0, 0])), ry, math.atan2(float(turn[2, 1]), float(turn[2, 2]))]
+
+
+def _rates(turn: np.ndarray, omega: np.ndarray) -> list[float]:
+    """The hinges' rates whose angular velocity, in the turned (child) frame, is `omega`."""
+    import numpy as np
+
+    _, ry, rx = _angles(turn)
+    cx, sx, cy, sy = math.cos(rx), math.sin(rx), math.cos(ry), math.sin(ry)
+    # columns: the z, y and x hinges' axes in the child frame (Rx^T Ry^T e_z, Rx^T e_y, e_x)
+    axes = np.array([[-sy, 0.0, 1.0], [sx * cy, cx, 0.0], [cx * cy, -sx, 0.0]])
+    return [float(x) for x in np.linalg.solve(axes, np.asarray(omega, dtype=float))]
