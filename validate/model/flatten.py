@@ -81,7 +81,7 @@ def _include_path(name: str, folder: Path, here: Path, source: str) -> Path:
         raise HarnessError(f'{source}: an <include> without a file; give it file="...".')
     candidates = [Path(name)] if os.path.isabs(name) else [folder / name, here / name]
     for candidate in candidates:
-        if candidate.is_file():
+        if candidate.exists():
             return Path(os.path.normpath(candidate))
     looked = " or ".join(str(Path(os.path.normpath(c))) for c in dict.fromkeys(candidates))
     raise HarnessError(
