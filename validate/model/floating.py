@@ -45,20 +45,65 @@ def _unnamed(text: str) -> bool:
     return any("name=" not in tag for tag in re.findall(r"<(?:body|joint|freejoint)\b[^>]*>", text))
 
 
-def _kind(element: ET.Element) -> str | None:
+def _kind(element: ET.Element, stated: dict[str, str]) -> str | None:
+    """ "free" or "ball" for such a joint (its type stated by itself or its default class), else None."""
     if element.tag == "freejoint":
         return "free"
-    if element.tag == "joint" and element.get("type") in ("free", "ball"):
-        return element.get("type")
+    if element.tag == "joint" and stated.get("type") in ("free", "ball"):
+        return stated.get("type")
     return None
 
 
-def _parts(element: ET.Element, kind: str, name: str) -> list[ET.Element]:
-    """The slides and hinges that stand for one free or ball joint."""
+def _joint_defaults(root: ET.Element) -> dict[str, tuple[dict[str, str], str | None]]:
+    """class -> (the `<joint>` attributes its `<default>` states, its parent class); the top is "main"."""
+    out: dict[str, tuple[dict[str, str], str | None]] = {}
+
+    def walk(default: ET.Element, parent: str | None) -> None:
+        name = default.get("class", "main")
+        joint = default.find("joint")
+        out[name] = (dict(joint.attrib) if joint is not None else {}, parent)
+        for child in default.findall("default"):
+            walk(child, name)
+
+    for top in root.findall("default"):
+        walk(top, None)
+    return out
+
+
+def _stated(root: ET.Element) -> dict[int, dict[str, str]]:
+    """id(element) -> the attributes of each `<joint>` in the bodies, its default classes' under its own
+    (its `class`, else the nearest `childclass` around it, else the top class), as MuJoCo reads them."""
+    classes, out = _joint_defaults(root), {}
+
+    def chain(name: str) -> dict[str, str]:
+        attributes: dict[str, str] = {}
+        seen: set[str] = set()
+        while name in classes and name not in seen:
+            seen.add(name)
+            attributes = classes[name][0] | attributes
+            name = classes[name][1] or ""
+        return attributes
+
+    def walk(node: ET.Element, active: str) -> None:
+        for child in node:
+            if child.tag == "joint":
+                out[id(child)] = chain(child.get("class", active)) | dict(child.attrib)
+            elif child.tag in ("body", "frame", "replicate"):
+                walk(child, child.get("childclass", active))
+
+    for world in root.findall("worldbody"):
+        walk(world, "main")
+    return out
+
+
+def _parts(element: ET.Element, kind: str, name: str, stated: dict[str, str]) -> list[ET.Element]:
+    """The slides and hinges that stand for one free or ball joint (`stated`: its attributes, its
+    default classes' included; a `<freejoint>` takes none from a class)."""
     # What the joint states, and zero for the rest: a default class's joint attributes (armature, ref,
     # a range) must not reach the parts where MuJoCo did not give them to the free joint.
-    kept = {k: element.get(k, "0") for k in ZEROED} | {k: v for k, v in element.attrib.items() if k in KEPT}
-    pos = {"pos": element.get("pos", "0 0 0")} if kind == "ball" else {}
+    stated = dict(element.attrib) if element.tag == "freejoint" else stated
+    kept = {k: stated.get(k, "0") for k in ZEROED} | {k: v for k, v in stated.items() if k in KEPT}
+    pos = {"pos": stated.get("pos", "0 0 0")} if kind == "ball" else {}
     out = []
     for suffix, axis in (SLIDES if kind == "free" else ()) + HINGES:
         kind_of = "slide" if suffix.startswith("t") else "hinge"
@@ -105,14 +150,15 @@ def convert(text: str) -> Converted:
     lines: list[str] = _name_unnamed(root)
     count = {"free": 0, "ball": 0}
     middle: set[str] = set()
+    stated = _stated(root)
     for body in root.iter("body"):
         for i, element in reversed(list(enumerate(body))):
-            kind = _kind(element)
+            kind = _kind(element, stated.get(id(element), {}))
             if kind is None:
                 continue
             count[kind] += 1
             name = element.get("name") or f"{kind}#{count[kind]}"
-            parts = _parts(element, kind, name)
+            parts = _parts(element, kind, name, stated.get(id(element), {}))
             middle.add(f"{name}_ry")
             body.remove(element)
             for k, part in enumerate(parts):

@@ -256,3 +256,17 @@ def test_a_non_numeric_mechanical_reduction_does_not_refuse_the_file(tmp_path: P
     assert any("transmission 't1' not read: its mechanicalReduction '${reduction}'" in a for a in system.alignments)
     numeric = System.model_only(_write(tmp_path / "numeric.urdf", URDF.format(lead="", reduction="50")))
     assert numeric.mujoco_model().nu == 1 and numeric.mujoco_model().actuator_gear[0, 0] == 50
+
+
+def test_a_ball_joint_whose_type_is_a_default_class_is_converted(tmp_path: Path) -> None:
+    """`<default><joint type="ball"/></default>`: MuJoCo's ball joint, compared in three hinges as one
+    whose type it states (it was refused as a ball joint)."""
+    path = _write(
+        tmp_path / "ball.xml",
+        '<mujoco model="ball"><default><default class="swing"><joint type="ball" pos="0 0 0.1"/></default></default>'
+        '<worldbody><body name="b" childclass="swing"><joint name="s"/>'
+        '<inertial pos="0 0 -0.3" mass="1" diaginertia="0.01 0.02 0.03"/></body></worldbody></mujoco>',
+    )
+    system = System.model_only(path)
+    assert system.coordinates == ("s_rz", "s_ry", "s_rx") and system.nv == 3
+    np.testing.assert_allclose(system.mujoco_model().jnt_pos, [[0, 0, 0.1]] * 3)
