@@ -36,6 +36,7 @@ if TYPE_CHECKING:  # MuJoCo is imported when a model with includes or asset file
 ASSETS = {"mesh": "meshes", "hfield": "hfields", "skin": "skins", "texture": "textures"}  # tag: MjSpec list
 CUBE = ("fileright", "fileleft", "fileup", "filedown", "filefront", "fileback")  # MjsTexture.cubefiles' order
 FOLDERS = ("meshdir", "texturedir", "assetdir")
+MERGED = ("default", "asset", "worldbody", "contact", "equality", "tendon", "actuator", "sensor", "keyframe", "custom")
 
 
 def flattened(path: Path, text: str) -> str:
@@ -53,7 +54,31 @@ def flattened(path: Path, text: str) -> str:
     for compiler in root.iter("compiler"):
         for attribute in FOLDERS:
             compiler.attrib.pop(attribute, None)
+    if included:
+        _merge_sections(root)
     return ET.tostring(root, encoding="unicode")
+
+
+def _merge_sections(root: ET.Element) -> None:
+    """The model's repeated top-level sections (a `<worldbody>` of the scene and one of each included
+    file, say) as one each, their children in order: MuJoCo merges them so, and Pinocchio's parser reads
+    the first `<worldbody>` (twice, where there are two) and the first `<default>` only."""
+    for tag in MERGED:
+        sections = root.findall(tag)
+        if len(sections) < 2:
+            continue
+        first, later = sections[0], sections[1:]
+        if tag == "default" and not _mergeable(first, later):
+            continue
+        for section in later:
+            first.extend(list(section))
+            root.remove(section)
+
+
+def _mergeable(first: ET.Element, later: list[ET.Element]) -> bool:
+    """Whether top-level `<default>`s merge into one without two defaults of one element in the top class."""
+    tags = [c.tag for d in (first, *later) for c in d if c.tag != "default"]
+    return len(tags) == len(set(tags)) and all(d.get("class", "main") == "main" for d in (first, *later))
 
 
 def _expand(node: ET.Element, folder: Path, here: Path, source: str, sizes: list[int]) -> int:

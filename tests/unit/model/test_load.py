@@ -270,3 +270,24 @@ def test_a_ball_joint_whose_type_is_a_default_class_is_converted(tmp_path: Path)
     system = System.model_only(path)
     assert system.coordinates == ("s_rz", "s_ry", "s_rx") and system.nv == 3
     np.testing.assert_allclose(system.mujoco_model().jnt_pos, [[0, 0, 0.1]] * 3)
+
+
+def test_an_included_worldbody_is_one_with_the_scenes_for_every_reader(tmp_path: Path) -> None:
+    """A scene whose floor is in its own <worldbody> and whose robot is in an included file's: MuJoCo
+    merges the sections; so does the text every reader gets (Pinocchio's parser read the first twice)."""
+    from lagrange_xval.sources.pinocchio import build_model
+
+    _write(
+        tmp_path / "robot.xml",
+        '<mujoco><default><joint damping="0.2"/></default><worldbody><body name="a"><joint name="j" axis="0 1 0"/>'
+        '<inertial pos="0 0 -0.3" mass="1" diaginertia="0.01 0.02 0.03"/></body></worldbody></mujoco>',
+    )
+    path = _write(
+        tmp_path / "scene.xml",
+        '<mujoco model="scene"><include file="robot.xml"/><default><geom rgba="1 0 0 1"/></default>'
+        '<worldbody><geom name="floor" type="plane" size="1 1 0.1"/></worldbody></mujoco>',
+    )
+    text = model_file(path)[1]
+    assert text.count("<worldbody") == 1 and text.count("<default") == 1
+    system = System.model_only(path)
+    assert build_model(system).nv == system.nv == 1 and system.mujoco_model().dof_damping[0] == 0.2
