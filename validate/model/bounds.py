@@ -4,9 +4,9 @@ Before any engine reads a model (MJCF or URDF), its text is checked (`check_text
 
 - no DOCTYPE: a model needs no entities, and entities are how an XML file expands itself (the billion
   laughs) or reads another file (XXE);
-- every MJCF `<include file=...>` a relative path inside the model's folder (an absolute path, or one
-  that leaves the folder, would make the model read any file the user can), each included file a
-  regular file and all of them together within MAX_MODEL_BYTES;
+- each file an MJCF `<include>` reads (wherever MuJoCo accepts it: validate/model/flatten.py) a regular
+  UTF-8 file without DOCTYPE, at most MAX_INCLUDES of them, the model and its includes together within
+  MAX_MODEL_BYTES;
 - at most MAX_JOINTS joints and MAX_BODIES bodies (MJCF: joints and bodies in the bodies' tree, each
   `<replicate count=n>` multiplying what it holds; URDF: links, and joints that are not fixed). A
   10,000-joint MJCF took a run to 3.7 GiB and `unexpected MemoryError`.
@@ -21,15 +21,12 @@ the field and the element.
 from __future__ import annotations
 
 import math
-import os
 import re
 import xml.etree.ElementTree as ET
 from collections.abc import Iterable
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..core.errors import HarnessError, shown
-from ..core.inputs import regular_file
 
 if TYPE_CHECKING:  # MuJoCo is imported when a model is first checked
     import mujoco
@@ -42,16 +39,16 @@ MAX_MAGNITUDE = 1e100  # past it, products of the model's numbers overflow a dou
 _DOCTYPE = re.compile(r"<!\s*(DOCTYPE|ENTITY)", re.IGNORECASE)
 
 
-def check_text(text: str, source: str, folder: Path | None) -> None:
-    """Refuses, on one line, a model text with a DOCTYPE, an include outside `folder` (None: text with
-    no folder of its own, where any include is refused), or more joints or bodies than the limits."""
-    _no_doctype(text, source)
-    root = _parse(text, source)
+def check_text(text: str, source: str) -> None:
+    """Refuses, on one line, a model text with a DOCTYPE or more joints or bodies than the limits (an
+    MJCF's includes expanded first: validate/model/flatten.py)."""
+    no_doctype(text, source)
+    root = parse(text, source)
     if root.tag == "robot":  # URDF
         joints = sum(1 for j in root.iter("joint") if j.get("type", "") != "fixed")
         bodies = sum(1 for _ in root.iter("link"))
     else:
-        joints, bodies = _mjcf_counts(root, source, folder, [len(text.encode())])
+        joints, bodies = _mjcf_counts(root, source)
     if joints > MAX_JOINTS or bodies > MAX_BODIES:
         raise HarnessError(
             f"{source}: {joints:,} joints and {bodies:,} bodies; a model may have at most {MAX_JOINTS} joints "
@@ -59,7 +56,8 @@ def check_text(text: str, source: str, folder: Path | None) -> None:
         )
 
 
-def _no_doctype(text: str, source: str) -> None:
+def no_doctype(text: str, source: str) -> None:
+    """Refuses a text that declares a DOCTYPE or an entity (before any XML parser reads it)."""
     found = _DOCTYPE.search(text)
     if found:
         raise HarnessError(
@@ -68,16 +66,16 @@ def _no_doctype(text: str, source: str) -> None:
         )
 
 
-def _parse(text: str, source: str) -> ET.Element:
+def parse(text: str, source: str) -> ET.Element:
+    """The root element of a model text; not well-formed XML is one line."""
     try:
         return ET.fromstring(text)
     except ET.ParseError as exc:
         raise HarnessError(f"{source}: not well-formed XML ({exc}).") from None
 
 
-def _mjcf_counts(root: ET.Element, source: str, folder: Path | None, sizes: list[int]) -> tuple[int, int]:
-    """(joints, bodies) of an MJCF tree and the files it includes, `<replicate>` counts multiplied in;
-    `sizes`: the bytes read so far (the model first), bounded by MAX_MODEL_BYTES."""
+def _mjcf_counts(root: ET.Element, source: str) -> tuple[int, int]:
+    """(joints, bodies) of an MJCF tree, `<replicate>` counts multiplied in."""
     joints = bodies = 0
     stack: list[tuple[ET.Element, str, int]] = [(root, "", 1)]
     while stack:
@@ -90,9 +88,6 @@ def _mjcf_counts(root: ET.Element, source: str, folder: Path | None, sizes: list
             joints += times
         elif node.tag == "body":
             bodies += times
-        elif node.tag == "include":
-            j, b = _mjcf_counts(_include(node, source, folder, sizes), source, folder, sizes)
-            joints, bodies = joints + times * j, bodies + times * b
         stack += [(child, node.tag, times) for child in node]
     return joints, bodies
 
@@ -102,30 +97,6 @@ def _count(node: ET.Element, source: str) -> int:
     if not text.isdigit():
         raise HarnessError(f"{source}: <replicate count={shown(text, 40)!r}>: the count must be a whole number.")
     return int(text)
-
-
-def _include(node: ET.Element, source: str, folder: Path | None, sizes: list[int]) -> ET.Element:
-    """The root of the file an `<include>` names, if it is a relative path inside `folder`."""
-    name = node.get("file", "")
-    shown_name = shown(name, 200)
-    if folder is None or not name or os.path.isabs(name):
-        raise HarnessError(
-            f'{source}: <include file="{shown_name}">: an include must be a relative path inside the model\'s '
-            "folder (an absolute path would make the model read any file)."
-        )
-    path = (folder / name).resolve()
-    if not path.is_relative_to(folder.resolve()):
-        raise HarnessError(f'{source}: <include file="{shown_name}"> leaves the model\'s folder; keep it inside.')
-    if len(sizes) > MAX_INCLUDES:
-        raise HarnessError(f"{source}: more than {MAX_INCLUDES} includes (one including itself?).")
-    data = regular_file(path, "included model file", max_bytes=MAX_MODEL_BYTES - sum(sizes))
-    sizes.append(len(data))
-    try:
-        text = data.decode()
-    except UnicodeDecodeError:
-        raise HarnessError(f"{source}: the included {shown_name} is not UTF-8 text.") from None
-    _no_doctype(text, f"{source} (included {shown_name})")
-    return _parse(text, f"{source} (included {shown_name})")
 
 
 MAX_NAME_CHARS = 100

@@ -1,6 +1,10 @@
-"""A model file as the engines read it: the file's format and text, the MJCF text every reader parses
-(overrides applied, free and ball joints as slides and hinges, includes made absolute), and MuJoCo's
-compiled model of it, bounded before compiling and its numbers checked after (model/bounds.py)."""
+"""A model file as the engines read it: the file's format and text (an MJCF's includes expanded and its
+asset files absolute, as `MjModel.from_xml_path` reads it: model/flatten.py), the MJCF text every reader
+parses (overrides applied, free and ball joints as slides and hinges), and MuJoCo's compiled model of it,
+bounded before compiling and its numbers checked after (model/bounds.py).
+
+`model_file` is the one door: check, run, audit, derive, new, the probes and the overrides all read a
+model file through it, so every reader gets the model as from the file's own path."""
 
 from __future__ import annotations
 
@@ -20,20 +24,24 @@ MAX_MJCF_BYTES = 16 * 2**20  # the models of the notes are ~3 kB
 
 
 def model_file(path: Path) -> tuple[str, str]:
-    """(root element, text) of a model file: <mujoco> (MJCF) or <robot> (URDF); anything else is a
-    one-line error."""
-    import xml.etree.ElementTree as ET
+    """(root element, text) of a model file: <mujoco> (MJCF, flattened: model/flatten.py) or <robot>
+    (URDF); anything else is a one-line error. Whitespace before the XML declaration and a byte-order
+    mark are dropped, as MuJoCo's and urdfdom's parsers (tinyxml2) drop them."""
+    from .flatten import flattened
 
     try:
-        text = regular_file(path, "model file", max_bytes=MAX_MJCF_BYTES).decode()
-        bounds.check_text(text, path.name, path.resolve().parent)  # before any parse: DOCTYPE, includes, size
-        root = ET.fromstring(text).tag
-    except (ET.ParseError, UnicodeDecodeError) as exc:
+        text = regular_file(path, "model file", max_bytes=MAX_MJCF_BYTES).decode("utf-8-sig").lstrip()
+    except UnicodeDecodeError as exc:
         raise HarnessError(f"{path.name}: not well-formed XML ({exc}).") from None
+    bounds.no_doctype(text, path.name)  # before any parse: DOCTYPE
+    root = bounds.parse(text, path.name).tag
     if root not in ("mujoco", urdf.ROOT):
         raise HarnessError(
             f"{path.name}: not a model file (root element <{root}>, expected <mujoco> for MJCF or <robot> for URDF)."
         )
+    if root == "mujoco":
+        text = flattened(path, text)
+    bounds.check_text(text, path.name)  # sizes, joints and bodies (an MJCF's includes expanded)
     return root, text
 
 
@@ -57,20 +65,7 @@ def mjcf_text(path: Path, overrides: tuple[tuple[str, float], ...] = (), text: s
     text = floating.convert(text)[0]  # free and ball joints as slides and hinges (model/floating.py)
     if overrides:
         text = apply_overrides(text, overrides)
-    return _absolute_includes(text, path.resolve().parent)
-
-
-def _absolute_includes(text: str, folder: Path) -> str:
-    """Relative `<include file=...>` resolved against the model's folder: the engines parse the text,
-    which has no folder of its own, and would otherwise read them from the working directory."""
-    import re
-    from xml.sax.saxutils import quoteattr
-
-    def absolute(match: re.Match[str]) -> str:
-        name = match.group(3)
-        return match.group(1) + quoteattr(name if Path(name).is_absolute() else str(folder / name))
-
-    return re.sub(r"(<include\b[^>]*?\bfile\s*=\s*)([\"'])(.*?)\2", absolute, text)
+    return text
 
 
 def _ignore_warning(message: str) -> None:
@@ -110,5 +105,24 @@ def compile_mjcf(path: Path, overrides: tuple[tuple[str, float], ...] = (), text
         model = mujoco.MjModel.from_xml_string(text)
     except Exception as exc:  # mujoco raises ValueError with a multi-line message
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        if "Error opening file" in first:
+            _loads_from_its_path(path, first)
         raise HarnessError(f"{path.name}: not a valid MJCF model: {first}") from None
     return bounds.check_numbers(model, path.name)
+
+
+def _loads_from_its_path(path: Path, first: str) -> None:
+    """Refuses, as the harness's own fault, a missing file where MuJoCo loads the model from its path:
+    a refusal for a missing file is the model's only where `MjModel.from_xml_path` fails too."""
+    import os
+
+    import mujoco
+
+    try:
+        mujoco.MjModel.from_xml_path(os.path.abspath(path))
+    except Exception:  # MuJoCo cannot open it either: the model's own missing file
+        return
+    raise HarnessError(
+        f"{path.name}: MuJoCo loads the model from its path, but not the text the harness made of it ({first}): "
+        "a bug of the harness; please report it with the files."
+    )

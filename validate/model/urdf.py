@@ -99,14 +99,39 @@ def transmissions(text: str, source: str) -> list[Transmission]:
         joints, actuators = tr.findall("joint"), tr.findall("actuator")
         if len(joints) != 1 or len(actuators) != 1:
             continue
-        reduction = actuators[0].findtext("mechanicalReduction") or tr.findtext("mechanicalReduction") or "1"
-        try:
-            gear = float(reduction)
-        except ValueError:
-            raise HarnessError(
-                f"{source}: transmission '{name}': mechanicalReduction {reduction!r} is not a number."
-            ) from None
+        gear = _reduction(tr)
+        if gear is None:
+            continue  # not read (`unread_transmissions`): a field no check uses never refuses the file
         out.append(Transmission(actuators[0].get("name") or name, joints[0].get("name", ""), gear))
+    return out
+
+
+def _reduction(tr: ET.Element) -> float | None:
+    """A one-joint transmission's mechanicalReduction (1 where it states none), None where it is not a
+    finite number: urdfdom reads no transmission, and MuJoCo's reader ignores them."""
+    import math
+
+    actuator = tr.find("actuator")
+    found = actuator.findtext("mechanicalReduction") if actuator is not None else None
+    text = (found or tr.findtext("mechanicalReduction") or "1").strip()
+    try:
+        gear = float(text)
+    except ValueError:
+        return None
+    return gear if math.isfinite(gear) else None
+
+
+def unread_transmissions(text: str, source: str) -> list[str]:
+    """One line per one-joint transmission whose mechanicalReduction is not a number: no motor is made
+    of it (a model-only check uses none; an input through it is then not found, by name)."""
+    out = []
+    for tr in _root(text, source).iter("transmission"):
+        if len(tr.findall("joint")) == 1 and len(tr.findall("actuator")) == 1 and _reduction(tr) is None:
+            said = (tr.findtext("actuator/mechanicalReduction") or tr.findtext("mechanicalReduction") or "").strip()
+            out.append(
+                f"transmission '{tr.get('name', '?')}' not read: its mechanicalReduction {said[:40]!r} is not a "
+                "number (no motor made of it)"
+            )
     return out
 
 
@@ -290,7 +315,7 @@ def alignments(text: str, source: str) -> list[str]:
             out.append(
                 f"transmission of '{tr.actuator}' on joint '{tr.joint}' made a MuJoCo motor{called}, gear {tr.gear:g}"
             )
-    out += coupled_transmissions(text, source)
+    out += coupled_transmissions(text, source) + unread_transmissions(text, source)
     out.append(
         "not in URDF, MuJoCo's defaults used: gravity (0, 0, -9.81) m/s^2 (copied into Pinocchio), timestep "
         "0.002 s, Euler integrator, no armature, no springs"

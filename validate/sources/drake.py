@@ -35,6 +35,7 @@ from ..core.errors import HarnessError
 from ..model.modelview import names
 from ..systems import System
 from .base import Kinematics
+from .drakeparse import abort_line
 
 INSTALL = "pip install 'lagrange-xval[drake]' (requirements.lock pins drake)"
 RTOL = 1e-12  # a value Drake read equals the model's when within this fraction of its size
@@ -73,6 +74,8 @@ def parse(system: System) -> tuple[Any, list[str]]:
     named = [] if system.reads_urdf else _named(text, system.name)
     text = named[0] if named else text
     text, dropped = _unconstrained(text, system.reads_urdf)
+    if died := abort_line(text, kind):  # Drake's parser would end the process (sources/drakeparse.py)
+        raise HarnessError(f"{system.mjcf.name}: Drake cannot read it: {died}; likely an <inertial> with zero mass")
     log, handler = logging.getLogger("drake"), _Collect()
     log.addHandler(handler)
     propagate, log.propagate = log.propagate, False

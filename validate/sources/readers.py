@@ -31,6 +31,7 @@ from ..core.arrays import Vector
 from ..core.errors import HarnessError
 from ..model.meaning import Inertial, JointRead, Reading, composite
 from ..model.urdf import without_geometry
+from .drakeparse import abort_line
 
 if TYPE_CHECKING:  # each library is imported when its reader runs
     import mujoco
@@ -406,6 +407,8 @@ def drake_plant(path: Path, text: str, fmt: str) -> tuple[Any, list[str]]:
     log.addHandler(handler)
     propagate, log.propagate = log.propagate, False
     try:
+        if died := abort_line(_model_text(text, fmt), "urdf" if fmt == "urdf" else "xml"):
+            raise HarnessError(f"{path.name}: Drake cannot read it: {died}; likely an <inertial> with zero mass")
         if fmt == "urdf":
             Parser(plant).AddModelsFromString(_model_text(text, fmt), "urdf")
         else:

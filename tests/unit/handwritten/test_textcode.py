@@ -150,7 +150,7 @@ def _repository_model(case: str, folder: Path) -> str:
         "malformed": lambda: text[:300],
         "entity-bomb": lambda: BOMB + text[head:].replace("<mujoco", '<mujoco model="&h;"', 1),
         "xxe": lambda: XXE + text[head:].replace("<mujoco", '<mujoco model="&x;"', 1),
-        "absolute-include": lambda: text.replace("<worldbody>", f'<include file="{folder / "inc.xml"}"/><worldbody>'),
+        "missing-include": lambda: text.replace("<worldbody>", f'<include file="{folder / "gone.xml"}"/><worldbody>'),
         "urdf": lambda: (ROOT / "examples/urdf/spatial_arm.urdf").read_text(),
     }[case]()
 
@@ -161,16 +161,16 @@ def _repository_model(case: str, folder: Path) -> str:
         ("malformed", r"simple_pendulum.xml: not well-formed XML"),
         ("entity-bomb", r"simple_pendulum.xml: declares <!DOCTYPE \.\.\.>"),
         ("xxe", r"simple_pendulum.xml: declares <!DOCTYPE \.\.\.>"),
-        ("absolute-include", r"an include must be a relative path inside the model's folder"),
+        ("missing-include", r'<include file="[^"]*gone.xml">: no such file'),
         ("urdf", r"models/simple_pendulum.xml: a repository model is MJCF \(root <mujoco>\), this one is <robot>"),
     ],
-    ids=["malformed", "entity-bomb", "xxe", "absolute-include", "urdf"],
+    ids=["malformed", "entity-bomb", "xxe", "missing-include", "urdf"],
 )
 def test_check_of_a_repository_system_whose_model_cannot_be_read_is_one_line(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, case: str, message: str
 ) -> None:
     """`check SYSTEM` on a repository model that is malformed, holds an entity bomb or an external entity,
-    includes a file by absolute path, or is a URDF: status 2 and one error line naming the cause (not a
+    includes a file that does not exist, or is a URDF: status 2 and one error line naming the cause (not a
     failing verdict, status 1)."""
     from lagrange_xval.cli import main
 
