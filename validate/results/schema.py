@@ -18,9 +18,15 @@ from .stages import Stage
 # it; the README and the report say it in these words).
 SCALED_DEFINITION = (
     "`scaled` is the largest `|a - b|` over the states divided by the largest magnitude the quantity takes "
-    "over the states (the larger of `|a|` and `|b|`, over every entry and every state); forces (`bias`, "
-    "passive forces, `tau_inverse`) by at least max ||M|| max |v|^2, a physical scale that does not vanish "
-    "where the velocity terms do (gimbal lock)"
+    "over the states (the larger of `|a|` and `|b|`, over every entry and every state), and at least the "
+    "model's own physical scale of it, so that a quantity zero for every source is judged against the model, "
+    "not its own rounding (with m the moving bodies' mass, L their reach and a = |g| + L max |v|^2: m a L for "
+    "energies and forces, a / L for accelerations, m L^2 for M, L for positions; for a slide coordinate m a, "
+    "a and m); forces (`bias`, passive forces, `tau_inverse`) by at least max ||M|| max |v|^2, a physical scale "
+    "that does not vanish where the velocity terms do (gimbal lock); `V` is compared up to a constant (the "
+    "zero of the potential energy, and the bodies welded to the world, which one reader counts and another "
+    "does not, change no equation of motion): `|a - b - c|` with c the midrange of a - b over the states "
+    "(reported as `constant`), each magnitude taken about its own midrange"
 )
 
 
@@ -63,6 +69,7 @@ class ComparisonRow(TypedDict):
     passed: bool
     worst_state: WorstState | None
     cond_max: NotRequired[float]
+    constant: NotRequired[float]  # V: the constant a - b was compared up to (SCALED_DEFINITION), J
 
 
 class TermRow(TypedDict):
@@ -84,6 +91,7 @@ class TermRow(TypedDict):
     parameters: NotRequired[str]
     error: NotRequired[str]  # a function that raised or returned nonsense
     cond_max: NotRequired[float]  # largest cond(M) over the states (solve-tier terms)
+    constant: NotRequired[float]  # the potential energy: the constant it was compared up to, J
 
 
 class Mismatch(TypedDict):

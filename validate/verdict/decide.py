@@ -156,14 +156,15 @@ def decide(
     lap(clock, "model checks")
     states = states if states is not None else compare.random_states(system, n=n_states, seed=seed)
     values = compare.evaluate(sources, states)  # evaluated once: the judges reuse the engines' values
-    point = compare.pointwise_result(values, states, seed=seed, tolerances=tolerances)
+    scales = compare.physical_scales(system, states)  # the model's floor under every scale
+    point = compare.pointwise_result(values, states, seed=seed, tolerances=tolerances, scales=scales)
     excluded = _misreaders(system, model, point)
     judged = Sources({n: s for n, s in sources.items() if n not in excluded})
     judged.skipped = getattr(sources, "skipped", {})
     if excluded:  # judged against the sources that agree with what the file means
         model = set_aside(model, excluded)
         kept = {n: v for n, v in values.items() if n not in excluded}
-        point = compare.pointwise_result(kept, states, seed=seed, tolerances=tolerances)
+        point = compare.pointwise_result(kept, states, seed=seed, tolerances=tolerances, scales=scales)
     lap(clock, "pointwise")
     if system.equations is None:
         return Decision(system, no_derivation(), model, point, states, sources, values, excluded=excluded)
