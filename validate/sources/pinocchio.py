@@ -1,6 +1,10 @@
 """Pinocchio as a source: CRBA, RNEA (non-linear effects), ABA on the chain built from the same MJCF
 or URDF (read natively by `buildModelFromXML`; validate/model/urdf.py says what is aligned).
 
+V is `computePotentialEnergy`: the bodies welded to the world are merged into the universe, whose
+inertia it does not count (MuJoCo and Drake do): a constant, and V is compared up to a constant
+(results.schema.SCALED_DEFINITION). T is `computeKineticEnergy`, the armature in it.
+
 Owns Pinocchio's quirks: `buildModelFromMJCF` ignores `<option gravity>` (the MuJoCo-compiled
 gravity is copied in) and joint damping (applied here as a generalized force, for URDF too), and its
 configuration vector is indexed by Pinocchio's joint order, mapped here by MJCF joint names.
@@ -112,9 +116,6 @@ class PinocchioSource:
                 f"Pinocchio sees {self.model.nv} degrees of freedom in {system.mjcf.name}; the equations have {n}."
             )
         self.joint_ids = joint_indices(self.model, system)
-        # Pinocchio 4.1's computeKineticEnergy disagrees with 1/2 v^T M v from its own CRBA where a joint
-        # is a composite (several joints in one body; 34% on gymnasium's ant): T from CRBA there.
-        self.composite = any(n.startswith(COMPOSITE) for n in self.model.names)
         missing = [j for j in system.joints if j not in self.joint_ids]
         if missing:
             raise HarnessError(f"Pinocchio's model of {system.mjcf.name} has no joint '{missing[0]}'.")
@@ -283,7 +284,7 @@ class PinocchioSource:
         return self._in_c(pin.rneaInParallel, self._qs(q), self._vs(v), a) - self.passive(q, v)
 
     def energies(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        out = self._per_state(self._qs(q), self._vs(v), poses=False, mass=self.composite)
+        out = self._per_state(self._qs(q), self._vs(v), poses=False)
         return out["T"], out["V"]
 
     def _per_state(self, qs: np.ndarray, vs: np.ndarray, *, poses: bool, mass: bool = False) -> dict[str, np.ndarray]:
@@ -308,12 +309,10 @@ class PinocchioSource:
                 oMi = placements[jid]
                 R[i, k] = oMi.rotation
                 p[i, k] = oMi.translation
-        # computeKineticEnergy sums the bodies' energies; a joint's armature (rotor inertia, in M through
-        # model.armature) adds its own: T = 1/2 v^T M v, as MuJoCo and Drake count it.
+        # Pinocchio 4's computeKineticEnergy is 1/2 v^T M v with the joints' armature (model.armature, on
+        # M's diagonal) already in it, composite joints too (several joints in one body): T as MuJoCo and
+        # Drake count it, the rotor inertia once (tests/unit/sources/test_pinocchio_energy.py).
         springs = 0.5 * self.stiffness @ (qs[self.qidx] - self.springref[:, None]) ** 2
-        kin = kin + 0.5 * np.asarray(model.armature) @ (vs * vs)
-        if full is not None and self.composite:  # computeKineticEnergy is wrong there: from CRBA's M
-            kin = 0.5 * np.einsum("in,nij,jn->n", vs, full, vs)
         out = {"T": kin, "V": pot + springs}
         if full is not None:
             out["M"] = self._symmetric(full)
