@@ -103,6 +103,7 @@ class Mismatch(TypedDict):
     actual: str
     passed: bool
     why: str  # empty when passed
+    defect: NotRequired[str]  # the file's defect that gave MuJoCo other numbers for this key (not a misreading)
 
 
 class ModelChecks(TypedDict):
@@ -111,6 +112,7 @@ class ModelChecks(TypedDict):
     mismatches: list[Mismatch]
     alignments: list[str]  # what the harness aligned between the engines' readings (a URDF; Drake's: "Drake: ...")
     defects: NotRequired[list[str]]  # the file's defects (an invalid inertia), what each reader was given
+    floors: NotRequired[list[str]]  # MuJoCo's floors under a valid URDF's point mass or massless link, for every reader
     left_out: NotRequired[
         list[str]
     ]  # the model's constraints (and MuJoCo-only forces) switched off in every comparison
