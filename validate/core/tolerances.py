@@ -112,26 +112,37 @@ class PhysicalScales:
     at rest in its own frame) is judged against what the model could give it, not against its rounding
     noise (which, divided by itself, is 1.0 and FAILs).
 
-    mass: the moving bodies' total mass, kg; length: their reach L (the farthest centre of mass from
-    the first moving body's frame along the chain, a body's radius of gyration, a slide's travel), m;
-    accel: |g| + L max|v|^2, m/s^2 (gravity and the centripetal terms); hinges / slides: whether the
-    coordinates hold angles / lengths (a floor in each coordinate's unit, the larger one taken)."""
+    mass: the moving bodies' total mass, kg; length: the chain's own size L (the farthest centre of mass
+    from the first moving body's frame along the chain, a body's radius of gyration), m; travel: how far
+    the slides carry it over the states, m (in positions and energies only: a free root's travel does not
+    make its hinges' inertia larger); gravity: |g|, m/s^2; speed: max |v| over the states; hinges /
+    slides: whether the coordinates hold angles / lengths (a floor in each coordinate's unit, the larger
+    one taken)."""
 
     mass: float
     length: float
-    accel: float
+    gravity: float
+    speed: float = 0.0
     hinges: bool = True
     slides: bool = False
+    travel: float = 0.0
+
+    @property
+    def accel(self) -> float:
+        """|g| + L max|v|^2: gravity and the centripetal terms, m/s^2."""
+        return self.gravity + self.length * self.speed**2
 
     def floor(self, quantity: str) -> float:
         """The floor of `quantity` (a pointwise quantity or a derivation's term; 0 for another)."""
-        m, L, a = self.mass, self.length, self.accel
+        m, L, a, reach = self.mass, self.length, self.accel, self.length + self.travel
+        # potential m g (L + D), kinetic m L^2 v^2 for a hinge, m v^2 for a slide
+        energy = m * (self.gravity * reach + self.speed**2 * max(L * L if self.hinges else 0.0, float(self.slides)))
         per_unit = {  # (angle coordinates, length coordinates)
             "inertia": (m * L * L, m),
             "force": (m * a * L, m * a),
-            "energy": (m * a * L, m * a * L),
+            "energy": (energy, energy),
             "acceleration": (a / L if L > 0 else 0.0, a),
-            "length": (L, L),
+            "length": (reach, reach),
             "rotation": (1.0, 1.0),
         }.get(KIND.get(quantity, ""), (0.0, 0.0))
         return max(per_unit[0] if self.hinges else 0.0, per_unit[1] if self.slides else 0.0)

@@ -20,13 +20,14 @@ SCALED_DEFINITION = (
     "`scaled` is the largest `|a - b|` over the states divided by the largest magnitude the quantity takes "
     "over the states (the larger of `|a|` and `|b|`, over every entry and every state), and at least the "
     "model's own physical scale of it, so that a quantity zero for every source is judged against the model, "
-    "not its own rounding (with m the moving bodies' mass, L their reach and a = |g| + L max |v|^2: m a L for "
-    "energies and forces, a / L for accelerations, m L^2 for M, L for positions; for a slide coordinate m a, "
-    "a and m); forces (`bias`, passive forces, `tau_inverse`) by at least max ||M|| max |v|^2, a physical scale "
-    "that does not vanish where the velocity terms do (gimbal lock); `V` is compared up to a constant (the "
-    "zero of the potential energy, and the bodies welded to the world, which one reader counts and another "
-    "does not, change no equation of motion): `|a - b - c|` with c the midrange of a - b over the states "
-    "(reported as `constant`), each magnitude taken about its own midrange"
+    "not its own rounding (with m the moving bodies' mass, L the chain's size, D the slides' travel and "
+    "a = |g| + L max |v|^2: m |g| (L + D) + m L^2 max |v|^2 for energies (m max |v|^2 for a slide), m a L "
+    "for forces, a / L for accelerations, m L^2 for M, L + D for positions; for a slide coordinate's force, "
+    "acceleration and M: m a, a and m); forces (`bias`, passive forces, `tau_inverse`) by at least "
+    "max ||M|| max |v|^2, a physical scale that does not vanish where the velocity terms do (gimbal lock); "
+    "`V` is compared up to a constant (the zero of the potential energy, and the bodies welded to the world, "
+    "which one reader counts and another does not, change no equation of motion): `|a - b - c|` with c the "
+    "midrange of a - b over the states (reported as `constant`), each magnitude taken about its own midrange"
 )
 
 

@@ -155,10 +155,10 @@ def error_row(
     with np.errstate(all="ignore"):  # inf and NaN from a wrong derivation are judged, never warned about
         n = len(states)
         a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-        constant = _midrange(a - b) if up_to_constant else None
+        constant = midrange(a - b) if up_to_constant else None
         diff = np.abs(a - b - (constant or 0.0)).reshape(n, -1)
         if up_to_constant:  # each magnitude about its own zero: where it is is not what V is
-            a, b = a - _midrange(a), b - _midrange(b)
+            a, b = a - midrange(a), b - midrange(b)
         mag = np.maximum(np.abs(a), np.abs(b)).reshape(n, -1)
         per_state = diff.max(axis=1)
         scale = max(float(mag.max()) if mag.size else 0.0, min_scale)
@@ -193,9 +193,9 @@ def error_row(
 
 def physical_scales(system: System, states: States | None = None) -> PhysicalScales:
     """The model's own scales (core.tolerances.PhysicalScales), from MuJoCo's compiled view: the total
-    mass of the bodies a joint moves, their reach (the farthest centre of mass from the first moving
-    body's frame, summed along the chain; a body's radius of gyration; a slide's travel over the
-    states), |g| + L max|v|^2 over the states."""
+    mass of the bodies a joint moves, the chain's size (the farthest centre of mass from the first moving
+    body's frame, summed along the chain; a body's radius of gyration), the slides' travel over the
+    states, |g| + L max|v|^2 over the states."""
     view = system.view
     parent = {b: str(view[f"body/{b}/parent"]) for b in view_names(view, "body", "parent")}
     jointed = {str(view[f"joint/{j}/body"]) for j in view_names(view, "joint", "body")}
@@ -226,13 +226,13 @@ def physical_scales(system: System, states: States | None = None) -> PhysicalSca
     kinds = [str(view[f"joint/{j}/type"]) for j in system.joints]
     slides = [i for i, k in enumerate(kinds) if k == "slide"]
     travel = float(np.abs(states.q[:, slides]).max(initial=0.0)) if states is not None and slides else 0.0
-    L = max(reach, gyration, travel)
+    L = max(reach, gyration)
     vmax = float(np.abs(states.v).max(initial=0.0)) if states is not None else 0.0
     g = float(np.linalg.norm(np.asarray(view["gravity"], dtype=float)))
-    return PhysicalScales(mass, L, g + L * vmax**2, hinges="hinge" in kinds, slides=bool(slides))
+    return PhysicalScales(mass, L, g, vmax, hinges="hinge" in kinds, slides=bool(slides), travel=travel)
 
 
-def _midrange(x: np.ndarray) -> float:
+def midrange(x: np.ndarray) -> float:
     """(max + min) / 2 of the finite entries of x (0 where none is): the constant whose removal leaves
     the smallest largest residual."""
     finite = x[np.isfinite(x)]

@@ -123,7 +123,11 @@ def test_the_physical_scales_are_the_models_masses_lengths_and_gravity(tmp_path)
     L = 0.6 + float(np.hypot(0.05, 0.25))
     a = 9.81 + L * float(np.abs(states.v).max()) ** 2
     assert (s.mass, s.length, s.accel) == pytest.approx((1.9, L, a), rel=1e-12)
-    assert s.floor("V") == pytest.approx(1.9 * a * L) and s.floor("qacc") == pytest.approx(a / L)
+    energy = 1.9 * (9.81 * L + L * L * float(np.abs(states.v).max()) ** 2)
+    assert s.floor("V") == pytest.approx(energy) and s.floor("qacc") == pytest.approx(a / L)
     assert s.floor("M") == pytest.approx(1.9 * L * L) and s.floor("body_rotations") == 1.0
-    slide = PhysicalScales(2.0, 0.5, 10.0, hinges=False, slides=True)
+    slide = PhysicalScales(2.0, 0.5, 10.0, hinges=False, slides=True)  # at rest: a = g
     assert (slide.floor("bias"), slide.floor("qacc"), slide.floor("M")) == (20.0, 10.0, 2.0)
+    # A free root's travel (3 m) is in positions and energies only, never in its hinges' inertia.
+    root = PhysicalScales(2.0, 0.5, 10.0, speed=1.0, hinges=True, slides=True, travel=3.0)
+    assert (root.floor("M"), root.floor("V"), root.floor("body_positions")) == (2.0, 2.0 * (35.0 + 1.0), 3.5)
