@@ -1,9 +1,11 @@
 """A joint's armature (rotor inertia) counted once in T by every source, composite joints too.
 
-Pinocchio 4's `computeKineticEnergy` is 1/2 v^T M v with model.armature already on M's diagonal; the
-Pinocchio source once added 1/2 armature v^2 again, so every geared arm FAILed on T. These tests fail
-on that code: T against 1/2 v^T M v, `check --model` on a 2-link arm with armature, a planar root
-(one composite joint in Pinocchio) with armature, and a right hand derivation of a geared arm.
+Pinocchio 4.1's `computeKineticEnergy` adds the armature of a hinge on the x, y or z axis (RX, RY, RZ)
+and not that of a hinge on another axis (RevoluteUnaligned); the Pinocchio source once added
+1/2 armature v^2 on top of it, so every geared arm FAILed on T (the armature of aligned hinges counted
+twice). T is now 1/2 v^T M v on CRBA's M. These tests fail on that code: T against 1/2 v^T M v on an
+aligned and an unaligned hinge, `check --model` on a 2-link arm with armature, a planar root (one
+composite joint in Pinocchio) with armature, and a right hand derivation of a geared arm.
 """
 
 from __future__ import annotations
@@ -171,6 +173,18 @@ def test_pinocchio_kinetic_energy_is_half_vMv_with_the_armature_once(tmp_path):
     half_vMv = 0.5 * np.einsum("ni,nij,nj->n", states.v, M, states.v)
     assert np.allclose(T_pin, half_vMv, rtol=1e-12, atol=0.0), (T_pin - half_vMv).max()
     assert np.allclose(T_pin, T_mj, rtol=1e-12, atol=0.0)
+
+
+def test_a_hinge_off_the_axes_counts_its_armature_once(tmp_path):
+    """The shoulder about (0.6, 0.8, 0): Pinocchio's RevoluteUnaligned, whose armature
+    computeKineticEnergy leaves out; T still equals MuJoCo's 1/2 v^T M v."""
+    text = GEARED_ARM.replace('axis="0 1 0" armature="0.3"', 'axis="0.6 0.8 0" armature="0.3"')
+    system = System.model_only(_model(tmp_path, text, "unaligned_arm"))
+    states = compare.random_states(system, n=10, seed=3)
+    pin, mj = make_source(system, "pinocchio"), make_source(system, "mujoco")
+    T_mj = mj.energies(states.q, states.v)[0]
+    assert np.allclose(pin.energies(states.q, states.v)[0], T_mj, rtol=1e-12, atol=0.0)
+    assert np.allclose(pin.evaluate(states.q, states.v, states.tau)["T"], T_mj, rtol=1e-12, atol=0.0)
 
 
 def test_composite_joint_with_armature_counts_it_once(tmp_path):
