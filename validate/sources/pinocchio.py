@@ -301,7 +301,7 @@ class PinocchioSource:
         placements, joints = data.oMi, self.joint_of_body if poses else []
         kin = np.empty(n)
         for i, (qi, vi) in enumerate(zip(qs.T, vs.T, strict=True)):
-            upper = crba(model, data, qi)  # CRBA fills the upper triangle: mirrored
+            upper = crba(model, data, qi)  # its upper triangle mirrored, as `_symmetric` does
             full[i] = np.triu(upper) + np.triu(upper, 1).T
             kin[i] = 0.5 * vi @ full[i] @ vi
             fk(model, data, qi, vi)
