@@ -126,7 +126,22 @@ def table_lines(rows: list[ComparisonRow], title: str) -> list[str]:
         f"{r['tolerance']:10.0e}  {'pass' if r['passed'] else 'FAIL'}"
         for r in rows
     ]
-    return lines
+    return lines + constant_lines(rows)
+
+
+def constant_lines(rows: list[ComparisonRow]) -> list[str]:
+    """One line per row compared up to a constant that is not rounding (V of a pedestal counted by one
+    reader only): information, not a disagreement, as no equation of motion contains it."""
+    out = []
+    for r in rows:
+        c = r.get("constant", 0.0)
+        if abs(c) > r["tolerance"] * r["scale"]:
+            out.append(
+                f"{r['quantity']} {r['pair']}: compared up to a constant of {c:.6g} J (the zero of the potential "
+                "energy, or bodies welded to the world that one reader counts and the other does not; it changes "
+                "no equation of motion)"
+            )
+    return out
 
 
 def term_lines(decision: Decision) -> list[str]:

@@ -194,7 +194,7 @@ def pointwise_only(args: argparse.Namespace, system: System, states: States | No
     sources = make_sources(system)
     require_same_model(system, sources)
     values = compare.evaluate(sources, states)
-    rows = compare.compare(values, states)
+    rows = compare.compare(values, states, scales=compare.physical_scales(system, states))
     passed = all(r["passed"] for r in rows) and bool(np.isfinite([r["max_abs"] for r in rows]).all())
     if args.json:
         print(json.dumps(checking.json_document(system, states, values, rows, passed), allow_nan=False))

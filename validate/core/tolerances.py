@@ -1,9 +1,11 @@
 """Named tolerance tiers. Each carries the reason it is what it is; pass them by keyword.
 
 An error is measured as `scaled = max |a - b| / scale`, where `scale` is the largest magnitude
-either source gives that quantity over the whole sample, over every entry (results.schema.
-SCALED_DEFINITION; so a tier is a fraction of the quantity's largest magnitude, not of a value that
-happens to pass near zero).
+either source gives that quantity over the whole sample, over every entry, and at least the model's
+own physical scale of it (`PhysicalScales`: m g L for an energy, g / L for an acceleration, ...);
+results.schema.SCALED_DEFINITION. So a tier is a fraction of the quantity's largest magnitude, not of
+a value that happens to pass near zero, nor of rounding noise where the quantity is zero for every
+source. The potential energy V is compared up to a constant (`UP_TO_A_CONSTANT`).
 """
 
 from __future__ import annotations
@@ -74,3 +76,76 @@ QUANTITY_TIER = {
 # Quantities that are small differences of large terms are scaled by those terms' largest magnitude:
 # inverse dynamics returns tau (zero for an unactuated system) as M a + bias - passive.
 SCALE_ALSO_BY = {"tau_inverse": ("bias",), "passive": ("bias",)}
+
+# What each quantity (pointwise) or term (a derivation's) is, physically: its floor in `PhysicalScales`.
+KIND = {
+    "M": "inertia",
+    "mass matrix": "inertia",
+    "bias": "force",
+    "passive": "force",
+    "tau_inverse": "force",
+    "gravity": "force",
+    "velocity": "force",
+    "friction": "force",
+    "actuation": "force",
+    "T": "energy",
+    "V": "energy",
+    "kinetic energy": "energy",
+    "potential energy": "energy",
+    "qacc": "acceleration",
+    "acceleration": "acceleration",
+    "body_positions": "length",
+    "body positions": "length",
+    "body_rotations": "rotation",
+    "body rotations": "rotation",
+}
+
+# Quantities defined up to a constant (the zero of the potential energy is a choice, and a body welded
+# to the world adds a constant a reader may count or not): compared after the best constant is removed.
+UP_TO_A_CONSTANT = ("V", "potential energy")
+
+
+@dataclass(frozen=True)
+class PhysicalScales:
+    """The model's own physical scales, the absolute floor under every `scale` (SCALED_DEFINITION): a
+    quantity that is zero for every source (V of a body gravity does not move, qacc of an unactuated body
+    at rest in its own frame) is judged against what the model could give it, not against its rounding
+    noise (which, divided by itself, is 1.0 and FAILs).
+
+    mass: the moving bodies' total mass, kg; length: the chain's own size L (the farthest centre of mass
+    from the first moving body's frame along the chain, a body's radius of gyration), m; travel: how far
+    the slides carry it over the states, m (in positions and energies only: a free root's travel does not
+    make its hinges' inertia larger); gravity: |g|, m/s^2; speed: max |v| over the states; hinges /
+    slides: whether the coordinates hold angles / lengths (a floor in each coordinate's unit, the larger
+    one taken)."""
+
+    mass: float
+    length: float
+    gravity: float
+    speed: float = 0.0
+    hinges: bool = True
+    slides: bool = False
+    travel: float = 0.0
+
+    @property
+    def accel(self) -> float:
+        """|g| + L max|v|^2: gravity and the centripetal terms, m/s^2."""
+        return self.gravity + self.length * self.speed**2
+
+    def floor(self, quantity: str) -> float:
+        """The floor of `quantity` (a pointwise quantity or a derivation's term; 0 for another)."""
+        m, L, a, reach = self.mass, self.length, self.accel, self.length + self.travel
+        # potential m g (L + D), kinetic m L^2 v^2 for a hinge, m v^2 for a slide
+        energy = m * (self.gravity * reach + self.speed**2 * max(L * L if self.hinges else 0.0, float(self.slides)))
+        per_unit = {  # (angle coordinates, length coordinates)
+            "inertia": (m * L * L, m),
+            "force": (m * a * L, m * a),
+            "energy": (energy, energy),
+            "acceleration": (a / L if L > 0 else 0.0, a),
+            "length": (reach, reach),
+            "rotation": (1.0, 1.0),
+        }.get(KIND.get(quantity, ""), (0.0, 0.0))
+        return max(per_unit[0] if self.hinges else 0.0, per_unit[1] if self.slides else 0.0)
+
+
+NO_SCALES = PhysicalScales(0.0, 0.0, 0.0)  # no floor but rotations' 1 (a caller without the model)

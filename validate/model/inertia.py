@@ -8,11 +8,15 @@ and Drake may replace them. The harness states each defect (the link, the inequa
 and, so that MuJoCo can read the file, gives MuJoCo the tensor its compiler's `balanceinertia` gives:
 every principal moment set to their mean (trace / 3, an isotropic tensor), and the same for a tensor
 that is not positive definite but whose trace is; a link of mass 0 with a non-zero inertia has the
-inertia dropped, as MuJoCo reads it (Pinocchio keeps it, Drake reads such a link as 1 kg); a moving
-link below MuJoCo's minimum mass or inertia (a massless "virtual" link between two joints, a point
-mass) is given MuJoCo's boundmass and boundinertia values. The other readers read the file as
-written, so their readings of that link differ from MuJoCo's and the verdict names the defect; with
+inertia dropped, as MuJoCo reads it (Pinocchio keeps it, Drake reads such a link as 1 kg). The other
+readers read a defective file as written, so their readings of that link differ from MuJoCo's and the
+verdict names the defect as the file's, saying who was given which numbers; with
 `--balance-inertia` every reader is given the repaired values.
+
+A moving link below MuJoCo's minimum mass or inertia (mjMINVAL: a massless "virtual" link between two
+joints, a point mass with zero inertia) is no defect: the URDF is valid, MuJoCo alone cannot compile
+it. It is given MuJoCo's boundmass and boundinertia values for every reader (`bound_urdf`), so every
+reader sees the same numbers and none differs from another by the floor; the alignments say so.
 """
 
 from __future__ import annotations
@@ -92,10 +96,12 @@ def _moving_links(root: ET.Element) -> set[str]:
 def _bounded(root: ET.Element) -> list[str]:
     """Moving links MuJoCo refuses for a mass or a principal moment below MINVAL (a massless "virtual"
     link between two joints, a point mass): given BOUND_MASS and BOUND_INERTIA, as MuJoCo's compiler's
-    boundmass and boundinertia would; one line each."""
+    boundmass and boundinertia would; one line each. A defective tensor (`urdf_defects`) is left to
+    `balance_urdf`: it is the file's defect, not a floor."""
     lines = []
+    defective = {name for name, _, _ in urdf_defects(root)}
     for link in root.iter("link"):
-        if link.get("name") not in _moving_links(root):
+        if link.get("name") not in _moving_links(root) or link.get("name") in defective:
             continue
         inertial = link.find("inertial")
         mass = _mass(link) if inertial is not None else 0.0
@@ -131,9 +137,10 @@ def _isotropic(element: ET.Element, moment: float) -> None:
         element.set(key, repr(moment))
 
 
-def repair_urdf(text: str) -> tuple[str, list[str]]:
-    """The URDF with every defective link's inertia repaired (module docstring), and one line per link
-    saying what was wrong and what it was given; the text unchanged where nothing is defective."""
+def balance_urdf(text: str) -> tuple[str, list[str]]:
+    """The URDF with every defective link's inertia repaired as MuJoCo's balanceinertia would (module
+    docstring), and one line per link saying what was wrong and what it was given; the text unchanged
+    where nothing is defective. Only MuJoCo is given these (every reader with --balance-inertia)."""
     if "<joint" not in text:
         return text, []
     root = ET.fromstring(text)
@@ -159,5 +166,24 @@ def repair_urdf(text: str) -> tuple[str, list[str]]:
         lines.append(
             f"link '{link}': {why}; balanced to {fixed[0, 0]:.6g} kg m^2 on each axis (MuJoCo's balanceinertia)"
         )
-    lines += _bounded(root)
     return (ET.tostring(root, encoding="unicode"), lines) if lines else (text, [])
+
+
+def bound_urdf(text: str) -> tuple[str, list[str]]:
+    """The URDF with every moving link below MuJoCo's minimum mass or inertia (a massless "virtual" link,
+    a point mass: a valid URDF) given boundmass and boundinertia, and one line per link. Not a defect of
+    the file but what MuJoCo needs to compile it: every reader is given these same numbers, so that no
+    reader's dynamics differ from another's by the floor (System.urdf_text)."""
+    if "<joint" not in text:
+        return text, []
+    root = ET.fromstring(text)
+    lines = _bounded(root)
+    return (ET.tostring(root, encoding="unicode"), lines) if lines else (text, [])
+
+
+def repair_urdf(text: str) -> tuple[str, list[str]]:
+    """What MuJoCo reads: the defective inertias balanced (`balance_urdf`), then the floors every reader
+    gets (`bound_urdf`); the lines of both."""
+    balanced, defects = balance_urdf(text)
+    bounded, floors = bound_urdf(balanced)
+    return bounded, defects + floors

@@ -18,9 +18,16 @@ from .stages import Stage
 # it; the README and the report say it in these words).
 SCALED_DEFINITION = (
     "`scaled` is the largest `|a - b|` over the states divided by the largest magnitude the quantity takes "
-    "over the states (the larger of `|a|` and `|b|`, over every entry and every state); forces (`bias`, "
-    "passive forces, `tau_inverse`) by at least max ||M|| max |v|^2, a physical scale that does not vanish "
-    "where the velocity terms do (gimbal lock)"
+    "over the states (the larger of `|a|` and `|b|`, over every entry and every state), and at least the "
+    "model's own physical scale of it, so that a quantity zero for every source is judged against the model, "
+    "not its own rounding (with m the moving bodies' mass, L the chain's size, D the slides' travel and "
+    "a = |g| + L max |v|^2: m |g| (L + D) + m L^2 max |v|^2 for energies (m max |v|^2 for a slide), m a L "
+    "for forces, a / L for accelerations, m L^2 for M, L + D for positions; for a slide coordinate's force, "
+    "acceleration and M: m a, a and m); forces (`bias`, passive forces, `tau_inverse`) by at least "
+    "max ||M|| max |v|^2, a physical scale that does not vanish where the velocity terms do (gimbal lock); "
+    "`V` is compared up to a constant (the zero of the potential energy, and the bodies welded to the world, "
+    "which one reader counts and another does not, change no equation of motion): `|a - b - c|` with c the "
+    "midrange of a - b over the states (reported as `constant`), each magnitude taken about its own midrange"
 )
 
 
@@ -63,6 +70,7 @@ class ComparisonRow(TypedDict):
     passed: bool
     worst_state: WorstState | None
     cond_max: NotRequired[float]
+    constant: NotRequired[float]  # V: the constant a - b was compared up to (SCALED_DEFINITION), J
 
 
 class TermRow(TypedDict):
@@ -84,6 +92,7 @@ class TermRow(TypedDict):
     parameters: NotRequired[str]
     error: NotRequired[str]  # a function that raised or returned nonsense
     cond_max: NotRequired[float]  # largest cond(M) over the states (solve-tier terms)
+    constant: NotRequired[float]  # the potential energy: the constant it was compared up to, J
 
 
 class Mismatch(TypedDict):
@@ -95,6 +104,7 @@ class Mismatch(TypedDict):
     actual: str
     passed: bool
     why: str  # empty when passed
+    defect: NotRequired[str]  # the file's defect that gave MuJoCo other numbers for this key (not a misreading)
 
 
 class ModelChecks(TypedDict):
@@ -103,6 +113,7 @@ class ModelChecks(TypedDict):
     mismatches: list[Mismatch]
     alignments: list[str]  # what the harness aligned between the engines' readings (a URDF; Drake's: "Drake: ...")
     defects: NotRequired[list[str]]  # the file's defects (an invalid inertia), what each reader was given
+    floors: NotRequired[list[str]]  # MuJoCo's floors under a valid URDF's point mass or massless link, for every reader
     left_out: NotRequired[
         list[str]
     ]  # the model's constraints (and MuJoCo-only forces) switched off in every comparison

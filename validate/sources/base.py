@@ -50,8 +50,10 @@ class Source(Protocol):
            HarnessError (one line: what the engine cannot read, and why) where it cannot build the chain.
         2. Implement every method below in the notes' coordinates (the model's joints in order, or
            `System.joints`): M(q), bias = C(q, v) v + G(q), passive (damping, springs at springref),
-           forward and inverse dynamics, T and V (V zero at the world origin's height), the bodies' centres
-           of mass in the world frame; `evaluate` returns them all at once for a batch.
+           forward and inverse dynamics, T and V (V as the engine counts it: MuJoCo and Drake every
+           body with mass, those welded to the world too, Pinocchio the bodies it keeps off the universe;
+           V is compared up to a constant, so its zero is the source's own), the bodies' centres of mass
+           in the world frame; `evaluate` returns them all at once for a batch.
         3. Answer `PosedSource` too if the engine gives body frames, `OneStateSource` if it has a one-state
            right-hand side for integrators, `SteppedSource` if it steps its own scheme.
         4. Register it in sources/__init__.py `REGISTRY` (module and class), and add it to

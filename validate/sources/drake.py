@@ -10,8 +10,9 @@ Drake's quantities, in the harness's convention:
              damping as Drake applies it in continuous mode
     qacc     the plant's generalized-acceleration output port, tau on the applied-generalized-force port
     tau_inv  CalcInverseDynamics with the force elements' forces (gravity, damping) as applied forces
-    T, V     CalcKineticEnergy, CalcPotentialEnergy (V = -sum m g . x_com, zero at the world origin, as
-             the other engines count it)
+    T, V     CalcKineticEnergy, CalcPotentialEnergy (V = -sum m g . x_com over every body, those welded
+             to the world too, zero at the world origin; V is compared up to a constant, see
+             results.schema.SCALED_DEFINITION)
 
 Coordinates are mapped by joint name (a joint's `position_start`), never by position. What Drake reads
 differently from MuJoCo, and what is done about it, is listed in `alignments` (never silent):
@@ -278,7 +279,6 @@ class DrakeSource:
         self.applied = plant.get_applied_generalized_force_input_port().FixValue(
             self.context, np.zeros(plant.num_velocities())
         )
-        self.fixed_potential = self._fixed_potential()
         self._trial()
 
     def _trial(self) -> None:
@@ -291,26 +291,10 @@ class DrakeSource:
             first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise HarnessError(f"Drake cannot solve this model's dynamics: {first[:300]}") from None
 
-    def _fixed_potential(self) -> float:
-        """The potential energy of the bodies welded to the world: a constant Drake counts and the other
-        engines do not (MuJoCo fuses them into the world, Pinocchio's world has no inertia); removed
-        from V, and said so."""
-        plant, ctx = self.plant, self.context
-        fixed = [b for b in plant.GetBodiesWeldedTo(plant.world_body()) if b.index() != plant.world_body().index()]
-        V = 0.0
-        for body in fixed:
-            X = plant.EvalBodyPoseInWorld(ctx, body)
-            V -= body.get_mass(ctx) * float(self.gravity @ (X @ np.asarray(body.CalcCenterOfMassInBodyFrame(ctx))))
-        if V:
-            names = ", ".join(b.name() for b in fixed if b.get_mass(ctx))
-            self.alignments.append(
-                f"the potential energy of the bodies welded to the world ({names}: {V:.6g} J, a constant Drake "
-                "counts and MuJoCo and Pinocchio do not) removed from Drake's V"
-            )
-        return V
-
     def _potential(self) -> float:
-        return float(self.plant.CalcPotentialEnergy(self.context)) - self.fixed_potential
+        """Drake's own V, the bodies welded to the world included (as MuJoCo counts them; Pinocchio does
+        not): V is compared up to a constant (results.schema.SCALED_DEFINITION)."""
+        return float(self.plant.CalcPotentialEnergy(self.context))
 
     def _indices(self, system: System) -> tuple[np.ndarray, np.ndarray]:
         qidx, vidx = [], []

@@ -1,6 +1,11 @@
 """Pinocchio as a source: CRBA, RNEA (non-linear effects), ABA on the chain built from the same MJCF
 or URDF (read natively by `buildModelFromXML`; validate/model/urdf.py says what is aligned).
 
+V is `computePotentialEnergy`: the bodies welded to the world are merged into the universe, whose
+inertia it does not count (MuJoCo and Drake do): a constant, and V is compared up to a constant
+(results.schema.SCALED_DEFINITION). T is 1/2 v^T M v on CRBA's M, the armature in it once
+(`computeKineticEnergy` drops the armature of a hinge off the x, y, z axes: see `_per_state`).
+
 Owns Pinocchio's quirks: `buildModelFromMJCF` ignores `<option gravity>` (the MuJoCo-compiled
 gravity is copied in) and joint damping (applied here as a generalized force, for URDF too), and its
 configuration vector is indexed by Pinocchio's joint order, mapped here by MJCF joint names.
@@ -112,9 +117,6 @@ class PinocchioSource:
                 f"Pinocchio sees {self.model.nv} degrees of freedom in {system.mjcf.name}; the equations have {n}."
             )
         self.joint_ids = joint_indices(self.model, system)
-        # Pinocchio 4.1's computeKineticEnergy disagrees with 1/2 v^T M v from its own CRBA where a joint
-        # is a composite (several joints in one body; 34% on gymnasium's ant): T from CRBA there.
-        self.composite = any(n.startswith(COMPOSITE) for n in self.model.names)
         missing = [j for j in system.joints if j not in self.joint_ids]
         if missing:
             raise HarnessError(f"Pinocchio's model of {system.mjcf.name} has no joint '{missing[0]}'.")
@@ -283,40 +285,37 @@ class PinocchioSource:
         return self._in_c(pin.rneaInParallel, self._qs(q), self._vs(v), a) - self.passive(q, v)
 
     def energies(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        out = self._per_state(self._qs(q), self._vs(v), poses=False, mass=self.composite)
+        out = self._per_state(self._qs(q), self._vs(v), poses=False)
         return out["T"], out["V"]
 
-    def _per_state(self, qs: np.ndarray, vs: np.ndarray, *, poses: bool, mass: bool = False) -> dict[str, np.ndarray]:
+    def _per_state(self, qs: np.ndarray, vs: np.ndarray, *, poses: bool) -> dict[str, np.ndarray]:
         """What has no batched form in Pinocchio, one state at a time with nothing else in the loop:
-        forward kinematics, the kinetic and potential energy from it, CRBA (`mass`) and the joints'
-        placements (`poses`: the bodies' positions and rotations composed after the loop, at once)."""
+        CRBA, forward kinematics, the potential energy from it and the joints' placements (`poses`: the
+        bodies' positions and rotations composed after the loop, at once); T from CRBA's M."""
         model, data = self.model, self.data
         n, nb = qs.shape[1], len(self.frames)
-        kin, pot = np.empty(n), np.empty(n)
-        full = np.empty((n, model.nv, model.nv)) if mass else None
+        pot = np.empty(n)
+        full = np.empty((n, model.nv, model.nv))
         R, p = np.empty((n, nb, 3, 3)), np.empty((n, nb, 3))
-        fk, crba = pin.forwardKinematics, pin.crba
-        kinetic, potential = pin.computeKineticEnergy, pin.computePotentialEnergy
+        fk, crba, potential = pin.forwardKinematics, pin.crba, pin.computePotentialEnergy
         placements, joints = data.oMi, self.joint_of_body if poses else []
+        kin = np.empty(n)
         for i, (qi, vi) in enumerate(zip(qs.T, vs.T, strict=True)):
-            if full is not None:
-                full[i] = crba(model, data, qi)
+            upper = crba(model, data, qi)  # its upper triangle mirrored, as `_symmetric` does
+            full[i] = np.triu(upper) + np.triu(upper, 1).T
+            kin[i] = 0.5 * vi @ full[i] @ vi
             fk(model, data, qi, vi)
-            kin[i] = kinetic(model, data)
             pot[i] = potential(model, data)
             for k, jid in enumerate(joints):
                 oMi = placements[jid]
                 R[i, k] = oMi.rotation
                 p[i, k] = oMi.translation
-        # computeKineticEnergy sums the bodies' energies; a joint's armature (rotor inertia, in M through
-        # model.armature) adds its own: T = 1/2 v^T M v, as MuJoCo and Drake count it.
+        # T = 1/2 v^T M v on CRBA's M, which holds each joint's armature (model.armature) once, as MuJoCo
+        # counts T. Not computeKineticEnergy: in Pinocchio 4.1 it adds the armature of axis-aligned joints
+        # (RX, RY, RZ) and drops that of a hinge on any other axis (RevoluteUnaligned: dm_control's ant,
+        # 44% of T), so it is right on neither kind of model (tests/unit/sources/test_pinocchio_energy.py).
         springs = 0.5 * self.stiffness @ (qs[self.qidx] - self.springref[:, None]) ** 2
-        kin = kin + 0.5 * np.asarray(model.armature) @ (vs * vs)
-        if full is not None and self.composite:  # computeKineticEnergy is wrong there: from CRBA's M
-            kin = 0.5 * np.einsum("in,nij,jn->n", vs, full, vs)
-        out = {"T": kin, "V": pot + springs}
-        if full is not None:
-            out["M"] = self._symmetric(full)
+        out = {"T": kin, "V": pot + springs, "M": full[:, self.vidx][:, :, self.vidx]}
         if poses:
             levers = self.centres.reshape(nb, 3)
             frame_rot = np.array([model.frames[f].placement.rotation for f in self.frames]).reshape(nb, 3, 3)
@@ -332,7 +331,7 @@ class PinocchioSource:
         inverse dynamics at `a_ref`, or without it at its own `qacc`."""
         passive = self.passive(q, v)
         qs, vs = self._qs(q), self._vs(v)  # the states as Pinocchio's full vectors, once for every call
-        out = self._per_state(qs, vs, poses=True, mass=True)
+        out = self._per_state(qs, vs, poses=True)
         qacc = self._aba(qs, vs, tau + passive)
         return {
             "M": out["M"],

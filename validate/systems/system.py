@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, TypedDict, Unpack
@@ -14,7 +15,7 @@ from ..core.guard import DEFAULT_TIME_LIMIT, Stopped
 from ..core.memo import Memo
 from ..handwritten.forms import input_name, normalize
 from ..model import bounds, floating, urdf
-from ..model.inertia import repair_urdf
+from ..model.inertia import balance_urdf, bound_urdf
 from ..model.modelfile import compile_mjcf, mjcf_text, model_file
 from ..model.modelview import ModelView, from_mujoco, names
 from ..model.overrides import parse
@@ -284,19 +285,72 @@ class System:
         return self.model_format == "urdf" and not self.overrides
 
     def urdf_text(self) -> str:
-        """The URDF file's text (only for `reads_urdf` systems), with the `locked` joints made fixed."""
+        """The URDF file's text (only for `reads_urdf` systems), with the `locked` joints made fixed and
+        MuJoCo's floors under a point mass or a massless moving link (every reader reads this text)."""
+        return self._urdf_read[0]
+
+    @functools.cached_property
+    def _urdf_read(self) -> tuple[str, list[str]]:
+        """The URDF every reader reads (locked joints fixed, defects balanced with --balance-inertia, and
+        MuJoCo's floors under a point mass or a massless link: model/inertia.bound_urdf), and the lines
+        saying which links got the floors."""
         text = self._file()[1]
         text = urdf.lock(text, self.locked, self.mjcf.name) if self.locked else text
-        return repair_urdf(text)[0] if self.balance_inertia else text
+        text = balance_urdf(text)[0] if self.balance_inertia else text
+        return bound_urdf(text)
 
     @property
     def defects(self) -> list[str]:
-        """The file's defective inertias (model/inertia.py), one line per link: stated in the verdict."""
+        """The file's defective inertias (model/inertia.py), one line per link, with who was given which
+        numbers: stated in the verdict as the file's. MuJoCo's floors under a valid file's point mass or
+        massless link are no defect (every reader gets them: `alignments`)."""
         if self.model_format != "urdf":
             return []
-        lines = repair_urdf(self._file()[1])[1]
-        given = "every reader" if self.balance_inertia else "MuJoCo (the other readers read the file as written)"
-        return [f"{line}; given to {given}" for line in lines]
+        lines = balance_urdf(self._file()[1])[1]
+        given = (
+            "given to every reader (--balance-inertia)"
+            if self.balance_inertia
+            else "given to MuJoCo, which refuses the tensor as written; Pinocchio reads it as written, Drake as its "
+            "parser does (it may replace an invalid inertia)"
+        )
+        return [f"{line}; {given}" for line in lines]
+
+    @property
+    def defective_links(self) -> tuple[str, ...]:
+        """The links whose inertia `defects` names: MuJoCo was given other numbers for them than the other
+        readers (unless --balance-inertia)."""
+        if self.model_format != "urdf" or self.balance_inertia:
+            return ()
+        return tuple(line.split("'")[1] for line in balance_urdf(self._file()[1])[1])
+
+    @property
+    def defective_bodies(self) -> dict[str, str]:
+        """MuJoCo's body holding each defective link (the link itself, or the body a fixed joint fuses it
+        into), by body: the link's name. A reading of these bodies that differs from MuJoCo's is the
+        file's defect (MuJoCo was given other numbers), not a reader's misreading."""
+        links = self.defective_links
+        if not links:
+            return {}
+        text = self._file()[1]
+        root = ET.fromstring(urdf.lock(text, self.locked, self.mjcf.name) if self.locked else text)
+        up = {
+            str(j.find("child").get("link")): (str(j.find("parent").get("link")), j.get("type") == "fixed")  # type: ignore[union-attr]
+            for j in root.findall("joint")
+            if j.find("child") is not None and j.find("parent") is not None
+        }
+        out: dict[str, str] = {}
+        for link in links:
+            body = link
+            while f"body/{body}/mass" not in self.view and body in up and up[body][1]:
+                body = up[body][0]  # fused into its parent by a fixed joint
+            out.setdefault(body, link)
+        return out
+
+    @property
+    def floors(self) -> list[str]:
+        """MuJoCo's floors under a valid URDF's point mass or massless moving link, given to every reader
+        (model/inertia.bound_urdf), one line per link."""
+        return self._urdf_read[1] if self.model_format == "urdf" else []
 
     def _file(self) -> tuple[str, str]:
         """The model file's format and text, read once."""
@@ -324,7 +378,8 @@ class System:
         if self.model_format != "urdf":
             return self._floating.lines
         locked = [f"joint(s) {', '.join(self.locked)} locked at zero (made fixed) in the URDF both engines read"]
-        return (locked if self.locked else []) + urdf.alignments(self.urdf_text(), self.mjcf.name)
+        floors = [f"{line}; given to every reader, so all read the same numbers" for line in self._urdf_read[1]]
+        return (locked if self.locked else []) + urdf.alignments(self.urdf_text(), self.mjcf.name) + floors
 
     def mujoco_model(self) -> mujoco.MjModel:
         """The compiled MjModel (compiled once per System)."""

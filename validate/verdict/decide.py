@@ -78,10 +78,12 @@ class Decision:
             return text
         if self.model_only:
             text = model_alone_statement(self.pointwise)
-        if self.model_checks["mismatches"]:
-            key = self.model_checks["mismatches"][0]["key"]
+        # A mismatch the file's defect caused (MuJoCo given other numbers) is not a reader's: named below.
+        mismatches = [m for m in self.model_checks["mismatches"] if "defect" not in m]
+        if mismatches:
+            key = mismatches[0]["key"]
             if self.model_only:
-                check = str(self.model_checks["mismatches"][0].get("check", ""))
+                check = str(mismatches[0].get("check", ""))
                 reader = check.split("~")[0].capitalize() if "~" in check else "a reader"
                 text = f"{reader} reads the model otherwise than MuJoCo ({key}); {text}"
             else:
@@ -93,9 +95,13 @@ class Decision:
             more = f" (and {len(bad) - 1} more)" if len(bad) > 1 else ""
             text += f"; but pointwise {bad[0]['quantity']} {bad[0]['pair']} disagrees{more}"
         defects = self.model_checks.get("defects", [])
-        if defects:
+        if defects:  # first: it is the file's, and says who was given which numbers
             more = f" (and {len(defects) - 1} more)" if len(defects) > 1 else ""
-            text += f"; the file has a defect: {defects[0]}{more}"
+            text = f"the file has a defect: {defects[0]}{more}; {text}"
+        floors = self.model_checks.get("floors", [])
+        if floors:
+            more = f" (and {len(floors) - 1} more)" if len(floors) > 1 else ""
+            text += f"; given to every reader as MuJoCo needs it: {floors[0]}{more}"
         left = self.model_checks.get("left_out", [])
         if left:
             text += f" (left out, as no equation of motion contains them: {'; '.join(left)})"
@@ -156,14 +162,15 @@ def decide(
     lap(clock, "model checks")
     states = states if states is not None else compare.random_states(system, n=n_states, seed=seed)
     values = compare.evaluate(sources, states)  # evaluated once: the judges reuse the engines' values
-    point = compare.pointwise_result(values, states, seed=seed, tolerances=tolerances)
+    scales = compare.physical_scales(system, states)  # the model's floor under every scale
+    point = compare.pointwise_result(values, states, seed=seed, tolerances=tolerances, scales=scales)
     excluded = _misreaders(system, model, point)
     judged = Sources({n: s for n, s in sources.items() if n not in excluded})
     judged.skipped = getattr(sources, "skipped", {})
     if excluded:  # judged against the sources that agree with what the file means
         model = set_aside(model, excluded)
         kept = {n: v for n, v in values.items() if n not in excluded}
-        point = compare.pointwise_result(kept, states, seed=seed, tolerances=tolerances)
+        point = compare.pointwise_result(kept, states, seed=seed, tolerances=tolerances, scales=scales)
     lap(clock, "pointwise")
     if system.equations is None:
         return Decision(system, no_derivation(), model, point, states, sources, values, excluded=excluded)

@@ -77,7 +77,9 @@ def _step_rows(
         n: engine_quantity(system, terms, variant.quantity, n, states, variant.angle_index) for n in terms.by_engine
     }
     printed = np.broadcast_to(printed, refs["mujoco"].shape)
-    return term_rows("value", printed, refs, states, tier="algebraic", tolerances=tolerances)
+    # An energy with V in it is defined up to a constant (its zero, the bodies welded to the world).
+    constant = variant.quantity[0] in ("potential_energy", "lagrangian")
+    return term_rows("value", printed, refs, states, tier="algebraic", tolerances=tolerances, up_to_constant=constant)
 
 
 def _implicit_rows(

@@ -228,7 +228,7 @@ def check(system: System, pin_source: Source) -> ModelChecks:
         + pinocchio_vs_mujoco(system, pin_source)
         + joints_pinocchio_vs_mujoco(system, pin_source)
     )
-    failed = [r for r in rows if not r["passed"]]
+    failed = [_of_the_file(r, system) for r in rows if not r["passed"]]
     out: ModelChecks = {
         "n_checked": len(rows),
         "passed": not failed,
@@ -239,4 +239,19 @@ def check(system: System, pin_source: Source) -> ModelChecks:
         out["left_out"] = system.left_out
     if system.defects:
         out["defects"] = system.defects
+    if system.floors:
+        out["floors"] = system.floors
     return out
+
+
+def _of_the_file(row: Mismatch, system: System) -> Mismatch:
+    """A pinocchio~mujoco mismatch of a body whose link the file gets wrong (an inertia that violates
+    A + B >= C, say): MuJoCo was given the balanced numbers and Pinocchio the file's, so the row names the
+    file's defect (`defect`), not a misreading by Pinocchio."""
+    parts = row["key"].split("/")
+    bodies = system.defective_bodies
+    if row["check"] != "pinocchio~mujoco" or parts[0] != "body" or "/".join(parts[1:-1]) not in bodies:
+        return row
+    link = bodies["/".join(parts[1:-1])]
+    why = f"the file's defect: link '{link}' was given to MuJoCo balanced and to Pinocchio as written"
+    return {**row, "why": why, "defect": link}

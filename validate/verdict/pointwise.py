@@ -13,7 +13,16 @@ import numpy as np
 
 from ..core.errors import HarnessError
 from ..core.guard import describe
-from ..core.tolerances import QUANTITY_TIER, SCALE_ALSO_BY, TOLERANCES, Tolerances
+from ..core.tolerances import (
+    NO_SCALES,
+    QUANTITY_TIER,
+    SCALE_ALSO_BY,
+    TOLERANCES,
+    UP_TO_A_CONSTANT,
+    PhysicalScales,
+    Tolerances,
+)
+from ..model.modelview import names as view_names
 from ..results.schema import ComparisonRow, Pointwise, WorstState
 from ..sources import make_sources
 from ..sources.base import Source
@@ -132,14 +141,24 @@ def error_row(
     tolerances: Tolerances = TOLERANCES,
     min_scale: float = 0.0,
     cond: np.ndarray | None = None,
+    up_to_constant: bool = False,
 ) -> ComparisonRow:
     """One row: the max absolute error, the max error relative to each state's magnitude, `scaled`
     (results.schema.SCALED_DEFINITION: the max absolute error divided by the largest magnitude either
-    source gives the quantity over the states, or `min_scale` if larger; what the tier judges), and the
-    worst state."""
+    source gives the quantity over the states, or `min_scale` if larger: the model's physical floor, a
+    force scale; what the tier judges), and the worst state.
+
+    `up_to_constant` (V: `core.tolerances.UP_TO_A_CONSTANT`): a and b are compared after the constant
+    that brings them closest (the midrange of a - b over the states) is removed, each one's magnitude
+    measured about its own midrange; the constant is kept in the row (`constant`), information that
+    changes no equation of motion. A V that differs by more than a constant still differs."""
     with np.errstate(all="ignore"):  # inf and NaN from a wrong derivation are judged, never warned about
         n = len(states)
-        diff = np.abs(a - b).reshape(n, -1)
+        a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+        constant = midrange(a - b) if up_to_constant else None
+        diff = np.abs(a - b - (constant or 0.0)).reshape(n, -1)
+        if up_to_constant:  # each magnitude about its own zero: where it is is not what V is
+            a, b = a - midrange(a), b - midrange(b)
         mag = np.maximum(np.abs(a), np.abs(b)).reshape(n, -1)
         per_state = diff.max(axis=1)
         scale = max(float(mag.max()) if mag.size else 0.0, min_scale)
@@ -167,7 +186,57 @@ def error_row(
     }
     if cond is not None:
         row["cond_max"] = float(np.max(cond))
+    if constant is not None:
+        row["constant"] = constant
     return row
+
+
+def physical_scales(system: System, states: States | None = None) -> PhysicalScales:
+    """The model's own scales (core.tolerances.PhysicalScales), from MuJoCo's compiled view: the total
+    mass of the bodies a joint moves, the chain's size (the farthest centre of mass from the first moving
+    body's frame, summed along the chain; a body's radius of gyration), the slides' travel over the
+    states, |g| + L max|v|^2 over the states."""
+    view = system.view
+    parent = {b: str(view[f"body/{b}/parent"]) for b in view_names(view, "body", "parent")}
+    jointed = {str(view[f"joint/{j}/body"]) for j in view_names(view, "joint", "body")}
+
+    def path(b: str) -> list[str]:  # b and its ancestors below the world
+        out = []
+        while b in parent:
+            out.append(b)
+            b = parent[b]
+        return out
+
+    reach, mass, gyration = 0.0, 0.0, 0.0
+    for b in parent:
+        chain = path(b)
+        moving = [x for x in chain if x in jointed]
+        if not moving:
+            continue  # welded to the world
+        m = float(view[f"body/{b}/mass"])
+        mass += m
+        top = chain.index(moving[-1])  # the first moving body: its frame is where the motion starts
+        reach = max(
+            reach,
+            float(np.linalg.norm(view[f"body/{b}/com"]))
+            + sum(float(np.linalg.norm(view[f"body/{x}/pos"])) for x in chain[:top]),
+        )
+        if m > 0:
+            gyration = max(gyration, float(np.sqrt(max(np.trace(np.asarray(view[f"body/{b}/inertia"])), 0.0) / m)))
+    kinds = [str(view[f"joint/{j}/type"]) for j in system.joints]
+    slides = [i for i, k in enumerate(kinds) if k == "slide"]
+    travel = float(np.abs(states.q[:, slides]).max(initial=0.0)) if states is not None and slides else 0.0
+    L = max(reach, gyration)
+    vmax = float(np.abs(states.v).max(initial=0.0)) if states is not None else 0.0
+    g = float(np.linalg.norm(np.asarray(view["gravity"], dtype=float)))
+    return PhysicalScales(mass, L, g, vmax, hinges="hinge" in kinds, slides=bool(slides), travel=travel)
+
+
+def midrange(x: np.ndarray) -> float:
+    """(max + min) / 2 of the finite entries of x (0 where none is): the constant whose removal leaves
+    the smallest largest residual."""
+    finite = x[np.isfinite(x)]
+    return float(finite.max() + finite.min()) / 2 if finite.size else 0.0
 
 
 def force_scale(M: np.ndarray, v: np.ndarray) -> float:
@@ -190,8 +259,10 @@ def compare(
     *,
     tolerances: Tolerances = TOLERANCES,
     reference: str = "mujoco",
+    scales: PhysicalScales = NO_SCALES,
 ) -> list[ComparisonRow]:
-    """Rows for every quantity and every pair of sources, sorted by quantity then pair."""
+    """Rows for every quantity and every pair of sources, sorted by quantity then pair; each scale at
+    least the model's physical floor (`scales`, from `physical_scales`), V up to a constant."""
     rows: list[ComparisonRow] = []
     names = sorted(values)
     cond = np.linalg.cond(values[reference]["M"]) if reference in values else None
@@ -212,8 +283,9 @@ def compare(
                     states,
                     tier=tier,
                     tolerances=tolerances,
-                    min_scale=min_scale,
+                    min_scale=max(min_scale, scales.floor(quantity)),
                     cond=cond,
+                    up_to_constant=quantity in UP_TO_A_CONSTANT,
                 )
             )
     return sorted(rows, key=lambda r: (r["quantity"], r["pair"]))
@@ -231,7 +303,8 @@ def pointwise(
 
     sources = sources or make_sources(system)
     states = random_states(system, n=n, seed=seed)
-    return pointwise_result(evaluate(sources, states), states, seed=seed, tolerances=tolerances)
+    scales = physical_scales(system, states)
+    return pointwise_result(evaluate(sources, states), states, seed=seed, tolerances=tolerances, scales=scales)
 
 
 def harness_bugs(rows: list[ComparisonRow]) -> list[str]:
@@ -250,10 +323,15 @@ def harness_bugs(rows: list[ComparisonRow]) -> list[str]:
 
 
 def pointwise_result(
-    values: dict[str, dict[str, np.ndarray]], states: States, *, seed: int, tolerances: Tolerances = TOLERANCES
+    values: dict[str, dict[str, np.ndarray]],
+    states: States,
+    *,
+    seed: int,
+    tolerances: Tolerances = TOLERANCES,
+    scales: PhysicalScales = NO_SCALES,
 ) -> Pointwise:
     """The pointwise check's result from already evaluated quantities (see `evaluate`)."""
-    rows = compare(values, states, tolerances=tolerances)
+    rows = compare(values, states, tolerances=tolerances, scales=scales)
     out: Pointwise = {"n_states": len(states), "seed": seed, "rows": rows, "passed": all(r["passed"] for r in rows)}
     bugs = harness_bugs(rows)
     if bugs:

@@ -14,7 +14,7 @@ from typing import TypeAlias
 
 import numpy as np
 
-from ..core.tolerances import Tolerances
+from ..core.tolerances import UP_TO_A_CONSTANT, Tolerances
 from ..model.modelview import ModelView
 from ..results.schema import ComparisonRow, TermRow
 from ..sources.base import Kinematics, Source, posed
@@ -115,8 +115,12 @@ def term_rows(
     min_scale: dict[str, float] | None = None,
     who: str = "printed",
     cond: np.ndarray | None = None,
+    up_to_constant: bool | None = None,
 ) -> list[TermRow]:
-    """`printed` against each engine's value: one row per engine (pointwise.error_row's, as a term)."""
+    """`printed` against each engine's value: one row per engine (pointwise.error_row's, as a term);
+    the potential energy up to a constant (`up_to_constant` None: as core.tolerances.UP_TO_A_CONSTANT
+    says of `term`)."""
+    constant = term in UP_TO_A_CONSTANT if up_to_constant is None else up_to_constant
     return [
         as_term_row(
             error_row(
@@ -129,6 +133,7 @@ def term_rows(
                 tolerances=tolerances,
                 min_scale=(min_scale or {}).get(name, 0.0),
                 cond=cond,
+                up_to_constant=constant,
             ),
             engine=name,
         )
@@ -153,6 +158,8 @@ def as_term_row(row: ComparisonRow, *, engine: str) -> TermRow:
     }
     if "cond_max" in row:
         out["cond_max"] = row["cond_max"]
+    if "constant" in row:
+        out["constant"] = row["constant"]
     return out
 
 

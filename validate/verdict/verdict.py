@@ -29,7 +29,7 @@ import numpy as np
 
 from ..core.cachedir import Cache
 from ..core.errors import HarnessError
-from ..core.tolerances import TOLERANCES, Tolerances
+from ..core.tolerances import TOLERANCES, PhysicalScales, Tolerances
 from ..handwritten.forms import accelerations_only, not_provided_in, written_form
 from ..handwritten.values import real_array
 from ..results.schema import Derivation, Explanation, NotSpd, TermNotes, TermRow, TermSummary, WorstTerm
@@ -41,7 +41,7 @@ from . import words
 from .explain import explain, statement_tail
 from .inputs import acceleration_rows, actuation_rows, ignored_torques
 from .modelsync import equations_vs_model
-from .pointwise import States, force_scale, random_states
+from .pointwise import States, force_scale, physical_scales, random_states
 from .terms import EngineTerms, EngineValues, engines_of, term_rows
 
 HAND_TERMS = (
@@ -193,7 +193,7 @@ def term_rows_at(
         for term in ("mass matrix", "gravity", "velocity", "friction", "acceleration"):
             mine.pop(term, None)
             errors[term] = ignored
-    theirs = _engine_terms(ev, e, states)
+    theirs = _engine_terms(ev, e, states, physical_scales(system, states))
     cond = np.linalg.cond(e["mujoco"]["M"])
     # Explicit accelerations (form c) give M and the forces only through an inversion of M^-1: their
     # rounding grows with cond(M) like the accelerations', so they are judged with the solve tier.
@@ -239,9 +239,12 @@ def term_rows_at(
     return rows, notes
 
 
-def _engine_terms(ev: EngineValues, e: EngineValues, states: States) -> dict[str, tuple[dict[str, np.ndarray], float]]:
+def _engine_terms(
+    ev: EngineValues, e: EngineValues, states: States, scales: PhysicalScales
+) -> dict[str, tuple[dict[str, np.ndarray], float]]:
     """Each term's values per engine (from `engine_values` and `EngineTerms.by_engine`), with the
-    smallest scale it is judged at: the largest force, energy or length any engine gives."""
+    smallest scale it is judged at: the largest force, energy or length any engine gives, and at least
+    the model's physical floor of the term (`scales`: pointwise.physical_scales)."""
     force = max(
         float(np.abs(np.concatenate([e[k][x].ravel() for x in ("G", "Cv", "passive", "tau")])).max(initial=0.0))
         for k in ev
@@ -260,7 +263,7 @@ def _engine_terms(ev: EngineValues, e: EngineValues, states: States) -> dict[str
         "body rotations": ({k: ev[k]["body_rotations"] for k in ev}, 1.0),
         "acceleration": ({k: e[k]["a"] for k in ev}, 0.0),
     }
-    return theirs
+    return {term: (refs, max(floor, scales.floor(term))) for term, (refs, floor) in theirs.items()}
 
 
 def _error_row(term: str, engine: str, why: str) -> TermRow:
