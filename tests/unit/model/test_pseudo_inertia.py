@@ -43,7 +43,7 @@ def _rotation(kind: str, angles: tuple[float, float, float]) -> np.ndarray:
 def bodies(draw: st.DrawFn) -> tuple[float, np.ndarray, np.ndarray]:
     """A valid body: log-uniform mass and size, principal moments anywhere inside the triangle inequality
     (down to a relative margin of 1e-6: nearly a rod or a lamina), axes principal, turned about z or any,
-    centre coordinates zero or not."""
+    centre coordinates zero or from 1e-6 to 1 m either way."""
     mass = 10 ** draw(st.floats(-3, 3))
     size = 10 ** draw(st.floats(-6, 1))
     a, b = (10 ** draw(st.floats(-3, 0)) for _ in range(2))
@@ -55,7 +55,8 @@ def bodies(draw: st.DrawFn) -> tuple[float, np.ndarray, np.ndarray]:
     inertia = R @ np.diag(moments) @ R.T
     if kind == "about z":  # exact zeros where the turn leaves them
         inertia[0, 2] = inertia[2, 0] = inertia[1, 2] = inertia[2, 1] = 0.0
-    com = np.array([draw(st.sampled_from([0.0, draw(st.floats(-1, 1))])) for _ in range(3)])
+    signed = st.tuples(st.sampled_from([-1.0, 1.0]), st.floats(-6, 0)).map(lambda x: x[0] * 10 ** x[1])
+    com = np.array([draw(st.sampled_from([0.0, draw(signed)])) for _ in range(3)])
     return mass, com, 0.5 * (inertia + inertia.T)
 
 
