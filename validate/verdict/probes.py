@@ -51,8 +51,8 @@ from . import modelsync
 
 DEFAULT_PROBES = 4
 FACTOR_RANGES = ((0.5, 0.8), (1.25, 2.0))  # moderate perturbations, never near 1
-ATTEMPTS = 64  # draws per probe before giving up (a full inertia that breaks the triangle inequality: up
-# to 40% of independent draws for a pendulum with six inertia parameters, so 64 leave ~1e-25 to chance)
+ATTEMPTS = 64  # draws per probe before giving up: a body drawn as one rigid body is always valid, but a tie,
+# an inertia assumptions() computes from other fields, or a field moved alone (single_field_probes) may not be
 READBACK_RTOL = 1e-12  # the equations read back the numbers a probe was built with, relative to each field's
 # scale (`field_scales`: an inertia's entry relative to the inertia's largest entry, what the compiled model keeps)
 BODY_FIELDS = ("mass", "com", "inertia")  # drawn together, as one rigid body
