@@ -48,6 +48,8 @@ class VerdictData(TypedDict):
     hidden_by_model_values: bool
     model_mismatches: list[str]
     excluded: dict[str, str]
+    probes: dict[str, int]  # asked for, built
+    not_looked_for: str  # "" unless probes asked for were not built (or none was asked for): what that leaves out
     terms: list[TermLine]
 
 
@@ -62,6 +64,11 @@ def verdict_data(decision: Decision) -> VerdictData:
         "hidden_by_model_values": d.get("hidden_by_model_values", False),
         "model_mismatches": [m["key"] for m in mismatches(decision)],
         "excluded": dict(decision.excluded or {}),
+        "probes": {
+            "asked": int(d.get("checked", {}).get("probes_asked", 0)),
+            "built": int(d.get("checked", {}).get("probes", 0)),
+        },
+        "not_looked_for": str(d.get("not_looked_for", "")),
         "terms": [
             {
                 "term": t.get("term"),

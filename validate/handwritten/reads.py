@@ -189,6 +189,32 @@ def knobs(parameters: Callable[[Mapping[str, ModelValue]], object], view: Mappin
     return out
 
 
+def field_scales(
+    parameters: Callable[[Mapping[str, ModelValue]], object], view: Mapping[str, ModelValue]
+) -> dict[str, float]:
+    """{field: the size of the model numbers it is read from}: each key `parameters()` reads, nudged as a
+    whole by NUDGE of its largest entry, and for each field that follows, |d field / d entry| times that
+    entry. A field read from one entry of an inertia is then measured against the inertia's largest
+    entry, which is the precision the compiled model keeps it at (MuJoCo stores principal moments and a
+    quaternion, so an off-diagonal entry of 4e-8 beside moments of 1e-3 is known to about 1e-19), and a
+    field that is zero in the model has a scale too. Fields no key moves are left out."""
+    keys, base = _read_keys(parameters, view)
+    out: dict[str, float] = {}
+    for key in keys:
+        if isinstance(view[key], str):
+            continue
+        arr = np.asarray(view[key], dtype=float)
+        size = float(np.abs(arr).max(initial=0.0))
+        if not (size > 0 and np.isfinite(size)):
+            continue
+        delta = NUDGE * size
+        moved = numeric_fields(parameters(Overlay(view, {key: arr + delta})))
+        for name, x in moved.items():
+            if name in base and x != base[name] and np.isfinite(x):
+                out[name] = max(out.get(name, 0.0), abs(x - base[name]) / delta * size)
+    return out
+
+
 def names_of(knob_list: list[Knob]) -> dict[str, str]:
     """{model number label: the person's field name}, where one field alone follows the number: the
     person's word for `body/link2/mass` (`m2`), with the factor where it is not 1 (`l/2` for

@@ -122,7 +122,8 @@ def system_derivation(doc: Document, name: str, s: SystemResult) -> None:
     checked = d.get("checked", {})
     at_probes = (
         f" and at {checked.get('states_per_probe')} states with each of {checked.get('probes')} probe parameter sets, "
-        "in which every parameter of the derivation moves by its own factor in [0.5, 0.8] or [1.25, 2], so that a "
+        "in which every parameter of the derivation moves by its own factor in [0.5, 0.8] or [1.25, 2] (a link's "
+        "mass, centre and inertia drawn together, as one rigid body), so that a "
         "mistake the model's values hide (l1 l2 for l2², m2 for m1, a lost factor l) shows"
         if checked.get("probes")
         else " only (no probe parameter sets: a mistake the model's values hide would not show)"

@@ -213,6 +213,7 @@ class Derivation(TypedDict, total=False):
     summary: list[TermSummary]  # per term: rows, worst scaled error, tolerance
     probes: list[ProbeEntry]  # index, label, the parameters changed
     probe_problems: list[str]  # probes that could not be built, and why
+    not_looked_for: str  # where probes asked for were not built: what the verdict could not see
     held_at_zero: list[str]  # parameters zero in the model: the terms they scale are not tested
     checked: dict[str, int]  # states at the model, per probe, probes, evaluations
     notes: dict[str, TermNotes]  # per probe: what the terms could not check there

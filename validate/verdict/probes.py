@@ -6,9 +6,17 @@ every derivation is also judged at K probe models. A probe moves each field of t
 `Params` by its own random factor in [0.5, 0.8] or [1.25, 2] (moderate, never near 1), builds the
 model the derivation says it describes at those values (`assumptions(p)`, written into the MJCF
 text at full precision), and compiles it, so that MuJoCo, Pinocchio and the equations read the same
-numbers. The probe is kept only if the equations read back exactly the values it was built with and
-the compiled model is what the derivation assumes (a mismatch there is itself a finding: the
-derivation's `parameters()` reads a number from the wrong element).
+numbers. The probe is kept only if the equations read back the values it was built with (to the
+precision the compiled model keeps each number: an entry of an inertia relative to the inertia's
+largest entry, see `field_scales`) and the compiled model is what the derivation assumes (a mismatch
+there is itself a finding: the derivation's `parameters()` reads a number from the wrong element).
+
+A body's mass, centre of mass and inertia are not moved field by field: independent factors on the
+six entries of a real link's inertia break the triangle inequality at most draws (a 7-joint arm's
+probes could not be built at all at some seeds). They are drawn together, as one rigid body through
+the log-Cholesky factor of the body's pseudo-inertia matrix (validate/model/pseudo_inertia.py), so
+that every draw is a valid body; the fields that read them (found by `knobs`) follow the drawn
+numbers. What is zero stays zero there too.
 
 What a derivation takes as given is its stated assumption, and the probes keep it: a field that is
 zero in the model stays zero, a model number the derivation does not have as a parameter (its
@@ -33,8 +41,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.errors import HarnessError
-from ..handwritten.reads import Knob, Overlay, dataclass_instance, knobs, numeric_fields
-from ..model.modelview import ModelView
+from ..handwritten.reads import Knob, Overlay, dataclass_instance, field_scales, knobs, numeric_fields
+from ..model.modelview import ModelView, key_parts
+from ..model.pseudo_inertia import perturbed_body
 from ..model.set_values import set_values
 from ..results.schema import ProbeEntry
 from ..systems import System
@@ -42,9 +51,12 @@ from . import modelsync
 
 DEFAULT_PROBES = 4
 FACTOR_RANGES = ((0.5, 0.8), (1.25, 2.0))  # moderate perturbations, never near 1
-ATTEMPTS = 64  # draws per probe before giving up (a full inertia that breaks the triangle inequality: up
-# to 40% of independent draws for a pendulum with six inertia parameters, so 64 leave ~1e-25 to chance)
-READBACK_RTOL = 1e-12  # the equations must read back the numbers a probe was built with
+ATTEMPTS = 64  # draws per probe before giving up: a body drawn as one rigid body is always valid, but a tie,
+# an inertia assumptions() computes from other fields, or a field moved alone (single_field_probes) may not be
+READBACK_RTOL = 1e-12  # the equations read back the numbers a probe was built with, relative to each field's
+# scale (`field_scales`: an inertia's entry relative to the inertia's largest entry, what the compiled model keeps)
+BODY_FIELDS = ("mass", "com", "inertia")  # drawn together, as one rigid body
+BODY_DRAWS = 32  # rigid bodies drawn per body and probe, for one whose every number moves by a moderate factor
 
 
 @dataclass(frozen=True)
@@ -111,18 +123,83 @@ def _tie(values: dict[str, float], nominal: dict[str, float], ties: tuple[Mappin
             values[n] = values[lead] * tie[lead] / tie[n]
 
 
+def _body_of(knob: Knob) -> str:
+    """The body whose mass, centre or inertia `knob` is, or ""."""
+    parts = key_parts(knob.key)
+    return parts[1] if parts is not None and parts[0] == "body" and parts[2] in BODY_FIELDS else ""
+
+
+def _in_range(old: float, new: float) -> bool:
+    """Whether new / old is a factor of FACTOR_RANGES (moderate, never near 1)."""
+    ratio = new / old
+    return any(lo <= ratio <= hi for lo, hi in FACTOR_RANGES)
+
+
+def _draw_body(view: ModelView, body: str, knob_list: list[Knob], rng: np.random.Generator) -> dict[Knob, float]:
+    """One body's knobs at a rigid body drawn near the model's (pseudo_inertia.perturbed_body): valid at
+    every draw. An inertia entry is a sum of the factor's moved entries, so its ratio may fall near 1;
+    of BODY_DRAWS draws the first whose every ratio is a factor of FACTOR_RANGES is kept, else the one
+    with the most such (each of them a valid body all the same)."""
+    mass0 = float(view[f"body/{body}/mass"])
+    com0 = np.asarray(view[f"body/{body}/com"], dtype=float)
+    inertia0 = np.asarray(view[f"body/{body}/inertia"], dtype=float)
+    mine = [k for k in knob_list if _body_of(k) == body]
+    best: dict[Knob, float] = {}
+    best_count = -1
+    for _ in range(BODY_DRAWS):
+        mass, com, inertia = perturbed_body(mass0, com0, inertia0, lambda: _factor(rng))
+        drawn = {"mass": np.asarray(mass), "com": com, "inertia": inertia}
+        values = {k: float(drawn[k.key.rsplit("/", 1)[1]][k.index]) for k in mine}
+        count = sum(_in_range(k.value, v) for k, v in values.items())
+        if count > best_count:
+            best, best_count = values, count
+        if count == len(mine):
+            break
+    return best
+
+
+def draw_bodies(view: ModelView, knob_list: list[Knob], rng: np.random.Generator) -> dict[Knob, float]:
+    """New values of the knobs that are a body's mass, centre or inertia: each body drawn as one rigid body
+    near the model's (`_draw_body`), so that every draw is one MuJoCo compiles."""
+    out: dict[Knob, float] = {}
+    for body in dict.fromkeys(b for k in knob_list if (b := _body_of(k))):
+        out |= _draw_body(view, body, knob_list, rng)
+    return out
+
+
+def one_to_one(knob_list: list[Knob]) -> list[Knob]:
+    """The knobs one field alone follows, each field following that knob alone: the fields a body's draw
+    may set. A number two fields read (m1 and m2 both from link1's mass, a misread) or a field two
+    numbers make are left to their own factors, so that a probe still tells them apart."""
+    count: dict[str, int] = {}
+    for k in knob_list:
+        for name in k.fields:
+            count[name] = count.get(name, 0) + 1
+    return [k for k in knob_list if len(k.fields) == 1 and count[k.fields[0]] == 1]
+
+
 def draw(
     nominal: dict[str, float],
     rng: np.random.Generator,
     *,
     ties: tuple[Mapping[str, float], ...] = (),
     only: tuple[str, ...] | None = None,
+    bodies: Mapping[Knob, float] | None = None,
 ) -> dict[str, float]:
-    """New values for the fields: each non-zero one times its own factor (`only`: just those)."""
+    """New values for the fields: each non-zero one times its own factor (`only`: just those); the
+    fields that read a body's mass, centre or inertia (the knobs of `bodies`, with their drawn values,
+    each followed by one field alone: `one_to_one`) follow those values instead, d field / d number
+    times the change."""
     values = dict(nominal)
+    moved = dict(bodies or {})
+    following = {f for k in moved for f in k.fields}
     for name, x in nominal.items():
-        if x != 0.0 and (only is None or name in only):
+        if x != 0.0 and (only is None or name in only) and name not in following:
             values[name] = x * _factor(rng)
+    for knob, new in moved.items():
+        for name, gain in zip(knob.fields, knob.gains, strict=True):
+            exact = len(knob.fields) == 1 and nominal.get(name) == gain * knob.value
+            values[name] = gain * new if exact else values[name] + gain * (new - knob.value)
     _tie(values, nominal, ties)
     return values
 
@@ -132,8 +209,30 @@ def _assumed_values(assumed: Mapping[str, object]) -> dict[str, object]:
     return {k: v for k, v in assumed.items() if not isinstance(v, str)}
 
 
-def build(system: System, values: dict[str, float], *, index: int, label: str) -> Probe:
-    """The probe model for `values` (Params fields): written, compiled and read back."""
+def readback_scales(system: System) -> dict[str, float]:
+    """{field: the size of the model numbers `parameters()` reads it from} (reads.field_scales), the
+    scale a field's read-back is compared at."""
+    return field_scales(system.derivation.parameters, system.view)
+
+
+def _misread(
+    values: dict[str, float], readback: dict[str, float], scales: Mapping[str, float]
+) -> dict[str, tuple[float, float]]:
+    """The fields read back otherwise than built, beyond READBACK_RTOL of the larger of the value and
+    the field's scale (a product of inertia of 4e-8 beside moments of 1e-3 is kept to ~1e-19, not 4e-20)."""
+    out = {}
+    for k, want in values.items():
+        got = readback.get(k, float("nan"))
+        if not abs(got - want) <= READBACK_RTOL * max(abs(want), scales.get(k, 0.0), 1e-300):
+            out[k] = (want, got)
+    return out
+
+
+def build(
+    system: System, values: dict[str, float], *, index: int, label: str, scales: Mapping[str, float] | None = None
+) -> Probe:
+    """The probe model for `values` (Params fields): written, compiled and read back (`scales`: each
+    field's, `readback_scales(system)` if not given)."""
 
     eq = system.derivation
     base = dataclass_instance(system.params)
@@ -145,12 +244,7 @@ def build(system: System, values: dict[str, float], *, index: int, label: str) -
     text = set_values(system.mjcf_xml(), _assumed_values(assumed), model_view=system.view)
     probe_system = system.derive(text=text, overrides=())
     probe_system.mujoco_model()  # a model MuJoCo refuses is a ProbeError for the caller to redraw
-    readback = param_fields(probe_system.params)
-    wrong = {
-        k: (values[k], readback.get(k, float("nan")))
-        for k in values
-        if not abs(readback.get(k, np.nan) - values[k]) <= READBACK_RTOL * max(abs(values[k]), 1e-300)
-    }
+    wrong = _misread(values, param_fields(probe_system.params), readback_scales(system) if scales is None else scales)
     if wrong:
         detail = ", ".join(f"{k} = {b:.6g} (built with {a:.6g})" for k, (a, b) in wrong.items())
         raise ParametersMisread(
@@ -215,15 +309,26 @@ def build_moved(system: System, moved: dict[Knob, float], *, index: int, label: 
     return Probe(index, label, probe_system, changed)
 
 
-def _draw_moved(knob_list: list[Knob], rng: np.random.Generator, only: Knob | None = None) -> dict[Knob, float]:
-    return {k: k.value * _factor(rng) for k in knob_list if only is None or k == only}
+def _draw_moved(
+    knob_list: list[Knob], rng: np.random.Generator, only: Knob | None = None, view: ModelView | None = None
+) -> dict[Knob, float]:
+    """New values of the knobs: a body's mass, centre and inertia drawn together as one rigid body (given
+    the model's `view`), every other number times its own factor (`only`: that knob alone, by a factor)."""
+    if only is not None:
+        return {only: only.value * _factor(rng)}
+    bodies = draw_bodies(view, knob_list, rng) if view is not None else {}
+    return {k: bodies[k] if k in bodies else k.value * _factor(rng) for k in knob_list}
 
 
 def _moved_probes(system: System, k: int, seed: int, family: str) -> tuple[list[Probe], list[str]]:
-    """Probes of a derivation that reads the model: its numbers moved, each independently."""
+    """Probes of a derivation that reads the model: its numbers moved, each body as one rigid body."""
     knob_list = knobs(system.derivation.parameters, system.view)
     rng = np.random.default_rng([seed, k, len(family)])
-    return _drawn(system, k, lambda i: build_moved(system, _draw_moved(knob_list, rng), index=i, label=f"probe {i}"))
+
+    def attempt(i: int) -> Probe:
+        return build_moved(system, _draw_moved(knob_list, rng, view=system.view), index=i, label=f"probe {i}")
+
+    return _drawn(system, k, attempt)
 
 
 def _drawn(system: System, k: int, attempt: Callable[[int], Probe]) -> tuple[list[Probe], list[str]]:
@@ -261,7 +366,14 @@ def probes(
         return _moved_probes(system, k, seed, family)
     nominal = param_fields(system.params)
     rng = np.random.default_rng([seed, k, len(family)])
-    return _drawn(system, k, lambda i: build(system, draw(nominal, rng, ties=ties), index=i, label=f"probe {i}"))
+    knob_list = one_to_one(knobs(system.derivation.parameters, system.view)) if k else []
+    scales = readback_scales(system) if k else {}
+
+    def attempt(i: int) -> Probe:
+        values = draw(nominal, rng, ties=ties, bodies=draw_bodies(system.view, knob_list, rng))
+        return build(system, values, index=i, label=f"probe {i}", scales=scales)
+
+    return _drawn(system, k, attempt)
 
 
 def single_field_probes(system: System, *, seed: int = 0) -> list[Probe]:
@@ -271,11 +383,13 @@ def single_field_probes(system: System, *, seed: int = 0) -> list[Probe]:
         return _single_moved(system, seed)
     nominal = param_fields(system.params)
     rng = np.random.default_rng([seed, 7])
+    scales = readback_scales(system)
     out = []
     for i, name in enumerate(n for n, x in nominal.items() if x != 0.0):
         for _ in range(ATTEMPTS):
             try:
-                out.append(build(system, draw(nominal, rng, only=(name,)), index=100 + i, label=f"{name} alone"))
+                values = draw(nominal, rng, only=(name,))
+                out.append(build(system, values, index=100 + i, label=f"{name} alone", scales=scales))
                 break
             except HarnessError:
                 continue

@@ -321,6 +321,12 @@ class ProbeSet:
     probes: list[probing.Probe]
     problems: list[str]
     misread: Misreading | None = None
+    asked: int | None = None  # how many probes were asked for (None: as many as were built or tried)
+
+    @property
+    def wanted(self) -> int:
+        """How many probes were asked for."""
+        return len(self.probes) + len(self.problems) if self.asked is None else self.asked
 
     def systems(self) -> list[System]:
         return [p.system for p in self.probes]
@@ -331,10 +337,11 @@ def derivation_probes(system: System, *, n_probes: int = probing.DEFAULT_PROBES,
     try:
         found, problems = probing.probes(system, k=n_probes, seed=seed)
     except probing.ParametersMisread as exc:
-        return ProbeSet([], [str(exc)], {"message": str(exc), "fields": {k: list(v) for k, v in exc.wrong.items()}})
+        fields = {k: list(v) for k, v in exc.wrong.items()}
+        return ProbeSet([], [str(exc)], {"message": str(exc), "fields": fields}, asked=n_probes)
     except HarnessError as exc:
-        return ProbeSet([], [str(exc)])
-    return ProbeSet(found[1:], problems)
+        return ProbeSet([], [str(exc)], asked=n_probes)
+    return ProbeSet(found[1:], problems, asked=n_probes)
 
 
 def _explanations(
@@ -417,8 +424,15 @@ def _coverage(result: Derivation, system: System, states: States, probe_set: Pro
         "states_at_model": len(states),
         "states_per_probe": probe_states,
         "probes": len(probe_list),
+        "probes_asked": probe_set.wanted,
         "evaluations": len(states) + probe_states * len(probe_list),
     }
+
+
+def _no_probes(probe_set: ProbeSet) -> str:
+    """The words for a verdict at the model's own numbers alone: none asked for says what that leaves
+    out (none built is said after the states, with why)."""
+    return f" (no probes asked for: {words.NOT_LOOKED_FOR})" if probe_set.wanted == 0 else ""
 
 
 def _agreement(result: Derivation, sources: Mapping[str, Source], probe_set: ProbeSet) -> None:
@@ -427,11 +441,13 @@ def _agreement(result: Derivation, sources: Mapping[str, Source], probe_set: Pro
     result["verdict"] = "agrees"
     result["statement"] = (
         f"agrees with {_engine_names(sources)} in every term at the model's parameters"
-        + (f" and at {len(probe_list)} probe parameter sets" if probe_list else " (no probes)")
+        + (f" and at {len(probe_list)} probe parameter sets" if probe_list else _no_probes(probe_set))
         + f" ({result['checked']['evaluations']} states)"
     )
-    if problems:
-        result["statement"] += f"; {len(problems)} probe(s) could not be built"
+    unprobed = words.unbuilt_probes(len(probe_list), probe_set.wanted, problems)
+    if unprobed:
+        result["statement"] += f"; {unprobed}"
+        result["not_looked_for"] = unprobed
 
 
 def _hidden_statement(

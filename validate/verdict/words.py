@@ -170,3 +170,25 @@ def typed_note(typed: dict[str, float]) -> str:
         f"{'it' if len(typed) == 1 else 'them'}, so nothing checks {'it' if len(typed) == 1 else 'them'} "
         "against the model's numbers)"
     )
+
+
+NOT_LOOKED_FOR = "mistakes the model's own values hide were not looked for"
+REASON_CHARS = 160  # the first reason a probe could not be built, cut to one readable clause
+
+
+def unbuilt_probes(built: int, asked: int, problems: list[str]) -> str:
+    """What a verdict reached without some of its probes means, or "" (every probe asked for was built,
+    or none was asked for and none tried). A verdict at the model's own numbers alone cannot see a
+    mistake those numbers hide (l1 l2 for l2^2 at l1 = l2): the line says so, with the first reason."""
+    missing = max(asked - built, len(problems) if built == 0 else 0)
+    if missing <= 0:
+        return ""
+    reason = problems[0] if problems else ""
+    reason = reason if len(reason) <= REASON_CHARS else reason[: REASON_CHARS - 3].rstrip() + "..."
+    why = f" ({reason})" if reason else ""
+    if built == 0:
+        return f"none of the {max(asked, missing)} probe(s) could be built, so {NOT_LOOKED_FOR}{why}"
+    return (
+        f"{missing} of {asked} probe(s) could not be built, so {NOT_LOOKED_FOR} at those: they were looked for "
+        f"at {built} parameter set(s){why}"
+    )
