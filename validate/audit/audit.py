@@ -41,7 +41,7 @@ N_STATES = 100  # seeded configurations at which each reading's M and G are comp
 # Fields no smooth dynamics use (limits, a <mimic> coupling and dry friction are constraints, compared
 # without them as issue 32 has it; ref moves the coordinate's zero, not the frames; an actuator's gear
 # scales the input, not M or the bias): a difference is named, with its cause, but fails nothing.
-INFORMATIONAL = ("/limits", "/ref", "/gear", "/target", "/mimic", "/frictionloss")
+INFORMATIONAL = ("/limits", "/ref", "/gear", "/target", "/mimic", "/couplings", "/frictionloss")
 LENGTHS = ("/anchor", "/com")  # judged against the chain's extent: a centre at the origin may read 1e-17 m
 FRAME = (
     "each reader at its reference configuration (MuJoCo's qpos0: a joint's ref; the others' zero), world "
