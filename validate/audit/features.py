@@ -74,7 +74,7 @@ def _mjcf_limits(root: ET.Element) -> set[str]:
                 out |= {"limited false", f"limited false:{name}"}
     for eq in root.iter("equality"):
         for j in eq.findall("joint"):
-            if j.get("joint1") and j.get("joint2"):
+            if j.get("joint1") and j.get("joint2") and j.get("active") != "false":
                 out |= {"joint equality", f"joint equality:{j.get('joint1')}"}
     return out
 

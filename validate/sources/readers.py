@@ -299,12 +299,14 @@ def _mujoco_parent(m: mujoco.MjModel, j: int, name: Callable[[mujoco.mjtObj, int
 
 
 def _mujoco_mimics(m: mujoco.MjModel, name: Callable[[mujoco.mjtObj, int], str]) -> dict[str, tuple[str, float, float]]:
-    """joint -> (leader, multiplier, offset) of every joint equality q1 = offset + multiplier q2."""
+    """joint -> (leader, multiplier, offset) of every joint equality q1 = offset + multiplier q2 that is active
+    at the start (active="false" couples nothing until a controller switches it on)."""
     import mujoco
 
     out = {}
     for e in range(m.neq):
-        if int(m.eq_type[e]) == int(mujoco.mjtEq.mjEQ_JOINT) and int(m.eq_obj2id[e]) >= 0:
+        coupled = int(m.eq_type[e]) == int(mujoco.mjtEq.mjEQ_JOINT) and int(m.eq_obj2id[e]) >= 0
+        if coupled and bool(m.eq_active0[e]):
             follower = name(mujoco.mjtObj.mjOBJ_JOINT, int(m.eq_obj1id[e]))
             leader = name(mujoco.mjtObj.mjOBJ_JOINT, int(m.eq_obj2id[e]))
             out[follower] = (leader, float(m.eq_data[e, 1]), float(m.eq_data[e, 0]))

@@ -165,6 +165,9 @@ CORRECT: dict[str, tuple[str, str, dict[str, str]]] = {
     "MJCF equality fixing one joint": (
         mjcf(CHILD, tail='<equality><joint joint1="k" polycoef="0.1 0 0 0 0"/></equality>'), "mjcf", {},
     ),
+    "MJCF joint equality switched off": (
+        mjcf(CHILD, tail=EQUALITY.replace("polycoef", 'active="false" polycoef')), "mjcf", {},
+    ),
     "continuous joint with effort and velocity": (
         urdf(j2='<limit effort="5" velocity="2"/>', kind2="continuous"), "urdf", {},
     ),
