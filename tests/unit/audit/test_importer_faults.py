@@ -243,6 +243,33 @@ def test_a_correct_model_of_each_kind_raises_no_alarm(tmp_path, case):
     assert len(result["readers"]) == 3
 
 
+def test_drake_reads_a_mimic_as_a_coupler_and_pinocchio_only_when_asked(tmp_path):
+    """What the readers' couplings rest on, asked of the libraries: Drake's URDF parser makes a coupler
+    constraint of a <mimic> (pydrake binds no accessor for its joints; a continuous plant then refuses to
+    compute), Pinocchio's buildModel makes a mimic joint only with mimic=True, MuJoCo a joint equality."""
+    import mujoco
+    import pinocchio as pin
+    from lagrange_xval.sources.readers import read
+    from pydrake.multibody.parsing import Parser
+    from pydrake.multibody.plant import MultibodyPlant
+
+    text = urdf(j2=LIMIT + MIMIC)
+    plant = MultibodyPlant(time_step=0.0)
+    Parser(plant).AddModelsFromString(text, "urdf")
+    plant.Finalize()
+    assert plant.num_constraints() == 1 and not hasattr(plant, "get_coupler_constraint_specs")
+    with pytest.raises(RuntimeError, match="does not support constraints"):
+        plant.EvalTimeDerivatives(plant.CreateDefaultContext())
+    assert not any("Mimic" in j.shortname() for j in pin.buildModelFromXML(text).joints)
+    assert any("Mimic" in j.shortname() for j in pin.buildModelFromXML(text, mimic=True).joints)
+    assert mujoco.MjModel.from_xml_string(text).neq == 1
+    path = tmp_path / "arm.urdf"
+    path.write_text(text)
+    drake = read("drake", path, text, "urdf")
+    assert drake.couplings == 1 and drake.unread == ("mimic",)
+    assert read("pinocchio", path, text, "urdf").couplings == 0 and read("mujoco", path, text, "urdf").couplings == 1
+
+
 def test_the_five_kinds_each_name_an_entry_of_the_catalogue():
     from lagrange_xval.audit import importers
 
