@@ -8,8 +8,9 @@ against that meaning, not against the others, so that two readers that drop the 
 named. Every field that enters the equations of motion is compared, in one frame common to the
 readers (each at its reference configuration, world coordinates, each joint with the rigid group it
 moves): mass, centre of mass, inertia; each joint's anchor (hinges), axis, kind, ref, limits,
-damping, stiffness, springref, frictionloss, armature, gravcomp and mimic coupling; each actuator's
-joint and gear. A difference is explained by an entry of the catalogue of known importer behaviours
+damping, stiffness, springref, frictionloss, armature, gravcomp and mimic coupling; the model's number
+of joint couplings (a reader that cannot name a coupling's joints, Drake, is compared on that count);
+each actuator's joint and gear. A difference is explained by an entry of the catalogue of known importer behaviours
 (validate/audit/importers.py) or said to be unexplained; each reader's own warnings are shown.
 The consequence of each reading is measured on the dynamics it implies (validate/audit/chain.py):
 max |M_reader - M_format| and |G_reader - G_format| at seeded configurations.
@@ -41,13 +42,13 @@ N_STATES = 100  # seeded configurations at which each reading's M and G are comp
 # Fields no smooth dynamics use (limits, a <mimic> coupling and dry friction are constraints, compared
 # without them as issue 32 has it; ref moves the coordinate's zero, not the frames; an actuator's gear
 # scales the input, not M or the bias): a difference is named, with its cause, but fails nothing.
-INFORMATIONAL = ("/limits", "/ref", "/gear", "/target", "/mimic", "/frictionloss")
+INFORMATIONAL = ("/limits", "/ref", "/gear", "/target", "/mimic", "/couplings", "/frictionloss")
 LENGTHS = ("/anchor", "/com")  # judged against the chain's extent: a centre at the origin may read 1e-17 m
 FRAME = (
     "each reader at its reference configuration (MuJoCo's qpos0: a joint's ref; the others' zero), world "
     "coordinates; per joint the rigid group it moves (welded bodies included): mass kg, centre of mass m, "
     "inertia about it kg m^2; hinge anchor m, axis, limits rad or m, damping, stiffness, springref, "
-    "frictionloss, armature, gravcomp, mimic; actuator gear"
+    "frictionloss, armature, gravcomp, mimic; the model's joint couplings; actuator gear"
 )
 UNITS = {"mass": "kg", "com": "m", "anchor": "m", "damping": "N m s/rad", "armature": "kg m^2", "inertia": "kg m^2"}
 
@@ -104,6 +105,16 @@ def _cause(
     if not hits:
         return "", "no known importer behaviour explains it", ""
     return hits[0].key, hits[0].cause, hits[0].reported
+
+
+def _joints_cause(reader: str, fmt: str, found: set[str], absent: tuple[str, ...]) -> tuple[str, str, str]:
+    """The entry explaining a reader's missing joints: the one whose feature is on most of them (an
+    <include> that brought them all before the several joints of one of its bodies), else `_cause`'s."""
+    hits = importers.explain(reader, fmt, "joint", found, absent)
+    if not hits:
+        return _cause(reader, fmt, "joint", found, absent)
+    best = max(hits, key=lambda b: sum(f"{b.feature}:{j}" in found for j in absent))  # the first of equals
+    return best.key, best.cause, best.reported
 
 
 def _finding(
@@ -190,7 +201,7 @@ def _missing(reference: Reading, readings: dict[str, Reading], fmt: str, found: 
     for name, r in readings.items():
         absent = [j for j in reference.joints if j not in r.joints]
         if absent:
-            entry, cause, url = _cause(name, fmt, "joint", found, tuple(absent))
+            entry, cause, url = _joints_cause(name, fmt, found, tuple(absent))
             out.append(
                 {
                     "reader": name,

@@ -57,6 +57,28 @@ def _default_features(root: ET.Element) -> set[str]:
     return out
 
 
+def _mjcf_limits(root: ET.Element) -> set[str]:
+    """What decides a joint's limits and couplings, scoped to the joint: a slide joint's range where the
+    compiler's angles are degrees (MuJoCo's default; a length is not converted), a range that
+    limited="false" switches off, a joint equality coupling two joints (MJCF's mimic)."""
+    degrees = _compiler(root).get("angle", "degree") != "radian"
+    ranged = any(j.get("range") for d in root.iter("default") for j in d.findall("joint"))
+    off = any(j.get("limited") == "false" for d in root.iter("default") for j in d.findall("joint"))
+    out: set[str] = set()
+    for body in root.iter("body"):
+        for j in body.findall("joint"):
+            name, has_range = j.get("name", ""), bool(j.get("range")) or ranged
+            if degrees and j.get("type") == "slide" and has_range:
+                out |= {"slide range in degrees", f"slide range in degrees:{name}"}
+            if has_range and (j.get("limited") == "false" or (off and j.get("limited") is None)):
+                out |= {"limited false", f"limited false:{name}"}
+    for eq in root.iter("equality"):
+        for j in eq.findall("joint"):
+            if j.get("joint1") and j.get("joint2") and j.get("active") != "false":
+                out |= {"joint equality", f"joint equality:{j.get('joint1')}"}
+    return out
+
+
 def _mjcf_features(root: ET.Element) -> set[str]:
     out = {f"compiler {k}" for k in _compiler(root)}
     if any(o.get("gravity") for o in root.iter("option")):
@@ -67,9 +89,7 @@ def _mjcf_features(root: ET.Element) -> set[str]:
         out |= _body_features(body, "compiler balanceinertia" in out)
     joints = [j for j in root.iter("joint")] + [j for d in root.iter("default") for j in d.findall("joint")]
     out |= {feature for attr, feature in JOINT_FEATURES if any(j.get(attr) not in (None, "0") for j in joints)}
-    out |= _default_features(root)
-    if any(True for _ in root.iter("frame")):
-        out.add("frame element")
+    out |= _default_features(root) | _mjcf_limits(root)
     if any(g.get("shellinertia") == "true" for g in root.iter("geom")) or any(
         m.get("inertia") == "shell" for m in root.iter("mesh")
     ):
@@ -80,13 +100,36 @@ def _mjcf_features(root: ET.Element) -> set[str]:
     if world is not None and len(world.findall("body")) > 1:
         out.add("several root bodies")
     for body in world.findall("body") if world is not None else []:
-        posed = any(body.get(a) for a in ("pos", "quat", "euler", "axisangle", "xyaxes", "zaxis"))
+        posed = any(body.get(a) for a in (*POSE, FRAMED))
         free = body.find("freejoint") is not None or any(j.get("type") == "free" for j in body.findall("joint"))
         if body.find("joint") is None and not free and posed:
             out.add("fixed root pose")
         if free and posed:
             out.add("free root pose")
     return out
+
+
+def _urdf_limits(j: ET.Element) -> set[str]:
+    """A URDF joint's <limit> as urdfdom rules it: required on a revolute or prismatic joint, with effort and
+    velocity wherever it is given ("joint without limit": urdfdom refuses the file); lower and upper default
+    to 0 ("limit without bounds", also where they are equal: a range a reader may read as no limit)."""
+    limit, kind, name = j.find("limit"), j.get("type"), j.get("name", "")
+    if limit is None:
+        return {"joint without limit", f"joint without limit:{name}"} if kind in ("revolute", "prismatic") else set()
+    out = set()
+    if limit.get("effort") is None or limit.get("velocity") is None:
+        out |= {"joint without limit", f"joint without limit:{name}"}
+    bounds = (limit.get("lower"), limit.get("upper"))
+    if kind in ("revolute", "prismatic") and (None in bounds or _same_numbers(*bounds)):
+        out |= {"limit without bounds", f"limit without bounds:{name}"}
+    return out
+
+
+def _same_numbers(a: str | None, b: str | None) -> bool:
+    try:
+        return float(a or "0") == float(b or "0")
+    except ValueError:
+        return False
 
 
 def _rpy(el: ET.Element | None) -> bool:
@@ -102,9 +145,8 @@ def _urdf_features(root: ET.Element) -> set[str]:
         if j.get("type") == "fixed" and _rpy(j):
             out |= {f"fixed joint rpy:{child}", f"welded rotated body:{child}"}
         if j.find("mimic") is not None:
-            out.add("mimic")
-        if j.get("type") in ("revolute", "prismatic") and j.find("limit") is None:
-            out.add("joint without limit")
+            out |= {"mimic", f"mimic:{j.get('name', '')}"}
+        out |= _urdf_limits(j)
         limit = j.find("limit")
         if j.get("type") == "continuous" and limit is not None and (limit.get("lower") or limit.get("upper")):
             out.add("continuous with limit")
@@ -162,7 +204,9 @@ def _invalid(inertial: ET.Element) -> bool:
     return bool(moments[0] < 0.0 or moments[0] + moments[1] < moments[2] * (1 - 1e-9))
 
 
-INCLUDE = re.compile(r"<include\s+file\s*=\s*[\"']([^\"']+)[\"']\s*/>")
+# <include file="..."/> in any spelling MuJoCo accepts: other attributes, either quote, an empty element with
+# its closing tag
+INCLUDE = re.compile(r"<include\b[^>]*?\bfile\s*=\s*[\"']([^\"']+)[\"'][^>]*?(?:/>|>\s*</include\s*>)")
 MAX_INCLUDES = 64  # files spliced at most (an include that includes itself stops here)
 
 
@@ -177,9 +221,75 @@ def spliced(text: str, folder: Path | None) -> str:
             inner = (folder / match.group(1)).read_text()
         except OSError:
             return text
-        inner = re.sub(r"<\?xml[^>]*\?>|</?mujocoinclude[^>]*>|</?mujoco\b[^>]*>", "", inner)
-        text = text[: match.start()] + inner + text[match.end() :]
+        inner = re.sub(r"<\?xml[^>]*\?>|<!--.*?-->|</?mujocoinclude[^>]*>|</?mujoco\b[^>]*>", "", inner, flags=re.S)
+        text = text[: match.start()] + f"<{INCLUDED}>{inner}</{INCLUDED}>" + text[match.end() :]
     return text
+
+
+INCLUDED = "lagrange_xval_included"  # marks what an <include> brought in, unwrapped after the features are read
+
+
+def _included(root: ET.Element) -> set[str]:
+    """The bodies and joints an <include> brought in ("include:<name>"), and "included root" where the file's
+    own <worldbody> has no body of its own (a scene that includes its robot); the markers are then unwrapped
+    so that the rest reads the text MuJoCo compiles."""
+    out: set[str] = set()
+    for marker in root.iter(INCLUDED):
+        out |= {f"include:{name}" for name in _names(marker)}
+    brought = {id(b) for m in root.iter(INCLUDED) for b in m.iter("body")}
+    own = any(id(b) not in brought for w in root.findall("worldbody") for b in w.iter("body"))
+    if brought and not own:
+        out.add("included root")
+    _unwrap(root, INCLUDED)
+    worlds = root.findall("worldbody")  # MuJoCo merges every <worldbody> (the file's and its includes')
+    for extra in worlds[1:]:
+        worlds[0].extend(list(extra))
+        root.remove(extra)
+    return out
+
+
+def _names(el: ET.Element) -> set[str]:
+    """The names of the bodies and joints at or under `el` (what a feature on it is scoped to)."""
+    return {str(e.get("name")) for e in el.iter() if e.tag in ("body", "joint") and e.get("name")}
+
+
+POSE = ("pos", "quat", "euler", "axisangle", "xyaxes", "zaxis")
+FRAMED = "lagrange_xval_framed"  # set on a body a posed <frame> moved (its pose is the frame's composed with its own)
+
+
+def _frames(root: ET.Element) -> set[str]:
+    """The MJCF's <frame> elements: "frame element", scoped to the body that holds one and to every body and
+    joint inside it (what a reader that drops frames loses), and "frame root" where the <worldbody> has bodies
+    inside frames only; then each frame is replaced by its children, a posed frame marking the bodies it
+    moves, so that the rest reads the tree MuJoCo compiles (a frame composes its pose into its children)."""
+    out: set[str] = set()
+    parents = {child: parent for parent in root.iter() for child in parent}
+    for frame in root.iter("frame"):
+        out.add("frame element")
+        holder = parents.get(frame)
+        while holder is not None and holder.tag == "frame":
+            holder = parents.get(holder)
+        if holder is not None and holder.tag == "body":
+            out.add(f"frame element:{holder.get('name', '')}")
+        out |= {f"frame element:{name}" for name in _names(frame)}
+        if any(frame.get(a) for a in POSE):
+            for body in frame.findall("body"):
+                body.set(FRAMED, "true")
+    world = root.find("worldbody")
+    if world is not None and world.find("body") is None and world.find(".//frame//body") is not None:
+        out.add("frame root")
+    _unwrap(root, "frame")
+    return out
+
+
+def _unwrap(root: ET.Element, tag: str) -> None:
+    """Each `tag` element replaced by its children, in place (what MuJoCo splices or composes)."""
+    for parent in list(root.iter()):
+        while (i := next((k for k, el in enumerate(parent) if el.tag == tag), None)) is not None:
+            marker = parent[i]
+            parent.remove(marker)
+            for k, child in enumerate(list(marker)):
+                parent.insert(i + k, child)
 
 
 def features(text: str, fmt: str, folder: Path | None = None) -> set[str]:
@@ -191,7 +301,10 @@ def features(text: str, fmt: str, folder: Path | None = None) -> set[str]:
     else:
         found = set()
     try:
-        root = ET.fromstring(re.sub(r"<\?xml[^>]*\?>", "", text, count=1))
+        root = ET.fromstring(re.sub(r"<\?xml[^>]*\?>", "", text.lstrip(), count=1))
     except ET.ParseError:
         return found
-    return found | (_urdf_features(root) if fmt == "urdf" else _mjcf_features(root))
+    if fmt == "urdf":
+        return found | _urdf_features(root)
+    found |= _included(root) | _frames(root)
+    return found | _mjcf_features(root)

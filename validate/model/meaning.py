@@ -7,8 +7,11 @@ which `urdf_meaning` below writes out with `xml.etree` (no engine involved):
 - a link without `<inertial>` has no mass; an `<inertial>`'s `<origin rpy>` rotates its inertia
   (R = Rz(yaw) Ry(pitch) Rx(roll), fixed axes X, Y, Z);
 - a joint's `<origin>` places its frame in the parent link's frame; its `<axis>` (default 1 0 0) is in
-  the joint frame, made a unit vector; `<limit lower upper>` default 0 (a continuous joint has none);
-  `<dynamics damping friction>` default 0; `<mimic joint multiplier offset>` default 1 and 0;
+  the joint frame, made a unit vector; a revolute or prismatic joint's `<limit lower upper>` default 0
+  each (a `<limit effort velocity>` alone is the range [0, 0]), a continuous joint has no position limit
+  whatever its `<limit>` says; `<dynamics damping friction>` default 0, friction being dry friction
+  (MuJoCo's frictionloss); `<mimic joint multiplier offset>` default 1 and 0, a coupling
+  q = multiplier q_leader + offset (MuJoCo's joint equality), counted among the model's couplings;
 - the root link sits at the world origin (a link named `world` is the world);
 - a `<transmission>` drives its joint with its `<mechanicalReduction>` as gear.
 
@@ -22,6 +25,7 @@ read alike.
 
 from __future__ import annotations
 
+import dataclasses
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from typing import TypeAlias
@@ -84,6 +88,10 @@ class Reading:
         actuators: name -> (joint, gear), or None where the reader has no actuators.
         warnings: the reader's own warnings while reading; notes: what the harness did to read it.
         members: joint -> the bodies (links) of the group it moves; gravity: (3,) m/s^2.
+        couplings: how many joint couplings (a URDF's <mimic>, an MJCF's <equality><joint>) it holds; None
+            where the reader cannot say.
+        unread: the joint fields its library does not expose ("mimic": pydrake binds no coupler constraint's
+            joints), left out of the comparison rather than read as neutral.
     """
 
     reader: str
@@ -94,6 +102,8 @@ class Reading:
     notes: list[str] = field(default_factory=list)
     members: dict[str, tuple[str, ...]] = field(default_factory=dict)
     gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
+    couplings: int | None = None
+    unread: tuple[str, ...] = ()
 
 
 # One field of a reading (`fields`): a number, an array (a vector, an inertia, limits), a text (a joint's
@@ -254,6 +264,9 @@ def urdf_meaning(text: str, source: str) -> Reading:
         if j is not None and j.get("type") in MOVING:
             above = place(j.find("parent").get("link", ""))[2]  # type: ignore[union-attr]
             joints[j.get("name", "?")] = _joint_read(j, R, p, above)
+    for name, r in joints.items():  # a <mimic> of a joint that does not move (or is not in the file) couples nothing
+        if r.mimic is not None and r.mimic[0] not in joints:
+            joints[name] = dataclasses.replace(r, mimic=None)
     groups = {name: composite(parts.get(name, [])) for name in joints}
     return Reading(
         "meaning",
@@ -261,6 +274,7 @@ def urdf_meaning(text: str, source: str) -> Reading:
         groups,
         actuators=_transmissions(root),
         members={name: tuple(members.get(name, ())) for name in joints},
+        couplings=sum(1 for r in joints.values() if r.mimic is not None),
     )
 
 
@@ -284,6 +298,8 @@ def fields(reading: Reading, labels: dict[str, str]) -> dict[str, FieldValue]:
     'actuator/<name>/gear';
     `labels`: joint -> the link its group is shown as (the reference's)."""
     out: dict[str, FieldValue] = {"model/world/gravity": reading.gravity}
+    if reading.couplings is not None:
+        out["model/world/couplings"] = float(reading.couplings)
     for j, g in reading.groups.items():
         b = labels.get(j, j)
         out |= {f"body/{b}/mass": g.mass, f"body/{b}/com": g.com, f"body/{b}/inertia": g.inertia}
@@ -295,8 +311,9 @@ def fields(reading: Reading, labels: dict[str, str]) -> dict[str, FieldValue]:
             f"joint/{j}/armature": r.armature,
             f"joint/{j}/gravcomp": r.gravcomp,
             f"joint/{j}/kind": r.kind,
-            f"joint/{j}/mimic": r.mimic,
         }
+        if "mimic" not in reading.unread:
+            out[f"joint/{j}/mimic"] = r.mimic
     for a, (joint, gear) in (reading.actuators or {}).items():
         out |= {f"actuator/{a}/target": joint, f"actuator/{a}/gear": gear}
     return out

@@ -286,6 +286,7 @@ def mujoco_reading(path: Path, text: str, fmt: str) -> Reading:
         warnings=said,
         members=body_names,
         gravity=np.array(m.opt.gravity),
+        couplings=len(couplings),
     )
 
 
@@ -299,12 +300,14 @@ def _mujoco_parent(m: mujoco.MjModel, j: int, name: Callable[[mujoco.mjtObj, int
 
 
 def _mujoco_mimics(m: mujoco.MjModel, name: Callable[[mujoco.mjtObj, int], str]) -> dict[str, tuple[str, float, float]]:
-    """joint -> (leader, multiplier, offset) of every joint equality q1 = offset + multiplier q2."""
+    """joint -> (leader, multiplier, offset) of every joint equality q1 = offset + multiplier q2 that is active
+    at the start (active="false" couples nothing until a controller switches it on)."""
     import mujoco
 
     out = {}
     for e in range(m.neq):
-        if int(m.eq_type[e]) == int(mujoco.mjtEq.mjEQ_JOINT) and int(m.eq_obj2id[e]) >= 0:
+        coupled = int(m.eq_type[e]) == int(mujoco.mjtEq.mjEQ_JOINT) and int(m.eq_obj2id[e]) >= 0
+        if coupled and bool(m.eq_active0[e]):
             follower = name(mujoco.mjtObj.mjOBJ_JOINT, int(m.eq_obj1id[e]))
             leader = name(mujoco.mjtObj.mjOBJ_JOINT, int(m.eq_obj2id[e]))
             out[follower] = (leader, float(m.eq_data[e, 1]), float(m.eq_data[e, 0]))
@@ -372,7 +375,14 @@ def pinocchio_reading(path: Path, text: str, fmt: str) -> Reading:
         )
         I, R = model.inertias[jid], oMi.rotation
         groups[jn] = Inertial(float(I.mass), np.array(oMi.act(I.lever)), R @ np.array(I.inertia) @ R.T)
-    return Reading("pinocchio", joints, groups, None, gravity=np.array(model.gravity.linear, dtype=float))
+    gravity = np.array(model.gravity.linear, dtype=float)
+    return Reading("pinocchio", joints, groups, None, gravity=gravity, couplings=_pinocchio_couplings(model))
+
+
+def _pinocchio_couplings(model: pin.Model) -> int:
+    """The joints Pinocchio made mimic another (JointModelMimic: only where the model was built with
+    mimic=True; the default reading of a URDF's <mimic> is a joint that moves on its own)."""
+    return sum(1 for j in model.joints if "Mimic" in j.shortname())
 
 
 def _pinocchio_parent(model: pin.Model, jid: int) -> str:
@@ -477,7 +487,18 @@ def drake_reading(path: Path, text: str, fmt: str) -> Reading:
         for a in plant.GetJointActuatorIndices()
     }
     gravity = np.array(plant.gravity_field().gravity_vector(), dtype=float)
-    return Reading("drake", joints, groups, actuators, warnings=said, gravity=gravity)
+    reading = Reading("drake", joints, groups, actuators, warnings=said, gravity=gravity)
+    return _drake_couplings(reading, plant, fmt)
+
+
+def _drake_couplings(reading: Reading, plant: Any, fmt: str) -> Reading:
+    """Drake's couplings: its URDF parser makes a coupler constraint of each <mimic> (its continuous plant
+    then refuses to compute dynamics with it), whose joints, gear ratio and offset pydrake does not expose:
+    a URDF's couplings are counted and its joints' mimic left unread. Its MJCF parser reads no
+    <equality><joint> (it warns), so there a joint's mimic is read as none."""
+    if fmt != "urdf":
+        return reading
+    return dataclasses.replace(reading, couplings=int(plant.num_constraints()), unread=("mimic",))
 
 
 def _drake_joint(plant: Any, ctx: Any, joint: Any, motor: Any) -> JointRead:

@@ -196,8 +196,28 @@ PLANTED = {
         mjcf(world=f'<body name="b" pos="0 0 1" gravcomp="0.5"><joint name="j" axis="0 1 0"/>{INERTIAL}</body>'),
         "mjcf", {"pinocchio": "gravcomp", "drake": "gravcomp"}, None,
     ),
-    "mimic": (urdf(extra=FINGER.format(mimic=MIMIC, mass="0.1")), "urdf", {"pinocchio": "mimic", "drake": "mimic"},
-              None),
+    "mimic": (urdf(extra=FINGER.format(mimic=MIMIC, mass="0.1")), "urdf", {"pinocchio": "mimic"}, None),
+    "an invalid mimic": (urdf(extra=FINGER.format(mimic='<mimic joint="none"/>', mass="0.1")), "urdf", {}, None),
+    "a joint equality": (
+        mjcf(INERTIAL + f'<body name="c" pos="0 0 1"><joint name="k" axis="1 0 0"/>{INERTIAL}</body>',
+             '<equality><joint joint1="k" joint2="j" polycoef="0 2 0 0 0"/></equality>'),
+        "mjcf", {"pinocchio": "mimic", "drake": "mimic"}, None,
+    ),
+    "a slide joint's range in degrees": (
+        mjcf(INERTIAL + f'<body name="c" pos="0 0 1"><joint name="k" type="slide" range="-0.1 0.2"/>{INERTIAL}</body>'),
+        "mjcf", {"pinocchio": "limits"}, None,
+    ),
+    'limited="false"': (mjcf(joint=' range="-30 30" limited="false"'), "mjcf", {"pinocchio": "limits"}, None),
+    "a <limit> without lower and upper": (
+        urdf().replace('<limit lower="-2" upper="2" effort="10" velocity="1"/>', '<limit effort="10" velocity="1"/>'),
+        "urdf", {"mujoco": "limits", "drake": "limits"}, None,
+    ),
+    "<include> of the robot": ('<mujoco model="s"><worldbody><include file="part.xml"/></worldbody></mujoco>', "mjcf",
+                               {}, None),
+    "<frame> around the root": (
+        mjcf(world=f'<frame pos="0 0 1"><body name="b"><joint name="j" axis="0 1 0"/>{INERTIAL}</body></frame>'),
+        "mjcf", {}, None,
+    ),
     "collision-free geoms": (
         mjcf('<geom type="sphere" size="0.1" pos="0 0 0.3" contype="0" conaffinity="0"/>'
              '<geom type="box" size="0.1 0.05 0.05" pos="0 0 0.5"/>'),
@@ -267,6 +287,8 @@ def test_each_planted_fault_names_its_readers_and_cause(tmp_path, entry):
     assert {r for r, _ in wrong} <= set(fields), (entry, result["findings"])
     refusing = {"inertiafromgeom": {"pinocchio", "drake"}, "shell inertia": {"pinocchio"}}
     refusing["a joint without <limit>"] = {"pinocchio"}
+    refusing |= {"an invalid mimic": {"drake"}, "<include> of the robot": {"pinocchio"}}
+    refusing["<frame> around the root"] = {"pinocchio"}
     if entry in refusing:  # the readers that refuse the file: each says why, with the entry
         assert set(result["skipped"]) == refusing[entry]
         assert all(f"[{entry}:" in why for why in result["skipped"].values()), result["skipped"]
@@ -399,13 +421,15 @@ def test_the_two_file_command(tmp_path, capsys):
 
 
 def test_a_mimic_and_dry_friction_are_audited_not_refused(tmp_path, capsys):
-    """The URDF is read; Pinocchio and Drake are named for the coupling, Drake for the friction; both are
-    constraints (issue 32: compared without them), so they are information and the audit passes."""
+    """The URDF is read; Pinocchio is named for the coupling (Drake makes a coupler constraint of it, whose
+    joints pydrake does not expose: its count agrees), Drake for the friction; both are constraints (issue 32:
+    compared without them), so they are information and the audit passes."""
     path = tmp_path / "gripper.urdf"
     path.write_text(urdf(extra=FINGER.format(mimic=MIMIC, mass="0.1"), j1='<dynamics damping="0.2" friction="0.1"/>'))
     assert main(["audit", str(path)]) == 0
     out = capsys.readouterr().out
-    assert "Pinocchio misreads j3's mimic" in out and "Drake misreads j3's mimic" in out
+    assert "Pinocchio misreads j3's mimic" in out and "Drake misreads j3's mimic" not in out
+    assert "Pinocchio misreads world's couplings" in out and "Drake misreads world's couplings" not in out
     assert "Drake misreads j1's frictionloss" in out and "Drake warned" in out
     assert "(information: no smooth dynamics use it)" in out
 
