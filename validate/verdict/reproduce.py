@@ -34,12 +34,13 @@ import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, TypedDict
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..core.tolerances import QUANTITY_TIER, TOLERANCES, Tolerances
 from ..model.modelview import names, welded
+from ..results.schema import Reproducer
 from . import pointwise as compare
 from .reproducer_text import Case, HandFacts, ModelFacts, script
 
@@ -47,8 +48,9 @@ if TYPE_CHECKING:
     from ..systems import System
     from .pointwise import States
 
-FOLDER = "reproducers"  # under run's out folder
+FOLDER = "reproducers"  # under run's out folder: results.json's paths are relative to it
 ENGINES = ("mujoco", "pinocchio", "drake")
+SHOWS = "the disagreement shows"  # the script's line where it does (reproducer_text.JUDGE)
 TIMEOUT = 300.0  # s a reproducer may take in a fresh process (importing pydrake and parsing: a few s)
 DIRECT = {  # the functions of a person's module that give each quantity directly, for the script to call
     "M": ("mass_matrix",),
@@ -61,24 +63,6 @@ DIRECT = {  # the functions of a person's module that give each quantity directl
     "body_positions": ("body_positions",),
     "body_rotations": ("body_rotations",),
 }
-
-
-class Reproducer(TypedDict, total=False):
-    """One disagreeing pair and quantity: where its script is (relative to run's out folder, or the
-    absolute path `check --reproduce` wrote), the state and the numbers the harness saw; or `skipped`."""
-
-    system: str
-    pair: str
-    quantity: str
-    file: str  # the script's file name
-    path: str
-    state_index: int
-    state: dict[str, list[float]]
-    entry: list[int]
-    numbers: dict[str, float]
-    tolerance: float
-    script: str  # the text, until written (dropped from results.json)
-    skipped: str
 
 
 def file_name(system: str, quantity: str, a: str, b: str) -> str:
@@ -310,6 +294,25 @@ def reproducers(decision: object) -> list[Reproducer]:
     return cases(system, {k: v for k, v in values.items() if isinstance(v, Mapping) and "error" not in v}, states)
 
 
+def in_folder(records: Sequence[Reproducer]) -> list[Reproducer]:
+    """The records with the path `run` writes each script at, relative to its out folder
+    ("reproducers/<file>"); the text stays under "script" until `scripts` takes it out."""
+    return [{**r, "path": f"{FOLDER}/{r['file']}"} if "script" in r else {**r} for r in records]
+
+
+def scripts(records: Sequence[Reproducer]) -> tuple[list[Reproducer], dict[str, bytes]]:
+    """The records without their texts, and the texts by their path relative to the out folder."""
+    kept: list[Reproducer] = []
+    texts: dict[str, bytes] = {}
+    for record in records:
+        r: Reproducer = {**record}
+        text = r.pop("script", None)
+        if text is not None and "path" in r:
+            texts[r["path"]] = text.encode()
+        kept.append(r)
+    return kept, texts
+
+
 def write(records: Sequence[Reproducer], folder: Path) -> list[Reproducer]:
     """Each record's script into `folder` (made if missing), its "path" set and "script" dropped."""
     folder.mkdir(parents=True, exist_ok=True)
@@ -337,15 +340,16 @@ class Shown:
 
 def run_reproducer(path: str | Path, *, timeout: float = TIMEOUT) -> Shown:
     """Runs the script at `path` in a fresh interpreter (this one's), as a person would; `shows` is True
-    when it exits 1 (the disagreement shows). A script that fails otherwise (status 2, a traceback) or
-    times out does not show it (its status and output say what happened)."""
+    when it exits 1 saying the disagreement shows. A script that fails otherwise (status 2: a library
+    raised; a traceback) or times out does not show it (its status and output say what happened)."""
     try:
         done = subprocess.run(  # noqa: S603 - the harness's own script, with this interpreter
             [sys.executable, str(path)], capture_output=True, text=True, timeout=timeout, check=False
         )
     except subprocess.TimeoutExpired:
         return Shown(str(path), False, -1, f"timed out after {timeout:g} s")
-    return Shown(str(path), done.returncode == 1, done.returncode, done.stdout + done.stderr)
+    shows = done.returncode == 1 and SHOWS in done.stdout.splitlines()  # not a traceback's status 1
+    return Shown(str(path), shows, done.returncode, done.stdout + done.stderr)
 
 
 def unshown(paths: Sequence[str | Path], *, timeout: float = TIMEOUT) -> list[Shown]:

@@ -391,7 +391,7 @@ def {name}_value():
 '''
 
 JUDGE = """
-if __name__ == "__main__":
+def main():  # prints both numbers, their difference and the tolerance; 1 where the disagreement shows
     a, b = (np.asarray(f(), dtype=float) for f in ({a}_value, {b}_value))
     difference = float(np.max(np.abs(a - b))) if a.size else 0.0
     entry = np.unravel_index(int(np.argmax(np.abs(a - b))), a.shape) if a.ndim else ()
@@ -407,7 +407,18 @@ if __name__ == "__main__":
         print(f"{{name}}: {{'the number the harness saw' if same else 'NOT the number the harness saw'}}")
     shows = not np.isfinite(difference) or difference > TOLERANCE
     print("the disagreement shows" if shows else "no disagreement: the two agree within the tolerance")
-    sys.exit(1 if shows else 0)
+    return 1 if shows else 0
+
+
+if __name__ == "__main__":
+    try:
+        status = main()
+    except Exception:  # a library that cannot read the model, or a call that fails: neither shows anything
+        import traceback
+
+        traceback.print_exc()
+        status = 2
+    sys.exit(status)
 """
 
 IMPORTS = """
