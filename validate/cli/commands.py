@@ -22,6 +22,7 @@ from ..core.guard import DEFAULT_TIME_LIMIT
 from ..core.inputs import parse_json, regular_file
 from ..core.parallel import named_executor
 from ..results import load as load_results
+from ..results import to_jsonable
 from ..results.stages import stage_line
 from ..sources import make_sources
 from ..sources.base import Source
@@ -160,7 +161,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     passed = decision.passed and (constrained is None or constrained["passed"])
     proofs = reproducers_of(args, reproduce.reproducers(decision))
     if args.json:
-        document = {**checking.decision_json(decision), "reproducers": proofs}
+        document = {**checking.decision_json(decision), "reproducers": to_jsonable(proofs)}
         if constrained is not None:
             document = {**document, "constraints": constrained, "passed": passed}
         print(json.dumps(document, allow_nan=False))
@@ -210,7 +211,7 @@ def pointwise_only(args: argparse.Namespace, system: System, states: States | No
     engines = {k: x for k, x in values.items() if "error" not in x}  # a derivation that raised has no numbers
     proofs = reproducers_of(args, reproduce.cases(system, engines, states))
     if args.json:
-        document = {**checking.json_document(system, states, values, rows, passed), "reproducers": proofs}
+        document = {**checking.json_document(system, states, values, rows, passed), "reproducers": to_jsonable(proofs)}
         print(json.dumps(document, allow_nan=False))
     else:
         title = f"{system.name}: {len(states)} states, coordinates ({', '.join(system.coordinates)}); pointwise only"

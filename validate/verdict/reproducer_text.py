@@ -13,7 +13,6 @@ the model (so that its meshdir and includes resolve as from the file) and says s
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -403,7 +402,8 @@ def main():  # prints both numbers, their difference and the tolerance; 1 where 
     print(f"largest difference {{difference:.6g}}, tolerance {{TOLERANCE:.6g}} "
           f"({{RELATIVE:g}} of the quantity's scale {{SCALE:.6g}} over the harness's states)")
     for name, x in (("{a}", a), ("{b}", b)):  # the same number as the harness's, or the harness computed another
-        same = abs(float(x[tuple(HARNESS_ENTRY)]) - HARNESS[name]) <= TOLERANCE
+        mine = float(x[tuple(HARNESS_ENTRY)])
+        same = mine == HARNESS[name] or bool(np.isclose(mine, HARNESS[name], rtol=0, atol=TOLERANCE, equal_nan=True))
         print(f"{{name}}: {{'the number the harness saw' if same else 'NOT the number the harness saw'}}")
     shows = not np.isfinite(difference) or difference > TOLERANCE
     print("the disagreement shows" if shows else "no disagreement: the two agree within the tolerance")
@@ -427,6 +427,7 @@ import os
 import sys
 import tempfile
 import xml.etree.ElementTree as ET
+from math import inf, nan  # noqa: F401 - a number the harness saw may be one
 from pathlib import Path
 
 import numpy as np
@@ -518,7 +519,7 @@ def _engine_block(reader: str, facts: ModelFacts, quantity: str) -> tuple[str, l
 
 
 def _literal(name: str, number: object, why: str) -> str:
-    return LITERAL.format(name=name, why=why, number=json.dumps(number))
+    return LITERAL.format(name=name, why=why, number=repr(number))  # nan and inf: the script imports them
 
 
 def _data(case: Case, facts: ModelFacts, hand: HandFacts | None) -> str:
