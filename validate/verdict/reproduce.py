@@ -74,8 +74,9 @@ def file_name(system: str, quantity: str, a: str, b: str) -> str:
 def model_facts(system: System) -> ModelFacts:
     """What the script needs of the model and of what the harness did with it."""
     view, joints = system.view, system.joints
-    text = system._file()[1] if system.model_format == "urdf" else ""
-    mjcf = "" if system.model_format == "urdf" else system.mjcf.read_text(errors="replace")
+    urdf = system.model_format == "urdf"
+    text = system.mjcf.read_text(errors="replace")
+    text, mjcf = (text, "") if urdf else ("", text)
 
     def each(key: str) -> tuple[float, ...]:
         return tuple(float(view[f"joint/{j}/{key}"]) if f"joint/{j}/{key}" in view else 0.0 for j in joints)
@@ -83,7 +84,7 @@ def model_facts(system: System) -> ModelFacts:
     carriers = welded(view)
     return ModelFacts(
         path=str(system.mjcf.resolve()),
-        urdf=system.model_format == "urdf",
+        urdf=urdf,
         joints=tuple(joints),
         bodies=tuple(system.bodies),
         kinds=tuple(str(view[f"joint/{j}/type"]) for j in joints),
@@ -93,7 +94,7 @@ def model_facts(system: System) -> ModelFacts:
         springref=each("springref"),
         armature=each("armature"),
         locked=tuple(system.locked),
-        converted=bool(system.alignments) and not system.reads_urdf and bool(system._floating.lines),
+        converted=not urdf and bool(system.alignments),  # an MJCF's alignments are its free and ball joints
         several_trees=_several_trees(mjcf),
         named=bool(re.search(r"<mujoco\b[^>]*\bmodel\s*=", mjcf)) if mjcf else True,
         equality="<equality" in mjcf,
@@ -356,3 +357,17 @@ def unshown(paths: Sequence[str | Path], *, timeout: float = TIMEOUT) -> list[Sh
     """The reproducers among `paths` that do not show their disagreement when run alone: what a test of a
     corpus asserts is empty (every FAIL of a reader pair is proven by the libraries' own calls)."""
     return [s for s in (run_reproducer(p, timeout=timeout) for p in paths) if not s.shows]
+
+
+def write_for(model: str | Path, folder: Path, *, n_states: int = 20, seed: int = 0) -> list[Reproducer]:
+    """`check --model MODEL --reproduce FOLDER` as a call: the model alone judged (no probes) at
+    `n_states` seeded states and its reproducers written into `folder`. A corpus test is then
+
+        records = write_for(model, tmp_path)
+        assert not unshown([r["path"] for r in records if "path" in r])
+    """
+    from ..systems import System
+    from .decide import decide
+
+    decision = decide(System.model_only(model), n_states=n_states, seed=seed, probes=0)
+    return write(reproducers(decision), folder)

@@ -198,3 +198,10 @@ def test_records_keep_the_state_and_numbers(tmp_path):
     kept, texts = reproduce.scripts(reproduce.in_folder([r]))
     assert "script" not in kept[0] and texts == {f"reproducers/{r['file']}": r["script"].encode()}
     assert np.isfinite(r["tolerance"])
+
+
+def test_a_corpus_test_is_two_calls(tmp_path):
+    records = reproduce.write_for(_model(tmp_path, "classmass.xml", CLASS_MASS), tmp_path / "p", n_states=3)
+    paths = [r["path"] for r in records if "path" in r and r["quantity"] == "V"]
+    assert paths and not reproduce.unshown(paths)
+    assert reproduce.write_for(_model(tmp_path, "agreed.xml", AGREED), tmp_path / "q", n_states=3) == []
