@@ -134,6 +134,18 @@ def test_a_urdf_with_a_continuous_and_a_fixed_joint_reproduces_every_reader(tmp_
         assert f"{record['pair'].split('~')[0]}: the number the harness saw" in shown.output
 
 
+def test_a_locked_urdf_joint_is_locked_in_every_reader_of_the_script(tmp_path):
+    system = System.model_only(_model(tmp_path, "twolink.urdf", URDF), locked=("elbow",))
+    assert system.joints == ("shoulder",)
+    found = _planted(system, "M", "drake~pinocchio") | _planted(system, "V", "mujoco~pinocchio")
+    records = reproduce.write([found["M", "drake~pinocchio"], found["V", "mujoco~pinocchio"]], tmp_path / "p")
+    for record in records:
+        assert "LOCKED = ['elbow']" in (tmp_path / "p" / record["file"]).read_text()
+        shown = reproduce.run_reproducer(record["path"])
+        assert shown.status == 0, shown.output
+        assert f"{record['pair'].split('~')[0]}: the number the harness saw" in shown.output
+
+
 def test_a_free_joint_is_compared_as_the_harness_converts_it(tmp_path):
     system = System.model_only(_model(tmp_path, "floating.xml", FREE))
     assert "root_tx" in system.joints
@@ -148,6 +160,37 @@ def test_a_free_joint_is_compared_as_the_harness_converts_it(tmp_path):
         assert shown.status == 0, shown.output
         assert "mujoco: the number the harness saw" in shown.output
     assert not list(tmp_path.glob(".reproducer_*"))  # the edited copies beside the model are removed
+
+
+# Two body trees (Pinocchio reads the first only: the harness gathers them), no model name (Drake needs
+# one) and an equality constraint (Drake refuses it; every comparison leaves it out).
+TWO_TREES = """<mujoco>
+  <worldbody>
+    <body name="left" pos="-1 0 0">
+      <joint name="a" type="hinge" axis="0 1 0"/>
+      <inertial pos="0 0 -0.3" mass="1" diaginertia="0.01 0.01 0.001"/>
+    </body>
+    <body name="right" pos="1 0 0">
+      <joint name="b" type="hinge" axis="1 0 0" damping="0.2"/>
+      <inertial pos="0 0 -0.4" mass="2" diaginertia="0.02 0.02 0.002"/>
+    </body>
+  </worldbody>
+  <equality><joint joint1="a" joint2="b"/></equality>
+</mujoco>
+"""
+
+
+def test_the_harness_edits_for_pinocchio_and_drake_are_made_on_a_copy(tmp_path):
+    system = System.model_only(_model(tmp_path, "trees.xml", TWO_TREES))
+    found = _planted(system, "bias", "drake~pinocchio") | _planted(system, "T", "drake~mujoco")
+    records = reproduce.write([found["bias", "drake~pinocchio"], found["T", "drake~mujoco"]], tmp_path / "p")
+    text = (tmp_path / "p" / records[0]["file"]).read_text()
+    assert "def one_tree" in text and "def model_name" in text and "def no_equality" in text
+    for record in records:
+        shown = reproduce.run_reproducer(record["path"])
+        assert shown.status == 0, shown.output
+        assert "drake: the number the harness saw" in shown.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p", "trees.xml"]
 
 
 def test_a_wrong_derivation_is_proven_with_the_persons_own_module(tmp_path):
