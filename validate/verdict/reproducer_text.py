@@ -145,6 +145,9 @@ MUJOCO_LOAD_URDF = """
     # A link whose inertia violates the triangle inequality, which MuJoCo refuses, is balanced as
     # MuJoCo's balanceinertia does (the harness's repair, for MuJoCo only)
     spec.compiler.balanceinertia = True
+    # A moving link below MuJoCo's minimum mass or inertia (a point mass, a massless link) is left as the
+    # file states it: where MuJoCo refuses it, that is MuJoCo's answer (the harness gives MuJoCo alone a
+    # bounded inertia, a repair no library makes: this script then stops with MuJoCo's error)
     m = spec.compile()
 """
 MUJOCO = """
