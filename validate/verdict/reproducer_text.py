@@ -574,7 +574,7 @@ def _header(case: Case, facts: ModelFacts) -> str:
         f"for {case.quantity}{list(case.entry)} at state {case.state_index} of its sample. This script computes the\n"
         "same quantity at the same state with the libraries' own calls only, the joints mapped by name and\n"
         "only the alignments the harness applies (each commented with why), and prints both numbers.\n\n"
-        "    python this_file.py      # exit status 1: the disagreement shows; 0: it does not\n"
+        "    python this_file.py      # exit status 1: the disagreement shows; 0: it does not; 2: a library raised\n"
         '"""\n'
     )
 
