@@ -13,6 +13,7 @@ from ..results.schema import ComparisonRow, Mismatch
 from ..systems import System
 from ..verdict.decide import Decision
 from ..verdict.pointwise import States
+from ..verdict.reproduce import Reproducer
 
 QUANTITIES = ("M", "bias", "qacc", "tau_inverse", "T", "V")  # each state's quantities in the JSON
 
@@ -123,6 +124,18 @@ def decision_json(decision: Decision) -> JsonObject:
     rows = decision.pointwise["rows"] if decision.pointwise is not None else []
     values = decision.values or {}
     return json_document(decision.system, decision.states, values, rows, decision.passed, verdict_data(decision))
+
+
+def reproducer_lines(proofs: list[Reproducer]) -> list[str]:
+    """One line per disagreement's reproducer: the file written, or the pair and why none was; none
+    when nothing was written (without --reproduce, `check --json` lists them)."""
+    lines = []
+    for r in proofs:
+        if "path" in r:
+            lines.append(f"reproducer: {r['quantity']} {r['pair']}: {r['path']}")
+        elif "skipped" in r:
+            lines.append(f"reproducer: {r['quantity']} {r['pair']}: not written: {r['skipped']}")
+    return lines
 
 
 def table_lines(rows: list[ComparisonRow], title: str) -> list[str]:

@@ -22,12 +22,13 @@ from ..core.guard import DEFAULT_TIME_LIMIT
 from ..core.inputs import parse_json, regular_file
 from ..core.parallel import named_executor
 from ..results import load as load_results
+from ..results import to_jsonable
 from ..results.stages import stage_line
 from ..sources import make_sources
 from ..sources.base import Source
 from ..systems import System, load, pairs_and_lonely, pairs_in, system_names, unpaired
 from ..systems.scaffold import identifier, write_module
-from ..verdict import modelsync
+from ..verdict import modelsync, reproduce
 from ..verdict import pointwise as compare
 from ..verdict.decide import Decision, decide
 from ..verdict.pointwise import States, validate_states
@@ -158,18 +159,29 @@ def cmd_check(args: argparse.Namespace) -> int:
         cache.trim()
     constrained = with_constraints(decision) if args.constraints else None
     passed = decision.passed and (constrained is None or constrained["passed"])
+    proofs = reproducers_of(args, reproduce.reproducers(decision))
     if args.json:
-        document = checking.decision_json(decision)
+        document = {**checking.decision_json(decision), "reproducers": to_jsonable(proofs)}
         if constrained is not None:
             document = {**document, "constraints": constrained, "passed": passed}
         print(json.dumps(document, allow_nan=False))
     else:
         lines = checking.text_lines(decision)
+        lines[-1:-1] = checking.reproducer_lines(proofs) if args.reproduce else []
         if constrained is not None:  # the verdict line says when and which constraint, and decides with it
             verdict = "pass" if passed else "FAIL"
             lines[-1] = f"verdict: {system.name}: {verdict}: {decision.statement}; {constrained['statement']}"
         print(console(lines, verdict=True))
     return 0 if passed else 1
+
+
+def reproducers_of(args: argparse.Namespace, found: list[reproduce.Reproducer]) -> list[reproduce.Reproducer]:
+    """The reproducers of `check`'s disagreements: written into --reproduce DIR (each with its path), or
+    without it listed only (their texts dropped)."""
+    folder = getattr(args, "reproduce", None)
+    if folder is not None:
+        return reproduce.write(found, folder)
+    return [{k: x for k, x in r.items() if k != "script"} for r in found]  # type: ignore[misc]
 
 
 def with_constraints(decision: Decision) -> dict[str, Any]:
@@ -196,14 +208,18 @@ def pointwise_only(args: argparse.Namespace, system: System, states: States | No
     values = compare.evaluate(sources, states)
     rows = compare.compare(values, states, scales=compare.physical_scales(system, states))
     passed = all(r["passed"] for r in rows) and bool(np.isfinite([r["max_abs"] for r in rows]).all())
+    engines = {k: x for k, x in values.items() if "error" not in x}  # a derivation that raised has no numbers
+    proofs = reproducers_of(args, reproduce.cases(system, engines, states))
     if args.json:
-        print(json.dumps(checking.json_document(system, states, values, rows, passed), allow_nan=False))
+        document = {**checking.json_document(system, states, values, rows, passed), "reproducers": to_jsonable(proofs)}
+        print(json.dumps(document, allow_nan=False))
     else:
         title = f"{system.name}: {len(states)} states, coordinates ({', '.join(system.coordinates)}); pointwise only"
         error = values.get("hand", {}).get("error")  # the function that raised or gave a wrong shape
         why = str(error).removeprefix("HarnessError: ")
         last = [f"pointwise: {system.name}: FAIL: your equations gave no values: {why}"] if error else []
-        print(console([*checking.table_lines(rows, title), *last]))
+        written = checking.reproducer_lines(proofs) if args.reproduce else []
+        print(console([*checking.table_lines(rows, title), *written, *last]))
     return 0 if passed else 1
 
 

@@ -32,12 +32,13 @@ from ..report.document import Document
 from ..report.figstore import kept_in
 from ..results import dumps, system_json
 from ..results.schema import Provenance, ReportInput, RunResults, SystemResult
+from ..verdict import reproduce
 
 OPTIONAL_RESULTS = {"bench": "bench.json", "stress": "stress.json", "chains": "chains.json"}  # bench, stress
 CACHE_FOLDER = ".cache"
 KEPT = (CACHE_FOLDER, ".gitkeep", *OPTIONAL_RESULTS.values())  # not written by `run`: carried over
 REPORT_FILES = ("report.md", "report.html", "img")  # what `report` produces
-RUN_FILES = ("results.json", *REPORT_FILES)  # what `run` produces, with <system>.rrd
+RUN_FILES = ("results.json", reproduce.FOLDER, *REPORT_FILES)  # what `run` produces, with <system>.rrd
 
 
 def _from_run(name: str) -> bool:
@@ -148,7 +149,9 @@ def render_system(
     try:
         rrd = render_rrd(name, result, meta=meta) if replay and result.get("trajectories") else None
         with kept_in(CachedFigures(cache) if cache is not None and cache.enabled else None):
-            return SystemFiles(system_section(name, result), rrd, system_json(result))
+            proofs = reproduce.scripts(result.get("reproducers", []))[0]
+            shown: SystemResult = {**result, "reproducers": proofs} if "reproducers" in result else result
+            return SystemFiles(system_section(name, shown), rrd, system_json(shown))
     except Exception:  # noqa: BLE001 - rendered again, with its error, by write_all
         return None
 
@@ -186,9 +189,11 @@ def write_all(
     """Everything `run` produces, replacing the previous run's files (all of them) as one set.
     `rendered`: systems already rendered from these results (`render_system`), the rest is rendered here."""
 
+    results, proofs = without_scripts(results)
     done = {name: f for name, f in (rendered or {}).items() if f is not None and name in results.get("systems", {})}
     sections = {name: f.section for name, f in done.items()}
     files = {
+        **proofs,
         "results.json": dumps(results, {name: f.json for name, f in done.items() if f.json}).encode(),
         **render(with_optional_results(results, out), sections, hint=hint or ReplayHint(written=replay)),
     }
@@ -199,6 +204,18 @@ def write_all(
                 pre = done[name].rrd if name in done else None
                 files[f"{name}.rrd"] = pre if pre is not None else render_rrd(name, s, meta=meta)
     replace_set(out, files, replaces=_from_run)
+
+
+def without_scripts(results: RunResults) -> tuple[RunResults, dict[str, bytes]]:
+    """The results without the reproducers' texts, and the texts by their file under the out folder
+    (verdict/reproduce.py: results.json keeps each one's path, the folder holds the script)."""
+    systems: dict[str, SystemResult] = {}
+    texts: dict[str, bytes] = {}
+    for name, s in results.get("systems", {}).items():
+        kept, found = reproduce.scripts(s.get("reproducers", []))
+        systems[name] = {**s, "reproducers": kept} if "reproducers" in s else s
+        texts.update(found)
+    return {**results, "systems": systems}, texts
 
 
 def replace_set(out: Path, files: dict[str, bytes], *, replaces: Callable[[str], bool]) -> None:

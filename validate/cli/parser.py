@@ -318,6 +318,13 @@ def _check_arguments(check: argparse.ArgumentParser) -> None:
         metavar="DIR",
         help="keep the explanations of wrong entries in DIR (default: none; check writes nothing)",
     )
+    check.add_argument(
+        "--reproduce",
+        type=path_arg,
+        metavar="DIR",
+        help="write a standalone reproducer per disagreeing pair of sources and quantity into DIR "
+        "(DIR/<system>_<quantity>_<a>_vs_<b>.py: the libraries' own calls; exit 1 where the disagreement shows)",
+    )
     _time_limit_option(check)
 
 

@@ -102,6 +102,15 @@ class Num:
 
 
 @dataclass(frozen=True)
+class Link:
+    """A file of the reports folder, by its path relative to it (a reproducer's script): a link in
+    both renderers."""
+
+    text: str
+    href: str
+
+
+@dataclass(frozen=True)
 class Mark:
     """A verdict: state is "ok" (✓), "bad" (✗) or "na" (–)."""
 
@@ -158,7 +167,7 @@ class Fold:
 
 Block = Heading | Para | Table | Figure | Code | Items | Fold  # what a document is made of
 # A table's cell: a text, a count, a number (shown by `sci`), a Num, a Mark, or None (shown as "–").
-Cell: TypeAlias = str | float | Num | Mark | None
+Cell: TypeAlias = str | float | Num | Mark | Link | None
 
 
 @dataclass
@@ -250,6 +259,8 @@ def cell_text(c: Cell) -> str:
         return num_text(c) + (f" {c.unit}" if c.unit and c.value is not None else "")
     if isinstance(c, Mark):
         return f"{MARK_SIGN[c.state]} {c.text}"
+    if isinstance(c, Link):
+        return c.text
     if c is None:
         return "–"
     if isinstance(c, bool):

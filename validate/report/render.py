@@ -26,6 +26,7 @@ from .document import (
     Fold,
     Heading,
     Items,
+    Link,
     Mark,
     Num,
     Para,
@@ -47,6 +48,8 @@ def subtitle(results: RunResults) -> str:
 
 
 def _md_cell(c: Cell) -> str:
+    if isinstance(c, Link):
+        return f"[{escaped(c.text)}]({quote(c.href)})".replace("|", "\\|")
     return escaped(cell_text(c)).replace("|", "\\|")
 
 
@@ -145,6 +148,7 @@ def _env() -> jinja2.Environment:
         _ENV.globals["kind"] = lambda b: type(b).__name__
         _ENV.globals["is_num"] = lambda c: isinstance(c, Num)
         _ENV.globals["is_mark"] = lambda c: isinstance(c, Mark)
+        _ENV.globals["is_link"] = lambda c: isinstance(c, Link)
     return _ENV
 
 

@@ -8,13 +8,14 @@ import re
 from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
-from ..results.schema import SCALED_DEFINITION, ComparisonRow, FreeRun, SystemResult, Trajectories
+from ..results.schema import SCALED_DEFINITION, ComparisonRow, FreeRun, Reproducer, SystemResult, Trajectories
 from .audit import audit_section
 from .document import (
     NOT_RUN,
     Cell,
     Document,
     Items,
+    Link,
     Mark,
     Num,
     as_float,
@@ -243,6 +244,33 @@ def worst_per_quantity(rows: list[ComparisonRow]) -> list[tuple[Cell, ...]]:
     return out
 
 
+def reproducer_row(r: Reproducer) -> tuple[Cell, ...]:
+    """A disagreement with its reproducer: the pair, the state, both numbers and the script (or why none)."""
+    numbers = r.get("numbers", {})
+    entry = "".join(f"[{i}]" for i in r.get("entry", []))
+    shown = ", ".join(f"{k} {sci(x)}" for k, x in numbers.items())
+    where: Cell = Link(r["file"], r["path"]) if "path" in r else f"not written: {r.get('skipped', '')}"
+    return (f"{r.get('quantity')}{entry}", r.get("pair"), r.get("state_index"), shown, where)
+
+
+def section_reproducers(doc: Document, name: str, s: SystemResult) -> None:
+    """Each disagreeing pair of sources (readers set aside included) with its standalone reproducer: a
+    script of the libraries' own calls that exits 1 where the disagreement shows (verdict/reproduce.py)."""
+    proofs = s.get("reproducers") or []
+    if not proofs:
+        return
+    doc.p(
+        "Each disagreement with its proof: a standalone Python script of the libraries' own calls (the model "
+        "read from its path, the joints by name, the harness's alignments commented) that prints both numbers "
+        "and exits 1 where the disagreement shows, 0 where it does not (then the FAIL is the harness's own)."
+    )
+    doc.table(
+        f"Reproducers of {name}'s disagreements",
+        ("quantity", "pair", "state", "the harness's numbers", "reproducer"),
+        [reproducer_row(r) for r in proofs],
+    )
+
+
 def section_pointwise(doc: Document, name: str, s: SystemResult) -> None:
     pw = s.get("pointwise")
     doc.h(3, "Pointwise agreement", f"{slug(name)}-pointwise")
@@ -288,6 +316,7 @@ def section_pointwise(doc: Document, name: str, s: SystemResult) -> None:
                 if (w := r["worst_state"])
             ],
         )
+    section_reproducers(doc, name, s)
     if rows:
         doc.figure(
             f"img/{name}_pointwise.png",

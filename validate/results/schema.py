@@ -619,6 +619,25 @@ class Audit(TypedDict, total=False):
     error: str
 
 
+class Reproducer(TypedDict, total=False):
+    """One disagreeing pair of sources and quantity (verdict/reproduce.py): its standalone script's file,
+    where it was written (in results.json relative to run's out folder, "reproducers/<file>"; `check
+    --reproduce DIR` gives the path it wrote), the state and the numbers the harness saw; or `skipped`."""
+
+    system: str
+    pair: str  # "mujoco~pinocchio"
+    quantity: str
+    file: str  # "<system>_<quantity>_<a>_vs_<b>.py"
+    path: str
+    state_index: int  # the state's index in the sample compared
+    state: dict[str, list[float]]  # q, v, tau
+    entry: list[int]  # where in the quantity (M's row and column; [] for T and V)
+    numbers: dict[str, float]  # each source's number there
+    tolerance: float  # absolute: what the harness allows
+    script: str  # the text, until it is written (never in results.json)
+    skipped: str  # why no script could be written
+
+
 class SystemResult(TypedDict, total=False):
     """Everything the harness knows about one system (pipeline.run_system)."""
 
@@ -650,6 +669,7 @@ class SystemResult(TypedDict, total=False):
     stages: dict[str, Stage]  # each stage's wall seconds, and why it was not run or failed (results/stages.py)
     skipped: list[str]
     audit: Audit  # the model read by MuJoCo, Pinocchio and Drake side by side (audit/audit.py)
+    reproducers: list[Reproducer]  # each disagreeing pair's standalone script (verdict/reproduce.py)
     passed: bool
 
 

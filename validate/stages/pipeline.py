@@ -44,7 +44,7 @@ from ..results.stages import Clock, records
 from ..sources.base import stepped
 from ..systems import MODELS_DIR, System, load, load_all
 from ..systems.units import parameter_keys
-from ..verdict import judge
+from ..verdict import judge, reproduce
 from ..verdict import probes as probing
 from ..verdict.decide import Decision, decide
 from ..verdict.probes import DEFAULT_PROBES
@@ -208,8 +208,10 @@ def _run_stages(
     decision = decide(system, n_states=n_states, seed=seed, probes=n_probes, cache=cache, clock=clock)
     if decision.unreadable:
         return _unreadable(decision)
+    proofs = reproduce.in_folder(reproduce.reproducers(decision))  # written beside results.json by `run`
     if decision.model_only:
-        return model_only_result(decision, t_end=t_end, dt_out=dt_out, cache=cache, clock=clock)
+        result = model_only_result(decision, t_end=t_end, dt_out=dt_out, cache=cache, clock=clock)
+        return {**result, "reproducers": proofs}
     probe_set = decision.probe_set
     assert probe_set is not None  # decide judged the derivation
     stages: dict[str, str] = {}
@@ -226,7 +228,7 @@ def _run_stages(
             None,
             None,
         )
-    return _system_result(
+    result = _system_result(
         decision,
         stages,
         clock,
@@ -237,6 +239,7 @@ def _run_stages(
         derived=derived,
         experiments=notes_experiments,
     )
+    return {**result, "reproducers": proofs}
 
 
 def _printed_forms(
