@@ -96,9 +96,10 @@ def json_document(
     each quantity and pair, `passed`, and the `verdict` (absent with --pointwise-only)."""
     disagreement: dict[str, dict[str, dict[str, float | bool]]] = {}
     for r in rows:
-        disagreement.setdefault(r["quantity"], {})[r["pair"]] = {
-            k: r[k] for k in ("max_abs", "scaled", "tolerance", "passed")
-        }
+        entry: dict[str, float | bool] = {k: r[k] for k in ("max_abs", "scaled", "tolerance", "passed")}
+        if "constant" in r:  # V: the constant it was compared up to (results.schema.SCALED_DEFINITION)
+            entry["constant"] = r["constant"]
+        disagreement.setdefault(r["quantity"], {})[r["pair"]] = entry
     out: dict[str, object] = {
         "system": system.name,
         "coordinates": list(system.coordinates),

@@ -101,7 +101,8 @@ def raw_mujoco(system: System, source: Source, states: StateBatch, a_ref: np.nda
 
 
 def raw_pinocchio(system: System, source: Source, states: StateBatch, a_ref: np.ndarray) -> dict[str, np.ndarray]:
-    """Per state: crba, rnea at zero acceleration (the bias), aba, rnea, computeKineticEnergy,
+    """Per state: crba (and T = 1/2 v^T M v on it, as the source counts T: computeKineticEnergy drops the
+    armature of a hinge off the x, y, z axes), rnea at zero acceleration (the bias), aba, rnea,
     computePotentialEnergy (which also places the joints, read for the body poses). The same outputs as
     `PinocchioSource.evaluate`."""
     import pinocchio as pin
@@ -130,18 +131,19 @@ def raw_pinocchio(system: System, source: Source, states: StateBatch, a_ref: np.
     kin, pot = np.empty(n_states), np.empty(n_states)
     pos, rot = np.empty((n_states, len(joints), 3)), np.empty((n_states, len(joints), 3, 3))
     crba, aba, rnea = pin.crba, pin.aba, pin.rnea
-    kinetic, potential = pin.computeKineticEnergy, pin.computePotentialEnergy
+    potential = pin.computePotentialEnergy
     for i in range(n_states):
         qfull[qi] = qj[i]
         vfull[vi] = vj[i]
         ffull[vi] = tauj[i] + passive[i]
         afull[vi] = aj[i]
         full = crba(model, data, qfull)
-        M[i] = (np.triu(full) + np.triu(full, 1).T)[ix]
+        full = np.triu(full) + np.triu(full, 1).T
+        M[i] = full[ix]
+        kin[i] = 0.5 * vfull @ full @ vfull
         bias[i] = rnea(model, data, qfull, vfull, zero)[vi]  # the non-linear effects: RNEA at a = 0
         qacc[i] = aba(model, data, qfull, vfull, ffull, convention=local)[vi]
         tau_inv[i] = rnea(model, data, qfull, vfull, afull)[vi]
-        kin[i] = kinetic(model, data, qfull, vfull)
         pot[i] = potential(model, data, qfull)
         for k, (jid, lever) in enumerate(zip(joints, levers, strict=True)):
             oMi = data.oMi[jid]
