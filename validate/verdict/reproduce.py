@@ -292,7 +292,12 @@ def reproducers(decision: object) -> list[Reproducer]:
     if system is None or not values or states is None:
         return []
     # a derivation that raised has no numbers to reproduce (its hand values are NaN, with "error")
-    return cases(system, {k: v for k, v in values.items() if isinstance(v, Mapping) and "error" not in v}, states)
+    kept = {k: v for k, v in values.items() if isinstance(v, Mapping) and "error" not in v}
+    try:
+        return cases(system, kept, states)
+    except Exception as exc:  # noqa: BLE001 - the proofs are an addition: their failure is said, never the verdict's
+        why = f"the reproducers could not be written: {type(exc).__name__}: {exc}"
+        return [{"system": system.name, "pair": "", "quantity": "", "file": "", "skipped": why}]
 
 
 def in_folder(records: Sequence[Reproducer]) -> list[Reproducer]:

@@ -248,3 +248,15 @@ def test_a_corpus_test_is_two_calls(tmp_path):
     paths = [r["path"] for r in records if "path" in r and r["quantity"] == "V"]
     assert paths and not reproduce.unshown(paths)
     assert reproduce.write_for(_model(tmp_path, "agreed.xml", AGREED), tmp_path / "q", n_states=3) == []
+
+
+def test_a_failure_to_write_the_proofs_is_said_and_never_the_verdicts(tmp_path, monkeypatch):
+    system = System.model_only(_model(tmp_path, "classmass.xml", CLASS_MASS))
+    decision = decide(system, n_states=3, seed=0, probes=0)
+
+    def broken(*args):
+        raise KeyError("joint/j1/type")
+
+    monkeypatch.setattr(reproduce, "cases", broken)
+    (record,) = reproduce.reproducers(decision)
+    assert record["skipped"].startswith("the reproducers could not be written: KeyError")
