@@ -176,8 +176,8 @@ def _opened(folder: Path, base: str, name: str) -> str:
 def _same_model(root: ET.Element, spec: mujoco.MjSpec, source: str) -> None:
     """The expanded text holds the bodies and joints MuJoCo's own parse of the file holds."""
     tags = {e.tag for e in root.iter()}
-    if tags & {"replicate", "attach", "model"}:
-        return  # MuJoCo's parse multiplies or attaches what the text states once
+    if tags & {"replicate", "attach", "model", "composite", "flexcomp"}:
+        return  # MuJoCo's parse multiplies, generates or attaches what the text states once
     world = [w for w in root.iter("worldbody")]
     bodies = sum(1 for w in world for _ in w.iter("body"))
     joints = sum(1 for w in world for e in w.iter() if e.tag in ("joint", "freejoint"))
