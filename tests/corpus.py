@@ -1,0 +1,182 @@
+"""The corpus of published models (issue 42 item 5): every MJCF and URDF file that three packages of the
+`test` extra ship (dm_control, gymnasium-robotics and rtb-data, pinned in requirements.lock, nothing
+vendored), each judged model-only by `lagrange-xval check` from its own folder, in a process of its own.
+
+`python -m tests.corpus [--jsonl FILE]` (from the repository) prints one row per model and the figures
+(models, verdicts, FAILs with their reproducers and how many of them show their difference, refusals by
+reason);
+tests/e2e/test_corpus.py holds each model's expected outcome and fails where one differs.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import xml.etree.ElementTree as ET
+from collections import Counter
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+# The packages of the corpus: import name -> distribution (requirements.lock pins each).
+PACKAGES = {"dm_control": "dm-control", "gymnasium_robotics": "gymnasium-robotics", "rtbdata": "rtb-data"}
+ROOTS = ("mujoco", "robot")  # the root elements of a model file; includes (<mujocoinclude>) and the rest are not
+TIMEOUT = 300.0  # s for one model's check: a model that takes longer is one row, "crash: timed out"
+STATES = "20"
+
+
+def package_folder(name: str) -> Path | None:
+    """The installed folder of a corpus package, None where it is not installed."""
+    spec = importlib.util.find_spec(name)
+    if spec is None or not spec.submodule_search_locations:
+        return None
+    return Path(next(iter(spec.submodule_search_locations)))
+
+
+def _root(path: Path) -> str | None:
+    try:
+        text = path.read_bytes()[:1_000_000].decode("utf-8", "replace").lstrip()
+        return ET.fromstring(text).tag if text else None
+    except ET.ParseError:
+        match = re.search(r"<\s*([A-Za-z_][\w.-]*)", re.sub(r"<\?.*?\?>|<!--.*?-->", "", text, flags=re.S))
+        return match.group(1) if match else None
+
+
+def models() -> list[tuple[str, Path]]:
+    """(key, path) of every model file of the installed corpus packages, sorted; the key is the path
+    below the package's folder's parent ("dm_control/suite/acrobot.xml")."""
+    out = []
+    for name in PACKAGES:
+        folder = package_folder(name)
+        if folder is None:
+            continue
+        for path in sorted(folder.rglob("*")):
+            if path.suffix in (".xml", ".urdf") and path.is_file() and _root(path) in ROOTS:
+                out.append((path.relative_to(folder.parent).as_posix(), path))
+    return out
+
+
+@dataclass
+class Outcome:
+    """What `check --model` said of one model: pass, FAIL, refused or crash, and why (its last line)."""
+
+    kind: str
+    why: str
+    seconds: float = 0.0
+    reproducers: list[dict[str, object]] = field(default_factory=list)
+
+
+def _kind(code: int) -> str:
+    return {0: "pass", 1: "FAIL", 2: "refused"}.get(code, "crash")
+
+
+def judge(path: Path, reproduce: Path) -> Outcome:
+    """`lagrange-xval check --model PATH --json --reproduce DIR` in a fresh process, from PATH's folder."""
+    import time
+
+    command = [sys.executable, "-m", "lagrange_xval.cli", "check", "--model", str(path), "--states", STATES]
+    command += ["--probes", "0", "--json", "--reproduce", str(reproduce)]
+    start = time.perf_counter()
+    try:
+        done = subprocess.run(command, cwd=path.parent, capture_output=True, text=True, timeout=TIMEOUT)
+    except subprocess.TimeoutExpired:
+        return Outcome("crash", f"timed out after {TIMEOUT:.0f} s", TIMEOUT)
+    seconds = time.perf_counter() - start
+    kind = _kind(done.returncode)
+    if kind in ("pass", "FAIL"):
+        document = json.loads(done.stdout)
+        verdict = document["verdict"]
+        return Outcome(kind, verdict["statement"], seconds, list(document.get("reproducers", [])))
+    lines = (done.stderr or done.stdout).strip().splitlines()
+    return Outcome(kind, lines[-1] if lines else f"exit {done.returncode}, nothing said", seconds)
+
+
+def shows(script: Path) -> str:
+    """What a reproducer, run alone in a fresh process (`run_reproducer`), says: "shows" (the disagreement
+    shows), "silent" (exit 0: it does not) or "broken: ..." (it could not run: its status, last line)."""
+    from lagrange_xval.verdict.reproduce import run_reproducer
+
+    run = run_reproducer(script, timeout=TIMEOUT)
+    if run.shows or run.status == 0:
+        return "shows" if run.shows else "silent"
+    lines = run.output.strip().splitlines()
+    return f"broken: status {run.status}: {lines[-1] if lines else 'nothing said'}"
+
+
+def expect(key: str, path: Path, expected: tuple[str, str], folder: Path) -> None:
+    """Asserts that the model gets its expected outcome (kind, a phrase its line holds), that a FAIL has
+    reproducers, and that every reproducer written shows its difference when run alone."""
+    kind, phrase = expected
+    outcome = judge(path, folder)
+    assert (outcome.kind, phrase in outcome.why) == (kind, True), f"{key}: {outcome.kind}: {outcome.why}"
+    if outcome.kind == "FAIL":
+        assert outcome.reproducers, f"{key}: a FAIL without a reproducer: {outcome.why}"
+    said = {str(r["path"]): shows(Path(str(r["path"]))) for r in outcome.reproducers}
+    unshown = {script: what for script, what in said.items() if what != "shows"}
+    assert not unshown, f"{key}: reproducers that show no difference (the harness's own misreading): {unshown}"
+
+
+def reason(outcome: Outcome) -> str:
+    """A refusal's reason as a class (the text after the file's name, numbers and quotes left out)."""
+    text = re.sub(r"^lagrange-xval: error: [^:]+: ", "", outcome.why)
+    text = re.sub(r"'[^']*'", "'…'", text)
+    return re.sub(r"\d[\d.e+-]*", "N", text)[:90]
+
+
+def _one(key: str, path: Path, folder: Path) -> tuple[str, Outcome, list[str]]:
+    outcome = judge(path, folder)
+    return key, outcome, [shows(Path(str(r["path"]))) for r in outcome.reproducers]
+
+
+def survey(workers: int = 2) -> Iterator[tuple[str, Outcome, list[str]]]:
+    """Every model's outcome (in the corpus's order, `workers` at a time) and what each of its
+    reproducers says."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    with tempfile.TemporaryDirectory() as tmp, ThreadPoolExecutor(workers) as pool:
+        jobs = [pool.submit(_one, key, path, Path(tmp) / str(i)) for i, (key, path) in enumerate(models())]
+        for job in jobs:
+            yield job.result()
+
+
+def main(argv: list[str]) -> int:
+    """Prints a row per model and the figures; `--jsonl FILE` also writes each row as a JSON line."""
+    lines = open(argv[argv.index("--jsonl") + 1], "w") if "--jsonl" in argv else None  # noqa: SIM115
+    rows = []
+    for key, outcome, shown in survey():
+        rows.append((key, outcome, shown))
+        if lines is not None:
+            record = {"key": key, "kind": outcome.kind, "why": outcome.why, "seconds": outcome.seconds}
+            lines.write(json.dumps({**record, "reproducers": shown}) + "\n")
+            lines.flush()
+        proof = f" [reproducers: {', '.join(shown)}]" if shown else ""
+        print(f"{outcome.kind:8} {outcome.seconds:6.1f} s  {key}: {outcome.why[:160]}{proof}", flush=True)
+    kinds = Counter(o.kind for _, o, _ in rows)
+    scripts = [s for _, o, shown in rows for s in shown]
+    print(f"\n{len(rows)} models: " + ", ".join(f"{kinds[k]} {k}" for k in ("pass", "FAIL", "refused", "crash")))
+    print(f"FAILs with a reproducer: {sum(1 for _, o, s in rows if o.kind == 'FAIL' and s)} of {kinds['FAIL']}; ")
+    print(f"reproducers that show their difference: {scripts.count('shows')} of {len(scripts)}", end="")
+    print(f" ({scripts.count('silent')} silent, {sum(s.startswith('broken') for s in scripts)} broken)")
+    for why, n in Counter(reason(o) for _, o, _ in rows if o.kind == "refused").most_common():
+        print(f"  refused {n:3}: {why}")
+    print(f"packages: {', '.join(f'{d}=={_version(d)}' for d in PACKAGES.values())}")
+    return 0
+
+
+def _version(distribution: str) -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version(distribution)
+    except PackageNotFoundError:
+        return "not installed"
+
+
+if __name__ == "__main__":
+    os.environ.setdefault("PYTHONHASHSEED", "0")
+    sys.exit(main(sys.argv[1:]))
