@@ -29,7 +29,7 @@ if TYPE_CHECKING:
 
 # The keys whose numbers a probe may move (a body's orientation, a joint's axis and the structure keys
 # are the chain's shape, not its parameters: moving one entry of a quaternion or an axis is no model).
-MOVABLE = ("mass", "com", "inertia", "pos", "damping", "armature", "gear")
+MOVABLE = ("mass", "com", "inertia", "pos", "damping", "armature", "stiffness", "springref", "gear")
 NUDGE = 1e-3  # the relative move that finds which fields follow a number
 ModelValue: TypeAlias = float | str | np.ndarray  # what a model view holds: a number, a name, an array
 

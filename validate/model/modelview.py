@@ -19,6 +19,8 @@ defaults of their own), so the compiled MJCF is the single source of numbers. Ke
     joint/<name>/frictionloss    N m (dry friction: a constraint, left out of every comparison)
     joint/<name>/stiffness       N m / rad
     joint/<name>/springref       rad (m): where the spring is relaxed; present only where it is not 0
+    joint/<name>/ref             rad (m): the coordinate at which the body is where the file writes it
+                                 (MuJoCo's qpos0; the joint turns by q - ref); present only where it is not 0
     actuator/<name>/joint        joint name the actuator drives (an unnamed actuator: "actuator#<id>")
     actuator/<name>/gear         transmission ratio (generalized force per unit control)
 
@@ -147,8 +149,13 @@ def from_mujoco(model: mujoco.MjModel, source: str) -> ModelView:
         values[f"joint/{n}/armature"] = float(model.dof_armature[dof])
         values[f"joint/{n}/frictionloss"] = float(model.dof_frictionloss[dof])
         values[f"joint/{n}/stiffness"] = float(model.jnt_stiffness[j])
-        if model.qpos_spring[model.jnt_qposadr[j]] and _JOINT_TYPES[int(model.jnt_type[j])] in ("hinge", "slide"):
-            values[f"joint/{n}/springref"] = float(model.qpos_spring[model.jnt_qposadr[j]])
+        if _JOINT_TYPES[int(model.jnt_type[j])] in ("hinge", "slide"):
+            # compiled, so in radians whatever <compiler angle> the file uses
+            qadr = int(model.jnt_qposadr[j])
+            if model.qpos_spring[qadr]:
+                values[f"joint/{n}/springref"] = float(model.qpos_spring[qadr])
+            if model.qpos0[qadr]:
+                values[f"joint/{n}/ref"] = float(model.qpos0[qadr])
     for a in joint_actuators(model):  # the others are never driven (model/scope.py)
         n = name(mujoco.mjtObj.mjOBJ_ACTUATOR, a)
         values[f"actuator/{n}/joint"] = name(mujoco.mjtObj.mjOBJ_JOINT, int(model.actuator_trnid[a, 0]))

@@ -21,10 +21,11 @@ from .overrides import MUJOCO_DEFAULT_GRAVITY
 # The numeric keys set_values writes, per kind of element, and the structure keys it only checks.
 SETTABLE_FIELDS = {
     "body": ("mass", "com", "inertia", "pos", "quat"),
-    "joint": ("axis", "pos", "damping", "armature", "frictionloss", "stiffness"),
+    "joint": ("axis", "pos", "damping", "armature", "frictionloss", "stiffness", "springref"),
     "actuator": ("gear",),
 }
-STRUCTURE_FIELDS = {"body": ("parent",), "joint": ("type", "body"), "actuator": ("joint",)}
+# a joint's ref (qpos0) fixes where its coordinate's zero is: a convention of the derivation, not moved
+STRUCTURE_FIELDS = {"body": ("parent",), "joint": ("type", "body", "ref"), "actuator": ("joint",)}
 _SHAPES = {
     "gravity": (3,),
     "com": (3,),
@@ -391,7 +392,8 @@ class _Edit:
             if value != have:
                 raise HarnessError(
                     f"set_values: {key} is {have!r} in the model, got {value!r}; the writer cannot change the "
-                    "tree's structure (parents, joint types, which body a joint moves, which joint an actuator drives)."
+                    "tree's structure (parents, joint types, which body a joint moves, which joint an actuator drives) "
+                    "or a joint's ref."
                 )
             return
         arr = _number(key, field_, value)
@@ -451,6 +453,8 @@ class _Edit:
             vec = self.filled(key, arr, _attr_vector(el, field_, 3))
             self.written[key] = _unit(key, value, vec) if field_ == "axis" else vec
             el.set(field_, _floats(self.written[key]))
+        elif field_ == "springref":
+            self.springref(el, key, name, arr)
         elif not np.isnan(arr):
             if arr < 0:
                 raise _bad(key, value, "must be non-negative")
@@ -458,6 +462,15 @@ class _Edit:
             self.written[key] = float(arr)
             if field_ == "damping":
                 self.damping_set.add(name)
+
+    def springref(self, el: ET.Element, key: str, name: str, arr: np.ndarray) -> None:
+        """A joint's springref, given as compiled (rad for a hinge), written in the file's <compiler angle>
+        (degrees unless it says radian: MJCF's default)."""
+        if np.isnan(arr):
+            return
+        degrees = self.current()[f"joint/{name}/type"] == "hinge" and self.model.compiler("angle") != "radian"
+        el.set("springref", repr(float(np.degrees(arr)) if degrees else float(arr)))
+        self.written[key] = float(arr)
 
     def enable_dampers(self) -> None:
         """Dampers enabled where the scene disables them and a damping set is not zero; the other joints'

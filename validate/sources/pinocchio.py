@@ -21,7 +21,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..core.errors import HarnessError
-from ..model.modelview import welded
+from ..model.modelview import names, welded
 from ..model.urdf import for_pinocchio
 from ..systems import System
 from .base import Kinematics
@@ -190,9 +190,12 @@ class PinocchioSource:
         inertia and keeps no inertia per body): there the body's own centre, as compiled, in its frame."""
         view = self.system.view
         carrying = welded(view)
+        alone = {str(view[f"joint/{j}/body"]) for j in names(view, "joint", "body")} - set(carrying)
         out = []
         for b, jid, fid in zip(self.system.bodies, self.joint_of_body, self.frames, strict=True):
-            if b in carrying:
+            # a body welded to its parent (no joint of its own) has no inertia in Pinocchio either: its
+            # joint's is the rigid group's
+            if b not in alone:
                 out.append(self.model.frames[fid].placement.act(np.asarray(view[f"body/{b}/com"], dtype=float)))
             else:
                 out.append(np.array(self.model.inertias[jid].lever, dtype=float))
@@ -364,9 +367,10 @@ class PinocchioSource:
                 frame = data.oMf[fid]
                 fv = pin.getFrameVelocity(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
                 op[i, k], rot[i, k], ov[i, k] = frame.translation, frame.rotation, fv.linear
-                cp[i, k] = oMi.act(inertia.lever)
+                centre = self.centres[k]  # the body's own, where its joint carries welded bodies (`_centres`)
+                cp[i, k] = oMi.act(centre)
                 w[i, k] = oMi.rotation @ vj.angular
-                cv[i, k] = oMi.rotation @ (vj.linear + np.cross(vj.angular, inertia.lever))
+                cv[i, k] = oMi.rotation @ (vj.linear + np.cross(vj.angular, centre))
                 ke[i, k] = 0.5 * inertia.vtiv(vj)
                 pe[i, k] = -inertia.mass * self.gravity @ cp[i, k]
         return Kinematics(cp, cv, op, ov, rot, w, ke, pe)

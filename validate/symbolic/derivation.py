@@ -3,9 +3,10 @@
 From the compiled model (its ModelView: bodies, joints, inertias, gravity) and nothing else, step by
 step as the notes teach it:
 
-1. a rotation matrix per joint (eqs 49-57): R_b = R_parent R(quat_b) R_axis(q_j), each body frame
-   composed from its parent's; a hinge turns its body about its axis through its anchor, a slide
-   moves it along its axis;
+1. a rotation matrix per joint (eqs 49-57): R_b = R_parent R(quat_b) R_axis(q_j - ref_j), each body
+   frame composed from its parent's; a hinge turns its body about its axis through its anchor, a slide
+   moves it along its axis, each by its coordinate less its `ref` (MuJoCo's qpos0: the file writes the
+   body where it is at q = ref);
 2. positions of the centres of mass r_c(q) = x_b + R_b c_b, their velocities r_c' = J_c q' (eqs 58-61:
    v = omega x r along the chain, here as the Jacobian of r_c), and the angular velocities composed
    along the chain, omega = sum of the world axes of the hinges above a body times their rates,
@@ -232,12 +233,26 @@ def structure_key(view: ModelView, joints: tuple[str, ...]) -> tuple[Hashable, .
             key.append((k, x))
             continue
         arr = np.asarray(x, dtype=float)
-        if k.endswith(("/quat", "/axis")) or k == "gravity":
+        if k.endswith("/ref"):  # fixed in the derivation as a number (`reference`)
+            key.append((k, repr(float(x))))
+        elif k.endswith(("/quat", "/axis")) or k == "gravity":
             norm = float(np.linalg.norm(arr)) or 1.0
             key.append((k, tuple(str(exact(float(e))) for e in arr.ravel() / norm)))
         else:
             key.append((k, tuple(np.sign(arr).ravel().astype(int).tolist())))
     return tuple(key)
+
+
+def reference(x: float, *, angle: bool) -> sp.Expr:
+    """A joint's `ref` (MuJoCo's qpos0) as an exact number: a hinge's whole number of degrees (what a
+    degree compiler makes of `ref="-90"`) as that fraction of pi, any other as `exact` gives it. Structural:
+    it fixes where the coordinate's zero is, like the joint's axis, and is no parameter of the Params."""
+    import sympy as sp
+
+    degrees = x * 180.0 / np.pi
+    if angle and x != 0.0 and abs(degrees - round(degrees)) <= 1e-9 * max(1.0, abs(degrees)):
+        return sp.Rational(round(degrees), 180) * sp.pi
+    return exact(x)
 
 
 def _quat_matrix(w: sp.Expr, x: sp.Expr, y: sp.Expr, z: sp.Expr) -> sp.Matrix:
@@ -295,10 +310,13 @@ def _through_joint(
         raise HarnessError(f"joint '{j}' is a {kind} joint: only hinge and slide joints are derived.")
     axis_np = np.asarray(view[f"joint/{j}/axis"], dtype=float)
     axis = sp.Matrix(P.fixed(f"axis {j}", axis_np / np.linalg.norm(axis_np)))
+    # MuJoCo's frame as the file writes it is the frame at q = ref (qpos0): the joint moves by q - ref
+    ref = view[f"joint/{j}/ref"] if f"joint/{j}/ref" in view else 0.0
+    moved = qi - reference(float(ref), angle=kind == "hinge")
     if kind == "slide":
-        return x + R * axis * qi, R
+        return x + R * axis * moved, R
     anchor = P.vector(f"a_{_clean(j)}", f"joint/{j}/pos", "m")
-    Rj = axis_rotation(axis, qi)
+    Rj = axis_rotation(axis, moved)
     Jw[:, i] = R * axis
     return x + R * (anchor - Rj * anchor), R * Rj
 
@@ -387,7 +405,7 @@ def _springrefs(P: _Params, view: ModelView, joints: tuple[str, ...]) -> list[sp
     import sympy as sp
 
     return [
-        P.scalar(f"q0_{_clean(j)}", f"joint/{j}/springref", None, "rad")
+        P.scalar(f"q0_{_clean(j)}", f"joint/{j}/springref", None, "m" if view[f"joint/{j}/type"] == "slide" else "rad")
         if f"joint/{j}/springref" in view
         else sp.Integer(0)
         for j in joints

@@ -45,7 +45,7 @@ def _vec(x: npt.ArrayLike) -> str:
 
 
 _BODY_FIELDS = {"mass": "m", "com": "c", "inertia": "I", "pos": "p"}
-_JOINT_FIELDS = {"pos": "j", "damping": "d", "armature": "arm", "stiffness": "k"}
+_JOINT_FIELDS = {"pos": "j", "damping": "d", "armature": "arm", "stiffness": "k", "springref": "q0"}
 
 
 def field_of(key: str, entry: int | tuple[int, ...] | str | None = None) -> str:
@@ -95,11 +95,16 @@ def _joint_fields(view: ModelView, j: str) -> list[tuple[str, str, str]]:
         (field_of(f"joint/{j}/pos", k), f'model["joint/{j}/pos"][{k}]', f"m, anchor of joint {j} in its body's frame")
         for k in range(3)
     ]
-    return out + [
+    out += [
         (field_of(f"joint/{j}/damping"), f'model["joint/{j}/damping"]', f"{unit}, viscous damping of {j}"),
         (field_of(f"joint/{j}/armature"), f'model["joint/{j}/armature"]', f"armature of {j} (added to M's diagonal)"),
         (field_of(f"joint/{j}/stiffness"), f'model["joint/{j}/stiffness"]', f"stiffness of {j}"),
     ]
+    if f"joint/{j}/springref" in view:  # the model has a key for it only where it is not 0
+        where = "rad" if view[f"joint/{j}/type"] == "hinge" else "m"
+        relaxed = f"{where}, where the spring of {j} is relaxed"
+        out.append((field_of(f"joint/{j}/springref"), f'model["joint/{j}/springref"]', relaxed))
+    return out
 
 
 def _fields(view: ModelView, parts: _Parts) -> list[tuple[str, str, str]]:
@@ -153,12 +158,13 @@ def _docstring(name: str, view: ModelView, parts: _Parts) -> list[str]:
     for b in parts.bodies:
         t.append(
             f"    body {b}: child of {view[f'body/{b}/parent']}, its frame rotated by quat (w, x, y, z) "
-            f"{_vec(view[f'body/{b}/quat'])} in its parent's frame at q = 0"
+            f"{_vec(view[f'body/{b}/quat'])} in its parent's frame at q = ref"
         )
     for j in parts.joints:
         t.append(
             f"    joint {j} ({view[f'joint/{j}/type']}): moves body {view[f'joint/{j}/body']} along/about axis "
-            f"{_vec(view[f'joint/{j}/axis'])} of its frame; {j} = 0 at the model's reference pose"
+            f"{_vec(view[f'joint/{j}/axis'])} of its frame by {j} - ref, ref = {_ref(view, j)!r} "
+            f"(the file writes the body where it is at {j} = ref: MuJoCo's qpos0)"
         )
     if parts.locked:
         t.append(f"    locked (fixed at zero, not coordinates): {', '.join(parts.locked)}; check with{lock}")
@@ -215,9 +221,17 @@ def _body_assumptions(view: ModelView, b: str) -> list[str]:
     ]
 
 
+def _ref(view: ModelView, j: str) -> float:
+    """Joint j's `ref` (MuJoCo's qpos0, compiled: rad or m): 0 where the model has no key for it."""
+    return float(view[f"joint/{j}/ref"]) if f"joint/{j}/ref" in view else 0.0
+
+
 def _joint_assumptions(view: ModelView, j: str) -> list[str]:
     i = identifier(j)
-    return [
+    optional = [f'        "joint/{j}/ref": {_ref(view, j)!r},'] if f"joint/{j}/ref" in view else []
+    if f"joint/{j}/springref" in view:
+        optional.append(f'        "joint/{j}/springref": p.q0_{i},')
+    return optional + [
         f'        "joint/{j}/type": {view[f"joint/{j}/type"]!r},',
         f'        "joint/{j}/body": {view[f"joint/{j}/body"]!r},',
         f'        "joint/{j}/axis": np.array({_vec(view[f"joint/{j}/axis"])}),',

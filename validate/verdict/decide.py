@@ -82,8 +82,8 @@ class Decision:
         mismatches = [m for m in self.model_checks["mismatches"] if "defect" not in m]
         if mismatches:
             key = mismatches[0]["key"]
-            if self.model_only:
-                check = str(mismatches[0].get("check", ""))
+            check = str(mismatches[0].get("check", ""))
+            if self.model_only or not check.startswith("equations~"):  # a reader's, not the derivation's
                 reader = check.split("~")[0].capitalize() if "~" in check else "a reader"
                 text = f"{reader} reads the model otherwise than MuJoCo ({key}); {text}"
             else:

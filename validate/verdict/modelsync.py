@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from ..model.modelview import ModelView, quat_to_mat, welded
+from ..model.modelview import ModelView, names, quat_to_mat, welded
 from ..results.schema import Mismatch, ModelChecks
 from ..sources.base import Source, engine_of
 from ..sources.frames import mujoco_joint_frames
@@ -116,7 +116,7 @@ def pinocchio_vs_mujoco(system: System, pin_source: Source) -> list[Mismatch]:
     model, view = pn.model, system.view
     rows: list[Mismatch] = []
     carried = welded(view)
-    for body, jid, fid in zip(system.bodies, pn.joint_of_body, pn.frames, strict=True):
+    for body, jid, fid in _carriers(system, pn.joint_of_body, pn.frames, pn.model):
         # Pinocchio keeps one inertia per joint, in the joint's frame, with the bodies welded to it
         # added; MuJoCo one per body, in the body's frame: both brought to the body's frame and content.
         inertia = model.inertias[jid]
@@ -140,6 +140,27 @@ def pinocchio_vs_mujoco(system: System, pin_source: Source) -> list[Mismatch]:
             floor = max(float(np.abs(p).max()), extent) if what == "com" else 0.0
             rows.append(_engine_row(f"body/{body}/{what}", mj, pn, _same(mj, pn, floor), "compiled this body"))
     return rows
+
+
+def _carriers(system: System, joints: list[int], frames: list[int], model: Any) -> list[tuple[str, int, int]]:
+    """(body, Pinocchio joint, frame) of each compared body's rigid group, once: a compared body welded to
+    its parent (no joint of its own: reacher's `finger` on `hand`) has no inertia of its own in Pinocchio,
+    whose joint holds the group's; its group is compared at the body the joint moves, MuJoCo's sum of the
+    group (`_rigid`) against Pinocchio's joint inertia."""
+    view = system.view
+    parent = {b: str(view[f"body/{b}/parent"]) for b in names(view, "body", "parent")}
+    moved = {str(view[f"joint/{j}/body"]) for j in names(view, "joint", "body")}
+    out: dict[str, tuple[str, int, int]] = {}
+    for body, jid, fid in zip(system.bodies, joints, frames, strict=True):
+        top = body
+        while top not in moved and parent.get(top, "world") != "world":
+            top = parent[top]
+        if top not in moved:  # welded to the world: compared as it stands
+            top = body
+        elif top != body:
+            fid = model.getBodyId(top)
+        out.setdefault(top, (top, jid, fid))
+    return list(out.values())
 
 
 def _rigid(view: ModelView, body: str, welded: dict[str, list[str]]) -> tuple[float, np.ndarray, np.ndarray]:
