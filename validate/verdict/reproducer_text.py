@@ -149,7 +149,7 @@ def flattened(path):
     asset's file the absolute path MuJoCo opens (MuJoCo's own parse, MjSpec.from_file, names it), the
     asset folders removed from <compiler>, and repeated top-level sections merged as MuJoCo merges them
     (Pinocchio's parser reads the first <worldbody> and <default> only). Returns (root, changed)."""
-    root = ET.parse(path).getroot()
+    root = ET.fromstring(path.read_text(encoding="utf-8-sig").lstrip())
     folder = path.resolve().parent
     included = _expand(root, folder, folder)
     files = {tag: _assets(root, tag) for tag in ASSETS}
