@@ -76,6 +76,12 @@ QUANTITY_TIER = {
 # Quantities that are small differences of large terms are scaled by those terms' largest magnitude:
 # inverse dynamics returns tau (zero for an unactuated system) as M a + bias - passive.
 SCALE_ALSO_BY = {"tau_inverse": ("bias",), "passive": ("bias",)}
+# ... and inverse dynamics by its inertial terms too: M a, rounded entry by entry, can be far larger than
+# tau and bias where the accelerations are large (a nearly singular M, light links: fetch/reach.xml at
+# MuJoCo's qacc of 1e10 has |M||a| of 1.7e12 per row, and MuJoCo's and Pinocchio's tau_inverse differ by
+# 2.5e-4 = 3 x 2^-13, below eps |M||a| = 3.9e-4, while M, bias and qacc agree to 1e-15): the rounding of
+# M a is what the sources differ by, so the scale is at least max over the states of the rows of |M| |a|.
+SCALE_ALSO_BY_INERTIA = ("tau_inverse",)
 
 # What each quantity (pointwise) or term (a derivation's) is, physically: its floor in `PhysicalScales`.
 KIND = {

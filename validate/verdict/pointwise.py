@@ -17,6 +17,7 @@ from ..core.tolerances import (
     NO_SCALES,
     QUANTITY_TIER,
     SCALE_ALSO_BY,
+    SCALE_ALSO_BY_INERTIA,
     TOLERANCES,
     UP_TO_A_CONSTANT,
     PhysicalScales,
@@ -249,6 +250,17 @@ def force_scale(M: np.ndarray, v: np.ndarray) -> float:
     return float(np.linalg.norm(M, ord=2, axis=(-2, -1)).max() * np.max(np.abs(v)) ** 2)
 
 
+def inertial_scale(M: np.ndarray, qacc: np.ndarray | None) -> float:
+    """max over the states and rows of |M| |a| (core.tolerances.SCALE_ALSO_BY_INERTIA): the size of the
+    terms of M a whose rounding inverse dynamics carries; 0 without accelerations of M's shape."""
+    if qacc is None:
+        return 0.0
+    M, a = np.nan_to_num(np.asarray(M, dtype=float)), np.nan_to_num(np.asarray(qacc, dtype=float))
+    if M.ndim != 3 or a.shape != M.shape[:2] or not M.size:
+        return 0.0
+    return float(np.einsum("nij,nj->ni", np.abs(M), np.abs(a)).max())
+
+
 # The quantities scaled at least by `force_scale`: forces, and inverse dynamics (a difference of them).
 FORCE_QUANTITIES = ("bias", "passive", "tau_inverse")
 
@@ -274,6 +286,10 @@ def compare(
             also = [values[s][k] for k in SCALE_ALSO_BY.get(quantity, ()) for s in (a, b) if k in values[s]]
             min_scale = max((float(np.abs(x).max()) for x in also), default=0.0)
             min_scale = max(min_scale, forces) if quantity in FORCE_QUANTITIES else min_scale
+            if quantity in SCALE_ALSO_BY_INERTIA:  # M a's terms, at the accelerations it was taken at
+                accelerations = values["hand" if "hand" in values else reference].get("qacc")
+                inertial = [inertial_scale(values[s]["M"], accelerations) for s in (a, b) if "M" in values[s]]
+                min_scale = max(min_scale, *inertial)
             rows.append(
                 error_row(
                     quantity,

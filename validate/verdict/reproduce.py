@@ -12,13 +12,18 @@ libraries' (`run_reproducer`, `unshown`). Design points:
   `buildModelFromUrdf`, `Parser(plant).AddModels`); the joints and bodies are mapped by name; only
   the alignments the harness's sources apply are applied, each commented with why (Pinocchio's
   gravity, damping and springs as a generalized force, Drake's gravity, damping, armature motors and
-  springs, MuJoCo's constraints switched off). Where the harness edits the file first (free and ball
-  joints as slides and hinges, one body tree for Pinocchio, a URDF's geometry removed, --lock), the
-  script makes the same edit on a copy beside the model.
-- Where the harness adds to a library's number something the library already counts, the script does
-  not follow it: Pinocchio's T is `computeKineticEnergy` alone (it includes armature).
+  springs, MuJoCo's constraints switched off). Where the harness gives a library another text than the
+  file (an MJCF's includes expanded and asset files absolute, model/flatten.py; free and ball joints as
+  slides and hinges; one body tree for Pinocchio; a URDF's geometry removed, --lock, MuJoCo's floors
+  under a massless link for every reader), the script makes the same edit with xml.etree (and
+  MjSpec.from_file for the asset files MuJoCo opens) and writes it in a temporary folder of its own,
+  never beside the model (a published package's folder may be read-only, and is not ours).
+- The script follows the harness's readings: Pinocchio's T is 1/2 v^T M v on CRBA's M (Pinocchio 4.1's
+  computeKineticEnergy leaves out an unaligned hinge's armature); V is compared up to a constant, the
+  script computing a - b at the state and at the one where a - b is at its other extreme.
 - The state is the one where the row disagrees most against its tolerance; the tolerance is absolute
-  (the tier's relative tolerance at that state's cond(M), times the row's scale over all states).
+  (the tier's relative tolerance at that state's cond(M), times the row's scale over all states, with
+  the model's physical floor under it: pointwise.physical_scales, as the verdict compares).
 - The symbolic source (the model's own equations, derived by the harness with sympy) is no library:
   its side is written as the numbers the derivation gave, said so in the script. A person's module
   not in form (a) (M and bias) for a quantity it does not give directly is written the same way. A
@@ -38,7 +43,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..core.tolerances import QUANTITY_TIER, TOLERANCES, Tolerances
+from ..core.tolerances import NO_SCALES, QUANTITY_TIER, TOLERANCES, PhysicalScales, Tolerances
 from ..model.modelview import names, welded
 from ..results.schema import Reproducer
 from . import pointwise as compare
@@ -103,7 +108,24 @@ def model_facts(system: System) -> ModelFacts:
         carrier_com={b: tuple(float(x) for x in view[f"body/{b}/com"]) for b in system.bodies if b in carriers},
         kept=tuple(names(view, "body", "parent")),
         urdf_roots=_urdf_roots(text) if text else (),
+        bounded=_bounded(system) if urdf else {},
     )
+
+
+def _bounded(system: System) -> dict[str, tuple[float, float]]:
+    """The URDF links the harness gave MuJoCo's floors (System.floors, for every reader): (mass, moment)
+    as System.urdf_text states them, for the script to give every library the same."""
+    import xml.etree.ElementTree as ET
+
+    named = {line.split("'")[1] for line in system.floors if "'" in line}
+    if not named:
+        return {}
+    out = {}
+    for link in ET.fromstring(system.urdf_text().strip()).iter("link"):
+        mass, inertia = link.find("inertial/mass"), link.find("inertial/inertia")
+        if link.get("name") in named and mass is not None and inertia is not None:
+            out[str(link.get("name"))] = (float(mass.get("value", "0")), float(inertia.get("ixx", "0")))
+    return out
 
 
 def _several_trees(mjcf: str) -> bool:
@@ -179,14 +201,21 @@ class Found:
     state: int
     entry: tuple[int, ...]
     tolerance: float
+    constant: float = 0.0  # what the comparison removes from a - b first (V: up to a constant)
+    reference: int | None = None  # V: the state where a - b is at its other extreme (the script's second state)
 
 
 def disagreements(
-    values: Mapping[str, Mapping[str, np.ndarray]], states: States, *, tolerances: Tolerances = TOLERANCES
+    values: Mapping[str, Mapping[str, np.ndarray]],
+    states: States,
+    *,
+    tolerances: Tolerances = TOLERANCES,
+    scales: PhysicalScales = NO_SCALES,
 ) -> list[Found]:
-    """Every failing (quantity, pair) of the comparison of `values`, each at the state where its error
-    over its tolerance is largest, with the entry where the two differ most there."""
-    rows = compare.compare({k: dict(v) for k, v in values.items()}, states, tolerances=tolerances)
+    """Every failing (quantity, pair) of the comparison of `values` (with the model's physical `scales`
+    under every scale, as the verdict compares), each at the state where its error over its tolerance is
+    largest, with the entry where the two differ most there; V after the row's constant is removed."""
+    rows = compare.compare({k: dict(v) for k, v in values.items()}, states, tolerances=tolerances, scales=scales)
     cond = np.linalg.cond(values["mujoco"]["M"]) if "mujoco" in values and "M" in values["mujoco"] else None
     out = []
     for r in rows:
@@ -194,15 +223,26 @@ def disagreements(
             continue
         a, b = r["pair"].split("~")
         x, y = np.asarray(values[a][r["quantity"]], dtype=float), np.asarray(values[b][r["quantity"]], dtype=float)
+        constant = float(r.get("constant", 0.0))
         with np.errstate(all="ignore"):
-            diff = np.nan_to_num(np.abs(x - y), nan=np.inf).reshape(len(states), -1)
+            diff = np.nan_to_num(np.abs(x - y - constant), nan=np.inf).reshape(len(states), -1)
         tier = getattr(tolerances, QUANTITY_TIER[r["quantity"]])
         tol = np.array([tier.at(c) for c in cond]) if cond is not None else np.full(len(states), tier.rtol)
         k = int(np.argmax(diff.max(axis=1) / tol))
         entry = np.unravel_index(int(np.argmax(diff[k])), x.shape[1:]) if x.ndim > 1 else ()
-        found = Found(r["quantity"], r["pair"], r["scale"], k, tuple(int(i) for i in entry), float(tol[k] * r["scale"]))
+        entry_ = tuple(int(i) for i in entry)
+        reference = _other_extreme(x - y, k) if "constant" in r else None
+        found = Found(r["quantity"], r["pair"], r["scale"], k, entry_, float(tol[k] * r["scale"]), constant, reference)
         out.append(found)
     return out
+
+
+def _other_extreme(d: np.ndarray, k: int) -> int:
+    """The state where the scalar difference `d` is at its other extreme from state `k` (its largest where
+    k holds its smallest, and back): the midrange the comparison removes is that of these two states."""
+    d = np.nan_to_num(np.asarray(d, dtype=float).reshape(len(d)), nan=0.0)
+    high, low = int(np.argmax(d)), int(np.argmin(d))
+    return low if abs(d[k] - d[high]) <= abs(d[k] - d[low]) else high
 
 
 def _number(x: np.ndarray, k: int, entry: tuple[int, ...]) -> float:
@@ -212,7 +252,7 @@ def _number(x: np.ndarray, k: int, entry: tuple[int, ...]) -> float:
 def cases(system: System, values: Mapping[str, Mapping[str, np.ndarray]], states: States) -> list[Reproducer]:
     """A reproducer (its text under "script", or why not under "skipped") for every disagreeing pair and
     quantity of `values` at `states` (every source's, before any reader is set aside)."""
-    found = disagreements(values, states)
+    found = disagreements(values, states, scales=compare.physical_scales(system, states))
     if not found:
         return []
     facts = model_facts(system)
@@ -254,9 +294,15 @@ def cases(system: System, values: Mapping[str, Mapping[str, np.ndarray]], states
             relative=f.tolerance / f.scale,
             scale=f.scale,
             literal=literal,
+            constant=f.constant,
+            reference=None if f.reference is None else _state(states, f.reference),
         )
         out.append({**record, "script": script(case, facts, hand if "hand" in (a, b) else None)})
     return out
+
+
+def _state(states: States, k: int) -> dict[str, object]:
+    return {"index": k} | {key: [float(x) for x in getattr(states, key)[k]] for key in ("q", "v", "tau")}
 
 
 def _literals(
@@ -271,6 +317,8 @@ def _literals(
     literal: dict[str, tuple[object, str]] = {}
     for side in pair:
         number = np.asarray(values[side][quantity])[f.state].tolist()
+        if f.reference is not None:  # V: the script computes two states (reproducer_text's main)
+            number = {k: np.asarray(values[side][quantity])[k].tolist() for k in (f.state, f.reference)}
         if side == "symbolic":
             literal[side] = (
                 number,

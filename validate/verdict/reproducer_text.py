@@ -7,8 +7,9 @@ source's block loads the model from its path as a person would, applies the alig
 applies (each commented with why) and computes the quantity in the harness's convention, the
 coordinates mapped by joint name. Where the harness edits the file before a library reads it (free
 and ball joints as slides and hinges, model/floating.py; one body tree for Pinocchio; a URDF's
-geometry removed or a joint locked), the script makes the same edit with xml.etree on a copy beside
-the model (so that its meshdir and includes resolve as from the file) and says so.
+geometry removed or a joint locked; an MJCF's includes expanded and its asset files made absolute), the
+script makes the same edit with xml.etree (MjSpec.from_file names the asset files MuJoCo opens) and
+writes the text in a temporary folder of its own, never beside the model, and says so.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from dataclasses import dataclass, field
 EDITS = {
     "slides_and_hinges": '''
 def slides_and_hinges(root):
-    """What the harness compares (lagrange_xval model/floating.py): every free joint as three slides
+    """What the harness compares (lagrange-xval's model/floating.py): every free joint as three slides
     along the body's axes and three hinges about them (z, y, x: intrinsic Z-Y-X angles), a ball joint
     as the three hinges at its anchor, named <joint>_tx .. _rx; unnamed bodies and joints named by
     MuJoCo's ids (body#3, joint#5). The same bodies and freedom, one coordinate per degree of freedom."""
@@ -54,6 +55,10 @@ def slides_and_hinges(root):
                 attrib = {"name": f"{name}_{suffix}", "type": kind_of, "axis": axis, "limited": "false"}
                 attrib |= pos | kept
                 body.insert(i + k, ET.Element("joint", attrib))
+    # A <key>'s qpos holds a free joint's 7 numbers and a ball's 4 (the harness converts them with the
+    # coordinates); the script sets its state itself, so the keys, which change no dynamics, are left out
+    for section in root.findall("keyframe"):
+        root.remove(section)
 ''',
     "one_tree": '''
 def one_tree(root):
@@ -97,6 +102,25 @@ def no_mimic(root):
         for child in joint.findall("mimic"):
             joint.remove(child)
 ''',
+    "bounded": '''
+def bounded(root):
+    """A moving link below MuJoCo's minimum mass or inertia (mjMINVAL, 1e-15: a massless link between two
+    joints, a point mass; a valid URDF, which MuJoCo refuses as written) is given MuJoCo's boundmass and
+    boundinertia by the harness for EVERY reader alike (lagrange-xval's model/inertia.py bound_urdf), so
+    that no reader differs from another by the floor: its mass and an isotropic inertia, as BOUNDED."""
+    for link in root.iter("link"):
+        if link.get("name") not in BOUNDED:
+            continue
+        mass, moment = BOUNDED[link.get("name")]
+        inertial = link.find("inertial")
+        inertial = ET.SubElement(link, "inertial") if inertial is None else inertial
+        element = inertial.find("mass")
+        (ET.SubElement(inertial, "mass") if element is None else element).set("value", repr(mass))
+        element = inertial.find("inertia")
+        element = ET.SubElement(inertial, "inertia") if element is None else element
+        element.attrib.update({k: "0" for k in ("ixy", "ixz", "iyz")})
+        element.attrib.update({k: repr(moment) for k in ("ixx", "iyy", "izz")})
+''',
     "locked": '''
 def locked(root):
     """The joints the harness was told to lock (--lock), made fixed at their zero angle."""
@@ -112,24 +136,96 @@ def locked(root):
 ''',
 }
 
+FLATTEN = '''
+ASSETS = {"mesh": "meshes", "hfield": "hfields", "skin": "skins", "texture": "textures"}  # tag: MjSpec's list
+CUBE = ("fileright", "fileleft", "fileup", "filedown", "filefront", "fileback")
+MERGED = ("default", "asset", "worldbody", "contact", "equality", "tendon", "actuator", "sensor", "keyframe", "custom")
+
+
+def flattened(path):
+    """The model as one self-contained document, as the harness gives it to every reader (lagrange-xval's
+    model/flatten.py): each <include> replaced by the included file's children (looked up in the model's
+    folder, then the including file's, as MuJoCo does; Pinocchio's parser does not read includes), each
+    asset's file the absolute path MuJoCo opens (MuJoCo's own parse, MjSpec.from_file, names it), the
+    asset folders removed from <compiler>, and repeated top-level sections merged as MuJoCo merges them
+    (Pinocchio's parser reads the first <worldbody> and <default> only). Returns (root, changed)."""
+    root = ET.fromstring(path.read_text(encoding="utf-8-sig").lstrip())
+    folder = path.resolve().parent
+    included = _expand(root, folder, folder)
+    files = {tag: _assets(root, tag) for tag in ASSETS}
+    if not included and not any(files.values()):
+        return root, False
+    if any(files.values()):
+        import mujoco
+
+        spec = mujoco.MjSpec.from_file(str(path.resolve()))
+        for tag, listed in ASSETS.items():
+            theirs = [s for s in getattr(spec, listed) if s.file or any(getattr(s, "cubefiles", ()))]
+            base = spec.texturedir if tag == "texture" else spec.meshdir
+            for element, asset in zip(files[tag], theirs):
+                if element.get("file"):
+                    element.set("file", os.path.normpath(os.path.join(folder, base, asset.file)))
+                for attribute, name in zip(CUBE, getattr(asset, "cubefiles", ())):
+                    if element.get(attribute):
+                        element.set(attribute, os.path.normpath(os.path.join(folder, base, name)))
+    for compiler in root.iter("compiler"):
+        for attribute in ("meshdir", "texturedir", "assetdir"):
+            compiler.attrib.pop(attribute, None)
+    if included:
+        for tag in MERGED:
+            sections = root.findall(tag)
+            if len(sections) > 1 and (tag != "default" or _mergeable(sections)):
+                for section in sections[1:]:
+                    sections[0].extend(list(section))
+                    root.remove(section)
+    return root, True
+
+
+def _expand(node, folder, here):
+    count = 0
+    for i, child in reversed(list(enumerate(node))):
+        if child.tag != "include":
+            count += _expand(child, folder, here)
+            continue
+        name = child.get("file", "")
+        candidates = [Path(name)] if os.path.isabs(name) else [folder / name, here / name]
+        found = Path(os.path.normpath(next(c for c in candidates if c.exists())))
+        included = ET.fromstring(found.read_text(encoding="utf-8-sig").lstrip())
+        count += 1 + _expand(included, folder, found.parent)
+        node.remove(child)
+        for k, part in enumerate(list(included)):
+            node.insert(i + k, part)
+    return count
+
+
+def _assets(root, tag):
+    return [e for a in root.findall("asset") for e in a.findall(tag) if any(e.get(k) for k in ("file", *CUBE))]
+
+
+def _mergeable(sections):
+    tags = [c.tag for d in sections for c in d if c.tag != "default"]
+    return len(tags) == len(set(tags)) and all(d.get("class", "main") == "main" for d in sections)
+'''
+
 EDITED = '''
 @contextlib.contextmanager
 def edited(path, *edits):
-    """The model file itself, or, where the harness edits it before a library reads it, an edited copy
-    beside it (its meshdir, assets and includes resolve as from the file), removed afterwards."""
-    if not edits:
+    """The model file itself, or, where the harness reads another text (includes expanded, asset files
+    absolute, or its edits below), that text written in a temporary folder of its own (never beside
+    the model: a model's folder may be read-only), removed afterwards."""
+    if URDF:
+        root, changed = ET.fromstring(path.read_text(encoding="utf-8-sig").strip()), False
+    else:
+        root, changed = flattened(path)
+    if not edits and not changed:
         yield path
         return
-    root = ET.parse(path).getroot()
     for edit in edits:
         edit(root)
-    fd, name = tempfile.mkstemp(suffix=path.suffix, prefix=".reproducer_", dir=path.parent)
-    with os.fdopen(fd, "w") as f:
-        f.write(ET.tostring(root, encoding="unicode"))
-    try:
-        yield Path(name)
-    finally:
-        os.unlink(name)
+    with tempfile.TemporaryDirectory(prefix="reproducer_") as folder:
+        copy = Path(folder) / path.name
+        copy.write_text(ET.tostring(root, encoding="unicode"))
+        yield copy
 '''
 
 # --- MuJoCo ---------------------------------------------------------------------------------------
@@ -145,9 +241,6 @@ MUJOCO_LOAD_URDF = """
     # A link whose inertia violates the triangle inequality, which MuJoCo refuses, is balanced as
     # MuJoCo's balanceinertia does (the harness's repair, for MuJoCo only)
     spec.compiler.balanceinertia = True
-    # A moving link below MuJoCo's minimum mass or inertia (a point mass, a massless link) is left as the
-    # file states it: where MuJoCo refuses it, that is MuJoCo's answer (the harness gives MuJoCo alone a
-    # bounded inertia, a repair no library makes: this script then stops with MuJoCo's error)
     m = spec.compile()
 """
 MUJOCO = """
@@ -198,9 +291,8 @@ PINOCCHIO_LOAD_MJCF = """
     model.gravity.linear = np.array(GRAVITY)
 """
 PINOCCHIO_LOAD_URDF = """
-    model = pin.buildModelFromUrdf(str(MODEL))
-    if LOCKED:  # the joints the harness was told to lock (--lock), fixed at their zero angle
-        model = pin.buildReducedModel(model, [model.getJointId(j) for j in LOCKED], pin.neutral(model))
+    with edited(MODEL{edits}) as path:
+        model = pin.buildModelFromUrdf(str(path))
     # URDF states no gravity: MuJoCo's default, as the harness sets it
     model.gravity.linear = np.array(GRAVITY)
 """
@@ -237,12 +329,11 @@ PINOCCHIO_QUANTITY = {
     "    return pin.aba(model, data, qf, vf, tf, convention=pin.Convention.LOCAL)[vi]",
     "tau_inverse": "    af = np.zeros(model.nv)\n    af[vi] = QACC\n"
     "    return pin.rnea(model, data, qf, vf, af)[vi] - passive",
-    "T": "    # computeKineticEnergy disagrees with CRBA's M where a joint is composite: 1/2 v^T M v, as the harness\n"
-    "    if any(name.startswith('Composite_') for name in model.names):\n"
-    "        full = pin.crba(model, data, qf)\n        full = np.triu(full) + np.triu(full, 1).T\n"
-    "        return np.array(0.5 * vf @ full @ vf)\n"
-    "    pin.forwardKinematics(model, data, qf, vf)\n"
-    "    return np.array(pin.computeKineticEnergy(model, data))  # Pinocchio's own (armature included)",
+    "T": "    # 1/2 v^T M v on CRBA's M, as the harness computes Pinocchio's T: Pinocchio 4.1's computeKineticEnergy\n"
+    "    # leaves out the armature of a hinge on an unaligned axis (JointModelRevoluteUnaligned; it counts it\n"
+    "    # on RX, RY, RZ) and disagrees with CRBA where a joint is composite; CRBA's M holds every armature\n"
+    "    full = pin.crba(model, data, qf)\n    full = np.triu(full) + np.triu(full, 1).T\n"
+    "    return np.array(0.5 * vf @ full @ vf)",
     "V": "    pin.forwardKinematics(model, data, qf, vf)\n"
     "    springs = 0.5 * np.array(STIFFNESS) @ (q - np.array(SPRINGREF)) ** 2\n"
     "    return np.array(pin.computePotentialEnergy(model, data) + springs)",
@@ -389,19 +480,42 @@ def parameters_of(module):
 LITERAL = '''
 def {name}_value():
     """{why}"""
-    return np.array({number})
+    numbers = {number}  # by state index where the script computes two states (V)
+    return np.array(numbers[AT] if isinstance(numbers, dict) else numbers)
 '''
 
 JUDGE = """
+def both():
+    return tuple(np.asarray(f(), dtype=float) for f in ({a}_value, {b}_value))
+
+
 def main():  # prints both numbers, their difference and the tolerance; 1 where the disagreement shows
-    a, b = (np.asarray(f(), dtype=float) for f in ({a}_value, {b}_value))
-    difference = float(np.max(np.abs(a - b))) if a.size else 0.0
-    entry = np.unravel_index(int(np.argmax(np.abs(a - b))), a.shape) if a.ndim else ()
+    global q, v, tau, AT
+    a, b = both()
+    constant = 0.0
+    if REFERENCE:
+        # V is compared up to a constant (the zero of the potential energy, or bodies welded to the world
+        # that one library counts and the other does not; no equation of motion holds it): the harness
+        # removes the midrange of a - b over its states, so its error is half the spread of a - b between
+        # the states where a - b is largest and smallest. The script computes a - b at both, and removes
+        # their midrange likewise.
+        here = q, v, tau
+        q, v, tau = (np.array(REFERENCE[k]) for k in ("q", "v", "tau"))
+        AT = REFERENCE["index"]
+        a_ref, b_ref = both()
+        q, v, tau, AT = *here, STATE
+        constant = float(((a - b) + (a_ref - b_ref)) / 2)
+    gap = np.abs(a - b - constant)
+    difference = float(np.max(gap)) if a.size else 0.0
+    entry = np.unravel_index(int(np.argmax(gap)), a.shape) if a.ndim else ()
     where = f"{{QUANTITY}}[{{', '.join(map(str, entry))}}]" if a.ndim else QUANTITY
     print(f"model: {{MODEL}}")
     print(f"state {{STATE}} of the harness's sample: q = {{q.tolist()}}, v = {{v.tolist()}}, tau = {{tau.tolist()}}")
     print(f"{{where}}: {a} {{float(a[entry])!r}}, {b} {{float(b[entry])!r}}")
     print(f"the harness saw: {a} {{HARNESS['{a}']!r}}, {b} {{HARNESS['{b}']!r}} at {{QUANTITY}}{{list(HARNESS_ENTRY)}}")
+    if REFERENCE:
+        print(f"compared up to a constant: {a} - {b} - {{constant!r}}, the midrange of {a} - {b} at states "
+              f"{{STATE}} and {{REFERENCE['index']}} (the harness removed {{CONSTANT!r}} over its states)")
     print(f"largest difference {{difference:.6g}}, tolerance {{TOLERANCE:.6g}} "
           f"({{RELATIVE:g}} of the quantity's scale {{SCALE:.6g}} over the harness's states)")
     for name, x in (("{a}", a), ("{b}", b)):  # the same number as the harness's, or the harness computed another
@@ -461,6 +575,7 @@ class ModelFacts:
     carrier_com: Mapping[str, tuple[float, ...]] = field(default_factory=dict)  # bodies carrying welded ones
     kept: tuple[str, ...] = ()  # the bodies MuJoCo keeps (Drake's welded groups)
     urdf_roots: tuple[str, ...] = ()
+    bounded: Mapping[str, tuple[float, float]] = field(default_factory=dict)  # URDF links given MuJoCo's floors
 
 
 @dataclass(frozen=True)
@@ -491,13 +606,14 @@ class Case:
     relative: float
     scale: float
     literal: Mapping[str, tuple[object, str]] = field(default_factory=dict)  # source -> (its numbers, why)
+    constant: float = 0.0  # what the harness removes from a - b (V: up to a constant)
+    reference: Mapping[str, object] | None = None  # V: the state at a - b's other extreme (index, q, v, tau)
 
 
 def _edits(facts: ModelFacts, reader: str) -> list[str]:
     """The edits the harness makes to the file before `reader` reads it (names of EDITS)."""
-    if facts.urdf:
-        out = ["no_geometry"] if reader != "pinocchio" else []
-        out += ["locked"] if facts.locked and reader != "pinocchio" else []
+    if facts.urdf:  # every reader reads the same URDF text (System.urdf_text), without its geometry
+        out = ["no_geometry"] + (["locked"] if facts.locked else []) + (["bounded"] if facts.bounded else [])
         return out + (["no_mimic"] if reader == "drake" and facts.mimic else [])
     out = ["slides_and_hinges"] if facts.converted else []
     if reader == "pinocchio" and facts.several_trees:
@@ -515,7 +631,7 @@ def _engine_block(reader: str, facts: ModelFacts, quantity: str) -> tuple[str, l
         load = (MUJOCO_LOAD_URDF if facts.urdf else MUJOCO_LOAD_MJCF).format(edits=args)
         return MUJOCO.format(load=load.rstrip("\n"), quantity=MUJOCO_QUANTITY[quantity]), edits
     if reader == "pinocchio":
-        load = PINOCCHIO_LOAD_URDF if facts.urdf else PINOCCHIO_LOAD_MJCF.format(edits=args)
+        load = (PINOCCHIO_LOAD_URDF if facts.urdf else PINOCCHIO_LOAD_MJCF).format(edits=args)
         return PINOCCHIO.format(load=load.rstrip("\n"), quantity=PINOCCHIO_QUANTITY[quantity]), edits
     load = (DRAKE_LOAD_URDF if facts.urdf else DRAKE_LOAD_MJCF).format(edits=args)
     return DRAKE.format(load=load.rstrip("\n"), quantity=DRAKE_QUANTITY[quantity]), edits
@@ -529,10 +645,12 @@ def _data(case: Case, facts: ModelFacts, hand: HandFacts | None) -> str:
     """The script's numbers: the model, the joints and bodies by name, the state, the alignments' values."""
     lines = [
         f"MODEL = Path({facts.path!r})",
+        f"URDF = {facts.urdf!r}",
         f"JOINTS = {list(facts.joints)!r}  # the compared coordinates, each by its joint's name in every library",
         f"BODIES = {list(facts.bodies)!r}",
         f"KINDS = {list(facts.kinds)!r}",
         f"STATE = {case.state_index}  # the index of the state in the harness's sample",
+        f"AT = {case.state_index}  # the state the value functions compute at (STATE, or REFERENCE's index)",
         f"q = np.array({list(case.q)!r})  # rad (m for a slide)",
         f"v = np.array({list(case.v)!r})  # rad/s (m/s)",
         f"tau = np.array({list(case.tau)!r})  # N m (N): the generalized force on each coordinate",
@@ -550,6 +668,9 @@ def _data(case: Case, facts: ModelFacts, hand: HandFacts | None) -> str:
         f"CARRIER_COM = {dict(facts.carrier_com)!r}",
         f"KEPT = {sorted(facts.kept)!r}",
         f"URDF_ROOTS = {list(facts.urdf_roots)!r}",
+        f"BOUNDED = {dict(facts.bounded)!r}  # link: (mass kg, moment kg m^2), MuJoCo's floors (bounded)",
+        f"CONSTANT = {case.constant!r}  # what the harness removed from a - b over its states (V), for the record",
+        f"REFERENCE = {dict(case.reference or {})!r}  # V: the state where a - b is at its other extreme",
         f"QUANTITY = {case.quantity!r}",
         f"HARNESS = {dict(case.numbers)!r}  # the numbers the harness saw, at HARNESS_ENTRY",
         f"HARNESS_ENTRY = {list(case.entry)!r}",
@@ -596,5 +717,6 @@ def script(case: Case, facts: ModelFacts, hand: HandFacts | None = None) -> str:
             parts.append(block)
             edits += [e for e in used if e not in edits]
     text = _header(case, facts) + IMPORTS + "\n" + _data(case, facts, hand) + "\n"
-    text += "".join(EDITS[e] for e in edits) + EDITED + "".join(parts) + JUDGE.format(a=case.a, b=case.b)
+    text += "".join(EDITS[e] for e in edits) + ("" if facts.urdf else FLATTEN) + EDITED
+    text += "".join(parts) + JUDGE.format(a=case.a, b=case.b)
     return text

@@ -131,3 +131,29 @@ def test_the_physical_scales_are_the_models_masses_lengths_and_gravity(tmp_path)
     # A free root's travel (3 m) is in positions and energies only, never in its hinges' inertia.
     root = PhysicalScales(2.0, 0.5, 10.0, speed=1.0, hinges=True, slides=True, travel=3.0)
     assert (root.floor("M"), root.floor("V"), root.floor("body_positions")) == (2.0, 2.0 * (35.0 + 1.0), 3.5)
+
+
+def test_inverse_dynamics_is_scaled_by_its_inertial_terms():
+    """gymnasium-robotics' fetch/reach.xml (the test extra): at MuJoCo's qacc of ~1e10 (a nearly singular
+    M, light links) |M||a| is ~1e12 per row, and MuJoCo's and Pinocchio's tau_inverse differ by ~eps of it
+    while M, bias and qacc agree to 1e-15: rounding, judged against the size of M a's terms."""
+    robotics = pytest.importorskip("gymnasium_robotics")
+    system = System.model_only(Path(robotics.__file__).parent / "envs" / "assets" / "fetch" / "reach.xml")
+    states = compare.random_states(system, n=4, seed=0)
+    values = compare.evaluate(make_sources(system), states)
+    a = values["mujoco"]["qacc"]
+    inertial = compare.inertial_scale(values["mujoco"]["M"], a)
+    assert np.abs(a).max() > 1e8 and inertial > 1e6 * np.abs(values["mujoco"]["bias"]).max()
+    rows = {(r["quantity"], r["pair"]): r for r in compare.compare(values, states)}
+    row = rows["tau_inverse", "mujoco~pinocchio"]
+    assert row["passed"] and row["scale"] >= inertial  # the rounding of M a is what the two differ by
+    # a difference beyond that rounding still fails
+    wrong = {**values["pinocchio"], "tau_inverse": values["pinocchio"]["tau_inverse"] + 1e-6 * inertial}
+    rows = {(r["quantity"], r["pair"]): r for r in compare.compare({**values, "pinocchio": wrong}, states)}
+    assert not rows["tau_inverse", "mujoco~pinocchio"]["passed"]
+
+
+def test_the_inertial_scale_is_the_largest_row_of_abs_m_times_abs_a():
+    M = np.array([[[2.0, -1.0], [-1.0, 3.0]]])
+    assert compare.inertial_scale(M, np.array([[1.0, -2.0]])) == 7.0  # rows: 2 + 2 = 4, 1 + 6 = 7
+    assert compare.inertial_scale(M, None) == 0.0 and compare.inertial_scale(M, np.zeros((1, 3))) == 0.0
