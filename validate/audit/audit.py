@@ -386,10 +386,18 @@ def set_aside(system: System) -> dict[str, str]:
     misreads a field the dynamics use (against the format's meaning), as long as two readers still agree
     with that meaning; MuJoCo, whose reading the harness's model view is, is never set aside. {} where
     the audit cannot be made."""
+    return misreaders(system)[0]
+
+
+def misreaders(system: System) -> tuple[dict[str, str], dict[str, str]]:
+    """(set aside, named): the readers `set_aside` leaves out, and those that misread a field the dynamics
+    use but are kept because fewer than two readers would be left to agree with the format's meaning (each
+    with the sentence naming its misreading and the known cause, "Drake misreads torso's mass (...:
+    settotalmass)"): the verdict names them, not a reader that merely differs from MuJoCo."""
     try:
         result = audit_file(*_file_of(system), n_states=1)
     except HarnessError:
-        return {}
+        return {}, {}
     decisive = [
         m
         for m in result["misreads"]
@@ -397,15 +405,15 @@ def set_aside(system: System) -> dict[str, str]:
     ]
     wrong = [r for r in result["readers"] if any(m["reader"] == r for m in decisive)]
     agreeing = [r for r in result["readers"] if r not in wrong]
-    # the model's derived equations (sources/symbolic.py) are a second source that reads what the file means
-    if len(agreeing) + (system.nv <= SYMBOLIC_MAX_DOF) < 2:
-        return {}
     out = {}
     for reader in (r for r in wrong if r in SET_ASIDE):
         said = [m["short"] for m in decisive if m["reader"] == reader]
         more = f" (and {len(said) - 1} more)" if len(said) > 1 else ""
-        out[reader] = f"{said[0]}{more}: excluded"
-    return out
+        out[reader] = f"{said[0]}{more}"
+    # the model's derived equations (sources/symbolic.py) are a second source that reads what the file means
+    if len(agreeing) + (system.nv <= SYMBOLIC_MAX_DOF) < 2:
+        return {}, out
+    return {r: f"{why}: excluded" for r, why in out.items()}, {}
 
 
 def audit_of(system: System, *, seed: int = 0) -> Audit:
