@@ -121,9 +121,13 @@ def _guarded(reader: str, source: str, fn: Callable[[], T], text: str) -> T:
         raise failure(reader, source, exc, text) from None
 
 
-def read(reader: str, path: Path, text: str, fmt: str) -> Reading:
-    """`reader`'s Reading of the model (`text` of `path`, format "urdf" or "mjcf")."""
-    fn = {"mujoco": mujoco_reading, "pinocchio": pinocchio_reading, "drake": drake_reading}[reader]
+def read(reader: str, path: Path, text: str, fmt: str, *, parts: bool = False) -> Reading:
+    """`reader`'s Reading of the model (`text` of `path`, format "urdf" or "mjcf"). `parts`: Pinocchio's
+    composite joint (several joints in one body) read as its parts, as the harness's source maps it by
+    name (`pinocchio_reading`); else it has none of their names, as a user of the raw library sees it."""
+    if reader == "pinocchio":
+        return _guarded(reader, path.name, lambda: pinocchio_reading(path, text, fmt, parts=parts), text)
+    fn = {"mujoco": mujoco_reading, "drake": drake_reading}[reader]
     return _guarded(reader, path.name, lambda: fn(path, text, fmt), text)
 
 
@@ -318,17 +322,11 @@ def _mujoco_mimics(m: mujoco.MjModel, name: Callable[[mujoco.mjtObj, int], str])
 
 
 def pinocchio_model(path: Path, text: str, fmt: str) -> pin.Model:
-    """Pinocchio's model of the file; an MJCF's body trees gathered in one fixed body first, as the
-    harness's source does (sources/pinocchio.py `one_tree`: its parser reads the first tree only, a fault
-    the harness works around, so that what it then reads of the other trees is seen)."""
     import pinocchio as pin
-
-    from .pinocchio import one_tree
 
     if fmt == "urdf":
         return pin.buildModelFromXML(_model_text(text, fmt))
-    gathered = one_tree(text)
-    with _as_file(path, gathered) as name:
+    with _as_file(path, text) as name:
         return pin.buildModelFromMJCF(name)
 
 
@@ -367,25 +365,27 @@ def _anchor(origin: Vector, motion: Vector) -> Vector:
     return np.asarray(origin + np.cross(w, v) / max(float(w @ w), 1e-300), dtype=float)
 
 
-def _pinocchio_parts(model: pin.Model, jid: int, text: str, fmt: str, body: str) -> list[tuple[str, int, int]]:
-    """Joint jid as (MJCF name, q index, v index) per one-coordinate part: itself, or each part of a
-    composite joint (several joints in one body), named by the body's joints; [] for any other joint."""
+def _pinocchio_parts(
+    model: pin.Model, jid: int, text: str, fmt: str, body: str, parts: bool
+) -> list[tuple[str, int, int]]:
+    """Joint jid as (MJCF name, q index, v index) per one-coordinate part: itself, or (with `parts`) each
+    part of a composite joint (several joints in one body), named by the body's joints; [] otherwise."""
     jm = model.joints[jid]
     if jm.nv == 1:
         return [(model.names[jid], jm.idx_q, jm.idx_v)]
-    if "Composite" not in jm.shortname() or jm.nq != jm.nv:
+    if not parts or "Composite" not in jm.shortname() or jm.nq != jm.nv:
         return []
     names = _part_names(text, fmt, body, jm.nv)
-    parts = jm.extract().joints
-    if not names or any(p.nv != 1 or p.nq != 1 for p in parts):
+    joints = jm.extract().joints
+    if not names or any(p.nv != 1 or p.nq != 1 for p in joints):
         return []
     return [(name, jm.idx_q + k, jm.idx_v + k) for k, name in enumerate(names)]
 
 
-def pinocchio_reading(path: Path, text: str, fmt: str) -> Reading:
+def pinocchio_reading(path: Path, text: str, fmt: str, *, parts: bool = False) -> Reading:
     """Pinocchio's model at its neutral configuration: each joint's inertia (its body and the links
-    welded to it, in the joint frame) put in the world; a composite joint (several joints in one body)
-    read as its parts, the body's inertia with the last, as MuJoCo groups it."""
+    welded to it, in the joint frame) put in the world; with `parts`, a composite joint (several joints in
+    one body) read as its parts, the body's inertia with the last, as MuJoCo groups it."""
     import pinocchio as pin
 
     model = pinocchio_model(path, text, fmt)
@@ -400,10 +400,10 @@ def pinocchio_reading(path: Path, text: str, fmt: str) -> Reading:
     joints, groups, last = {}, {}, {0: ""}
     for jid in range(1, model.njoints):
         oMi = data.oMi[jid]
-        parts = _pinocchio_parts(model, jid, text, fmt, bodies.get(jid, model.names[jid]))
+        ones = _pinocchio_parts(model, jid, text, fmt, bodies.get(jid, model.names[jid]), parts)
         J = np.reshape(pin.getJointJacobian(model, data, jid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED), (6, -1))
         parent = last.get(int(model.parents[jid]), _pinocchio_parent(model, jid))
-        for jn, iq, iv in parts:
+        for jn, iq, iv in ones:
             motion = np.array(J[:, iv], dtype=float)
             kind = "hinge" if np.linalg.norm(motion[3:]) > 0.5 else "slide"
             origin = np.array(oMi.translation, dtype=float)
@@ -420,10 +420,10 @@ def pinocchio_reading(path: Path, text: str, fmt: str) -> Reading:
             )
             groups[jn] = composite([])
             parent = jn
-        if parts:
+        if ones:
             I, R = model.inertias[jid], oMi.rotation
-            groups[parts[-1][0]] = Inertial(float(I.mass), np.array(oMi.act(I.lever)), R @ np.array(I.inertia) @ R.T)
-            last[jid] = parts[-1][0]
+            groups[ones[-1][0]] = Inertial(float(I.mass), np.array(oMi.act(I.lever)), R @ np.array(I.inertia) @ R.T)
+            last[jid] = ones[-1][0]
         else:
             last[jid] = last.get(int(model.parents[jid]), "")
     gravity = np.array(model.gravity.linear, dtype=float)

@@ -122,3 +122,27 @@ def test_settotalmass_on_a_small_chain_sets_both_readers_aside_for_the_derived_e
     assert set(excluded) == {"pinocchio", "drake"}, out["verdict"]["statement"]
     assert all("settotalmass" in why and why.endswith(": excluded") for why in excluded.values()), excluded
     assert status == 0 and "MuJoCo and the derived equations agree" in out["verdict"]["statement"]
+
+
+TARGET = """<body name="target" pos="0.5 0 0.1">
+  <joint name="tx" type="slide" axis="1 0 0"/>
+  <joint name="ty" type="slide" axis="0 1 0"/>
+  <geom type="sphere" size="0.05" mass="0.2" contype="0" conaffinity="0"/>
+</body>"""
+
+
+@needs_drake
+def test_a_misreading_on_a_body_with_several_joints_in_a_second_tree_is_named(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A second body tree whose body has two slides (one composite joint in Pinocchio) and a visual geom
+    (contype="0" conaffinity="0"), whose mass Pinocchio leaves out: the audit reads the composite's parts
+    and the tree as the harness's source does, so Pinocchio is set aside with that cause, not named as one
+    that "reads the model otherwise than MuJoCo"."""
+    path = tmp_path / "reach.xml"
+    path.write_text(chain(2, world=TARGET))
+    status, out = _json(capsys, path)
+    statement = out["verdict"]["statement"]
+    why = out["verdict"]["excluded"].get("pinocchio", "")
+    assert "Pinocchio misreads target's mass" in why and "collision-free geoms" in why, statement
+    assert status == 0 and "MuJoCo, Drake and the derived equations agree" in statement, statement
