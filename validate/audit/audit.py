@@ -289,14 +289,10 @@ def _file_of(system: System) -> tuple[Path, str, str]:
 def _read_by_sources(system: System) -> tuple[Path, str, str]:
     """The model file and the text the harness's sources read (an MJCF flattened at the door, its includes
     in it, model/flatten.py), its format: what a verdict sets a reader aside for is what that reader's
-    source was given, not a fault (an <include> it does not read) that the harness already works around;
-    the body trees gathered in one fixed body (sources/pinocchio.py `one_tree`, which changes no reader's
-    dynamics), so that what Pinocchio reads of every tree is seen."""
-    from ..sources.pinocchio import one_tree
-
+    source was given, not a fault (an <include> it does not read) that the harness already works around."""
     if system.reads_urdf:
         return system.mjcf, system.urdf_text(), system.model_format
-    return system.mjcf, one_tree(system.mjcf_xml()), system.model_format
+    return system.mjcf, system.mjcf_xml(), system.model_format
 
 
 def audit(system: System, *, seed: int = 0, n_states: int = N_STATES, inputs: dict[str, System] | None = None) -> Audit:
@@ -412,8 +408,13 @@ def misreaders(system: System) -> tuple[dict[str, str], dict[str, str]]:
     use but are kept because fewer than two readers would be left to agree with the format's meaning (each
     with the sentence naming its misreading and the known cause, "Drake misreads torso's mass (...:
     settotalmass)"): the verdict names them, not a reader that merely differs from MuJoCo."""
+    from ..sources.pinocchio import one_tree
+
     try:
-        result = audit_file(*_read_by_sources(system), n_states=1, parts=True)
+        path, text, fmt = _read_by_sources(system)
+        # Pinocchio's source reads the body trees gathered in one (a mocap body so gathered MuJoCo refuses)
+        gathered = {"pinocchio": (path, one_tree(text))} if fmt == "mjcf" else None
+        result = audit_file(path, text, fmt, inputs=gathered, n_states=1, parts=True)
     except HarnessError:
         return {}, {}
     decisive = [
