@@ -146,3 +146,28 @@ def test_a_misreading_on_a_body_with_several_joints_in_a_second_tree_is_named(
     why = out["verdict"]["excluded"].get("pinocchio", "")
     assert "Pinocchio misreads target's mass" in why and "collision-free geoms" in why, statement
     assert status == 0 and "MuJoCo, Drake and the derived equations agree" in statement, statement
+
+
+@needs_drake
+def test_a_derivation_is_held_against_the_readers_that_can_read_the_model(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """simple_pendulum's model with a height field beside it: Pinocchio is left out with its reason and the
+    derivation is judged against MuJoCo, Drake and the derived equations."""
+    from lagrange_xval import systems
+
+    system = systems.load("simple_pendulum")
+    text = system.mjcf.read_text().replace(
+        "<worldbody>",
+        '<asset><hfield name="ground" nrow="3" ncol="3" size="1 1 0.1 0.1"/></asset><worldbody>' + HFIELD,
+    )
+    model, module = tmp_path / "mine.xml", tmp_path / "mine.py"
+    model.write_text(text)
+    module.write_text(Path(system.equations.__file__).read_text())
+    status = main(["check", "--model", str(model), "--equations", str(module), "--states", "5", "--probes", "1"])
+    out = capsys.readouterr().out
+    verdict = next(line for line in out.splitlines() if line.startswith("verdict:"))
+    assert status == 0 and "pass" in verdict, out[-1500:]
+    assert "Pinocchio cannot read it; likely a height-field geom" in verdict and ": excluded" in verdict, verdict
+    rows = [line.split() for line in out.splitlines() if line.split()[1:2] and "~" in line.split()[1]]
+    assert rows and not any("pinocchio" in row[1] for row in rows), out[-1500:]
