@@ -210,4 +210,5 @@ def result_of(decision: Decision) -> Result:
     order = {"model": 0, "derivation": 1, "pointwise": 2}
     rows.sort(key=lambda r: (r.passed, order[r.check]))
     data: CheckData = {"model_checks": model, "pointwise": point, "derivation": derivation}
+    data["excluded"], data["misread"] = dict(decision.excluded or {}), dict(decision.misread or {})
     return Result(name, tuple(rows), decision.statement, data)

@@ -225,9 +225,12 @@ def audit_file(
     inputs: Mapping[str, tuple[Path, str]] | None = None,
     seed: int = 0,
     n_states: int = N_STATES,
+    parts: bool = False,
 ) -> Audit:
     """Every reader of the model file against the format's meaning. `inputs`: a reader's own copy of the
-    file ((path, text)), to plant a fault in one reader's input only; default: every reader reads `text`."""
+    file ((path, text)), to plant a fault in one reader's input only; default: every reader reads `text`.
+    `parts`: Pinocchio's composite joints read as their parts, as the harness's source maps them (for a
+    verdict's `misreaders`; the audit of the raw libraries says Pinocchio has none of their names)."""
     reference = _reference(path, text, fmt)
     readings, skipped = {}, {}
     for name in READERS:
@@ -236,7 +239,7 @@ def audit_file(
             readings[name] = reference  # MuJoCo's compiled model is what an MJCF means
             continue
         try:
-            readings[name] = read(name, p, t, fmt)
+            readings[name] = read(name, p, t, fmt, parts=parts)
         except HarnessError as exc:
             skipped[name] = str(exc)
     found = features(text, fmt, path.parent)
@@ -281,6 +284,15 @@ def _file_of(system: System) -> tuple[Path, str, str]:
         return system.mjcf, system.urdf_text(), fmt
     unchanged = not system.overrides and system.text is None and not system.locked
     return system.mjcf, system.mjcf.read_text() if unchanged else system.mjcf_xml(), fmt
+
+
+def _read_by_sources(system: System) -> tuple[Path, str, str]:
+    """The model file and the text the harness's sources read (an MJCF flattened at the door, its includes
+    in it, model/flatten.py), its format: what a verdict sets a reader aside for is what that reader's
+    source was given, not a fault (an <include> it does not read) that the harness already works around."""
+    if system.reads_urdf:
+        return system.mjcf, system.urdf_text(), system.model_format
+    return system.mjcf, system.mjcf_xml(), system.model_format
 
 
 def audit(system: System, *, seed: int = 0, n_states: int = N_STATES, inputs: dict[str, System] | None = None) -> Audit:
@@ -369,8 +381,10 @@ def lines(result: Audit) -> list[str]:
 
 SET_ASIDE = ("pinocchio", "drake")  # MuJoCo's compiled model is what the harness's own model view reads
 # What the harness's sources set from MuJoCo's model whatever the reader read (sources/pinocchio.py and
-# sources/drake.py copy the gravity): a misreading of it is the reader's, not the verdict's.
-ALIGNED = ("/gravity",)
+# sources/drake.py copy the gravity; Pinocchio's source applies each joint's spring from MuJoCo's stiffness
+# and springref, Drake's adds it as its own spring element): a misreading of it is the reader's, not the
+# verdict's.
+ALIGNED = ("/gravity", "/stiffness", "/springref")
 # Faults of a raw reader that the harness's source of that reader works around (sources/pinocchio.py gathers
 # the world's body trees in one fixed body and maps a composite joint's parts by name): not the verdict's.
 # sources/drake.py gives a joint's armature to Drake as a motor's rotor inertia.
@@ -386,10 +400,23 @@ def set_aside(system: System) -> dict[str, str]:
     misreads a field the dynamics use (against the format's meaning), as long as two readers still agree
     with that meaning; MuJoCo, whose reading the harness's model view is, is never set aside. {} where
     the audit cannot be made."""
+    return misreaders(system)[0]
+
+
+def misreaders(system: System) -> tuple[dict[str, str], dict[str, str]]:
+    """(set aside, named): the readers `set_aside` leaves out, and those that misread a field the dynamics
+    use but are kept because fewer than two readers would be left to agree with the format's meaning (each
+    with the sentence naming its misreading and the known cause, "Drake misreads torso's mass (...:
+    settotalmass)"): the verdict names them, not a reader that merely differs from MuJoCo."""
+    from ..sources.pinocchio import one_tree
+
     try:
-        result = audit_file(*_file_of(system), n_states=1)
+        path, text, fmt = _read_by_sources(system)
+        # Pinocchio's source reads the body trees gathered in one (a mocap body so gathered MuJoCo refuses)
+        gathered = {"pinocchio": (path, one_tree(text))} if fmt == "mjcf" else None
+        result = audit_file(path, text, fmt, inputs=gathered, n_states=1, parts=True)
     except HarnessError:
-        return {}
+        return {}, {}
     decisive = [
         m
         for m in result["misreads"]
@@ -397,15 +424,15 @@ def set_aside(system: System) -> dict[str, str]:
     ]
     wrong = [r for r in result["readers"] if any(m["reader"] == r for m in decisive)]
     agreeing = [r for r in result["readers"] if r not in wrong]
-    # the model's derived equations (sources/symbolic.py) are a second source that reads what the file means
-    if len(agreeing) + (system.nv <= SYMBOLIC_MAX_DOF) < 2:
-        return {}
     out = {}
     for reader in (r for r in wrong if r in SET_ASIDE):
         said = [m["short"] for m in decisive if m["reader"] == reader]
         more = f" (and {len(said) - 1} more)" if len(said) > 1 else ""
-        out[reader] = f"{said[0]}{more}: excluded"
-    return out
+        out[reader] = f"{said[0]}{more}"
+    # the model's derived equations (sources/symbolic.py) are a second source that reads what the file means
+    if len(agreeing) + (system.nv <= SYMBOLIC_MAX_DOF) < 2:
+        return {}, out
+    return {r: f"{why}: excluded" for r, why in out.items()}, {}
 
 
 def audit_of(system: System, *, seed: int = 0) -> Audit:

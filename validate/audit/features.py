@@ -79,6 +79,18 @@ def _mjcf_limits(root: ET.Element) -> set[str]:
     return out
 
 
+def _late_compiler(root: ET.Element) -> set[str]:
+    """A <compiler> that sets the angle unit or eulerseq after a <worldbody> (document order), scoped to
+    the bodies and joints above it: a parser that applies each element as it meets it reads them otherwise."""
+    children = list(root)
+    late = [i for i, c in enumerate(children) if c.tag == "compiler" and {"angle", "eulerseq"} & set(c.attrib)]
+    worlds = [c for i, c in enumerate(children) if c.tag == "worldbody" and late and i < late[-1]]
+    if not worlds:
+        return set()
+    names = {el.get("name", "") for w in worlds for el in w.iter() if el.tag in ("body", "joint")}
+    return {"late compiler"} | {f"late compiler:{n}" for n in names if n}
+
+
 def _mjcf_features(root: ET.Element) -> set[str]:
     out = {f"compiler {k}" for k in _compiler(root)}
     if any(o.get("gravity") for o in root.iter("option")):
@@ -97,6 +109,7 @@ def _mjcf_features(root: ET.Element) -> set[str]:
     if any(_unnormalized(el.get("axisangle")) for el in root.iter()):
         out.add("unnormalized axisangle")
     world = root.find("worldbody")
+    out |= _late_compiler(root)
     if world is not None and len(world.findall("body")) > 1:
         out.add("several root bodies")
     for body in world.findall("body") if world is not None else []:

@@ -244,6 +244,17 @@ CATALOGUE: tuple[Behaviour, ...] = (
         "https://github.com/RobotLocomotion/drake/issues/20367",
     ),
     Behaviour(
+        "a <compiler> after the bodies",
+        ("pinocchio",),
+        ("mjcf",),
+        ("com", "inertia", "anchor", "axis"),
+        "late compiler",
+        "applies a <compiler> (its angle unit, eulerseq) only to what follows it in the file: the bodies above "
+        "it are read with its defaults (euler angles in degrees), where MuJoCo applies it to the whole model (an "
+        '<include> of the assets after <worldbody>, as adroit_hand does, brings angle="radian" there)',
+        "https://github.com/newton-physics/newton/pull/3030",
+    ),
+    Behaviour(
         "<include>",
         ("pinocchio",),
         ("mjcf",),

@@ -1334,3 +1334,5 @@ class CheckData(TypedDict, total=False):
     model_checks: ModelChecks
     pointwise: Pointwise
     derivation: Derivation
+    excluded: dict[str, str]  # reader -> why it was left out (it cannot read the file, or misreads it)
+    misread: dict[str, str]  # reader -> its known misreading, kept where too few readers would be left

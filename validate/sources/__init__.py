@@ -35,9 +35,23 @@ SOURCE_NAMES = ("hand", "mujoco", "pinocchio", "symbolic", "drake")
 
 
 class Sources(dict[str, Source]):
-    """The sources of a system by name, and `skipped`: each source left out, with why."""
+    """The sources of a system by name, and `skipped`: each source left out, with why. Asking for a source
+    that was left out raises the HarnessError that says why (a reader that cannot read the file)."""
 
     skipped: dict[str, str]
+
+    def __missing__(self, name: str) -> Source:
+        why = getattr(self, "skipped", {}).get(name)
+        if why is None:
+            raise KeyError(name)
+        raise HarnessError(why)
+
+
+# The readers of the model file (the hand and symbolic sources read MuJoCo's compiled model, not the file).
+FILE_READERS = ("mujoco", "pinocchio", "drake")
+# A reader that cannot read the file is left out with its reason; MuJoCo's refusal is the model's.
+OPTIONAL_READERS = ("pinocchio", "drake")
+READER_WORDS = {"mujoco": "MuJoCo", "pinocchio": "Pinocchio", "drake": "Drake"}
 
 
 S = TypeVar("S", bound=Source, covariant=True)
@@ -160,17 +174,45 @@ SYMBOLIC_MAX_DOF = 4
 
 def make_sources(system: System) -> Sources:
     """Every source for `system`; the symbolic one only for chains of at most SYMBOLIC_MAX_DOF joints;
-    Drake where pydrake is installed and its parser reads the model (else in `skipped`, with why)."""
+    Pinocchio and Drake where they are installed and read the model (else in `skipped`, with why: a
+    reader that refuses a file is left out and the others judge; `two_readers` refuses the model where
+    fewer than two readers are left)."""
     skip = {"symbolic"} if system.nv > SYMBOLIC_MAX_DOF else set()
     if system.equations is None:  # the model alone: no hand derivation
         skip.add("hand")
-    out = Sources((n, make_source(system, n)) for n in SOURCE_NAMES if n not in skip | {"drake"})
+    out = Sources()
     out.skipped = {}
-    try:
-        out["drake"] = make_source(system, "drake")
-    except HarnessError as exc:  # a third reader is an addition: its absence is stated, never fatal
-        out.skipped["drake"] = str(exc)
+    for name in (n for n in SOURCE_NAMES if n not in skip):
+        try:
+            out[name] = make_source(system, name)
+        except HarnessError as exc:  # a reader that cannot read the file: its absence is stated, never fatal
+            if name not in OPTIONAL_READERS:
+                raise
+            out.skipped[name] = str(exc)
     return out
+
+
+def left_out(system: System, sources: Sources) -> dict[str, str]:
+    """Each file reader left out of `sources` -> why, without the file's name ("Pinocchio cannot read it;
+    likely a height-field geom ..."), as the verdict line words it."""
+    prefix = f"{system.mjcf.name}: "
+    return {n: why.removeprefix(prefix) for n, why in getattr(sources, "skipped", {}).items() if n in FILE_READERS}
+
+
+def two_readers(system: System, sources: Sources, misread: dict[str, str] | None = None) -> None:
+    """Raise HarnessError where fewer than two readers of the file are left (those that cannot read it,
+    and `misread`: those set aside for a misreading, taken away), naming each that could not and why:
+    MuJoCo alone has nothing to be held against."""
+    gone = {**left_out(system, sources), **(misread or {})}
+    readers = [n for n in FILE_READERS if n in sources and n not in gone]
+    if len(readers) >= 2:
+        return
+    left = " and ".join(READER_WORDS[n] for n in readers) or "no reader"
+    why = "; ".join(gone[n] for n in FILE_READERS if n in gone)
+    raise HarnessError(
+        f"{system.mjcf.name}: fewer than two readers can read it ({left} only), so there is nothing to hold "
+        f"MuJoCo's reading against: {why}"
+    )
 
 
 if TYPE_CHECKING:  # mypy checks every engine against the protocols it answers (nothing runs here)

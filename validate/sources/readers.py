@@ -121,9 +121,13 @@ def _guarded(reader: str, source: str, fn: Callable[[], T], text: str) -> T:
         raise failure(reader, source, exc, text) from None
 
 
-def read(reader: str, path: Path, text: str, fmt: str) -> Reading:
-    """`reader`'s Reading of the model (`text` of `path`, format "urdf" or "mjcf")."""
-    fn = {"mujoco": mujoco_reading, "pinocchio": pinocchio_reading, "drake": drake_reading}[reader]
+def read(reader: str, path: Path, text: str, fmt: str, *, parts: bool = False) -> Reading:
+    """`reader`'s Reading of the model (`text` of `path`, format "urdf" or "mjcf"). `parts`: Pinocchio's
+    composite joint (several joints in one body) read as its parts, as the harness's source maps it by
+    name (`pinocchio_reading`); else it has none of their names, as a user of the raw library sees it."""
+    if reader == "pinocchio":
+        return _guarded(reader, path.name, lambda: pinocchio_reading(path, text, fmt, parts=parts), text)
+    fn = {"mujoco": mujoco_reading, "drake": drake_reading}[reader]
     return _guarded(reader, path.name, lambda: fn(path, text, fmt), text)
 
 
@@ -336,9 +340,52 @@ def _reference(model: pin.Model) -> Vector:
         return pin.neutral(model)
 
 
-def pinocchio_reading(path: Path, text: str, fmt: str) -> Reading:
+def _part_names(text: str, fmt: str, body: str, n: int) -> list[str]:
+    """The names of the n joints of MJCF body `body`, in the file's order: the parts of the composite joint
+    Pinocchio makes of them ([] where the file does not name them all, or is a URDF)."""
+    import xml.etree.ElementTree as ET
+
+    if fmt == "urdf":
+        return []
+    try:
+        root = ET.fromstring(text)
+    except ET.ParseError:
+        return []
+    for el in root.iter("body"):
+        if el.get("name") == body:
+            names = [j.get("name") or "" for j in el.findall("joint")]
+            return names if len(names) == n and all(names) else []
+    return []
+
+
+def _anchor(origin: Vector, motion: Vector) -> Vector:
+    """The point of a hinge's axis line nearest `origin`, from its motion (linear velocity at `origin`,
+    angular) per unit velocity: v = w x (origin - p) gives p - origin = (w x v) / |w|^2."""
+    w, v = motion[3:], motion[:3]
+    return np.asarray(origin + np.cross(w, v) / max(float(w @ w), 1e-300), dtype=float)
+
+
+def _pinocchio_parts(
+    model: pin.Model, jid: int, text: str, fmt: str, body: str, parts: bool
+) -> list[tuple[str, int, int]]:
+    """Joint jid as (MJCF name, q index, v index) per one-coordinate part: itself, or (with `parts`) each
+    part of a composite joint (several joints in one body), named by the body's joints; [] otherwise."""
+    jm = model.joints[jid]
+    if jm.nv == 1:
+        return [(model.names[jid], jm.idx_q, jm.idx_v)]
+    if not parts or "Composite" not in jm.shortname() or jm.nq != jm.nv:
+        return []
+    names = _part_names(text, fmt, body, jm.nv)
+    joints = jm.extract().joints
+    if not names or any(p.nv != 1 or p.nq != 1 for p in joints):
+        return []
+    return [(name, jm.idx_q + k, jm.idx_v + k) for k, name in enumerate(names)]
+
+
+def pinocchio_reading(path: Path, text: str, fmt: str, *, parts: bool = False) -> Reading:
     """Pinocchio's model at its neutral configuration: each joint's inertia (its body and the links
-    welded to it, in the joint frame) put in the world."""
+    welded to it, in the joint frame) put in the world; with `parts`, a composite joint (several joints in
+    one body) read as its parts, the body's inertia with the last, as MuJoCo groups it."""
     import pinocchio as pin
 
     model = pinocchio_model(path, text, fmt)
@@ -350,33 +397,60 @@ def pinocchio_reading(path: Path, text: str, fmt: str) -> Reading:
     for f in model.frames:
         if f.type == pin.FrameType.BODY:
             bodies.setdefault(int(f.parentJoint), f.name)
-    joints, groups = {}, {}
+    joints, groups, last = {}, {}, {0: ""}
     for jid in range(1, model.njoints):
-        jm, oMi = model.joints[jid], data.oMi[jid]
-        if jm.nv != 1:
-            continue
+        oMi = data.oMi[jid]
+        ones = _pinocchio_parts(model, jid, text, fmt, bodies.get(jid, model.names[jid]), parts)
         J = np.reshape(pin.getJointJacobian(model, data, jid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED), (6, -1))
-        motion = np.array(J[:, jm.idx_v], dtype=float)
-        kind = "hinge" if np.linalg.norm(motion[3:]) > 0.5 else "slide"
-        unbounded = "Unbounded" in jm.shortname() or "RUB" in jm.shortname()
-        lo, hi = float(model.lowerPositionLimit[jm.idx_q]), float(model.upperPositionLimit[jm.idx_q])
-        jn = model.names[jid]
-        joints[jn] = JointRead(
-            kind=kind,
-            body=bodies.get(jid, jn),
-            anchor=np.array(oMi.translation, dtype=float),
-            axis=motion[3:] if kind == "hinge" else motion[:3],
-            ref=float(q[jm.idx_q]) if jm.nq == 1 else 0.0,
-            limits=np.array([-np.inf, np.inf]) if unbounded or hi >= 1e10 else np.array([lo, hi]),
-            damping=float(model.damping[jm.idx_v]),
-            frictionloss=float(model.friction[jm.idx_v]),
-            armature=float(model.armature[jm.idx_v]),
-            parent=_pinocchio_parent(model, jid),
-        )
-        I, R = model.inertias[jid], oMi.rotation
-        groups[jn] = Inertial(float(I.mass), np.array(oMi.act(I.lever)), R @ np.array(I.inertia) @ R.T)
+        parent = last.get(int(model.parents[jid]), _pinocchio_parent(model, jid))
+        for jn, iq, iv in ones:
+            motion = np.array(J[:, iv], dtype=float)
+            kind = "hinge" if np.linalg.norm(motion[3:]) > 0.5 else "slide"
+            origin = np.array(oMi.translation, dtype=float)
+            joints[jn] = _pinocchio_joint(
+                model,
+                kind,
+                bodies.get(jid, jn),
+                origin if model.joints[jid].nv == 1 else _anchor(origin, motion),
+                motion,
+                q,
+                iq,
+                iv,
+                parent,
+            )
+            groups[jn] = composite([])
+            parent = jn
+        if ones:
+            I, R = model.inertias[jid], oMi.rotation
+            groups[ones[-1][0]] = Inertial(float(I.mass), np.array(oMi.act(I.lever)), R @ np.array(I.inertia) @ R.T)
+            last[jid] = ones[-1][0]
+        else:
+            last[jid] = last.get(int(model.parents[jid]), "")
     gravity = np.array(model.gravity.linear, dtype=float)
     return Reading("pinocchio", joints, groups, None, gravity=gravity, couplings=_pinocchio_couplings(model))
+
+
+def _pinocchio_joint(
+    model: pin.Model, kind: str, body: str, anchor: Vector, motion: Vector, q: Vector, iq: int, iv: int, parent: str
+) -> JointRead:
+    """One one-coordinate joint (or part of a composite) as Pinocchio read it."""
+    jm_unbounded = any(
+        ("Unbounded" in j.shortname() or "RUB" in j.shortname()) and j.idx_q <= iq < j.idx_q + j.nq
+        for j in model.joints
+    )
+    lo, hi = float(model.lowerPositionLimit[iq]), float(model.upperPositionLimit[iq])
+    return JointRead(
+        kind=kind,
+        body=body,
+        anchor=anchor,
+        axis=motion[3:] if kind == "hinge" else motion[:3],
+        ref=float(q[iq]) if not jm_unbounded else 0.0,
+        limits=np.array([-np.inf, np.inf]) if jm_unbounded or hi >= 1e10 else np.array([lo, hi]),
+        damping=float(model.damping[iv]),
+        frictionloss=float(model.friction[iv]),
+        armature=float(model.armature[iv]),
+        parent=parent,
+    )
 
 
 def _pinocchio_couplings(model: pin.Model) -> int:

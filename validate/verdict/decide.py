@@ -26,7 +26,7 @@ from ..core.errors import HarnessError
 from ..core.tolerances import TOLERANCES, Tolerances
 from ..results.schema import Derivation, ModelChecks, Pointwise
 from ..results.stages import Clock, lap
-from ..sources import SYMBOLIC_MAX_DOF, Sources, make_sources
+from ..sources import READER_WORDS, SYMBOLIC_MAX_DOF, Sources, left_out, make_sources, two_readers
 from ..sources.base import Source
 from ..sources.symbolic import keep_derivation
 from ..systems import System
@@ -55,7 +55,9 @@ class Decision:
     values: dict[str, dict[str, np.ndarray]] | None = None
     probe_set: verdict.ProbeSet | None = None
     unreadable: str = ""
-    excluded: Mapping[str, str] | None = None  # reader -> the sentence naming its misreading (audit/audit.py)
+    excluded: Mapping[str, str] | None = None  # reader -> why it was left out: it cannot read the file, or
+    # it misreads it (audit/audit.py), "Pinocchio cannot read it; likely ...: excluded"
+    misread: Mapping[str, str] | None = None  # reader -> its known misreading, kept as too few would be left
 
     @property
     def model_only(self) -> bool:
@@ -80,7 +82,9 @@ class Decision:
             text = model_alone_statement(self.pointwise)
         # A mismatch the file's defect caused (MuJoCo given other numbers) is not a reader's: named below.
         mismatches = [m for m in self.model_checks["mismatches"] if "defect" not in m]
-        if mismatches:
+        if mismatches and self.misread:  # the readers that misread, by the audit's known cause
+            text = f"{misread_sentence(self.misread)}; {text}"
+        elif mismatches:
             key = mismatches[0]["key"]
             check = str(mismatches[0].get("check", ""))
             if self.model_only or not check.startswith("equations~"):  # a reader's, not the derivation's
@@ -107,6 +111,12 @@ class Decision:
             text += f" (left out, as no equation of motion contains them: {'; '.join(left)})"
         typed = words.typed_note(dict(self.derivation.get("typed_numbers") or {}))
         return f"{text}; {typed}" if typed else text
+
+
+def misread_sentence(misread: Mapping[str, str]) -> str:
+    """ "Pinocchio misreads torso's mass (...: settotalmass); Drake misreads ...: not excluded, as fewer
+    than two readers would be left": who misreads, by the known cause, and why it was still compared."""
+    return "; ".join(misread.values()) + ": not excluded, as fewer than two readers would be left to judge"
 
 
 SOURCE_WORDS = {"mujoco": "MuJoCo", "pinocchio": "Pinocchio", "drake": "Drake", "symbolic": "the derived equations"}
@@ -158,22 +168,27 @@ def decide(
     if system.nv <= SYMBOLIC_MAX_DOF:  # the model's own derivation, read back where it was kept
         keep_derivation(system, cache)
     sources = make_sources(system)
-    model = with_drake(modelsync.check(system, sources["pinocchio"]), sources)
+    two_readers(system, sources)  # a model only MuJoCo reads is refused, saying who could not and why
+    unread = {n: f"{why}: excluded" for n, why in left_out(system, sources).items()}
+    model = with_drake(modelsync.check(system, sources.get("pinocchio")), sources)
     lap(clock, "model checks")
     states = states if states is not None else compare.random_states(system, n=n_states, seed=seed)
     values = compare.evaluate(sources, states)  # evaluated once: the judges reuse the engines' values
     scales = compare.physical_scales(system, states)  # the model's floor under every scale
     point = compare.pointwise_result(values, states, seed=seed, tolerances=tolerances, scales=scales)
-    excluded = _misreaders(system, model, point)
+    misread, named = _misreaders(system, model, point)
+    excluded = {**unread, **misread}
     judged = Sources({n: s for n, s in sources.items() if n not in excluded})
     judged.skipped = getattr(sources, "skipped", {})
     if excluded:  # judged against the sources that agree with what the file means
-        model = set_aside(model, excluded)
+        model = set_aside(model, misread)
         kept = {n: v for n, v in values.items() if n not in excluded}
         point = compare.pointwise_result(kept, states, seed=seed, tolerances=tolerances, scales=scales)
     lap(clock, "pointwise")
     if system.equations is None:
-        return Decision(system, no_derivation(), model, point, states, sources, values, excluded=excluded)
+        return Decision(
+            system, no_derivation(), model, point, states, sources, values, excluded=excluded, misread=named
+        )
     probe_set = verdict.derivation_probes(system, n_probes=probes, seed=seed)
     lap(clock, "probes")
     kept = {n: v for n, v in values.items() if n not in excluded}
@@ -184,23 +199,25 @@ def decide(
     if typed:
         derivation["typed_numbers"] = typed
     lap(clock, "terms")
-    return Decision(system, derivation, model, point, states, sources, values, probe_set, excluded=excluded)
+    return Decision(
+        system, derivation, model, point, states, sources, values, probe_set, excluded=excluded, misread=named
+    )
 
 
 READERS = {"mujoco", "pinocchio", "drake"}
 
 
-def _misreaders(system: System, model: ModelChecks, point: Pointwise) -> dict[str, str]:
-    """The readers that misread the model (audit/audit.py `set_aside`), looked for only where Pinocchio's
-    reading differs from MuJoCo's or a pointwise pair of two readers disagrees."""
+def _misreaders(system: System, model: ModelChecks, point: Pointwise) -> tuple[dict[str, str], dict[str, str]]:
+    """The readers that misread the model, set aside and named only (audit/audit.py `misreaders`), looked
+    for only where Pinocchio's reading differs from MuJoCo's or a pointwise pair of two readers disagrees."""
     suspect = any(m.get("check") == "pinocchio~mujoco" for m in model["mismatches"]) or any(
         not r["passed"] and set(r["pair"].split("~")) <= READERS for r in point["rows"]
     )
     if not suspect:
-        return {}
-    from ..audit.audit import set_aside as misreadings
+        return {}, {}
+    from ..audit.audit import misreaders
 
-    return misreadings(system)
+    return misreaders(system)
 
 
 def set_aside(model: ModelChecks, excluded: Mapping[str, str]) -> ModelChecks:
@@ -213,10 +230,10 @@ def set_aside(model: ModelChecks, excluded: Mapping[str, str]) -> ModelChecks:
 
 
 def with_drake(model: ModelChecks, sources: Mapping[str, Source]) -> ModelChecks:
-    """The model checks with what was aligned for Drake's reading (sources/drake.py), or why Drake was
-    left out, listed beside the other alignments: never silent."""
+    """The model checks with what was aligned for Drake's reading (sources/drake.py), or why Drake (or
+    Pinocchio) was left out, listed beside the other alignments: never silent."""
     lines = [f"Drake: {line}" for line in getattr(sources.get("drake"), "alignments", [])]
-    lines += [f"Drake left out: {why}" for why in getattr(sources, "skipped", {}).values()]
+    lines += [f"{READER_WORDS[n]} left out: {why}" for n, why in getattr(sources, "skipped", {}).items()]
     return {**model, "alignments": [*model["alignments"], *lines]} if lines else model
 
 

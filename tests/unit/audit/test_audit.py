@@ -167,6 +167,11 @@ PLANTED = {
                         f'axis="0 1 0" pos="0 0 0.1"/>{INERTIAL}</body>'),
         "mjcf", {"pinocchio": "joint", "drake": "anchor"}, None,
     ),
+    "a <compiler> after the bodies": (
+        '<mujoco model="m"><worldbody><body name="b" pos="0 0 1" euler="1.2 0 0"><joint name="j" axis="0 1 0"/>'
+        f'{INERTIAL}</body></worldbody><compiler angle="radian"/></mujoco>',
+        "mjcf", {"pinocchio": "axis"}, None,
+    ),
     "<include>": (
         mjcf(INERTIAL + '<include file="part.xml"/>'), "mjcf", {"pinocchio": "joint"}, None,
     ),
