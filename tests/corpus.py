@@ -108,12 +108,13 @@ def shows(script: Path) -> str:
     return f"broken: status {run.status}: {lines[-1] if lines else 'nothing said'}"
 
 
-def expect(key: str, path: Path, expected: tuple[str, str], folder: Path) -> None:
-    """Asserts that the model gets its expected outcome (kind, a phrase its line holds), that a FAIL has
+def expect(key: str, path: Path, expected: tuple[str, tuple[str, ...]], folder: Path) -> None:
+    """Asserts that the model gets its expected outcome (kind, phrases its line holds), that a FAIL has
     reproducers, and that every reproducer written shows its difference when run alone."""
-    kind, phrase = expected
+    kind, phrases = expected
     outcome = judge(path, folder)
-    assert (outcome.kind, phrase in outcome.why) == (kind, True), f"{key}: {outcome.kind}: {outcome.why}"
+    missing = [p for p in phrases if p not in outcome.why]
+    assert (outcome.kind, missing) == (kind, []), f"{key}: {outcome.kind} (expected {kind}): {outcome.why}"
     if outcome.kind == "FAIL":
         assert outcome.reproducers, f"{key}: a FAIL without a reproducer: {outcome.why}"
     said = {str(r["path"]): shows(Path(str(r["path"]))) for r in outcome.reproducers}
