@@ -66,6 +66,24 @@ def no_doctype(text: str, source: str) -> None:
         )
 
 
+_PREFIXED = re.compile(r"<\s*/?\s*([A-Za-z_][\w.-]*):[A-Za-z_]|\s([A-Za-z_][\w.-]*):[A-Za-z_][\w.-]*\s*=")
+_DECLARED = re.compile(r"xmlns:([A-Za-z_][\w.-]*)\s*=")
+_ROOT_TAG = re.compile(r"<(?![?!])\s*[A-Za-z_][\w.:-]*")
+
+
+def declare_prefixes(text: str) -> str:
+    """A namespace prefix the file uses but never declares (`<limit drake:acceleration=...>`, which the
+    parsers of MuJoCo and urdfdom, tinyxml2, read as part of the name) declared on the root element, so
+    that a namespace-aware parser reads the file as they do instead of refusing it."""
+    used = {a or b for a, b in _PREFIXED.findall(re.sub(r"<!--.*?-->", "", text, flags=re.S))}
+    missing = sorted(used - {"xml", "xmlns"} - set(_DECLARED.findall(text)))
+    root = _ROOT_TAG.search(text)
+    if not missing or root is None:
+        return text
+    names = "".join(f' xmlns:{p}="urn:undeclared:{p}"' for p in missing)
+    return text[: root.end()] + names + text[root.end() :]
+
+
 def parse(text: str, source: str) -> ET.Element:
     """The root element of a model text; not well-formed XML is one line."""
     try:

@@ -34,6 +34,7 @@ def model_file(path: Path) -> tuple[str, str]:
     except UnicodeDecodeError as exc:
         raise HarnessError(f"{path.name}: not well-formed XML ({exc}).") from None
     bounds.no_doctype(text, path.name)  # before any parse: DOCTYPE
+    text = bounds.declare_prefixes(text)  # a `drake:` prefix no xmlns declares, read as tinyxml2 reads it
     root = bounds.parse(text, path.name).tag
     if root not in ("mujoco", urdf.ROOT):
         raise HarnessError(
