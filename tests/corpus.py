@@ -117,7 +117,9 @@ def expect(key: str, path: Path, expected: tuple[str, tuple[str, ...]], folder: 
     assert (outcome.kind, missing) == (kind, []), f"{key}: {outcome.kind} (expected {kind}): {outcome.why}"
     if outcome.kind == "FAIL":
         assert outcome.reproducers, f"{key}: a FAIL without a reproducer: {outcome.why}"
-    said = {str(r["path"]): shows(Path(str(r["path"]))) for r in outcome.reproducers}
+    unwritten = [str(r["skipped"]) for r in outcome.reproducers if "could not be written" in str(r.get("skipped", ""))]
+    assert not unwritten, f"{key}: the harness could not write its reproducers: {unwritten}"
+    said = {str(r["path"]): shows(Path(str(r["path"]))) for r in outcome.reproducers if r.get("path")}
     unshown = {script: what for script, what in said.items() if what != "shows"}
     assert not unshown, f"{key}: reproducers that show no difference (the harness's own misreading): {unshown}"
 
@@ -131,7 +133,7 @@ def reason(outcome: Outcome) -> str:
 
 def _one(key: str, path: Path, folder: Path) -> tuple[str, Outcome, list[str]]:
     outcome = judge(path, folder)
-    return key, outcome, [shows(Path(str(r["path"]))) for r in outcome.reproducers]
+    return key, outcome, [shows(Path(str(r["path"]))) for r in outcome.reproducers if r.get("path")]
 
 
 def survey(workers: int = 2) -> Iterator[tuple[str, Outcome, list[str]]]:

@@ -399,6 +399,10 @@ def cmd_derive(args: argparse.Namespace) -> int:
     if not args.system and args.model is None:
         raise HarnessError("name a SYSTEM (see `lagrange-xval list`) or give --model PATH.")
     system = one_system(args)  # --model alone: the model's joints, in order, as the coordinates
+    if not system.joints:
+        from ..model.scope import NOTHING_MOVES
+
+        raise HarnessError(f"{system.name}: {NOTHING_MOVES}.")
     view, joints, coordinates, joint_map = system.view, system.joints, system.coordinates, system.joint_map
     if not args.force:
         affordable(len(joints), spatial=is_spatial(view, tuple(joints)), python=bool(args.python))

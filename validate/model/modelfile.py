@@ -82,10 +82,10 @@ def compile_model(path: Path) -> mujoco.MjModel:
 def model_view(path: Path) -> ModelView:
     """The compiled model of a file (MJCF or URDF) as a ModelView, after the scope's refusals: what
     `derive` reads when no equations module is given."""
-    from .scope import refusals, unconstrained
+    from .scope import NOTHING_MOVES, refusals, unconstrained
 
     model = compile_model(Path(path))
-    refused = refusals(model)
+    refused = refusals(model) + ([] if model.nv else [NOTHING_MOVES])
     if refused:
         more = f" (and {len(refused) - 1} more)" if len(refused) > 1 else ""
         raise HarnessError(f"{Path(path).name}: {refused[0]}{more}.")

@@ -16,8 +16,8 @@ engine computes) and returns one line per kind the model has, naming its element
 report say once what was left out. Two passive forces only MuJoCo computes are set to zero on the model
 and listed the same way: a tendon's spring and damper and a body's gravity compensation (`gravcomp`).
 
-`refusals(model)` lists what cannot be compared at all (empty when the model is in scope): a model in
-which nothing moves, and free and ball joints (a quaternion: no angle per joint). A URDF is read first
+`refusals(model)` lists what cannot be compared at all (empty when the model is in scope): free and ball
+joints (a quaternion: no angle per joint). A URDF is read first
 by `urdf_refusals`: its planar and floating joints are refused by type and name before either engine
 reads the file, since the readers would split or drop them differently.
 """
@@ -77,9 +77,12 @@ def _listed(names: list[str], *, quoted: bool = True) -> str:
     return shown + (f" and {len(names) - SHOWN} more" if len(names) > SHOWN else "")
 
 
+NOTHING_MOVES = "no joint moves (every body is fixed): there are no equations of motion to derive"
+
+
 def refusals(model: mujoco.MjModel) -> list[str]:
     """One line per element the harness cannot compare, naming it and why (empty: in scope)."""
-    out = [] if model.nv else ["no joint moves (every body is fixed): there are no equations of motion to compare"]
+    out: list[str] = []
     for j in range(model.njnt):
         kind = {int(mujoco.mjtJoint.mjJNT_FREE): "free", int(mujoco.mjtJoint.mjJNT_BALL): "ball"}.get(
             int(model.jnt_type[j])

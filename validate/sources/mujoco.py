@@ -108,8 +108,8 @@ class MujocoSource:
             if jid < 0:
                 raise HarnessError(f"{system.mjcf.name} has no joint '{j}' (equations/{system.name}.py JOINTS).")
             ids.append(jid)
-        self.qadr = np.array([self.m.jnt_qposadr[j] for j in ids])
-        self.dadr = np.array([self.m.jnt_dofadr[j] for j in ids])
+        self.qadr = np.array([self.m.jnt_qposadr[j] for j in ids], dtype=int)
+        self.dadr = np.array([self.m.jnt_dofadr[j] for j in ids], dtype=int)
         body_ids: list[int] = []
         for b in system.bodies:
             bid = mujoco.mj_name2id(self.m, mujoco.mjtObj.mjOBJ_BODY, b)

@@ -120,8 +120,8 @@ class PinocchioSource:
         missing = [j for j in system.joints if j not in self.joint_ids]
         if missing:
             raise HarnessError(f"Pinocchio's model of {system.mjcf.name} has no joint '{missing[0]}'.")
-        self.qidx = np.array([self.joint_ids[j][1] for j in system.joints])
-        self.vidx = np.array([self.joint_ids[j][2] for j in system.joints])
+        self.qidx = np.array([self.joint_ids[j][1] for j in system.joints], dtype=int)
+        self.vidx = np.array([self.joint_ids[j][2] for j in system.joints], dtype=int)
         self.damping = np.array([system.view[f"joint/{j}/damping"] for j in system.joints])
         # Joint springs, which Pinocchio's algorithms ignore: a passive force and a potential energy here.
         self.stiffness = np.array([system.view[f"joint/{j}/stiffness"] for j in system.joints])

@@ -95,18 +95,25 @@ def model_only_result(
     )
     clock = clock or Clock()
     stages: dict[str, str] = {}
-    traj = _stage(
-        stages,
-        "trajectories",
-        lambda: cast(
-            "Trajectories",
-            divergence_results(
-                system, sources, t_end=t_end, dt_out=dt_out, why=why, aba_reference="symbolic" not in sources
+    traj = (
+        _stage(
+            stages,
+            "trajectories",
+            lambda: cast(
+                "Trajectories",
+                divergence_results(
+                    system, sources, t_end=t_end, dt_out=dt_out, why=why, aba_reference="symbolic" not in sources
+                ),
             ),
-        ),
-        clock,
+            clock,
+        )
+        if system.nv
+        else None
     )
-    if system.nv <= READABLE_MAX_DOF and "symbolic" in sources:
+    if not system.nv:  # every body fixed: nothing moves, nothing to integrate or derive
+        stages["trajectories"] = stages["derived equations"] = "not run: no joint moves"
+        derived = None
+    elif system.nv <= READABLE_MAX_DOF and "symbolic" in sources:
         derived = _stage(stages, "derived equations", lambda: derived_data(system, cache=cache), clock)
     else:
         derived = None

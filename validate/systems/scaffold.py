@@ -278,7 +278,12 @@ def module_text(name: str, model: Path, *, locked: tuple[str, ...] = ()) -> str:
     """The text of the starting equations module for the model (MJCF or URDF) at `model`, its `locked`
     joints made fixed. The model is read as `check` reads it: what no source could compare (a model in
     which nothing moves, say) is refused here, in one line, before anything is written."""
-    view = System.model_only(model, locked=locked).view
+    from ..model.scope import NOTHING_MOVES  # reads mujoco: loaded when first needed
+
+    system = System.model_only(model, locked=locked)
+    if not system.nv:
+        raise HarnessError(f"{Path(model).name}: {NOTHING_MOVES}.")
+    view = system.view
     parts = _parts(view, model, locked)
     t = [*_docstring(name, view, parts), *_header(parts), *_parameters(_fields(view, parts))]
     t += _assumptions(view, parts)

@@ -79,7 +79,7 @@ class Decision:
         if self.model_checks is None or self.pointwise is None:
             return text
         if self.model_only:
-            text = model_alone_statement(self.pointwise)
+            text = model_alone_statement(self.pointwise, self.system.nv)
         # A mismatch the file's defect caused (MuJoCo given other numbers) is not a reader's: named below.
         mismatches = [m for m in self.model_checks["mismatches"] if "defect" not in m]
         if mismatches and self.misread:  # the readers that misread, by the audit's known cause
@@ -122,12 +122,17 @@ def misread_sentence(misread: Mapping[str, str]) -> str:
 SOURCE_WORDS = {"mujoco": "MuJoCo", "pinocchio": "Pinocchio", "drake": "Drake", "symbolic": "the derived equations"}
 
 
-def model_alone_statement(point: Pointwise) -> str:
+def model_alone_statement(point: Pointwise, nv: int = 1) -> str:
     """ "no derivation given; MuJoCo, Pinocchio and Drake agree on the model and its dynamics": the
-    sources the pointwise comparison holds, in that order, and whether every pair agrees."""
+    sources the pointwise comparison holds, in that order, and whether every pair agrees. A model in
+    which no joint moves (nv = 0) has no dynamics: the sentence says what was and was not compared."""
     held = {x for r in point["rows"] for x in str(r["pair"]).split("~")}
     names = [w for k, w in SOURCE_WORDS.items() if k in held]
     listed = ", ".join(names[:-1]) + f" and {names[-1]}" if len(names) > 1 else "".join(names) or "no source"
+    if not nv:  # the derived equations are no reader: MuJoCo's numbers, with no coordinate
+        readers = [w for k, w in SOURCE_WORDS.items() if k in held and k != "symbolic"]
+        listed = ", ".join(readers[:-1]) + f" and {readers[-1]}" if len(readers) > 1 else "".join(readers)
+        return f"no joint moves (every body is fixed), so there are no equations of motion to compare: {listed} read it"
     verb = "agree" if point["passed"] else "are compared"
     return f"no derivation given; {listed} {verb} on the model and its dynamics"
 

@@ -240,12 +240,17 @@ def midrange(x: np.ndarray) -> float:
     return float(finite.max() + finite.min()) / 2 if finite.size else 0.0
 
 
+def condition(M: np.ndarray) -> np.ndarray | None:
+    """cond(M) per state; None where no joint moves (an empty M has none)."""
+    return np.linalg.cond(M) if np.size(M) else None
+
+
 def force_scale(M: np.ndarray, v: np.ndarray) -> float:
     """A physical scale of the generalized forces at these states (N m): max ||M(q)||_2 x max |v|^2,
     the size the velocity terms C(q, v) v can take. It stays meaningful where the velocity terms
     themselves vanish at every state (a sample at gimbal lock, where they are ~1e-17 and the sample's
     own magnitude would judge rounding noise: 0.8 of it between MuJoCo and Pinocchio)."""
-    if not len(M):
+    if not np.size(M):
         return 0.0
     return float(np.linalg.norm(M, ord=2, axis=(-2, -1)).max() * np.max(np.abs(v)) ** 2)
 
@@ -277,7 +282,7 @@ def compare(
     least the model's physical floor (`scales`, from `physical_scales`), V up to a constant."""
     rows: list[ComparisonRow] = []
     names = sorted(values)
-    cond = np.linalg.cond(values[reference]["M"]) if reference in values else None
+    cond = condition(values[reference]["M"]) if reference in values else None
     forces = force_scale(values[reference]["M"], states.v) if reference in values else 0.0
     for quantity, tier in QUANTITY_TIER.items():
         for a, b in itertools.combinations(names, 2):

@@ -216,7 +216,7 @@ def disagreements(
     under every scale, as the verdict compares), each at the state where its error over its tolerance is
     largest, with the entry where the two differ most there; V after the row's constant is removed."""
     rows = compare.compare({k: dict(v) for k, v in values.items()}, states, tolerances=tolerances, scales=scales)
-    cond = np.linalg.cond(values["mujoco"]["M"]) if "mujoco" in values and "M" in values["mujoco"] else None
+    cond = compare.condition(values["mujoco"]["M"]) if "mujoco" in values and "M" in values["mujoco"] else None
     out = []
     for r in rows:
         if r["passed"]:
