@@ -33,7 +33,7 @@ from ..verdict import pointwise as compare
 from ..verdict.decide import Decision, decide
 from ..verdict.pointwise import States, validate_states
 from . import check as checking
-from . import simulate
+from . import simulate, survey
 from .audit import cmd_audit
 from .parser import MAX_STATES_FILE_BYTES, one_line
 from .watch import cmd_watch
@@ -225,6 +225,10 @@ def pointwise_only(args: argparse.Namespace, system: System, states: States | No
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     return simulate.cmd_simulate(args, one_system)
+
+
+def cmd_survey(args: argparse.Namespace) -> int:
+    return survey.cmd_survey(args, check=cmd_check, audit=cmd_audit)
 
 
 def cache_of(args: argparse.Namespace) -> Cache:
@@ -519,4 +523,5 @@ COMMANDS = {
     "stress": cmd_stress,
     "bench": cmd_bench,
     "audit": cmd_audit,
+    "survey": cmd_survey,
 }

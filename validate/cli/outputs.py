@@ -49,8 +49,16 @@ def _from_report(name: str) -> bool:
     return name in REPORT_FILES
 
 
+SURVEY_FILES = (
+    "survey.json",
+    "survey.jsonl",
+    "survey.html",
+    "survey.md",
+)  # what `survey` produces, with the reproducers
+
+
 def _ours(name: str) -> bool:
-    return _from_run(name) or name in KEPT
+    return _from_run(name) or name in KEPT or name in SURVEY_FILES
 
 
 def real_out(out: Path) -> Path:

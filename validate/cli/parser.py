@@ -529,6 +529,40 @@ def _replay_arguments(replay: argparse.ArgumentParser) -> None:
     )
 
 
+def _survey_arguments(survey: argparse.ArgumentParser) -> None:
+    """`survey`: the folder, where the table and pages go, workers or an executor, time per model, pairs."""
+    survey.add_argument("folder", type=path_arg, nargs="?", metavar="DIR", help="a folder of MJCF and URDF files")
+    survey.add_argument(
+        "--out",
+        type=path_arg,
+        default=Path("reports") / "survey",
+        metavar="DIR",
+        help="where survey.jsonl (a JSON line per model), survey.html, survey.md and the reproducers go "
+        "(default: reports/survey; written when the survey is complete)",
+    )
+    survey.add_argument(
+        "--workers", type=positive_int, metavar="N", help="models judged at once (default: one per core)"
+    )
+    _executor_option(survey, "the models", "--workers processes on this machine")
+    survey.add_argument(
+        "--timeout",
+        type=positive_float,
+        default=300.0,
+        metavar="SECONDS",
+        help="a model's check and audit that take longer are ended, with all they started: one row, crash "
+        "(default 300)",
+    )
+    _states_option(survey, "each model is compared at").default = 20
+    survey.add_argument(
+        "--pairs",
+        metavar="A:B,...",
+        help="files of one robot to compare with the two-file audit, besides those that give the robot the same name",
+    )
+    survey.add_argument("--json", action="store_true", help="print the survey as JSON lines (a line per model)")
+    survey.add_argument("--one", type=path_arg, help=argparse.SUPPRESS)  # a model's own process (studies/survey.py)
+    survey.add_argument("--reproduce", type=path_arg, help=argparse.SUPPRESS)
+
+
 COMMANDS: tuple[tuple[str, str, Callable[[argparse.ArgumentParser], None]], ...] = (  # in the order --help lists
     ("list", "the systems, their coordinates, degrees of freedom and printed forms", _list_arguments),
     ("run", "validate every system (or those named) and write the reports", _run_arguments),
@@ -562,6 +596,11 @@ COMMANDS: tuple[tuple[str, str, Callable[[argparse.ArgumentParser], None]], ...]
         _audit_arguments,
     ),
     ("replay", "a rerun recording of a system's trajectories", _replay_arguments),
+    (
+        "survey",
+        "every MJCF and URDF under a folder judged model-only, in parallel: one table, JSON lines, an HTML page",
+        _survey_arguments,
+    ),
 )
 
 

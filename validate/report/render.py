@@ -191,3 +191,13 @@ def render(
     files = {"report.md": render_markdown(doc, plain).encode(), "report.html": render_html(doc, plain).encode()}
     files.update(sorted(doc.images.items()))
     return files
+
+
+def environment() -> jinja2.Environment:
+    """The templates' environment (the report's filters and globals), for the other pages (report/survey.py)."""
+    return _env()
+
+
+def markdown_blocks(blocks: Iterable[Block]) -> list[str]:
+    """The blocks as markdown lines, as the report writes them."""
+    return _md_blocks(blocks)

@@ -1336,3 +1336,41 @@ class CheckData(TypedDict, total=False):
     derivation: Derivation
     excluded: dict[str, str]  # reader -> why it was left out (it cannot read the file, or misreads it)
     misread: dict[str, str]  # reader -> its known misreading, kept where too few readers would be left
+
+
+class SurveyRow(TypedDict):
+    """One model of a survey (studies/survey.py): `check --model`'s verdict on it, judged from its own
+    folder in a process of its own, and the audit's findings."""
+
+    model: str  # its path below the surveyed folder
+    format: str  # "mjcf" or "urdf"
+    robot: str  # the name the file gives the robot (<robot name>, <mujoco model>), "" if none
+    outcome: str  # "pass", "FAIL", "refused" (the harness cannot judge it: why) or "crash" (a timeout, a death)
+    why: str  # the verdict's sentence, or the refusal's or the crash's line
+    seconds: float  # the check's wall time, audit included
+    reproducers: list[str]  # the scripts of the disagreements, relative to the survey's folder
+    audit: str  # "agrees", "N finding(s)", or why the audit could not run
+    findings: list[str]  # the audit's findings, each reader's misreading named
+
+
+class SurveyPair(TypedDict):
+    """Two files of one robot in the surveyed folder, compared by `audit A B` (audit/twofiles.py)."""
+
+    a: str
+    b: str
+    robot: str  # the name they share, or "given" (--pairs)
+    outcome: str  # "same robot", "differ", "refused" or "crash"
+    why: str  # the first findings, or the refusal's line
+    findings: list[str]
+    seconds: float
+
+
+class SurveyResults(TypedDict):
+    """A whole folder of models judged at once (`lagrange-xval survey DIR`)."""
+
+    folder: str
+    executor: str  # "local (N workers)", "dask ..."
+    seconds: float  # the survey's wall time
+    rows: list[SurveyRow]
+    pairs: list[SurveyPair]
+    counts: dict[str, int]  # outcome -> models
