@@ -11,9 +11,11 @@ it: enough to tell which joint of B is which joint of A without its name.
   bonus for an exact name (the old matching by name kept as it was) and a smaller one for names sharing
   tokens or digits once the usual words (joint, jnt) are left out. `scipy.optimize.linear_sum_assignment`
   takes the cheapest one-to-one map.
-- The base offset: B may place the robot elsewhere in the world (a URDF's base at the origin, an MJCF's on
-  a table). Each offset that puts a root joint of A on a root joint of B (and none) is tried; the one
-  under which most joints line up is kept, refined to the mean over the joints that line up.
+- The base placement: B may place the robot elsewhere in the world (a URDF's base at the origin, an MJCF's
+  on a table in a scene, turned to face it). A turn about the vertical (each quarter turn) and each offset
+  that then puts a root joint of A on a root joint of B (and none) are tried; the placement under which
+  most joints line up is kept, refined by a least-squares fit (turn and offset, 2-D Procrustes) over the
+  joints that line up. Only a turn about the vertical: it leaves gravity, and so G, M and bias, as they are.
 - The tree: a pair stays only when the nearest matched joint above a is matched to the nearest matched
   joint above b (or both are at the world), so a matched child is a child of its parent's match.
 - Each pair says how it was matched: "name", "anchor, axis, tree" (it lines up), "axis, tree" (its anchor
@@ -28,7 +30,7 @@ it: enough to tell which joint of B is which joint of A without its name.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
@@ -55,14 +57,30 @@ class JointMap:
     Attributes:
         pairs: A's joint -> B's joint, in A's chain order.
         how: A's joint -> "name", "anchor, axis, tree", "axis, tree", "tree" or "map".
-        offset: (3,) m, B's placement of the robot less A's (zeros: the same placement).
+        placed: where B places the robot relative to A (B = turn(A) + offset).
         reversed: A's joints whose B axis points the other way.
     """
 
     pairs: dict[str, str]
     how: dict[str, str]
-    offset: np.ndarray
+    placed: Placement
     reversed: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class Placement:
+    """B's placement of the robot relative to A's: a point x of A is at R(yaw) x + offset in B."""
+
+    yaw: float = 0.0  # rad, about the world's z
+    offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    @property
+    def R(self) -> np.ndarray:
+        c, s = np.cos(self.yaw), np.sin(self.yaw)
+        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+    def moved(self) -> bool:
+        return bool(np.any(self.offset)) or self.yaw != 0.0
 
 
 @dataclass(frozen=True)
@@ -115,16 +133,17 @@ def _extent(a: _Side, b: _Side) -> float:
     return max([MIN_EXTENT, *spread])
 
 
-def _gaps(a: _Side, b: _Side, offset: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(anchor distances in m after the offset, axis distances, a reversed axis as the same line)."""
-    anchor = np.linalg.norm(a.anchor[:, None] + offset - b.anchor[None], axis=-1)
-    same = np.linalg.norm(a.axis[:, None] - b.axis[None], axis=-1)
-    flipped = np.linalg.norm(a.axis[:, None] + b.axis[None], axis=-1)
+def _gaps(a: _Side, b: _Side, at: Placement) -> tuple[np.ndarray, np.ndarray]:
+    """(anchor distances in m with A placed as B, axis distances, a reversed axis as the same line)."""
+    anchor = np.linalg.norm((a.anchor @ at.R.T + at.offset)[:, None] - b.anchor[None], axis=-1)
+    axis = a.axis @ at.R.T
+    same = np.linalg.norm(axis[:, None] - b.axis[None], axis=-1)
+    flipped = np.linalg.norm(axis[:, None] + b.axis[None], axis=-1)
     return anchor, np.minimum(same, flipped)
 
 
-def _cost(a: _Side, b: _Side, offset: np.ndarray, extent: float) -> np.ndarray:
-    anchor, axis = _gaps(a, b, offset)
+def _cost(a: _Side, b: _Side, at: Placement, extent: float) -> np.ndarray:
+    anchor, axis = _gaps(a, b, at)
     cost = np.minimum(anchor / (ANCHOR_TOL * extent), CAP) + np.minimum(axis / AXIS_TOL, CAP)
     cost += DEPTH * np.abs(a.depth[:, None] - b.depth[None])
     cost -= np.array([[_name_score(x, y) for y in b.names] for x in a.names]).reshape(cost.shape)
@@ -132,53 +151,70 @@ def _cost(a: _Side, b: _Side, offset: np.ndarray, extent: float) -> np.ndarray:
     return np.where(kinds, FORBIDDEN, cost)
 
 
-def _lined_up(a: _Side, b: _Side, offset: np.ndarray, extent: float) -> tuple[np.ndarray, np.ndarray]:
+def _lined_up(a: _Side, b: _Side, at: Placement, extent: float) -> tuple[np.ndarray, np.ndarray]:
     """(n_a, n_b) booleans: the anchors line up; the axes line up."""
-    anchor, axis = _gaps(a, b, offset)
+    anchor, axis = _gaps(a, b, at)
     return anchor <= ANCHOR_TOL * extent, axis <= AXIS_TOL
 
 
-def _assign(a: _Side, b: _Side, offset: np.ndarray, extent: float, fixed: dict[int, int]) -> dict[int, int]:
+def _assign(a: _Side, b: _Side, at: Placement, extent: float, fixed: dict[int, int]) -> dict[int, int]:
     """The cheapest one-to-one map (index of A -> index of B) of the joints `fixed` leaves, plus `fixed`."""
     rows = [i for i in range(len(a.names)) if i not in fixed]
     cols = [j for j in range(len(b.names)) if j not in fixed.values()]
     out = dict(fixed)
     if rows and cols:
-        cost = _cost(a, b, offset, extent)[np.ix_(rows, cols)]
+        cost = _cost(a, b, at, extent)[np.ix_(rows, cols)]
         for r, c in zip(*linear_sum_assignment(cost), strict=True):
             if cost[r, c] < FORBIDDEN:
                 out[rows[r]] = cols[c]
     return out
 
 
-def _offsets(a: _Side, b: _Side) -> list[np.ndarray]:
-    """The base offsets worth trying: none, and each that puts a root joint of A on a root joint of B."""
-    out = [np.zeros(3)]
-    for i in np.flatnonzero(a.depth == 0):
-        for j in np.flatnonzero(b.depth == 0):
-            if a.kind[i] == b.kind[j]:
-                out.append(b.anchor[j] - a.anchor[i])
+def _placements(a: _Side, b: _Side) -> list[Placement]:
+    """The placements worth trying: each quarter turn about the vertical, alone and with each offset that
+    then puts a root joint of A on a root joint of B."""
+    out = []
+    for yaw in (0.0, np.pi / 2, np.pi, -np.pi / 2):
+        turn = Placement(yaw).R
+        out.append(Placement(yaw))
+        for i in np.flatnonzero(a.depth == 0):
+            for j in np.flatnonzero(b.depth == 0):
+                if a.kind[i] == b.kind[j]:
+                    out.append(Placement(yaw, b.anchor[j] - turn @ a.anchor[i]))
     return out
 
 
-def _best(a: _Side, b: _Side, extent: float, fixed: dict[int, int]) -> tuple[dict[int, int], np.ndarray]:
-    """The map and base offset under which the most joints line up (then the lowest cost)."""
+def _fit(a: _Side, b: _Side, pairs: list[tuple[int, int]], at: Placement) -> Placement:
+    """The turn about the vertical and the offset that best put A's anchors on B's over `pairs` (2-D
+    Procrustes; the turn kept where the anchors do not spread in the horizontal plane)."""
+    p = np.array([a.anchor[i] for i, _ in pairs])
+    q = np.array([b.anchor[j] for _, j in pairs])
+    pc, qc = p.mean(0), q.mean(0)
+    h = (p - pc)[:, :2].T @ (q - qc)[:, :2]
+    yaw = float(np.arctan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1])) if abs(np.trace(h)) + abs(h[0, 1]) > 1e-12 else at.yaw
+    if abs(np.angle(np.exp(1j * (yaw - at.yaw)))) > np.pi / 4:  # a fit far from the tried turn: not trusted
+        yaw = at.yaw
+    return Placement(yaw, qc - Placement(yaw).R @ pc)
 
-    def score(m: dict[int, int], offset: np.ndarray) -> tuple[int, float]:
-        near, same = _lined_up(a, b, offset, extent)
-        cost = _cost(a, b, offset, extent)
+
+def _best(a: _Side, b: _Side, extent: float, fixed: dict[int, int]) -> tuple[dict[int, int], Placement]:
+    """The map and base placement under which the most joints line up (then the lowest cost)."""
+
+    def score(m: dict[int, int], at: Placement) -> tuple[int, float]:
+        near, same = _lined_up(a, b, at, extent)
+        cost = _cost(a, b, at, extent)
         return (-sum(bool(near[i, j] and same[i, j]) for i, j in m.items()), sum(cost[i, j] for i, j in m.items()))
 
-    tried = [(m, o) for o in _offsets(a, b) for m in [_assign(a, b, o, extent, fixed)]]
-    m, offset = min(tried, key=lambda t: score(*t))
-    near, same = _lined_up(a, b, offset, extent)
+    tried = [(m, at) for at in _placements(a, b) for m in [_assign(a, b, at, extent, fixed)]]
+    m, at = min(tried, key=lambda t: score(*t))
+    near, same = _lined_up(a, b, at, extent)
     agree = [(i, j) for i, j in m.items() if near[i, j] and same[i, j]]
-    if agree:  # the mean over the joints that line up, so that no one root's rounding sets it
-        refined = np.mean([b.anchor[j] - a.anchor[i] for i, j in agree], axis=0)
+    if agree:  # fitted over the joints that line up, so that no one root's rounding sets it
+        refined = _fit(a, b, agree, at)
         again = _assign(a, b, refined, extent, fixed)
-        if score(again, refined) <= score(m, offset):
-            m, offset = again, refined
-    return m, offset
+        if score(again, refined) <= score(m, at):
+            m, at = again, refined
+    return m, at
 
 
 def _above(side: _Side, i: int, kept: set[int]) -> int:
@@ -227,9 +263,9 @@ def match(ra: Reading, rb: Reading, given: dict[str, str] | None = None) -> Join
     a, b = _side(ra), _side(rb)
     extent = _extent(a, b)
     fixed = _fixed(a, b, given or {}, ra, rb)
-    m, offset = _best(a, b, extent, fixed)
+    m, at = _best(a, b, extent, fixed)
     m = _tree_consistent(a, b, m, set(fixed) | {i for i, j in m.items() if a.names[i] == b.names[j]})
-    near, same = _lined_up(a, b, offset, extent)
+    near, same = _lined_up(a, b, at, extent)
     how: dict[str, str] = {}
     for i, j in sorted(m.items()):
         x, y = a.names[i], b.names[j]
@@ -242,10 +278,10 @@ def match(ra: Reading, rb: Reading, given: dict[str, str] | None = None) -> Join
     if not fixed:  # a --map is the person's word that the two are one robot
         _refuse_a_different_robot(a, b, how)
     pairs = {x: b.names[m[a.names.index(x)]] for x in how}
-    flipped = tuple(x for x, y in pairs.items() if float(ra.joints[x].axis @ rb.joints[y].axis) < 0.0)
-    if np.linalg.norm(offset) <= 1e-9 * extent:
-        offset = np.zeros(3)
-    return JointMap(pairs, how, offset, flipped)
+    flipped = tuple(x for x, y in pairs.items() if float((at.R @ ra.joints[x].axis) @ rb.joints[y].axis) < 0.0)
+    yaw = 0.0 if abs(at.yaw) <= 1e-9 else at.yaw
+    offset = np.zeros(3) if np.linalg.norm(at.offset) <= 1e-9 * extent else at.offset
+    return JointMap(pairs, how, Placement(yaw, offset), flipped)
 
 
 def _refuse_a_different_robot(a: _Side, b: _Side, how: dict[str, str]) -> None:
@@ -260,6 +296,6 @@ def _refuse_a_different_robot(a: _Side, b: _Side, how: dict[str, str]) -> None:
         return
     raise HarnessError(
         f"no structural match: A has {len(a.names)} joints, B {len(b.names)}, and {lined} of A's line up with B's "
-        f"(kind, anchor, axis, tree, after the best base offset): they look like two different robots; give "
+        f"(kind, anchor, axis, tree, after the best base placement): they look like two different robots; give "
         f"--map A=B,... (e.g. --map {a.names[0]}={b.names[0]}) to compare them anyway."
     )

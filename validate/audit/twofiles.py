@@ -36,10 +36,10 @@ import numpy as np
 
 from ..core.errors import HarnessError
 from ..core.inputs import regular_file
-from ..model.meaning import FieldValue, Reading, composite, urdf_meaning
+from ..model.meaning import FieldValue, Inertial, Reading, composite, urdf_meaning
 from ..sources.readers import read
 from .chain import Chain, chain, dynamics, kinematics
-from .matching import JointMap, match
+from .matching import JointMap, Placement, match
 
 N_STATES = 1000  # seeded configurations
 RTOL = 1e-5  # of each quantity's scale: mj_saveLastXML writes 6 significant digits
@@ -127,8 +127,8 @@ def _group_cause(j: str, ra: Reading, rb: Reading, m: JointMap, welds: dict[str,
     parts = []
     if abs(ga.mass - gb.mass) > RTOL * max(ga.mass, gb.mass):
         parts.append(f"mass {ga.mass:.4g} kg in A, {gb.mass:.4g} kg in B")
-    if np.abs(ga.com - (gb.com - m.offset)).max() > RTOL * extent:
-        parts.append(f"centre of mass {np.abs(ga.com - (gb.com - m.offset)).max():.3g} m apart")
+    if np.abs(ga.com - gb.com).max() > RTOL * extent:
+        parts.append(f"centre of mass {np.abs(ga.com - gb.com).max():.3g} m apart")
     if np.abs(ga.inertia - gb.inertia).max() > RTOL * max(np.abs(ga.inertia).max(), 1e-12):
         parts.append("inertia rotated (the same principal moments)" if rotated else "inertia different")
     if not parts:
@@ -149,7 +149,7 @@ def _group_cause(j: str, ra: Reading, rb: Reading, m: JointMap, welds: dict[str,
 def _frame_cause(j: str, ra: Reading, rb: Reading, m: JointMap, welds: dict[str, dict[str, str]]) -> str:
     """Why joint j's frame differs at the reference: a welded link with an rpy above it, or the sizes."""
     a, b = ra.joints[j], rb.joints[m.pairs[j]]
-    apart = float(np.linalg.norm(a.anchor - (b.anchor - m.offset))) if a.kind == "hinge" else 0.0
+    apart = float(np.linalg.norm(a.anchor - b.anchor)) if a.kind == "hinge" else 0.0
     turned = float(np.linalg.norm(a.axis - b.axis))
     extent = max(float(np.abs(a.anchor).max()), 1.0)
     if apart <= RTOL * extent and turned <= RTOL:
@@ -208,7 +208,8 @@ class Match(TypedDict):
     matched: int
     of: tuple[int, int]  # A's joints, B's
     joints: dict[str, str]  # A's joint -> "name", "anchor, axis, tree", "axis, tree", "tree" or "map"
-    offset: list[float]  # m, B's placement of the robot less A's (zeros: the same)
+    offset: list[float]  # m: B's placement of the robot is A's turned by yaw about z, then moved by offset
+    yaw: float  # degrees
     reversed: list[str]  # A's joints whose axis B reverses
 
 
@@ -300,7 +301,8 @@ def _match_info(m: JointMap, ra: Reading, rb: Reading) -> Match:
         "matched": len(m.pairs),
         "of": (len(ra.joints), len(rb.joints)),
         "joints": dict(m.how),
-        "offset": [float(x) for x in m.offset],
+        "offset": [float(x) for x in m.placed.offset],
+        "yaw": float(np.degrees(m.placed.yaw)),
         "reversed": list(m.reversed),
     }
 
@@ -323,6 +325,20 @@ def sub_chain(reading: Reading, kept: set[str]) -> Reading:
     groups = {j: composite([reading.groups[k] for k in reading.joints if owner[k] == j]) for j in joints}
     members = {j: tuple(x for k in reading.joints if owner[k] == j for x in reading.members.get(k, ())) for j in joints}
     return dataclasses.replace(reading, joints=joints, groups=groups, members=members)
+
+
+def in_a_frame(reading: Reading, at: Placement) -> Reading:
+    """B's reading moved back by its placement of the robot (x = R^T (x_B - offset)), so that A's and B's
+    anchors, axes, centres of mass and inertias are compared where A places the robot."""
+    if not at.moved():
+        return reading
+    R = at.R
+    joints = {
+        j: dataclasses.replace(r, anchor=R.T @ (r.anchor - at.offset), axis=R.T @ r.axis)
+        for j, r in reading.joints.items()
+    }
+    groups = {j: Inertial(g.mass, R.T @ (g.com - at.offset), R.T @ g.inertia @ R) for j, g in reading.groups.items()}
+    return dataclasses.replace(reading, joints=joints, groups=groups, gravity=R.T @ reading.gravity)
 
 
 def _bodies(m: JointMap, ra: Reading, rb: Reading) -> dict[str, list[str]]:
@@ -356,11 +372,10 @@ def compare(
     m = match(ra, rb, joint_map)
     names = [j for j in ra.joints if j in m.pairs]
     full_a, full_b = ra, rb
-    ra, rb = sub_chain(ra, set(names)), sub_chain(rb, set(m.pairs.values()))
+    ra, rb = sub_chain(ra, set(names)), in_a_frame(sub_chain(rb, set(m.pairs.values())), m.placed)
     ca, cb = chain(ra), chain(rb)
     q, v = _states(ca, ra, names, seed, n_states)
     ea, eb = _evaluate(ca, names, q, v), _evaluate(cb, [m.pairs[j] for j in names], q, v)
-    eb["anchor"], eb["com"] = eb["anchor"] - m.offset, eb["com"] - m.offset  # B's placement of the robot removed
     gaps = _gaps(ea, eb)
     extent = max(float(np.abs(ea["anchor"]).max()), float(np.abs(ea["com"]).max()), 1e-3)
     scale = {k: max(float(np.abs(ea[k]).max()), 1e-12) for k in ("G", "bias", "M")} | {
@@ -430,12 +445,14 @@ def _map_lines(result: TwoFiles) -> list[str]:
 
 def _placement_lines(result: TwoFiles) -> list[str]:
     out = []
-    offset = np.array(result["match"]["offset"])
-    if np.any(offset):
+    offset, yaw = np.array(result["match"]["offset"]), result["match"]["yaw"]
+    if np.any(offset) or yaw:
         xyz = " ".join(f"{x:.4g}" for x in offset)
+        turn = f"turned {yaw:.4g} degrees about the vertical, then " if yaw else ""
         out.append(
-            f"  the two files place the robot differently in the world: B's is {np.linalg.norm(offset):.3g} m from "
-            f"A's (B - A: {xyz} m); anchors and centres of mass compared after removing that offset"
+            f"  the two files place the robot differently in the world: B's is A's {turn}moved "
+            f"{np.linalg.norm(offset):.3g} m ({xyz} m); frames, anchors and centres of mass compared after "
+            "undoing that placement"
         )
     if result["match"]["reversed"]:
         out.append(f"  axes B reverses: {', '.join(result['match']['reversed'])}")

@@ -37,15 +37,15 @@ def _inertial(mass: float, com: str) -> str:
 
 
 def arm(names: tuple[str, ...] = OURS, gripper: str = "prismatic", links: str = "",
-        mass: dict[int, float] | None = None, mount: str = "") -> str:  # fmt: skip
+        mass: dict[int, float] | None = None, mount: str = "", turn: float = 0.0) -> str:  # fmt: skip
     """The arm as a URDF: joints named `names`, links prefixed `links`, the fingers `gripper` (or none),
-    masses overridden by joint index, the base on a fixed mount at `mount` (xyz) in the world."""
+    masses overridden by joint index, the base on a fixed mount at `mount` (xyz) turned `turn` rad about z."""
     mass = mass or {}
     out = [f'<robot name="arm"><link name="{links}base"/>']
     if mount:
         out.append(
             f'<link name="world"/><joint name="mount" type="fixed"><parent link="world"/>'
-            f'<child link="{links}base"/><origin xyz="{mount}"/></joint>'
+            f'<child link="{links}base"/><origin xyz="{mount}" rpy="0 0 {turn!r}"/></joint>'
         )
     for i, (parent, child, xyz, axis, m, com) in enumerate(ARM):
         out.append(
@@ -176,6 +176,17 @@ def test_a_robot_mounted_elsewhere_is_matched_and_the_offset_said(tmp_path, caps
     assert result["passed"], result["findings"]
     assert main(["audit", str(a), str(b)]) == 0
     assert "the two files place the robot differently in the world" in capsys.readouterr().out
+
+
+def test_a_robot_turned_a_quarter_about_the_vertical_is_matched_and_the_turn_said(tmp_path, capsys):
+    a = _file(tmp_path, arm(), "arm.urdf")
+    b = _file(tmp_path, arm(THEIRS, mount="1 2 0.75", turn=np.pi / 2), "turned.urdf")
+    result = twofiles.compare(a, b)
+    assert abs(result["match"]["yaw"] - 90.0) < 1e-6 and np.allclose(result["match"]["offset"], [1, 2, 0.75])
+    assert set(result["match"]["joints"].values()) == {"anchor, axis, tree"}
+    assert result["passed"], result["findings"]
+    assert main(["audit", str(a), str(b)]) == 0
+    assert "B's is A's turned 90 degrees about the vertical, then moved" in capsys.readouterr().out
 
 
 def test_same_names_are_matched_by_name_as_before(tmp_path):
