@@ -508,10 +508,16 @@ def _derive_arguments(derive: argparse.ArgumentParser) -> None:
 
 
 def _audit_arguments(audit: argparse.ArgumentParser) -> None:
-    """`audit`: the model (or two files of one robot), joints to lock, output as JSON."""
+    """`audit`: the model (or two files of one robot, and their joint map), joints to lock, output as JSON."""
     audit.add_argument("model", type=path_arg, metavar="MODEL", help="an MJCF .xml or URDF .urdf (or a system name)")
     audit.add_argument("other", type=path_arg, nargs="?", metavar="MODEL_B", help="a second file of the same robot")
     _lock_option(audit)
+    audit.add_argument(
+        "--map",
+        metavar="A=B,...",
+        help="with two files: pairs of A's joint = B's joint that set or correct the map (the other joints are "
+        "matched by structure: tree, kind, axis and anchor, names only a hint)",
+    )
     audit.add_argument("--json", action="store_true", help="print the audit as one JSON object")
 
 
@@ -592,7 +598,8 @@ COMMANDS: tuple[tuple[str, str, Callable[[argparse.ArgumentParser], None]], ...]
     ),
     (
         "audit",
-        "each reader of the model judged against what its format means, misreadings named; or two files compared",
+        "each reader of the model judged against what its format means, misreadings named; or two files of one "
+        "robot compared, their joints matched by structure (tree, kind, axis, anchor; names a hint) or --map",
         _audit_arguments,
     ),
     ("replay", "a rerun recording of a system's trajectories", _replay_arguments),
