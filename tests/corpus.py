@@ -4,7 +4,8 @@ vendored), each judged model-only by `lagrange-xval check` from its own folder, 
 
 `python -m tests.corpus [--jsonl FILE]` (from the repository) prints one row per model and the figures
 (models, verdicts, FAILs with their reproducers and how many of them show their difference, refusals by
-reason);
+reason); `python -m tests.corpus --timing` times `lagrange-xval survey` on each package against the shell
+loop of single `check --model` and `audit` runs it replaces;
 tests/e2e/test_corpus.py holds each model's expected outcome and fails where one differs.
 """
 
@@ -147,8 +148,56 @@ def survey(workers: int = 2) -> Iterator[tuple[str, Outcome, list[str]]]:
             yield job.result()
 
 
+def _timed(command: list[str], cwd: Path) -> float:
+    import time
+
+    start = time.perf_counter()
+    subprocess.run(command, cwd=cwd, capture_output=True, timeout=TIMEOUT)
+    return time.perf_counter() - start
+
+
+def timing() -> int:
+    """`--timing`: `lagrange-xval survey` over each package's folder (2 workers) against the shell loop it
+    replaces (`check --model FILE` then `audit FILE`, one process each, one model after the other), on
+    the same files; prints the seconds of each and their ratio."""
+    cli = [sys.executable, "-m", "lagrange_xval.cli"]
+    totals = {"survey": 0.0, "check": 0.0, "audit": 0.0}
+    for name in PACKAGES:
+        folder = package_folder(name)
+        if folder is None:
+            continue
+        with tempfile.TemporaryDirectory() as tmp:
+            survey_s = _timed(
+                [*cli, "survey", str(folder), "--out", f"{tmp}/s", "--states", STATES, "--workers", "2"], folder
+            )
+        files = [path for key, path in models() if key.startswith(f"{name}/")]
+        check_s = sum(
+            _timed([*cli, "check", "--model", str(p), "--states", STATES, "--probes", "0", "--json"], p.parent)
+            for p in files
+        )
+        audit_s = sum(_timed([*cli, "audit", str(p), "--json"], p.parent) for p in files)
+        print(
+            f"{name}: {len(files)} models; survey {survey_s:.1f} s; loop: check {check_s:.1f} s + audit {audit_s:.1f} s"
+        )
+        totals = {
+            "survey": totals["survey"] + survey_s,
+            "check": totals["check"] + check_s,
+            "audit": totals["audit"] + audit_s,
+        }
+    loop = totals["check"] + totals["audit"]
+    print(
+        f"total: survey {totals['survey']:.1f} s against the loop's {loop:.1f} s (check {totals['check']:.1f} s, "
+        f"audit {totals['audit']:.1f} s): survey / sum of single checks = {totals['survey'] / totals['check']:.2f}, "
+        f"survey / loop = {totals['survey'] / loop:.2f} ({os.cpu_count()} cores)"
+    )
+    return 0
+
+
 def main(argv: list[str]) -> int:
-    """Prints a row per model and the figures; `--jsonl FILE` also writes each row as a JSON line."""
+    """Prints a row per model and the figures; `--jsonl FILE` also writes each row as a JSON line;
+    `--timing` times the survey command against the shell loop instead (`timing`)."""
+    if "--timing" in argv:
+        return timing()
     lines = open(argv[argv.index("--jsonl") + 1], "w") if "--jsonl" in argv else None  # noqa: SIM115
     rows = []
     for key, outcome, shown in survey():

@@ -565,8 +565,15 @@ def _survey_arguments(survey: argparse.ArgumentParser) -> None:
         help="files of one robot to compare with the two-file audit, besides those that give the robot the same name",
     )
     survey.add_argument("--json", action="store_true", help="print the survey as JSON lines (a line per model)")
-    survey.add_argument("--one", type=path_arg, help=argparse.SUPPRESS)  # a model's own process (studies/survey.py)
-    survey.add_argument("--reproduce", type=path_arg, help=argparse.SUPPRESS)
+    survey.add_argument(
+        "--one",
+        type=path_arg,
+        metavar="FILE",
+        help="judge one model file and print its row as JSON (what each model's own process runs)",
+    )
+    survey.add_argument(
+        "--reproduce", type=path_arg, metavar="DIR", help="with --one: where that model's reproducers are written"
+    )
 
 
 COMMANDS: tuple[tuple[str, str, Callable[[argparse.ArgumentParser], None]], ...] = (  # in the order --help lists

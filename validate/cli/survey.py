@@ -17,7 +17,7 @@ import json
 import os
 import sys
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -81,8 +81,29 @@ def one(path: Path, reproduce: Path, states: int, *, check: Command, audit: Comm
     return {"outcome": outcome, "why": why, "reproducers": reproducers, "audit": said, "findings": findings}
 
 
-def _progress(row: SurveyRow, done: int, total: int) -> None:
-    print(console([f"[{done}/{total}] {row['outcome']:7} {row['seconds']:6.1f} s  {row['model']}"]), file=sys.stderr)
+def _line(row: SurveyRow, done: int, total: int) -> str:
+    return console([f"[{done}/{total}] {row['outcome']:7} {row['seconds']:6.1f} s  {row['model']}"])
+
+
+@contextlib.contextmanager
+def _progress() -> Iterator[Callable[[SurveyRow, int, int], None]]:
+    """A live bar of the models judged so far in a terminal (each finished model's line above it); one
+    line per model elsewhere (CI, a file)."""
+    if not sys.stderr.isatty():
+        yield lambda row, done, total: print(_line(row, done, total), file=sys.stderr, flush=True)
+        return
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    columns = (TextColumn("surveying"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+    with Progress(*columns, console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task("models", total=None)
+
+        def live(row: SurveyRow, done: int, total: int) -> None:
+            bar.update(task, completed=done, total=total)
+            bar.console.print(_line(row, done, total), markup=False, highlight=False, emoji=False)
+
+        yield live
 
 
 def _pairs(args: argparse.Namespace, folder: Path) -> list[tuple[Path, Path, str]]:
@@ -118,6 +139,7 @@ def cmd_survey(args: argparse.Namespace, *, check: Command, audit: Command) -> i
     with (
         tempfile.TemporaryDirectory(prefix="lagrange-xval-survey-") as scratch,
         named_executor(args.executor, workers=workers) as executor,
+        _progress() as progress,
     ):
         try:
             result = surveying.survey(
@@ -128,7 +150,7 @@ def cmd_survey(args: argparse.Namespace, *, check: Command, audit: Command) -> i
                 states=args.states,
                 timeout=args.timeout,
                 pairs=pairs,
-                on_row=_progress,
+                on_row=progress,
             )
         except BaseException:
             surveying.end_all()  # Ctrl-C, SIGTERM: no model's process outlives the command

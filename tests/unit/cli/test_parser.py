@@ -44,7 +44,12 @@ def test_an_option_name_means_one_thing_on_every_command():
                 kinds.setdefault(option, {})[name] = kind
     mixed = {option: by for option, by in kinds.items() if len(set(by.values())) > 1}
     assert not mixed, f"one option, several meanings: {mixed}"
-    assert kinds["--states"] == {"run": "state_count", "check": "state_count", "watch": "state_count"}
+    assert kinds["--states"] == {
+        "run": "state_count",
+        "check": "state_count",
+        "watch": "state_count",
+        "survey": "state_count",
+    }
 
 
 def test_check_states_is_a_count_and_the_file_is_states_file(tmp_path, capsys):
