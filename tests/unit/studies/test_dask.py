@@ -58,14 +58,8 @@ def test_a_stress_run_on_a_local_dask_cluster_equals_the_in_process_run(cluster_
     )
     here = stress.run_stress(["simple_pendulum"], settings=tiny)
     there = stress.run_stress(["simple_pendulum"], settings=tiny, executor=cluster_executor)
-    measured = ("step_cost_s",)  # a stability search's measured cost of a step: wall time, not a result
-    for key in ("drift", "stability", "skipped", "systems"):
-        strip = (
-            (lambda rows: [{k: v for k, v in r.items() if k not in measured} for r in rows])
-            if key == "stability"
-            else None
-        )
-        assert (strip(there[key]) if strip else there[key]) == (strip(here[key]) if strip else here[key]), key
+    for key in ("drift", "stability", "skipped", "systems"):  # a search's range is no wall time: equal under load
+        assert there[key] == here[key], key
     assert here["drift"] and here["stability"]
     assert set(there["timing"]) == set(here["timing"])
 

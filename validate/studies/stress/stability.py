@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Callable, Mapping
 
 import numpy as np
 
 from ...core.errors import HarnessError
 from ...dynamics.integrate import Trajectory, energy_missing, initial_state, scipy_trajectory, time_grid
-from ...dynamics.mirror import eulerdamp_active
+from ...dynamics.mirror import compiled_steps, eulerdamp_active
 from ...model.start import Scheme, Start
 from ...results.schema import Found, Search, StabilityRow, StiffBase, StiffOutcome, StiffRow, StiffRun, Trial
 from ...sources import make_sources
@@ -155,17 +154,26 @@ def search_range(engine: str, settings: Settings, step_cost: float = 0.0) -> tup
 MIRROR_BLOCK = 10  # a mirror run's steps per sample are a multiple of this: one compiled RK4 per system
 
 
-def mirror_step_cost(
-    system: System, sources: Mapping[str, Source], integrator: str, v0: np.ndarray, steps: int = 10
-) -> float:
-    """Seconds one mirror step of `integrator` takes on the person's equations (from q0 at v0): what
-    bounds how far down its search goes (`search_range`). The compiled RK4 is built first."""
-    q0, _ = initial_state(system)
-    start, stepping = Start.at_rest(q0, v0), Scheme(integrator, 1e-3)
-    simulate(system, sources, "mirror", start, stepping, t_end=steps * 1e-3, sample_steps=steps)
-    began = time.perf_counter()
-    simulate(system, sources, "mirror", start, stepping, t_end=steps * 1e-3, sample_steps=steps)
-    return (time.perf_counter() - began) / steps
+# Seconds a mirror step is taken to cost, by how it steps: what bounds its search (`search_range`) and the
+# stiff runs left out. Nominal, not measured: a wall time made the rows depend on the machine's load (a
+# stress run on a busy dask cluster searched other ranges than the same run in process).
+NOMINAL_STEP_S = {"compiled": 2e-6, "python": 50e-6, "worker": 500e-6}
+
+
+def mirror_step_kind(sources: Mapping[str, Source], integrator: str) -> str:
+    """How the person's equations step in a mirror: "compiled" (MuJoCo's RK4 compiled by heyoka),
+    "worker" (a person's module in its worker process: a round trip a step) or "python"."""
+    hand = sources["hand"]
+    if compiled_steps(hand, integrator, MIRROR_BLOCK) is not None:
+        return "compiled"
+    functions = getattr(hand, "eq", None)
+    return "worker" if getattr(getattr(functions, "mass_matrix", None), "in_worker", None) is not None else "python"
+
+
+def mirror_step_cost(sources: Mapping[str, Source], integrator: str) -> float:
+    """Seconds one mirror step of `integrator` on the person's equations is taken to cost
+    (NOMINAL_STEP_S of its kind): what bounds how far down its search goes (`search_range`)."""
+    return NOMINAL_STEP_S[mirror_step_kind(sources, integrator)]
 
 
 def stability_rows(
@@ -224,7 +232,7 @@ def searches(
             )
         return made[dt]
 
-    cost = mirror_step_cost(system, sources, integrator, v0) if engine == "mirror" else 0.0
+    cost = mirror_step_cost(sources, integrator) if engine == "mirror" else 0.0
     out: list[Found] = []
     for growth in growths:
 
@@ -257,7 +265,7 @@ def stiff_rows(system: System, settings: Settings, V_min: float | None = None) -
         runs = [("mujoco", i, True) for i in MUJOCO_INTEGRATORS] + [("mirror", "Euler", True)]
         if eulerdamp_active(damped):
             runs.append(("mujoco", NO_EULERDAMP, False))
-        cost = mirror_step_cost(damped, sources, "Euler", v0)
+        cost = mirror_step_cost(sources, "Euler")
         base: StiffBase = {
             "system": system.name,
             "damping_factor": float(factor),
