@@ -98,8 +98,15 @@ def _die_with_parent(parent: int, main_thread: bool) -> None:
         except (OSError, AttributeError):
             pass
 
+    namespaced = os.getppid() == 1 and parent != 1  # in a PID namespace of its own, under its shell
+
+    def alive() -> bool:
+        # In the worker's PID namespace the harness is no parent (the namespace's shell is): it is looked
+        # for in /proc, which is still the harness's namespace's (unshare mounts no other).
+        return os.path.exists(f"/proc/{parent}") if namespaced else os.getppid() == parent
+
     def watch() -> None:
-        while os.getppid() == parent:
+        while alive():
             time.sleep(1.0)
         _REAL_EXIT(0)
 

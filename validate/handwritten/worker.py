@@ -377,6 +377,43 @@ main(int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3]), sys.argv[4] == "1", i
 """
 _LIVE: weakref.WeakSet[ModuleWorker] = weakref.WeakSet()
 
+# The worker in PID and network namespaces of its own (util-linux's unshare): a process the module starts,
+# in any session, a daemon after a double fork included, is in the worker's PID namespace, and the kernel
+# ends every process of a namespace when its first one (the worker) ends; the module has no network.
+# `--kill-child`: the worker is killed when `unshare` is (the harness kills unshare's process group).
+# The namespace's first process is a shell that waits for the worker: the first process of a namespace
+# takes no signal it has no handler for from inside it, so a module's os.kill(os.getpid(), SIGKILL) would
+# not end a worker that were it; the worker ends as any process does, and the namespace with the shell.
+INIT = ("/bin/sh", "-c", '"$@" & wait $!', "sh")
+NAMESPACES = ("unshare", "--pid", "--fork", "--kill-child", "--net", "--", *INIT)
+USER_NAMESPACES = ("unshare", "--user", "--map-root-user", "--pid", "--fork", "--kill-child", "--net", "--", *INIT)
+
+
+@functools.cache
+def sandbox() -> tuple[str, ...]:
+    """The command prefix that starts a worker in namespaces of its own (NAMESPACES, or through a user
+    namespace where the harness is not privileged); () where this machine allows neither, said once."""
+    for prefix in (NAMESPACES, USER_NAMESPACES):
+        try:
+            done = subprocess.run([*prefix, sys.executable, "-c", "pass"], capture_output=True, timeout=10)
+        except (OSError, subprocess.TimeoutExpired):
+            continue
+        if done.returncode == 0:
+            return prefix
+    print(
+        "lagrange-xval: note: this machine allows no PID namespace (unshare --pid failed): a process a "
+        "person's module starts in a session of its own can outlive the command",
+        file=sys.stderr,
+    )
+    return ()
+
+
+def _dies_with_caller() -> None:  # pragma: no cover - runs in the child between fork and exec
+    """PR_SET_PDEATHSIG for the process about to exec (unshare): it dies with the thread that starts it."""
+    import ctypes
+
+    ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))
+
 
 class ModuleWorker:
     """A person's equations module imported in a process of its own; `call` runs one of its functions.
@@ -414,8 +451,10 @@ class ModuleWorker:
         self._receive, from_child = os.pipe()
         self._owner = os.getpid()
         main = threading.current_thread() is threading.main_thread()
+        prefix = sandbox()
         self._proc = subprocess.Popen(
             [
+                *prefix,
                 sys.executable,
                 *(["-B"] if sys.dont_write_bytecode else []),  # the parent's -B: nothing written beside the module
                 "-c",
@@ -431,7 +470,9 @@ class ModuleWorker:
             stdin=subprocess.DEVNULL,
             stdout=sys.stderr.fileno() if _has_fileno(sys.stderr) else subprocess.DEVNULL,
             start_new_session=True,  # its own process group: killed whole; the terminal's Ctrl-C is not its
+            preexec_fn=_dies_with_caller if prefix and main else None,  # noqa: PLW1509 - one prctl call
         )
+        self._namespaced = bool(prefix)
         os.close(to_child)
         os.close(from_child)
         _LIVE.add(self)
@@ -505,9 +546,23 @@ class ModuleWorker:
             self.left -= max(0.0, time.monotonic() - start - LATENCY - (self._queued() - queued))
         return self._answer(name, header, got, unpack_hook, batch=message.get("op") == "batch")
 
+    @functools.cached_property
+    def _worker_pid(self) -> int:
+        """The worker's process id (this namespace's): unshare's grandchild where it runs in namespaces."""
+        pid = self._proc.pid
+        for _ in ("the shell", "the worker") if self._namespaced else ():
+            try:
+                children = Path(f"/proc/{pid}/task/{pid}/children").read_text().split()
+            except OSError:
+                return self._proc.pid
+            if not children:
+                return self._proc.pid
+            pid = int(children[0])
+        return pid
+
     def _queued(self) -> float:
         """Seconds the worker and this thread have stood waiting for a CPU, summed (0 where unknown)."""
-        return waited(f"/proc/{self._proc.pid}/schedstat") + waited(
+        return waited(f"/proc/{self._worker_pid}/schedstat") + waited(
             f"/proc/self/task/{threading.get_native_id()}/schedstat"
         )
 
@@ -550,6 +605,8 @@ class ModuleWorker:
 
     def _ended(self, name: str) -> str:
         status = self._proc.wait(timeout=5) if self._proc.poll() is None else self._proc.returncode
+        if self._namespaced and status > 128:  # the shell in the namespace reports a signal as 128 + its number
+            status = 128 - status
         try:
             cause = f"killed by {signal.Signals(-status).name}" if status < 0 else f"exit status {status}"
         except ValueError:

@@ -21,7 +21,7 @@ import lagrange_xval as lx
 import numpy as np
 import pytest
 from lagrange_xval.core.guard import Stopped
-from lagrange_xval.handwritten.worker import ModuleWorker, escape
+from lagrange_xval.handwritten.worker import ModuleWorker, escape, sandbox
 
 from tests.unit.core.test_guard import CLI, LIMIT, TIMEOUT, _check, _error_line, _system
 
@@ -58,7 +58,23 @@ def _timed_check(model: Path, equations: Path, *extra: str) -> tuple[subprocess.
     return proc, time.monotonic() - start
 
 
-RECORD = "open({pids!r}, 'a').write(f'{{os.getpid()}} ')"
+# The process's id as this machine's /proc names it: the worker runs in a PID namespace of its own, where
+# os.getpid() is another number (/proc/self is resolved in the namespace of the /proc mount: the host's).
+RECORD = "open({pids!r}, 'a').write(os.readlink('/proc/self') + ' ')"
+ESCAPES = (
+    "import subprocess, sys\n"
+    'subprocess.Popen([sys.executable, "-c", "import os, time; {record}; time.sleep(1000)"], start_new_session=True)'
+)
+DAEMON = (
+    "import signal\n"
+    "if os.fork() == 0:\n"
+    "    os.setsid()\n"
+    "    if os.fork() == 0:\n"
+    "        {record}\n"
+    "        time.sleep(1000)\n"
+    "    os.kill(os.getpid(), signal.SIGKILL)\n"
+    "time.sleep(0.5)"
+)
 
 
 @pytest.mark.parametrize(
@@ -91,12 +107,16 @@ def test_a_module_that_cannot_be_interrupted_is_stopped_at_the_limit(tmp_path: P
         ("", "if os.fork() == 0:\n        {record}\n        time.sleep(1000)"),
         ("import threading\nthreading.Thread(target=time.sleep, args=(1000,)).start()\n{record}", "pass"),
         ("import atexit\natexit.register(time.sleep, 1000)\n{record}", "pass"),
+        (ESCAPES, "pass"),
+        (DAEMON, "pass"),
     ],
-    ids=["fork", "non_daemon_thread", "atexit"],
+    ids=["fork", "non_daemon_thread", "atexit", "new_session", "double_fork_daemon"],
 )
 def test_nothing_a_module_leaves_outlives_the_verdict(tmp_path: Path, at_import: str, body: str) -> None:
-    """A child forked in mass_matrix, a non-daemon thread or an atexit handler that sleeps 1000 s: the
-    verdict is printed (pass: the dynamics are right), the command ends at once, no process is left."""
+    """A child forked in mass_matrix, a non-daemon thread or an atexit handler that sleeps 1000 s, a process
+    started in a session of its own or a daemon after a double fork: the verdict is printed (pass: the
+    dynamics are right), the command ends at once, no process is left (the worker's PID namespace); where
+    the machine allows no namespace, the command says so."""
     pids = tmp_path / "pids"
     record = RECORD.format(pids=str(pids))
     model, equations = _system(tmp_path, "leaves", body.format(record=record), at_import.format(record=record))
@@ -104,7 +124,15 @@ def test_nothing_a_module_leaves_outlives_the_verdict(tmp_path: Path, at_import:
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip().splitlines()[-1].startswith("verdict: leaves: pass"), proc.stdout
     assert took < ENDS_WITHIN
+    if not sandbox() and _escapes(at_import):
+        assert "allows no PID namespace" in proc.stderr, proc.stderr
+        return
     _none_left(_pids(pids))
+
+
+def _escapes(at_import: str) -> bool:
+    """Whether the case leaves the worker's process group (what only a namespace ends)."""
+    return "start_new_session" in at_import or "setsid" in at_import
 
 
 def test_a_daemon_thread_that_ends_the_process_is_an_error_not_a_silent_success(tmp_path: Path) -> None:
