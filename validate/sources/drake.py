@@ -36,7 +36,7 @@ from ..core.errors import HarnessError
 from ..model.modelview import names
 from ..systems import System
 from .base import Kinematics
-from .drakeparse import abort_line
+from .drakeparse import abort_line, likely_cause
 
 INSTALL = "pip install 'lagrange-xval[drake]' (requirements.lock pins drake)"
 RTOL = 1e-12  # a value Drake read equals the model's when within this fraction of its size
@@ -76,7 +76,7 @@ def parse(system: System) -> tuple[Any, list[str]]:
     text = named[0] if named else text
     text, dropped = _unconstrained(text, system.reads_urdf)
     if died := abort_line(text, kind):  # Drake's parser would end the process (sources/drakeparse.py)
-        raise HarnessError(f"{system.mjcf.name}: Drake cannot read it: {died}; likely an <inertial> with zero mass")
+        raise HarnessError(f"{system.mjcf.name}: Drake cannot read it: {died}; {likely_cause(died)}")
     log, handler = logging.getLogger("drake"), _Collect()
     log.addHandler(handler)
     propagate, log.propagate = log.propagate, False

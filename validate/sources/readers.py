@@ -31,7 +31,7 @@ from ..core.arrays import Vector
 from ..core.errors import HarnessError
 from ..model.meaning import Inertial, JointRead, Reading, composite
 from ..model.urdf import without_geometry
-from .drakeparse import abort_line
+from .drakeparse import abort_line, likely_cause
 
 if TYPE_CHECKING:  # each library is imported when its reader runs
     import mujoco
@@ -492,7 +492,7 @@ def drake_plant(path: Path, text: str, fmt: str) -> tuple[Any, list[str]]:
     propagate, log.propagate = log.propagate, False
     try:
         if died := abort_line(_model_text(text, fmt), "urdf" if fmt == "urdf" else "xml"):
-            raise HarnessError(f"{path.name}: Drake cannot read it: {died}; likely an <inertial> with zero mass")
+            raise HarnessError(f"{path.name}: Drake cannot read it: {died}; {likely_cause(died)}")
         if fmt == "urdf":
             Parser(plant).AddModelsFromString(_model_text(text, fmt), "urdf")
         else:

@@ -64,3 +64,27 @@ def test_the_audit_leaves_drake_out_of_a_zero_mass_body(tmp_path: Path, capsys: 
     main(["audit", str(path)])
     out = capsys.readouterr().out
     assert "Drake cannot read it: its parser ends the process" in out, out[-800:]
+
+
+REVERSED = """<robot name="slider">
+  <link name="base"/>
+  <link name="cart"><inertial><mass value="1"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/>
+  </inertial></link>
+  <joint name="x" type="prismatic"><parent link="base"/><child link="cart"/><axis xyz="1 0 0"/>
+    <limit lower="{lower}" upper="-1" effort="1" velocity="1"/></joint>
+</robot>"""
+
+
+@needs_drake
+def test_a_reversed_urdf_limit_leaves_drake_out_naming_the_limit(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """pybullet's "no limit" (lower 1, upper -1) aborts Drake's URDF parser: one reader left out, the
+    cause named as the limit, the others judge; an ordered limit is parsed in process."""
+    assert may_abort(REVERSED.format(lower="1"), "urdf") and not may_abort(REVERSED.format(lower="-2"), "urdf")
+    path = tmp_path / "slider.urdf"
+    path.write_text(REVERSED.format(lower="1"))
+    assert main(["check", "--model", str(path), "--states", "5", "--probes", "0"]) == 0
+    out = capsys.readouterr().out
+    assert "Drake cannot read it: its parser ends the process" in out, out[-800:]
+    assert "a joint <limit> whose lower bound is above its upper one" in out, out[-800:]
