@@ -276,7 +276,8 @@ def match(ra: Reading, rb: Reading, given: dict[str, str] | None = None) -> Join
     if len(a.names) != len(b.names):  # a partial match is not padded with guesses
         how = {x: h for x, h in how.items() if h != "tree"}
     if not fixed:  # a --map is the person's word that the two are one robot
-        _refuse_a_different_robot(a, b, how)
+        axes = sum(1 for x in how if same[a.names.index(x), m[a.names.index(x)]])
+        _refuse_a_different_robot(a, b, how, axes)
     pairs = {x: b.names[m[a.names.index(x)]] for x in how}
     flipped = tuple(x for x, y in pairs.items() if float((at.R @ ra.joints[x].axis) @ rb.joints[y].axis) < 0.0)
     yaw = 0.0 if abs(at.yaw) <= 1e-9 else at.yaw
@@ -284,15 +285,26 @@ def match(ra: Reading, rb: Reading, given: dict[str, str] | None = None) -> Join
     return JointMap(pairs, how, Placement(yaw, offset), flipped)
 
 
-def _refuse_a_different_robot(a: _Side, b: _Side, how: dict[str, str]) -> None:
-    """Two files whose joint counts differ and whose joints mostly do not line up are two robots."""
+def _refuse_a_different_robot(a: _Side, b: _Side, how: dict[str, str], axes: int) -> None:
+    """Two files most of whose matched joints do not turn about the same axis (`axes`: the pairs that do,
+    name pairs included: a name is a hint, not a proof), or whose joint counts differ and whose joints
+    mostly do not line up, are two robots. A pair whose anchor is elsewhere but whose axis agrees counts:
+    a link of another length is a difference to report, not another robot."""
     if not a.names or not b.names:
         raise HarnessError(
             f"no joint to compare: A has {len(a.names)} moving joints, B {len(b.names)}; a two-file audit compares "
             "the joints both files move."
         )
     lined = sum(1 for h in how.values() if h in ("name", "anchor, axis, tree"))
-    if how and (len(a.names) == len(b.names) or 2 * lined >= min(len(a.names), len(b.names))):
+    smaller = min(len(a.names), len(b.names))
+    if how and 2 * axes < smaller:
+        raise HarnessError(
+            f"no structural match: A has {len(a.names)} joints, B {len(b.names)}, and only {axes} of the {len(how)} "
+            "joints paired (by name or place in the tree) turn about the same axis after the best base placement: "
+            f"they look like two different robots; give --map A=B,... (e.g. --map {a.names[0]}={b.names[0]}) to "
+            "compare them anyway."
+        )
+    if how and (len(a.names) == len(b.names) or 2 * lined >= smaller):
         return
     raise HarnessError(
         f"no structural match: A has {len(a.names)} joints, B {len(b.names)}, and {lined} of A's line up with B's "

@@ -34,28 +34,22 @@ from typing import NotRequired, TypedDict
 
 import numpy as np
 
-from ..core.errors import HarnessError
-from ..core.inputs import regular_file
 from ..model.meaning import FieldValue, Inertial, Reading, composite, urdf_meaning
+from ..model.modelfile import model_file
 from ..sources.readers import read
 from .chain import Chain, chain, dynamics, kinematics
 from .matching import JointMap, Placement, match
 
 N_STATES = 1000  # seeded configurations
 RTOL = 1e-5  # of each quantity's scale: mj_saveLastXML writes 6 significant digits
-MAX_BYTES = 16 * 2**20
 SLIDE_SPAN = 0.5  # m: a slide joint without limits is sampled in +-SLIDE_SPAN
 
 
 def load(path: Path) -> tuple[Reading, str, str]:
-    """(the format's meaning of the file, its format, its text)."""
-    try:
-        text = regular_file(path, "model file", max_bytes=MAX_BYTES).decode()
-        root = ET.fromstring(text).tag
-    except (ET.ParseError, UnicodeDecodeError) as exc:
-        raise HarnessError(f"{path.name}: not well-formed XML ({exc}).") from None
-    if root not in ("robot", "mujoco"):
-        raise HarnessError(f"{path.name}: root element <{root}>; expected <robot> (URDF) or <mujoco> (MJCF).")
+    """(the format's meaning of the file, its format, its text), the file read through the door every
+    command uses (model/modelfile.py `model_file`: whitespace before the declaration, an undeclared
+    prefix, the sizes and an MJCF's includes as the one-file commands read them)."""
+    root, text = model_file(path)
     fmt = "urdf" if root == "robot" else "mjcf"
     reading = urdf_meaning(text, path.name) if fmt == "urdf" else read("mujoco", path, text, fmt)
     return reading, fmt, text

@@ -23,11 +23,9 @@ from typing import Any
 
 from ..core.errors import HarnessError, console
 from ..core.parallel import named_executor
-from ..report.survey import render_survey, table_lines
 from ..results.schema import SurveyResults, SurveyRow
 from ..studies import survey as surveying
 from ..verdict.reproduce import FOLDER as REPRODUCERS
-from .outputs import SURVEY_FILES, replace_set
 
 Command = Callable[[argparse.Namespace], int]  # a command of this command line (cli/commands.py COMMANDS)
 
@@ -115,6 +113,8 @@ def _pairs(args: argparse.Namespace, folder: Path) -> list[tuple[Path, Path, str
 
 def _files(result: SurveyResults, scratch: Path) -> dict[str, bytes]:
     """Every file of the set: the pages, a JSON line per model, the reproducers the models wrote."""
+    from ..report.survey import render_survey  # jinja2 and the report: loaded by the survey, not by every command
+
     lines = "".join(json.dumps(row, sort_keys=True) + "\n" for row in result["rows"])
     whole = json.dumps(result, indent=1, sort_keys=True) + "\n"
     files = {"survey.json": whole.encode(), "survey.jsonl": lines.encode(), **render_survey(result)}
@@ -127,6 +127,8 @@ def _files(result: SurveyResults, scratch: Path) -> dict[str, bytes]:
 def cmd_survey(args: argparse.Namespace, *, check: Command, audit: Command) -> int:
     """Judges every model under DIR with `check` and `audit` (cli/commands.py's); status 1 when one FAILs
     or crashes (a refusal is said, not a failure)."""
+    from .outputs import SURVEY_FILES, replace_set  # the report's renderers: loaded by the survey alone
+
     if args.one is not None:
         reproduce = args.reproduce or Path(tempfile.mkdtemp())
         print(json.dumps(one(args.one, reproduce, args.states, check=check, audit=audit)))
@@ -157,6 +159,8 @@ def cmd_survey(args: argparse.Namespace, *, check: Command, audit: Command) -> i
             raise
         result["executor"] = f"{args.executor or 'local'} ({workers} workers)"
         replace_set(args.out, _files(result, Path(scratch)), replaces=lambda name: name in (*SURVEY_FILES, REPRODUCERS))
+    from ..report.survey import table_lines
+
     if args.json:
         print("\n".join(json.dumps(row, sort_keys=True) for row in result["rows"]))
     else:

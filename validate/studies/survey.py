@@ -79,12 +79,27 @@ def model_files(folder: Path) -> list[tuple[Path, str, str]]:
     return sorted(out)
 
 
+_MOVES = {
+    "urdf": re.compile(r"""\btype\s*=\s*["'](revolute|continuous|prismatic)["']"""),
+    "mjcf": re.compile(r"<\s*joint\b"),
+}
+
+
+def _moves(path: Path, fmt: str) -> bool:
+    """Whether the file has a joint that moves (a cheap look: a URDF joint of a moving type, an MJCF
+    <joint>): a two-file audit compares moving joints, so files without are no pair."""
+    try:
+        return bool(_MOVES[fmt].search(path.read_bytes()[:HEAD_BYTES].decode("utf-8", "replace")))
+    except OSError:
+        return False
+
+
 def same_robot(files: Sequence[tuple[Path, str, str]]) -> list[tuple[Path, Path, str]]:
-    """Pairs of files that give the robot the same (non-generic) name, the first file of each name
-    against each of the next MAX_PAIRS_PER_ROBOT."""
+    """Pairs of files that give the robot the same (non-generic) name and both move a joint, the first
+    file of each name against each of the next MAX_PAIRS_PER_ROBOT."""
     by_name: dict[str, list[Path]] = {}
-    for path, _, name in files:
-        if name.lower() not in GENERIC_NAMES:
+    for path, fmt, name in files:
+        if name.lower() not in GENERIC_NAMES and _moves(path, fmt):
             by_name.setdefault(name.lower(), []).append(path)
     return [
         (paths[0], other, name)

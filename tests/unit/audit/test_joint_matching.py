@@ -129,6 +129,24 @@ def test_two_different_robots_are_refused_not_matched_by_force(tmp_path, capsys)
     assert len(err.splitlines()) == 1 and "two different robots" in err and "--map" in err, err
 
 
+def test_joints_of_one_name_that_turn_about_other_axes_are_two_robots(tmp_path, capsys):
+    """A name is a hint: two files whose joints share names (joint1 ... joint6 of two arms, pybullet's xArm6
+    against example-robot-data's xArm7) but mostly turn about other axes are refused, as are files of as many
+    joints paired by their place in the tree alone (a cart-pole against a gripper, both named "physics")."""
+    a = _file(tmp_path, arm(), "arm.urdf")
+    other = (
+        arm()
+        .replace('<axis xyz="0 1 0"/>', '<axis xyz="0 0 1"/>')
+        .replace('<axis xyz="1 0 0"/>', '<axis xyz="0 0 1"/>')
+    )
+    b = _file(tmp_path, other, "other.urdf")
+    with pytest.raises(HarnessError, match=r"no structural match: A has 6 joints, B 6, and only 1 of the 6 joints"):
+        twofiles.compare(a, b)
+    assert main(["audit", str(a), str(b)]) == 2
+    assert "--map" in capsys.readouterr().err
+    assert twofiles.compare(a, _file(tmp_path, arm(), "same.urdf"))["passed"]  # the same arm still agrees
+
+
 def test_a_map_compares_them_anyway_and_overrides_the_structure(tmp_path, capsys):
     b = _file(tmp_path, arm(), "arm.urdf")
     assert main(["audit", str(SPATIAL), str(b), "--map", "yaw=j1, shoulder=j2,elbow=j3", "--json"]) == 1
