@@ -37,8 +37,10 @@ ARM = """<mujoco model="arm">
 
 @pytest.fixture(scope="module")
 def arm(tmp_path_factory: pytest.TempPathFactory) -> lx.System:
-    """The module `new` writes for ARM (its Params every number of the model, assumptions() stating it),
-    with placeholder dynamics: the probes build models and read them back, they evaluate no dynamics."""
+    """The module `new` writes for ARM (its Params the numbers the dynamics read: of link01, turning about z
+    alone, its Izz and no product; of link02 every entry; assumptions() stating the rest, NaN where the
+    dynamics do not depend on it), with placeholder dynamics: the probes build models and read them back,
+    they evaluate no dynamics."""
     folder = tmp_path_factory.mktemp("arm")
     model = folder / "arm.xml"
     model.write_text(ARM)
@@ -62,7 +64,7 @@ def test_every_probe_of_a_real_arms_links_is_built_and_read_back(arm, seed):
         moments = np.linalg.eigvalsh(inertia)
         assert moments[0] > 0 and moments[0] + moments[1] >= moments[2]
         changed = set(probe.changed)
-        assert {"m_link01", "m_link02", "Ixy_link01", "Ixx_link02", "cx_link02"} <= changed, changed
+        assert {"m_link01", "m_link02", "Izz_link01", "Iyz_link02", "Ixx_link02", "cx_link02"} <= changed, changed
 
 
 def test_the_read_back_is_held_at_the_inertias_scale_not_at_the_entrys_own():
@@ -78,7 +80,8 @@ def test_the_read_back_is_held_at_the_inertias_scale_not_at_the_entrys_own():
 
 def test_field_scales_are_the_inertias_largest_entry_for_a_product_of_inertia(arm):
     scales = probing.readback_scales(arm)
-    assert scales["Ixy_link01"] == pytest.approx(0.00128328, rel=1e-6)
+    assert scales["Izz_link01"] == pytest.approx(0.00128328, rel=1e-6)  # its inertia's largest entry, Ixx
+    assert scales["Iyz_link02"] == pytest.approx(0.02466114, rel=1e-6)
     assert scales["Ixz_link02"] == pytest.approx(0.02466114, rel=1e-6)
     assert scales["m_link02"] == pytest.approx(1.19132258, rel=1e-6)
 
