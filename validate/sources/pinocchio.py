@@ -375,7 +375,6 @@ class PinocchioSource:
                 pe[i, k] = -inertia.mass * self.gravity @ cp[i, k]
         return Kinematics(cp, cv, op, ov, rot, w, ke, pe)
 
-
     def regressor(self, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
         """Pinocchio's joint-torque regressor at N states in the harness's coordinates, (N, n, 10 k) for
         k moving joints: inverse dynamics = Y theta + armature a (`dynamic_parameters`, `armature`;
