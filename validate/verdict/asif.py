@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -29,9 +30,11 @@ from ..handwritten.forms import not_provided_in
 from ..handwritten.reads import Knob, knobs
 from ..results.schema import AsIf, AsIfReading
 from ..sources.base import Source
-from ..sources.pinocchio import PinocchioSource
 from ..systems import System
 from .pointwise import States
+
+if TYPE_CHECKING:  # Pinocchio is imported where its source is made (sources.make_sources), not here
+    from ..sources.pinocchio import PinocchioSource
 
 STATES = 30  # states the fit is made at (3 joints: 90 equations for 30 unknowns)
 FIT_RTOL = 1e-10  # |Y theta* - tau| / |tau| at rounding level: the person's equations are a chain's
@@ -198,12 +201,20 @@ def person_torques(system: System, source: PinocchioSource, states: States, seed
     return Y.reshape(-1, Y.shape[-1]), tau.ravel(), source.dynamic_parameters().ravel()
 
 
+def _pinocchio(system: System, sources: Mapping[str, Source]) -> PinocchioSource | None:
+    """Pinocchio's source, where it is among the sources and the derivation gives M and bias."""
+    source = sources.get("pinocchio")
+    if source is None or not hasattr(source, "regressor"):
+        return None
+    return None if {"mass_matrix", "bias"} & set(not_provided_in(system.equations)) else cast("PinocchioSource", source)
+
+
 def as_if(system: System, states: States, sources: Mapping[str, Source], *, seed: int = 0) -> AsIf | None:
     """The other chain a wrong derivation's M and bias are the equations of, said in physical words;
     None where they are no chain's (the fit does not reproduce them), are the model's own, or the
     derivation gives no M or bias, or Pinocchio is not among the sources."""
-    source = sources.get("pinocchio")
-    if not isinstance(source, PinocchioSource) or {"mass_matrix", "bias"} & set(not_provided_in(system.equations)):
+    source = _pinocchio(system, sources)
+    if source is None:
         return None
     try:
         Y, tau, theta = person_torques(system, source, states, seed)
