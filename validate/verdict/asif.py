@@ -376,13 +376,13 @@ KEYS = {
 def person_symbols(system: System, readings: list[AsIfReading]) -> dict[str, str]:
     """{the person's field: the model number it reads, with its sign and factor} for the numbers the
     readings speak of ("c2": "-body/link2/com[1]"), from what `parameters()` reads."""
+    wanted = [{f"body/{b}/{k}" for b in r["bodies"] for k in KEYS[r["kind"]]} for r in readings]
     try:
-        knob_list = knobs(system.derivation.parameters, system.view)
+        knob_list = knobs(system.derivation.parameters, system.view, only=set().union(*wanted))
     except Exception:  # noqa: BLE001 - no names to give: the statement stands without them
         return {}
     out: dict[str, str] = {}
-    for r in readings:
-        keys = {f"body/{b}/{k}" for b in r["bodies"] for k in KEYS[r["kind"]]}
+    for r, keys in zip(readings, wanted, strict=True):
         for knob in knob_list:
             if knob.key in keys and len(knob.fields) == 1 and _about(knob, r):
                 out.setdefault(knob.fields[0], _read_as(knob))
