@@ -383,7 +383,8 @@ class PinocchioSource:
         qs, vs, acc = self._qs(q), self._vs(v), self._vs(a)
         out = np.empty((len(q), len(self.vidx), 10 * (model.njoints - 1)))
         for i in range(len(q)):
-            out[i] = regress(model, data, qs[:, i], vs[:, i], acc[:, i])[self.vidx]
+            # one joint: Pinocchio returns Y as a vector, its one row
+            out[i] = np.reshape(regress(model, data, qs[:, i], vs[:, i], acc[:, i]), (model.nv, -1))[self.vidx]
         return out
 
     def dynamic_parameters(self) -> np.ndarray:

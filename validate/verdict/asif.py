@@ -59,6 +59,7 @@ KINDS: dict[str, Callable[[float, np.ndarray, np.ndarray], Inertial]] = {
     "mass halved": lambda m, c, i: (m / 2, c, i),
     "centre twice": lambda m, c, i: (m, 2 * c, i),
     "centre halved": lambda m, c, i: (m, c / 2, i),
+    "centre mirrored": lambda m, c, i: (m, -c, i),
     "central inertia twice": lambda m, c, i: (m, c, 2 * i),
     "no central inertia": lambda m, c, i: (m, c, 0 * i),
     "kinetic energy twice": lambda m, c, i: (m, c, 2 * i + _shift(m, c)),
@@ -84,6 +85,11 @@ WORDS = {
     "centre halved": (
         "d",
         "{body}'s centre at {yours:.3g} m instead of {model:.3g} m from its joint (l/2 where l was meant)",
+    ),
+    "centre mirrored": (
+        "d",
+        "{body}'s centre on the other side of its joint ({yours:.3g} m from it, its first moment m c of the other "
+        "sign: a sign of its gravity terms)",
     ),
     "central inertia twice": (
         "I",
@@ -365,6 +371,7 @@ KEYS = {
     "mass halved": ("mass",),
     "centre twice": ("com",),
     "centre halved": ("com",),
+    "centre mirrored": ("com",),
     "central inertia twice": ("inertia",),
     "no central inertia": ("inertia",),
     "kinetic energy twice": ("inertia", "mass", "com"),

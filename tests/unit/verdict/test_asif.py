@@ -15,11 +15,13 @@ import lagrange_xval as lx
 import numpy as np
 import pytest
 from lagrange_xval.cli import main
-from lagrange_xval.results.schema import AsIf
+from lagrange_xval.results.schema import AsIf, AsIfReading
 from lagrange_xval.sources.pinocchio import PinocchioSource
 from lagrange_xval.systems import System
 from lagrange_xval.verdict import asif
 from lagrange_xval.verdict.pointwise import random_states
+
+from ...mutations import MUTATIONS, load_mutated
 
 ROOT = Path(__file__).resolve().parents[3]
 DYNAMICS = "def mass_matrix("  # the bars' dynamics start here: parameters() and assumptions() stay right
@@ -70,6 +72,14 @@ def test_an_inertia_about_the_joint_is_named_with_the_body_and_both_values(folde
     assert (reading["bodies"], reading["kind"]) == (["link2"], "about its joint")
     assert reading["yours"] == pytest.approx(1 / 12 + 0.25) and reading["model"] == pytest.approx(1 / 12)
     assert said["names"]["I2"] == "body/link2/inertia[2][2]" and said["residual"] < asif.FIT_RTOL
+
+
+def test_the_record_follows_its_schema(folder):
+    said = found(bars(folder / "joint", "about the joint"))
+    assert said is not None
+    assert set(said) <= AsIf.__required_keys__ | AsIf.__optional_keys__ and "statement" in said
+    for reading in said["readings"]:
+        assert set(reading) == AsIfReading.__required_keys__, reading
 
 
 def test_a_mass_counted_twice_is_named(folder):
@@ -123,6 +133,15 @@ def test_a_coriolis_sign_is_no_body_and_gets_no_as_if(folder):
     source = PinocchioSource(system)
     Y, tau, theta = asif.person_torques(system, source, random_states(system, n=64, seed=0), 0)
     assert asif.fit(Y, tau, theta).residual > 1e3 * asif.FIT_RTOL  # None because no chain fits it
+
+
+def test_one_joint_a_gravity_sign_is_the_centre_on_the_other_side():
+    """A one-joint chain (Pinocchio's regressor is then a vector: read as its one row)."""
+    m = next(m for m in MUTATIONS if m.system == "simple_pendulum" and "gravity sign" in m.kinds)
+    said = found(lx.systems.load(m.system).derive(equations=load_mutated(m)))
+    assert said is not None
+    assert "link's centre on the other side of its joint (1 m from it" in said["statement"], said["statement"]
+    assert said["names"] == {"l": "-body/link/com[1]"}
 
 
 def arm(folder: Path, plant: Callable[[str], str]) -> System:
