@@ -9,7 +9,7 @@ import numpy as np
 
 from ..core.arrays import JsonObject
 from ..results import to_jsonable
-from ..results.schema import ComparisonRow, Mismatch
+from ..results.schema import AsIf, ComparisonRow, Mismatch
 from ..systems import System
 from ..verdict.decide import Decision
 from ..verdict.pointwise import States
@@ -52,6 +52,7 @@ class VerdictData(TypedDict):
     probes: dict[str, int]  # asked for, built
     not_looked_for: str  # "" unless probes asked for were not built (or none was asked for): what that leaves out
     terms: list[TermLine]
+    as_if: AsIf | None  # the other chain a wrong derivation is the right derivation of (verdict/asif.py)
 
 
 def verdict_data(decision: Decision) -> VerdictData:
@@ -81,6 +82,7 @@ def verdict_data(decision: Decision) -> VerdictData:
             }
             for t in d.get("summary", [])
         ],
+        "as_if": d.get("as_if"),
     }
 
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Collection, Iterator, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, TypeAlias
 
@@ -167,12 +167,17 @@ def _read_keys(
     return recorder.read, base
 
 
-def knobs(parameters: Callable[[Mapping[str, ModelValue]], object], view: Mapping[str, ModelValue]) -> list[Knob]:
-    """Every non-zero movable number that `parameters()` reads and that some numeric field follows."""
+def knobs(
+    parameters: Callable[[Mapping[str, ModelValue]], object],
+    view: Mapping[str, ModelValue],
+    only: Collection[str] | None = None,
+) -> list[Knob]:
+    """Every non-zero movable number that `parameters()` reads and that some numeric field follows (of
+    the keys in `only`, where given: each number costs a call of `parameters()`)."""
     keys, base = _read_keys(parameters, view)
     out = []
     for key in keys:
-        if not movable(key) or isinstance(view[key], str):
+        if not movable(key) or isinstance(view[key], str) or (only is not None and key not in only):
             continue
         arr = np.asarray(view[key], dtype=float)
         for index in _indices(key, arr):

@@ -142,6 +142,32 @@ class Explanation(TypedDict, total=False):
     symbols: dict[str, str]  # each parameter named in the statement: its model key and unit
 
 
+class AsIfReading(TypedDict):
+    """One physical reading of a wrong derivation (verdict/asif.py): the body and the parameter its
+    equations have instead of the model's, with both values."""
+
+    bodies: list[str]  # the bodies the joint carries (one, or those welded to it)
+    kind: str  # "about its joint", "mass twice", "centre twice", ... (verdict/asif.KINDS)
+    quantity: str  # "moment of inertia about z", "mass", "distance of the centre from the joint"
+    model: float  # the model's value
+    yours: float  # the value the derivation behaves as
+    unit: str
+    statement: str  # "link2's moment of inertia about its joint (0.333 kg m^2) instead of ..."
+
+
+class AsIf(TypedDict, total=False):
+    """The chain a wrong derivation's M and bias are the equations of: the person's tau fitted to the
+    chain's inertial parameters (Pinocchio's regressor), on the identifiable combinations only."""
+
+    statement: str  # "your equations are those of this chain with ... [your names: ...]"
+    residual: float  # |Y theta* - tau| / |tau| of the fit
+    states: int  # the states the fit was made at
+    base_parameters: int  # the identifiable combinations of the chain's parameters
+    differing: list[str]  # the combinations that differ: "link2's m c_y: -1 instead of -0.5"
+    readings: list[AsIfReading]  # the physical readings that reproduce the person's equations
+    names: dict[str, str]  # the person's symbols the statement uses: {"c2": "-body/link2/com[1]"}
+
+
 class TermSummary(TypedDict):
     """One term of a derivation over every engine and probe (verdict/verdict.summarise)."""
 
@@ -226,6 +252,7 @@ class Derivation(TypedDict, total=False):
     reason: str  # why not applicable
     not_checked: list[str]  # terms whose functions the derivation does not provide
     explanations: list[Explanation]  # each disagreeing entry as a symbolic difference (verdict/explain.py)
+    as_if: AsIf  # the other chain a wrong derivation is the right derivation of (verdict/asif.py)
     # a printed form of the notes (verdict/judge.py)
     notes_equations: list[str]  # the notes' equation numbers it transcribes
     note: str  # what the transcription says of it

@@ -375,6 +375,43 @@ class PinocchioSource:
                 pe[i, k] = -inertia.mass * self.gravity @ cp[i, k]
         return Kinematics(cp, cv, op, ov, rot, w, ke, pe)
 
+    def regressor(self, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
+        """Pinocchio's joint-torque regressor at N states in the harness's coordinates, (N, n, 10 k) for
+        k moving joints: inverse dynamics = Y theta + armature a (`dynamic_parameters`, `armature`;
+        joint damping and springs are `passive`, outside Y)."""
+        model, data, regress = self.model, self.data, pin.computeJointTorqueRegressor
+        qs, vs, acc = self._qs(q), self._vs(v), self._vs(a)
+        out = np.empty((len(q), len(self.vidx), 10 * (model.njoints - 1)))
+        for i in range(len(q)):
+            # one joint: Pinocchio returns Y as a vector, its one row
+            out[i] = np.reshape(regress(model, data, qs[:, i], vs[:, i], acc[:, i]), (model.nv, -1))[self.vidx]
+        return out
+
+    def dynamic_parameters(self) -> np.ndarray:
+        """Each moving joint's 10 inertial parameters in its frame, (k, 10): m, m c (x, y, z) and the
+        inertia about the joint's origin (xx, xy, yy, xz, yz, zz), Pinocchio's `toDynamicParameters`."""
+        return np.array([self.model.inertias[j].toDynamicParameters() for j in range(1, self.model.njoints)])
+
+    def armature(self) -> np.ndarray:
+        """The joints' armature in the harness's order (in CRBA's M and RNEA, not in the regressor)."""
+        return np.array(self.model.armature[self.vidx], dtype=float)
+
+    def joint_bodies(self) -> list[tuple[str, ...]]:
+        """The bodies (file names) each moving joint carries: its own and those welded to it."""
+        frames = [f for f in self.model.frames if f.type == pin.FrameType.BODY and f.name != WRAPPER]
+        return [tuple(f.name for f in frames if f.parentJoint == j) for j in range(1, self.model.njoints)]
+
+    def joint_axes(self) -> list[np.ndarray | None]:
+        """Each moving joint's rotation axis in its own frame, or None where it is not one hinge."""
+        model, data = self.model, self.data
+        pin.forwardKinematics(model, data, self.q_neutral)
+        out: list[np.ndarray | None] = []
+        for j in range(1, model.njoints):
+            S = np.asarray(data.joints[j].S, dtype=float).reshape(6, -1)
+            hinge = S.shape[1] == 1 and not S[:3].any() and S[3:].any()
+            out.append(S[3:, 0] / np.linalg.norm(S[3:, 0]) if hinge else None)
+        return out
+
 
 def axis_rotation(axis: np.ndarray, angles: np.ndarray) -> np.ndarray:
     """Pinocchio's rotation by each angle about the unit `axis` (exp3), (N, 3, 3)."""

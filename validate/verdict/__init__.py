@@ -7,9 +7,11 @@ terms        what the engines say each term is; probes: the parameter sets each 
 modelsync    do the sources describe the same model (before any dynamics)
 judge        every printed form of the notes, term by term
 explain, explain_inputs, words   what a wrong expression lacks, in the person's words
+asif         the physical parameter a wrong derivation behaves as (another chain's equations)
 """
 
 __all__ = [
+    "asif",
     "decide",
     "explain",
     "explain_inputs",

@@ -38,6 +38,7 @@ from ..sources.base import Source
 from ..systems import System
 from . import probes as probing
 from . import words
+from .asif import as_if
 from .explain import explain, statement_tail
 from .inputs import acceleration_rows, actuation_rows, ignored_torques
 from .modelsync import equations_vs_model
@@ -482,13 +483,16 @@ def _disagreement(
     system: System,
     rows: list[TermRow],
     probe_set: ProbeSet,
+    at: tuple[States, Mapping[str, Source]],
     *,
     seed: int,
     tolerances: Tolerances,
     cache: Cache | None,
 ) -> None:
     """The verdict and statement where a term disagrees: the first such term, where it is worst,
-    the failing entries explained, and whether the model's own values hide the mistake."""
+    the failing entries explained, whether the model's own values hide the mistake, and (wrong at the
+    model's values) the other chain the derivation is the right derivation of: after the named slip,
+    the physical parameter it behaves as (verdict/asif.py). `at`: the model's states and sources."""
     failing = [r for r in rows if not r["passed"]]
     misread = probe_set.misread
     result["verdict"] = "disagrees"
@@ -512,6 +516,10 @@ def _disagreement(
         if "error" in worst:
             result["statement"] += f": {worst['error']}"
     result["statement"] += statement_tail(result.get("explanations", []), at_model=at_model)
+    found = as_if(system, *at, seed=seed) if at_model and misread is None else None
+    if found is not None:
+        result["as_if"] = found
+        result["statement"] += f"; {found['statement']}"
 
 
 def _not_spd_note(result: Derivation, all_notes: dict[int, TermNotes]) -> None:
@@ -557,7 +565,7 @@ def judge_derivation(
     if all(r["passed"] for r in rows):
         _agreement(result, sources, probe_set)
         return result
-    _disagreement(result, system, rows, probe_set, seed=seed, tolerances=tolerances, cache=cache)
+    _disagreement(result, system, rows, probe_set, (states, sources), seed=seed, tolerances=tolerances, cache=cache)
     _not_spd_note(result, all_notes)
     return result
 
