@@ -142,6 +142,22 @@ class Explanation(TypedDict, total=False):
     symbols: dict[str, str]  # each parameter named in the statement: its model key and unit
 
 
+class StructureFinding(TypedDict, total=False):
+    """A property every Lagrangian derivation has that the person's own functions break (verdict/structure.py)."""
+
+    property: str  # "symmetric", "positive definite", "quadratic", "christoffel", "gradient", "potential", "kinetic"
+    terms: list[str]  # the verdict's terms it concerns ("velocity", "mass matrix", ...)
+    entry: str  # the first entry that breaks it: "(C v)[theta]", "M[theta, phi]", "dG[theta]/dphi", "T"
+    entries: list[str]  # every entry that breaks it
+    statement: str  # "your velocity terms are not those of your M: (C v)[theta] differs by ..."
+    difference: str  # the entry's difference in the person's own symbols; "" where the code could not be traced
+    value: float  # the difference at the worst state
+    scaled: float  # the largest |difference| over the states, relative to the quantity's scale
+    tolerance: float  # what it was judged with there, relative to the same scale
+    q: list[float]  # the worst state
+    v: list[float]
+
+
 class TermSummary(TypedDict):
     """One term of a derivation over every engine and probe (verdict/verdict.summarise)."""
 
@@ -226,6 +242,7 @@ class Derivation(TypedDict, total=False):
     reason: str  # why not applicable
     not_checked: list[str]  # terms whose functions the derivation does not provide
     explanations: list[Explanation]  # each disagreeing entry as a symbolic difference (verdict/explain.py)
+    structure: list[StructureFinding]  # the properties of a derivation its own functions break (verdict/structure.py)
     # a printed form of the notes (verdict/judge.py)
     notes_equations: list[str]  # the notes' equation numbers it transcribes
     note: str  # what the transcription says of it

@@ -37,7 +37,7 @@ from ..sources import SYMBOLIC_MAX_DOF, make_sources
 from ..sources.base import Source
 from ..systems import System
 from . import probes as probing
-from . import words
+from . import structure, words
 from .explain import explain, statement_tail
 from .inputs import acceleration_rows, actuation_rows, ignored_torques
 from .modelsync import equations_vs_model
@@ -483,6 +483,7 @@ def _disagreement(
     rows: list[TermRow],
     probe_set: ProbeSet,
     *,
+    states: States,
     seed: int,
     tolerances: Tolerances,
     cache: Cache | None,
@@ -511,7 +512,22 @@ def _disagreement(
         result["statement"] = f"{first} disagrees at the model's parameters"
         if "error" in worst:
             result["statement"] += f": {worst['error']}"
-    result["statement"] += statement_tail(result.get("explanations", []), at_model=at_model)
+    named_slip = statement_tail(result.get("explanations", []), at_model=at_model)
+    _structure(result, system, states, lead=not named_slip and misread is None and "error" not in worst)
+    result["statement"] += named_slip
+
+
+def _structure(result: Derivation, system: System, states: States, *, lead: bool) -> None:
+    """The properties of a Lagrangian derivation the person's own functions break (verdict/structure.py), kept
+    in the result; with `lead` (no named slip explains the difference, no function failed, parameters() read
+    right), the statement leads with the one that concerns the first failing term, before its "disagrees"."""
+    found = structure.findings(system, states)
+    if not found:
+        return
+    result["structure"] = found
+    said = structure.lead(found, result.get("failing_terms", []))
+    if said and lead:
+        result["statement"] = f"{said}; {result['statement']}"
 
 
 def _not_spd_note(result: Derivation, all_notes: dict[int, TermNotes]) -> None:
@@ -519,6 +535,8 @@ def _not_spd_note(result: Derivation, all_notes: dict[int, TermNotes]) -> None:
     spd = next((n["mass_matrix_not_spd"] for n in all_notes.values() if "mass_matrix_not_spd" in n), None)
     if spd:
         result["mass_matrix_not_spd"] = spd
+        if "your M is not" in result["statement"]:  # said already, by the entry (verdict/structure.py)
+            return
         result["statement"] += (
             f"; your M(q) is {spd['what']} at q = {np.round(spd['q'], 4).tolist()} "
             f"(smallest eigenvalue {spd['smallest_eigenvalue']:.3g}, {spd['states']} of {spd['of']} states)"
@@ -557,7 +575,7 @@ def judge_derivation(
     if all(r["passed"] for r in rows):
         _agreement(result, sources, probe_set)
         return result
-    _disagreement(result, system, rows, probe_set, seed=seed, tolerances=tolerances, cache=cache)
+    _disagreement(result, system, rows, probe_set, states=states, seed=seed, tolerances=tolerances, cache=cache)
     _not_spd_note(result, all_notes)
     return result
 
