@@ -2,8 +2,8 @@
 
 Written in the absolute angles a = (theta, theta + phi, theta + phi + psi) with rates w = S v, S the
 lower-triangular matrix of ones: M_abs[i, j] = K_ij cos(a_i - a_j), the velocity terms
-c_i = sum_j K_ij sin(a_i - a_j) w_j^2 (so K23 sin(psi) w3^2 enters c2 with a minus) and gravity g h_i sin(a_i); then M = S^T M_abs S and
-bias = S^T (c + G_abs) in the relative angles.
+c_i = sum_j K_ij sin(a_i - a_j) w_j^2 (so K23 sin(psi) w3^2 enters c2 with a minus) and gravity
+g h_i sin(a_i); then M = S^T M_abs S and bias = S^T (c + G_abs) in the relative angles.
 """
 
 from dataclasses import dataclass
@@ -71,9 +71,11 @@ def mass_matrix(p, q):
     K11, K22, K33, K12, K13, K23 = _k(p)
     phi, psi = q[..., 1], q[..., 2]
     one = np.ones(np.shape(q)[:-1])
-    a = [[K11 * one, K12 * np.cos(phi), K13 * np.cos(phi + psi)],
-         [K12 * np.cos(phi), K22 * one, K23 * np.cos(psi)],
-         [K13 * np.cos(phi + psi), K23 * np.cos(psi), K33 * one]]
+    a = [
+        [K11 * one, K12 * np.cos(phi), K13 * np.cos(phi + psi)],
+        [K12 * np.cos(phi), K22 * one, K23 * np.cos(psi)],
+        [K13 * np.cos(phi + psi), K23 * np.cos(psi), K33 * one],
+    ]
     cols = [_relative([a[0][j], a[1][j], a[2][j]]) for j in range(3)]  # S^T A, column by column
     sta = [[cols[j][i] for j in range(3)] for i in range(3)]
     m = [[sta[i][0] + sta[i][1] + sta[i][2], sta[i][1] + sta[i][2], sta[i][2]] for i in range(3)]  # (S^T A) S
