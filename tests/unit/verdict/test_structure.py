@@ -152,3 +152,24 @@ def test_no_right_module_breaks_a_property(name, model):
     assert np.all(np.isfinite(at.dM)) and np.abs(at.M).max() > 0
     floors = {t: 1.0 for t in ("mass matrix", "velocity", "gravity", "kinetic energy")}
     assert {g.prop for g in structure.gaps(at, s.coordinates, floors)} >= {"symmetric", "christoffel", "gradient"}
+
+
+def test_the_report_says_the_broken_property_in_the_systems_section():
+    from lagrange_xval import report
+    from lagrange_xval.report.system_parts import system_derivation
+
+    said = "your velocity terms are not those of your M: (C v)[theta] differs by 2*c3*l2*m3*sin(psi)"
+    s = {
+        "origin": "user",
+        "derivation": {
+            "kind": "hand",
+            "verdict": "disagrees",
+            "statement": "velocity disagrees",
+            "explanations": [{"entry": "(C v)[theta]", "explained": False, "statement": "no simple form"}],
+            "structure": [{"property": "christoffel", "entry": "(C v)[theta]", "statement": said}],
+        },
+    }
+    doc = report.Document()
+    system_derivation(doc, "mine", s)
+    text = " ".join(getattr(b, "text", "") for b in doc.blocks)
+    assert f"The property of every Lagrangian derivation it breaks: {said}." in text
