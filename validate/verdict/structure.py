@@ -32,7 +32,7 @@ import numpy as np
 
 from ..core.tolerances import EPS, STRUCTURE, STRUCTURE_STEP
 from ..handwritten import tracing
-from ..handwritten.forms import accelerations_only, not_provided_in
+from ..handwritten.forms import accelerations_only, not_provided_in, written_form
 from ..handwritten.values import real_array
 from ..results.schema import StructureFinding
 from ..sources import SYMBOLIC_MAX_DOF
@@ -44,6 +44,7 @@ if TYPE_CHECKING:
     from _typeshed import DataclassInstance
 
 STATES = 24  # states of the verdict's sample the structure is checked at
+MAX_OPERATIONS = 600  # a difference larger than this (as traced) is said in numbers: expanding it is costly
 WHAT = {
     "symmetric": "your M is not symmetric",
     "positive definite": "your M is not positive definite",
@@ -286,6 +287,13 @@ def findings(system: System, states: States) -> list[StructureFinding]:
     return out
 
 
+def sp_ops(expr: sp.Expr) -> int:
+    """The operations of a traced expression (sympy's count_ops, unevaluated)."""
+    import sympy as sp
+
+    return int(sp.count_ops(expr, visual=False))
+
+
 def lead(found: Sequence[StructureFinding], failing_terms: Sequence[str]) -> str:
     """The statement of the finding a verdict leads with: the first whose terms include the first failing
     term (then the next failing term); "" where none concerns a failing term."""
@@ -299,6 +307,8 @@ def lead(found: Sequence[StructureFinding], failing_terms: Sequence[str]) -> str
 def named(system: System, found_gaps: list[Gap], out: list[StructureFinding]) -> None:
     """Each finding's entry as a difference in the person's own symbols, where their code traces with sympy
     and the difference gives the numbers found (kept in `out` in place; the numbers stay otherwise)."""
+    if written_form(system.equations) == "c":  # M and the forces through an inversion: not the person's terms
+        return
     try:
         traced = Traced.of(system)
     except Exception:  # noqa: BLE001 - the person's code may not trace (a branch on a value, a numpy call)
@@ -311,6 +321,8 @@ def named(system: System, found_gaps: list[Gap], out: list[StructureFinding]) ->
         try:
             expr = traced.difference(gap.prop, gap.index[gap.labels.index(str(f["entry"]))])
         except Exception:  # noqa: BLE001 - sympy could not take it (a Piecewise, a polynomial test)
+            continue
+        if sp_ops(expr) > MAX_OPERATIONS:  # expanding it could take minutes: the numbers say it
             continue
         if traced.gives(expr, f, gap):
             f["difference"] = traced.text(expr)
