@@ -9,7 +9,7 @@ import numpy as np
 
 from ..core.arrays import JsonObject
 from ..results import to_jsonable
-from ..results.schema import AsIf, ComparisonRow, Mismatch
+from ..results.schema import AsIf, ComparisonRow, Mismatch, StructureFinding
 from ..systems import System
 from ..verdict.decide import Decision
 from ..verdict.pointwise import States
@@ -51,6 +51,7 @@ class VerdictData(TypedDict):
     excluded: dict[str, str]
     probes: dict[str, int]  # asked for, built
     not_looked_for: str  # "" unless probes asked for were not built (or none was asked for): what that leaves out
+    structure: list[StructureFinding]  # the properties of a derivation its own functions break (verdict/structure.py)
     terms: list[TermLine]
     as_if: AsIf | None  # the other chain a wrong derivation is the right derivation of (verdict/asif.py)
 
@@ -71,6 +72,7 @@ def verdict_data(decision: Decision) -> VerdictData:
             "built": int(d.get("checked", {}).get("probes", 0)),
         },
         "not_looked_for": str(d.get("not_looked_for", "")),
+        "structure": list(d.get("structure", [])),
         "terms": [
             {
                 "term": t.get("term"),

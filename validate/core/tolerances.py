@@ -60,6 +60,21 @@ class Tolerances:
 
 TOLERANCES = Tolerances()
 
+# The structure of a derivation checked on the person's own functions alone (verdict/structure.py): an
+# identity between two of them (M and its transpose, C v and the Christoffel form of M, G and dV/dq, T and
+# v.M v / 2) is judged relative to the quantity's scale, and where a side is a finite difference, against
+# ten times that difference's own error bound too (STRUCTURE_STEP).
+STRUCTURE = Tier(
+    1e-9,
+    "Two of a derivation's own functions that must give one quantity (M[i, j] and M[j, i]; (C v)_i and "
+    "sum_jk (dM_ij/dq_k - dM_jk/dq_i / 2) v_j v_k; G_i and dV/dq_i; T and v.M v / 2) differ by the rounding "
+    "of bias(q, v) - bias(q, 0) and of the person's arithmetic, about 1e-14 of the scale; a derivative by "
+    "the fourth-order central difference of step STRUCTURE_STEP is allowed ten times its error bound as "
+    "well (the second- minus the fourth-order difference, plus 4 eps |f| / h). A wrong sign, factor or "
+    "term of a structural part changes it by a sizeable fraction; 1e-9 is 1e5 above the rounding.",
+)
+STRUCTURE_STEP = 1e-3  # rad (or m): the fourth-order error ~h^4 |f'''''| / 30 ~ 3e-14, rounding ~1.5 eps / h
+
 # Which tier each pointwise quantity is judged with.
 QUANTITY_TIER = {
     "M": "algebraic",

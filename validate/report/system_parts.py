@@ -150,6 +150,8 @@ def system_derivation(doc: Document, name: str, s: SystemResult) -> None:
         ],
     )
     _derivation_differences(doc, name, d.get("explanations", []), owner)
+    for finding in d.get("structure", []):  # verdict/structure.py: the person's own functions, by themselves
+        doc.p(f"The property of every Lagrangian derivation it breaks: {finding['statement']}.", "note")
     _failing_terms_table(doc, name, d)
     probes = [p for p in d.get("probes", []) if p.get("index")]
     if probes:

@@ -168,6 +168,22 @@ class AsIf(TypedDict, total=False):
     names: dict[str, str]  # the person's symbols the statement uses: {"c2": "-body/link2/com[1]"}
 
 
+class StructureFinding(TypedDict, total=False):
+    """A property every Lagrangian derivation has that the person's own functions break (verdict/structure.py)."""
+
+    property: str  # "symmetric", "positive definite", "quadratic", "christoffel", "gradient", "potential", "kinetic"
+    terms: list[str]  # the verdict's terms it concerns ("velocity", "mass matrix", ...)
+    entry: str  # the first entry that breaks it: "(C v)[theta]", "M[theta, phi]", "dG[theta]/dphi", "T"
+    entries: list[str]  # every entry that breaks it
+    statement: str  # "your velocity terms are not those of your M: (C v)[theta] differs by ..."
+    difference: str  # the entry's difference in the person's own symbols; "" where the code could not be traced
+    value: float  # the difference at the worst state
+    scaled: float  # the largest |difference| over the states, relative to the quantity's scale
+    tolerance: float  # what it was judged with there, relative to the same scale
+    q: list[float]  # the worst state
+    v: list[float]
+
+
 class TermSummary(TypedDict):
     """One term of a derivation over every engine and probe (verdict/verdict.summarise)."""
 
@@ -253,6 +269,7 @@ class Derivation(TypedDict, total=False):
     not_checked: list[str]  # terms whose functions the derivation does not provide
     explanations: list[Explanation]  # each disagreeing entry as a symbolic difference (verdict/explain.py)
     as_if: AsIf  # the other chain a wrong derivation is the right derivation of (verdict/asif.py)
+    structure: list[StructureFinding]  # the properties of a derivation its own functions break (verdict/structure.py)
     # a printed form of the notes (verdict/judge.py)
     notes_equations: list[str]  # the notes' equation numbers it transcribes
     note: str  # what the transcription says of it

@@ -37,7 +37,7 @@ from ..sources import SYMBOLIC_MAX_DOF, make_sources
 from ..sources.base import Source
 from ..systems import System
 from . import probes as probing
-from . import words
+from . import structure, words
 from .asif import as_if
 from .explain import explain, statement_tail
 from .inputs import acceleration_rows, actuation_rows, ignored_torques
@@ -515,11 +515,26 @@ def _disagreement(
         result["statement"] = f"{first} disagrees at the model's parameters"
         if "error" in worst:
             result["statement"] += f": {worst['error']}"
-    result["statement"] += statement_tail(result.get("explanations", []), at_model=at_model)
+    named_slip = statement_tail(result.get("explanations", []), at_model=at_model)
+    _structure(result, system, at[0], lead=not named_slip and misread is None and "error" not in worst)
+    result["statement"] += named_slip
     found = as_if(system, *at, seed=seed) if at_model and misread is None else None
     if found is not None:
         result["as_if"] = found
         result["statement"] += f"; {found['statement']}"
+
+
+def _structure(result: Derivation, system: System, states: States, *, lead: bool) -> None:
+    """The properties of a Lagrangian derivation the person's own functions break (verdict/structure.py), kept
+    in the result; with `lead` (no named slip explains the difference, no function failed, parameters() read
+    right), the statement leads with the one that concerns the first failing term, before its "disagrees"."""
+    found = structure.findings(system, states)
+    if not found:
+        return
+    result["structure"] = found
+    said = structure.lead(found, result.get("failing_terms", []))
+    if said and lead:
+        result["statement"] = f"{said}; {result['statement']}"
 
 
 def _not_spd_note(result: Derivation, all_notes: dict[int, TermNotes]) -> None:
@@ -527,6 +542,8 @@ def _not_spd_note(result: Derivation, all_notes: dict[int, TermNotes]) -> None:
     spd = next((n["mass_matrix_not_spd"] for n in all_notes.values() if "mass_matrix_not_spd" in n), None)
     if spd:
         result["mass_matrix_not_spd"] = spd
+        if "your M is not" in result["statement"]:  # said already, by the entry (verdict/structure.py)
+            return
         result["statement"] += (
             f"; your M(q) is {spd['what']} at q = {np.round(spd['q'], 4).tolist()} "
             f"(smallest eigenvalue {spd['smallest_eigenvalue']:.3g}, {spd['states']} of {spd['of']} states)"

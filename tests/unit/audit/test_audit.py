@@ -422,7 +422,10 @@ def test_the_two_file_command(tmp_path, capsys):
     notes.write_text("<notes/>")
     assert main(["audit", str(a), str(notes)]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("lagrange-xval: error: notes.xml: not a model file (root element <notes>") and len(err.splitlines()) == 1
+    assert (
+        err.startswith("lagrange-xval: error: notes.xml: not a model file (root element <notes>")
+        and len(err.splitlines()) == 1
+    )
 
 
 def test_a_mimic_and_dry_friction_are_audited_not_refused(tmp_path, capsys):
