@@ -200,8 +200,11 @@ def person_torques(system: System, source: PinocchioSource, states: States, seed
     a = np.random.default_rng(seed).standard_normal(q.shape)
     eq, p = system.derivation, system.params
     with np.errstate(all="ignore"):
-        M = np.asarray(eq.mass_matrix(p, q), dtype=float).reshape(len(q), q.shape[1], q.shape[1])
-        bias = np.asarray(eq.bias(p, q, v), dtype=float).reshape(q.shape)
+        M, bias = np.asarray(eq.mass_matrix(p, q)), np.asarray(eq.bias(p, q, v))
+    if not (np.isrealobj(M) and np.isrealobj(bias)):  # complex numbers: the terms' rows name them
+        raise ValueError("not real numbers")
+    M = M.astype(float).reshape(len(q), q.shape[1], q.shape[1])
+    bias = bias.astype(float).reshape(q.shape)
     tau = np.einsum("nij,nj->ni", M, a) + bias - source.armature() * a
     Y = source.regressor(q, v, a)
     return Y.reshape(-1, Y.shape[-1]), tau.ravel(), source.dynamic_parameters().ravel()

@@ -268,10 +268,15 @@ def findings(system: System, states: States) -> list[StructureFinding]:
     the functions cannot be called (the term rows say why) or the derivation is judged in accelerations."""
     if system.equations is None or accelerations_only(system.equations) or not system.nv or not len(states):
         return []
+    import warnings
+
     try:
-        with np.errstate(all="ignore"):
+        with np.errstate(all="ignore"), warnings.catch_warnings(record=True) as said:
+            warnings.simplefilter("always")
             at = values(system, states)
     except Exception:  # noqa: BLE001 - the person's code: a call that fails is the term rows' finding
+        return []
+    if said:  # complex or otherwise not real numbers (cast with a warning): the term rows name them
         return []
     if not all(np.all(np.isfinite(x)) for x in (at.M, at.dM, at.G, at.dG, at.Cv, at.Cv2)):
         return []
