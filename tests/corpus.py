@@ -48,6 +48,20 @@ def _root(path: Path) -> str | None:
         return match.group(1) if match else None
 
 
+def installed() -> bool:
+    """Whether every corpus package is installed."""
+    return all(package_folder(name) is not None for name in PACKAGES)
+
+
+def marks() -> list[object]:
+    """The marks of a corpus test module: `long`, and skipped where the packages are missing outside CI
+    (under CI the lock installs them: a missing one fails)."""
+    import pytest
+
+    reason = "the corpus packages are not installed (pip install -r requirements.lock)"
+    return [pytest.mark.long, pytest.mark.skipif(not installed() and os.environ.get("CI") != "true", reason=reason)]
+
+
 def models() -> list[tuple[str, Path]]:
     """(key, path) of every model file of the installed corpus packages, sorted; the key is the path
     below the package's folder's parent ("dm_control/suite/acrobot.xml")."""

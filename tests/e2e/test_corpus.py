@@ -7,7 +7,6 @@ dm_control's models here, the other packages' in test_corpus_robotics.py (a file
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import pytest
@@ -16,14 +15,8 @@ from tests import corpus
 from tests.corpus_outcomes import EXPECTED
 
 MODELS = corpus.models()
-INSTALLED = all(corpus.package_folder(name) is not None for name in corpus.PACKAGES)
-pytestmark = [
-    pytest.mark.long,
-    pytest.mark.skipif(
-        not INSTALLED and os.environ.get("CI") != "true",  # under CI the lock installs them: a missing one fails
-        reason="the corpus packages are not installed (pip install -r requirements.lock)",
-    ),
-]
+INSTALLED = corpus.installed()
+pytestmark = corpus.marks()
 HERE = [(key, path) for key, path in MODELS if key.startswith("dm_control/")]
 
 

@@ -5,7 +5,6 @@ package ships, each row's outcome and phrases those the table (tests/corpus_outc
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import pytest
@@ -14,14 +13,7 @@ from lagrange_xval.cli import main
 from tests import corpus
 from tests.corpus_outcomes import EXPECTED
 
-INSTALLED = all(corpus.package_folder(name) is not None for name in corpus.PACKAGES)
-pytestmark = [
-    pytest.mark.long,
-    pytest.mark.skipif(
-        not INSTALLED and os.environ.get("CI") != "true",  # under CI the lock installs them: a missing one fails
-        reason="the corpus packages are not installed (pip install -r requirements.lock)",
-    ),
-]
+pytestmark = corpus.marks()
 
 
 @pytest.mark.parametrize("package", list(corpus.PACKAGES))
