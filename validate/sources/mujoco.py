@@ -8,6 +8,7 @@ from __future__ import annotations
 import contextlib
 import os
 from collections.abc import Iterator
+from pathlib import Path
 from typing import TypedDict
 
 import mujoco
@@ -88,6 +89,23 @@ def _rows(
             inv[i] = qfrc_inverse
 
 
+def _dof_mismatch(system: System, model: mujoco.MjModel) -> str:
+    """Why the model and the equations cannot be compared: their counts, the module by its own file, and
+    for a URDF with joints the equations leave out, the --lock that makes them fixed."""
+    where = getattr(system.equations, "__file__", None)
+    module = Path(where).name if where else f"equations/{system.name}.py"
+    text = (
+        f"{system.mjcf.name} has {model.nv} degrees of freedom; {module} has {system.nv} "
+        f"({', '.join(system.coordinates)})"
+    )
+    joints = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint#{j}" for j in range(model.njnt)]
+    extra = [j for j in joints if j not in system.joints]
+    urdf = system.mjcf.suffix.lower() == ".urdf"
+    if urdf and model.nv > system.nv and extra and set(system.joints) <= set(joints):
+        text += f"; to compare the joints your equations move, lock the others: --lock {','.join(extra)}"
+    return text + "."
+
+
 class MujocoSource:
     name = "mujoco"
 
@@ -98,10 +116,7 @@ class MujocoSource:
         self.d = mujoco.MjData(self.m)
         n = system.nv
         if self.m.nv != n:
-            raise HarnessError(
-                f"{system.mjcf.name} has {self.m.nv} degrees of freedom; equations/{system.name}.py has {n} "
-                f"({', '.join(system.coordinates)})."
-            )
+            raise HarnessError(_dof_mismatch(system, self.m))
         ids = []
         for j in system.joints:
             jid = mujoco.mj_name2id(self.m, mujoco.mjtObj.mjOBJ_JOINT, j)

@@ -106,3 +106,24 @@ def test_replay_locks_what_run_recorded(tmp_path, monkeypatch, capsys):
     assert results["systems"]["spatial_arm"]["locked"] == ["elbow"]
     assert main(["replay", "spatial_arm", "--results", "out/results.json", "--save", "again.rrd"]) == 0
     assert (tmp_path / "again.rrd").stat().st_size > 0
+
+
+WRIST = (
+    '  <link name="link4"><inertial><origin xyz="0.05 0 0"/><mass value="0.2"/>'
+    '<inertia ixx="0.001" iyy="0.001" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>\n'
+    '  <joint name="wrist" type="revolute"><parent link="link3"/><child link="link4"/><origin xyz="0.34 0 0"/>'
+    '<axis xyz="1 0 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>\n</robot>'
+)
+
+
+def test_a_urdf_with_more_joints_than_the_equations_points_to_the_lock(tmp_path, capsys):
+    """Issue 44: "has 4 degrees of freedom; equations/x.py has 3" named a file elsewhere and not the fix: the
+    line names the module's own file and the --lock of the joints the equations leave out; with it, it passes."""
+    arm = tmp_path / "arm4.urdf"
+    arm.write_text(ARM.read_text().replace("</robot>", WRIST))
+    files = ["--model", str(arm), "--equations", str(EXAMPLES / "spatial_arm.py"), "--states", "5", "--probes", "0"]
+    assert main(["check", *files]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith("arm4.urdf has 4 degrees of freedom; spatial_arm.py has 3 (yaw, shoulder, elbow); to "
+                        "compare the joints your equations move, lock the others: --lock wrist."), err  # fmt: skip
+    assert main(["check", *files, "--lock", "wrist"]) == 0
