@@ -367,7 +367,7 @@ def lines(result: Audit) -> list[str]:
     if len(result["misreads"]) > SHOWN:
         out.append(f"  ... and {len(result['misreads']) - SHOWN} more (--json for all)")
     for reader, said in result.get("warnings", {}).items():
-        out.append(f"  {LABEL[reader]} warned ({len(said)}): " + " | ".join(w[:110] for w in said[:3]))
+        out.append(f"  {LABEL[reader]} warned ({len(said)}): " + " | ".join(cut_words(w) for w in said[:3]))
     gaps = result["mass_matrix"]
     shown = ", ".join(
         f"{LABEL[r]} {gap:.3g} (G {gaps['gravity_max_abs'][r]:.3g})" for r, gap in gaps["max_abs"].items()
@@ -441,3 +441,11 @@ def audit_of(system: System, *, seed: int = 0) -> Audit:
         return audit(system, seed=seed)
     except HarnessError as exc:
         return {"error": str(exc), "passed": False}
+
+
+def cut_words(text: str, limit: int = 110) -> str:
+    """`text` cut at a word's end within `limit` characters, saying so ("MultibodyPlant do" was a cut word)."""
+    if len(text) <= limit:
+        return text
+    head = text[:limit].rsplit(" ", 1)[0]
+    return f"{head} ..."

@@ -540,3 +540,14 @@ def test_run_shows_a_set_aside_readers_trajectory_without_judging_it():
     set_aside_runs(traj, {"pinocchio": "Pinocchio misreads upper_arm's mass (...): excluded"})
     assert traj["runs"][0]["counts"] is False and "misreads upper_arm's mass" in traj["runs"][0]["why_not_counted"]
     assert traj["runs"][1] == {"source": "mujoco", "counts": True}
+
+
+def test_a_long_warning_is_cut_at_a_word_and_says_so():
+    """Issue 44: a Drake warning was shown cut mid-word ("MultibodyPlant do")."""
+    from lagrange_xval.audit.audit import cut_words
+
+    text = "The tag 'flag' found as a child of 'option' is currently unsupported and will be ignored by "
+    text += "MultibodyPlant docs"
+    cut = cut_words(text)
+    assert cut.endswith("MultibodyPlant ...") and len(cut) <= 114, cut
+    assert cut_words("short warning") == "short warning"
