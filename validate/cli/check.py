@@ -11,7 +11,7 @@ from ..core.arrays import JsonObject
 from ..results import to_jsonable
 from ..results.schema import AsIf, ComparisonRow, Mismatch, StructureFinding
 from ..systems import System
-from ..verdict.decide import Decision
+from ..verdict.decide import Decision, left_out_line
 from ..verdict.pointwise import States
 from ..verdict.reproduce import Reproducer
 
@@ -51,6 +51,7 @@ class VerdictData(TypedDict):
     excluded: dict[str, str]
     probes: dict[str, int]  # asked for, built
     not_looked_for: str  # "" unless probes asked for were not built (or none was asked for): what that leaves out
+    left_out: list[str]  # what every comparison of the model leaves out (contacts, ranges, ...): once, not per line
     structure: list[StructureFinding]  # the properties of a derivation its own functions break (verdict/structure.py)
     terms: list[TermLine]
     as_if: AsIf | None  # the other chain a wrong derivation is the right derivation of (verdict/asif.py)
@@ -72,6 +73,7 @@ def verdict_data(decision: Decision) -> VerdictData:
             "built": int(d.get("checked", {}).get("probes", 0)),
         },
         "not_looked_for": str(d.get("not_looked_for", "")),
+        "left_out": list(decision.model_checks.get("left_out", [])) if decision.model_checks is not None else [],
         "structure": list(d.get("structure", [])),
         "terms": [
             {
@@ -194,4 +196,5 @@ def text_lines(decision: Decision) -> list[str]:
     for m in mismatches(decision):
         lines.append(f"model: {m['key']} ({m['check']}): {m['why']}")
     lines += term_lines(decision)
-    return [*lines, verdict_line(decision)]
+    left = left_out_line(decision.model_checks)  # true of every verdict of the model: said once, above it
+    return [*lines, *([left] if left else []), verdict_line(decision)]

@@ -27,9 +27,10 @@ from pathlib import Path
 
 from ..core.errors import HarnessError, Terminated
 from ..core.guard import DEFAULT_TIME_LIMIT, Stopped
+from ..core.memo import Memo
 from ..results.stages import Cancelled, Clock
 from ..systems import EQUATIONS_PACKAGE, MODELS_DIR, System, load, pairs_in
-from ..verdict.decide import Decision, decide
+from ..verdict.decide import Decision, decide, left_out_line
 from . import check as checking
 from .parser import one_line
 
@@ -119,8 +120,15 @@ def judge(target: Target, options: Options, cancel: threading.Event | None) -> D
     system = target.system()
     clock.lap("import")
     decision = decide(system, n_states=options.n_states, seed=options.seed, probes=options.probes, clock=clock)
-    print("\n".join([checking.verdict_line(decision), *failing_lines(decision), stage_text(clock)]), flush=True)
+    left = left_out_line(decision.model_checks)
+    said = [left] if left and (target.model, left) not in _SAID else []  # once per model, until it changes
+    if left:
+        _SAID.set((target.model, left), True)
+    print("\n".join([*said, checking.verdict_line(decision), *failing_lines(decision), stage_text(clock)]), flush=True)
     return decision
+
+
+_SAID = Memo(maxsize=64)  # (model, left-out line) this watch has said: once each
 
 
 def error_line(exc: BaseException) -> str:

@@ -106,11 +106,15 @@ class Decision:
         if floors:
             more = f" (and {len(floors) - 1} more)" if len(floors) > 1 else ""
             text += f"; given to every reader as MuJoCo needs it: {floors[0]}{more}"
-        left = self.model_checks.get("left_out", [])
-        if left:
-            text += f" (left out, as no equation of motion contains them: {'; '.join(left)})"
         typed = words.typed_note(dict(self.derivation.get("typed_numbers") or {}))
         return f"{text}; {typed}" if typed else text
+
+
+def left_out_line(model_checks: ModelChecks | None) -> str:
+    """What every comparison of the model leaves out, said once per command (not in every verdict line):
+    "left out, as no equation of motion contains them: contacts between ...; the range of ..."; "" if none."""
+    left = model_checks.get("left_out", []) if model_checks is not None else []
+    return f"left out, as no equation of motion contains them: {'; '.join(left)}" if left else ""
 
 
 def misread_sentence(misread: Mapping[str, str]) -> str:

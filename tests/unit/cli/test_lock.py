@@ -117,7 +117,7 @@ WRIST = (
 
 
 def test_a_urdf_with_more_joints_than_the_equations_points_to_the_lock(tmp_path, capsys):
-    """Issue 44: "has 4 degrees of freedom; equations/x.py has 3" named a file elsewhere and not the fix: the
+    """Issue 44: "has 4 degrees of freedom; equations/<module>.py has 3" named a file elsewhere and not the fix: the
     line names the module's own file and the --lock of the joints the equations leave out; with it, it passes."""
     arm = tmp_path / "arm4.urdf"
     arm.write_text(ARM.read_text().replace("</robot>", WRIST))

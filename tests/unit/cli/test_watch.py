@@ -332,3 +332,22 @@ def test_watch_takes_one_thing_to_watch(cart_pole, capsys):
     assert main(["watch", "simple_pendulum", "--model", str(model), "--equations", str(equations), "--once"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("lagrange-xval: error: watch one thing: a SYSTEM, or --model"), err
+
+
+def test_what_the_model_leaves_out_is_said_once_per_model_not_per_verdict(tmp_path, capsys):
+    """Issue 44 item 3: the left-out clause (here a joint's range) on its own line, once for the model,
+    however many saves are judged; never inside a verdict line."""
+    import gymnasium
+    from lagrange_xval.cli import watch
+
+    model = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / "inverted_double_pendulum.xml"
+    name = "inverted_double_pendulum"
+    target = watch.Target(name, model, EXAMPLES / "gymnasium" / f"{name}.py")
+    options = watch.Options(n_states=5, seed=0, probes=0)
+    for _ in range(2):
+        watch.judge(target, options, None)
+    lines = capsys.readouterr().out.splitlines()
+    left = [line for line in lines if line.startswith("left out, as no equation of motion contains them: ")]
+    verdicts = [line for line in lines if line.startswith(f"verdict: {name}: ")]
+    assert len(left) == 1 and len(verdicts) == 2, lines
+    assert not any("left out" in v for v in verdicts), verdicts

@@ -120,8 +120,9 @@ def test_constraints_are_left_out_by_name_and_a_right_derivation_still_passes(tm
     eq = tmp_path / "double_pendulum_point.py"
     eq.write_text("from lagrange_xval.equations.double_pendulum_point import *  # noqa: F403\n")
     assert main(["check", "--model", str(path), "--equations", str(eq), "--states", "30", "--probes", "1"]) == 0
-    last = capsys.readouterr().out.strip().splitlines()[-1]
-    assert last.startswith("verdict: double_pendulum_point: pass") and named in last, last
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert lines[-1].startswith("verdict: double_pendulum_point: pass") and "left out" not in lines[-1], lines[-1]
+    assert lines[-2].startswith("left out, as no equation of motion contains them: ") and named in lines[-2], lines
 
 
 @pytest.mark.parametrize(
