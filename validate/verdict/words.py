@@ -91,8 +91,13 @@ def in_person_words(text: str, names: dict[str, str], model_names: dict[str, str
 
 
 def model_symbol_keys(system: System) -> dict[str, str]:
-    """{symbol of the model's equations: the model number it stands for}."""
-    return {str(s): _label(k, e) for s, (k, e) in derivation_of(system).source.items()}
+    """{symbol of the model's equations: the model number it stands for, with its sign as `derive` prints
+    it}: the symbols are positive, so a negative number's symbol reads "-body/link2/com[1]"."""
+    derivation = derivation_of(system)
+    signs = derivation.signs
+    return {
+        str(s): ("-" if signs.get(s, 1) < 0 else "") + _label(k, e) for s, (k, e) in derivation.source.items()
+    }
 
 
 def unread_numbers(system: System, term: str) -> list[str]:

@@ -34,6 +34,7 @@ BARS = {
     "missing half": [("m11 = p.m1 * p.c1**2 + p.I1 +", "m11 = 2 * (p.m1 * p.c1**2 + p.I1) +")],  # T1 without 1/2
     "coriolis sign": [("h * w1**2", "-h * w1**2")],
     "three I2": [("m22 = p.m2 * p.c2**2 + p.I2", "m22 = p.m2 * p.c2**2 + 3 * p.I2")],
+    "m c2^2 twice": [("m22 = p.m2 * p.c2**2 + p.I2", "m22 = p.m2 * p.c2**2 + p.I2 + p.m2 * p.c2**2")],
     "right": [],
 }
 
@@ -227,3 +228,11 @@ def test_check_json_and_the_api_carry_it_after_the_named_slip(folder, capsys):
     assert result.statement == statement
     assert result.data["derivation"]["as_if"]["readings"][0]["bodies"] == ["link2"]
     assert np.isfinite(verdict["as_if"]["residual"])
+
+
+def test_the_slips_names_carry_the_sign_derive_writes(folder):
+    """Issue 44 item 4: "[your names: c2 = c_link2 (body/link2/com[1])" dropped the minus sign `derive`
+    writes for a symbol read from a negative number ("c_link2 = -body/link2/com[1]")."""
+    result = lx.check(bars(folder / "signs", "m c2^2 twice"), n_states=50)
+    assert "c2 = c_link2 (-body/link2/com[1])" in result.statement, result.statement
+    assert "m2 = m_link2 (body/link2/mass)" in result.statement, result.statement
