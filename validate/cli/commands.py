@@ -11,7 +11,7 @@ import functools
 import json
 import os
 import sys
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -409,7 +409,7 @@ def cmd_derive(args: argparse.Namespace) -> int:
         raise HarnessError(f"{system.name}: {NOTHING_MOVES}.")
     view, joints, coordinates, joint_map = system.view, system.joints, system.coordinates, system.joint_map
     if not args.force:
-        affordable(len(joints), spatial=is_spatial(view, tuple(joints)), python=bool(args.python))
+        affordable(len(joints), spatial=is_spatial(view, tuple(joints)), python=bool(args.python), joints=joints)
     if args.coordinates:
         names = tuple(x.strip() for x in args.coordinates.split(","))
         if len(names) != len(joints) or not all(n.isidentifier() for n in names) or len(set(names)) != len(names):
@@ -440,7 +440,7 @@ def configured_cache() -> Cache:
     return Cache.at(value) if value else Cache.off()
 
 
-def affordable(n: int, *, spatial: bool = False, python: bool = False) -> None:
+def affordable(n: int, *, spatial: bool = False, python: bool = False, joints: Sequence[str] = ()) -> None:
     """Refuses a derivation predicted to exceed the budget (validate/studies/chains.py's cost model),
     before it starts: a symbolic derivation cannot be interrupted midway."""
     from ..studies.chains import DERIVE_BUDGET, GROWTH, MEASURED, PYTHON_FACTOR, SPATIAL_FACTOR, predicted_derive_s
@@ -450,10 +450,11 @@ def affordable(n: int, *, spatial: bool = False, python: bool = False) -> None:
         extra = (f", x{SPATIAL_FACTOR:g} for a spatial model" if spatial else "") + (
             f", x{PYTHON_FACTOR:g} for --python" if python else ""
         )
+        named = f" ({', '.join(joints)})" if joints else ""
         raise HarnessError(
-            f"{n} joints: the symbolic derivation is predicted to take about {predicted:.3g} s (it grows about as "
-            f"n^{GROWTH}; {MEASURED[0]} planar joints took {MEASURED[1]:g} s{extra}), over the {DERIVE_BUDGET:g} s "
-            "budget; --force derives it anyway."
+            f"{n} joints{named}: the symbolic derivation is predicted to take about {predicted:.3g} s (it grows "
+            f"about as n^{GROWTH}; {MEASURED[0]} planar joints took {MEASURED[1]:g} s{extra}), over the "
+            f"{DERIVE_BUDGET:g} s budget; --force derives it anyway, or --lock some of them."
         )
 
 

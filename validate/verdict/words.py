@@ -95,9 +95,7 @@ def model_symbol_keys(system: System) -> dict[str, str]:
     it}: the symbols are positive, so a negative number's symbol reads "-body/link2/com[1]"."""
     derivation = derivation_of(system)
     signs = derivation.signs
-    return {
-        str(s): ("-" if signs.get(s, 1) < 0 else "") + _label(k, e) for s, (k, e) in derivation.source.items()
-    }
+    return {str(s): ("-" if signs.get(s, 1) < 0 else "") + _label(k, e) for s, (k, e) in derivation.source.items()}
 
 
 def unread_numbers(system: System, term: str) -> list[str]:

@@ -119,6 +119,8 @@ def test_derive_predicts_a_spatial_model_and_python_before_working(tmp_path):
         affordable(7, spatial=True)
     with pytest.raises(HarnessError, match=r"about 165 s .* x1.2 for --python"):
         affordable(7, spatial=True, python=True)
+    with pytest.raises(HarnessError, match=r"^7 joints \(j0, j1, j2, j3, j4, j5, j6\): .* or --lock some of them"):
+        affordable(7, spatial=True, joints=[f"j{i}" for i in range(7)])  # the README: it names the joints
 
 
 ROTATED = """<mujoco model="rotated">
