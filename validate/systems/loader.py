@@ -40,7 +40,9 @@ def _check_contract(module: ModuleType, where: str) -> FormA:
     try:
         return normalize(module)
     except HarnessError as exc:
-        raise HarnessError(f"{where}: {exc}") from None
+        text = str(exc)
+        named = text.split(": ", 1)[0].endswith(Path(where).name)  # the module named already (its file)
+        raise HarnessError(text if named else f"{where}: {text}") from None
 
 
 @functools.lru_cache(maxsize=64)  # one per repository system (and time limit)

@@ -241,3 +241,19 @@ def test_a_module_with_a_plain_dataclass_is_judged_in_process_too(tmp_path):
         assert lx.check(system).passed
     finally:
         del sys.modules["plain_pendulum"]
+
+
+def test_a_module_without_dynamics_is_named_once(tmp_path, capsys):
+    """Issue 44 item 4: "lagrange-xval: error: triple.py: triple.py: the dynamics are not provided" named
+    the module twice."""
+    from lagrange_xval.cli import main
+
+    root = Path(__file__).resolve().parents[3]
+    module = (root / "equations" / "simple_pendulum.py").read_text()
+    stubbed = tmp_path / "bare.py"
+    for name in ("mass_matrix", "kinetic_energy", "residual", "qacc", "hamiltonian"):
+        module = module.replace(f"def {name}(", f"def {name}_unused(")
+    stubbed.write_text(module)
+    assert main(["check", "--model", str(root / "models" / "simple_pendulum.xml"), "--equations", str(stubbed)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "bare.py: the dynamics are not provided" in err and "bare.py: bare.py" not in err, err
