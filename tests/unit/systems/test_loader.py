@@ -256,4 +256,4 @@ def test_a_module_without_dynamics_is_named_once(tmp_path, capsys):
     stubbed.write_text(module)
     assert main(["check", "--model", str(root / "models" / "simple_pendulum.xml"), "--equations", str(stubbed)]) == 2
     err = capsys.readouterr().err.strip()
-    assert "bare.py: the dynamics are not provided" in err and "bare.py: bare.py" not in err, err
+    assert "bare.py: the dynamics are not provided" in err and err.count("bare.py") == 1, err
