@@ -265,7 +265,7 @@ def test_explanation_reaches_the_verdict_and_says_so_when_nothing_fits(tmp_path)
     result = lx.check(lx.System.from_files(tmp_path / "a.xml", tmp_path / "a.py"), n_states=100, probes=2)
     # in the module's own names (l1, lc2), the model's beside them
     assert "has l1 where expected has lc2" in result.statement, result.statement
-    assert "l1 = l_link2 (body/link2/pos[2])" in result.statement
+    assert "l1 = l_link2 (-body/link2/pos[2])" in result.statement, result.statement  # derive's sign
     (tmp_path / "b.py").write_text(
         text.replace("G2 = p.m2 * p.lc2 * p.g * s12", "G2 = p.m2 * p.lc2 * p.g * s12 * (1 + 0.1 * np.tanh(q[..., 0]))")
     )
