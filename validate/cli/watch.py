@@ -18,6 +18,7 @@ to the main thread, which computes the verdicts: the guard's time limit (validat
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import threading
 import time
@@ -37,6 +38,7 @@ from .parser import one_line
 STEP_MS = 30  # a save is reported once no further change came for this long
 DEBOUNCE_MS = 300  # at most this long after the first change of a burst
 WAIT_S = 0.2  # the main thread wakes this often while it waits (Ctrl-C is seen at once either way)
+RETRY_S = 1.0  # a watch the file system ended starts again after this long
 
 
 @dataclass(frozen=True)
@@ -51,7 +53,7 @@ class Target:
 
     @property
     def files(self) -> frozenset[Path]:
-        return frozenset({self.model.resolve(), self.equations.resolve()})
+        return frozenset({resolved(self.model), resolved(self.equations)})
 
     def system(self) -> System:
         """The system with its module imported afresh from its source (validate/systems load_module)."""
@@ -138,6 +140,15 @@ def error_line(exc: BaseException) -> str:
     return f"lagrange-xval: error: unexpected {type(exc).__name__}: {one_line(exc)}"
 
 
+def resolved(path: str | Path) -> Path:
+    """The file `path` names, its links followed; where they cannot be (a loop of links, a link to itself,
+    a folder that went away) its absolute path: a watch never stops for the file system."""
+    try:
+        return Path(path).resolve()
+    except (OSError, RuntimeError):  # RuntimeError: a symlink loop (Python 3.11's Path.resolve)
+        return Path(os.path.abspath(path))
+
+
 class Saves:
     """The watched files saved since they were last taken, and an event set by every save."""
 
@@ -148,7 +159,7 @@ class Saves:
         self._files: set[Path] = set()
 
     def add(self, paths: Iterable[str]) -> None:
-        saved = {Path(p).resolve() for p in paths} & self.watched
+        saved = {resolved(p) for p in paths} & self.watched
         if saved:
             with self._lock:
                 self._files |= saved
@@ -167,7 +178,7 @@ def watch_files(saves: Saves, stop: threading.Event) -> threading.Thread:
 
     folders = sorted({str(p.parent) for p in saves.watched})
 
-    def run() -> None:
+    def watched() -> None:
         for changes in watchfiles.watch(
             *folders,
             watch_filter=None,
@@ -178,6 +189,15 @@ def watch_files(saves: Saves, stop: threading.Event) -> threading.Thread:
             raise_interrupt=False,
         ):
             saves.add(path for _, path in changes)
+
+    def run() -> None:
+        while not stop.is_set():  # whatever the file system does, one line and the watch goes on
+            try:
+                watched()
+            except Exception as exc:  # noqa: BLE001 - a folder deleted, a loop of links: said, then watched again
+                print(f"lagrange-xval: watch: {type(exc).__name__}: {one_line(exc)}; watching again", file=sys.stderr)
+                stop.wait(RETRY_S)
+                saves.add(str(f) for f in saves.watched)  # judged again: the files may have changed meanwhile
 
     thread = threading.Thread(target=run, name="lagrange-xval-watch", daemon=True)
     thread.start()

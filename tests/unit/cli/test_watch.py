@@ -351,3 +351,47 @@ def test_what_the_model_leaves_out_is_said_once_per_model_not_per_verdict(tmp_pa
     verdicts = [line for line in lines if line.startswith(f"verdict: {name}: ")]
     assert len(left) == 1 and len(verdicts) == 2, lines
     assert not any("left out" in v for v in verdicts), verdicts
+
+
+def test_a_loop_of_links_or_a_module_linked_to_itself_does_not_end_the_watch(tmp_path):
+    """Issue 47 item 6: Path.resolve() raised on a loop of links beside the module (or the module made a
+    link to itself) in the watcher thread, which ended while the last verdict stayed on screen."""
+    from lagrange_xval.cli import watch
+
+    module = tmp_path / "mine.py"
+    module.write_text("x = 1\n")
+    (tmp_path / "a").symlink_to(tmp_path / "b")
+    (tmp_path / "b").symlink_to(tmp_path / "a")
+    saves = watch.Saves([watch.resolved(module)])
+    saves.add([str(tmp_path / "a"), str(module)])  # the loop is no watched file, the module is
+    assert saves.take() == {module.resolve()}
+    module.unlink()
+    module.symlink_to(module)  # a link to itself
+    target = watch.Target("mine", tmp_path / "mine.xml", module)
+    assert module.absolute() in target.files
+
+
+def test_the_watcher_thread_survives_what_the_file_system_does(monkeypatch, capsys):
+    """An exception in the file watcher (a folder deleted under it) is one line; it watches again and
+    the saved files are judged again."""
+    import watchfiles
+    from lagrange_xval.cli import watch
+
+    calls = []
+
+    def flaky(*folders, stop_event, **options):
+        calls.append(1)
+        if len(calls) == 1:
+            raise RuntimeError("the folder went away")
+        stop_event.wait(5.0)
+        return iter(())
+
+    monkeypatch.setattr(watchfiles, "watch", flaky)
+    monkeypatch.setattr(watch, "RETRY_S", 0.01)
+    saves, stop = watch.Saves([Path("/tmp/watched.py")]), threading.Event()
+    thread = watch.watch_files(saves, stop)
+    assert saves.event.wait(5.0), "the saved files were not judged again"
+    stop.set()
+    thread.join(5.0)
+    assert len(calls) >= 2 and not thread.is_alive()
+    assert "watch: RuntimeError: the folder went away; watching again" in capsys.readouterr().err
