@@ -153,7 +153,8 @@ def cmd_check(args: argparse.Namespace) -> int:
     states = states_from_file(system, args.states_file) if args.states_file else None
     if args.pointwise_only:
         return pointwise_only(args, system, states)
-    cache = Cache.at(args.cache_dir) if args.cache_dir else None
+    folder = usable(Path(args.cache_dir).absolute()) if args.cache_dir else ""  # a file there: one warning line
+    cache = Cache.at(folder) if folder else None
     decision = decide(system, n_states=args.states, seed=args.seed, probes=args.probes, cache=cache, states=states)
     if cache is not None:
         cache.trim()

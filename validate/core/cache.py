@@ -317,7 +317,7 @@ def _check_writable(base: Path) -> None:
         with open_folder(base) as fd:
             os.unlink(stage("probe", b"", dir_fd=fd), dir_fd=fd)
         return
-    existing = next(p for p in base.parents if os.path.lexists(p))
+    existing = next(p for p in (base, *base.parents) if os.path.lexists(p))  # base itself a file: no folder
     if not existing.is_dir():
         raise OSError(errno.ENOTDIR, "not a folder", str(existing))
     if not os.access(existing, os.W_OK | os.X_OK):

@@ -296,3 +296,16 @@ def test_no_cache_turns_reading_and_writing_off(tmp_path):
     assert info["cache"] == "off" and not list(tmp_path.iterdir())
     default = cache_of(argparse.Namespace(no_cache=False, cache_dir=None, out=tmp_path / "r"))
     assert default.folder("chaos") == (tmp_path / "r" / ".cache" / "chaos").absolute()
+
+
+def test_a_cache_dir_that_is_a_file_is_one_warning_line(tmp_path, capsys):
+    """Issue 47: `--cache-dir FILE` gave a warning per entry (17 lines); it is one, and the command runs."""
+    from lagrange_xval.cli import main
+
+    plain = tmp_path / "not_a_folder"
+    plain.write_text("")
+    assert main(["check", "double_pendulum_point", "--cache-dir", str(plain), "--states", "10", "--probes", "0"]) == 0
+    warnings = [line for line in capsys.readouterr().err.splitlines() if "warning" in line]
+    assert warnings == [
+        f"lagrange-xval: warning: cannot write the cache in {plain} (not a folder); running without a cache."
+    ]
