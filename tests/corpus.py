@@ -18,7 +18,6 @@ import re
 import subprocess
 import sys
 import tempfile
-import xml.etree.ElementTree as ET
 from collections import Counter
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -26,7 +25,6 @@ from pathlib import Path
 
 # The packages of the corpus: import name -> distribution (requirements.lock pins each).
 PACKAGES = {"dm_control": "dm-control", "gymnasium_robotics": "gymnasium-robotics", "rtbdata": "rtb-data"}
-ROOTS = ("mujoco", "robot")  # the root elements of a model file; includes (<mujocoinclude>) and the rest are not
 TIMEOUT = 300.0  # s for one model's check: a model that takes longer is one row, "crash: timed out"
 STATES = "20"
 
@@ -37,15 +35,6 @@ def package_folder(name: str) -> Path | None:
     if spec is None or not spec.submodule_search_locations:
         return None
     return Path(next(iter(spec.submodule_search_locations)))
-
-
-def _root(path: Path) -> str | None:
-    try:
-        text = path.read_bytes()[:1_000_000].decode("utf-8", "replace").lstrip()
-        return ET.fromstring(text).tag if text else None
-    except ET.ParseError:
-        match = re.search(r"<\s*([A-Za-z_][\w.-]*)", re.sub(r"<\?.*?\?>|<!--.*?-->", "", text, flags=re.S))
-        return match.group(1) if match else None
 
 
 def installed() -> bool:
@@ -63,16 +52,16 @@ def marks() -> list[object]:
 
 
 def models() -> list[tuple[str, Path]]:
-    """(key, path) of every model file of the installed corpus packages, sorted; the key is the path
-    below the package's folder's parent ("dm_control/suite/acrobot.xml")."""
+    """(key, path) of every model file of the installed corpus packages, as `lagrange-xval survey` finds
+    them (studies/survey.py `model_files`: root <mujoco> or <robot>; include fragments are not models),
+    sorted; the key is the path below the package's folder's parent ("dm_control/suite/acrobot.xml")."""
+    from lagrange_xval.studies.survey import model_files
+
     out = []
     for name in PACKAGES:
         folder = package_folder(name)
-        if folder is None:
-            continue
-        for path in sorted(folder.rglob("*")):
-            if path.suffix in (".xml", ".urdf") and path.is_file() and _root(path) in ROOTS:
-                out.append((path.relative_to(folder.parent).as_posix(), path))
+        if folder is not None:
+            out += [(path.relative_to(folder.parent).as_posix(), path) for path, _, _ in model_files(folder)]
     return out
 
 

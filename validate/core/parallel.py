@@ -49,19 +49,32 @@ def completed(futures: Iterable[Future[T]]) -> Iterator[Future[T]]:
         yield finished.get()
 
 
+def parent_death_signal() -> Callable[[], None] | None:
+    """The call that has a process killed when the thread that started it ends (Linux's
+    PR_SET_PDEATHSIG), looked up here so that a child between fork and exec only calls it; None off
+    Linux."""
+    import signal
+    import sys
+
+    if not sys.platform.startswith("linux"):
+        return None
+    import ctypes
+
+    prctl = ctypes.CDLL(None, use_errno=True).prctl
+    pr_set_pdeathsig = 1
+    return lambda: prctl(pr_set_pdeathsig, signal.SIGKILL)
+
+
 def _worker_init(parent: int) -> None:
     """Runs in each pool worker: the parent handles Ctrl-C; SIGTERM ends the worker (a forked worker
     would otherwise inherit the CLI's handler); the worker dies with the parent."""
     import signal
-    import sys
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    if sys.platform.startswith("linux"):
-        import ctypes
-
-        pr_set_pdeathsig = 1
-        ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGKILL)
+    die = parent_death_signal()
+    if die is not None:
+        die()
     if os.getppid() != parent:  # the parent died before the line above took effect
         os._exit(1)
 

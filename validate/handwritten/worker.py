@@ -395,7 +395,7 @@ def sandbox() -> tuple[str, ...]:
     namespace where the harness is not privileged); () where this machine allows neither, said once."""
     for prefix in (NAMESPACES, USER_NAMESPACES):
         try:
-            done = subprocess.run([*prefix, sys.executable, "-c", "pass"], capture_output=True, timeout=10)
+            done = subprocess.run([*prefix, "true"], capture_output=True, timeout=10)  # the namespaces and the shell
         except (OSError, subprocess.TimeoutExpired):
             continue
         if done.returncode == 0:
@@ -406,13 +406,6 @@ def sandbox() -> tuple[str, ...]:
         file=sys.stderr,
     )
     return ()
-
-
-def _dies_with_caller() -> None:  # pragma: no cover - runs in the child between fork and exec
-    """PR_SET_PDEATHSIG for the process about to exec (unshare): it dies with the thread that starts it."""
-    import ctypes
-
-    ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))
 
 
 class ModuleWorker:
@@ -451,6 +444,8 @@ class ModuleWorker:
         self._receive, from_child = os.pipe()
         self._owner = os.getpid()
         main = threading.current_thread() is threading.main_thread()
+        from ..core.parallel import parent_death_signal  # the child imports this module: not at its start
+
         prefix = sandbox()
         self._proc = subprocess.Popen(
             [
@@ -470,7 +465,7 @@ class ModuleWorker:
             stdin=subprocess.DEVNULL,
             stdout=sys.stderr.fileno() if _has_fileno(sys.stderr) else subprocess.DEVNULL,
             start_new_session=True,  # its own process group: killed whole; the terminal's Ctrl-C is not its
-            preexec_fn=_dies_with_caller if prefix and main else None,  # noqa: PLW1509 - one prctl call
+            preexec_fn=parent_death_signal() if prefix and main else None,  # noqa: PLW1509 - unshare dies with us
         )
         self._namespaced = bool(prefix)
         os.close(to_child)

@@ -33,6 +33,7 @@ from typing import TypeAlias
 import numpy as np
 
 from ..core.errors import HarnessError
+from .modelview import parallel_axis
 
 MOVING = {"revolute": "hinge", "continuous": "hinge", "prismatic": "slide"}
 
@@ -121,7 +122,7 @@ def composite(parts: list[Inertial]) -> Inertial:
     inertia = np.zeros((3, 3))
     for p in parts:
         d = p.com - com
-        inertia += p.inertia + p.mass * (d @ d * np.eye(3) - np.outer(d, d))
+        inertia += p.inertia + parallel_axis(p.mass, d)
     return Inertial(mass, com, inertia)
 
 

@@ -97,6 +97,11 @@ class ModelView(Mapping[str, Any]):
         return len(self._values)
 
 
+def parallel_axis(mass: float, d: np.ndarray) -> np.ndarray:
+    """m (|d|^2 1 - d d^T): what moving a body's inertia from its centre to a point d away adds."""
+    return mass * (float(d @ d) * np.eye(3) - np.outer(d, d))
+
+
 def quat_to_mat(quat: np.ndarray) -> np.ndarray:
     w, x, y, z = quat / np.linalg.norm(quat)
     return np.array(

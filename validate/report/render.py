@@ -53,7 +53,7 @@ def _md_cell(c: Cell) -> str:
     return escaped(cell_text(c)).replace("|", "\\|")
 
 
-def _md_blocks(blocks: Iterable[Block]) -> list[str]:
+def markdown_blocks(blocks: Iterable[Block]) -> list[str]:
     out: list[str] = []
     for b in blocks:
         if isinstance(b, Heading):
@@ -77,7 +77,7 @@ def _md_blocks(blocks: Iterable[Block]) -> list[str]:
         elif isinstance(b, Items):
             out += [f"- {escaped(i)}" for i in b.items] + [""]
         elif isinstance(b, Fold):
-            out += [f"<details><summary>{b.summary}</summary>", "", *_md_blocks(b.blocks), "</details>", ""]
+            out += [f"<details><summary>{b.summary}</summary>", "", *markdown_blocks(b.blocks), "</details>", ""]
     return out
 
 
@@ -103,14 +103,14 @@ def render_markdown(doc: Document, results: RunResults) -> str:
         out += [f"<details><summary>{head.agreeing_title}</summary>", ""]
         out += [f"- {system}, {form}: {verdict}" for system, form, verdict in head.agreeing]
         out += ["", "</details>", ""]
-    out += _md_blocks(doc.blocks)
+    out += markdown_blocks(doc.blocks)
     return "\n".join(out).rstrip("\n") + "\n"
 
 
 _ENV: jinja2.Environment | None = None
 
 
-def _env() -> jinja2.Environment:
+def environment() -> jinja2.Environment:
     global _ENV
     if _ENV is None:
         import jinja2
@@ -156,7 +156,7 @@ def warm() -> None:
     """The HTML template compiled ahead (jinja2 imported, its environment made: 0.2 s), for `run` to do
     while its workers compute. A failure here is left to the render, which reports it."""
     try:
-        _env().get_template("report.html.j2")
+        environment().get_template("report.html.j2")
     except Exception:  # noqa: BLE001 - said by render_html, where it matters
         return
 
@@ -165,7 +165,7 @@ def render_html(doc: Document, results: RunResults) -> str:
     head = header(results)
     toc = [(b.anchor, b.text) for b in doc.blocks if isinstance(b, Heading) and b.level == 2]
     return str(
-        _env()
+        environment()
         .get_template("report.html.j2")
         .render(
             title=TITLE,
@@ -191,13 +191,3 @@ def render(
     files = {"report.md": render_markdown(doc, plain).encode(), "report.html": render_html(doc, plain).encode()}
     files.update(sorted(doc.images.items()))
     return files
-
-
-def environment() -> jinja2.Environment:
-    """The templates' environment (the report's filters and globals), for the other pages (report/survey.py)."""
-    return _env()
-
-
-def markdown_blocks(blocks: Iterable[Block]) -> list[str]:
-    """The blocks as markdown lines, as the report writes them."""
-    return _md_blocks(blocks)

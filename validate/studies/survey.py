@@ -34,7 +34,7 @@ from concurrent.futures import Executor, Future, ThreadPoolExecutor
 from pathlib import Path
 
 from ..core.errors import HarnessError
-from ..core.parallel import completed
+from ..core.parallel import completed, parent_death_signal
 from ..results.schema import SurveyPair, SurveyResults, SurveyRow
 
 ROOTS = {"mujoco": "mjcf", "robot": "urdf"}  # a model file's root element -> its format
@@ -145,19 +145,6 @@ def end_all() -> None:
         _end(process)
 
 
-def _dies_with_parent() -> Callable[[], None] | None:
-    """What a child runs before it starts on Linux: it is killed when the thread that started it ends
-    (PR_SET_PDEATHSIG), so a model's process does not outlive a survey whose worker was killed (a dask
-    worker's session is not the child's: start_new_session)."""
-    if not sys.platform.startswith("linux"):
-        return None
-    import ctypes
-
-    prctl = ctypes.CDLL(None, use_errno=True).prctl  # looked up here: the child only calls it
-    pr_set_pdeathsig = 1
-    return lambda: prctl(pr_set_pdeathsig, signal.SIGKILL)
-
-
 def run_child(command: list[str], cwd: str, timeout: float) -> tuple[int | None, str, str, float]:
     """(status, stdout, stderr, seconds) of `command` run in `cwd`, in a session of its own; status None
     where it ran past `timeout` seconds (it and all it started are then killed)."""
@@ -170,7 +157,9 @@ def run_child(command: list[str], cwd: str, timeout: float) -> tuple[int | None,
         stderr=subprocess.PIPE,
         start_new_session=True,
         env=env,
-        preexec_fn=_dies_with_parent(),  # noqa: PLW1509 - one prctl call, no lock taken in the child
+        # killed when the thread that started it ends: a model's process does not outlive a survey whose
+        # worker was killed (a dask worker's session is not the child's: start_new_session)
+        preexec_fn=parent_death_signal(),  # noqa: PLW1509 - one prctl call, no lock taken in the child
     )
     with _LOCK:
         _RUNNING.add(process)

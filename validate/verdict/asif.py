@@ -28,6 +28,7 @@ import numpy as np
 
 from ..handwritten.forms import not_provided_in
 from ..handwritten.reads import Knob, knobs
+from ..model.modelview import parallel_axis
 from ..results.schema import AsIf, AsIfReading
 from ..sources.base import Source
 from ..systems import System
@@ -47,14 +48,9 @@ AXES = "xyz"
 Inertial = tuple[float, np.ndarray, np.ndarray]  # m, centre c (3,), inertia about the centre (3, 3)
 
 
-def _shift(m: float, c: np.ndarray) -> np.ndarray:
-    """m (|c|^2 1 - c c^T): what the inertia about the joint's origin adds to the one about the centre."""
-    return m * (float(c @ c) * np.eye(3) - np.outer(c, c))
-
-
 # Each mistake as the body it makes of (m, c, I about the centre), and its words.
 KINDS: dict[str, Callable[[float, np.ndarray, np.ndarray], Inertial]] = {
-    "about its joint": lambda m, c, i: (m, c, i + _shift(m, c)),
+    "about its joint": lambda m, c, i: (m, c, i + parallel_axis(m, c)),
     "mass twice": lambda m, c, i: (2 * m, c, i),
     "mass halved": lambda m, c, i: (m / 2, c, i),
     "centre twice": lambda m, c, i: (m, 2 * c, i),
@@ -62,7 +58,7 @@ KINDS: dict[str, Callable[[float, np.ndarray, np.ndarray], Inertial]] = {
     "centre mirrored": lambda m, c, i: (m, -c, i),
     "central inertia twice": lambda m, c, i: (m, c, 2 * i),
     "no central inertia": lambda m, c, i: (m, c, 0 * i),
-    "kinetic energy twice": lambda m, c, i: (m, c, 2 * i + _shift(m, c)),
+    "kinetic energy twice": lambda m, c, i: (m, c, 2 * i + parallel_axis(m, c)),
     "all twice": lambda m, c, i: (2 * m, c, 2 * i),
     "all halved": lambda m, c, i: (m / 2, c, i / 2),
 }
@@ -130,12 +126,12 @@ def to_physical(theta: np.ndarray) -> Inertial:
     xx, xy, yy, xz, yz, zz = theta[4:]
     origin = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]], dtype=float)
     c = h / m if m > 0 else np.zeros(3)
-    return m, c, origin - _shift(m, c)
+    return m, c, origin - parallel_axis(m, c)
 
 
 def to_dynamic(m: float, c: np.ndarray, central: np.ndarray) -> np.ndarray:
     """(m, c, inertia about the centre) as Pinocchio's 10 dynamic parameters."""
-    o = central + _shift(m, c)
+    o = central + parallel_axis(m, c)
     return np.array([m, *(m * c), o[0, 0], o[0, 1], o[1, 1], o[0, 2], o[1, 2], o[2, 2]], dtype=float)
 
 
@@ -287,7 +283,7 @@ class Chain:
         m, c, central = to_physical(self.theta[j])
         m2, c2, central2 = KINDS[kind](m, c, central)
         axis = self.axis(j, central, central2, m2, c2)
-        joint = float(axis @ (central + _shift(m, c)) @ axis)
+        joint = float(axis @ (central + parallel_axis(m, c)) @ axis)
         values = {
             "m": (m2, m),
             "d": (float(np.linalg.norm(c2)), float(np.linalg.norm(c))),
@@ -315,7 +311,7 @@ class Chain:
         axis = self.axes[j]
         if axis is not None:
             return axis
-        return np.eye(3)[int(np.argmax(np.abs(np.diag(changed - central)) + np.abs(np.diag(_shift(m, c)))))]
+        return np.eye(3)[int(np.argmax(np.abs(np.diag(changed - central)) + np.abs(np.diag(parallel_axis(m, c)))))]
 
     @staticmethod
     def axis_word(axis: np.ndarray) -> str:

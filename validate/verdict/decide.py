@@ -131,11 +131,11 @@ def model_alone_statement(point: Pointwise, nv: int = 1) -> str:
     sources the pointwise comparison holds, in that order, and whether every pair agrees. A model in
     which no joint moves (nv = 0) has no dynamics: the sentence says what was and was not compared."""
     held = {x for r in point["rows"] for x in str(r["pair"]).split("~")}
+    if not nv:  # the derived equations are no reader: MuJoCo's numbers, with no coordinate
+        held.discard("symbolic")
     names = [w for k, w in SOURCE_WORDS.items() if k in held]
     listed = ", ".join(names[:-1]) + f" and {names[-1]}" if len(names) > 1 else "".join(names) or "no source"
-    if not nv:  # the derived equations are no reader: MuJoCo's numbers, with no coordinate
-        readers = [w for k, w in SOURCE_WORDS.items() if k in held and k != "symbolic"]
-        listed = ", ".join(readers[:-1]) + f" and {readers[-1]}" if len(readers) > 1 else "".join(readers)
+    if not nv:
         return f"no joint moves (every body is fixed), so there are no equations of motion to compare: {listed} read it"
     verb = "agree" if point["passed"] else "are compared"
     return f"no derivation given; {listed} {verb} on the model and its dynamics"

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from ..model.modelview import ModelView, names, quat_to_mat, welded
+from ..model.modelview import ModelView, names, parallel_axis, quat_to_mat, welded
 from ..results.schema import Mismatch, ModelChecks
 from ..sources.base import Source, engine_of
 from ..sources.frames import mujoco_joint_frames
@@ -184,7 +184,7 @@ def _rigid(view: ModelView, body: str, welded: dict[str, list[str]]) -> tuple[fl
     total = np.zeros((3, 3))
     for m, c, inertia in parts:
         d = c - com
-        total += inertia + m * (d @ d * np.eye(3) - np.outer(d, d))
+        total += inertia + parallel_axis(m, d)
     return mass, com, total
 
 
