@@ -153,7 +153,7 @@ class Fit:
 
     def combined(self, theta: np.ndarray) -> np.ndarray:
         """The base parameters of a full parameter vector: theta[base] + K theta[rest]."""
-        return theta[self.base] + self.K @ theta[self.rest]
+        return np.asarray(theta[self.base] + self.K @ theta[self.rest])
 
     def misfit(self, theta: np.ndarray) -> float:
         """|Y theta - tau| / |tau|."""
@@ -311,7 +311,9 @@ class Chain:
         axis = self.axes[j]
         if axis is not None:
             return axis
-        return np.eye(3)[int(np.argmax(np.abs(np.diag(changed - central)) + np.abs(np.diag(parallel_axis(m, c)))))]
+        return np.asarray(
+            np.eye(3)[int(np.argmax(np.abs(np.diag(changed - central)) + np.abs(np.diag(parallel_axis(m, c)))))]
+        )
 
     @staticmethod
     def axis_word(axis: np.ndarray) -> str:
