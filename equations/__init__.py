@@ -62,6 +62,9 @@ A module needs only `parameters(model)` and its dynamics in one form; everything
     NOTES_SEPARATION: float            optional: when the notes say the two starts stop resembling each other (s)
     SAME_SYSTEM_AS: str                optional: another system that is the same physical chain in other
                                        coordinates (the harness checks that the two map onto each other)
+    NUMBERS_ONLY: str                  optional: why the dynamics compute on numbers only (a Matlab function
+                                       run by Octave): the stages that integrate them as expressions (the
+                                       Taylor reference, chaos, the notes' experiments) are "not run" with it
 
 (f) Equations as text, with no Python: a TOML file `<name>.toml` of T, V and optional friction
 forces as expressions in the person's own symbols, each symbol bound to a model key

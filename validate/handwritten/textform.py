@@ -206,7 +206,7 @@ def _check_names(where: str, names: list[str]) -> tuple[str, ...]:
     return tuple(seen)
 
 
-def _uses(view: Mapping[str, ModelValue], joints: tuple[str, ...]) -> frozenset[str]:
+def uses_of(view: Mapping[str, ModelValue], joints: tuple[str, ...]) -> frozenset[str]:
     found = {
         "gravity": any(float(x) != 0.0 for x in np.asarray(view["gravity"], dtype=float)),
         "damping": any(float(view[f"joint/{j}/damping"]) > 0 for j in joints),
@@ -215,14 +215,14 @@ def _uses(view: Mapping[str, ModelValue], joints: tuple[str, ...]) -> frozenset[
     return frozenset(k for k, on in found.items() if on)
 
 
-def _bodies(view: Mapping[str, ModelValue], joints: tuple[str, ...]) -> tuple[str, ...]:
+def moved_bodies(view: Mapping[str, ModelValue], joints: tuple[str, ...]) -> tuple[str, ...]:
     """The bodies the joints move, in the model's order (what the engines are compared on)."""
     moved = {view[f"joint/{j}/body"] for j in joints}
     bodies = modelview.names(view, "body", "mass")
     return tuple(b for b in bodies if b in moved)
 
 
-def _assumptions(
+def bound_assumptions(
     view: Mapping[str, ModelValue], bindings: tuple[Binding, ...]
 ) -> Callable[[object], dict[str, ModelValue]]:
     """assumptions(p): the bound numbers from p, every other number NaN, structure as the model's."""
@@ -282,11 +282,11 @@ def module_from_file(
         "DESCRIPTION": spec.description,
         "COORDINATES": spec.coordinates,
         "JOINTS": spec.joints,
-        "BODIES": _bodies(view, spec.joints),
-        "USES": _uses(view, spec.joints),
+        "BODIES": moved_bodies(view, spec.joints),
+        "USES": uses_of(view, spec.joints),
         "Params": Params,
         "parameters": lambda model: Params(**{b.symbol: b.read(model) for b in spec.bindings}),
-        "assumptions": _assumptions(view, spec.bindings),
+        "assumptions": bound_assumptions(view, spec.bindings),
         "EXPRESSIONS": {"T": T, "V": V, **({} if friction is None else {"friction": tuple(friction)})},
     }
     module.__dict__.update(attributes)

@@ -305,6 +305,11 @@ def _agreeing_runs(
     chaos mirrors (each kept by content in `cache`), the runs judged with the chaos stage's amplification."""
     system, sources = decision.system, decision.sources
     assert sources is not None
+    numbers_only = getattr(system.equations, "NUMBERS_ONLY", None)
+    if isinstance(numbers_only, str):  # equations that cannot be traced: no Taylor reference to run against
+        for name in ("trajectories", "experiments", "chaos"):
+            stages[name] = f"not run: {numbers_only}"
+        return None, None, None
     traj = _stage(
         stages,
         "trajectories",

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 from ..core.errors import HarnessError
 from ..core.guard import DEFAULT_TIME_LIMIT, Guard, Stopped, guard_module
 from ..core.package import EQUATIONS_PACKAGE
-from ..handwritten import textform
+from ..handwritten import matlab, textform
 from ..handwritten.forms import normalize
 from ..model.modelfile import model_view
 
@@ -69,11 +69,17 @@ def load_module(path: Path, *, model: Path | None = None, time_limit: float = DE
     one budget of `time_limit` seconds for all of them."""
     path = Path(path)
     if not path.is_file():
-        raise HarnessError(f"equations file not found: {path} (give a Python module, .py, or a .toml file).")
+        raise HarnessError(
+            f"equations file not found: {path} (give a Python module, .py, a .toml file or a Matlab function, .m)."
+        )
     if path.suffix == ".toml":
         if model is None:
             raise HarnessError(f"{path}: equations as text are read against their model; give the model file too.")
         module = textform.module_from_file(path, model_view(model), time_limit=time_limit)
+    elif path.suffix == ".m":
+        if model is None:
+            raise HarnessError(f"{path}: a Matlab function is read against its model; give the model file too.")
+        module = matlab.module_from_file(path, model_view(model), time_limit=time_limit)
     else:
         from ..handwritten.proxy import worker_module
 

@@ -334,7 +334,10 @@ class ProbeSet:
 
 
 def derivation_probes(system: System, *, n_probes: int = probing.DEFAULT_PROBES, seed: int = 0) -> ProbeSet:
-    """Probe models in which every parameter of the derivation moves independently."""
+    """Probe models in which every parameter of the derivation moves independently; none where it reads no
+    number from the model (a function with its numbers written inside: nothing a probe could move)."""
+    if n_probes and not probing.param_fields(system.params):
+        return ProbeSet([], [words.NOTHING_TO_PROBE], asked=n_probes)
     try:
         found, problems = probing.probes(system, k=n_probes, seed=seed)
     except probing.ParametersMisread as exc:

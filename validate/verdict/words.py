@@ -176,6 +176,7 @@ def typed_note(typed: dict[str, float]) -> str:
 
 
 NOT_LOOKED_FOR = "mistakes the model's own values hide were not looked for"
+NOTHING_TO_PROBE = "its numbers are written inside it (it reads none from the model)"
 REASON_CHARS = 160  # the first reason a probe could not be built, cut to one readable clause
 
 
@@ -189,6 +190,8 @@ def unbuilt_probes(built: int, asked: int, problems: list[str]) -> str:
     reason = problems[0] if problems else ""
     reason = reason if len(reason) <= REASON_CHARS else reason[: REASON_CHARS - 3].rstrip() + "..."
     why = f" ({reason})" if reason else ""
+    if reason == NOTHING_TO_PROBE:
+        return f"no probe could be built: {reason}, so {NOT_LOOKED_FOR}"
     if built == 0:
         return f"none of the {max(asked, missing)} probe(s) could be built, so {NOT_LOOKED_FOR}{why}"
     return (
